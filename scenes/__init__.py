@@ -1,0 +1,19 @@
+"""Worlds of the testbed, built in code: a branching indoor hallway and an outdoor lawn.
+
+``build_world(name, rng=None)`` returns a :class:`~scenes.world.World` with the MJCF, textures
+and the ground truth (manifold regions, free space, teleop routes). Nothing here imports
+MuJoCo: compiling and simulating is ``sim``'s job.
+"""
+
+from scenes.names import MANIFOLD_IDS, MANIFOLDS, NO_MANIFOLD, WORLDS
+from scenes.world import RANDOMIZATION, World, build_world
+
+__all__ = [
+    "MANIFOLDS",
+    "MANIFOLD_IDS",
+    "NO_MANIFOLD",
+    "RANDOMIZATION",
+    "WORLDS",
+    "World",
+    "build_world",
+]

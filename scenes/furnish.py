@@ -1,0 +1,126 @@
+"""Things placed against walls or on the floor: doors, posters, shelves, plants, trees.
+
+Shared by both world builders, so that each layout is a readable list of placements.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scenes import meshes, names
+from scenes.layout import Rect, wall_anchor
+from scenes.mjcf import SceneBuilder
+
+
+def wall_box(
+    scene: SceneBuilder,
+    name: str,
+    rect: Rect,
+    side: str,
+    along: float,
+    width: float,
+    depth: float,
+    height: float,
+    material: str,
+    z0: float = 0.0,
+    collide: bool = True,
+) -> None:
+    """A box standing against the inside of a wall: a door, a poster, a shelf, a locker.
+
+    ``along`` is the box centre's distance from the wall's start; ``depth`` its extent into the
+    room. Flat items (posters, doors) are visual only; furniture collides.
+    """
+    x, y, yaw = wall_anchor(rect, side, along, depth / 2.0)
+    yaw_box = 0.0 if side in "ns" else np.pi / 2
+    del yaw  # the box is symmetric: only the wall's direction matters
+    scene.box(
+        name,
+        (x, y, z0 + height / 2.0),
+        (width / 2.0, depth / 2.0, height / 2.0),
+        material,
+        yaw=yaw_box,
+        collide=collide,
+        group=names.GROUP_SOLID if collide else names.GROUP_DECOR,
+    )
+
+
+def potted_plant(
+    scene: SceneBuilder,
+    name: str,
+    x: float,
+    y: float,
+    rng: np.random.Generator,
+    pot_material: str,
+    leaf_material: str,
+) -> None:
+    """A pot (collides) with a lumpy bush on top (visual)."""
+    scene.cylinder(f"{name}_pot", (x, y, 0.22), 0.22, 0.22, pot_material)
+    scene.mesh(f"{name}_leaves_mesh", meshes.bush(rng, 0.35))
+    scene.mesh_geom(f"{name}_leaves", f"{name}_leaves_mesh", (x, y, 0.35), leaf_material)
+
+
+def tree(
+    scene: SceneBuilder,
+    name: str,
+    x: float,
+    y: float,
+    rng: np.random.Generator,
+    bark_material: str,
+    leaf_material: str,
+    height: float | None = None,
+) -> None:
+    """A tree: a trunk (collision cylinder + tapered visual mesh) and a lumpy crown."""
+    height = float(rng.uniform(3.5, 6.0)) if height is None else height
+    radius = float(rng.uniform(0.15, 0.28))
+    scene.cylinder(
+        f"{name}_trunk_collider",
+        (x, y, 1.0),
+        radius,
+        1.0,
+        None,
+        group=names.GROUP_COLLIDER,
+        rgba=(0.4, 0.3, 0.2, 1),
+    )
+    scene.mesh(f"{name}_trunk_mesh", meshes.trunk(rng, radius, height * 0.75))
+    scene.mesh_geom(f"{name}_trunk", f"{name}_trunk_mesh", (x, y, 0.0), bark_material)
+    crown = float(rng.uniform(1.2, 2.0))
+    scene.mesh(f"{name}_crown_mesh", meshes.canopy(rng, crown))
+    scene.mesh_geom(
+        f"{name}_crown", f"{name}_crown_mesh", (x, y, height * 0.75 + 0.4 * crown), leaf_material
+    )
+
+
+def hedge(
+    scene: SceneBuilder,
+    name: str,
+    x0: float,
+    y0: float,
+    x1: float,
+    y1: float,
+    rng: np.random.Generator,
+    leaf_material: str,
+    height: float = 1.4,
+    thickness: float = 0.8,
+) -> None:
+    """A hedge from (x0, y0) to (x1, y1): lumpy bushes (visual) over a box collider."""
+    length = float(np.hypot(x1 - x0, y1 - y0))
+    yaw = float(np.arctan2(y1 - y0, x1 - x0))
+    scene.box(
+        f"{name}_collider",
+        ((x0 + x1) / 2, (y0 + y1) / 2, height / 2),
+        (length / 2, thickness / 2, height / 2),
+        None,
+        yaw=yaw,
+        group=names.GROUP_COLLIDER,
+    )
+    n = max(2, int(length / 1.2))
+    # A few bush shapes reused along the hedge keep the model small.
+    shapes = [scene.mesh(f"{name}_bush_mesh{k}", meshes.bush(rng, 0.75)) for k in range(3)]
+    for k in range(n):
+        t = (k + 0.5) / n
+        scene.mesh_geom(
+            f"{name}_bush{k}",
+            shapes[k % 3],
+            (x0 + t * (x1 - x0), y0 + t * (y1 - y0), -0.1),
+            leaf_material,
+        )

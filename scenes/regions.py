@@ -1,0 +1,183 @@
+"""Ground truth on the floor plane: manifold regions and free space.
+
+A world's manifolds are polygons on the floor (the paper's 8 clusters are places, so their
+truth is where the robot stands). Free space is an occupancy grid rasterised from the
+footprints of every colliding geom, for planning, sampling start poses and tests.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from scipy import ndimage
+
+from scenes.names import MANIFOLD_IDS, MANIFOLDS, NO_MANIFOLD
+
+
+def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Even-odd rule for many points against one polygon, vectorised over points and edges.
+
+    Points exactly on an edge may fall either side; regions that share an edge are resolved
+    by their order in :class:`ManifoldMap` (first match wins).
+    """
+    p = np.asarray(points, np.float64).reshape(-1, 2)
+    a = np.asarray(polygon, np.float64)
+    b = np.roll(a, -1, axis=0)
+    px, py = p[:, 0:1], p[:, 1:2]
+    ax, ay, bx, by = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
+    straddles = (ay > py) != (by > py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_cross = ax + (py - ay) * (bx - ax) / (by - ay)
+    crosses = straddles & (px < x_cross)
+    return (np.count_nonzero(crosses, axis=1) % 2).astype(bool)
+
+
+@dataclass(frozen=True)
+class Region:
+    """One manifold's piece of floor: a simple polygon (k, 2) in world metres."""
+
+    manifold: str
+    polygon: np.ndarray
+
+    def __post_init__(self):
+        if self.manifold not in MANIFOLD_IDS:
+            raise ValueError(f"manifold must be one of {MANIFOLDS}, got {self.manifold!r}")
+
+
+@dataclass(frozen=True)
+class ManifoldMap:
+    """The named manifolds of a world as floor regions, queryable at any (x, y)."""
+
+    regions: tuple[Region, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(r.manifold for r in self.regions))
+
+    def label_at(self, xy) -> np.ndarray:
+        """Manifold ids (:data:`scenes.names.MANIFOLD_IDS`) of points (..., 2); -1 off every
+        manifold."""
+        xy = np.asarray(xy, np.float64)
+        if xy.shape[-1] != 2:
+            raise ValueError(f"xy must have shape (..., 2), got {xy.shape}")
+        flat = xy.reshape(-1, 2)
+        labels = np.full(len(flat), NO_MANIFOLD, np.int64)
+        for region in self.regions:
+            todo = labels == NO_MANIFOLD
+            if not todo.any():
+                break
+            inside = points_in_polygon(flat[todo], region.polygon)
+            labels[np.flatnonzero(todo)[inside]] = MANIFOLD_IDS[region.manifold]
+        return labels.reshape(xy.shape[:-1])
+
+    def name_at(self, x: float, y: float) -> str | None:
+        """Name of the manifold at one point, or None off every manifold."""
+        label = int(self.label_at((x, y)))
+        return None if label == NO_MANIFOLD else MANIFOLDS[label]
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """The floor-plane shadow of a colliding geom: an oriented box or a disc."""
+
+    name: str
+    center: tuple[float, float]
+    half_size: tuple[float, float] = (0.0, 0.0)  # box half extents (x, y) before yaw
+    yaw: float = 0.0
+    radius: float = 0.0  # > 0 for a disc
+
+    def covers(self, xy: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        d = np.asarray(xy, np.float64) - np.asarray(self.center)
+        if self.radius > 0.0:
+            return np.hypot(d[..., 0], d[..., 1]) <= self.radius + margin
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        lx = c * d[..., 0] + s * d[..., 1]
+        ly = -s * d[..., 0] + c * d[..., 1]
+        return (np.abs(lx) <= self.half_size[0] + margin) & (
+            np.abs(ly) <= self.half_size[1] + margin
+        )
+
+
+@dataclass(frozen=True)
+class OccupancyGrid:
+    """Free space on a regular grid: ``free[i, j]`` is the cell centred at
+    ``(xmin + (j + 0.5) res, ymin + (i + 0.5) res)``."""
+
+    free: np.ndarray
+    origin: tuple[float, float]
+    resolution: float
+
+    def cell_of(self, xy) -> tuple[np.ndarray, np.ndarray]:
+        xy = np.asarray(xy, np.float64)
+        j = np.floor((xy[..., 0] - self.origin[0]) / self.resolution).astype(np.int64)
+        i = np.floor((xy[..., 1] - self.origin[1]) / self.resolution).astype(np.int64)
+        return i, j
+
+    def is_free(self, xy) -> np.ndarray:
+        """Whether each point (..., 2) lies in a free cell (points off the grid are not free)."""
+        i, j = self.cell_of(xy)
+        h, w = self.free.shape
+        ok = (i >= 0) & (i < h) & (j >= 0) & (j < w)
+        out = np.zeros(np.shape(i), bool)
+        out[ok] = self.free[i[ok], j[ok]]
+        return out
+
+    @cached_property
+    def clearance(self) -> np.ndarray:
+        """Distance (m) from each cell to the nearest non-free cell."""
+        return ndimage.distance_transform_edt(self.free) * self.resolution
+
+    def cell_centers(self) -> np.ndarray:
+        h, w = self.free.shape
+        xs = self.origin[0] + (np.arange(w) + 0.5) * self.resolution
+        ys = self.origin[1] + (np.arange(h) + 0.5) * self.resolution
+        return np.stack(np.meshgrid(xs, ys), axis=-1)
+
+
+def rasterise_free_space(
+    manifolds: ManifoldMap,
+    footprints: list[Footprint],
+    bounds: tuple[float, float, float, float],
+    resolution: float = 0.05,
+    inflation: float = 0.0,
+) -> OccupancyGrid:
+    """Free cells: on some manifold region and farther than ``inflation`` from every footprint.
+
+    Parameters
+    ----------
+    inflation : float
+        Grow obstacles by this much (the robot's radius gives the configuration space).
+    """
+    if resolution <= 0:
+        raise ValueError(f"resolution must be > 0, got {resolution}")
+    xmin, xmax, ymin, ymax = bounds
+    w = int(np.ceil((xmax - xmin) / resolution))
+    h = int(np.ceil((ymax - ymin) / resolution))
+    grid = OccupancyGrid(np.ones((h, w), bool), (xmin, ymin), resolution)
+    centers = grid.cell_centers()
+    free = manifolds.label_at(centers) != NO_MANIFOLD
+    for fp in footprints:
+        free &= ~fp.covers(centers, margin=inflation)
+    if inflation > 0:
+        # Region borders are walls too: erode the walkable area by the inflation radius.
+        free &= (
+            ndimage.distance_transform_edt(manifolds.label_at(centers) != NO_MANIFOLD) * resolution
+            > inflation
+        )
+    return OccupancyGrid(free, (xmin, ymin), resolution)
+
+
+@dataclass
+class Route:
+    """A teleop route: the waypoints a sequence follows, main manifold first then a branch."""
+
+    name: str
+    waypoints: np.ndarray
+    branch: str
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def length(self) -> float:
+        return float(np.sum(np.linalg.norm(np.diff(self.waypoints, axis=0), axis=1)))

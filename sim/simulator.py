@@ -1,0 +1,138 @@
+"""The physics of one world with the robot in it: unicycle control, sensors, odometry.
+
+``Simulator`` is what the env, the teleop collector and the servo share: it turns a command
+``(v, omega)`` into velocity-actuator targets, steps MuJoCo, and reads the camera, the laser and
+the odometry. It knows nothing of rewards or episodes.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from scenes import World, names
+from sim.camera import Camera, CameraConfig
+from sim.laser import Laser, LaserConfig
+from sim.odometry import Odometry, OdometryConfig, wrap_angle
+
+CONTROL_DT = 0.1  # s per command: 10 Hz, a typical base controller rate
+V_LIMITS = (-0.5, 1.5)  # m/s: backing up slowly, walking pace forward
+OMEGA_LIMIT = 1.5  # rad/s
+
+
+def compile_world(world: World) -> mujoco.MjModel:
+    """The MuJoCo model of a world (textures come from ``world.assets``)."""
+    return mujoco.MjModel.from_xml_string(world.xml, world.assets)
+
+
+class Simulator:
+    """One robot in one world.
+
+    Parameters
+    ----------
+    world : scenes.World
+    camera : CameraConfig or None
+        None: no camera (laser-only runs never create a GL context).
+    laser : LaserConfig or None
+    odometry : OdometryConfig
+    control_dt : float
+        Seconds each :meth:`step` command is held.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        camera: CameraConfig | None = None,
+        laser: LaserConfig | None = None,
+        odometry: OdometryConfig | None = None,
+        control_dt: float = CONTROL_DT,
+    ):
+        if not (np.isfinite(control_dt) and control_dt > 0):
+            raise ValueError(f"control_dt must be > 0 seconds, got {control_dt}")
+        self.world = world
+        self.model = compile_world(world)
+        self.data = mujoco.MjData(self.model)
+        self.n_substeps = max(1, round(control_dt / self.model.opt.timestep))
+        self.control_dt = self.n_substeps * self.model.opt.timestep
+        self.camera = Camera(self.model, camera) if camera is not None else None
+        self.laser = Laser(self.model, laser) if laser is not None else None
+        self.odometry = Odometry(odometry or OdometryConfig(), np.random.default_rng(0))
+        j = [
+            mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, n)
+            for n in (names.ROBOT_JOINT_X, names.ROBOT_JOINT_Y, names.ROBOT_JOINT_YAW)
+        ]
+        self._qpos = np.array([self.model.jnt_qposadr[i] for i in j])
+        self._qvel = np.array([self.model.jnt_dofadr[i] for i in j])
+        a = [
+            mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, n)
+            for n in (names.ROBOT_ACT_X, names.ROBOT_ACT_Y, names.ROBOT_ACT_YAW)
+        ]
+        self._act = np.array(a)
+        self.chassis = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, names.ROBOT_CHASSIS)
+        self.collisions = 0
+
+    # -- state ------------------------------------------------------------------------------
+    @property
+    def pose(self) -> np.ndarray:
+        """True pose ``(x, y, yaw)`` in the world frame (yaw wrapped to [-pi, pi))."""
+        x, y, yaw = self.data.qpos[self._qpos]
+        return np.array([x, y, float(wrap_angle(yaw))])
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def reset(self, pose, rng: np.random.Generator) -> None:
+        """Place the robot at rest at ``pose`` and restart odometry; ``rng`` drives the noise."""
+        pose = np.asarray(pose, np.float64)
+        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+            raise ValueError(f"pose must be a finite (x, y, yaw), got {pose!r}")
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self._qpos] = pose
+        mujoco.mj_forward(self.model, self.data)
+        self.odometry.rng = rng
+        self.odometry.reset(self.pose)
+        self.collisions = 0
+
+    def in_contact(self) -> bool:
+        """Whether the chassis touches anything now."""
+        n = self.data.ncon
+        return bool(n and np.any(self.data.contact.geom[:n] == self.chassis))
+
+    # -- acting -----------------------------------------------------------------------------
+    def step(self, v: float, omega: float) -> bool:
+        """Hold the command for ``control_dt``; return whether the chassis touched anything.
+
+        The base is a unicycle: each substep turns ``(v, omega)`` into world-frame velocity
+        targets using the heading at the middle of the substep.
+        """
+        v = float(np.clip(v, *V_LIMITS))
+        omega = float(np.clip(omega, -OMEGA_LIMIT, OMEGA_LIMIT))
+        d, dt = self.data, self.model.opt.timestep
+        touched = False
+        for _ in range(self.n_substeps):
+            yaw = d.qpos[self._qpos[2]] + 0.5 * omega * dt
+            d.ctrl[self._act] = (v * np.cos(yaw), v * np.sin(yaw), omega)
+            mujoco.mj_step(self.model, d)
+            touched = touched or self.in_contact()
+        # mj_step leaves positions-derived quantities one step stale: refresh for sensors.
+        mujoco.mj_forward(self.model, d)
+        self.collisions += int(touched)
+        self.odometry.update(self.pose)
+        return touched
+
+    # -- sensing ----------------------------------------------------------------------------
+    def render(self) -> np.ndarray:
+        if self.camera is None:
+            raise RuntimeError("this Simulator has no camera (camera=None)")
+        return self.camera.render(self.data)
+
+    def scan(self, rng: np.random.Generator | None = None) -> np.ndarray:
+        if self.laser is None:
+            raise RuntimeError("this Simulator has no laser (laser=None)")
+        return self.laser.scan(self.data, rng)
+
+    def close(self) -> None:
+        """Free renderers; safe to call twice."""
+        if self.camera is not None:
+            self.camera.close()
