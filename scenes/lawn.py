@@ -150,7 +150,7 @@ def _scenery(scene: SceneBuilder, app: Appearance) -> None:
     # Lawn: wooden fence behind the start, hedge on the left, the house on the right.
     _fence(scene, "lawn_fence_w", 0.0, -_HL, 0.0, _HL)
     hedge(scene, "lawn_hedge_n", 0.0, _HL + 0.4, _X0, _HL + 0.4, rng, "mat_hedge")
-    _building(scene, "house", Rect(1.0, _X0 - 1.0, -_HL - 7.0, -_HL - 0.05), 3.0, "mat_facade", 2.0)
+    _building(scene, "house", Rect(1.0, _X0 - 1.0, -_HL - 7.0, -_HL), 3.0, "mat_facade", 2.0)
     _fence(scene, "lawn_fence_s0", 0.0, -_HL, 1.0, -_HL)
     _fence(scene, "lawn_fence_s1", _X0 - 1.0, -_HL, _X0, -_HL)
     for k, (x, y) in enumerate(LAWN_TREES):
@@ -161,7 +161,7 @@ def _scenery(scene: SceneBuilder, app: Appearance) -> None:
     _building(
         scene,
         "garage",
-        Rect(_X0 - 1.0, _X1 + 1.0, _TOP + 0.05, _TOP + 6.0),
+        Rect(_X0 - 1.0, _X1 + 1.0, _TOP, _TOP + 6.0),
         2.8,
         "mat_garage",
         1.5,
@@ -184,7 +184,7 @@ def _scenery(scene: SceneBuilder, app: Appearance) -> None:
     _building(
         scene,
         "shed",
-        Rect(_FAR + 0.05, _FAR + 3.0, -2.5, 2.5),
+        Rect(_FAR, _FAR + 3.0, -2.5, 2.5),
         2.2,
         "mat_shed",
         1.0,

@@ -59,17 +59,19 @@ def add_walls(
 ) -> None:
     """Walls along the chosen sides of ``rect`` ("n", "s", "e", "w"), just outside the floor.
 
-    Each wall runs half a thickness past both corners so that perpendicular walls close.
+    A wall spans exactly its side: extended past a corner it would poke into a neighbouring
+    corridor that opens there (the junction); where two walls of one rectangle meet, they meet
+    edge to edge, which leaves no gap visible from inside.
     """
     t = thickness / 2.0
     hz = height / 2.0
     hx, hy = rect.half
     cx, cy = rect.center
     walls = {
-        "n": ((cx, rect.y1 + t, hz), (hx + 2 * t, t, hz)),
-        "s": ((cx, rect.y0 - t, hz), (hx + 2 * t, t, hz)),
-        "e": ((rect.x1 + t, cy, hz), (t, hy + 2 * t, hz)),
-        "w": ((rect.x0 - t, cy, hz), (t, hy + 2 * t, hz)),
+        "n": ((cx, rect.y1 + t, hz), (hx, t, hz)),
+        "s": ((cx, rect.y0 - t, hz), (hx, t, hz)),
+        "e": ((rect.x1 + t, cy, hz), (t, hy, hz)),
+        "w": ((rect.x0 - t, cy, hz), (t, hy, hz)),
     }
     for side in sides:
         if side not in walls:

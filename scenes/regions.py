@@ -95,9 +95,10 @@ class Footprint:
         c, s = np.cos(self.yaw), np.sin(self.yaw)
         lx = c * d[..., 0] + s * d[..., 1]
         ly = -s * d[..., 0] + c * d[..., 1]
-        return (np.abs(lx) <= self.half_size[0] + margin) & (
-            np.abs(ly) <= self.half_size[1] + margin
-        )
+        # Euclidean distance to the box (rounded corners), not a grown square.
+        ex = np.maximum(np.abs(lx) - self.half_size[0], 0.0)
+        ey = np.maximum(np.abs(ly) - self.half_size[1], 0.0)
+        return np.hypot(ex, ey) <= margin
 
 
 @dataclass(frozen=True)

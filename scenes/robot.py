@@ -22,9 +22,13 @@ CAMERA_FORWARD = 0.12  # m ahead of the axle
 CAMERA_FOVY = 45.0  # degrees (vertical)
 LASER_HEIGHT = 0.30  # m: below table tops, above skirting
 LASER_FORWARD = 0.15  # m
-VELOCITY_GAIN = 4000.0  # N s/m: stiff tracking, integrated implicitly (implicitfast)
-MAX_FORCE = 800.0  # N: the base can push, but not through a wall
-MAX_TORQUE = 300.0  # N m
+# Velocity servo gains: time constants of ~0.05 s (linear) and ~0.01 s (yaw). The force limits
+# must not be reached in normal driving: implicitfast integrates the kv damping implicitly, and
+# a clamped force breaks that and makes the velocity oscillate bang-bang between steps.
+VELOCITY_GAIN = 400.0  # N s/m
+YAW_GAIN = 50.0  # N m s/rad
+MAX_FORCE = 800.0  # N: saturates only for speed errors over 2 m/s, e.g. pushing a wall
+MAX_TORQUE = 150.0  # N m: saturates only for turn-rate errors over 3 rad/s
 
 
 def add_robot(scene: SceneBuilder) -> ET.Element:
@@ -97,7 +101,7 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
     for act, joint, gain, limit in (
         (names.ROBOT_ACT_X, names.ROBOT_JOINT_X, VELOCITY_GAIN, MAX_FORCE),
         (names.ROBOT_ACT_Y, names.ROBOT_JOINT_Y, VELOCITY_GAIN, MAX_FORCE),
-        (names.ROBOT_ACT_YAW, names.ROBOT_JOINT_YAW, VELOCITY_GAIN / 4, MAX_TORQUE),
+        (names.ROBOT_ACT_YAW, names.ROBOT_JOINT_YAW, YAW_GAIN, MAX_TORQUE),
     ):
         ET.SubElement(
             scene.actuator,

@@ -90,7 +90,7 @@ def tiles(
 def planks(rng: np.random.Generator, colour, n: int = 6) -> np.ndarray:
     """Wooden floor boards: grain streaks along x, a shade per board, dark seams."""
     size = TEXTURE_SIZE
-    yy, xx = np.mgrid[0:size, 0:size]
+    yy, _ = np.mgrid[0:size, 0:size]
     board = yy // (size // n)
     grain = cv2.resize(rng.random((size, 8)), (size, size), interpolation=cv2.INTER_CUBIC)
     grain = np.clip(grain, 0.0, 1.0)

@@ -1,0 +1,452 @@
+"""Spectral clustering baselines the paper's method is compared with.
+
+* :class:`NormalizedCutClustering` -- normalised spectral clustering with one Gaussian sigma for
+  all clusters, the "Normalized Cuts" baseline of Section III; :func:`best_sigma_ncut` sweeps
+  sigma and keeps the one with the lowest clustering error on the true labels, as the paper did.
+* :class:`SelfTuningSpectralClustering` -- local scaling (Zelnik-Manor & Perona, 2004): each
+  point gets its own sigma, the distance to its ``n_neighbors``-th neighbour; the stronger,
+  modern baseline.
+
+Both follow Ng, Jordan & Weiss [15]: ``S = D^-1/2 W D^-1/2`` (the same normalised affinity the
+paper builds in Section II-A), the top ``n_clusters`` eigenvectors of S as an embedding, rows
+scaled to unit length, k-means in the embedding. New points are embedded with the Nystrom
+out-of-sample extension of Bengio et al. [22], which the paper used for its NCut test error.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.linalg import eigh
+
+from mapping.metrics import clustering_error
+
+__all__ = [
+    "NormalizedCutClustering",
+    "NotFittedError",
+    "SelfTuningSpectralClustering",
+    "SigmaSweep",
+    "best_sigma_ncut",
+    "default_sigmas",
+    "squared_distances",
+]
+
+# Degrees and norms below this are treated as zero (a point with no neighbours at this sigma).
+_TINY = 1e-300
+
+
+class NotFittedError(ValueError, AttributeError):
+    """Raised when ``predict`` is called before ``fit`` (same bases as scikit-learn's)."""
+
+
+def _check_data(X: ArrayLike, name: str = "X", min_samples: int = 2) -> np.ndarray:
+    """Return X as a C-contiguous float64 (n, d) array, rejecting NaN, inf and tiny inputs."""
+    X = np.asarray(X)
+    if X.dtype.kind not in "biuf":
+        raise ValueError(f"{name} must be numeric, got dtype {X.dtype}")
+    X = np.ascontiguousarray(X, dtype=np.float64)
+    if X.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D array (n_samples, n_features), got shape {X.shape}")
+    if X.shape[0] < min_samples:
+        raise ValueError(f"{name} needs at least {min_samples} samples, got {X.shape[0]}")
+    if X.shape[1] == 0:
+        raise ValueError(f"{name} has no features")
+    if not np.isfinite(X).all():
+        raise ValueError(f"{name} contains NaN or inf")
+    return X
+
+
+def _check_int(value: object, name: str, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+def squared_distances(A: ArrayLike, B: ArrayLike | None = None) -> np.ndarray:
+    """Squared Euclidean distances between the rows of A and B (B defaults to A), in float64.
+
+    Uses ``|a|^2 + |b|^2 - 2 a.b`` (one BLAS product) after centring both on A's mean, which
+    keeps the cancellation error small for near-duplicate rows; negatives from round-off are
+    clipped to 0 and, when ``B is None``, the diagonal is exactly 0.
+    """
+    A = np.asarray(A, dtype=np.float64)
+    same = B is None
+    B = A if same else np.asarray(B, dtype=np.float64)
+    mean = A.mean(axis=0)
+    A = A - mean
+    B = A if same else B - mean
+    sq_a = np.einsum("ij,ij->i", A, A)
+    sq_b = sq_a if same else np.einsum("ij,ij->i", B, B)
+    D2 = sq_a[:, None] + sq_b[None, :] - 2.0 * (A @ B.T)
+    np.maximum(D2, 0.0, out=D2)
+    if same:
+        np.fill_diagonal(D2, 0.0)
+        # Symmetrise: the two triangles differ in the last bit after the BLAS product.
+        D2 = 0.5 * (D2 + D2.T)
+    return D2
+
+
+def _kmeans(
+    Z: np.ndarray, k: int, rng: np.random.Generator, n_init: int, max_iter: int = 100
+) -> tuple[np.ndarray, np.ndarray]:
+    """Lloyd's k-means with k-means++ seeding; best of ``n_init`` runs by inertia."""
+    n = Z.shape[0]
+    best_inertia, best = np.inf, None
+    sq_norms = np.einsum("ij,ij->i", Z, Z)
+    for _ in range(n_init):
+        # k-means++ (Arthur & Vassilvitskii): next centre drawn with probability ~ D(x)^2.
+        centres = np.empty((k, Z.shape[1]))
+        centres[0] = Z[rng.integers(n)]
+        d2 = np.maximum(sq_norms - 2 * Z @ centres[0] + centres[0] @ centres[0], 0.0)
+        for c in range(1, k):
+            total = d2.sum()
+            idx = rng.choice(n, p=d2 / total) if total > 0 else rng.integers(n)
+            centres[c] = Z[idx]
+            d2 = np.minimum(d2, np.maximum(((Z - centres[c]) ** 2).sum(axis=1), 0.0))
+        labels = np.full(n, -1)
+        for _ in range(max_iter):
+            dist = sq_norms[:, None] - 2 * Z @ centres.T + np.einsum("ij,ij->i", centres, centres)
+            new_labels = dist.argmin(axis=1)
+            if np.array_equal(new_labels, labels):
+                break
+            labels = new_labels
+            for c in range(k):
+                members = labels == c
+                # An empty cluster keeps its old centre rather than becoming NaN.
+                if members.any():
+                    centres[c] = Z[members].mean(axis=0)
+        inertia = float(dist[np.arange(n), labels].sum())
+        if inertia < best_inertia:
+            best_inertia, best = inertia, (labels.copy(), centres.copy())
+    return best
+
+
+def _unit_rows(E: np.ndarray) -> np.ndarray:
+    norms = np.linalg.norm(E, axis=1, keepdims=True)
+    return E / np.maximum(norms, _TINY)
+
+
+class _SpectralBase:
+    """Shared NJW pipeline; subclasses define the affinity of training and new points."""
+
+    def _affinity(self, D2: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _affinity_new(self, D2_new: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _validate_params(self, n_samples: int) -> None:
+        _check_int(self.n_clusters, "n_clusters", 2)
+        if self.n_clusters > n_samples:
+            raise ValueError(
+                f"n_clusters={self.n_clusters} exceeds the number of samples ({n_samples})"
+            )
+        _check_int(self.n_init, "n_init", 1)
+
+    def fit(self, X: ArrayLike, y: None = None) -> _SpectralBase:
+        """Cluster the rows of X; sets ``labels_`` and the state ``predict`` needs."""
+        X = _check_data(X)
+        self._validate_params(X.shape[0])
+        return self._fit_sqdist(X, squared_distances(X))
+
+    def _fit_sqdist(self, X: np.ndarray, D2: np.ndarray) -> _SpectralBase:
+        if not D2.max() > 0:
+            raise ValueError("X: all samples are identical; there is nothing to cluster")
+        W = self._affinity(D2)
+        np.fill_diagonal(W, 0.0)
+        deg = W.sum(axis=1)
+        if not (deg > _TINY).any():
+            raise ValueError("the affinity underflows to 0 for every pair; the scale is too small")
+        inv_sqrt = 1.0 / np.sqrt(np.maximum(deg, _TINY))
+        S = inv_sqrt[:, None] * W * inv_sqrt[None, :]
+        n, k = S.shape[0], self.n_clusters
+        evals, evecs = eigh(S, subset_by_index=[n - k, n - 1])
+        # eigh returns ascending order; the embedding uses the largest first.
+        evals, evecs = evals[::-1], evecs[:, ::-1]
+        # Sign convention (largest-magnitude entry positive) makes the embedding reproducible.
+        flip = np.sign(evecs[np.abs(evecs).argmax(axis=0), np.arange(k)])
+        evecs = evecs * np.where(flip == 0, 1.0, flip)
+        embedding = _unit_rows(evecs)
+        rng = np.random.default_rng(self.random_state)
+        labels, centres = _kmeans(embedding, k, rng, self.n_init)
+
+        self.X_fit_ = X
+        self.n_features_in_ = X.shape[1]
+        self.affinity_matrix_ = W
+        self.degrees_ = deg
+        self.eigenvalues_ = evals
+        self.eigenvectors_ = evecs
+        self.embedding_ = embedding
+        self.cluster_centers_ = centres
+        self.labels_ = labels
+        return self
+
+    def fit_predict(self, X: ArrayLike, y: None = None) -> np.ndarray:
+        """Fit and return ``labels_``."""
+        return self.fit(X).labels_
+
+    def _nystrom(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Embedding of new points, their affinity sums and squared distances to training."""
+        D2 = squared_distances(self.X_fit_, X).T
+        W_new = self._affinity_new(D2)
+        d_new = W_new.sum(axis=1)
+        K = W_new / np.sqrt(np.maximum(d_new, _TINY))[:, None]
+        K /= np.sqrt(np.maximum(self.degrees_, _TINY))[None, :]
+        # Guard the division: a near-zero eigenvalue only occurs for an almost empty graph.
+        lam = np.where(np.abs(self.eigenvalues_) > 1e-12, self.eigenvalues_, 1e-12)
+        return _unit_rows((K @ self.eigenvectors_) / lam), d_new, D2
+
+    def transform(self, X: ArrayLike) -> np.ndarray:
+        """Nystrom embedding of new points (Bengio et al. [22]), rows of unit length.
+
+        ``e_k(x) = 1 / lambda_k * sum_i W(x, x_i) / sqrt(d(x) d_i) v_ik`` with ``d(x)`` the sum
+        of x's affinities to the training points and ``d_i`` the training degrees. For a
+        training point this is its own embedding row except that ``W(x_j, x_j)``, left out of
+        the training affinity, now counts; the difference vanishes as the degrees grow.
+        """
+        return self._nystrom(self._check_predict_input(X))[0]
+
+    def predict(self, X: ArrayLike) -> np.ndarray:
+        """Assign new points to the nearest k-means centre of their Nystrom embedding.
+
+        A point whose affinity to every training point underflows to 0 (far from all data at
+        this scale) has no Nystrom embedding; it takes the label of its nearest training point.
+        """
+        E, d_new, D2 = self._nystrom(self._check_predict_input(X))
+        centres = self.cluster_centers_
+        dist = (
+            np.einsum("ij,ij->i", E, E)[:, None]
+            - 2.0 * E @ centres.T
+            + np.einsum("ij,ij->i", centres, centres)[None, :]
+        )
+        labels = dist.argmin(axis=1)
+        isolated = d_new <= _TINY
+        if isolated.any():
+            labels[isolated] = self.labels_[D2[isolated].argmin(axis=1)]
+        return labels
+
+    def _check_predict_input(self, X: ArrayLike) -> np.ndarray:
+        if not hasattr(self, "labels_"):
+            raise NotFittedError(
+                f"this {type(self).__name__} is not fitted yet; call fit(X) before predict"
+            )
+        X = _check_data(X, min_samples=1)
+        if X.shape[1] != self.n_features_in_:
+            raise ValueError(
+                f"X has {X.shape[1]} features but {type(self).__name__} was fitted with "
+                f"{self.n_features_in_}"
+            )
+        return X
+
+
+class NormalizedCutClustering(_SpectralBase):
+    """Normalised spectral clustering with a single Gaussian sigma (the paper's NCut baseline).
+
+    Affinity ``W_ij = exp(-|x_i - x_j|^2 / (2 sigma^2))``, ``W_ii = 0``, normalised as
+    ``S = D^-1/2 W D^-1/2`` exactly as in Section II-A of the paper; the top ``n_clusters``
+    eigenvectors of S, row-normalised, are clustered with k-means (Ng, Jordan & Weiss [15]; the
+    eigenvectors of S are Shi & Malik's [14] generalised eigenvectors scaled by ``D^1/2``).
+
+    Parameters
+    ----------
+    n_clusters : int
+        Number of clusters K (>= 2).
+    sigma : float
+        Gaussian kernel width, the same for every cluster; > 0.
+    n_init : int, default 10
+        k-means restarts; the run with the lowest inertia is kept.
+    random_state : int, default 0
+        Seed of the k-means initialisation (results are deterministic for a seed).
+
+    Attributes
+    ----------
+    labels_ : ndarray of shape (n,)
+        Cluster of each training point, in 0..n_clusters-1.
+    affinity_matrix_ : ndarray of shape (n, n)
+        W with zero diagonal.
+    eigenvalues_, eigenvectors_ : ndarray
+        Top ``n_clusters`` eigenpairs of S, largest first.
+    embedding_ : ndarray of shape (n, n_clusters)
+        Row-normalised eigenvectors; ``cluster_centers_`` are the k-means centres in it.
+    """
+
+    def __init__(
+        self, n_clusters: int, sigma: float, *, n_init: int = 10, random_state: int = 0
+    ) -> None:
+        self.n_clusters = n_clusters
+        self.sigma = sigma
+        self.n_init = n_init
+        self.random_state = random_state
+
+    def _validate_params(self, n_samples: int) -> None:
+        super()._validate_params(n_samples)
+        sigma = self.sigma
+        if isinstance(sigma, bool) or not isinstance(sigma, int | float | np.number):
+            raise ValueError(f"sigma must be a positive number, got {sigma!r}")
+        if not (np.isfinite(sigma) and sigma > 0):
+            raise ValueError(f"sigma must be a positive finite number, got {sigma!r}")
+
+    def _affinity(self, D2: np.ndarray) -> np.ndarray:
+        return np.exp(-D2 / (2.0 * float(self.sigma) ** 2))
+
+    _affinity_new = _affinity
+
+
+class SelfTuningSpectralClustering(_SpectralBase):
+    """Spectral clustering with local scaling (Zelnik-Manor & Perona, NIPS 2004).
+
+    Each point gets its own scale ``sigma_i``, the distance to its ``n_neighbors``-th nearest
+    neighbour, and ``W_ij = exp(-|x_i - x_j|^2 / (sigma_i sigma_j))``. The number of clusters is
+    fixed (their eigenvector-rotation search for it is not used) and the rest is the NJW pipeline
+    of :class:`NormalizedCutClustering`. A new point's scale is its distance to its
+    ``n_neighbors``-th nearest training point; it is then embedded by the Nystrom extension.
+
+    Parameters
+    ----------
+    n_clusters : int
+        Number of clusters K (>= 2).
+    n_neighbors : int, default 7
+        Neighbour that sets the local scale (7 in the original paper); < n_samples.
+    n_init : int, default 10
+        k-means restarts.
+    random_state : int, default 0
+        Seed of the k-means initialisation.
+
+    Attributes
+    ----------
+    labels_, affinity_matrix_, eigenvalues_, eigenvectors_, embedding_, cluster_centers_
+        As in :class:`NormalizedCutClustering`.
+    scales_ : ndarray of shape (n,)
+        The local scale sigma_i of each training point.
+    """
+
+    def __init__(
+        self, n_clusters: int, n_neighbors: int = 7, *, n_init: int = 10, random_state: int = 0
+    ) -> None:
+        self.n_clusters = n_clusters
+        self.n_neighbors = n_neighbors
+        self.n_init = n_init
+        self.random_state = random_state
+
+    def _validate_params(self, n_samples: int) -> None:
+        super()._validate_params(n_samples)
+        _check_int(self.n_neighbors, "n_neighbors", 1)
+        if self.n_neighbors >= n_samples:
+            raise ValueError(
+                f"n_neighbors={self.n_neighbors} must be smaller than the number of samples "
+                f"({n_samples})"
+            )
+
+    def _local_scales(self, D2: np.ndarray, exclude_self: bool) -> np.ndarray:
+        kth = self.n_neighbors if exclude_self else self.n_neighbors - 1
+        d = np.sqrt(np.partition(D2, kth, axis=1)[:, kth])
+        # Duplicated points can have a zero k-th neighbour distance; floor the scale at a tiny
+        # fraction of the data's spread so that W stays finite and such points stay connected.
+        return np.maximum(d, 1e-9 * self._spread)
+
+    def _affinity(self, D2: np.ndarray) -> np.ndarray:
+        self._spread = float(np.sqrt(D2.max()))
+        self.scales_ = self._local_scales(D2, exclude_self=True)
+        return np.exp(-D2 / np.outer(self.scales_, self.scales_))
+
+    def _affinity_new(self, D2_new: np.ndarray) -> np.ndarray:
+        scales = self._local_scales(D2_new, exclude_self=False)
+        return np.exp(-D2_new / np.outer(scales, self.scales_))
+
+
+@dataclass(frozen=True)
+class SigmaSweep:
+    """Result of :func:`best_sigma_ncut`: the chosen sigma, its error and model, and the sweep."""
+
+    sigma: float
+    error: float
+    model: NormalizedCutClustering
+    sigmas: np.ndarray
+    errors: np.ndarray
+
+
+def default_sigmas(D2: np.ndarray, num: int = 40) -> np.ndarray:
+    """Log-spaced sigma grid from half the median nearest-neighbour distance to the diameter."""
+    off = D2 + np.diag(np.full(D2.shape[0], np.inf))
+    nn = np.sqrt(off.min(axis=1))
+    lo = 0.5 * float(np.median(nn[nn > 0])) if (nn > 0).any() else 0.0
+    hi = float(np.sqrt(D2.max()))
+    if not hi > 0:
+        raise ValueError("X: all samples are identical")
+    lo = lo if lo > 0 else 1e-3 * hi
+    return np.geomspace(lo, hi, num)
+
+
+def best_sigma_ncut(
+    X: ArrayLike,
+    y: ArrayLike,
+    n_clusters: int,
+    sigmas: ArrayLike | None = None,
+    *,
+    n_init: int = 10,
+    random_state: int = 0,
+) -> SigmaSweep:
+    """Fit NCut for each sigma and keep the one with the lowest clustering error on ``y``.
+
+    This is an *oracle* baseline, exactly as in the paper's Section III ("this value for sigma
+    constitutes the lowest clustering error for the Normalized Cuts algorithm"): it looks at the
+    true labels to choose sigma, an advantage no unsupervised method has. When several sigmas
+    reach the lowest error, the middle one (by position in ``sigmas``) is kept.
+
+    Parameters
+    ----------
+    X : array-like of shape (n, d)
+        Data.
+    y : array-like of shape (n,)
+        True labels, used only to score each sigma with :func:`clustering_error`.
+    n_clusters : int
+        Number of clusters for every fit.
+    sigmas : array-like, optional
+        Candidate sigmas (> 0). Default: 40 log-spaced values from half the median
+        nearest-neighbour distance to the largest pairwise distance.
+    n_init, random_state : int
+        Passed to :class:`NormalizedCutClustering`.
+
+    Returns
+    -------
+    SigmaSweep
+        ``sigma``, ``error`` and fitted ``model`` of the best sigma, plus all ``sigmas`` and
+        ``errors`` of the sweep.
+    """
+    X = _check_data(X)
+    y = np.asarray(y)
+    if y.shape != (X.shape[0],):
+        raise ValueError(f"y must have shape ({X.shape[0]},) to match X, got {y.shape}")
+    D2 = squared_distances(X)
+    if not D2.max() > 0:
+        raise ValueError("X: all samples are identical; there is nothing to cluster")
+    grid = default_sigmas(D2) if sigmas is None else np.asarray(sigmas, dtype=np.float64).ravel()
+    if grid.size == 0 or not (np.isfinite(grid).all() and (grid > 0).all()):
+        raise ValueError("sigmas must be a non-empty sequence of positive finite numbers")
+    errors = np.full(grid.size, np.inf)
+    for i, sigma in enumerate(grid):
+        model = _fit_ncut(X, D2, n_clusters, float(sigma), n_init, random_state)
+        if model is not None:
+            errors[i] = clustering_error(y, model.labels_)
+    if not np.isfinite(errors).any():
+        raise ValueError("every sigma in sigmas gave an all-zero affinity; try larger sigmas")
+    # Middle of the tied sigmas: a zero-error plateau is usually wide, and its edges are the
+    # least robust choices (the small end is where affinities start to underflow).
+    tied = np.flatnonzero(errors == errors.min())
+    best = int(tied[(tied.size - 1) // 2])
+    model = _fit_ncut(X, D2, n_clusters, float(grid[best]), n_init, random_state)
+    return SigmaSweep(float(grid[best]), float(errors[best]), model, grid, errors)
+
+
+def _fit_ncut(
+    X: np.ndarray, D2: np.ndarray, n_clusters: int, sigma: float, n_init: int, random_state: int
+) -> NormalizedCutClustering | None:
+    """Fit on precomputed squared distances; None when every affinity underflows at sigma."""
+    model = NormalizedCutClustering(n_clusters, sigma, n_init=n_init, random_state=random_state)
+    model._validate_params(X.shape[0])
+    try:
+        return model._fit_sqdist(X, D2)
+    except ValueError:
+        return None

@@ -1,0 +1,83 @@
+"""Preview images of a dataset: a contact sheet per sequence and a trajectory map per world."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from scenes import MANIFOLDS, build_world
+from sim.dataset import Dataset, atomic_write_bytes
+from sim.topdown import MANIFOLD_COLOURS, TopDownView
+
+THUMB = (160, 120)
+
+
+def _save_png(path: Path, rgb: np.ndarray) -> None:
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
+    assert ok
+    atomic_write_bytes(path, buf.tobytes())
+
+
+def contact_sheet(
+    images: np.ndarray, labels: np.ndarray, every: int = 10, columns: int = 5
+) -> np.ndarray:
+    """Thumbnails of every ``every``-th frame, each captioned with its index and manifold."""
+    idx = np.arange(0, len(images), every)
+    rows = int(np.ceil(len(idx) / columns))
+    w, h = THUMB
+    sheet = np.full((rows * (h + 18), columns * w, 3), 255, np.uint8)
+    for k, i in enumerate(idx):
+        r, c = divmod(k, columns)
+        y0, x0 = r * (h + 18), c * w
+        sheet[y0 : y0 + h, x0 : x0 + w] = cv2.resize(images[i], THUMB, interpolation=cv2.INTER_AREA)
+        name = MANIFOLDS[labels[i]] if labels[i] >= 0 else "none"
+        colour = MANIFOLD_COLOURS.get(name, (0, 0, 0))
+        sheet[y0 + h : y0 + h + 18, x0 : x0 + w] = colour
+        cv2.putText(
+            sheet,
+            f"{i}: {name}",
+            (x0 + 4, y0 + h + 13),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.4,
+            (0, 0, 0),
+            1,
+            cv2.LINE_AA,
+        )
+    return sheet
+
+
+def write_previews(dataset: Dataset, out: str | Path) -> list[Path]:
+    """Write contact sheets, first/middle/last frames and a trajectory map per world."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    by_world: dict[str, list] = {}
+    for name, seq in dataset.sequences.items():
+        by_world.setdefault(seq.world, []).append(seq)
+        path = out / f"{name}_contact_sheet.png"
+        _save_png(path, contact_sheet(seq.images, seq.labels))
+        written.append(path)
+        frames = [seq.images[i] for i in (0, len(seq) // 2, len(seq) - 1)]
+        path = out / f"{name}_frames.png"
+        _save_png(path, np.concatenate(frames, axis=1))
+        written.append(path)
+    for world_name, seqs in by_world.items():
+        view = TopDownView(build_world(world_name), max_size=640)
+        img = view.draw()
+        for seq in seqs:
+            pts = np.round(view.to_pixels(seq.poses[:, :2])).astype(np.int32)
+            odo = np.round(view.to_pixels(seq.odometry[:, :2])).astype(np.int32)
+            cv2.polylines(img, [odo], False, (150, 150, 150), 1, cv2.LINE_AA)
+            for p, lab in zip(pts, seq.labels, strict=True):
+                colour = (
+                    (40, 40, 40)
+                    if lab < 0
+                    else tuple(int(v * 0.6) for v in MANIFOLD_COLOURS[MANIFOLDS[lab]])
+                )
+                cv2.circle(img, tuple(int(v) for v in p), 2, colour, -1, cv2.LINE_AA)
+        path = out / f"{world_name}_trajectories.png"
+        _save_png(path, img)
+        written.append(path)
+    return written

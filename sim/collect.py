@@ -1,0 +1,274 @@
+"""Scripted-teleop data collection: the paper's 6 sequences (3 per world: main manifold, then
+left / straight / right), written as a resumable dataset (see :mod:`sim.dataset`).
+
+Frames are taken at equal steps of progress along the route, so every sequence covers its
+whole route with the requested number of frames whatever the driver's speed jitter; the
+recorded ``times`` show the resulting uneven timing.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import shutil
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from scenes import World, build_world, names
+from sim import dataset as ds
+from sim.camera import CameraConfig
+from sim.laser import LaserConfig
+from sim.odometry import OdometryConfig
+from sim.simulator import Simulator
+from sim.teleop import ScriptedTeleop, TeleopConfig
+
+DEFAULT_FRAMES = 150  # per sequence, as the paper
+TELEOP_CONTROL_DT = 0.05  # s: fine enough that frames land within ~3 cm of their progress mark
+END_MARGIN = 0.3  # m: the last frame is taken this short of the route's end
+
+
+@dataclass(frozen=True)
+class CollectionSettings:
+    """Everything that determines a dataset's bytes (stored in ``meta.json``)."""
+
+    worlds: tuple[str, ...] = names.WORLDS
+    frames: int = DEFAULT_FRAMES
+    seed: int = 0
+    randomize: bool = False
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    laser: LaserConfig = field(default_factory=LaserConfig)
+    odometry: OdometryConfig = field(default_factory=OdometryConfig)
+    teleop: TeleopConfig = field(default_factory=TeleopConfig)
+
+    def __post_init__(self):
+        bad = [w for w in self.worlds if w not in names.WORLDS]
+        if bad or not self.worlds:
+            raise ValueError(
+                f"worlds must be a non-empty subset of {names.WORLDS}, got {self.worlds}"
+            )
+        if int(self.frames) != self.frames or self.frames < 2:
+            raise ValueError(f"frames must be an integer >= 2, got {self.frames}")
+        if int(self.seed) != self.seed or self.seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {self.seed}")
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        d["worlds"] = list(self.worlds)
+        d["teleop"]["start_jitter"] = list(self.teleop.start_jitter)
+        return d
+
+    def sequences(self) -> list[tuple[int, str, str]]:
+        """(stable index, world, route name); the index seeds the sequence, so collecting one
+        world gives the same sequences as collecting all."""
+        out = []
+        for w in self.worlds:
+            for b in names.BRANCHES:
+                index = names.WORLDS.index(w) * len(names.BRANCHES) + names.BRANCHES.index(b)
+                out.append((index, w, names.manifold_name(w, b)))
+        return out
+
+
+@lru_cache(maxsize=4)
+def _world(name: str, seed: int, randomize: bool) -> World:
+    rng = np.random.default_rng([seed, 1000 + names.WORLDS.index(name)]) if randomize else None
+    return build_world(name, rng)
+
+
+def collect_sequence(
+    settings: CollectionSettings, index: int, world_name: str, route_name: str, tick=None
+) -> dict[str, np.ndarray]:
+    """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays."""
+    world = _world(world_name, settings.seed, settings.randomize)
+    teleop_rng, noise_rng, odo_rng = np.random.default_rng([settings.seed, index]).spawn(3)
+    sim = Simulator(world, settings.camera, settings.laser, settings.odometry, TELEOP_CONTROL_DT)
+    try:
+        teleop = ScriptedTeleop(world, world.routes[route_name], settings.teleop, teleop_rng)
+        sim.reset(teleop.start_pose(), odo_rng)
+        n = settings.frames
+        marks = np.linspace(0.0, teleop.route.length - END_MARGIN, n)
+        cam, las = settings.camera, settings.laser
+        out = {
+            "images": np.zeros((n, cam.height, cam.width, 3), np.uint8),
+            "scans": np.zeros((n, las.beams), np.float32),
+            "angles": las.angles.astype(np.float32),
+            "poses": np.zeros((n, 3)),
+            "odometry": np.zeros((n, 3)),
+            "commands": np.zeros((n, 2)),
+            "labels": np.zeros(n, np.int16),
+            "times": np.zeros(n),
+        }
+        if cam.depth:
+            out["depth"] = np.zeros((n, cam.height, cam.width), np.float32)
+        budget = int(8 * teleop.route.length / (settings.teleop.speed * sim.control_dt)) + 200
+        k = 0
+        for _ in range(budget):
+            command = teleop.command(sim.pose, sim.control_dt)
+            while k < n and teleop.progress >= marks[k]:
+                out["images"][k] = sim.render()
+                if cam.depth:
+                    out["depth"][k] = sim.camera.render_depth(sim.data)
+                out["scans"][k] = sim.scan(noise_rng)
+                out["poses"][k] = sim.pose
+                out["odometry"][k] = sim.odometry.pose
+                out["commands"][k] = command
+                out["labels"][k] = world.manifold_at(sim.pose[:2])
+                out["times"][k] = sim.time
+                k += 1
+                if tick is not None:
+                    tick(1)
+            if k == n:
+                return out
+            sim.step(*command)
+        raise RuntimeError(
+            f"teleop on {route_name} stalled at {teleop.progress:.1f} m of "
+            f"{teleop.route.length:.1f} m after {budget} steps"
+        )
+    finally:
+        sim.close()
+
+
+# -- parallel collection ---------------------------------------------------------------------
+_QUEUE = None
+
+
+def _init_worker(queue) -> None:
+    global _QUEUE
+    _QUEUE = queue
+
+
+def _collect_to_file(
+    settings: CollectionSettings, index: int, world: str, route: str, directory: str
+) -> tuple[str, dict]:
+    ticks = [0]
+
+    def tick(k):
+        ticks[0] += k
+        if _QUEUE is not None and ticks[0] % 10 == 0:
+            _QUEUE.put(10)
+
+    arrays = collect_sequence(settings, index, world, route, tick)
+    if _QUEUE is not None:
+        _QUEUE.put(ticks[0] % 10)
+    file = f"{route}.npz"
+    digest = ds.write_sequence(Path(directory) / file, arrays)
+    return route, {"file": file, "world": world, "frames": settings.frames, "sha256": digest}
+
+
+def _base_meta(settings: CollectionSettings) -> dict:
+    return {
+        "format": ds.FORMAT_NAME,
+        "schema_version": ds.SCHEMA_VERSION,
+        "settings": settings.to_json(),
+        "manifolds": list(names.MANIFOLDS),
+        "sequences": {},
+        "complete": False,
+    }
+
+
+def collect_dataset(
+    directory: str | os.PathLike,
+    settings: CollectionSettings | None = None,
+    overwrite: bool = False,
+    jobs: int | None = None,
+    progress: bool = True,
+) -> Path:
+    """Collect (or resume) a dataset in ``directory``.
+
+    An existing dataset with the same settings is resumed (finished sequences are kept, as
+    their bytes would be the same); one with other settings is refused unless ``overwrite``.
+    """
+    from tqdm.auto import tqdm
+
+    settings = settings or CollectionSettings()
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    meta = _base_meta(settings)
+    if (directory / ds.META_FILE).exists():
+        try:
+            old = ds.read_meta(directory)
+        except ds.DatasetError:
+            old = None
+        if old is not None and old.get("settings") == meta["settings"] and not overwrite:
+            meta["sequences"] = {
+                k: v
+                for k, v in old["sequences"].items()
+                if (directory / v["file"]).is_file()
+                and ds.file_sha256(directory / v["file"]) == v["sha256"]
+            }
+        elif not overwrite:
+            raise FileExistsError(
+                f"{directory} already holds a dataset collected with other settings; pass "
+                "overwrite=True (--overwrite) to replace it, or choose another directory"
+            )
+        else:
+            _remove_dataset(directory, old)
+    todo = [s for s in settings.sequences() if s[2] not in meta["sequences"]]
+    ds.write_json(directory / ds.META_FILE, meta)
+    bar = tqdm(
+        total=len(todo) * settings.frames,
+        unit="frame",
+        desc=f"collect {directory.name}",
+        disable=not progress,
+    )
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(todo) or 1))
+    try:
+        if jobs == 1:
+            for index, world, route in todo:
+                name, entry = _collect_to_file_inline(settings, index, world, route, directory, bar)
+                meta["sequences"][name] = entry
+                ds.write_json(directory / ds.META_FILE, meta)
+        else:
+            ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
+            queue = ctx.Queue()
+            with ProcessPoolExecutor(
+                jobs, mp_context=ctx, initializer=_init_worker, initargs=(queue,)
+            ) as pool:
+                futures = [
+                    pool.submit(_collect_to_file, settings, i, w, r, str(directory))
+                    for i, w, r in todo
+                ]
+                pending = set(futures)
+                while pending:
+                    for f in [f for f in pending if f.done()]:
+                        pending.discard(f)
+                        name, entry = f.result()
+                        meta["sequences"][name] = entry
+                        ds.write_json(directory / ds.META_FILE, meta)
+                    _drain(queue, bar, timeout=0.2)
+                _drain(queue, bar, timeout=0.0)
+    finally:
+        bar.close()
+    # Sequences in the canonical order, whatever order the workers finished in.
+    meta["sequences"] = {r: meta["sequences"][r] for _, _, r in settings.sequences()}
+    meta["complete"] = True
+    ds.write_json(directory / ds.META_FILE, meta)
+    return directory
+
+
+def _collect_to_file_inline(settings, index, world, route, directory, bar):
+    arrays = collect_sequence(settings, index, world, route, bar.update)
+    file = f"{route}.npz"
+    digest = ds.write_sequence(directory / file, arrays)
+    return route, {"file": file, "world": world, "frames": settings.frames, "sha256": digest}
+
+
+def _drain(queue, bar, timeout: float) -> None:
+    import queue as queue_mod
+
+    try:
+        while True:
+            bar.update(queue.get(timeout=timeout) if timeout else queue.get_nowait())
+    except queue_mod.Empty:
+        pass
+
+
+def _remove_dataset(directory: Path, meta: dict | None) -> None:
+    files = [v["file"] for v in (meta or {}).get("sequences", {}).values()]
+    for f in files + [ds.META_FILE]:
+        (directory / f).unlink(missing_ok=True)
+    for leftover in directory.glob(".*.tmp"):
+        leftover.unlink() if leftover.is_file() else shutil.rmtree(leftover)

@@ -1,0 +1,215 @@
+"""The on-disk dataset: one ``.npz`` per sequence and a ``meta.json``, loaded without pickle.
+
+Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
+
+    meta.json            settings (world, seed, sensors, teleop), the manifold names, and per
+                         sequence its file, world, frame count and SHA-256
+    hallway-left.npz     one file per sequence, arrays indexed by frame:
+        images    uint8   (N, H, W, 3)  RGB camera frames
+        depth     float32 (N, H, W)     metric depth (only when collected with depth)
+        scans     float32 (N, B)        laser ranges, +inf = no return within max range
+        angles    float32 (B,)          beam angles in the sensor frame (rad, CCW, 0 = ahead)
+        poses     float64 (N, 3)        true pose (x, y, yaw) in the world frame
+        odometry  float64 (N, 3)        odometry pose (starts at the true start pose)
+        commands  float64 (N, 2)        command (v m/s, omega rad/s) being executed
+        labels    int16   (N,)          ground-truth manifold id (index into meta "manifolds"),
+                                        -1 if on no manifold
+        times     float64 (N,)          simulation time (s)
+
+Every file is written to a temporary name and renamed, and ``meta.json`` lists a sequence only
+after its file is complete, so an interrupted collection never leaves a half-written sequence.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+SCHEMA_VERSION = 1
+FORMAT_NAME = "topomap-dataset"
+META_FILE = "meta.json"
+ARRAYS = {  # name: (dtype, trailing shape rank or None for per-dataset constants)
+    "images": np.uint8,
+    "scans": np.float32,
+    "angles": np.float32,
+    "poses": np.float64,
+    "odometry": np.float64,
+    "commands": np.float64,
+    "labels": np.int16,
+    "times": np.float64,
+}
+PER_FRAME = ("images", "scans", "poses", "odometry", "commands", "labels", "times")
+
+
+class DatasetError(ValueError):
+    """A dataset that is missing, truncated, inconsistent or from another schema version."""
+
+
+@dataclass
+class Sequence:
+    """One recorded sequence (see the module docstring for the arrays)."""
+
+    name: str
+    world: str
+    images: np.ndarray
+    scans: np.ndarray
+    angles: np.ndarray
+    poses: np.ndarray
+    odometry: np.ndarray
+    commands: np.ndarray
+    labels: np.ndarray
+    times: np.ndarray
+    depth: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.labels)
+
+
+@dataclass
+class Dataset:
+    """A loaded dataset: ``meta`` (the parsed ``meta.json``) and sequences by name."""
+
+    path: Path
+    meta: dict
+    sequences: dict[str, Sequence]
+
+    @property
+    def manifolds(self) -> list[str]:
+        return list(self.meta["manifolds"])
+
+    def concat(self, field: str, names: list[str] | None = None) -> np.ndarray:
+        """One array of ``field`` over sequences (in ``meta`` order, or ``names``)."""
+        names = list(self.sequences) if names is None else names
+        return np.concatenate([getattr(self.sequences[n], field) for n in names])
+
+    def paper_split(self) -> tuple[np.ndarray, np.ndarray]:
+        """Boolean masks (train, test) over :meth:`concat` order: every second frame of each
+        sequence builds the map (frames 0, 2, 4, ...) and the others test it, as in the paper."""
+        train = np.concatenate([np.arange(len(s)) % 2 == 0 for s in self.sequences.values()])
+        return train, ~train
+
+
+# -- writing ---------------------------------------------------------------------------------
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_json(path: Path, obj: dict) -> None:
+    atomic_write_bytes(path, (json.dumps(obj, indent=2) + "\n").encode())
+
+
+def write_sequence(path: Path, arrays: dict[str, np.ndarray], compresslevel: int = 1) -> str:
+    """Write arrays as an ``.npz`` (deflate level 1: most of the size win at a fraction of the
+    time), atomically; return its SHA-256."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
+            for key in sorted(arrays):
+                info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                with zf.open(info, "w", force_zip64=True) as f:
+                    np.lib.format.write_array(
+                        f, np.ascontiguousarray(arrays[key]), allow_pickle=False
+                    )
+        digest = file_sha256(Path(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return digest
+
+
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 22), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+# -- reading ---------------------------------------------------------------------------------
+def read_meta(directory: str | os.PathLike) -> dict:
+    path = Path(directory) / META_FILE
+    if not path.is_file():
+        raise DatasetError(f"no dataset at {directory}: {META_FILE} is missing")
+    try:
+        meta = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise DatasetError(f"{path} is not valid JSON: {err}") from err
+    if meta.get("format") != FORMAT_NAME:
+        raise DatasetError(f"{path} is not a {FORMAT_NAME} (format={meta.get('format')!r})")
+    if meta.get("schema_version") != SCHEMA_VERSION:
+        raise DatasetError(
+            f"{directory} has schema version {meta.get('schema_version')!r}; this code reads "
+            f"version {SCHEMA_VERSION}: collect it again with this version"
+        )
+    return meta
+
+
+def load_sequence(directory: Path, name: str, entry: dict, verify: bool = True) -> Sequence:
+    path = Path(directory) / entry["file"]
+    if not path.is_file():
+        raise DatasetError(f"sequence {name!r}: {path} is missing")
+    if verify and file_sha256(path) != entry["sha256"]:
+        raise DatasetError(
+            f"sequence {name!r}: {path} is truncated or modified (checksum mismatch)"
+        )
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
+        raise DatasetError(f"sequence {name!r}: {path} cannot be read ({err})") from err
+    missing = [k for k in ARRAYS if k not in arrays]
+    if missing:
+        raise DatasetError(f"sequence {name!r}: arrays {missing} missing from {path}")
+    n = entry["frames"]
+    for k in PER_FRAME + (("depth",) if "depth" in arrays else ()):
+        if len(arrays[k]) != n:
+            raise DatasetError(f"sequence {name!r}: {k} has {len(arrays[k])} frames, meta says {n}")
+    for k, dtype in ARRAYS.items():
+        if arrays[k].dtype != dtype:
+            raise DatasetError(
+                f"sequence {name!r}: {k} has dtype {arrays[k].dtype}, expected {np.dtype(dtype)}"
+            )
+    return Sequence(
+        name=name, world=entry["world"], depth=arrays.get("depth"), **{k: arrays[k] for k in ARRAYS}
+    )
+
+
+def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
+    """Load a complete dataset; refuse one that is partial, truncated or of another schema.
+
+    Parameters
+    ----------
+    verify : bool
+        Check each file's SHA-256 against ``meta.json`` (catches truncation; ~0.1 s per 100 MB).
+    """
+    directory = Path(directory)
+    meta = read_meta(directory)
+    if not meta.get("complete", False):
+        raise DatasetError(
+            f"{directory} is an incomplete collection ({len(meta.get('sequences', {}))} sequences "
+            "done): rerun the same `topomap collect` command to resume it"
+        )
+    seqs = {
+        name: load_sequence(directory, name, entry, verify)
+        for name, entry in meta["sequences"].items()
+    }
+    return Dataset(directory, meta, seqs)

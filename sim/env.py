@@ -1,0 +1,207 @@
+"""The plain navigation env: drive the robot in a world and see what its sensors see."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from scenes import MANIFOLDS, NO_MANIFOLD, WORLDS, build_world
+from scenes.robot import RADIUS
+from sim.camera import CameraConfig
+from sim.laser import LaserConfig
+from sim.odometry import OdometryConfig
+from sim.randomize import AppearanceRandomizer
+from sim.simulator import OMEGA_LIMIT, V_LIMITS, Simulator
+from sim.topdown import TopDownView
+
+SENSORS = ("image", "scan")
+START_CLEARANCE = 0.45  # m from any obstacle for a sampled start pose
+COLLISION_PENALTY = 1.0
+
+
+class NavigationEnv(gym.Env):
+    """Drive a differential-drive robot through the hallway or lawn world.
+
+    Description
+        A robot with a forward camera and a 2-D laser starts at a random free pose (or the one
+        given in ``options["pose"]``) and is driven by velocity commands. There is no goal:
+        this is the plain env for data collection and for building tasks on (see ``servo``).
+
+    Action Space
+        ``Box([-0.5, -1.5], [1.5, 1.5], float32)``: forward speed v (m/s) and turn rate omega
+        (rad/s). Out-of-range actions are clipped to these bounds; NaN, inf or a wrong shape
+        raise ``ValueError``. Each action is held for ``control_dt`` = 0.1 s.
+
+    Observation Space
+        ``Dict(image=Box(0, 255, (H, W, 3), uint8), scan=Box(0, inf, (beams,), float32))``.
+        ``scan`` ranges are metres; ``+inf`` marks a beam with no return within max range.
+        ``sensors`` selects which keys are present (a laser-only env never renders).
+
+    Rewards
+        ``-1`` on a step where the robot touches an obstacle, else ``0`` (``info
+        ["reward_collision"]``).
+
+    Episode End
+        Never terminates; truncated by the registered ``max_episode_steps`` (1000).
+
+    Info
+        ``pose`` (true x, y, yaw), ``odometry`` (noisy pose), ``manifold`` (name or None),
+        ``manifold_id``, ``collision``, ``time``: truth is for evaluation only.
+
+    Arguments
+        ``world`` ("hallway" | "lawn"), ``render_mode`` (None | "rgb_array": a top-down map
+        with the robot, its laser and its trail), ``camera`` (CameraConfig), ``laser``
+        (LaserConfig), ``odometry`` (OdometryConfig), ``sensors`` (subset of
+        ("image", "scan")), ``randomize`` (re-draw lights and colours each reset).
+
+    Version History
+        v0: initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        world: str = "hallway",
+        render_mode: str | None = None,
+        camera: CameraConfig | None = None,
+        laser: LaserConfig | None = None,
+        odometry: OdometryConfig | None = None,
+        sensors: tuple[str, ...] = SENSORS,
+        randomize: bool = False,
+    ):
+        if world not in WORLDS:
+            raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        sensors = tuple(sensors)
+        if not sensors or any(s not in SENSORS for s in sensors):
+            raise ValueError(f"sensors must be a non-empty subset of {SENSORS}, got {sensors}")
+        self.world_name = world
+        self.render_mode = render_mode
+        self.sensors = sensors
+        self.randomize = randomize
+        self.camera_config = camera or CameraConfig()
+        self.laser_config = laser or LaserConfig()
+        self.world = build_world(world)
+        self.sim = Simulator(
+            self.world,
+            self.camera_config if "image" in sensors else None,
+            self.laser_config if "scan" in sensors else None,
+            odometry or OdometryConfig(),
+        )
+        self._randomizer = AppearanceRandomizer(self.sim.model)
+        obs = {}
+        if "image" in sensors:
+            c = self.camera_config
+            obs["image"] = spaces.Box(0, 255, (c.height, c.width, 3), np.uint8)
+        if "scan" in sensors:
+            obs["scan"] = spaces.Box(0.0, np.inf, (self.laser_config.beams,), np.float32)
+        self.observation_space = spaces.Dict(obs)
+        self.action_space = spaces.Box(
+            np.array([V_LIMITS[0], -OMEGA_LIMIT], np.float32),
+            np.array([V_LIMITS[1], OMEGA_LIMIT], np.float32),
+        )
+        self._free = self.world.free_space(0.05)
+        self._view: TopDownView | None = None
+        self._trail: list[np.ndarray] = []
+        self._last_scan: np.ndarray | None = None
+        self._noise_rng = np.random.default_rng(0)
+
+    # -- helpers ----------------------------------------------------------------------------
+    def sample_pose(self, rng: np.random.Generator, manifold: str | None = None) -> np.ndarray:
+        """A random pose at least ``START_CLEARANCE`` from obstacles, on ``manifold`` if given."""
+        ok = self._free.clearance >= START_CLEARANCE
+        centers = self._free.cell_centers()
+        if manifold is not None:
+            if manifold not in MANIFOLDS:
+                raise ValueError(f"manifold must be one of {MANIFOLDS}, got {manifold!r}")
+            ok &= self.world.manifold_at(centers) == MANIFOLDS.index(manifold)
+        cells = np.argwhere(ok)
+        if len(cells) == 0:
+            raise ValueError(
+                f"no free start pose on manifold {manifold!r} in world {self.world_name!r}"
+            )
+        i, j = cells[rng.integers(len(cells))]
+        x, y = centers[i, j]
+        return np.array([x, y, rng.uniform(-np.pi, np.pi)])
+
+    def _observe(self) -> dict[str, np.ndarray]:
+        obs = {}
+        if "image" in self.sensors:
+            obs["image"] = self.sim.render()
+        if "scan" in self.sensors:
+            self._last_scan = self.sim.scan(self._noise_rng)
+            obs["scan"] = self._last_scan
+        return obs
+
+    def _info(self, collision: bool = False) -> dict[str, Any]:
+        pose = self.sim.pose
+        label = int(self.world.manifold_at(pose[:2]))
+        return {
+            "pose": pose,
+            "odometry": self.sim.odometry.pose.copy(),
+            "manifold": None if label == NO_MANIFOLD else MANIFOLDS[label],
+            "manifold_id": label,
+            "collision": bool(collision),
+            "time": self.sim.time,
+        }
+
+    # -- gymnasium API ----------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = options or {}
+        rng = self.np_random
+        self._noise_rng, odo_rng, look_rng = rng.spawn(3)
+        self._randomizer.apply(look_rng if self.randomize else None)
+        if "pose" in options:
+            pose = np.asarray(options["pose"], np.float64)
+            if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+                raise ValueError(
+                    f"options['pose'] must be a finite (x, y, yaw), got {options['pose']!r}"
+                )
+            if (
+                not self._free.is_free(pose[:2])
+                or self._free.clearance[self._free.cell_of(pose[:2])] < RADIUS
+            ):
+                raise ValueError(f"options['pose'] {tuple(pose)} is not in free space")
+        else:
+            pose = self.sample_pose(rng, options.get("manifold"))
+        self.sim.reset(pose, odo_rng)
+        self._trail = [self.sim.pose]
+        return self._observe(), self._info()
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (2,):
+            raise ValueError(f"action must have shape (2,) = (v, omega), got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite, got {action!r}")
+        a = np.clip(a, self.action_space.low, self.action_space.high)
+        collision = self.sim.step(a[0], a[1])
+        self._trail.append(self.sim.pose)
+        reward = -COLLISION_PENALTY if collision else 0.0
+        info = self._info(collision)
+        info["reward_collision"] = reward
+        return self._observe(), reward, False, False, info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._view is None:
+            self._view = TopDownView(self.world)
+        return self._view.draw(
+            self.sim.pose, self._last_scan, self.laser_config.angles, np.asarray(self._trail)
+        )
+
+    def close(self):
+        """Free renderers; safe to call twice."""
+        sim = getattr(self, "sim", None)
+        if sim is not None:
+            sim.close()

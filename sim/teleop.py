@@ -1,0 +1,130 @@
+"""A scripted teleoperator: a waypoint follower with human-like speed and heading jitter.
+
+It drives the route by pure pursuit toward a look-ahead point that wanders smoothly to either
+side of the route (people do not walk a centre line), with Ornstein-Uhlenbeck noise on speed
+and turn rate. Another seed gives another realistic pass along the same route.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from scenes import World
+from scenes.regions import Route
+from scenes.robot import RADIUS
+from sim.odometry import wrap_angle
+
+
+@dataclass(frozen=True)
+class TeleopConfig:
+    """Driver settings: nominal speed (m/s), relative speed jitter, turn-rate jitter (rad/s),
+    lateral wander (m), its correlation length (m), pure-pursuit look-ahead (m), and the start
+    pose jitter (m, rad)."""
+
+    speed: float = 0.6
+    speed_jitter: float = 0.12
+    turn_jitter: float = 0.12
+    lateral_wander: float = 0.25
+    wander_length: float = 3.0
+    lookahead: float = 1.2
+    start_jitter: tuple[float, float] = (0.15, 0.08)
+
+    def __post_init__(self):
+        for k, v in asdict(self).items():
+            vals = np.ravel(v)
+            if not np.all(np.isfinite(vals)) or np.any(vals < 0):
+                raise ValueError(f"teleop {k} must be finite and >= 0, got {v}")
+        if self.speed <= 0 or self.lookahead <= 0 or self.wander_length <= 0:
+            raise ValueError("teleop speed, lookahead and wander_length must be > 0")
+
+
+class Polyline:
+    """Arc-length parametrised route: ``point(s)``, ``tangent(s)``, ``project(xy)``."""
+
+    def __init__(self, waypoints: np.ndarray):
+        self.p = np.asarray(waypoints, np.float64)
+        seg = np.diff(self.p, axis=0)
+        self.seg_len = np.linalg.norm(seg, axis=1)
+        self.dirs = seg / self.seg_len[:, None]
+        self.cum = np.concatenate([[0.0], np.cumsum(self.seg_len)])
+        self.length = float(self.cum[-1])
+
+    def point(self, s: float) -> np.ndarray:
+        s = float(np.clip(s, 0.0, self.length))
+        i = min(int(np.searchsorted(self.cum, s, side="right")) - 1, len(self.seg_len) - 1)
+        return self.p[i] + self.dirs[i] * (s - self.cum[i])
+
+    def tangent(self, s: float) -> np.ndarray:
+        s = float(np.clip(s, 0.0, self.length))
+        i = min(int(np.searchsorted(self.cum, s, side="right")) - 1, len(self.seg_len) - 1)
+        return self.dirs[i]
+
+    def project(self, xy, lo: float = 0.0, hi: float | None = None) -> float:
+        """Arc length of the closest route point to ``xy`` among s in [lo, hi]."""
+        hi = self.length if hi is None else hi
+        rel = np.asarray(xy, np.float64) - self.p[:-1]
+        t = np.clip(np.einsum("ij,ij->i", rel, self.dirs), 0.0, self.seg_len)
+        s = np.clip(self.cum[:-1] + t, lo, hi)
+        pts = np.array([self.point(v) for v in s])
+        return float(s[np.argmin(np.linalg.norm(pts - xy, axis=1))])
+
+
+class ScriptedTeleop:
+    """Drives one route. Call :meth:`start_pose` once, then :meth:`command` every step."""
+
+    def __init__(self, world: World, route: Route, config: TeleopConfig, rng: np.random.Generator):
+        self.route = Polyline(route.waypoints)
+        self.config = config
+        self.rng = rng
+        # Keep the wandering look-ahead point where the robot fits, with a margin.
+        self.free = world.free_space(resolution=0.05, inflation=RADIUS + 0.15)
+        self.progress = 0.0
+        self._speed_noise = 0.0
+        self._turn_noise = 0.0
+        self._offset = 0.0
+
+    def start_pose(self) -> np.ndarray:
+        c = self.config
+        p = self.route.point(0.0) + self.rng.normal(0.0, c.start_jitter[0], 2)
+        t = self.route.tangent(0.0)
+        yaw = np.arctan2(t[1], t[0]) + self.rng.normal(0.0, c.start_jitter[1])
+        return np.array([p[0], p[1], float(wrap_angle(yaw))])
+
+    @property
+    def done(self) -> bool:
+        return self.progress >= self.route.length - 0.05
+
+    def command(self, pose: np.ndarray, dt: float) -> tuple[float, float]:
+        """(v, omega) toward the wandering look-ahead point; advances :attr:`progress`."""
+        c = self.config
+        self.progress = self.route.project(pose[:2], self.progress - 0.5, self.progress + 2.0)
+        # Ornstein-Uhlenbeck noises (exact discretisation, unit-free correlation times).
+        for name, sigma, tau in (
+            ("_speed_noise", c.speed_jitter, 2.0),
+            ("_turn_noise", c.turn_jitter, 1.0),
+        ):
+            a = np.exp(-dt / tau)
+            setattr(
+                self, name, a * getattr(self, name) + sigma * np.sqrt(1 - a * a) * self.rng.normal()
+            )
+        a = np.exp(-c.speed * dt / c.wander_length)
+        self._offset = a * self._offset + c.lateral_wander * np.sqrt(1 - a * a) * self.rng.normal()
+        s_target = min(self.progress + c.lookahead, self.route.length)
+        t = self.route.tangent(s_target)
+        normal = np.array([-t[1], t[0]])
+        target = self.route.point(s_target)
+        for shrink in (1.0, 0.5, 0.0):
+            candidate = target + shrink * self._offset * normal
+            if self.free.is_free(candidate):
+                target = candidate
+                break
+        dx, dy = target - pose[:2]
+        alpha = float(wrap_angle(np.arctan2(dy, dx) - pose[2]))
+        dist = max(float(np.hypot(dx, dy)), 1e-6)
+        remaining = self.route.length - self.progress
+        v = c.speed * (1.0 + self._speed_noise) * max(np.cos(alpha), 0.0)
+        v = min(v, 0.6 * remaining + 0.1)  # ease into the final waypoint
+        omega = 2.0 * max(v, 0.2) * np.sin(alpha) / dist + self._turn_noise
+        return float(max(v, 0.0)), float(omega)

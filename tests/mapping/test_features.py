@@ -1,0 +1,169 @@
+"""Image and laser-scan features: shapes, value ranges, invariances, robustness to inf/NaN."""
+
+import cv2
+import numpy as np
+import pytest
+
+from mapping.features import (
+    ImageFeatures,
+    ScanFeatures,
+    fit_pca,
+    images_to_vectors,
+    normalize_rows,
+    scan_ranges,
+    scan_to_points,
+    scan_vectors,
+)
+
+
+@pytest.fixture(scope="module")
+def images():
+    rng = np.random.default_rng(0)
+    return rng.integers(0, 256, size=(12, 24, 32, 3), dtype=np.uint8)
+
+
+def test_images_to_vectors_raw_pixels_in_unit_range(images):
+    X = images_to_vectors(images)
+    assert X.shape == (12, 24 * 32 * 3) and X.dtype == np.float64
+    np.testing.assert_allclose(X[3], images[3].ravel() / 255.0)
+
+
+def test_resize_is_area_averaging_and_grey_is_bt601(images):
+    X = images_to_vectors(images, size=(8, 6), color=False)
+    assert X.shape == (12, 48)
+    # A 4x4 block average of the BT.601 luma, as INTER_AREA does for an integer factor.
+    luma = images[0].astype(np.float64) @ [0.299, 0.587, 0.114] / 255.0
+    expected = luma.reshape(6, 4, 8, 4).mean(axis=(1, 3)).ravel()
+    np.testing.assert_allclose(X[0], expected, atol=1e-5)
+    single = images_to_vectors(images[0], size=(8, 6))
+    ref = cv2.resize(images[0], (8, 6), interpolation=cv2.INTER_AREA).ravel() / 255.0
+    np.testing.assert_allclose(single[0], ref, atol=1 / 255.0)
+
+
+def test_accepts_single_grey_and_grey_batches(images):
+    grey = images[..., 0]
+    assert images_to_vectors(grey[0]).shape == (1, 24 * 32)
+    assert images_to_vectors(grey).shape == (12, 24 * 32)
+    assert images_to_vectors(grey.astype(np.float32) / 255.0, size=(4, 3)).shape == (12, 12)
+
+
+def test_unit_normalisation_is_brightness_and_contrast_invariant(images):
+    x = images[0].astype(np.float64) / 255.0
+    a = ImageFeatures(normalization="unit").fit_transform(x * 0.5)
+    b = ImageFeatures(normalization="unit").fit_transform(x * 0.5 + 0.2)
+    np.testing.assert_allclose(a, b, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(a, axis=1), 1.0)
+    np.testing.assert_allclose(a.mean(axis=1), 0.0, atol=1e-12)
+    # A flat image has no contrast to normalise: zeros, not NaN.
+    np.testing.assert_array_equal(normalize_rows(np.full((1, 5), 0.3)), 0.0)
+
+
+def test_standardize_uses_training_statistics(images):
+    feats = ImageFeatures(size=(8, 6), normalization="standardize").fit(images[:8])
+    Z = feats.transform(images[:8])
+    np.testing.assert_allclose(Z.mean(axis=0), 0.0, atol=1e-12)
+    np.testing.assert_allclose(Z.std(axis=0), 1.0)
+    assert not np.allclose(feats.transform(images[8:]).mean(axis=0), 0.0)
+
+
+def test_pca_projection_orthonormal_deterministic_and_sign_fixed(images):
+    feats = ImageFeatures(size=(8, 6), n_components=5).fit(images)
+    Z = feats.transform(images)
+    assert Z.shape == (12, 5)
+    np.testing.assert_allclose(feats.components_ @ feats.components_.T, np.eye(5), atol=1e-12)
+    assert np.all(np.diff(feats.explained_variance_) <= 0)
+    np.testing.assert_allclose(Z.var(axis=0, ddof=1), feats.explained_variance_)
+    top = np.abs(feats.components_).argmax(axis=1)
+    assert np.all(feats.components_[np.arange(5), top] > 0)
+    _, comps, _ = fit_pca(-feats.transform(images), 2)  # negated data, same sign rule
+    assert np.all(comps[np.arange(2), np.abs(comps).argmax(axis=1)] > 0)
+    np.testing.assert_array_equal(
+        Z, ImageFeatures(size=(8, 6), n_components=5).fit_transform(images)
+    )
+
+
+def test_image_features_bad_input(images):
+    with pytest.raises(ValueError, match="normalization must be one of"):
+        ImageFeatures(normalization="l2").fit(images)
+    with pytest.raises(ValueError, match="not fitted"):
+        ImageFeatures().transform(images)
+    with pytest.raises(ValueError, match="fitted with"):
+        ImageFeatures(size=(8, 6)).fit(images).transform(images[..., 0])
+    with pytest.raises(ValueError, match="n_components must be in"):
+        ImageFeatures(n_components=50).fit(images)
+    with pytest.raises(ValueError, match="size must be"):
+        images_to_vectors(images, size=(0, 4))
+    with pytest.raises(ValueError, match="images must have shape"):
+        images_to_vectors(np.zeros((2, 4, 4, 4)))
+    with pytest.raises(ValueError, match="NaN or inf"):
+        images_to_vectors(np.full((4, 4), np.nan))
+    with pytest.raises(ValueError, match="empty"):
+        images_to_vectors(np.zeros((0, 4, 4)))
+
+
+RAW = np.array([1.0, np.inf, np.nan, 12.0, -1.0, 3.0], dtype=np.float32)
+
+
+def test_scan_ranges_makes_no_return_and_invalid_max_range():
+    r = scan_ranges(RAW, max_range=10.0)
+    np.testing.assert_array_equal(r, [[1.0, 10.0, 10.0, 10.0, 10.0, 3.0]])
+    assert r.dtype == np.float64
+    with pytest.raises(ValueError, match="max_range"):
+        scan_ranges(RAW, max_range=np.inf)
+    with pytest.raises(ValueError, match="ranges must have shape"):
+        scan_ranges(np.zeros((2, 3, 4)), 5.0)
+
+
+def test_range_and_inverse_representations():
+    rng_feat = scan_vectors(RAW, 10.0, "range")
+    np.testing.assert_allclose(rng_feat, [[0.1, 1, 1, 1, 1, 0.3]])
+    inv = scan_vectors(RAW, 10.0, "inverse", min_range=0.5)
+    np.testing.assert_allclose(inv[0, [1, 2]], 0.0)  # no return / invalid -> 0
+    np.testing.assert_allclose(inv[0, 0], 0.5 - 0.05)
+    assert inv[0, 0] > inv[0, 5] > 0  # nearer obstacle, larger feature
+
+
+def test_sectors_keep_the_nearest_return():
+    scans = np.array([[5.0, 1.0, np.inf, 2.0, 4.0, np.nan], [9.0, 9.0, 9.0, 9.0, 0.5, 9.0]])
+    out = scan_vectors(scans, 10.0, n_sectors=3)
+    np.testing.assert_allclose(out, [[0.1, 0.2, 0.4], [0.9, 0.9, 0.05]])
+
+
+def test_polar_grid_counts_fraction_of_beams_per_cell():
+    scan = np.array([0.5, 1.5, np.inf, 3.9, 2.0, 2.1, np.nan, 0.1])
+    grid = scan_vectors(scan, 4.0, "polar_grid", n_sectors=2, n_range_bins=4).reshape(2, 4)
+    np.testing.assert_allclose(grid, [[0.25, 0.25, 0.0, 0.25], [0.25, 0.0, 0.5, 0.0]])
+    batch = scan_vectors(np.stack([scan, scan[::-1]]), 4.0, "polar_grid", n_range_bins=4)
+    assert batch.shape == (2, 8 * 4)  # default 16 sectors, capped at the 8 beams
+    # One beam per sector: each of the 6 returns fills one cell; inf and NaN fill none.
+    np.testing.assert_allclose(batch.sum(axis=1), 6.0)
+
+
+def test_scan_features_fit_transform_and_bad_input():
+    rng = np.random.default_rng(0)
+    scans = rng.uniform(0.2, 12.0, size=(5, 360)).astype(np.float32)
+    scans[:, ::7] = np.inf
+    feats = ScanFeatures(max_range=10.0, representation="inverse", n_sectors=36)
+    out = feats.fit_transform(scans)
+    assert out.shape == (5, 36) and np.isfinite(out).all()
+    assert feats.transform(scans[0]).shape == (1, 36)
+    with pytest.raises(ValueError, match="360 beams"):
+        feats.transform(scans[:, :100])
+    with pytest.raises(ValueError, match="not fitted"):
+        ScanFeatures(10.0).transform(scans)
+    with pytest.raises(ValueError, match="representation must be one of"):
+        ScanFeatures(10.0, "occupancy").fit(scans)
+    with pytest.raises(ValueError, match="n_sectors must be in"):
+        ScanFeatures(10.0, n_sectors=400).fit(scans)
+    with pytest.raises(ValueError, match="min_range must be in"):
+        ScanFeatures(10.0, "inverse", min_range=20.0).fit(scans)
+
+
+def test_scan_to_points_sensor_frame_and_drops_no_returns():
+    angles = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2, 0.3])
+    ranges = np.array([2.0, 1.0, np.inf, 3.0, np.nan], dtype=np.float32)
+    pts = scan_to_points(ranges, angles)
+    np.testing.assert_allclose(pts, [[2.0, 0.0], [0.0, 1.0], [0.0, -3.0]], atol=1e-12)
+    assert scan_to_points(ranges, angles, max_range=3.0).shape == (2, 2)
+    with pytest.raises(ValueError, match="same length"):
+        scan_to_points(ranges, angles[:3])

@@ -1,0 +1,96 @@
+"""Clustering scores: known values, label-permutation invariance, agreement with scikit-learn."""
+
+import numpy as np
+import pytest
+from sklearn.metrics import adjusted_rand_score
+
+from mapping.metrics import adjusted_rand_index, clustering_error, contingency_matrix, purity
+
+
+def test_contingency_matrix_counts_pairs_in_sorted_label_order():
+    counts = contingency_matrix(["b", "a", "a", "b", "b"], [1, 0, 1, 1, 1])
+    # rows: a, b; columns: 0, 1
+    np.testing.assert_array_equal(counts, [[1, 1], [0, 3]])
+
+
+@pytest.mark.parametrize(
+    ("y_true", "y_pred", "expected"),
+    [
+        ([0, 0, 1, 1], [1, 1, 0, 0], 0.0),
+        ([0, 0, 0, 1, 1, 1], [0, 0, 1, 1, 1, 1], 1 / 6),
+        # More predicted clusters than classes: the unmatched cluster's points are errors.
+        ([0, 0, 0, 0], [0, 0, 1, 2], 0.5),
+        # Fewer predicted clusters: one whole class cannot be matched.
+        ([0, 0, 1, 1, 2, 2], [0, 0, 0, 0, 1, 1], 2 / 6),
+        (["x"], ["y"], 0.0),
+    ],
+)
+def test_clustering_error_known_cases(y_true, y_pred, expected):
+    assert clustering_error(y_true, y_pred) == pytest.approx(expected)
+
+
+def test_hungarian_beats_greedy_matching():
+    # Class 0 -> cluster 0 (3 points) greedily leaves class 1 only cluster 1 (1 point): 4 correct.
+    # The optimum pairs class 0 -> cluster 1 (2) and class 1 -> cluster 0 (3): 5 correct.
+    y_true = [0, 0, 0, 0, 0, 1, 1, 1, 1]
+    y_pred = [0, 0, 0, 1, 1, 0, 0, 0, 1]
+    assert clustering_error(y_true, y_pred) == pytest.approx(1 - 5 / 9)
+
+
+def test_scores_invariant_to_renaming_labels():
+    rng = np.random.default_rng(0)
+    y_true = rng.integers(0, 4, size=200)
+    y_pred = np.where(rng.random(200) < 0.7, y_true, rng.integers(0, 5, size=200))
+    renamed = np.array(["q", "r", "s", "t", "u"])[(y_pred + 2) % 5]
+    assert clustering_error(y_true, renamed) == pytest.approx(clustering_error(y_true, y_pred))
+    assert purity(y_true, renamed) == pytest.approx(purity(y_true, y_pred))
+    assert adjusted_rand_index(y_true, renamed) == pytest.approx(
+        adjusted_rand_index(y_true, y_pred)
+    )
+    assert 0.0 < clustering_error(y_true, y_pred) < 0.5
+
+
+def test_purity_rewards_over_segmentation_unlike_clustering_error():
+    y_true = [0, 0, 1, 1]
+    singletons = [0, 1, 2, 3]
+    assert purity(y_true, singletons) == 1.0
+    assert clustering_error(y_true, singletons) == 0.5
+    assert purity([0, 0, 1, 1], [0, 0, 0, 1]) == pytest.approx(0.75)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_ari_matches_sklearn(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 300))
+    y_true = rng.integers(0, int(rng.integers(1, 6)), size=n)
+    y_pred = np.where(rng.random(n) < 0.5, y_true, rng.integers(0, 7, size=n))
+    assert adjusted_rand_index(y_true, y_pred) == pytest.approx(
+        adjusted_rand_score(y_true, y_pred), abs=1e-12
+    )
+
+
+@pytest.mark.parametrize(
+    ("y_true", "y_pred"),
+    [([0, 0, 0], [1, 1, 1]), ([0, 1, 2], [5, 4, 3]), ([7], [7]), ([0, 0, 1], [0, 1, 2])],
+)
+def test_ari_degenerate_partitions_follow_sklearn(y_true, y_pred):
+    assert adjusted_rand_index(y_true, y_pred) == pytest.approx(adjusted_rand_score(y_true, y_pred))
+
+
+def test_ari_large_input_does_not_overflow():
+    y_true = np.repeat(np.arange(2), 60_000)
+    y_pred = y_true.copy()
+    y_pred[:1000] = 1
+    assert adjusted_rand_index(y_true, y_pred) == pytest.approx(
+        adjusted_rand_score(y_true, y_pred), rel=1e-9
+    )
+
+
+@pytest.mark.parametrize("score", [clustering_error, purity, adjusted_rand_index])
+def test_bad_input_raises(score):
+    with pytest.raises(ValueError, match="same length"):
+        score([0, 1, 1], [0, 1])
+    with pytest.raises(ValueError, match="empty"):
+        score([], [])
+    with pytest.raises(ValueError, match="y_pred must be 1-D"):
+        score([0, 1], [[0, 1]])

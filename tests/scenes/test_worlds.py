@@ -1,0 +1,94 @@
+import numpy as np
+import pytest
+
+from scenes import MANIFOLD_IDS, NO_MANIFOLD, build_world
+from scenes.robot import RADIUS
+from sim.simulator import compile_world
+
+
+def test_canonical_world_is_deterministic(worlds):
+    again = build_world("hallway")
+    assert again.xml == worlds["hallway"].xml
+    assert again.assets == worlds["hallway"].assets
+
+
+def test_randomised_worlds_follow_the_generator():
+    a = build_world("lawn", np.random.default_rng(7))
+    b = build_world("lawn", np.random.default_rng(7))
+    c = build_world("lawn", np.random.default_rng(8))
+    assert a.xml == b.xml and a.assets == b.assets
+    assert a.xml != c.xml
+    assert a.assets != c.assets
+    assert a.randomized and not build_world("lawn").randomized
+
+
+@pytest.mark.parametrize("name", ["hallway", "lawn"])
+def test_world_compiles_with_every_element_named(worlds, name):
+    model = compile_world(worlds[name])
+    import mujoco
+
+    for obj, count in (
+        (mujoco.mjtObj.mjOBJ_GEOM, model.ngeom),
+        (mujoco.mjtObj.mjOBJ_LIGHT, model.nlight),
+        (mujoco.mjtObj.mjOBJ_MATERIAL, model.nmat),
+        (mujoco.mjtObj.mjOBJ_BODY, model.nbody),
+    ):
+        unnamed = [
+            i
+            for i in range(count)
+            if not mujoco.mj_id2name(model, obj, i)
+            and not (obj == mujoco.mjtObj.mjOBJ_BODY and i == 0)
+        ]
+        assert unnamed == [], f"unnamed {obj}: {unnamed}"
+    assert model.ntex >= 10  # walls, floors and ground are textured, not flat colours
+    assert model.nmesh >= (3 if name == "lawn" else 1)
+
+
+def test_unknown_world_names_the_choices():
+    with pytest.raises(ValueError, match=r"world must be one of \('hallway', 'lawn'\)"):
+        build_world("garden")
+    with pytest.raises(TypeError, match="numpy.random.Generator"):
+        build_world("hallway", rng=3)
+
+
+@pytest.mark.parametrize(
+    ("name", "xy", "manifold"),
+    [
+        ("hallway", (5.0, 0.0), "hallway"),
+        ("hallway", (17.2, 8.0), "hallway-left"),
+        ("hallway", (25.0, 0.5), "hallway-straight"),
+        ("hallway", (17.2, -8.0), "hallway-right"),
+        ("hallway", (16.5, 0.0), "hallway"),  # junction, before its centre
+        ("lawn", (8.0, 2.0), "lawn"),
+        ("lawn", (19.0, 12.0), "lawn-left"),
+        ("lawn", (30.0, -1.0), "lawn-straight"),
+        ("lawn", (19.0, -12.0), "lawn-right"),
+    ],
+)
+def test_manifold_regions(worlds, name, xy, manifold):
+    assert worlds[name].manifold_at(xy) == MANIFOLD_IDS[manifold]
+    assert worlds[name].manifolds.name_at(*xy) == manifold
+
+
+def test_points_off_the_floor_are_on_no_manifold(worlds):
+    labels = worlds["hallway"].manifold_at(np.array([[5.0, 3.0], [-1.0, 0.0], [25.0, 8.0]]))
+    np.testing.assert_array_equal(labels, NO_MANIFOLD)
+    with pytest.raises(ValueError, match=r"xy must have shape \(\.\.\., 2\)"):
+        worlds["hallway"].manifold_at([1.0, 2.0, 3.0])
+
+
+@pytest.mark.parametrize("name", ["hallway", "lawn"])
+def test_free_space_holds_the_routes_but_not_the_walls(worlds, name):
+    world = worlds[name]
+    free = world.free_space(0.05, inflation=RADIUS)
+    for route in world.routes.values():
+        pts = np.concatenate(
+            [
+                np.linspace(a, b, 20)
+                for a, b in zip(route.waypoints[:-1], route.waypoints[1:], strict=True)
+            ]
+        )
+        assert free.is_free(pts).all(), route.name
+    for fp in world.footprints[:20]:
+        assert not free.is_free(np.array(fp.center)), fp.name
+    assert set(world.manifolds.names) == {name, f"{name}-left", f"{name}-straight", f"{name}-right"}

@@ -1,0 +1,134 @@
+import json
+
+import numpy as np
+import pytest
+
+from sim import collect as collect_mod
+from sim.camera import CameraConfig
+from sim.collect import CollectionSettings, collect_dataset
+from sim.dataset import SCHEMA_VERSION, DatasetError, load_dataset
+
+SETTINGS = CollectionSettings(
+    worlds=("lawn",), frames=6, seed=3, camera=CameraConfig(width=48, height=36)
+)
+
+
+@pytest.fixture(scope="module")
+def small_dataset(tmp_path_factory):
+    path = tmp_path_factory.mktemp("ds")
+    collect_dataset(path, SETTINGS, jobs=1, progress=False)
+    return path
+
+
+def test_dataset_round_trips(small_dataset):
+    ds = load_dataset(small_dataset)
+    assert list(ds.sequences) == ["lawn-left", "lawn-straight", "lawn-right"]
+    seq = ds.sequences["lawn-left"]
+    assert seq.images.shape == (6, 36, 48, 3) and seq.images.dtype == np.uint8
+    assert seq.scans.shape == (6, 361) and seq.scans.dtype == np.float32
+    assert seq.poses.shape == seq.odometry.shape == (6, 3)
+    assert np.all(np.diff(seq.times) > 0)
+    # The sequence runs from the lawn into the left branch, and its labels say so.
+    assert ds.manifolds[seq.labels[0]] == "lawn" and ds.manifolds[seq.labels[-1]] == "lawn-left"
+    train, test = ds.paper_split()
+    assert train.sum() == test.sum() == 9
+    meta = json.loads((small_dataset / "meta.json").read_text())
+    assert meta["schema_version"] == SCHEMA_VERSION and meta["complete"]
+    assert meta["settings"]["laser"]["beams"] == 361
+
+
+def test_same_seed_same_bytes(small_dataset, tmp_path):
+    collect_dataset(tmp_path, SETTINGS, jobs=1, progress=False)
+    a = json.loads((small_dataset / "meta.json").read_text())["sequences"]
+    b = json.loads((tmp_path / "meta.json").read_text())["sequences"]
+    assert a == b  # same SHA-256 for every sequence
+
+
+def test_interrupted_collection_leaves_nothing_half_written_and_resumes(tmp_path, monkeypatch):
+    real = collect_mod.collect_sequence
+    calls = []
+
+    def flaky(settings, index, world, route, tick=None):
+        calls.append(route)
+        if route == "lawn-straight":
+            raise KeyboardInterrupt
+        return real(settings, index, world, route, tick)
+
+    monkeypatch.setattr(collect_mod, "collect_sequence", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        collect_dataset(tmp_path, SETTINGS, jobs=1, progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lawn-left.npz", "meta.json"]
+    with pytest.raises(DatasetError, match="incomplete collection"):
+        load_dataset(tmp_path)
+    first = (tmp_path / "lawn-left.npz").stat().st_mtime_ns
+    monkeypatch.setattr(collect_mod, "collect_sequence", real)
+    calls.clear()
+    collect_dataset(tmp_path, SETTINGS, jobs=1, progress=False)
+    assert (tmp_path / "lawn-left.npz").stat().st_mtime_ns == first  # kept, not redone
+    assert len(load_dataset(tmp_path).sequences) == 3
+
+
+def test_other_settings_are_refused_unless_overwrite(small_dataset, tmp_path):
+    collect_dataset(tmp_path, SETTINGS, jobs=1, progress=False)
+    other = CollectionSettings(
+        worlds=("lawn",), frames=5, seed=3, camera=CameraConfig(width=48, height=36)
+    )
+    with pytest.raises(FileExistsError, match="other settings"):
+        collect_dataset(tmp_path, other, jobs=1, progress=False)
+    collect_dataset(tmp_path, other, overwrite=True, jobs=1, progress=False)
+    assert len(load_dataset(tmp_path).sequences["lawn-right"]) == 5
+
+
+def test_truncated_or_foreign_datasets_are_refused(small_dataset, tmp_path):
+    import shutil
+
+    shutil.copytree(small_dataset, tmp_path / "d")
+    d = tmp_path / "d"
+    path = d / "lawn-right.npz"
+    path.write_bytes(path.read_bytes()[:1000])
+    with pytest.raises(DatasetError, match="truncated or modified"):
+        load_dataset(d)
+    with pytest.raises(DatasetError, match="cannot be read"):
+        load_dataset(d, verify=False)
+    meta = json.loads((d / "meta.json").read_text())
+    meta["schema_version"] = SCHEMA_VERSION + 1
+    (d / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(DatasetError, match="schema version"):
+        load_dataset(d)
+    with pytest.raises(DatasetError, match="meta.json is missing"):
+        load_dataset(tmp_path / "nowhere")
+
+
+def test_bad_collection_settings():
+    with pytest.raises(ValueError, match="worlds must be a non-empty subset"):
+        CollectionSettings(worlds=("moon",))
+    with pytest.raises(ValueError, match="frames must be an integer >= 2"):
+        CollectionSettings(frames=1)
+
+
+def test_cli_collect_refuses_and_reports(tmp_path, capsys):
+    from scripts.cli import main
+
+    args = [
+        "collect",
+        "--world",
+        "lawn",
+        "--out",
+        str(tmp_path),
+        "--frames",
+        "3",
+        "--jobs",
+        "1",
+        "--width",
+        "32",
+        "--height",
+        "24",
+    ]
+    assert main(args) == 0
+    assert (
+        main(["collect", "--world", "lawn", "--out", str(tmp_path), "--frames", "4", "--jobs", "1"])
+        == 2
+    )
+    assert "other settings" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["collect", "--world", "moon", "--out", str(tmp_path)])
