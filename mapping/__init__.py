@@ -8,14 +8,26 @@ from importlib import import_module
 
 # name -> module that defines it (one line per name, keep sorted by module)
 _EXPORTS = {
+    "NotFittedError": "mapping.baselines",
     "NormalizedCutClustering": "mapping.baselines",
     "SelfTuningSpectralClustering": "mapping.baselines",
+    "best_sigma_ncut": "mapping.baselines",
+    "ImageFeatures": "mapping.features",
+    "ScanFeatures": "mapping.features",
+    "scan_to_points": "mapping.features",
+    "icp": "mapping.icp",
+    "refine_poses": "mapping.icp",
     "ManifoldClustering": "mapping.manifold",
+    "adjusted_rand_index": "mapping.metrics",
     "clustering_error": "mapping.metrics",
+    "purity": "mapping.metrics",
     "sensed_space_overlap": "mapping.overlap",
     "ObservationGraphPartitioner": "mapping.partition",
+    "SplitNode": "mapping.partition",
     "ncut": "mapping.partition",
+    "recursive_ncut_partition": "mapping.partition",
     "spectral_bisection": "mapping.partition",
+    "TopologicalMap": "mapping.topology",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -1,0 +1,235 @@
+"""Benchmark and experiments for the laser observation grouping (Blanco et al.).
+
+    .venv/bin/python bench/bench_partition.py                # cost against n (the table)
+    .venv/bin/python bench/bench_partition.py --experiments  # assoc/threshold and noise tables
+    .venv/bin/python bench/bench_partition.py --plots        # docs/img/grouping_*.png
+
+All data are synthetic scans of ``mapping._synthetic_scans.office_world``: a corridor with
+rooms, a route touring every room, a 181-beam 180-degree laser with 8 m range. The office of
+the paper (4 rooms, 77 scans, one every 1.17 m) is scaled up by adding rooms.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
+from mapping.metrics import adjusted_rand_index, purity
+from mapping.overlap import sensed_space_overlap
+from mapping.partition import ObservationGraphPartitioner, recursive_ncut_partition
+
+STEP = 1.17  # metres between scans: 77 scans in the paper-sized office
+DENSE_STEP = 0.5  # a denser keyframe rate, for the stress row
+DELTA = 0.1
+IMG = Path(__file__).resolve().parents[1] / "docs" / "img"
+
+
+def office_data(n_rooms: int, step: float, seed: int = 0):
+    world = office_world(n_rooms=n_rooms)
+    poses = office_path(world, step=step)
+    scans = raycast(world.segments, poses, range_noise=0.01, rng=np.random.default_rng(seed))
+    return world, scans, poses
+
+
+def _best_of(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def bench_cost() -> None:
+    print(f"os.cpu_count() = {os.cpu_count()}, load average = {os.getloadavg()}")
+    print("best of repeats, wall-clock seconds; fit = overlap + partition + local maps + topology")
+    header = f"{'rooms':>5} {'step':>5} {'scans':>6} {'points':>8} {'overlap':>8} {'partition':>9}"
+    print(header + f" {'fit':>7} {'groups':>6} {'purity':>6}")
+    rows = [(4, STEP), (12, STEP), (26, STEP), (52, STEP), (104, STEP), (50, DENSE_STEP)]
+    for n_rooms, step in rows:
+        _bench_row(n_rooms, step)
+
+
+def _bench_row(n_rooms: int, step: float) -> None:
+    world, scans, poses = office_data(n_rooms, step)
+    repeats = 15 if len(scans) < 300 else 2
+    W = sensed_space_overlap(scans, poses, DELTA, sparse=True)
+    t_overlap = _best_of(lambda: sensed_space_overlap(scans, poses, DELTA, sparse=True), repeats)
+    t_part = _best_of(lambda: recursive_ncut_partition(W), repeats)
+    model = ObservationGraphPartitioner(match_distance=DELTA)
+    t_fit = _best_of(lambda: model.fit(scans, poses), repeats)
+    pur = purity(world.region_labels(poses), model.labels_)
+    print(
+        f"{n_rooms:>5} {step:>5.2f} {len(scans):>6} {sum(map(len, scans)):>8} "
+        f"{t_overlap:>8.3f} {t_part:>9.3f} {t_fit:>7.3f} {model.n_groups_:>6} {pur:>6.3f}"
+    )
+
+
+def _score(world, poses_true, labels) -> str:
+    truth = world.region_labels(poses_true)
+    per_region = [len(np.unique(labels[truth == k])) for k in range(world.n_rooms + 1)]
+    return (
+        f"{labels.max() + 1:>3} groups  purity {purity(truth, labels):.3f}  "
+        f"ARI {adjusted_rand_index(truth, labels):+.3f}  groups per room <= "
+        f"{max(per_region[:-1])}, corridor {per_region[-1]}"
+    )
+
+
+def experiment_assoc() -> None:
+    print("\n## assoc x laplacian, threshold 1 (office, 4 rooms)")
+    for step in (STEP, DENSE_STEP):
+        world, scans, poses = office_data(4, step)
+        print(f"step {step} m, {len(scans)} scans")
+        for assoc in ("mrpt", "paper"):
+            for lap in ("normalized", "unnormalized"):
+                m = ObservationGraphPartitioner(assoc=assoc, laplacian=lap).fit(scans, poses)
+                print(f"  assoc={assoc:<5} laplacian={lap:<12} {_score(world, poses, m.labels_)}")
+    print("\n## threshold sweep (office, 4 rooms, step 1.17): groups / purity")
+    world, scans, poses = office_data(4, STEP)
+    W = sensed_space_overlap(scans, poses, DELTA, sparse=True)
+    truth = world.region_labels(poses)
+    for assoc in ("mrpt", "paper"):
+        cells = []
+        for thr in (0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.2, 1.5):
+            labels, _ = recursive_ncut_partition(W, thr, assoc=assoc)
+            cells.append(f"{thr}:{labels.max() + 1}/{purity(truth, labels):.2f}")
+        print(f"  {assoc:<5} " + "  ".join(cells))
+    print("\n## uniform clique of 30 nodes, off-diagonal weight w: groups at threshold 1")
+    for w in (0.2, 0.5, 0.9, 1.0):
+        W = np.full((30, 30), w)
+        np.fill_diagonal(W, 1.0)
+        groups = [recursive_ncut_partition(W, assoc=a)[0].max() + 1 for a in ("mrpt", "paper")]
+        print(f"  w={w}: mrpt {groups[0]} group(s), paper {groups[1]} group(s)")
+
+
+def experiment_noise(seeds: int = 5) -> None:
+    print("\n## odometry noise (office, 4 rooms, step 1.17), mean over seeds")
+    print("  sigma_t sigma_r | no ICP: groups purity ARI drift | ICP: groups purity ARI drift")
+    world, scans, poses = office_data(4, STEP)
+    truth = world.region_labels(poses)
+    for sig_t, sig_r in ((0.0, 0.0), (0.02, 0.01), (0.05, 0.02), (0.1, 0.05), (0.2, 0.1)):
+        cols = []
+        for icp_on in (False, True):
+            stats = []
+            for seed in range(seeds):
+                odo = simulate_odometry(poses, np.random.default_rng(seed), sig_t, sig_r)
+                m = ObservationGraphPartitioner(scan_matching=icp_on).fit(scans, odo)
+                drift = np.hypot(*(m.poses_[:, :2] - poses[:, :2]).T).max()
+                lab = m.labels_
+                stats.append(
+                    (lab.max() + 1, purity(truth, lab), adjusted_rand_index(truth, lab), drift)
+                )
+            g, p, a, d = np.mean(stats, axis=0)
+            cols.append(f"{g:5.1f} {p:.3f} {a:+.3f} {d:5.2f} m")
+        print(f"  {sig_t:<7} {sig_r:<7} | {cols[0]} | {cols[1]}")
+
+
+def make_plots() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mapping.topology import transform_points
+
+    IMG.mkdir(parents=True, exist_ok=True)
+    world, scans, poses = office_data(4, STEP)
+    m = ObservationGraphPartitioner().fit(scans, poses)
+    cmap = plt.get_cmap("tab10")
+
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    for s in world.segments:
+        ax.plot(s[[0, 2]], s[[1, 3]], color="0.6", lw=0.8)
+    for i, (scan, pose) in enumerate(zip(scans, poses, strict=True)):
+        pts = transform_points(pose, scan)
+        ax.scatter(pts[:, 0], pts[:, 1], s=0.3, color=cmap(m.labels_[i] % 10), alpha=0.4)
+    ax.quiver(poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2]),
+              color=[cmap(k % 10) for k in m.labels_], scale=40, width=0.004)  # fmt: skip
+    ax.set_aspect("equal")
+    ax.set_title(f"77 scans grouped into {m.n_groups_} local maps (colour = group)")
+    fig.tight_layout()
+    fig.savefig(IMG / "grouping_trajectory.png", dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(4.6, 4.2))
+    order = np.argsort(m.labels_, kind="stable")
+    W = m.affinity_matrix_.toarray()[np.ix_(order, order)]
+    ax.imshow(W, cmap="gray_r", vmin=0, vmax=1)
+    edges = np.concatenate([[0], np.cumsum(np.bincount(m.labels_))]) - 0.5
+    for a, b in itertools.pairwise(edges):
+        ax.add_patch(plt.Rectangle((a, a), b - a, b - a, fill=False, ls=":", color="r"))
+    ax.set_title("SSO weights, scans sorted by group")
+    fig.tight_layout()
+    fig.savefig(IMG / "grouping_weights.png", dpi=110)
+    plt.close(fig)
+
+    cols = 4
+    rows = int(np.ceil(m.n_groups_ / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(10, 2.6 * rows))
+    for k, ax in enumerate(np.ravel(axes)):
+        ax.set_axis_off()
+        if k < m.n_groups_:
+            pts = m.local_maps_[k]
+            ax.scatter(pts[:, 0], pts[:, 1], s=0.3, color=cmap(k % 10))
+            ax.plot(0, 0, "k^")
+            ax.set_aspect("equal")
+            ax.set_title(f"local map {k}: {np.sum(m.labels_ == k)} scans", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(IMG / "grouping_local_maps.png", dpi=110)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(9, 3.4))
+    frames = m.topology_.frames
+    for s in world.segments:
+        ax.plot(s[[0, 2]], s[[1, 3]], color="0.85", lw=0.8)
+    for arc in m.topology_.arcs:
+        a, b = frames[arc.source], frames[arc.target]
+        style = "-" if "trajectory" in arc.via else "--"
+        ax.plot([a[0], b[0]], [a[1], b[1]], style, color="0.3", lw=1 + np.log1p(arc.n_pairs) / 2)
+    for k, f in enumerate(frames):
+        ax.scatter(f[0], f[1], s=250, color=cmap(k % 10), zorder=3)
+        ax.text(f[0], f[1], str(k), ha="center", va="center", zorder=4)
+    ax.set_aspect("equal")
+    ax.set_title("topological map: nodes at local-map frames; solid: trajectory, dashed: overlap")
+    fig.tight_layout()
+    fig.savefig(IMG / "grouping_topology.png", dpi=110)
+    plt.close(fig)
+
+    odo = simulate_odometry(poses, np.random.default_rng(0), 0.05, 0.02)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.2))
+    for ax, icp_on in zip(axes, (False, True), strict=True):
+        mm = ObservationGraphPartitioner(scan_matching=icp_on).fit(scans, odo)
+        for i, (scan, pose) in enumerate(zip(scans, mm.poses_, strict=True)):
+            pts = transform_points(pose, scan)
+            ax.scatter(pts[:, 0], pts[:, 1], s=0.2, color=cmap(mm.labels_[i] % 10), alpha=0.4)
+        ax.set_aspect("equal")
+        name = "odometry + ICP" if icp_on else "odometry only"
+        ax.set_title(f"{name}: {mm.n_groups_} groups", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(IMG / "grouping_noise.png", dpi=110)
+    plt.close(fig)
+    print(f"figures written to {IMG}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--experiments", action="store_true", help="assoc and noise tables")
+    parser.add_argument("--plots", action="store_true", help="write docs/img/grouping_*.png")
+    args = parser.parse_args()
+    if args.experiments:
+        experiment_assoc()
+        experiment_noise()
+    if args.plots:
+        make_plots()
+    if not (args.experiments or args.plots):
+        bench_cost()
+
+
+if __name__ == "__main__":
+    main()

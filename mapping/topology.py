@@ -1,0 +1,268 @@
+"""SE(2) pose algebra and the metric-topological map of grouped observations.
+
+Blanco et al., Section III and Section IV-A step 4: the groups found by the observation-graph
+partition become the nodes of a graph; each node stores a local metric map and each arc the
+"approximate relative transformation between the local maps", computed "by averaging the
+differential poses between scans of different groups".
+
+Poses are ``(x, y, yaw)`` rows. ``se2_compose(a, b)`` is ``a ⊕ b`` (``b`` expressed in the frame
+of ``a``, mapped to the frame ``a`` lives in); ``se2_relative(a, b)`` is ``a ⊖ b``-style
+"pose of ``b`` seen from ``a``" (``inverse(a) ⊕ b``). All helpers broadcast over leading axes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = [
+    "TopologicalMap",
+    "TopologyArc",
+    "build_local_maps",
+    "build_topology",
+    "circular_mean",
+    "group_frames",
+    "se2_compose",
+    "se2_inverse",
+    "se2_mean",
+    "se2_relative",
+    "transform_points",
+    "wrap_angle",
+]
+
+
+# --------------------------------------------------------------------------- SE(2) algebra
+
+
+def wrap_angle(theta: ArrayLike) -> np.ndarray:
+    """Wrap angles to ``[-pi, pi)``."""
+    return (np.asarray(theta, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def se2_compose(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """Compose poses, ``a ⊕ b``: the pose ``b`` (given in the frame of ``a``) in ``a``'s parent."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
+    y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
+    return np.stack([x, y, wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
+
+
+def se2_inverse(a: ArrayLike) -> np.ndarray:
+    """Inverse pose: ``se2_compose(a, se2_inverse(a))`` is the identity."""
+    a = np.asarray(a, dtype=float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    x = -c * a[..., 0] - s * a[..., 1]
+    y = s * a[..., 0] - c * a[..., 1]
+    return np.stack([x, y, wrap_angle(-a[..., 2])], axis=-1)
+
+
+def se2_relative(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """Pose of ``b`` in the frame of ``a`` (the differential pose ``inverse(a) ⊕ b``)."""
+    return se2_compose(se2_inverse(a), b)
+
+
+def transform_points(pose: ArrayLike, points: ArrayLike) -> np.ndarray:
+    """Map ``(M, 2)`` points from the frame of ``pose`` to the frame ``pose`` lives in."""
+    pose = np.asarray(pose, dtype=float)
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    return points @ np.array([[c, s], [-s, c]]) + pose[:2]
+
+
+def circular_mean(angles: ArrayLike, weights: ArrayLike | None = None) -> float:
+    """Mean direction of angles (radians): the angle of the (weighted) mean unit vector."""
+    angles = np.asarray(angles, dtype=float)
+    w = np.ones_like(angles) if weights is None else np.asarray(weights, dtype=float)
+    return float(np.arctan2(np.sum(w * np.sin(angles)), np.sum(w * np.cos(angles))))
+
+
+def se2_mean(poses: ArrayLike) -> np.ndarray:
+    """Average of ``(K, 3)`` poses: arithmetic mean translation, circular mean heading."""
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    return np.array([poses[:, 0].mean(), poses[:, 1].mean(), circular_mean(poses[:, 2])])
+
+
+# --------------------------------------------------------------------------- local maps
+
+
+def group_frames(poses: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Choose one reference scan per group: the one closest to the group's mean position.
+
+    The central scan (rather than the first) keeps the lever arm from the frame origin to the
+    farthest point of the local map short, so a heading error of the frame moves the map least.
+
+    Returns
+    -------
+    reference : ndarray of shape (K,), int
+        Index of each group's reference scan (groups ``0..K-1``; label ``-1`` is ignored).
+    frames : ndarray of shape (K, 3)
+        World pose of each reference scan, i.e. of each local map's frame.
+    """
+    n_groups = int(labels.max()) + 1 if labels.size and labels.max() >= 0 else 0
+    reference = np.empty(n_groups, dtype=np.intp)
+    for k in range(n_groups):
+        members = np.flatnonzero(labels == k)
+        centre = poses[members, :2].mean(axis=0)
+        reference[k] = members[np.argmin(np.sum((poses[members, :2] - centre) ** 2, axis=1))]
+    return reference, poses[reference].copy()
+
+
+def build_local_maps(
+    scans: Sequence[np.ndarray], poses: np.ndarray, labels: np.ndarray, frames: np.ndarray
+) -> list[np.ndarray]:
+    """Merge each group's scans into one point map expressed in the group's frame.
+
+    Section IV-A step 3: one local map per group. Scan ``i`` of group ``k`` is placed with the
+    differential pose ``se2_relative(frames[k], poses[i])``.
+    """
+    maps = []
+    for k, frame in enumerate(frames):
+        members = np.flatnonzero(labels == k)
+        local = se2_relative(frame, poses[members])
+        parts = [transform_points(local[m], scans[i]) for m, i in enumerate(members)]
+        maps.append(np.concatenate(parts, axis=0) if parts else np.empty((0, 2)))
+    return maps
+
+
+# --------------------------------------------------------------------------- topology
+
+
+@dataclass(frozen=True)
+class TopologyArc:
+    """An arc of the topological map between local maps ``source`` and ``target``.
+
+    Attributes
+    ----------
+    source, target : int
+        Group labels, ``source < target``.
+    transform : ndarray of shape (3,)
+        Pose of the ``target`` local-map frame in the ``source`` frame (the mean of the
+        per-pair estimates, circular mean for the heading).
+    n_pairs : int
+        Number of scan pairs averaged.
+    via : frozenset of str
+        ``"trajectory"`` if consecutive scans cross between the groups, ``"overlap"`` if some
+        scan pair of the two groups has positive sensed-space overlap.
+    spread : ndarray of shape (2,)
+        Standard deviation of the per-pair translations (m, root of summed variances) and the
+        circular standard deviation of their headings (rad); near 0 when all poses agree.
+    """
+
+    source: int
+    target: int
+    transform: np.ndarray
+    n_pairs: int
+    via: frozenset[str]
+    spread: np.ndarray
+
+
+@dataclass
+class TopologicalMap:
+    """Groups as nodes (each with a local-map frame), arcs with relative transformations."""
+
+    reference_scans: np.ndarray
+    frames: np.ndarray
+    arcs: list[TopologyArc] = field(default_factory=list)
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of nodes (local maps)."""
+        return int(self.frames.shape[0])
+
+    def edges(self) -> list[tuple[int, int]]:
+        """Arcs as ``(source, target)`` pairs."""
+        return [(arc.source, arc.target) for arc in self.arcs]
+
+    def transform(self, a: int, b: int) -> np.ndarray:
+        """Pose of local map ``b``'s frame in local map ``a``'s frame along the arc ``a``-``b``.
+
+        Raises
+        ------
+        KeyError
+            If there is no arc between ``a`` and ``b``.
+        """
+        for arc in self.arcs:
+            if (arc.source, arc.target) == (a, b):
+                return arc.transform.copy()
+            if (arc.source, arc.target) == (b, a):
+                return se2_inverse(arc.transform)
+        raise KeyError(f"no arc between local maps {a} and {b}")
+
+
+def _connecting_pairs(labels: np.ndarray, affinity) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scan pairs ``(i, j)``, ``i < j``, of different groups joined by trajectory or overlap."""
+    n = labels.shape[0]
+    step_i = np.arange(n - 1)
+    traj = np.stack([step_i, step_i + 1], axis=1)
+    coo = affinity.tocoo() if hasattr(affinity, "tocoo") else None
+    if coo is not None:
+        rows, cols, vals = coo.row, coo.col, coo.data
+    else:
+        rows, cols = np.nonzero(np.asarray(affinity))
+        vals = np.asarray(affinity)[rows, cols]
+    keep = (rows < cols) & (vals > 0)
+    over = np.stack([rows[keep], cols[keep]], axis=1).astype(np.intp)
+    pairs = np.concatenate([traj, over], axis=0)
+    kind = np.concatenate([np.zeros(len(traj), bool), np.ones(len(over), bool)])
+    li, lj = labels[pairs[:, 0]], labels[pairs[:, 1]]
+    cross = (li != lj) & (li >= 0) & (lj >= 0)
+    return pairs[cross], kind[cross], np.stack([li[cross], lj[cross]], axis=1)
+
+
+def build_topology(
+    poses: np.ndarray,
+    labels: np.ndarray,
+    affinity,
+    reference: np.ndarray,
+    frames: np.ndarray,
+) -> TopologicalMap:
+    """Build the arcs between groups and their relative transformations (Section IV-A, step 4).
+
+    Every scan pair ``(i, j)`` of groups ``a != b`` that is consecutive on the trajectory or has
+    positive overlap gives one estimate of the pose of frame ``b`` in frame ``a``:
+    ``q_i ⊕ d_ij ⊕ inverse(q_j)`` with ``q_i`` the pose of scan ``i`` in its local map,
+    ``q_j`` likewise in ``b``, and ``d_ij`` the differential pose of ``j`` seen from ``i``. The
+    arc holds the average of these estimates, translations averaged arithmetically and
+    headings with the circular mean. When one global pose estimate gives both the local maps and
+    the differential poses, every estimate is the same up to rounding and ``spread`` is ~0;
+    they differ when local maps are refined independently.
+    """
+    pairs, kind, glabels = _connecting_pairs(labels, affinity)
+    if pairs.size == 0:
+        return TopologicalMap(reference, frames, [])
+    a, b = glabels.min(axis=1), glabels.max(axis=1)
+    # orient every pair from the lower group label to the higher one
+    flip = glabels[:, 0] > glabels[:, 1]
+    i = np.where(flip, pairs[:, 1], pairs[:, 0])
+    j = np.where(flip, pairs[:, 0], pairs[:, 1])
+    q_i = se2_relative(frames[a], poses[i])
+    q_j = se2_relative(frames[b], poses[j])
+    d_ij = se2_relative(poses[i], poses[j])
+    estimates = se2_compose(se2_compose(q_i, d_ij), se2_inverse(q_j))
+    arcs = []
+    keys = a * (labels.max() + 1) + b
+    for key in np.unique(keys):
+        sel = keys == key
+        est = estimates[sel]
+        mean = se2_mean(est)
+        r = np.hypot(np.mean(np.cos(est[:, 2])), np.mean(np.sin(est[:, 2])))
+        spread = np.array(
+            [
+                float(np.sqrt(est[:, 0].var() + est[:, 1].var())),
+                float(np.sqrt(max(-2.0 * np.log(min(r, 1.0)), 0.0))) if r > 0 else np.pi,
+            ]
+        )
+        via = frozenset(
+            name
+            for name, flag in (("trajectory", ~kind[sel]), ("overlap", kind[sel]))
+            if flag.any()
+        )
+        src = int(a[sel][0])
+        dst = int(b[sel][0])
+        arcs.append(TopologyArc(src, dst, mean, int(sel.sum()), via, spread))
+    return TopologicalMap(reference, frames, arcs)

@@ -1,0 +1,92 @@
+"""Point-to-point ICP in SE(2) and odometry refinement."""
+
+import numpy as np
+import pytest
+
+from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
+from mapping.icp import _kabsch_2d, densify_scan, icp, refine_poses
+from mapping.topology import se2_relative, transform_points
+
+
+@pytest.fixture(scope="module")
+def office():
+    world = office_world()
+    poses = office_path(world, step=0.5)
+    scans = raycast(world.segments, poses, range_noise=0.005, rng=np.random.default_rng(1))
+    return world, scans, poses
+
+
+@pytest.mark.parametrize("yaw", [0.3, -3.0, np.pi - 1e-3])
+def test_kabsch_is_exact_on_noise_free_points(yaw):
+    rng = np.random.default_rng(0)
+    p = rng.normal(size=(30, 2))
+    T = np.array([0.7, -1.2, yaw])
+    np.testing.assert_allclose(_kabsch_2d(p, transform_points(T, p)), T, atol=1e-12)
+
+
+def test_icp_recovers_a_known_transform(office):
+    _, scans, poses = office
+    # a scan inside a room sees corners in both directions (a corridor scan could slide)
+    target = scans[int(np.flatnonzero(poses[:, 1] > 4.0)[0])]
+    true = np.array([0.25, -0.15, 0.08])
+    # source: the target's points seen from a frame displaced by `true`
+    source = transform_points(se2_relative(true, np.zeros(3)), target)
+    res = icp(source, target)
+    assert res.converged
+    np.testing.assert_allclose(res.transform, true, atol=1e-6)
+    assert res.rmse < 1e-6 and res.n_matches == len(source)
+
+
+def test_icp_with_odometry_seed_on_consecutive_scans(office):
+    _, scans, poses = office
+    errors = []
+    for i in range(1, len(poses), 7):
+        true = se2_relative(poses[i - 1], poses[i])
+        seed = true + np.array([0.1, -0.05, 0.04])
+        res = icp(scans[i], densify_scan(scans[i - 1]), init=seed)
+        errors.append(np.abs(res.transform - true))
+    errors = np.array(errors)
+    # the seed is 10 cm / 0.04 rad off; ICP brings the median error well under that
+    assert np.median(errors[:, :2]) < 0.02 and np.median(errors[:, 2]) < 0.01
+
+
+def test_icp_gives_up_without_points():
+    res = icp(np.zeros((3, 2)), np.ones((50, 2)), init=[1.0, 2.0, 0.5])
+    assert not res.converged and res.n_matches == 0
+    np.testing.assert_array_equal(res.transform, [1.0, 2.0, 0.5])
+    with pytest.raises(ValueError, match="max_correspondence_distance must be positive"):
+        icp(np.ones((20, 2)), np.ones((20, 2)), max_correspondence_distance=0.0)
+
+
+def test_densify_scan_fills_small_gaps_only():
+    pts = np.array([[0.0, 0.0], [0.1, 0.0], [2.0, 0.0]])
+    dense = densify_scan(pts, spacing=0.02, max_gap=0.3)
+    assert np.all(np.diff(dense[dense[:, 0] <= 0.1, 0]) <= 0.02 + 1e-12)
+    # the 1.9 m jump stays a jump
+    assert not np.any((dense[:, 0] > 0.1) & (dense[:, 0] < 2.0))
+
+
+def test_refine_poses_removes_most_odometry_drift(office):
+    _, scans, poses = office
+    odo = simulate_odometry(poses, np.random.default_rng(3), 0.05, 0.02)
+    refined = refine_poses(scans, odo)
+    np.testing.assert_array_equal(refined[0], odo[0])
+
+    def increment_error(est):
+        return np.abs(se2_relative(est[:-1], est[1:]) - se2_relative(poses[:-1], poses[1:]))
+
+    assert np.median(increment_error(refined)) < 0.2 * np.median(increment_error(odo))
+    drift = np.hypot(*(odo[:, :2] - poses[:, :2]).T).max()
+    assert np.hypot(*(refined[:, :2] - poses[:, :2]).T).max() < 0.5 * drift
+
+
+def test_refine_poses_keeps_odometry_for_empty_scans(office):
+    _, scans, poses = office
+    scans = list(scans[:5])
+    scans[2] = np.empty((0, 2))
+    odo = simulate_odometry(poses[:5], np.random.default_rng(0), 0.05, 0.02)
+    refined = refine_poses(scans, odo)
+    # both increments touching the empty scan are the odometry ones
+    np.testing.assert_allclose(
+        se2_relative(refined[1:3], refined[2:4]), se2_relative(odo[1:3], odo[2:4]), atol=1e-12
+    )

@@ -1,0 +1,93 @@
+"""SE(2) algebra, local maps and the metric-topological map."""
+
+import numpy as np
+import pytest
+
+from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
+from mapping.partition import ObservationGraphPartitioner
+from mapping.topology import (
+    circular_mean,
+    se2_compose,
+    se2_inverse,
+    se2_relative,
+    transform_points,
+)
+
+
+def test_se2_algebra():
+    rng = np.random.default_rng(0)
+    a = rng.uniform(-3, 3, (10, 3))
+    b = rng.uniform(-3, 3, (10, 3))
+    np.testing.assert_allclose(se2_compose(a, se2_inverse(a)), np.zeros((10, 3)), atol=1e-12)
+    np.testing.assert_allclose(se2_compose(a, se2_relative(a, b))[:, :2], b[:, :2], atol=1e-12)
+    # composing poses is composing point maps
+    p = rng.normal(size=(5, 2))
+    np.testing.assert_allclose(
+        transform_points(se2_compose(a[0], b[0]), p),
+        transform_points(a[0], transform_points(b[0], p)),
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(
+        transform_points([0, 0, np.pi / 2], [[1.0, 0.0]]), [[0, 1.0]], atol=1e-15
+    )
+
+
+def test_circular_mean_across_pi():
+    assert abs(abs(circular_mean([np.pi - 0.1, -np.pi + 0.1])) - np.pi) < 1e-12
+    assert circular_mean([0.1, -0.1, 0.3]) == pytest.approx(0.1, abs=1e-3)
+
+
+@pytest.fixture(scope="module")
+def office():
+    world = office_world()
+    poses = office_path(world, step=0.6)
+    return world, raycast(world.segments, poses), poses
+
+
+def test_arcs_follow_the_trajectory(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner().fit(scans, poses)
+    topo = model.topology_
+    edges = set(topo.edges())
+    labels = model.labels_
+    for i in np.flatnonzero(labels[1:] != labels[:-1]):
+        a, b = sorted((labels[i], labels[i + 1]))
+        assert (a, b) in edges
+    assert topo.n_nodes == model.n_groups_
+    assert all(arc.source < arc.target and arc.n_pairs > 0 for arc in topo.arcs)
+    # one global pose estimate: every pair gives the same estimate
+    assert max(arc.spread.max() for arc in topo.arcs) < 1e-9
+
+
+def test_local_maps_are_in_the_reference_frame(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner().fit(scans, poses)
+    for k, ref in enumerate(model.topology_.reference_scans):
+        assert model.labels_[ref] == k
+        members = np.flatnonzero(model.labels_ == k)
+        assert len(model.local_maps_[k]) == sum(len(scans[i]) for i in members)
+        # in its own frame the world points of the group are the local map
+        world = transform_points(model.topology_.frames[k], model.local_maps_[k])
+        expected = np.concatenate([transform_points(poses[i], scans[i]) for i in members])
+        np.testing.assert_allclose(world, expected, atol=1e-9)
+
+
+@pytest.mark.parametrize("scan_matching", [False, True])
+def test_relative_transforms_match_the_truth(office, scan_matching):
+    _, scans, poses = office
+    odo = simulate_odometry(poses, np.random.default_rng(5), 0.01, 0.002)
+    model = ObservationGraphPartitioner(scan_matching=scan_matching).fit(scans, odo)
+    topo = model.topology_
+    assert topo.arcs
+    for arc in topo.arcs:
+        ra, rb = topo.reference_scans[arc.source], topo.reference_scans[arc.target]
+        true = se2_relative(poses[ra], poses[rb])
+        err = se2_relative(true, arc.transform)
+        # the odometry error accumulated between the two reference scans bounds the error
+        path = np.hypot(*np.diff(poses[min(ra, rb) : max(ra, rb) + 1, :2], axis=0).T).sum()
+        assert np.hypot(err[0], err[1]) < 0.05 + 0.01 * path * 3
+        assert abs(err[2]) < 0.01 + 0.002 * abs(rb - ra) ** 0.5 * 4
+    a, b = topo.arcs[0].source, topo.arcs[0].target
+    np.testing.assert_allclose(topo.transform(b, a), se2_inverse(topo.transform(a, b)))
+    with pytest.raises(KeyError, match="no arc"):
+        topo.transform(0, 10_000)
