@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -11,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from scenes import names
+from scenes.fileio import atomic_write_bytes
 from scenes.regions import Footprint, ManifoldMap, OccupancyGrid, Route, rasterise_free_space
 
 # Domain randomisation table, as Miniworld's params: name -> (default, low, high). Without an
@@ -118,9 +118,9 @@ class World:
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
         for file, data in self.assets.items():
-            _atomic_write(directory / file, data)
+            atomic_write_bytes(directory / file, data)
         path = directory / f"{self.name}.xml"
-        _atomic_write(path, self.xml.encode())
+        atomic_write_bytes(path, self.xml.encode())
         return path
 
     def __hash__(self) -> int:
@@ -132,17 +132,6 @@ def _free_space_cached(world: World, resolution: float, inflation: float) -> Occ
     return rasterise_free_space(
         world.manifolds, world.footprints, world.bounds, resolution, inflation
     )
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def build_world(name: str, rng: np.random.Generator | None = None) -> World:

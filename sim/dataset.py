@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from scenes.fileio import atomic_write_bytes
+
 SCHEMA_VERSION = 1
 FORMAT_NAME = "topomap-dataset"
 META_FILE = "meta.json"
@@ -97,18 +99,6 @@ class Dataset:
 
 
 # -- writing ---------------------------------------------------------------------------------
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def write_json(path: Path, obj: dict) -> None:
     atomic_write_bytes(path, (json.dumps(obj, indent=2) + "\n").encode())
 
