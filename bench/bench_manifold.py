@@ -1,0 +1,168 @@
+"""Benchmark of mapping.ManifoldClustering (issue 3 speed targets) and its ambiguity experiments.
+
+Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
+
+* fit of 600 points, K = 8, Q = 35, at d = 2000 and d = 230400 (a 320x240 RGB image);
+* ``signal`` for one view toward a cluster centre (median of repeated calls);
+* fit time for n = 300, 600, 1200, 2400 (d = 2000) beside sklearn's SpectralClustering.
+
+``--experiments`` instead prints the tables behind docs/manifold-clustering.md: clustering
+error of each reading of the paper's ambiguous steps on the four synthetic sets (clean and
+noisy) and on 8 branching sequences, with best-sigma NCut and self-tuning baselines.
+
+The data are 8 smooth random curves in R^d shaped like the paper's image set: two "worlds",
+each a trunk followed by three branches leaving its end at different speeds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from mapping.manifold import ManifoldClustering
+from mapping.metrics import clustering_error
+
+
+def branching_sequences(
+    n_per_seq: int, d: int, rng: np.random.Generator, noise: float = 0.02
+) -> tuple[np.ndarray, np.ndarray]:
+    """8 sequences of ``n_per_seq`` points in R^d: per world a trunk and three branches."""
+    parts, labels = [], []
+
+    def curve(start: np.ndarray, speed: float) -> np.ndarray:
+        t = np.arange(1, n_per_seq + 1)[:, None] * speed
+        dirs = rng.normal(size=(4, d)) / np.sqrt(d)
+        freq = rng.uniform(0.2, 1.0, size=4)
+        phase = rng.uniform(0, 2 * np.pi, size=4)
+        drift = rng.normal(size=d) / np.sqrt(d)
+        return start + t * drift + (np.sin(t * freq + phase) - np.sin(phase)) @ dirs
+
+    for _world in range(2):
+        trunk = curve(rng.normal(size=d) * 9 / np.sqrt(d), 0.05)
+        parts.append(trunk)
+        for speed in (0.03, 0.05, 0.08):
+            parts.append(curve(trunk[-1], speed))
+    for k, part in enumerate(parts):
+        labels += [k] * len(part)
+    X = np.concatenate(parts)
+    X += noise / np.sqrt(d) * rng.normal(size=X.shape)
+    return X, np.array(labels)
+
+
+def _time(fn, repeat: int = 1) -> float:
+    best = np.inf
+    for _ in range(repeat):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def timings(quick: bool) -> None:
+    print(f"os.cpu_count() = {os.cpu_count()}")
+    print(f"OPENBLAS_NUM_THREADS = {os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
+    print("\n| case | time |\n|---|---|")
+    for d in (2000,) if quick else (2000, 230_400):
+        X, y = branching_sequences(150, d, np.random.default_rng(0))
+        train = np.arange(len(X)) % 2 == 0
+        model = ManifoldClustering(8, 35)
+        t_fit = _time(lambda model=model, X=X, train=train: model.fit(X[train]))
+        err_train = clustering_error(y[train], model.labels_)
+        err_test = clustering_error(y[~train], model.predict(X[~train]))
+        view = X[1]
+        calls = []
+        for _ in range(50):
+            start = time.perf_counter()
+            model.signal(view, 0)
+            calls.append(time.perf_counter() - start)
+        print(
+            f"| fit n=600 K=8 Q=35 d={d} | {t_fit:.2f} s (train err {err_train:.3f}, "
+            f"test err {err_test:.3f}) |"
+        )
+        print(
+            f"| signal, one view, d={d}, cluster of {np.sum(model.labels_ == 0)} | "
+            f"{1e3 * np.median(calls):.2f} ms (median of 50) |"
+        )
+
+    from sklearn.cluster import SpectralClustering
+
+    print("\n| n | ManifoldClustering fit | sklearn SpectralClustering |\n|---|---|---|")
+    for n in (300, 600) if quick else (300, 600, 1200, 2400):
+        X, _ = branching_sequences(n // 8, 2000, np.random.default_rng(1))
+        q = min(35, n // 16)
+        ours = _time(lambda X=X, q=q: ManifoldClustering(8, q).fit(X))
+        sk = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
+        theirs = _time(lambda X=X, sk=sk: sk.fit(X))
+        print(f"| {n} | {ours:.2f} s | {theirs:.2f} s |")
+
+
+def experiments() -> None:
+    from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
+    from mapping.synthetic import make_all
+
+    variants = {
+        "chosen (merge)": {},
+        "combine=cut": {"combine": "cut"},
+        "eq. 9 as printed": {"omega_sign": "printed"},
+        "eq. 12 as printed": {"seed_rule": "printed"},
+    }
+    data = {"clean": make_all()}
+    for seed in (0, 1):
+        data[f"noise .002 #{seed}"] = make_all(noise=0.002, rng=np.random.default_rng(seed))
+    names = list(data["clean"])
+    print("| variant | data | " + " | ".join(names) + " |")
+    print("|---" * (len(names) + 2) + "|")
+    for label, options in variants.items():
+        for dname, sets in data.items():
+            errs = [
+                clustering_error(y, ManifoldClustering(3, 20, **options).fit_predict(X))
+                for X, y in sets.values()
+            ]
+            print(f"| {label} | {dname} | " + " | ".join(f"{e:.3f}" for e in errs) + " |")
+    for dname, sets in data.items():
+        ncut = [best_sigma_ncut(X, y, 3).error for X, y in sets.values()]
+        st = [
+            clustering_error(y, SelfTuningSpectralClustering(3).fit_predict(X))
+            for X, y in sets.values()
+        ]
+        print(f"| best-sigma NCut | {dname} | " + " | ".join(f"{e:.3f}" for e in ncut) + " |")
+        print(f"| self-tuning | {dname} | " + " | ".join(f"{e:.3f}" for e in st) + " |")
+
+    print("\n8 branching sequences, d=500, train on even / test on odd frames, K=8, Q=35")
+    print("| variant | train error | test error |\n|---|---|---|")
+    X, y = branching_sequences(150, 500, np.random.default_rng(0))
+    train = np.arange(len(X)) % 2 == 0
+    for label, options in {
+        **variants,
+        "normalize=none": {"normalize": "none"},
+        "predict_alpha=alpha_j": {"predict_alpha": None},
+    }.items():
+        model = ManifoldClustering(8, 35, **options).fit(X[train])
+        print(
+            f"| {label} | {clustering_error(y[train], model.labels_):.3f} | "
+            f"{clustering_error(y[~train], model.predict(X[~train])):.3f} |"
+        )
+    sweep = best_sigma_ncut(X[train], y[train], 8)
+    print(
+        f"| best-sigma NCut (sigma={sweep.sigma:.3g}) | {sweep.error:.3f} | "
+        f"{clustering_error(y[~train], sweep.model.predict(X[~train])):.3f} |"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="small sizes only")
+    parser.add_argument("--experiments", action="store_true", help="ambiguity tables instead")
+    args = parser.parse_args()
+    experiments() if args.experiments else timings(args.quick)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,232 @@
+"""Recursive bisection (Section II-C) and the combination of its C leaves into K clusters.
+
+The tree: every node of at least ``2 Q`` points is split by :func:`best_split` (eq. 9); nodes
+smaller than that are leaves, so every leaf has at least Q points.
+
+The combination ("the C clusters are finally combined to give the best K clusters that each
+have maximal values of Omega(2)"): greedy agglomeration of leaves. A group G of leaves is
+scored by eq. 9 with p1 = G and p2 = the rest of the data, maximised over a (sigma, alpha) grid
+on the full data; each step merges the pair of groups that raises the sum of these scores most
+(or lowers it least). Because ``E[D_M]`` over any two sets of points is a bilinear form of their
+indicator vectors, one C x C matrix per (sigma, alpha) holds everything: merging two groups
+adds their rows and columns. The winning (sigma, alpha) of each final group are its
+``sigma_j, alpha_j``. ``docs/manifold-clustering.md`` compares this with cutting the tree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mapping._manifold_kernel import SpectralBasis, alpha_from_t
+from mapping._manifold_split import SearchSpace, best_split, sigma_bounds
+
+# Rules for combining leaves: "merge" (greedy agglomeration, the default) or "cut" (keep the
+# K - 1 splits of highest Omega that form a subtree, i.e. cut the tree into K subtrees).
+COMBINE_RULES = ("merge", "cut")
+
+
+@dataclass(eq=False)
+class SplitNode:
+    """A node of the bisection tree.
+
+    Attributes
+    ----------
+    indices : ndarray of int
+        Training indices of the node's points, ascending.
+    omega, sigma, alpha : float
+        Omega(2) of the node's split (eq. 9) and the (sigma, alpha) that maximised it;
+        NaN for a leaf.
+    seeds : tuple of int or None
+        Training indices of the split's seeds x_l1, x_l2 (eq. 12); None for a leaf.
+    children : tuple of SplitNode or None
+        (p1, p2): p1 is the tight manifold seeded by x_l1, p2 the rest; None for a leaf.
+    """
+
+    indices: np.ndarray
+    omega: float = np.nan
+    sigma: float = np.nan
+    alpha: float = np.nan
+    seeds: tuple[int, int] | None = None
+    children: tuple[SplitNode, SplitNode] | None = None
+
+    def leaves(self) -> list[SplitNode]:
+        """Leaves left to right (p1 before p2)."""
+        if self.children is None:
+            return [self]
+        return self.children[0].leaves() + self.children[1].leaves()
+
+
+def build_tree(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> SplitNode:
+    """Bisect recursively until every leaf is smaller than ``2 * min_size`` (Section II-C)."""
+    root = SplitNode(np.arange(sq_dist.shape[0]))
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        if node.indices.shape[0] < 2 * min_size:
+            continue
+        _split(node, sq_dist, min_size, space)
+        stack.extend(node.children)
+    return root
+
+
+def _split(node: SplitNode, sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> None:
+    idx = node.indices
+    split = best_split(sq_dist[np.ix_(idx, idx)], min_size, space)
+    node.omega, node.sigma, node.alpha = split.omega, split.sigma, split.alpha
+    node.seeds = (int(idx[split.seeds[0]]), int(idx[split.seeds[1]]))
+    node.children = (SplitNode(idx[split.in_first]), SplitNode(idx[~split.in_first]))
+
+
+def ensure_leaves(root: SplitNode, sq_dist: np.ndarray, n_clusters: int, space: SearchSpace):
+    """Split the largest leaves until there are at least ``n_clusters`` of them.
+
+    Only needed when n is close to ``K * Q``: leaves hold between Q and 2 Q - 1 points, so C
+    can fall below K. The extra splits relax Q to half the leaf, the most any split can keep.
+    """
+    leaves = root.leaves()
+    while len(leaves) < n_clusters:
+        node = max(leaves, key=lambda leaf: (leaf.indices.shape[0], -leaf.indices[0]))
+        _split(node, sq_dist, max(1, node.indices.shape[0] // 2), space)
+        leaves = root.leaves()
+
+
+@dataclass(frozen=True)
+class Combination:
+    """K groups of leaves with the (sigma, alpha, Omega) that score each group best."""
+
+    groups: list[list[int]]
+    sigmas: np.ndarray
+    alphas: np.ndarray
+    omegas: np.ndarray
+
+
+class _GroupScores:
+    """Omega(2) of "group vs rest" for every (sigma, alpha) of a grid, from leaf-level sums.
+
+    ``M[s, a]`` is the C x C matrix of ``(sum_{p_b} v) . (sum_{p_c} v)`` for leaves b, c at
+    (sigma_s, alpha_a), built from the eigenbasis of the full S at each grid sigma.
+    """
+
+    def __init__(self, sq_dist: np.ndarray, leaves: list[np.ndarray], space: SearchSpace):
+        n = sq_dist.shape[0]
+        lo, hi = sigma_bounds(sq_dist)
+        self.sigmas = np.geomspace(lo, hi, space.n_sigmas)
+        ts = space.t_grid()
+        self.alphas = alpha_from_t(ts)
+        member = np.zeros((n, len(leaves)))
+        for c, idx in enumerate(leaves):
+            member[idx, c] = 1.0
+        mats = []
+        for sigma in self.sigmas:
+            basis = SpectralBasis.from_sq_distances(sq_dist, float(sigma))
+            g = basis.gains(self.alphas)
+            inv_nu = 1.0 / basis.column_norms(g)
+            per_alpha = []
+            for a in range(len(ts)):
+                coords = basis.project(member * inv_nu[:, a : a + 1])
+                per_alpha.append(coords.T @ (coords * (g[:, a : a + 1] ** 2)))
+            mats.append(per_alpha)
+        self.M = np.array(mats)  # (S, A, C, C)
+        self.sizes = member.sum(axis=0)
+        self.n = n
+
+    def omega(self, within: np.ndarray, total: np.ndarray, size: np.ndarray) -> np.ndarray:
+        """eq. 9 with p1 = a group (sum of its block ``within``, of its rows ``total``)."""
+        rest = self.n - size
+        e_within = 1.0 - within / (size * size)
+        e_between = 1.0 - (total - within) / (size * rest)
+        return np.minimum(size, rest) / self.n * (e_between - e_within)
+
+
+def combine_leaves(
+    sq_dist: np.ndarray,
+    leaves: list[np.ndarray],
+    n_clusters: int,
+    space: SearchSpace,
+    groups: list[list[int]] | None = None,
+) -> Combination:
+    """Merge C leaves into K groups greedily, maximising the sum of their Omega(2).
+
+    Parameters
+    ----------
+    sq_dist : ndarray of shape (n, n)
+        Squared distances of all training points.
+    leaves : list of ndarray
+        Training indices of each leaf (a partition of 0..n-1).
+    n_clusters : int
+        K <= C.
+    space : SearchSpace
+        Grid of (sigma, alpha) to score groups on.
+    groups : list of list of int, optional
+        A grouping of the leaves decided elsewhere (e.g. :func:`cut_tree`); then only the
+        (sigma, alpha) of each group are chosen.
+
+    Returns
+    -------
+    Combination
+    """
+    scores = _GroupScores(sq_dist, leaves, space)
+    if groups is None:
+        groups = _merge(scores, n_clusters)
+    # Block sums of each final group: indicator^T M indicator.
+    member = np.zeros((len(scores.sizes), len(groups)))
+    for k, group in enumerate(groups):
+        member[group, k] = 1.0
+    Mg = np.einsum("bk,sabc,cl->sakl", member, scores.M, member)
+    sizes = scores.sizes @ member
+    diag = np.einsum("saii->sai", Mg)
+    om = scores.omega(diag, Mg.sum(axis=3), sizes[None, None, :])
+    flat = om.reshape(-1, om.shape[2])
+    where = np.argmax(flat, axis=0)
+    s_idx, a_idx = np.unravel_index(where, om.shape[:2])
+    return Combination(
+        groups=groups,
+        sigmas=scores.sigmas[s_idx],
+        alphas=scores.alphas[a_idx],
+        omegas=flat[where, np.arange(flat.shape[1])],
+    )
+
+
+def _merge(scores: _GroupScores, n_clusters: int) -> list[list[int]]:
+    """Greedy agglomeration: merge the pair of groups that most raises the sum of Omega(2)."""
+    groups = [[c] for c in range(len(scores.sizes))]
+    # Group-level state: block sums per (sigma, alpha) and sizes; merging adds rows/columns.
+    Mg = scores.M.copy()
+    sizes = scores.sizes.copy()
+
+    def best(within, total, size):
+        om = scores.omega(within, total, size)
+        return om.reshape(-1, *om.shape[2:]).max(axis=0)
+
+    while len(groups) > n_clusters:
+        diag = np.einsum("saii->sai", Mg)
+        rows = Mg.sum(axis=3)
+        alone = best(diag, rows, sizes[None, None, :])
+        a, b = np.triu_indices(len(groups), k=1)
+        merged_within = diag[..., a] + diag[..., b] + 2.0 * Mg[..., a, b]
+        merged = best(merged_within, rows[..., a] + rows[..., b], (sizes[a] + sizes[b])[None, None])
+        gain = merged - alone[a] - alone[b]
+        k = int(np.argmax(gain))
+        ga, gb = int(a[k]), int(b[k])
+        Mg[..., ga, :] += Mg[..., gb, :]
+        Mg[..., :, ga] += Mg[..., :, gb]
+        Mg = np.delete(np.delete(Mg, gb, axis=2), gb, axis=3)
+        sizes[ga] += sizes[gb]
+        sizes = np.delete(sizes, gb)
+        groups[ga] = sorted(groups[ga] + groups[gb])
+        del groups[gb]
+    return groups
+
+
+def cut_tree(root: SplitNode, n_clusters: int) -> list[list[SplitNode]]:
+    """Alternative combination: expand the tree from the root, always splitting the frontier
+    node of highest Omega, until there are K subtrees; each becomes one cluster."""
+    frontier = [root]
+    while len(frontier) < n_clusters:
+        inner = [node for node in frontier if node.children is not None]
+        node = max(inner, key=lambda nd: nd.omega)
+        frontier.remove(node)
+        frontier.extend(node.children)
+    return [node.leaves() for node in frontier]

@@ -1,0 +1,422 @@
+"""Clustering along multiple visual manifolds (Grudic & Mulligan), as a scikit-learn estimator.
+
+:class:`ManifoldClustering` implements Section II of the paper: the manifold kernel
+``U = beta (I - alpha S)^-1`` (eq. 1, 3), its normalised columns and distances ``D_M``
+(eq. 4-6), outlier vectors (eq. 10, 11) and seeds (eq. 12), recursive bisection maximising
+Omega(2) over (sigma, alpha) (eq. 9) down to ``min_cluster_size``, the combination of the C
+leaves into ``n_clusters``, and the out-of-sample signal F^j(k) of eq. 13 for prediction and
+servoing. The functional cores live in ``mapping._manifold_*``; the readings chosen where the
+paper is ambiguous, and the evidence for them, are in ``docs/manifold-clustering.md``.
+"""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mapping._manifold_kernel import SpectralBasis, outlier_vector
+from mapping._manifold_predict import ClusterModel
+from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
+from mapping._manifold_tree import (
+    COMBINE_RULES,
+    SplitNode,
+    build_tree,
+    combine_leaves,
+    cut_tree,
+    ensure_leaves,
+)
+from mapping.baselines import NotFittedError, squared_distances
+
+__all__ = ["ManifoldClustering", "NotFittedError"]
+
+try:  # optional: threadpoolctl ships with scikit-learn
+    from threadpoolctl import threadpool_limits
+except ImportError:  # pragma: no cover - then BLAS keeps its own thread count
+    threadpool_limits = None
+
+_NORMALIZATIONS = ("column", "none")
+
+
+def _single_threaded_blas():
+    """Context running BLAS on one thread, when threadpoolctl is available.
+
+    The search does hundreds of eigendecompositions of matrices of a few hundred rows; OpenBLAS
+    gains little from threads at that size and, on a busy 2-core machine, its spinning threads
+    made a 600-point fit 6x slower (3 s -> 20 s). The big Gram product keeps all threads.
+    """
+    return threadpool_limits(1, user_api="blas") if threadpool_limits else nullcontext()
+
+
+_DTYPES = ("float32", "float64")
+
+
+def _check_int(value: object, name: str, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+def _check_choice(value: object, name: str, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return str(value)
+
+
+def _check_array(X: ArrayLike, min_samples: int) -> np.ndarray:
+    """X as a finite 2-D float array (float32 kept, anything else float64)."""
+    X = np.asarray(X)
+    if X.dtype.kind not in "biuf":
+        raise ValueError(f"X must be numeric, got dtype {X.dtype}")
+    if X.dtype != np.float32:
+        X = X.astype(np.float64, copy=False)
+    if X.ndim != 2:
+        raise ValueError(f"X must be a 2-D array (n_samples, n_features), got shape {X.shape}")
+    if X.shape[0] < min_samples:
+        raise ValueError(f"X needs at least {min_samples} samples, got {X.shape[0]}")
+    if X.shape[1] == 0:
+        raise ValueError("X has no features (shape[1] == 0)")
+    if not np.isfinite(X).all():
+        raise ValueError("X contains NaN or infinity")
+    return X
+
+
+class ManifoldClustering:
+    """Clustering along manifolds with per-cluster kernel parameters (Grudic & Mulligan).
+
+    Bisects the data recursively; each split chooses its own Gaussian width sigma and
+    diffusion alpha by maximising Omega(2) (eq. 9) with a bounded 2-D search. Splitting stops
+    when a node has fewer than ``2 * min_cluster_size`` points; the resulting C leaves are
+    merged into ``n_clusters`` clusters, each with its own (sigma_j, alpha_j) and centre x_lj.
+    New points are assigned by eq. 13, ``argmax_j F^j(k)``.
+
+    Parameters
+    ----------
+    n_clusters : int
+        K, the number of clusters (>= 2).
+    min_cluster_size : int
+        Q, the minimum number of points of a leaf of the bisection (>= 1);
+        ``n_clusters * min_cluster_size`` must not exceed the number of samples.
+    n_sigmas : int, default 16
+        Grid points of the sigma search per split (log-spaced over the node's distances).
+    n_alphas : int, default 12
+        Grid points of the alpha search per split.
+    alpha_range : tuple of float, default (0.5, 0.9999)
+        Bounds of alpha, inside (0, 1).
+    refine : bool, default True
+        Refine the best grid point of each split with nested bounded Brent searches.
+    predict_alpha : float or None, default 0.99
+        alpha of eq. 13 (the paper sets 0.99 "arbitrarily"); None uses each cluster's alpha_j.
+    normalize : {"column", "none"}, default "column"
+        How F^j(k) is made comparable across clusters in ``predict``: "column" divides by the
+        norm of the cluster's kernel column at its centre (eq. 4's normalisation); "none"
+        compares raw F^j(k) as printed.
+    omega_sign : {"corrected", "printed"}, default "corrected"
+        Reading of eq. 9; "printed" rewards spread within cluster 1 (kept for comparison).
+    seed_rule : {"weighted", "printed"}, default "weighted"
+        Reading of eq. 12 for the second seed (see ``mapping._manifold_kernel.seed_pair``).
+    combine : {"merge", "cut"}, default "merge"
+        How the C leaves become K clusters: greedy merging by Omega(2), or cutting the tree.
+    store_dtype : {"float32", "float64"}, default "float32"
+        dtype of the centred training points kept for ``predict`` and ``signal``; float32
+        halves memory and the time of a ``signal`` call on image-sized vectors.
+
+    Attributes
+    ----------
+    labels_ : ndarray of shape (n,)
+        Cluster of each training point, 0..K-1, numbered by first appearance in X.
+    centers_ : ndarray of shape (K,)
+        Training index of each cluster's centre x_lj (minimum of eq. 11 in its own kernel).
+    sigmas_, alphas_ : ndarray of shape (K,)
+        sigma_j and alpha_j of each cluster: the maximiser of Omega(2) of "cluster j vs the
+        rest" over the (sigma, alpha) grid.
+    omegas_ : ndarray of shape (K,)
+        That maximal Omega(2) of each cluster.
+    tree_ : SplitNode
+        The bisection tree; every inner node holds its split's Omega, sigma, alpha and seeds.
+    leaf_labels_ : ndarray of shape (n,)
+        Leaf of the tree of each training point, 0..C-1 left to right.
+    outlier_scores_ : ndarray of shape (n,)
+        Cluster-independent outlier vector O_d (eq. 10) in the kernel of the root split.
+    cluster_outlier_scores_ : ndarray of shape (n,)
+        O_d^j (eq. 11) of each point within its cluster, in the cluster's own kernel.
+    n_features_in_ : int
+        Number of features seen in ``fit``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0, 1, 40)
+    >>> X = np.concatenate([np.c_[t, 0 * t], np.c_[t, 0 * t + 0.3]])
+    >>> model = ManifoldClustering(n_clusters=2, min_cluster_size=10).fit(X)
+    >>> np.bincount(model.labels_).tolist()
+    [40, 40]
+    """
+
+    def __init__(
+        self,
+        n_clusters: int,
+        min_cluster_size: int,
+        *,
+        n_sigmas: int = 16,
+        n_alphas: int = 12,
+        alpha_range: tuple[float, float] = (0.5, 0.9999),
+        refine: bool = True,
+        predict_alpha: float | None = 0.99,
+        normalize: str = "column",
+        omega_sign: str = "corrected",
+        seed_rule: str = "weighted",
+        combine: str = "merge",
+        store_dtype: str = "float32",
+    ) -> None:
+        self.n_clusters = n_clusters
+        self.min_cluster_size = min_cluster_size
+        self.n_sigmas = n_sigmas
+        self.n_alphas = n_alphas
+        self.alpha_range = alpha_range
+        self.refine = refine
+        self.predict_alpha = predict_alpha
+        self.normalize = normalize
+        self.omega_sign = omega_sign
+        self.seed_rule = seed_rule
+        self.combine = combine
+        self.store_dtype = store_dtype
+
+    # ------------------------------------------------------------------ validation
+    def _validate_params(self, n_samples: int) -> SearchSpace:
+        K = _check_int(self.n_clusters, "n_clusters", 2)
+        Q = _check_int(self.min_cluster_size, "min_cluster_size", 1)
+        if K * Q > n_samples:
+            raise ValueError(
+                f"n_clusters * min_cluster_size = {K} * {Q} = {K * Q} exceeds the number of "
+                f"samples ({n_samples})"
+            )
+        _check_int(self.n_sigmas, "n_sigmas", 2)
+        _check_int(self.n_alphas, "n_alphas", 2)
+        lo, hi = self._alpha_bounds("alpha_range", self.alpha_range)
+        if self.predict_alpha is not None:
+            self._alpha_bounds("predict_alpha", (self.predict_alpha, self.predict_alpha))
+        _check_choice(self.normalize, "normalize", _NORMALIZATIONS)
+        _check_choice(self.combine, "combine", COMBINE_RULES)
+        _check_choice(self.store_dtype, "store_dtype", _DTYPES)
+        return SearchSpace(
+            n_sigmas=int(self.n_sigmas),
+            t_bounds=(-np.log10(1.0 - lo), -np.log10(1.0 - hi)),
+            n_alphas=int(self.n_alphas),
+            refine=bool(self.refine),
+            omega_sign=_check_choice(self.omega_sign, "omega_sign", OMEGA_SIGNS),
+            seed_rule=_check_choice(self.seed_rule, "seed_rule", SEED_RULES),
+        )
+
+    @staticmethod
+    def _alpha_bounds(name: str, value: object) -> tuple[float, float]:
+        try:
+            lo, hi = (float(v) for v in value)  # type: ignore[union-attr]
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be a number or pair in (0, 1), got {value!r}") from None
+        if not (0.0 < lo <= hi < 1.0):
+            raise ValueError(f"{name} must lie in (0, 1) (low <= high), got {value!r}")
+        return lo, hi
+
+    # ------------------------------------------------------------------ fit
+    def fit(self, X: ArrayLike, y: None = None) -> ManifoldClustering:
+        """Cluster the rows of X.
+
+        Parameters
+        ----------
+        X : array-like of shape (n, d)
+            Training points (images as vectors, scans, ...); finite, not all identical.
+        y : None
+            Ignored; present for scikit-learn compatibility.
+
+        Returns
+        -------
+        ManifoldClustering
+            self, fitted.
+        """
+        X = _check_array(X, min_samples=2)
+        space = self._validate_params(X.shape[0])
+        # Squared distances once, in float64 after centring (a float32 Gram matrix loses
+        # near-duplicate images entirely); every node and every sigma reuses blocks of it.
+        D2 = squared_distances(X)
+        if not D2.max() > 0:
+            raise ValueError("X: all samples are identical; there is nothing to cluster")
+        K, Q = int(self.n_clusters), int(self.min_cluster_size)
+
+        with _single_threaded_blas():
+            self._fit_from_distances(X, D2, K, Q, space)
+        return self
+
+    def _fit_from_distances(
+        self, X: np.ndarray, D2: np.ndarray, K: int, Q: int, space: SearchSpace
+    ) -> None:
+        tree = build_tree(D2, Q, space)
+        ensure_leaves(tree, D2, K, space)
+        leaves = [leaf.indices for leaf in tree.leaves()]
+        groups = None
+        if self.combine == "cut":
+            position = {id(leaf): c for c, leaf in enumerate(tree.leaves())}
+            groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(tree, K)]
+        combo = combine_leaves(D2, leaves, K, space, groups=groups)
+
+        members = [np.sort(np.concatenate([leaves[c] for c in g])) for g in combo.groups]
+        # Number clusters by first appearance so labels do not depend on the merge order.
+        order = np.argsort([idx[0] for idx in members], kind="stable")
+        members = [members[k] for k in order]
+        sigmas, alphas = combo.sigmas[order], combo.alphas[order]
+
+        labels = np.empty(X.shape[0], dtype=np.intp)
+        leaf_labels = np.empty(X.shape[0], dtype=np.intp)
+        for c, idx in enumerate(leaves):
+            leaf_labels[idx] = c
+        inside = np.empty(X.shape[0])
+        models, centres = [], []
+        dtype = np.dtype(self.store_dtype)
+        for j, idx in enumerate(members):
+            labels[idx] = j
+            block = D2[np.ix_(idx, idx)]
+            # eq. 11 in the cluster's own kernel: the centre is the point "most inside".
+            o_j = outlier_vector(
+                SpectralBasis.from_sq_distances(block, sigmas[j]).dense_distances(alphas[j])
+            )
+            inside[idx] = o_j
+            centre = int(np.argmin(o_j))
+            centres.append(int(idx[centre]))
+            alpha_p = alphas[j] if self.predict_alpha is None else float(self.predict_alpha)
+            models.append(ClusterModel.build(X, idx, block, sigmas[j], alpha_p, centre, dtype))
+
+        self.labels_ = labels
+        self.centers_ = np.array(centres, dtype=np.intp)
+        self.sigmas_ = np.asarray(sigmas, dtype=np.float64)
+        self.alphas_ = np.asarray(alphas, dtype=np.float64)
+        self.omegas_ = combo.omegas[order]
+        self.tree_: SplitNode = tree
+        self.leaf_labels_ = leaf_labels
+        self.outlier_scores_ = self._root_outliers(D2, tree)
+        self.cluster_outlier_scores_ = inside
+        self.n_features_in_ = X.shape[1]
+        self._models = models
+
+    @staticmethod
+    def _root_outliers(D2: np.ndarray, tree: SplitNode) -> np.ndarray:
+        """eq. 10 on all points, in the kernel of the root split (or a mid-range one)."""
+        if tree.children is None:  # pragma: no cover - K >= 2 always splits the root
+            raise RuntimeError("the root was not split")
+        basis = SpectralBasis.from_sq_distances(D2, tree.sigma)
+        return outlier_vector(basis.dense_distances(tree.alpha))
+
+    def fit_predict(self, X: ArrayLike, y: None = None) -> np.ndarray:
+        """Fit and return ``labels_``."""
+        return self.fit(X).labels_
+
+    # ------------------------------------------------------------------ predict
+    def _check_fitted_input(self, X: ArrayLike) -> np.ndarray:
+        if not hasattr(self, "labels_"):
+            raise NotFittedError(
+                f"this {type(self).__name__} is not fitted yet; call fit(X) before using it"
+            )
+        X = _check_array(X, min_samples=1)
+        if X.shape[1] != self.n_features_in_:
+            raise ValueError(
+                f"X has {X.shape[1]} features, but {type(self).__name__} was fitted with "
+                f"{self.n_features_in_} features (n_features_in_)"
+            )
+        return X
+
+    def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
+        scores = np.empty((X.shape[0], len(self._models)))
+        nearest = np.empty_like(scores)
+        for j, model in enumerate(self._models):
+            d2 = model.sq_distances(X)
+            f = model.signal(d2, model.centre)
+            scores[:, j] = f / model.scale if self.normalize == "column" else f
+            nearest[:, j] = d2.min(axis=1) / (2.0 * model.sigma**2)
+        return scores, nearest
+
+    def predict(self, X: ArrayLike) -> np.ndarray:
+        """Assign new points by eq. 13: ``y = argmax_j F^j(k)``.
+
+        A point too far from every cluster for any affinity to be representable (all F^j are
+        exactly 0) goes to the cluster with the smallest ``min_i |x - x_i|^2 / (2 sigma_j^2)``,
+        the exponent that underflowed.
+
+        Parameters
+        ----------
+        X : array-like of shape (k, d)
+
+        Returns
+        -------
+        ndarray of shape (k,)
+        """
+        scores, nearest = self._scores(self._check_fitted_input(X))
+        labels = np.argmax(scores, axis=1)
+        lost = ~(scores.max(axis=1) > 0)
+        labels[lost] = np.argmin(nearest[lost], axis=1)
+        return labels
+
+    def predict_proba(self, X: ArrayLike) -> np.ndarray:
+        """Probability that each point lies on each cluster's manifold.
+
+        The normalised F^j(k) of :meth:`predict` divided by their sum over clusters, so rows sum
+        to 1 and the argmax is ``predict``. Rows where every F^j is 0 are one-hot on the
+        fallback cluster of :meth:`predict`.
+
+        Parameters
+        ----------
+        X : array-like of shape (k, d)
+
+        Returns
+        -------
+        ndarray of shape (k, K)
+        """
+        scores, nearest = self._scores(self._check_fitted_input(X))
+        total = scores.sum(axis=1, keepdims=True)
+        proba = np.zeros_like(scores)
+        found = total[:, 0] > 0
+        proba[found] = scores[found] / total[found]
+        lost = np.flatnonzero(~found)
+        proba[lost, np.argmin(nearest[lost], axis=1)] = 1.0
+        return proba
+
+    def signal(self, X: ArrayLike, cluster: int, target: int | None = None) -> np.ndarray:
+        """The servo signal F^j(k) of eq. 13 / Section II-G toward a training point.
+
+        Parameters
+        ----------
+        X : array-like of shape (k, d) or (d,)
+            Current views (one per row).
+        cluster : int
+            j, the cluster whose manifold the signal is computed on.
+        target : int, optional
+            Training index (row of the X given to ``fit``) of the desired position; it must
+            belong to ``cluster``. Defaults to the cluster's centre ``centers_[cluster]``.
+
+        Returns
+        -------
+        ndarray of shape (k,)
+            ``F^j(k) = beta [(I - alpha S^j)^-1 Y^j]_k`` with ``beta = 1 - alpha``; larger is
+            closer to the target along the manifold, 0 when x is unreachable at sigma_j.
+        """
+        X = np.asarray(X)
+        X = self._check_fitted_input(X[None, :] if X.ndim == 1 else X)
+        n_models = len(self._models)
+        if (
+            isinstance(cluster, bool)
+            or not isinstance(cluster, int | np.integer)
+            or not 0 <= cluster < n_models
+        ):
+            raise ValueError(f"cluster must be an integer in [0, {n_models}), got {cluster!r}")
+        model = self._models[cluster]
+        if target is None:
+            local = model.centre
+        else:
+            hits = np.flatnonzero(model.indices == target)
+            if isinstance(target, bool) or hits.size != 1:
+                raise ValueError(
+                    f"target must be the training index of a point of cluster {cluster}, "
+                    f"got {target!r}"
+                )
+            local = int(hits[0])
+        return model.signal(model.sq_distances(X), local)

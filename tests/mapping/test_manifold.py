@@ -1,0 +1,226 @@
+"""ManifoldClustering: synthetic sets, ambiguity choices, invariances, prediction, bad input."""
+
+import numpy as np
+import pytest
+
+from mapping.baselines import NotFittedError
+from mapping.manifold import ManifoldClustering
+from mapping.metrics import adjusted_rand_index, clustering_error
+from mapping.synthetic import SYNTHETIC_SETS
+
+
+def three_lines(n=40, gap=0.3, noise=0.0, seed=0):
+    """Three parallel lines of n points each (spacing 1 / (n - 1)), labels 0, 1, 2."""
+    x = np.linspace(0.0, 1.0, n)
+    X = np.concatenate([np.c_[x, np.full(n, k * gap)] for k in range(3)])
+    if noise:
+        X = X + np.random.default_rng(seed).normal(scale=noise, size=X.shape)
+    return X, np.repeat(np.arange(3), n)
+
+
+@pytest.fixture(scope="module")
+def fitted_lines():
+    X, y = three_lines(noise=0.004)
+    return X, y, ManifoldClustering(3, 10).fit(X)
+
+
+# --- the paper's synthetic sets (K = 3, Q = 20), see docs/manifold-clustering.md --------------
+# Best-sigma NCut (oracle) errors on the same sets: 0, 0, 0.312, 0.
+EXPECTED_MAX_ERROR = {
+    "parallel_lines": 0.0,
+    "lines_variable_spacing": 0.0,
+    "converging_paths": 0.40,  # worse than NCut's 0.312 with the default combine="merge"
+    "spirals_3d": 0.0,
+}
+
+
+@pytest.mark.parametrize("name", list(SYNTHETIC_SETS))
+def test_synthetic_sets_clustered_as_documented(name):
+    X, y = SYNTHETIC_SETS[name]()
+    model = ManifoldClustering(3, 20).fit(X)
+    assert clustering_error(y, model.labels_) <= EXPECTED_MAX_ERROR[name]
+    assert np.bincount(model.labels_).min() >= 20
+
+
+def test_cut_combination_beats_ncut_on_converging_paths():
+    X, y = SYNTHETIC_SETS["converging_paths"]()
+    model = ManifoldClustering(3, 20, combine="cut").fit(X)
+    assert clustering_error(y, model.labels_) < 0.312
+
+
+def test_per_cluster_sigma_on_variable_spacing():
+    X, y = SYNTHETIC_SETS["lines_variable_spacing"]()
+    model = ManifoldClustering(3, 20).fit(X)
+    assert clustering_error(y, model.labels_) == 0.0
+    # The tree chose different sigmas for different splits.
+    sigmas = {round(node.sigma, 6) for node in _inner_nodes(model.tree_)}
+    assert len(sigmas) > 1
+
+
+def _inner_nodes(node):
+    if node.children is None:
+        return []
+    return [node, *_inner_nodes(node.children[0]), *_inner_nodes(node.children[1])]
+
+
+@pytest.mark.parametrize(
+    ("option", "min_error"), [({"omega_sign": "printed"}, 0.3), ({"seed_rule": "printed"}, 0.1)]
+)
+def test_printed_readings_of_eq9_and_eq12_fail(option, min_error):
+    # The chosen readings get 0 on this set (test_synthetic_sets_clustered_as_documented).
+    X, y = SYNTHETIC_SETS["spirals_3d"]()
+    model = ManifoldClustering(3, 20, **option).fit(X)
+    assert clustering_error(y, model.labels_) >= min_error
+
+
+# --- learned state ------------------------------------------------------------------------------
+def test_learned_state(fitted_lines):
+    X, y, model = fitted_lines
+    assert clustering_error(y, model.labels_) == 0.0
+    assert model.labels_.shape == (120,)
+    assert model.centers_.shape == model.sigmas_.shape == model.alphas_.shape == (3,)
+    for j, centre in enumerate(model.centers_):
+        assert model.labels_[centre] == j
+        # The centre is the point most inside its cluster (eq. 11)...
+        members = np.flatnonzero(model.labels_ == j)
+        assert model.cluster_outlier_scores_[centre] == model.cluster_outlier_scores_[members].min()
+        # ... which on a line is near its middle.
+        assert abs(X[centre, 0] - 0.5) < 0.2
+    assert ((model.alphas_ > 0) & (model.alphas_ < 1)).all() and (model.sigmas_ > 0).all()
+    leaves = model.tree_.leaves()
+    assert len(leaves) == model.leaf_labels_.max() + 1 >= 3
+    assert all(leaf.indices.size >= 10 for leaf in leaves)
+    assert np.isfinite(model.tree_.omega) and model.tree_.seeds[0] != model.tree_.seeds[1]
+    assert model.outlier_scores_.shape == (120,)
+    # Line ends are the outliers of eq. 10, the middle the least outlying.
+    ends = np.abs(X[:, 0] - 0.5) > 0.45
+    assert model.outlier_scores_[ends].mean() > model.outlier_scores_[~ends].mean()
+
+
+def test_determinism(fitted_lines):
+    X, _, model = fitted_lines
+    again = ManifoldClustering(3, 10).fit(X)
+    np.testing.assert_array_equal(again.labels_, model.labels_)
+    np.testing.assert_array_equal(again.sigmas_, model.sigmas_)
+    np.testing.assert_array_equal(again.centers_, model.centers_)
+
+
+def test_labels_invariant_to_row_permutation(fitted_lines):
+    X, _, model = fitted_lines
+    perm = np.random.default_rng(1).permutation(len(X))
+    permuted = ManifoldClustering(3, 10).fit(X[perm])
+    assert adjusted_rand_index(model.labels_[perm], permuted.labels_) == 1.0
+    np.testing.assert_allclose(np.sort(permuted.sigmas_), np.sort(model.sigmas_), rtol=1e-6)
+
+
+def test_float32_input():
+    X, y = three_lines(noise=0.004)
+    model = ManifoldClustering(3, 10).fit(X.astype(np.float32))
+    assert clustering_error(y, model.labels_) == 0.0
+
+
+def test_fewer_leaves_than_clusters_still_gives_k_clusters():
+    # n = K * Q exactly: leaves hold Q..2Q-1 points, so the tree alone gives C < K.
+    X, _ = three_lines(n=20, noise=0.004)
+    model = ManifoldClustering(4, 15).fit(X)
+    assert np.unique(model.labels_).size == 4
+
+
+# --- prediction and the servo signal ------------------------------------------------------------
+def test_predict_held_out_points():
+    X, y = three_lines(n=80, noise=0.003)
+    train = np.arange(len(X)) % 2 == 0
+    model = ManifoldClustering(3, 10).fit(X[train])
+    pred = model.predict(X[~train])
+    assert clustering_error(y[~train], pred) == 0.0
+    # Same numbering as training: a held-out point takes its training neighbour's label.
+    np.testing.assert_array_equal(pred, model.labels_)
+    proba = model.predict_proba(X[~train])
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+    np.testing.assert_array_equal(proba.argmax(axis=1), pred)
+    assert proba.max(axis=1).min() > 0.9
+
+
+def test_predict_far_point_falls_back_to_nearest_cluster(fitted_lines):
+    _, _, model = fitted_lines
+    far = np.array([[0.5, 1e6]])  # above the top line (y = 0.6), far beyond any sigma
+    top = model.labels_[-1]
+    assert model.predict(far)[0] == top
+    np.testing.assert_array_equal(model.predict_proba(far)[0], np.eye(3)[top])
+
+
+def test_signal_peaks_at_the_target_and_decays_along_the_line(fitted_lines):
+    X, _, model = fitted_lines
+    j = int(model.labels_[0])
+    members = np.flatnonzero(model.labels_ == j)
+    target = int(members[5])
+    xs = np.linspace(0.02, 0.98, 30)
+    queries = np.c_[xs, np.full(30, X[members, 1].mean())]
+    f = model.signal(queries, j, target=target)
+    assert np.argmax(f) == np.argmin(np.abs(xs - X[target, 0]))
+    after = xs > X[target, 0] + 0.05
+    assert (np.diff(f[after]) < 0).all()
+    # Default target: the centre; a 1-D input is one view.
+    centre_x = X[model.centers_[j]]
+    assert model.signal(centre_x, j).shape == (1,)
+    assert model.signal(centre_x, j)[0] > model.signal(X[members[0]], j)[0]
+
+
+def test_signal_bad_cluster_and_target(fitted_lines):
+    X, _, model = fitted_lines
+    with pytest.raises(ValueError, match="cluster must be an integer"):
+        model.signal(X[:1], 3)
+    other = int(np.flatnonzero(model.labels_ != 0)[0])
+    with pytest.raises(ValueError, match="target must be the training index"):
+        model.signal(X[:1], 0, target=other)
+
+
+# --- bad input ----------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("params", "match"),
+    [
+        ({"n_clusters": 1, "min_cluster_size": 5}, "n_clusters must be an integer >= 2"),
+        ({"n_clusters": 2.5, "min_cluster_size": 5}, "n_clusters must be an integer"),
+        ({"n_clusters": 3, "min_cluster_size": 0}, "min_cluster_size must be an integer >= 1"),
+        ({"n_clusters": 3, "min_cluster_size": 41}, r"n_clusters \* min_cluster_size = 3 \* 41"),
+        ({"n_clusters": 3, "min_cluster_size": 5, "normalize": "max"}, "normalize must be"),
+        ({"n_clusters": 3, "min_cluster_size": 5, "alpha_range": (0.5, 1.0)}, "alpha_range"),
+        ({"n_clusters": 3, "min_cluster_size": 5, "predict_alpha": 1.5}, "predict_alpha"),
+    ],
+)
+def test_bad_parameters(params, match):
+    X, _ = three_lines()
+    with pytest.raises(ValueError, match=match):
+        ManifoldClustering(**params).fit(X)
+
+
+@pytest.mark.parametrize(
+    ("X", "match"),
+    [
+        (np.zeros((1, 3)), "at least 2 samples"),
+        (np.array([[0.0, 1.0], [np.nan, 0.0], [1.0, 1.0], [2.0, 2.0]]), "NaN or infinity"),
+        (np.array([[0.0, 1.0], [np.inf, 0.0], [1.0, 1.0], [2.0, 2.0]]), "NaN or infinity"),
+        (np.ones((10, 3)), "all samples are identical"),
+        (np.zeros(10), "2-D array"),
+        (np.array([["a", "b"], ["c", "d"]]), "numeric"),
+    ],
+)
+def test_bad_training_data(X, match):
+    with pytest.raises(ValueError, match=match):
+        ManifoldClustering(2, 1).fit(X)
+
+
+def test_predict_before_fit():
+    model = ManifoldClustering(3, 5)
+    for call in (model.predict, model.predict_proba, lambda X: model.signal(X, 0)):
+        with pytest.raises(NotFittedError, match="not fitted yet"):
+            call(np.zeros((2, 2)))
+    assert issubclass(NotFittedError, ValueError) and issubclass(NotFittedError, AttributeError)
+
+
+def test_predict_feature_mismatch_and_nan(fitted_lines):
+    _, _, model = fitted_lines
+    with pytest.raises(ValueError, match="X has 3 features, but ManifoldClustering was fitted"):
+        model.predict(np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="NaN or infinity"):
+        model.predict(np.array([[np.nan, 0.0]]))

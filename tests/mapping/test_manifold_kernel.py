@@ -1,0 +1,130 @@
+"""The functional cores of ManifoldClustering against closed forms (eq. 1-13 of the paper)."""
+
+import numpy as np
+import pytest
+
+from mapping._manifold_kernel import (
+    SpectralBasis,
+    manifold_distances,
+    manifold_kernel,
+    normalized_affinity,
+    outlier_vector,
+    seed_pair,
+)
+from mapping._manifold_predict import ClusterModel
+from mapping._manifold_split import SearchSpace, split_scores
+from mapping.baselines import squared_distances
+
+
+@pytest.fixture
+def cloud():
+    rng = np.random.default_rng(3)
+    X = np.concatenate([rng.normal(size=(25, 4)), rng.normal(size=(20, 4)) + 3.0])
+    return X, squared_distances(X)
+
+
+@pytest.mark.parametrize("alpha", [0.5, 0.9, 0.999])
+def test_eigen_path_matches_closed_form(cloud, alpha):
+    _, D2 = cloud
+    sigma = 1.3
+    basis = SpectralBasis.from_sq_distances(D2, sigma)
+    U = manifold_kernel(normalized_affinity(D2, sigma), alpha)  # np.linalg.inv
+    np.testing.assert_allclose(basis.dense_kernel(alpha), U, rtol=1e-9, atol=1e-12)
+    g = basis.gains(np.array([alpha]))
+    np.testing.assert_allclose(
+        basis.column_norms(g)[:, 0], np.linalg.norm(U, axis=0) / (1 - alpha), rtol=1e-9
+    )
+    cols = np.array([7])
+    np.testing.assert_allclose(
+        basis.kernel_columns(g, cols)[:, 0], U[:, 7] / (1 - alpha), rtol=1e-9
+    )
+    np.testing.assert_allclose(
+        basis.gram_columns(g, cols)[:, 0], (U.T @ U)[:, 7] / (1 - alpha) ** 2, rtol=1e-8
+    )
+
+
+def test_manifold_distances_are_a_bounded_symmetric_dissimilarity(cloud):
+    _, D2 = cloud
+    D_M = manifold_distances(manifold_kernel(normalized_affinity(D2, 0.8), 0.95))
+    np.testing.assert_array_equal(D_M, D_M.T)
+    np.testing.assert_array_equal(np.diag(D_M), 0.0)
+    assert D_M.min() >= 0.0 and D_M.max() <= 1.0
+    # The two blobs are far apart along the manifold, points within a blob close.
+    assert D_M[:25, 25:].mean() > 3 * D_M[:25, :25].mean()
+
+
+def test_isolated_point_gets_zero_row_not_nan():
+    X = np.array([[0.0], [0.1], [0.2], [50.0]])
+    S = normalized_affinity(squared_distances(X), 0.1)
+    assert np.isfinite(S).all()
+    np.testing.assert_array_equal(S[3], 0.0)
+
+
+def test_printed_eq12_selects_the_first_seed_and_the_corrected_rule_does_not(cloud):
+    _, D2 = cloud
+    D_M = SpectralBasis.from_sq_distances(D2, 1.0).dense_distances(0.99)
+    O_d = outlier_vector(D_M)
+    l1, l2 = seed_pair(D_M)
+    assert l1 == int(np.argmin(O_d))
+    # As printed: argmin O_d * D_M[:, l1] is l1 itself (D_M[l1, l1] = 0).
+    assert int(np.argmin(O_d * D_M[:, l1])) == l1
+    assert l2 != l1
+    # The corrected second seed lies in the other blob.
+    assert (l1 < 25) != (l2 < 25)
+
+
+@pytest.mark.parametrize("sign", ["corrected", "printed"])
+def test_fast_omega_equals_omega_from_dense_matrices(cloud, sign):
+    _, D2 = cloud
+    alpha, sigma = 0.97, 1.1
+    basis = SpectralBasis.from_sq_distances(D2, sigma)
+    omega, in_first, seeds = split_scores(basis, np.array([alpha]), 5, SearchSpace(omega_sign=sign))
+    U = basis.dense_kernel(alpha)
+    V = U / np.linalg.norm(U, axis=0)
+    D_M = manifold_distances(U)
+    l1, l2 = seed_pair(D_M)
+    assert (l1, l2) == tuple(seeds[:, 0])
+    p1 = V[:, l1] > V[:, l2]  # eq. 8
+    np.testing.assert_array_equal(in_first[:, 0], p1)
+    d11 = D_M[np.ix_(p1, p1)].mean()
+    d12 = D_M[np.ix_(p1, ~p1)].mean()
+    spread = d12 - d11 if sign == "corrected" else d11 - d12
+    expected = min(p1.sum(), (~p1).sum()) / p1.size * spread  # eq. 9
+    np.testing.assert_allclose(omega[0], expected, rtol=1e-8, atol=1e-12)
+
+
+def test_split_respects_min_size_by_moving_lowest_margin_points(cloud):
+    _, D2 = cloud
+    basis = SpectralBasis.from_sq_distances(D2, 1.0)
+    _, in_first, _ = split_scores(basis, np.array([0.6, 0.99]), 22, SearchSpace())
+    sizes = in_first.sum(axis=0)
+    assert (sizes >= 22).all() and (sizes <= 45 - 22).all()
+
+
+def _closed_form_signal(X_train, x, sigma, alpha, target):
+    pts = np.vstack([X_train, x])
+    S = normalized_affinity(squared_distances(pts), sigma)
+    F = (1 - alpha) * np.linalg.inv(np.eye(len(pts)) - alpha * S)
+    return F[-1, target]
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_eq13_signal_matches_closed_form(dtype):
+    rng = np.random.default_rng(0)
+    X = np.cumsum(rng.normal(scale=0.1, size=(30, 6)), axis=0) + 100.0  # offset: tests centring
+    queries = X[:5] + rng.normal(scale=0.05, size=(5, 6))
+    sigma, alpha, target = 0.15, 0.99, 11
+    idx = np.arange(30)
+    model = ClusterModel.build(X, idx, squared_distances(X), sigma, alpha, 4, np.dtype(dtype))
+    got = model.signal(model.sq_distances(queries), target)
+    expected = [_closed_form_signal(X, q, sigma, alpha, target) for q in queries]
+    rtol = 1e-9 if dtype == np.float64 else 1e-4
+    np.testing.assert_allclose(got, expected, rtol=rtol)
+    assert (got > 0).all()
+
+
+def test_eq13_signal_is_zero_when_the_point_is_unreachable():
+    X = np.linspace(0, 1, 20)[:, None]
+    model = ClusterModel.build(X, np.arange(20), squared_distances(X), 0.05, 0.99, 0, np.float64)
+    far = model.signal(model.sq_distances(np.array([[1e4]])), 0)
+    np.testing.assert_array_equal(far, 0.0)
