@@ -12,7 +12,6 @@ the paper (4 rooms, 77 scans, one every 1.17 m) is scaled up by adding rooms.
 from __future__ import annotations
 
 import argparse
-import itertools
 import os
 import time
 from pathlib import Path
@@ -62,7 +61,8 @@ def _bench_row(n_rooms: int, step: float) -> None:
     W = sensed_space_overlap(scans, poses, DELTA, sparse=True)
     t_overlap = _best_of(lambda: sensed_space_overlap(scans, poses, DELTA, sparse=True), repeats)
     t_part = _best_of(lambda: recursive_ncut_partition(W), repeats)
-    model = ObservationGraphPartitioner(match_distance=DELTA)
+    # Given poses, as in the paper's timing (no ICP).
+    model = ObservationGraphPartitioner(match_distance=DELTA, scan_matching=False)
     t_fit = _best_of(lambda: model.fit(scans, poses), repeats)
     pur = purity(world.region_labels(poses), model.labels_)
     print(
@@ -131,89 +131,51 @@ def experiment_noise(seeds: int = 5) -> None:
 
 
 def make_plots() -> None:
-    import matplotlib
+    from scripts import grouping_plots as gp
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from mapping.topology import transform_points
-
+    plt = gp.agg_pyplot()
     IMG.mkdir(parents=True, exist_ok=True)
     world, scans, poses = office_data(4, STEP)
-    m = ObservationGraphPartitioner().fit(scans, poses)
-    cmap = plt.get_cmap("tab10")
+    m = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)
+
+    def walls(ax, colour="0.6"):
+        for s in world.segments:
+            ax.plot(s[[0, 2]], s[[1, 3]], color=colour, lw=0.8)
 
     fig, ax = plt.subplots(figsize=(9, 3.6))
-    for s in world.segments:
-        ax.plot(s[[0, 2]], s[[1, 3]], color="0.6", lw=0.8)
-    for i, (scan, pose) in enumerate(zip(scans, poses, strict=True)):
-        pts = transform_points(pose, scan)
-        ax.scatter(pts[:, 0], pts[:, 1], s=0.3, color=cmap(m.labels_[i] % 10), alpha=0.4)
-    ax.quiver(poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2]),
-              color=[cmap(k % 10) for k in m.labels_], scale=40, width=0.004)  # fmt: skip
-    ax.set_aspect("equal")
+    walls(ax)
+    gp.draw_groups(ax, scans, poses, m.labels_)
     ax.set_title(f"77 scans grouped into {m.n_groups_} local maps (colour = group)")
     fig.tight_layout()
-    fig.savefig(IMG / "grouping_trajectory.png", dpi=110)
-    plt.close(fig)
+    gp.save_figure(fig, IMG / "grouping_trajectory.png")
 
     fig, ax = plt.subplots(figsize=(4.6, 4.2))
-    order = np.argsort(m.labels_, kind="stable")
-    W = m.affinity_matrix_.toarray()[np.ix_(order, order)]
-    ax.imshow(W, cmap="gray_r", vmin=0, vmax=1)
-    edges = np.concatenate([[0], np.cumsum(np.bincount(m.labels_))]) - 0.5
-    for a, b in itertools.pairwise(edges):
-        ax.add_patch(plt.Rectangle((a, a), b - a, b - a, fill=False, ls=":", color="r"))
-    ax.set_title("SSO weights, scans sorted by group")
+    gp.draw_weights(ax, m.affinity_matrix_, m.labels_, "SSO weights, scans sorted by group")
     fig.tight_layout()
-    fig.savefig(IMG / "grouping_weights.png", dpi=110)
-    plt.close(fig)
+    gp.save_figure(fig, IMG / "grouping_weights.png")
 
     cols = 4
     rows = int(np.ceil(m.n_groups_ / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(10, 2.6 * rows))
-    for k, ax in enumerate(np.ravel(axes)):
-        ax.set_axis_off()
-        if k < m.n_groups_:
-            pts = m.local_maps_[k]
-            ax.scatter(pts[:, 0], pts[:, 1], s=0.3, color=cmap(k % 10))
-            ax.plot(0, 0, "k^")
-            ax.set_aspect("equal")
-            ax.set_title(f"local map {k}: {np.sum(m.labels_ == k)} scans", fontsize=9)
+    fig, axes = plt.subplots(rows, cols, figsize=(10, 2.6 * rows), squeeze=False)
+    gp.draw_local_maps(axes, m.local_maps_, m.labels_)
     fig.tight_layout()
-    fig.savefig(IMG / "grouping_local_maps.png", dpi=110)
-    plt.close(fig)
+    gp.save_figure(fig, IMG / "grouping_local_maps.png")
 
     fig, ax = plt.subplots(figsize=(9, 3.4))
-    frames = m.topology_.frames
-    for s in world.segments:
-        ax.plot(s[[0, 2]], s[[1, 3]], color="0.85", lw=0.8)
-    for arc in m.topology_.arcs:
-        a, b = frames[arc.source], frames[arc.target]
-        style = "-" if "trajectory" in arc.via else "--"
-        ax.plot([a[0], b[0]], [a[1], b[1]], style, color="0.3", lw=1 + np.log1p(arc.n_pairs) / 2)
-    for k, f in enumerate(frames):
-        ax.scatter(f[0], f[1], s=250, color=cmap(k % 10), zorder=3)
-        ax.text(f[0], f[1], str(k), ha="center", va="center", zorder=4)
-    ax.set_aspect("equal")
+    gp.draw_topology(ax, m.topology_, lambda ax: walls(ax, "0.85"))
     ax.set_title("topological map: nodes at local-map frames; solid: trajectory, dashed: overlap")
     fig.tight_layout()
-    fig.savefig(IMG / "grouping_topology.png", dpi=110)
-    plt.close(fig)
+    gp.save_figure(fig, IMG / "grouping_topology.png")
 
     odo = simulate_odometry(poses, np.random.default_rng(0), 0.05, 0.02)
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.2))
     for ax, icp_on in zip(axes, (False, True), strict=True):
         mm = ObservationGraphPartitioner(scan_matching=icp_on).fit(scans, odo)
-        for i, (scan, pose) in enumerate(zip(scans, mm.poses_, strict=True)):
-            pts = transform_points(pose, scan)
-            ax.scatter(pts[:, 0], pts[:, 1], s=0.2, color=cmap(mm.labels_[i] % 10), alpha=0.4)
-        ax.set_aspect("equal")
+        gp.draw_groups(ax, scans, mm.poses_, mm.labels_, arrows=False)
         name = "odometry + ICP" if icp_on else "odometry only"
         ax.set_title(f"{name}: {mm.n_groups_} groups", fontsize=10)
     fig.tight_layout()
-    fig.savefig(IMG / "grouping_noise.png", dpi=110)
-    plt.close(fig)
+    gp.save_figure(fig, IMG / "grouping_noise.png")
     print(f"figures written to {IMG}")
 
 

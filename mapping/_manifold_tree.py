@@ -4,7 +4,10 @@ The tree: every node of at least ``2 Q`` points is split by :func:`best_split` (
 smaller than that are leaves, so every leaf has at least Q points.
 
 The combination ("the C clusters are finally combined to give the best K clusters that each
-have maximal values of Omega(2)"): greedy agglomeration of leaves. A group G of leaves is
+have maximal values of Omega(2)"), by default :func:`separability_merge`: repeatedly merge the
+two adjacent groups that are least separable as two manifolds, where separability is eq. 9's
+spread ``E[D^12] - (E[D^11] + E[D^22]) / 2`` maximised over (sigma, alpha) on the pair's own
+points. The alternative "merge" rule is a greedy agglomeration of leaves. A group G of leaves is
 scored by eq. 9 with p1 = G and p2 = the rest of the data, maximised over a (sigma, alpha) grid
 on the full data; each step merges the pair of groups that raises the sum of these scores most
 (or lowers it least). Because ``E[D_M]`` over any two sets of points is a bilinear form of their
@@ -22,9 +25,13 @@ import numpy as np
 from mapping._manifold_kernel import SpectralBasis, alpha_from_t
 from mapping._manifold_split import SearchSpace, best_split, sigma_bounds
 
-# Rules for combining leaves: "merge" (greedy agglomeration, the default) or "cut" (keep the
-# K - 1 splits of highest Omega that form a subtree, i.e. cut the tree into K subtrees).
-COMBINE_RULES = ("merge", "cut")
+# Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "separability" (the
+# default: merge the neighbouring pair least separable as two manifolds), "merge" (greedy
+# agglomeration maximising the sum of group-vs-rest Omega(2)) or "cut" (cut the tree into K
+# subtrees by Omega).
+COMBINE_RULES = ("separability", "merge", "cut")
+# Neighbours per point that make two groups "adjacent" candidates for the separability merge.
+_ADJACENCY_NEIGHBOURS = 10
 
 
 @dataclass(eq=False)
@@ -230,3 +237,71 @@ def cut_tree(root: SplitNode, n_clusters: int) -> list[list[SplitNode]]:
         frontier.remove(node)
         frontier.extend(node.children)
     return [node.leaves() for node in frontier]
+
+
+def _pair_separability(sq_dist: np.ndarray, a: np.ndarray, b: np.ndarray, space: SearchSpace):
+    """max over (sigma, alpha) of ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` on the union of a, b.
+
+    eq. 9's spread with the labels fixed, symmetric in a and b and without the balance factor
+    (which would make every small group look inseparable). The kernel is the pair's own, so
+    how far the rest of the data lies does not enter.
+    """
+    idx = np.concatenate([a, b])
+    na, nb = a.shape[0], b.shape[0]
+    scores = _GroupScores(sq_dist[np.ix_(idx, idx)], [np.arange(na), np.arange(na, na + nb)], space)
+    M = scores.M
+    e_ab = 1.0 - M[..., 0, 1] / (na * nb)
+    e_aa = 1.0 - M[..., 0, 0] / (na * na)
+    e_bb = 1.0 - M[..., 1, 1] / (nb * nb)
+    return float((e_ab - 0.5 * (e_aa + e_bb)).max())
+
+
+def _adjacent_pairs(sq_dist: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
+    """Pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point."""
+    k = min(_ADJACENCY_NEIGHBOURS, sq_dist.shape[0] - 1)
+    masked = sq_dist + np.diag(np.full(sq_dist.shape[0], np.inf))
+    nearest = np.argpartition(masked, k - 1, axis=1)[:, :k]
+    a = np.repeat(labels, k)
+    b = labels[nearest.ravel()]
+    keep = a != b
+    lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
+    return set(zip(lo.tolist(), hi.tolist(), strict=True))
+
+
+def separability_merge(
+    sq_dist: np.ndarray, leaves: list[np.ndarray], n_clusters: int, space: SearchSpace
+) -> list[list[int]]:
+    """Merge C leaves into K groups, always joining the least separable adjacent pair.
+
+    Candidates are pairs of groups joined by a k-nearest-neighbour edge (manifolds meet where
+    their points are neighbours); if none is left, every pair is a candidate. Each pair's
+    separability is cached and recomputed only for pairs involving the newly merged group.
+    """
+    groups = [[c] for c in range(len(leaves))]
+    members = [np.asarray(leaf) for leaf in leaves]
+    labels = np.empty(sq_dist.shape[0], dtype=np.intp)
+    for c, idx in enumerate(leaves):
+        labels[idx] = c
+    key = list(range(len(leaves)))  # a stable id per live group
+    next_id = len(leaves)
+    cache: dict[tuple[int, int], float] = {}
+    while len(groups) > n_clusters:
+        pairs = _adjacent_pairs(sq_dist, labels) or {
+            (i, j) for i in range(len(groups)) for j in range(i + 1, len(groups))
+        }
+        best = None
+        for i, j in sorted(pairs):
+            ids = (key[i], key[j])
+            if ids not in cache:
+                cache[ids] = _pair_separability(sq_dist, members[i], members[j], space)
+            if best is None or cache[ids] < best[0]:
+                best = (cache[ids], i, j)
+        _, i, j = best
+        groups[i] = sorted(groups[i] + groups[j])
+        members[i] = np.sort(np.concatenate([members[i], members[j]]))
+        key[i] = next_id
+        next_id += 1
+        del groups[j], members[j], key[j]
+        for g, idx in enumerate(members):
+            labels[idx] = g
+    return groups

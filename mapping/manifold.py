@@ -26,6 +26,7 @@ from mapping._manifold_tree import (
     combine_leaves,
     cut_tree,
     ensure_leaves,
+    separability_merge,
 )
 from mapping.baselines import NotFittedError, squared_distances
 
@@ -116,8 +117,10 @@ class ManifoldClustering:
         Reading of eq. 9; "printed" rewards spread within cluster 1 (kept for comparison).
     seed_rule : {"weighted", "printed"}, default "weighted"
         Reading of eq. 12 for the second seed (see ``mapping._manifold_kernel.seed_pair``).
-    combine : {"merge", "cut"}, default "merge"
-        How the C leaves become K clusters: greedy merging by Omega(2), or cutting the tree.
+    combine : {"separability", "merge", "cut"}, default "separability"
+        How the C leaves become K clusters: repeatedly join the adjacent pair of groups least
+        separable as two manifolds (eq. 9's spread on the pair, maximised over sigma and
+        alpha); greedy merging by the sum of group-vs-rest Omega(2); or cutting the tree.
     store_dtype : {"float32", "float64"}, default "float32"
         dtype of the centred training points kept for ``predict`` and ``signal``; float32
         halves memory and the time of a ``signal`` call on image-sized vectors.
@@ -167,7 +170,7 @@ class ManifoldClustering:
         normalize: str = "column",
         omega_sign: str = "corrected",
         seed_rule: str = "weighted",
-        combine: str = "merge",
+        combine: str = "separability",
         store_dtype: str = "float32",
     ) -> None:
         self.n_clusters = n_clusters
@@ -255,7 +258,9 @@ class ManifoldClustering:
         ensure_leaves(tree, D2, K, space)
         leaves = [leaf.indices for leaf in tree.leaves()]
         groups = None
-        if self.combine == "cut":
+        if self.combine == "separability":
+            groups = separability_merge(D2, leaves, K, space)
+        elif self.combine == "cut":
             position = {id(leaf): c for c, leaf in enumerate(tree.leaves())}
             groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(tree, K)]
         combo = combine_leaves(D2, leaves, K, space, groups=groups)

@@ -9,6 +9,7 @@ estimator built on it (Sections III-IV).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
@@ -21,7 +22,13 @@ from scipy.sparse.csgraph import connected_components
 
 from mapping.icp import refine_poses
 from mapping.overlap import check_scans_and_poses, sensed_space_overlap
-from mapping.topology import TopologicalMap, build_local_maps, build_topology, group_frames
+from mapping.topology import (
+    TopologicalMap,
+    build_local_maps,
+    build_topology,
+    check_run_starts,
+    group_frames,
+)
 
 __all__ = [
     "ObservationGraphPartitioner",
@@ -318,8 +325,9 @@ class ObservationGraphPartitioner:
         Eigenproblem of the bisection: eq. 10 (the paper) or MRPT's ``(D - W) y = lambda y``.
     min_size : int, default 1
         Smallest group a bisection may create.
-    scan_matching : bool, default False
-        Refine consecutive poses by ICP (``mapping.icp.refine_poses``) before the overlap.
+    scan_matching : bool, default True
+        Refine consecutive poses by ICP (``mapping.icp.refine_poses``) before the overlap; on by
+        default because raw odometry splits the default sequences (docs/observation-grouping.md).
     icp_max_distance : float, default 0.5
         Correspondence gate of the ICP in metres.
     empty_scans : {"nearest", "noise"}, default "nearest"
@@ -355,7 +363,7 @@ class ObservationGraphPartitioner:
         assoc: str = "mrpt",
         laplacian: str = "normalized",
         min_size: int = 1,
-        scan_matching: bool = False,
+        scan_matching: bool = True,
         icp_max_distance: float = 0.5,
         empty_scans: str = "nearest",
         solver: str = "auto",
@@ -370,7 +378,13 @@ class ObservationGraphPartitioner:
         self.empty_scans = empty_scans
         self.solver = solver
 
-    def fit(self, scans: Sequence[ArrayLike], poses: ArrayLike) -> ObservationGraphPartitioner:
+    def fit(
+        self,
+        scans: Sequence[ArrayLike],
+        poses: ArrayLike,
+        *,
+        run_starts: ArrayLike | None = None,
+    ) -> ObservationGraphPartitioner:
         """Group ``scans`` taken at ``poses`` and build the local maps and topology.
 
         Parameters
@@ -379,6 +393,12 @@ class ObservationGraphPartitioner:
             Points in each sensor frame; ``M_i`` may be 0.
         poses : array-like of shape (N, 3)
             World poses ``(x, y, yaw)``, e.g. odometry.
+        run_starts : array-like of int, optional
+            Indices where another run (drive) of the same place begins, when several are
+            grouped together in one common frame. The overlap does not care, but consecutive
+            indices across a run boundary are not trajectory neighbours: the scan matching does
+            not chain across them, arcs ``via`` the trajectory do not join them, and an empty
+            scan takes its group from its own run.
 
         Returns
         -------
@@ -390,8 +410,14 @@ class ObservationGraphPartitioner:
         if self.empty_scans not in ("nearest", "noise"):
             raise ValueError(f"empty_scans must be 'nearest' or 'noise', got {self.empty_scans!r}")
         scans, poses = check_scans_and_poses(scans, poses)
+        starts = check_run_starts(run_starts, len(scans))
         if self.scan_matching:
-            poses = refine_poses(scans, poses, max_correspondence_distance=self.icp_max_distance)
+            poses = refine_poses(
+                scans,
+                poses,
+                max_correspondence_distance=self.icp_max_distance,
+                run_starts=np.flatnonzero(starts),
+            )
         W = sensed_space_overlap(scans, poses, self.match_distance, sparse=True)
         has_points = np.array([len(s) > 0 for s in scans])
         kept = np.flatnonzero(has_points)
@@ -403,7 +429,7 @@ class ObservationGraphPartitioner:
         else:
             tree = SplitNode(np.arange(0), None)
         if self.empty_scans == "nearest":
-            labels = _fill_from_nearest(labels)
+            labels = _fill_from_nearest(labels, starts)
         self.poses_ = poses
         self.affinity_matrix_ = W
         self.split_tree_ = tree
@@ -411,7 +437,9 @@ class ObservationGraphPartitioner:
         self.n_groups_ = int(labels.max()) + 1
         reference, frames = group_frames(poses, labels)
         self.local_maps_ = build_local_maps(scans, poses, labels, frames)
-        self.topology_: TopologicalMap = build_topology(poses, labels, W, reference, frames)
+        self.topology_: TopologicalMap = build_topology(
+            poses, labels, W, reference, frames, np.flatnonzero(starts)
+        )
         return self
 
     def fit_affinity(self, W: ArrayLike | sp.sparray) -> ObservationGraphPartitioner:
@@ -447,8 +475,19 @@ def _reindex(tree: SplitNode, kept: np.ndarray) -> None:
         node.indices = kept[node.indices]
 
 
-def _fill_from_nearest(labels: np.ndarray) -> np.ndarray:
-    """Give each ``-1`` the label of the nearest labelled index (the earlier one on a tie)."""
+def _fill_from_nearest(labels: np.ndarray, starts: np.ndarray | None = None) -> np.ndarray:
+    """Give each ``-1`` the label of the nearest labelled index (the earlier one on a tie).
+
+    With ``starts`` (a mask of run starts) the search stays inside each run; a run without any
+    labelled index falls back to the search over all runs.
+    """
+    if starts is not None and starts[1:].any():
+        out = labels.copy()
+        bounds = np.append(np.flatnonzero(starts), labels.size)
+        for lo, hi in itertools.pairwise(bounds):
+            if (labels[lo:hi] >= 0).any():
+                out[lo:hi] = _fill_from_nearest(labels[lo:hi])
+        return _fill_from_nearest(out) if (out < 0).any() else out
     known = np.flatnonzero(labels >= 0)
     if known.size == 0:
         return np.zeros_like(labels)

@@ -23,6 +23,7 @@ __all__ = [
     "TopologyArc",
     "build_local_maps",
     "build_topology",
+    "check_run_starts",
     "circular_mean",
     "group_frames",
     "se2_compose",
@@ -85,6 +86,24 @@ def se2_mean(poses: ArrayLike) -> np.ndarray:
     """Average of ``(K, 3)`` poses: arithmetic mean translation, circular mean heading."""
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
     return np.array([poses[:, 0].mean(), poses[:, 1].mean(), circular_mean(poses[:, 2])])
+
+
+def check_run_starts(run_starts: ArrayLike | None, n: int) -> np.ndarray:
+    """``run_starts`` (indices where a new run begins) as a boolean mask of length ``n``.
+
+    Index 0 always starts a run. Raises ``ValueError`` naming ``run_starts`` for indices that
+    are not integers in ``[0, n)``.
+    """
+    mask = np.zeros(n, dtype=bool)
+    if n:
+        mask[0] = True
+    if run_starts is None:
+        return mask
+    idx = np.asarray(run_starts).ravel()
+    if idx.size and (idx.dtype.kind not in "iu" or idx.min() < 0 or idx.max() >= n):
+        raise ValueError(f"run_starts must be integer indices in [0, {n}), got {idx.tolist()}")
+    mask[idx.astype(np.intp)] = True
+    return mask
 
 
 # --------------------------------------------------------------------------- local maps
@@ -194,10 +213,11 @@ class TopologicalMap:
         raise KeyError(f"no arc between local maps {a} and {b}")
 
 
-def _connecting_pairs(labels: np.ndarray, affinity) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _connecting_pairs(
+    labels: np.ndarray, affinity, starts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Scan pairs ``(i, j)``, ``i < j``, of different groups joined by trajectory or overlap."""
-    n = labels.shape[0]
-    step_i = np.arange(n - 1)
+    step_i = np.flatnonzero(~starts[1:])  # consecutive scans of one run
     traj = np.stack([step_i, step_i + 1], axis=1)
     coo = affinity.tocoo() if hasattr(affinity, "tocoo") else None
     if coo is not None:
@@ -220,6 +240,7 @@ def build_topology(
     affinity,
     reference: np.ndarray,
     frames: np.ndarray,
+    run_starts: ArrayLike | None = None,
 ) -> TopologicalMap:
     """Build the arcs between groups and their relative transformations (Section IV-A, step 4).
 
@@ -231,8 +252,13 @@ def build_topology(
     headings with the circular mean. When one global pose estimate gives both the local maps and
     the differential poses, every estimate is the same up to rounding and ``spread`` is ~0;
     they differ when local maps are refined independently.
+
+    ``run_starts`` (see ``check_run_starts``): scans where a new run begins are not joined to
+    the scan before them by the trajectory (the last scan of one drive and the first of the
+    next are not neighbours).
     """
-    pairs, kind, glabels = _connecting_pairs(labels, affinity)
+    starts = check_run_starts(run_starts, labels.shape[0])
+    pairs, kind, glabels = _connecting_pairs(labels, affinity, starts)
     if pairs.size == 0:
         return TopologicalMap(reference, frames, [])
     a, b = glabels.min(axis=1), glabels.max(axis=1)

@@ -91,6 +91,12 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_group_eval(args) -> int:
+    from scripts.eval_grouping import run
+
+    return run(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from scenes import WORLDS
 
@@ -129,6 +135,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--jobs", type=_positive_int, default=None)
     r.set_defaults(func=cmd_run)
+
+    from scripts.eval_grouping import build_parser as group_eval_parser
+
+    g = sub.add_parser("group-eval", help="evaluate the laser observation grouping (Blanco et al.)")
+    group_eval_parser(g).set_defaults(func=cmd_group_eval)
     return p
 
 

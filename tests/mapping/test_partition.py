@@ -218,3 +218,23 @@ def test_estimator_rejects_bad_input(office):
     bad[3, 2] = np.nan
     with pytest.raises(ValueError, match="poses contains NaN"):
         ObservationGraphPartitioner().fit(scans, bad)
+
+
+def test_run_starts_keep_runs_apart(office):
+    """Two drives of the same place grouped together: no ICP chaining across the boundary and
+    empty scans take their group from their own run."""
+    _, scans, poses = office
+    n = len(scans)
+    both_scans = list(scans) + list(scans)
+    both_poses = np.concatenate([poses, poses])
+    both_scans[n] = np.empty((0, 2))  # first scan of the second run
+    model = ObservationGraphPartitioner(scan_matching=True)
+    labels = model.fit(both_scans, both_poses, run_starts=[n]).labels_
+    # the second run starts where it was given, not chained from the end of the first
+    np.testing.assert_array_equal(model.poses_[n], poses[0])
+    assert labels[n - 1] != labels[n + 1]  # the two ends are different places
+    assert labels[n] == labels[n + 1]
+    # without run_starts the empty scan joins the end of the first run (the tie goes earlier)
+    assert ObservationGraphPartitioner().fit(both_scans, both_poses).labels_[n] == labels[n - 1]
+    with pytest.raises(ValueError, match="run_starts"):
+        ObservationGraphPartitioner().fit(scans, poses, run_starts=[n])

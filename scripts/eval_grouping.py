@@ -1,0 +1,455 @@
+"""Evaluate the laser observation grouping (Blanco et al.) on the simulated worlds.
+
+    python -m scripts.eval_grouping --data out/dataset --out out/grouping [--json]
+    topomap group-eval --data out/dataset --out out/grouping [--json]
+
+For each world, the default dataset's three sequences (main manifold, then one branch each) are
+grouped together in one observation graph (``run_starts`` marks where each drive begins), with
+the noisy odometry poses, without and with ICP refinement, and with the true poses as a
+reference. A longer loop through each world (main -> every branch, back to the junction between
+them; ``scripts.grouping_loop``) is grouped the same way. Groups are scored against the
+ground-truth manifolds. Then both sensors meet both methods: the recursive min-Ncut partition
+on the scans' overlap and on an image-similarity graph, and the manifold clustering
+(Grudic & Mulligan) on scan features and on images.
+
+Writes ``grouping.json`` (every number) and PNG figures like the paper's Figures 3 and 5 into
+the output directory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from mapping.features import ImageFeatures, ScanFeatures, scan_to_points
+from mapping.manifold import ManifoldClustering
+from mapping.metrics import adjusted_rand_index, purity
+from mapping.partition import ObservationGraphPartitioner
+from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
+from scenes import MANIFOLDS, build_world
+from scripts import grouping_plots as gp
+from scripts.grouping_loop import collect_loop
+from sim import dataset as ds
+
+__all__ = ["TARGETS", "evaluate_grouping", "format_report", "main", "score_groups"]
+
+# The issue's targets: groups mix manifolds by at most 10 %, no manifold in more than 3 groups.
+TARGETS = {"purity_min": 0.9, "max_groups_per_manifold": 3}
+IMAGE_SIZE = (80, 60)  # the manifold clustering's image resolution (docs/manifold-clustering.md)
+MC_MIN_CLUSTER_SIZE = 35  # Q of docs/manifold-clustering.md on the same sequences
+JSON_FILE = "grouping.json"
+
+
+# --------------------------------------------------------------------------- scoring
+
+
+def score_groups(truth: np.ndarray, labels: np.ndarray) -> dict:
+    """Groups against ground-truth manifold ids (frames on no manifold, -1, are left out).
+
+    ``groups_per_manifold``: for each manifold, the groups whose majority manifold it is (every
+    group counts for exactly one manifold; frames of a group that belong elsewhere are what
+    ``purity`` charges). ``groups_touching``: the stricter count of groups holding any frame of
+    the manifold, which also counts a group that takes a few frames across a boundary.
+    """
+    truth = np.asarray(truth, dtype=int)
+    labels = np.asarray(labels, dtype=int)
+    on = truth >= 0
+    truth, labels = truth[on], labels[on]
+    manifolds = np.unique(truth)
+    groups = np.unique(labels)
+    majority = {
+        int(g): int(np.bincount(truth[labels == g], minlength=len(MANIFOLDS)).argmax())
+        for g in groups
+    }
+    per = {MANIFOLDS[m]: sum(v == m for v in majority.values()) for m in manifolds}
+    touching = {MANIFOLDS[m]: len(np.unique(labels[truth == m])) for m in manifolds}
+    return {
+        "frames": int(on.sum()),
+        "groups": len(groups),
+        "purity": purity(truth, labels),
+        "ari": adjusted_rand_index(truth, labels),
+        "groups_per_manifold": per,
+        "max_groups_per_manifold": max(per.values()),
+        "groups_touching": touching,
+        "max_groups_touching": max(touching.values()),
+    }
+
+
+def meets_targets(score: dict) -> bool:
+    return (
+        score["purity"] >= TARGETS["purity_min"]
+        and score["max_groups_per_manifold"] <= TARGETS["max_groups_per_manifold"]
+    )
+
+
+# --------------------------------------------------------------------------- data
+
+
+class WorldRuns:
+    """The runs (sequences) of one world concatenated: scans as points, poses, truth, images."""
+
+    def __init__(self, sequences: Sequence[ds.Sequence], max_range: float | None = None):
+        if not sequences:
+            raise ValueError("sequences is empty")
+        self.world = sequences[0].world
+        self.names = [s.name for s in sequences]
+        self.ranges = np.concatenate([s.scans for s in sequences])
+        self.scans = [scan_to_points(r, s.angles, max_range) for s in sequences for r in s.scans]
+        self.poses = np.concatenate([s.poses for s in sequences])
+        self.odometry = np.concatenate([s.odometry for s in sequences])
+        self.truth = np.concatenate([s.labels for s in sequences]).astype(int)
+        self.images = np.concatenate([s.images for s in sequences])
+        lengths = [len(s) for s in sequences]
+        self.run_starts = np.cumsum([0, *lengths[:-1]])
+        finite = self.ranges[np.isfinite(self.ranges)]
+        # the sensor's range when known, else the longest return seen (features scale by it)
+        self.max_range = float(max_range or (finite.max() if finite.size else 1.0))
+
+    def __len__(self) -> int:
+        return len(self.scans)
+
+
+def _by_world(dataset: ds.Dataset) -> dict[str, list[ds.Sequence]]:
+    worlds: dict[str, list[ds.Sequence]] = {}
+    for seq in dataset.sequences.values():
+        worlds.setdefault(seq.world, []).append(seq)
+    return worlds
+
+
+# --------------------------------------------------------------------------- grouping
+
+
+def group_scans(runs: WorldRuns, poses: str) -> tuple[ObservationGraphPartitioner, dict]:
+    """The partitioner at default settings on ``runs`` with ``poses`` in {"true", "odometry",
+    "odometry+icp"}; returns the fitted model and its scores, drift and time."""
+    model = ObservationGraphPartitioner(scan_matching=poses == "odometry+icp")
+    given = runs.poses if poses == "true" else runs.odometry
+    start = time.perf_counter()
+    model.fit(runs.scans, given, run_starts=runs.run_starts)
+    seconds = time.perf_counter() - start
+    err = model.poses_[:, :2] - runs.poses[:, :2]
+    score = score_groups(runs.truth, model.labels_)
+    score.update(
+        poses=poses,
+        max_drift_m=float(np.hypot(err[:, 0], err[:, 1]).max()),
+        seconds=seconds,
+        meets_targets=meets_targets(score),
+        arcs=len(model.topology_.arcs),
+    )
+    return model, score
+
+
+def pose_variants(icp: Sequence[bool], true_poses: bool) -> list[str]:
+    names = ["true"] if true_poses else []
+    return names + ["odometry+icp" if flag else "odometry" for flag in icp]
+
+
+def compare_methods(runs: WorldRuns, scan_model: ObservationGraphPartitioner, scan_score: dict):
+    """Both sensors x both methods on one world (the four-way table).
+
+    - partition x scans: ``scan_model`` (already fitted; its pose variant is recorded).
+    - partition x images: ``fit_affinity`` on ``knn_gaussian_affinity`` of the image vectors
+      (k = ceil(sqrt(n)) neighbours, sigma = median k-th-neighbour distance).
+    - manifold clustering x scans / images: ``ManifoldClustering(K, Q)`` with K the number of
+      ground-truth manifolds of the world and Q = min(35, n // (2K)).
+    """
+    out = {"partition/scans": {**_brief(scan_score), "poses": scan_score["poses"]}}
+    images = ImageFeatures(size=IMAGE_SIZE).fit_transform(runs.images)
+    start = time.perf_counter()
+    W, sigma = knn_gaussian_affinity(images)
+    labels = ObservationGraphPartitioner().fit_affinity(W).labels_
+    out["partition/images"] = {
+        **_brief(score_groups(runs.truth, labels), time.perf_counter() - start),
+        "n_neighbors": default_n_neighbors(len(runs)),
+        "sigma": sigma,
+    }
+    features = {
+        "scans": ScanFeatures(max_range=runs.max_range).fit_transform(runs.ranges),
+        "images": images,
+    }
+    k = len(np.unique(runs.truth[runs.truth >= 0]))
+    q = max(1, min(MC_MIN_CLUSTER_SIZE, len(runs) // (2 * k)))
+    for sensor, X in features.items():
+        start = time.perf_counter()
+        labels = ManifoldClustering(n_clusters=k, min_cluster_size=q).fit(X).labels_
+        score = score_groups(runs.truth, labels)
+        out[f"manifold/{sensor}"] = {
+            **_brief(score, time.perf_counter() - start),
+            "K": k,
+            "Q": q,
+        }
+    return out
+
+
+def _brief(score: dict, seconds: float | None = None) -> dict:
+    keys = ("groups", "purity", "ari", "max_groups_per_manifold", "groups_per_manifold")
+    out = {k: score[k] for k in keys}
+    out["seconds"] = score.get("seconds") if seconds is None else seconds
+    return out
+
+
+# --------------------------------------------------------------------------- figures
+
+
+def write_figures(
+    out_dir: Path, tag: str, runs: WorldRuns, model: ObservationGraphPartitioner
+) -> list[Path]:
+    """The four figures of one grouping: groups over the map, local maps, weights, topology."""
+    plt = gp.agg_pyplot()
+    world = build_world(runs.world)
+    from sim.topdown import TopDownView
+
+    view = TopDownView(world, max_size=900)
+    h, w = view.size
+    extent = (
+        view.origin[0],
+        view.origin[0] + w / view.scale,
+        view.origin[1] - h / view.scale,
+        view.origin[1],
+    )
+    background = view.draw()
+
+    def draw_map(ax):
+        ax.imshow(background, extent=extent, alpha=0.55)
+
+    written = []
+    fig, ax = plt.subplots(figsize=(8, 7))
+    draw_map(ax)
+    gp.draw_groups(
+        ax, runs.scans, model.poses_, model.labels_, every=2, arrows=False, point_size=1.5
+    )
+    ax.set_title(
+        f"{tag}: {len(runs)} scans in {model.n_groups_} groups (colour = group; background: "
+        "true manifolds)",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    written.append(gp.save_figure(fig, out_dir / f"{tag}_groups.png"))
+
+    cols = min(4, model.n_groups_)
+    rows = int(np.ceil(model.n_groups_ / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.6 * rows), squeeze=False)
+    gp.draw_local_maps(axes, model.local_maps_, model.labels_)
+    fig.tight_layout()
+    written.append(gp.save_figure(fig, out_dir / f"{tag}_local_maps.png"))
+
+    fig, ax = plt.subplots(figsize=(5, 4.6))
+    gp.draw_weights(ax, model.affinity_matrix_, model.labels_, f"{tag}: SSO weights by group")
+    fig.tight_layout()
+    written.append(gp.save_figure(fig, out_dir / f"{tag}_weights.png"))
+
+    fig, ax = plt.subplots(figsize=(7, 6))
+    gp.draw_topology(ax, model.topology_, draw_map)
+    ax.set_title(f"{tag}: topological map (solid: trajectory, dashed: overlap)", fontsize=9)
+    fig.tight_layout()
+    written.append(gp.save_figure(fig, out_dir / f"{tag}_topology.png"))
+    return written
+
+
+# --------------------------------------------------------------------------- the evaluation
+
+
+def evaluate_grouping(
+    dataset: ds.Dataset | str | os.PathLike,
+    out_dir: str | os.PathLike,
+    *,
+    icp: Sequence[bool] = (False, True),
+    true_poses: bool = True,
+    loop: bool = True,
+    loop_frames: int | None = None,
+    compare: bool = True,
+    figures: bool = True,
+    progress: bool = True,
+) -> dict:
+    """Group each world's scans, score them, compare the methods, draw and save everything.
+
+    Parameters
+    ----------
+    dataset : Dataset or path
+        The dataset (``sim.dataset``); its sequences are grouped per world.
+    out_dir : path
+        Where ``grouping.json``, the figures and the loop sequences (``loop/``) go.
+    icp : sequence of bool, default (False, True)
+        Odometry variants to group: raw odometry (False) and odometry refined by ICP (True).
+    true_poses : bool, default True
+        Also group with the true poses (the upper bound the paper assumes: SLAM poses).
+    loop : bool, default True
+        Also drive and group a loop through each world (collected once, cached in ``loop/``).
+    loop_frames : int, optional
+        Frames of each loop; default: the dataset's frame spacing (``grouping_loop``).
+    compare : bool, default True
+        The four-way table (both sensors x both methods), on the dataset's sequences.
+    figures : bool, default True
+        Write the figures of the ICP (else odometry) grouping of each world and loop.
+    progress : bool, default True
+        Show a progress bar.
+
+    Returns
+    -------
+    dict
+        Everything written to ``grouping.json`` (see ``format_report`` for a summary).
+    """
+    from tqdm.auto import tqdm
+
+    if not isinstance(dataset, ds.Dataset):
+        dataset = ds.load_dataset(dataset)
+    icp = tuple(bool(flag) for flag in icp)
+    if not icp and not true_poses:
+        raise ValueError("nothing to group: icp is empty and true_poses is False")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    variants = pose_variants(icp, true_poses)
+    shown = "odometry+icp" if True in icp else variants[-1]  # the grouping drawn and compared
+    worlds = _by_world(dataset)
+    laser = dataset.meta.get("settings", {}).get("laser", {})
+    max_range = laser.get("max_range")
+    steps = len(worlds) * (len(variants) * (1 + loop) + compare + figures * (1 + loop))
+    bar = tqdm(total=steps, desc="group-eval", unit="step", disable=not progress)
+    result = {
+        "dataset": str(dataset.path),
+        "settings": {
+            "partitioner": "ObservationGraphPartitioner() defaults (threshold 1, delta 0.1 m, "
+            "assoc mrpt, normalized Laplacian); ICP = scan_matching=True",
+            "runs": "each world's sequences grouped together; run_starts at each sequence",
+            "targets": TARGETS,
+            "image_features": f"ImageFeatures(size={IMAGE_SIZE}), raw RGB",
+            "image_graph": "knn_gaussian_affinity: k = ceil(sqrt(n)), sigma = median distance "
+            "to the k-th neighbour",
+            "manifold_clustering": "K = manifolds of the world, Q = min(35, n // (2K))",
+            "shown": shown,
+            "cpu_count": os.cpu_count(),
+        },
+        "default": {},
+        "loop": {},
+        "compare": {},
+        "figures": [],
+    }
+    start = time.perf_counter()
+    try:
+        for world, sequences in worlds.items():
+            cases = [("default", world, WorldRuns(sequences, max_range))]
+            if loop:
+                bar.set_postfix_str(f"collect {world} loop")
+                seq = collect_loop(world, out_dir / "loop", frames=loop_frames)
+                cases.append(("loop", f"{world}-loop", WorldRuns([seq], max_range)))
+            for section, tag, runs in cases:
+                result[section][world] = {"frames": len(runs), "sequences": runs.names}
+                for variant in variants:
+                    bar.set_postfix_str(f"{tag} {variant}")
+                    model, score = group_scans(runs, variant)
+                    result[section][world][variant] = score
+                    bar.update()
+                    if variant != shown:
+                        continue
+                    if figures:
+                        paths = write_figures(out_dir, tag, runs, model)
+                        result["figures"] += [p.name for p in paths]
+                        bar.update()
+                    if compare and section == "default":
+                        bar.set_postfix_str(f"{world}: four-way comparison")
+                        result["compare"][world] = compare_methods(runs, model, score)
+                        bar.update()
+    finally:
+        bar.close()
+    result["seconds"] = time.perf_counter() - start
+    result["targets_met"] = {
+        f"{section}/{world}/{variant}": result[section][world][variant]["meets_targets"]
+        for section in ("default", "loop")
+        for world in result[section]
+        for variant in variants
+    }
+    ds.write_json(out_dir / JSON_FILE, _jsonable(result))
+    return result
+
+
+def _jsonable(obj):
+    """numpy scalars to Python numbers, recursively (json cannot write np.float64 keys)."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+# --------------------------------------------------------------------------- report
+
+
+def format_report(result: dict) -> str:
+    """Markdown tables of the groupings and of the four-way comparison."""
+    lines = [
+        "| case | poses | frames | groups | purity | ARI | groups per manifold (majority) "
+        "| max touching | drift (m) | time (s) | targets |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for section in ("default", "loop"):
+        for world, entry in result[section].items():
+            for variant, s in entry.items():
+                if not isinstance(s, dict):
+                    continue
+                per = " / ".join(str(v) for v in s["groups_per_manifold"].values())
+                lines.append(
+                    f"| {world}{'-loop' if section == 'loop' else ''} | {variant} | {s['frames']} "
+                    f"| {s['groups']} | {s['purity']:.3f} | {s['ari']:+.3f} | {per} "
+                    f"| {s['max_groups_touching']} | {s['max_drift_m']:.2f} | {s['seconds']:.2f} "
+                    f"| {'met' if s['meets_targets'] else 'missed'} |"
+                )
+    if result["compare"]:
+        lines += [
+            "",
+            "| world | method / sensor | groups | purity | ARI | max groups per manifold "
+            "| time (s) |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for world, rows in result["compare"].items():
+            for name, s in rows.items():
+                lines.append(
+                    f"| {world} | {name} | {s['groups']} | {s['purity']:.3f} | {s['ari']:+.3f} "
+                    f"| {s['max_groups_per_manifold']} | {s['seconds']:.2f} |"
+                )
+    return "\n".join(lines)
+
+
+def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
+    """The command line (shared with ``topomap group-eval``)."""
+    p = parser or argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", required=True, help="dataset directory")
+    p.add_argument("--out", required=True, help="output directory (JSON, figures, loops)")
+    p.add_argument("--json", action="store_true", help="print the JSON instead of the tables")
+    p.add_argument("--no-loop", action="store_true", help="skip the loop through each world")
+    p.add_argument("--loop-frames", type=int, default=None, help="frames of each loop")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def run(args) -> int:
+    result = evaluate_grouping(
+        args.data,
+        args.out,
+        loop=not args.no_loop,
+        loop_frames=args.loop_frames,
+        progress=not args.quiet,
+    )
+    if args.json:
+        print(json.dumps(_jsonable(result), indent=2))
+    else:
+        print(format_report(result))
+        print(f"\nwrote {Path(args.out) / JSON_FILE} and {len(result['figures'])} figures")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    import sim  # noqa: F401  (chooses the headless GL backend before mujoco loads)
+
+    return run(build_parser().parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

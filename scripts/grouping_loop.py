@@ -1,0 +1,114 @@
+"""A longer drive through a world for the grouping evaluation: the main manifold, then every
+branch in turn, coming back to the junction between branches (main -> left -> back ->
+straight -> back -> right).
+
+The loop is driven by the dataset's own machinery (``sim.collect.collect_sequence`` with the
+scripted teleop) on a route built from the world's three branch routes, so the driver, sensors
+and odometry noise are those of the default dataset. It is cached as one ``.npz`` (the
+dataset's format) next to a small JSON of the settings that made it, and never written into a
+dataset directory.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from scenes import names
+from scenes.regions import Route
+from sim import dataset as ds
+from sim.collect import CollectionSettings, _world, collect_sequence
+
+__all__ = ["LOOP_INDEX", "collect_loop", "loop_frames", "loop_route"]
+
+# Seeds sequences after the default dataset's (world * branches + branch < 100), so the loop
+# never reuses the random streams of a default sequence.
+LOOP_INDEX = 100
+# Lateral offset of a U-turn at a branch's end: the route goes up one side and comes back on
+# the other, so pure pursuit turns along an arc instead of facing a target straight behind.
+U_TURN_OFFSET = 0.35  # m; fits the narrowest corridor (2.4 m) with the robot's radius
+
+
+def loop_name(world: str) -> str:
+    return f"{world}-loop"
+
+
+def loop_route(world) -> Route:
+    """The loop of ``world`` (a ``scenes.World``) from its three branch routes.
+
+    Every branch route starts at the same point on the main manifold and ends at the far end
+    of its branch; the junction is where the straight route passes the left branch's axis.
+    """
+    routes = [world.routes[names.manifold_name(world.name, b)] for b in names.BRANCHES]
+    start = routes[0].waypoints[0]
+    ends = [r.waypoints[-1] for r in routes]
+    junction = np.array([ends[0][0], start[1]])  # left branch axis meets the main axis
+    points = [start, junction]
+    for k, end in enumerate(ends):
+        direction = (end - junction) / np.linalg.norm(end - junction)
+        normal = np.array([-direction[1], direction[0]])
+        if k == len(ends) - 1:  # the last branch is driven to its end
+            points.append(end)
+            break
+        points += [end + U_TURN_OFFSET * normal, end - U_TURN_OFFSET * normal, junction]
+    return Route(loop_name(world.name), np.asarray(points, float), "loop")
+
+
+def loop_frames(world, route: Route, frames_per_route: int) -> int:
+    """Frames for the loop at the default dataset's spacing: ``frames_per_route`` frames over
+    the length of the world's straight route."""
+    straight = world.routes[names.manifold_name(world.name, "straight")]
+    return max(2, round(frames_per_route * route.length / straight.length))
+
+
+def collect_loop(
+    world_name: str,
+    cache_dir: str | Path,
+    *,
+    frames: int | None = None,
+    settings: CollectionSettings | None = None,
+    tick=None,
+) -> ds.Sequence:
+    """Drive (or load from ``cache_dir``) the loop through ``world_name``.
+
+    Parameters
+    ----------
+    frames : int, optional
+        Frames along the loop; by default the default dataset's spacing (``loop_frames``).
+    settings : CollectionSettings, optional
+        Sensors, noise, driver and seed (default: the default dataset's). The loop of seed ``s``
+        is deterministic; it is re-collected when the settings or frames differ from the cache.
+    tick : callable, optional
+        Called with 1 after each frame (a progress bar's ``update``).
+    """
+    if world_name not in names.WORLDS:
+        raise ValueError(f"world_name must be one of {names.WORLDS}, got {world_name!r}")
+    settings = settings or CollectionSettings(worlds=(world_name,))
+    world = _world(world_name, settings.seed, settings.randomize)
+    route = loop_route(world)
+    frames = loop_frames(world, route, settings.frames) if frames is None else frames
+    settings = replace(settings, frames=frames)  # validates frames
+    cache_dir = Path(cache_dir)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    name = route.name
+    meta_path = cache_dir / f"{name}.json"
+    key = {"settings": settings.to_json(), "waypoints": route.waypoints.tolist()}
+    if meta_path.is_file():
+        meta = json.loads(meta_path.read_text())
+        if meta.get("key") == key:
+            try:
+                return ds.load_sequence(cache_dir, name, meta["entry"])
+            except ds.DatasetError:
+                pass  # truncated or modified: collect again
+    # collect_sequence looks routes up in the (cached) world by name; the loop is one more
+    # route of that world, added under a name no default sequence uses.
+    world.routes[name] = route
+    index = LOOP_INDEX + names.WORLDS.index(world_name)
+    arrays = collect_sequence(settings, index, world_name, name, tick)
+    entry = {"file": f"{name}.npz", "world": world_name, "frames": frames}
+    entry["sha256"] = ds.write_sequence(cache_dir / entry["file"], arrays)
+    ds.write_json(meta_path, {"key": key, "entry": entry})
+    return ds.load_sequence(cache_dir, name, entry)
