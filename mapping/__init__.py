@@ -12,6 +12,7 @@ _EXPORTS = {
     "NormalizedCutClustering": "mapping.baselines",
     "SelfTuningSpectralClustering": "mapping.baselines",
     "best_sigma_ncut": "mapping.baselines",
+    "ColorHistogramFeatures": "mapping.features",
     "ImageFeatures": "mapping.features",
     "ScanFeatures": "mapping.features",
     "scan_to_points": "mapping.features",

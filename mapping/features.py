@@ -3,7 +3,9 @@
 Images: the paper clusters raw pixels (3 x 320 x 240 values per image, Section III-B).
 :func:`images_to_vectors` keeps that as the default and adds a resolution, colour or grey, and
 a normalisation; :class:`ImageFeatures` wraps it with an optional PCA projection fitted on the
-training images.
+training images. :func:`color_histograms` / :class:`ColorHistogramFeatures` are the compact
+alternative that reproduces the paper's image result here: per-cell HSV histograms, square-rooted
+so that Euclidean distance is the Hellinger distance (docs/manifold-clustering.md, "Images").
 
 Laser scans: float32 range arrays of shape (n_beams,) or (n, n_beams), where ``+inf`` means
 "no return within max range" and NaN an invalid reading. :func:`scan_ranges` makes them finite
@@ -25,8 +27,10 @@ from numpy.typing import ArrayLike
 __all__ = [
     "IMAGE_NORMALIZATIONS",
     "SCAN_REPRESENTATIONS",
+    "ColorHistogramFeatures",
     "ImageFeatures",
     "ScanFeatures",
+    "color_histograms",
     "fit_pca",
     "images_to_vectors",
     "normalize_rows",
@@ -218,6 +222,101 @@ class ImageFeatures:
         if self.n_components is not None:
             X = (X - self.pca_mean_) @ self.components_.T
         return X
+
+    def fit_transform(self, images: ArrayLike, y: None = None) -> np.ndarray:
+        """``fit(images).transform(images)``."""
+        return self.fit(images).transform(images)
+
+
+def _grid(value: object) -> tuple[int, int]:
+    try:
+        cols, rows = (int(v) for v in value)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise ValueError(f"grid must be (columns, rows) of positive ints, got {value!r}") from None
+    if cols < 1 or rows < 1:
+        raise ValueError(f"grid must be (columns, rows) of positive ints, got {value!r}")
+    return cols, rows
+
+
+def color_histograms(
+    images: ArrayLike, bins: tuple[int, int, int] = (8, 4, 4), grid: tuple[int, int] = (2, 2)
+) -> np.ndarray:
+    """Square-rooted HSV histograms of each cell of a grid over each image.
+
+    Parameters
+    ----------
+    images : array-like of uint8, shape (H, W, 3) or (n, H, W, 3)
+        RGB images.
+    bins : (hue, saturation, value) bins
+        Hue bins cover OpenCV's 0-179, the others 0-255, all equally wide.
+    grid : (columns, rows)
+        Cells per image; each gets its own histogram, so a little layout survives.
+
+    Returns
+    -------
+    ndarray of shape (n, columns * rows * prod(bins))
+        Per cell, ``sqrt(count / pixels of the cell)``: each cell's part has unit norm and the
+        Euclidean distance between two rows is sqrt(2 * cells) times the root-mean-square
+        Hellinger distance of their cells.
+    """
+    arr = np.asarray(images)
+    if arr.ndim == 3:
+        arr = arr[None]
+    if arr.ndim != 4 or arr.shape[-1] != 3 or arr.dtype != np.uint8:
+        raise ValueError(
+            f"images must be uint8 RGB of shape (H, W, 3) or (n, H, W, 3), got {arr.dtype} "
+            f"{arr.shape}"
+        )
+    nb = np.asarray(bins, dtype=np.int64)
+    if nb.shape != (3,) or (nb < 1).any():
+        raise ValueError(f"bins must be three positive ints (hue, saturation, value), got {bins}")
+    cols, rows = _grid(grid)
+    n, H, W, _ = arr.shape
+    if H < rows or W < cols:
+        raise ValueError(f"grid {grid} has more cells than the {W}x{H} image has pixels")
+    cell = (np.arange(H) * rows // H)[:, None] * cols + (np.arange(W) * cols // W)[None, :]
+    n_bins = int(nb.prod())
+    per_image = n_bins * cols * rows
+    # Per-pixel (cell, bin) code as a lookup: one table per channel, added up in int32.
+    tops = (180, 256, 256)  # OpenCV's 8-bit hue is 0-179
+    lut = [(np.arange(256) * k // top).astype(np.int32) for k, top in zip(nb, tops, strict=True)]
+    stride = (int(nb[1] * nb[2]), int(nb[2]), 1)
+    base = (cell * n_bins).astype(np.int32)
+    counts = np.empty((n, per_image), dtype=np.float64)
+    for i, im in enumerate(arr):  # one image at a time keeps the working set in cache
+        hsv = cv2.cvtColor(im, cv2.COLOR_RGB2HSV)
+        code = base + lut[0][hsv[..., 0]] * stride[0]
+        code += lut[1][hsv[..., 1]] * stride[1] + lut[2][hsv[..., 2]]
+        counts[i] = np.bincount(code.ravel(), minlength=per_image)
+    counts = counts.reshape(n, cols * rows, n_bins)
+    pixels = np.bincount(cell.ravel(), minlength=cols * rows)
+    return np.sqrt(counts / pixels[None, :, None]).reshape(n, per_image)
+
+
+class ColorHistogramFeatures:
+    """Images -> per-cell HSV histograms (:func:`color_histograms`), a transformer.
+
+    Stateless apart from remembering the feature count, so ``fit`` only validates; it exists
+    so that this and :class:`ImageFeatures` are interchangeable in a pipeline.
+    """
+
+    def __init__(
+        self, bins: tuple[int, int, int] = (8, 4, 4), grid: tuple[int, int] = (2, 2)
+    ) -> None:
+        self.bins = bins
+        self.grid = grid
+
+    def fit(self, images: ArrayLike, y: None = None) -> ColorHistogramFeatures:
+        """Check the parameters and images; remember the feature count."""
+        first = np.asarray(images)[:1]
+        self.n_features_in_ = color_histograms(first, self.bins, self.grid).shape[1]
+        return self
+
+    def transform(self, images: ArrayLike) -> np.ndarray:
+        """Feature vectors of shape (n, cells * prod(bins))."""
+        if not hasattr(self, "n_features_in_"):
+            raise ValueError("ColorHistogramFeatures is not fitted yet; call fit(images) first")
+        return color_histograms(images, self.bins, self.grid)
 
     def fit_transform(self, images: ArrayLike, y: None = None) -> np.ndarray:
         """``fit(images).transform(images)``."""

@@ -9,3 +9,15 @@ from scenes import build_world
 @pytest.fixture(scope="session")
 def worlds():
     return {name: build_world(name) for name in ("hallway", "lawn")}
+
+
+@pytest.fixture(scope="session")
+def default_dataset(tmp_path_factory):
+    """The default 900-frame dataset (both worlds, seed 0), collected once per session (~25 s
+    on 2 cores): the data of the paper reproductions and of the servo map."""
+    from sim.collect import CollectionSettings, collect_dataset
+    from sim.dataset import load_dataset
+
+    directory = tmp_path_factory.mktemp("default_dataset")
+    collect_dataset(directory, CollectionSettings(), progress=False)
+    return load_dataset(directory)

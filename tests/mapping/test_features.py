@@ -167,3 +167,37 @@ def test_scan_to_points_sensor_frame_and_drops_no_returns():
     assert scan_to_points(ranges, angles, max_range=3.0).shape == (2, 2)
     with pytest.raises(ValueError, match="same length"):
         scan_to_points(ranges, angles[:3])
+
+
+def test_color_histograms_match_opencv_calchist_per_cell(images):
+
+    from mapping.features import color_histograms
+
+    feats = color_histograms(images, bins=(8, 4, 4), grid=(2, 1))
+    assert feats.shape == (len(images), 2 * 128)
+    for k, im in enumerate(images):
+        hsv = cv2.cvtColor(im, cv2.COLOR_RGB2HSV)
+        half = im.shape[1] // 2
+        for c, part in enumerate((hsv[:, :half], hsv[:, half:])):
+            h = cv2.calcHist([part], [0, 1, 2], None, [8, 4, 4], [0, 180, 0, 256, 0, 256])
+            expected = np.sqrt(h.ravel() / h.sum())
+            np.testing.assert_allclose(feats[k, c * 128 : (c + 1) * 128], expected, atol=1e-6)
+    # every cell's part has unit norm
+    np.testing.assert_allclose(np.linalg.norm(feats.reshape(len(images), 2, -1), axis=2), 1.0)
+
+
+def test_color_histogram_features_interface_and_bad_input(images):
+    from mapping import ColorHistogramFeatures
+
+    model = ColorHistogramFeatures(bins=(4, 2, 2), grid=(1, 1))
+    with pytest.raises(ValueError, match="not fitted"):
+        model.transform(images)
+    X = model.fit_transform(images)
+    assert X.shape == (len(images), 16) and model.n_features_in_ == 16
+    np.testing.assert_array_equal(model.transform(images[0]), X[:1])
+    with pytest.raises(ValueError, match="uint8 RGB"):
+        ColorHistogramFeatures().fit(images.astype(np.float32))
+    with pytest.raises(ValueError, match="bins"):
+        ColorHistogramFeatures(bins=(0, 2, 2)).fit(images)
+    with pytest.raises(ValueError, match="grid"):
+        ColorHistogramFeatures(grid=(2,)).fit(images)
