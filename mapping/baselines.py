@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import eigh
 
+from mapping._validation import NotFittedError, check_array, check_fitted_input
 from mapping.metrics import clustering_error
 
 __all__ = [
@@ -35,27 +36,6 @@ __all__ = [
 
 # Degrees and norms below this are treated as zero (a point with no neighbours at this sigma).
 _TINY = 1e-300
-
-
-class NotFittedError(ValueError, AttributeError):
-    """Raised when ``predict`` is called before ``fit`` (same bases as scikit-learn's)."""
-
-
-def _check_data(X: ArrayLike, name: str = "X", min_samples: int = 2) -> np.ndarray:
-    """Return X as a C-contiguous float64 (n, d) array, rejecting NaN, inf and tiny inputs."""
-    X = np.asarray(X)
-    if X.dtype.kind not in "biuf":
-        raise ValueError(f"{name} must be numeric, got dtype {X.dtype}")
-    X = np.ascontiguousarray(X, dtype=np.float64)
-    if X.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D array (n_samples, n_features), got shape {X.shape}")
-    if X.shape[0] < min_samples:
-        raise ValueError(f"{name} needs at least {min_samples} samples, got {X.shape[0]}")
-    if X.shape[1] == 0:
-        raise ValueError(f"{name} has no features")
-    if not np.isfinite(X).all():
-        raise ValueError(f"{name} contains NaN or inf")
-    return X
 
 
 def _check_int(value: object, name: str, low: int) -> int:
@@ -147,7 +127,7 @@ class _SpectralBase:
 
     def fit(self, X: ArrayLike, y: None = None) -> _SpectralBase:
         """Cluster the rows of X; sets ``labels_`` and the state ``predict`` needs."""
-        X = _check_data(X)
+        X = check_array(X)
         self._validate_params(X.shape[0])
         return self._fit_sqdist(X, squared_distances(X))
 
@@ -206,7 +186,7 @@ class _SpectralBase:
         training point this is its own embedding row except that ``W(x_j, x_j)``, left out of
         the training affinity, now counts; the difference vanishes as the degrees grow.
         """
-        return self._nystrom(self._check_predict_input(X))[0]
+        return self._nystrom(check_fitted_input(self, X))[0]
 
     def predict(self, X: ArrayLike) -> np.ndarray:
         """Assign new points to the nearest k-means centre of their Nystrom embedding.
@@ -214,7 +194,7 @@ class _SpectralBase:
         A point whose affinity to every training point underflows to 0 (far from all data at
         this scale) has no Nystrom embedding; it takes the label of its nearest training point.
         """
-        E, d_new, D2 = self._nystrom(self._check_predict_input(X))
+        E, d_new, D2 = self._nystrom(check_fitted_input(self, X))
         centres = self.cluster_centers_
         dist = (
             np.einsum("ij,ij->i", E, E)[:, None]
@@ -226,19 +206,6 @@ class _SpectralBase:
         if isolated.any():
             labels[isolated] = self.labels_[D2[isolated].argmin(axis=1)]
         return labels
-
-    def _check_predict_input(self, X: ArrayLike) -> np.ndarray:
-        if not hasattr(self, "labels_"):
-            raise NotFittedError(
-                f"this {type(self).__name__} is not fitted yet; call fit(X) before predict"
-            )
-        X = _check_data(X, min_samples=1)
-        if X.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"X has {X.shape[1]} features but {type(self).__name__} was fitted with "
-                f"{self.n_features_in_}"
-            )
-        return X
 
 
 class NormalizedCutClustering(_SpectralBase):
@@ -415,7 +382,7 @@ def best_sigma_ncut(
         ``sigma``, ``error`` and fitted ``model`` of the best sigma, plus all ``sigmas`` and
         ``errors`` of the sweep.
     """
-    X = _check_data(X)
+    X = check_array(X)
     y = np.asarray(y)
     if y.shape != (X.shape[0],):
         raise ValueError(f"y must have shape ({X.shape[0]},) to match X, got {y.shape}")

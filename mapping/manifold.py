@@ -28,7 +28,8 @@ from mapping._manifold_tree import (
     ensure_leaves,
     separability_merge,
 )
-from mapping.baselines import NotFittedError, squared_distances
+from mapping._validation import NotFittedError, check_array, check_fitted_input
+from mapping.baselines import squared_distances
 
 __all__ = ["ManifoldClustering", "NotFittedError"]
 
@@ -63,24 +64,6 @@ def _check_choice(value: object, name: str, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise ValueError(f"{name} must be one of {choices}, got {value!r}")
     return str(value)
-
-
-def _check_array(X: ArrayLike, min_samples: int) -> np.ndarray:
-    """X as a finite 2-D float array (float32 kept, anything else float64)."""
-    X = np.asarray(X)
-    if X.dtype.kind not in "biuf":
-        raise ValueError(f"X must be numeric, got dtype {X.dtype}")
-    if X.dtype != np.float32:
-        X = X.astype(np.float64, copy=False)
-    if X.ndim != 2:
-        raise ValueError(f"X must be a 2-D array (n_samples, n_features), got shape {X.shape}")
-    if X.shape[0] < min_samples:
-        raise ValueError(f"X needs at least {min_samples} samples, got {X.shape[0]}")
-    if X.shape[1] == 0:
-        raise ValueError("X has no features (shape[1] == 0)")
-    if not np.isfinite(X).all():
-        raise ValueError("X contains NaN or infinity")
-    return X
 
 
 class ManifoldClustering:
@@ -238,7 +221,7 @@ class ManifoldClustering:
         ManifoldClustering
             self, fitted.
         """
-        X = _check_array(X, min_samples=2)
+        X = check_array(X, min_samples=2, keep_float32=True)
         space = self._validate_params(X.shape[0])
         # Squared distances once, in float64 after centring (a float32 Gram matrix loses
         # near-duplicate images entirely); every node and every sigma reuses blocks of it.
@@ -316,19 +299,6 @@ class ManifoldClustering:
         return self.fit(X).labels_
 
     # ------------------------------------------------------------------ predict
-    def _check_fitted_input(self, X: ArrayLike) -> np.ndarray:
-        if not hasattr(self, "labels_"):
-            raise NotFittedError(
-                f"this {type(self).__name__} is not fitted yet; call fit(X) before using it"
-            )
-        X = _check_array(X, min_samples=1)
-        if X.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"X has {X.shape[1]} features, but {type(self).__name__} was fitted with "
-                f"{self.n_features_in_} features (n_features_in_)"
-            )
-        return X
-
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
         scores = np.empty((X.shape[0], len(self._models)))
@@ -355,7 +325,7 @@ class ManifoldClustering:
         -------
         ndarray of shape (k,)
         """
-        scores, nearest = self._scores(self._check_fitted_input(X))
+        scores, nearest = self._scores(check_fitted_input(self, X, keep_float32=True))
         labels = np.argmax(scores, axis=1)
         lost = ~(scores.max(axis=1) > 0)
         labels[lost] = np.argmin(nearest[lost], axis=1)
@@ -376,7 +346,7 @@ class ManifoldClustering:
         -------
         ndarray of shape (k, K)
         """
-        scores, nearest = self._scores(self._check_fitted_input(X))
+        scores, nearest = self._scores(check_fitted_input(self, X, keep_float32=True))
         total = scores.sum(axis=1, keepdims=True)
         proba = np.zeros_like(scores)
         found = total[:, 0] > 0
@@ -405,7 +375,7 @@ class ManifoldClustering:
             closer to the target along the manifold, 0 when x is unreachable at sigma_j.
         """
         X = np.asarray(X)
-        X = self._check_fitted_input(X[None, :] if X.ndim == 1 else X)
+        X = check_fitted_input(self, X[None, :] if X.ndim == 1 else X, keep_float32=True)
         n_models = len(self._models)
         if (
             isinstance(cluster, bool)

@@ -179,7 +179,7 @@ def test_predict_before_fit_and_wrong_dimension(lines):
         model.predict(X)
     assert issubclass(NotFittedError, ValueError)
     model.fit(X)
-    with pytest.raises(ValueError, match="X has 3 features but SelfTuningSpectralClustering"):
+    with pytest.raises(ValueError, match="X has 3 features, but SelfTuningSpectralClustering"):
         model.predict(np.zeros((2, 3)))
     with pytest.raises(ValueError, match="y must have shape"):
         best_sigma_ncut(X, y[:-1], 3)
