@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mapping._manifold_kernel import _TINY, affinity
+from mapping._validation import single_threaded_blas
 
 # Rows per batched solve: bounds the (rows, m, m) work array to ~32 MB.
 _BATCH_ELEMENTS = 4_000_000
@@ -125,9 +126,10 @@ class ClusterModel:
         rows = np.flatnonzero(total > _TINY)
         m = self.degrees.shape[0]
         step = max(1, _BATCH_ELEMENTS // (m * m))
-        for start in range(0, rows.shape[0], step):
-            r = rows[start : start + step]
-            out[r] = self._signal_rows(w[r], total[r], target)
+        with single_threaded_blas():
+            for start in range(0, rows.shape[0], step):
+                r = rows[start : start + step]
+                out[r] = self._signal_rows(w[r], total[r], target)
         return out
 
     def _signal_rows(self, w: np.ndarray, total: np.ndarray, target: int) -> np.ndarray:

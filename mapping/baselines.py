@@ -21,7 +21,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import eigh
 
-from mapping._validation import NotFittedError, check_array, check_fitted_input
+from mapping._validation import (
+    NotFittedError,
+    check_array,
+    check_fitted_input,
+    single_threaded_blas,
+)
 from mapping.metrics import clustering_error
 
 __all__ = [
@@ -142,7 +147,8 @@ class _SpectralBase:
         inv_sqrt = 1.0 / np.sqrt(np.maximum(deg, _TINY))
         S = inv_sqrt[:, None] * W * inv_sqrt[None, :]
         n, k = S.shape[0], self.n_clusters
-        evals, evecs = eigh(S, subset_by_index=[n - k, n - 1])
+        with single_threaded_blas():  # a few hundred rows: threads only contend (see there)
+            evals, evecs = eigh(S, subset_by_index=[n - k, n - 1])
         # eigh returns ascending order; the embedding uses the largest first.
         evals, evecs = evals[::-1], evecs[:, ::-1]
         # Sign convention (largest-magnitude entry positive) makes the embedding reproducible.

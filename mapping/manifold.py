@@ -11,8 +11,6 @@ paper is ambiguous, and the evidence for them, are in ``docs/manifold-clustering
 
 from __future__ import annotations
 
-from contextlib import nullcontext
-
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -28,29 +26,17 @@ from mapping._manifold_tree import (
     ensure_leaves,
     separability_merge,
 )
-from mapping._validation import NotFittedError, check_array, check_fitted_input
+from mapping._validation import (
+    NotFittedError,
+    check_array,
+    check_fitted_input,
+    single_threaded_blas,
+)
 from mapping.baselines import squared_distances
 
 __all__ = ["ManifoldClustering", "NotFittedError"]
 
-try:  # optional: threadpoolctl ships with scikit-learn
-    from threadpoolctl import threadpool_limits
-except ImportError:  # pragma: no cover - then BLAS keeps its own thread count
-    threadpool_limits = None
-
 _NORMALIZATIONS = ("column", "none")
-
-
-def _single_threaded_blas():
-    """Context running BLAS on one thread, when threadpoolctl is available.
-
-    The search does hundreds of eigendecompositions of matrices of a few hundred rows; OpenBLAS
-    gains little from threads at that size and, on a busy 2-core machine, its spinning threads
-    made a 600-point fit 6x slower (3 s -> 20 s). The big Gram product keeps all threads.
-    """
-    return threadpool_limits(1, user_api="blas") if threadpool_limits else nullcontext()
-
-
 _DTYPES = ("float32", "float64")
 
 
@@ -230,7 +216,7 @@ class ManifoldClustering:
             raise ValueError("X: all samples are identical; there is nothing to cluster")
         K, Q = int(self.n_clusters), int(self.min_cluster_size)
 
-        with _single_threaded_blas():
+        with single_threaded_blas():
             self._fit_from_distances(X, D2, K, Q, space)
         return self
 
