@@ -1,11 +1,11 @@
-"""The ``topomap`` command line: ``collect``, ``preview``, ``worlds`` and ``run``."""
+"""The ``topomap`` command line: ``collect``, ``preview``, ``worlds``, ``run``, ``reproduce``,
+``group-eval`` and ``servo-eval``."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 import time
-from pathlib import Path
 
 DEFAULT_OUT = "out"
 
@@ -68,26 +68,55 @@ def cmd_worlds(args) -> int:
     return 0
 
 
+def _policies(text: str) -> tuple[str, ...]:
+    from servo.evaluate import POLICIES
+
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    bad = [n for n in names if n not in POLICIES]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown policies {bad}; choose from {POLICIES}")
+    return names
+
+
 def cmd_run(args) -> int:
     """The main job, end to end on the default worlds: collect the default dataset (reused when
-    present) and write previews."""
-    from scripts.preview import write_previews
-    from sim.collect import CollectionSettings, collect_dataset
-    from sim.dataset import load_dataset
+    present), evaluate both mapping methods and the servo, and write ``<out>/report/``."""
+    from scripts.report import RunSettings, StageError, run_pipeline
 
-    out = Path(args.out)
-    data_dir = out / "dataset"
+    settings = RunSettings(
+        seed=args.seed,
+        episodes=args.episodes,
+        policies=("servo", *(p for p in args.baselines if p != "servo")),
+        videos=args.videos,
+        grouping_loop=args.grouping_loop,
+        jobs=args.jobs,
+    )
+    rest = [
+        f"--seed {args.seed}",
+        f"--episodes {args.episodes}",
+        f"--baselines {','.join(settings.policies[1:])}",
+        f"--videos {args.videos}",
+    ]
+    rest += ["--grouping-loop"] * args.grouping_loop
     start = time.perf_counter()
     try:
-        collect_dataset(data_dir, CollectionSettings(seed=args.seed), jobs=args.jobs)
-    except FileExistsError as err:
+        index = run_pipeline(
+            args.out, settings, progress=not args.quiet, command=" ".join(["topomap run", *rest])
+        )
+    except StageError as err:
+        if isinstance(err.__cause__, FileExistsError):  # the dataset of another seed
+            print(
+                f"topomap run: {err.__cause__}\n(topomap run reuses <out>/dataset; for another "
+                "seed or settings, remove it or give another --out)",
+                file=sys.stderr,
+            )
+            return 2
+        import traceback
+
+        traceback.print_exception(err.__cause__ or err)
         print(f"topomap run: {err}", file=sys.stderr)
-        return 2
-    written = write_previews(load_dataset(data_dir), out / "preview")
-    print(
-        f"dataset: {data_dir}\npreviews: {len(written)} images in {out / 'preview'}\n"
-        f"done in {time.perf_counter() - start:.1f} s"
-    )
+        return 1
+    print(f"report: {index}\ndone in {time.perf_counter() - start:.1f} s")
     return 0
 
 
@@ -95,6 +124,51 @@ def cmd_group_eval(args) -> int:
     from scripts.eval_grouping import run
 
     return run(args)
+
+
+def cmd_reproduce(args) -> int:
+    from scripts.reproduce_manifold import run
+
+    return run(args)
+
+
+def cmd_servo_eval(args) -> int:
+    """Closed-loop servo evaluation (``servo.evaluate``) in one world or both."""
+    import json
+
+    from servo.evaluate import evaluate
+    from servo.map_store import load_or_build
+
+    results = []
+    for world in _worlds(args.world):
+        servo_map = load_or_build(world, dataset=args.data, cache=args.maps)
+        r = evaluate(
+            world,
+            args.episodes,
+            args.seed,
+            policy=args.policy,
+            randomize=args.randomize,
+            odometry_noise=not args.no_odometry_noise,
+            servo_map=servo_map,
+            out=args.out,
+            videos=args.videos if args.out else 0,
+            progress=not args.json,
+        )
+        results.append(r)
+    if args.json:
+        print(json.dumps(results if len(results) > 1 else results[0], indent=2))
+        return 0
+    for r in results:
+        print(
+            f"{r['world']:8s} {r['policy']:7s} episodes {r['episodes']:3d}  success "
+            f"{r['success_rate']:.2f}  SPL {r['spl']:.2f}  final distance "
+            f"{r['final_distance']:.2f} m  heading {r['final_heading_error_deg']:.1f} deg  "
+            f"act {r['act_ms']:.2f} ms"
+        )
+        for pair, s in r["per_pair"].items():
+            print(f"    {pair:36s} n={s['episodes']:3d}  success {s['success_rate']:.2f}  "
+                  f"SPL {s['spl']:.2f}")  # fmt: skip
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -133,13 +207,47 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="the main job end to end on the default worlds")
     r.add_argument("--out", default=DEFAULT_OUT)
     r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--jobs", type=_positive_int, default=None)
+    r.add_argument("--jobs", type=_positive_int, default=None, help="collection processes")
+    r.add_argument(
+        "--episodes", type=_positive_int, default=4, help="servo episodes per world and policy"
+    )
+    r.add_argument(
+        "--baselines",
+        type=_policies,
+        default=("oracle", "random"),
+        help="comma-separated servo baselines beside the servo policy: oracle, random, greedy "
+        "(greedy probing is slow: about 10x a servo episode)",
+    )
+    r.add_argument("--videos", type=int, default=1, help="servo episode videos per world")
+    r.add_argument("--grouping-loop", action="store_true", help="also group a loop per world")
+    r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.set_defaults(func=cmd_run)
+
+    from scripts.reproduce_manifold import build_parser as reproduce_parser
+
+    m = sub.add_parser("reproduce", help="reproduce the manifold-clustering paper's experiments")
+    reproduce_parser(m).set_defaults(func=cmd_reproduce)
 
     from scripts.eval_grouping import build_parser as group_eval_parser
 
     g = sub.add_parser("group-eval", help="evaluate the laser observation grouping (Blanco et al.)")
     group_eval_parser(g).set_defaults(func=cmd_group_eval)
+
+    from servo.evaluate import POLICIES
+
+    e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
+    e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
+    e.add_argument("--episodes", type=_positive_int, default=20)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--policy", choices=POLICIES, default="servo")
+    e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")
+    e.add_argument("--no-odometry-noise", action="store_true", help="perfect wheel odometry")
+    e.add_argument("--data", default=f"{DEFAULT_OUT}/dataset", help="dataset the map is built from")
+    e.add_argument("--maps", default=f"{DEFAULT_OUT}/servo-maps", help="servo map cache")
+    e.add_argument("--out", default=None, help="write trajectory plots and videos here")
+    e.add_argument("--videos", type=int, default=1, help="episode videos per world (with --out)")
+    e.add_argument("--json", action="store_true", help="print the results as JSON")
+    e.set_defaults(func=cmd_servo_eval)
     return p
 
 

@@ -1,0 +1,34 @@
+"""Closed-loop servoing between manifolds (the paper's Section II-G, run in simulation).
+
+``servo.ServoEnv`` is the task (registered as ``topomap/HallwayServo-v0`` and
+``topomap/LawnServo-v0`` on import), ``servo.ManifoldServo`` the controller, ``servo.baselines``
+its comparisons and ``servo.evaluate`` the closed-loop evaluation. Heavy modules load lazily.
+"""
+
+from importlib import import_module
+
+import sim  # noqa: F401  (headless GL backend before mujoco; base envs registered)
+from servo.registration import register_envs
+
+_EXPORTS = {
+    "MapError": "servo.map_store",
+    "MapSettings": "servo.map_store",
+    "ServoMap": "servo.map_store",
+    "build_map": "servo.map_store",
+    "load_or_build": "servo.map_store",
+    "ServoEnv": "servo.env",
+    "ManifoldServo": "servo.controller",
+    "evaluate": "servo.evaluate",
+}
+
+__all__ = sorted(_EXPORTS)
+
+register_envs()
+
+
+def __getattr__(name):
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'servo' has no attribute {name!r}") from None
+    return getattr(import_module(module), name)

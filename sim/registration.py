@@ -7,12 +7,21 @@ import gymnasium as gym
 MAX_EPISODE_STEPS = 1000
 
 
-def register_envs() -> None:
-    for env_id, world in (("topomap/Hallway-v0", "hallway"), ("topomap/Lawn-v0", "lawn")):
+def register_per_world(env_ids: dict[str, str], entry_point: str, max_episode_steps: int) -> None:
+    """Register one env id per world (``{id: world}``), each once; shared by ``servo``."""
+    for env_id, world in env_ids.items():
         if env_id not in gym.registry:
             gym.register(
                 id=env_id,
-                entry_point="sim.env:NavigationEnv",
+                entry_point=entry_point,
                 kwargs={"world": world},
-                max_episode_steps=MAX_EPISODE_STEPS,
+                max_episode_steps=max_episode_steps,
             )
+
+
+def register_envs() -> None:
+    register_per_world(
+        {"topomap/Hallway-v0": "hallway", "topomap/Lawn-v0": "lawn"},
+        "sim.env:NavigationEnv",
+        MAX_EPISODE_STEPS,
+    )

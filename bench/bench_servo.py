@@ -1,0 +1,73 @@
+"""Speed of the servo controller: one ``ManifoldServo.act`` (localise + decide) per env step,
+the one-off global localisation at the start of an episode, the env step itself, and the map
+build.
+
+Run: ``.venv/bin/python bench/bench_servo.py [--episodes N]``. Prints the machine's core count
+and a table; the target (issue 5) is a controller step within 10 ms on a 2-core CPU machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+import servo  # noqa: F401  (headless GL before mujoco)
+from servo.controller import ManifoldServo
+from servo.env import ServoEnv
+from servo.map_store import DEFAULT_DATASET, build_map, load_or_build
+
+
+def bench_world(world: str, episodes: int) -> dict:
+    start = time.perf_counter()
+    build_map(DEFAULT_DATASET, world)  # timed; the cached copy below is what the env uses
+    build_s = time.perf_counter() - start
+    m = load_or_build(world)
+    env = ServoEnv(world, m)
+    ctl = ManifoldServo(m, world=world)
+    first, steps, env_steps = [], [], []
+    try:
+        for ep in range(episodes):
+            obs, info = env.reset(seed=ep)
+            ctl.reset(info["target_view"])
+            for t in range(env.max_steps):
+                t0 = time.perf_counter()
+                action = ctl.act(obs)
+                (first if t == 0 else steps).append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                obs, _, term, trunc, _ = env.step(action)
+                env_steps.append(time.perf_counter() - t0)
+                if term or trunc:
+                    break
+    finally:
+        env.close()
+    ms = 1e3 * np.asarray(steps)
+    return {
+        "world": world,
+        "steps": len(steps),
+        "act median (ms)": np.median(ms),
+        "act p95 (ms)": np.percentile(ms, 95),
+        "act max (ms)": ms.max(),
+        "global localisation (ms)": 1e3 * np.median(first),
+        "env step (ms)": 1e3 * np.median(env_steps),
+        "map build (s)": build_s,
+    }
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__)
+    p.add_argument("--episodes", type=int, default=5)
+    args = p.parse_args()
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores")
+    rows = [bench_world(w, args.episodes) for w in ("hallway", "lawn")]
+    keys = list(rows[0])
+    print(" | ".join(keys))
+    for r in rows:
+        print(" | ".join(f"{r[k]:.2f}" if isinstance(r[k], float) else str(r[k]) for k in keys))
+
+
+if __name__ == "__main__":
+    main()

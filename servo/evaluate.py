@@ -1,0 +1,201 @@
+"""Closed-loop evaluation: success rate, SPL, final errors, steps and collisions per manifold
+pair, with trajectory plots over the top-down map and videos of chosen episodes.
+
+SPL (Anderson et al. 2018, "On evaluation of embodied navigation agents"):
+``mean_i S_i l_i / max(p_i, l_i)`` with l_i the shortest free-space path length from the start
+to the target (:class:`~servo.geodesic.GeodesicField`) and p_i the length actually driven.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from servo.baselines import GreedyFProbing, OraclePolicy, RandomPolicy
+from servo.controller import ManifoldServo
+from servo.env import ServoEnv
+from servo.geodesic import GeodesicField
+from servo.map_store import ServoMap, load_or_build
+
+POLICIES = ("servo", "oracle", "greedy", "random")
+
+
+def make_policy(name: str, env: ServoEnv, rng: np.random.Generator):
+    if name == "servo":
+        return ManifoldServo(env.map, world=env.map.world)
+    if name == "oracle":
+        return OraclePolicy(env.base.world)
+    if name == "greedy":
+        return GreedyFProbing(env.map)
+    if name == "random":
+        return RandomPolicy(rng)
+    raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
+
+
+def run_episode(env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None):
+    """One episode; returns its record (and appends video frames to ``frames`` if given)."""
+    obs, info = env.reset(seed=seed, options=options)
+    start = info["pose"].copy()
+    shortest = GeodesicField(env.base.world, info["target_pose"]).distance(start[:2])
+    policy.reset(info["target_view"], info)
+    trail, collisions, act_time = [start], 0, []
+    while True:
+        t0 = time.perf_counter()
+        action = policy.act(obs, info)
+        act_time.append(time.perf_counter() - t0)
+        obs, _, terminated, truncated, info = env.step(action)
+        trail.append(info["pose"].copy())
+        collisions += int(info["collision"])
+        if frames is not None:
+            frames.append(np.concatenate([obs["image"], _fit(env.render(), obs["image"])], axis=1))
+        if terminated or truncated:
+            break
+    p = info["path_length"]
+    success = bool(info["success"])
+    return {
+        "seed": int(seed),
+        "start_manifold": info["start_manifold"],
+        "target_manifold": info["target_manifold"],
+        "target_view": int(info["target_view"]),
+        "success": success,
+        "reason": info["reason"],
+        "spl": float(success * shortest / max(p, shortest, 1e-9)),
+        "shortest_path": float(shortest),
+        "path_length": float(p),
+        "final_distance": float(info["distance"]),
+        "final_heading_error_deg": float(np.rad2deg(info["heading_error"])),
+        "steps": len(trail) - 1,
+        "collisions": collisions,
+        "act_ms": float(1e3 * np.mean(act_time)),
+        "trail": np.asarray(trail),
+        "target_pose": np.asarray(info["target_pose"]),
+    }
+
+
+def _fit(top: np.ndarray, image: np.ndarray) -> np.ndarray:
+    h = image.shape[0]
+    w = round(top.shape[1] * h / top.shape[0])
+    return cv2.resize(top, (w, h), interpolation=cv2.INTER_AREA)
+
+
+def summarise(records: list[dict]) -> dict:
+    """Aggregate episode records: overall and per (start manifold, target manifold)."""
+
+    def agg(rs):
+        ok = [r for r in rs if r["success"]]
+        return {
+            "episodes": len(rs),
+            "success_rate": float(np.mean([r["success"] for r in rs])),
+            "spl": float(np.mean([r["spl"] for r in rs])),
+            "final_distance": float(np.median([r["final_distance"] for r in rs])),
+            "final_heading_error_deg": float(np.median([r["final_heading_error_deg"] for r in rs])),
+            "steps": float(np.mean([r["steps"] for r in ok])) if ok else None,
+            "collisions": float(np.mean([r["collisions"] for r in rs])),
+        }
+
+    pairs = defaultdict(list)
+    for r in records:
+        pairs[f"{r['start_manifold']} -> {r['target_manifold']}"].append(r)
+    out = agg(records)
+    out["act_ms"] = float(np.mean([r["act_ms"] for r in records]))
+    out["reasons"] = dict(sorted(
+        {k: sum(r["reason"] == k for r in records) for k in {r["reason"] for r in records}}.items()
+    ))  # fmt: skip
+    out["per_pair"] = {k: agg(v) for k, v in sorted(pairs.items())}
+    out["episodes_detail"] = [
+        {k: v for k, v in r.items() if k not in ("trail", "target_pose")} for r in records
+    ]
+    return out
+
+
+def plot_trajectories(env: ServoEnv, records: list[dict], path: Path, limit: int = 24) -> Path:
+    """Trails over the top-down map: green succeeded, red failed; targets as outlines."""
+    from sim.topdown import TopDownView
+
+    view = TopDownView(env.base.world, max_size=720)
+    img = view.draw()
+    for r in records[:limit]:
+        colour = (30, 150, 40) if r["success"] else (210, 30, 30)
+        pts = np.round(view.to_pixels(r["trail"][:, :2])).astype(np.int32)
+        cv2.polylines(img, [pts], False, colour, 2, cv2.LINE_AA)
+        cv2.circle(img, tuple(int(v) for v in pts[0]), 4, (0, 0, 0), -1)
+        view._robot(img, r["target_pose"], colour, outline_only=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(path), cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+    return path
+
+
+def write_video(frames: list[np.ndarray], path: Path, fps: int = 10) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    h, w = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
+    try:
+        for f in frames:
+            writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    finally:
+        writer.release()
+    return path
+
+
+def evaluate(
+    world: str,
+    episodes: int,
+    seed: int,
+    policy: str = "servo",
+    *,
+    randomize: bool = False,
+    odometry_noise: bool = True,
+    cross_manifold: bool = True,
+    max_steps: int = 600,
+    servo_map: ServoMap | None = None,
+    out: str | Path | None = None,
+    videos: int = 0,
+    progress: bool = True,
+) -> dict:
+    """Run ``episodes`` servo episodes in ``world`` and summarise them (see :func:`summarise`).
+
+    Episode ``i`` is seeded with the ``i``-th child of ``SeedSequence(seed)``, so a run is
+    reproducible and a longer run extends a shorter one. With ``out``, writes
+    ``<world>-<policy>-trajectories.png`` and ``videos`` mp4s of the first episodes.
+    """
+    from tqdm.auto import tqdm
+
+    if int(episodes) != episodes or episodes < 1:
+        raise ValueError(f"episodes must be an integer >= 1, got {episodes}")
+    if policy not in POLICIES:
+        raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
+    servo_map = servo_map or load_or_build(world)
+    env = ServoEnv(
+        world,
+        servo_map,
+        max_steps=max_steps,
+        cross_manifold=cross_manifold,
+        randomize=randomize,
+        odometry_noise=odometry_noise,
+        render_mode="rgb_array" if videos else None,
+    )
+    seeds = [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
+    pol = make_policy(policy, env, np.random.default_rng(seed))
+    records = []
+    try:
+        for i, s in enumerate(
+            tqdm(seeds, desc=f"servo-eval {world}/{policy}", disable=not progress)
+        ):
+            frames = [] if out is not None and i < videos else None
+            records.append(run_episode(env, pol, s, frames=frames))
+            if frames:
+                write_video(frames, Path(out) / f"{world}-{policy}-episode{i}.mp4")
+        result = summarise(records)
+        if out is not None:
+            result["plot"] = str(
+                plot_trajectories(env, records, Path(out) / f"{world}-{policy}-trajectories.png")
+            )
+    finally:
+        env.close()
+    result.update(world=world, policy=policy, seed=seed, randomize=randomize,
+                  odometry_noise=odometry_noise)  # fmt: skip
+    return result

@@ -1,0 +1,92 @@
+"""Shortest paths through free space: the oracle's route and the SPL's shortest length.
+
+A geodesic distance field from the goal over the occupancy grid (8-connected, obstacles grown
+by the robot's radius plus a margin), computed once per goal with Dijkstra.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse.csgraph import dijkstra
+
+from scenes import World
+from scenes.robot import RADIUS
+
+RESOLUTION = 0.1  # m per cell
+MARGIN = 0.25  # m beyond the robot's radius: pure pursuit cuts corners
+
+
+_GRAPHS: dict = {}
+
+
+def _grid_graph(world: World, resolution: float):
+    """The free cells' 8-connected graph, built once per world (it does not depend on goals)."""
+    key = (id(world), resolution)
+    if key not in _GRAPHS:
+        _GRAPHS[key] = _build_graph(world.free_space(resolution, inflation=RADIUS + MARGIN))
+    return _GRAPHS[key]
+
+
+def _build_graph(grid):
+    free = grid.free
+    h, w = free.shape
+    ids = np.arange(h * w).reshape(h, w)
+    rows, cols, wts = [], [], []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = free[max(0, -di) : h - max(0, di), max(0, -dj) : w - max(0, dj)]
+        b = free[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w]
+        ok = a & b
+        ia = ids[max(0, -di) : h - max(0, di), max(0, -dj) : w - max(0, dj)][ok]
+        ib = ids[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w][ok]
+        rows += [ia, ib]
+        cols += [ib, ia]
+        wt = np.full(len(ia), grid.resolution * np.hypot(di, dj))
+        wts += [wt, wt]
+    graph = sparse.csr_matrix(
+        (np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(h * w,) * 2
+    )
+    return grid, graph
+
+
+class GeodesicField:
+    """Distance (m) from every free cell to ``goal`` (x, y) through free space."""
+
+    def __init__(self, world: World, goal, resolution: float = RESOLUTION):
+        self.grid, graph = _grid_graph(world, float(resolution))
+        h, w = self.grid.free.shape
+        self.goal = np.asarray(goal, np.float64)[:2]
+        g = self._nearest_free(self.goal)
+        self.distance_grid = dijkstra(graph, indices=g[0] * w + g[1]).reshape(h, w)
+
+    def _nearest_free(self, xy) -> tuple[int, int]:
+        i, j = self.grid.cell_of(np.asarray(xy))
+        free = np.argwhere(self.grid.free)
+        k = np.argmin((free[:, 0] - i) ** 2 + (free[:, 1] - j) ** 2)
+        return int(free[k, 0]), int(free[k, 1])
+
+    def distance(self, xy) -> float:
+        """Geodesic distance from ``xy`` to the goal (inf when unreachable)."""
+        i, j = self._nearest_free(xy)
+        d_cell = np.hypot(*(self.grid.cell_centers()[i, j] - np.asarray(xy)[:2]))
+        return float(self.distance_grid[i, j] + d_cell)
+
+    def path(self, xy, max_points: int = 2000) -> np.ndarray:
+        """Cell centres from ``xy`` down the distance field (at most ``max_points`` steps),
+        ending with the goal itself when it is reached; (k, 2)."""
+        i, j = self._nearest_free(xy)
+        h, w = self.distance_grid.shape
+        centers = self.grid.cell_centers()
+        out = [centers[i, j]]
+        for _ in range(max_points):
+            ii, jj = np.meshgrid(np.arange(i - 1, i + 2), np.arange(j - 1, j + 2), indexing="ij")
+            ok = (ii >= 0) & (ii < h) & (jj >= 0) & (jj < w)
+            d = np.full(ii.shape, np.inf)
+            d[ok] = self.distance_grid[ii[ok], jj[ok]]
+            k = np.unravel_index(np.argmin(d), d.shape)
+            if d[k] >= self.distance_grid[i, j]:
+                out.append(self.goal)
+                break
+            i, j = int(ii[k]), int(jj[k])
+            out.append(centers[i, j])
+        return np.asarray(out)

@@ -1,0 +1,60 @@
+"""The shared low-level control laws: pure pursuit toward a point and arrival at a pose.
+
+Both take the goal *in the robot frame* (x ahead, y left), so the controller (which knows it
+from scan matching) and the oracle (which knows it from the true pose) drive the same way and
+differ only in what they know.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sim.simulator import OMEGA_LIMIT, V_LIMITS
+
+TURN_IN_PLACE = 0.8  # rad: a bearing beyond this is turned on the spot before driving
+ARRIVE_RADIUS = 0.2  # m: position tolerance before the final turn (success needs 0.5 m)
+ARRIVE_HEADING = 0.12  # rad: heading tolerance at the end (success needs 20 deg = 0.35 rad)
+RESUME_RADIUS = 0.35  # m: hysteresis: a turning robot drives again only beyond this
+
+
+def pursue(point: np.ndarray, speed: float) -> np.ndarray:
+    """(v, omega) of pure pursuit toward ``point`` (robot frame): curvature 2 y / d^2."""
+    x, y = float(point[0]), float(point[1])
+    bearing = np.arctan2(y, x)
+    if abs(bearing) > TURN_IN_PLACE:
+        return np.array([0.0, np.sign(bearing) * OMEGA_LIMIT * 0.8])
+    d2 = max(x * x + y * y, 1e-6)
+    curvature = 2.0 * y / d2
+    v = speed * max(0.3, np.cos(bearing))
+    if abs(curvature) * v > OMEGA_LIMIT:  # slow down rather than under-steer
+        v = OMEGA_LIMIT / abs(curvature)
+    return np.array([v, np.clip(curvature * v, -OMEGA_LIMIT, OMEGA_LIMIT)])
+
+
+class Arrival:
+    """Drive to a pose, then turn to its heading; ``done`` once within tolerance.
+
+    A two-stage law with hysteresis: position first (slowing with distance), then the heading
+    on the spot, resuming the drive only if the position error grows past ``RESUME_RADIUS``.
+    """
+
+    def __init__(self) -> None:
+        self.turning = False
+        self.done = False
+
+    def __call__(self, goal: np.ndarray) -> np.ndarray:
+        """``goal``: the target pose (x, y, yaw) in the robot frame."""
+        d = float(np.hypot(goal[0], goal[1]))
+        if d > (RESUME_RADIUS if self.turning else ARRIVE_RADIUS):
+            self.turning = self.done = False
+            bearing = np.arctan2(goal[1], goal[0])
+            if d < 0.6 and abs(bearing) > np.pi / 2:  # just past it: back up, do not circle
+                return np.array([max(V_LIMITS[0], -0.8 * d), -1.5 * np.sin(bearing) * 0.5])
+            return pursue(goal[:2], min(0.8, 0.2 + 0.8 * d))
+        self.turning = True
+        e = float(goal[2])
+        if abs(e) <= ARRIVE_HEADING:
+            self.done = True
+            return np.zeros(2)
+        self.done = False
+        return np.array([0.0, np.sign(e) * np.clip(1.5 * abs(e), 0.25, 1.0)])

@@ -1,0 +1,354 @@
+"""The run report: HTML builders on small fake inputs, the pipeline with stub stages, and the
+``topomap run`` arguments."""
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from scripts import report
+from scripts.cli import build_parser
+from scripts.cli import main as cli_main
+from sim.dataset import Dataset, Sequence
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def _grouping_score(frames=10):
+    return {
+        "frames": frames,
+        "groups": 3,
+        "purity": 0.95,
+        "ari": 0.5,
+        "groups_per_manifold": {"hallway": 1, "hallway-left": 2},
+        "max_drift_m": 0.4,
+        "seconds": 0.1,
+        "meets_targets": True,
+    }
+
+
+GROUPING = {
+    "settings": {"targets": {"purity_min": 0.9, "max_groups_per_manifold": 3}},
+    "default": {"hallway": {"frames": 10, "sequences": ["a"], "odometry+icp": _grouping_score()}},
+    "loop": {},
+    "compare": {
+        "hallway": {
+            "manifold/images": {
+                "groups": 2,
+                "purity": 0.8,
+                "ari": 0.3,
+                "max_groups_per_manifold": 1,
+                "seconds": 0.2,
+            }
+        }
+    },
+    "figures": ["hallway_groups.png"],
+}
+MANIFOLD = {
+    "synthetic": [
+        {"set": "spirals_3d", "method": "ours", "error": 0.0, "paper_claim": "ours succeeds"}
+    ],
+    "real": [
+        {
+            "sensor": "images",
+            "features": "raw pixels",
+            "method": "ours",
+            "train_error": 0.01,
+            "test_error": 0.02,
+            "paper_error": 0.0289,
+        },
+        {
+            "sensor": "scans",
+            "features": "laser ranges",
+            "method": "self-tuning",
+            "train_error": 0.3,
+            "test_error": 0.4,
+            "paper_error": None,
+        },
+    ],
+    "figures": ["manifold/real_labels.png"],
+    "timings": {"synthetic": 1.0},
+}
+_PAIR = {"episodes": 2, "success_rate": 0.5, "spl": 0.4, "final_distance": 0.3, "collisions": 0.0}
+SERVO = {
+    "world": "hallway",
+    "policy": "servo",
+    **_PAIR,
+    "final_heading_error_deg": 5.0,
+    "steps": 80.0,
+    "act_ms": 3.0,
+    "reasons": {"success": 1, "timeout": 1},
+    "per_pair": {"hallway -> hallway-left": _PAIR},
+    "plot": "servo/hallway-servo-trajectories.png",
+}
+INFO = {
+    "command": "topomap run --seed 0",
+    "settings": {"seed": 0, "episodes": 2},
+    "versions": {"numpy": "2.0"},
+    "machine": {"cores (os.cpu_count)": "2"},
+    "commit": "abc123",
+    "timings": {"dataset": 1.5, "servo": 3.0},
+    "total": 4.5,
+}
+
+
+def _all_sections():
+    worlds = {
+        "topdown": {"hallway": "worlds/hallway_topdown.png"},
+        "manifolds": {"hallway": {"image": "worlds/hallway_samples.png", "frames": [["s", 3]]}},
+    }
+    return [
+        report.section_worlds(worlds),
+        report.section_manifold(MANIFOLD),
+        report.section_grouping(GROUPING, prefix="grouping/"),
+        report.section_servo([SERVO], {"hallway/servo": ["servo/hallway-servo-episode0.mp4"]}),
+        report.section_reproduce(INFO),
+    ]
+
+
+def test_table_has_a_caption_and_formats_cells():
+    html = report.table("Errors <of> things", ("a", "b", "c"), [[0.12345, None, "x&y"]])
+    assert "<caption>Errors &lt;of&gt; things</caption>" in html
+    assert "<td>0.123</td><td>&ndash;</td><td>x&amp;y</td>" in html
+    assert html.count("<th>") == 3
+
+
+@pytest.mark.parametrize(
+    ("value", "text"),
+    [
+        (0.0289, "0.029"),
+        (12.345, "12.35"),
+        (132.0, "132.0"),
+        (np.bool_(True), "yes"),
+        (False, "no"),
+        (("servo", "oracle"), "servo, oracle"),
+        (None, "&ndash;"),
+        (7, "7"),
+    ],
+)
+def test_cells_are_formatted_for_reading(value, text):
+    assert report.fmt(value) == text
+
+
+def test_page_has_every_section_in_its_table_of_contents():
+    page = report.build_html("title", _all_sections())
+    for anchor in ("worlds", "manifold", "grouping", "servo", "reproduce"):
+        assert f'<section id="{anchor}">' in page
+        assert f'href="#{anchor}"' in page
+    assert page.count("<caption>") >= 9
+    # the paper's numbers stand beside ours, None as a dash
+    assert "<td>0.020</td><td>0.029</td>" in page
+    assert "<td>0.400</td><td>&ndash;</td>" in page
+    assert "ours succeeds" in page
+    # no external resource
+    assert not re.search(r'(src|href)="(https?:)?//', page)
+
+
+def test_referenced_files_lists_images_and_videos_not_anchors():
+    refs = report.referenced_files(report.build_html("t", _all_sections()))
+    assert "grouping/hallway_groups.png" in refs
+    assert "manifold/real_labels.png" in refs
+    assert "servo/hallway-servo-episode0.mp4" in refs
+    assert "servo/hallway-servo-trajectories.png" in refs
+    assert not [r for r in refs if r.startswith("#")]
+
+
+def _touch_all(root: Path, page: str) -> None:
+    for ref in report.referenced_files(page):
+        (root / ref).parent.mkdir(parents=True, exist_ok=True)
+        (root / ref).write_bytes(PNG)
+
+
+def test_write_report_refuses_a_missing_image(tmp_path):
+    page = report.build_html("t", _all_sections())
+    _touch_all(tmp_path, page)
+    (tmp_path / "grouping/hallway_groups.png").unlink()
+    with pytest.raises(FileNotFoundError, match="hallway_groups.png"):
+        report.write_report(tmp_path, page)
+    assert not (tmp_path / report.INDEX).exists()
+
+
+def test_write_report_is_atomic(tmp_path, monkeypatch):
+    page = report.build_html("t", _all_sections())
+    _touch_all(tmp_path, page)
+    path = report.write_report(tmp_path, page)
+    assert path.read_text() == page
+
+    def no_space(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr("os.replace", no_space)
+    with pytest.raises(OSError, match="disk full"):
+        report.write_report(tmp_path, page.replace("<h1>", "<h1>new "))
+    assert path.read_text() == page  # the old report is intact, no temporary file left
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == [report.INDEX]
+
+
+def _fake_dataset(world="hallway"):
+    from scenes import MANIFOLD_IDS
+
+    n = 8
+    poses = np.stack([np.linspace(1.0, 6.0, n), np.zeros(n), np.zeros(n)], axis=1)
+    labels = np.array([MANIFOLD_IDS[world]] * 5 + [MANIFOLD_IDS[f"{world}-left"]] * 3, np.int16)
+    angles = np.linspace(-np.pi / 2, np.pi / 2, 9, dtype=np.float32)
+    seq = Sequence(
+        name=f"{world}-left",
+        world=world,
+        images=np.full((n, 24, 32, 3), 128, np.uint8),
+        scans=np.full((n, 9), 2.0, np.float32),
+        angles=angles,
+        poses=poses,
+        odometry=poses,
+        commands=np.zeros((n, 2)),
+        labels=labels,
+        times=np.arange(n, dtype=float),
+    )
+    return Dataset(Path("fake"), {"manifolds": []}, {seq.name: seq})
+
+
+def test_stage_worlds_writes_one_image_per_world_and_manifold(tmp_path):
+    result = report.stage_worlds(_fake_dataset(), tmp_path / "worlds", tmp_path)
+    assert list(result["topdown"]) == ["hallway"]
+    assert list(result["manifolds"]) == ["hallway", "hallway-left"]
+    assert result["manifolds"]["hallway-left"]["frames"] == [
+        ["hallway-left", 5],
+        ["hallway-left", 6],
+        ["hallway-left", 7],
+    ]
+    images = [*result["topdown"].values(), *(m["image"] for m in result["manifolds"].values())]
+    for rel in [*images, result["sheet"]]:
+        assert (tmp_path / rel).read_bytes()[:8] == PNG
+    import cv2
+
+    row = cv2.imread(str(tmp_path / result["manifolds"]["hallway"]["image"]))
+    assert row.shape == (24, 3 * 32 + 24, 3)  # three frames and a square map crop
+
+
+def _stub_stages(monkeypatch, fail: str | None = None):
+    """Replace the collection and the four stages by stubs writing one small file each."""
+    dataset = _fake_dataset()
+    monkeypatch.setattr("sim.collect.collect_dataset", lambda *a, **k: None)
+    monkeypatch.setattr("sim.dataset.load_dataset", lambda *a, **k: dataset)
+
+    def stage(name, result, files):
+        def fn(*args, **kwargs):
+            if name == fail:
+                raise RuntimeError("boom")
+            root = next(a for a in args if isinstance(a, Path) and a.name == "report")
+            for f in files:
+                (root / f).parent.mkdir(parents=True, exist_ok=True)
+                (root / f).write_bytes(PNG)
+            return result
+
+        return fn
+
+    monkeypatch.setattr(report, "stage_manifold", stage("manifold", MANIFOLD, MANIFOLD["figures"]))
+    grouping = stage("grouping", GROUPING, [])
+
+    def grouping_stage(dataset, out_dir, settings, progress):
+        (out_dir / "hallway_groups.png").write_bytes(PNG)
+        return grouping(out_dir.parent)
+
+    monkeypatch.setattr(report, "stage_grouping", grouping_stage)
+    monkeypatch.setattr(
+        report,
+        "stage_servo",
+        stage("servo", {"results": [SERVO], "videos": {}}, [SERVO["plot"]]),
+    )
+
+
+def test_run_pipeline_writes_a_complete_report(tmp_path, monkeypatch):
+    _stub_stages(monkeypatch)
+    settings = report.RunSettings(seed=3, episodes=2)
+    index = report.run_pipeline(tmp_path, settings, progress=False)
+    assert index == tmp_path / "report" / report.INDEX
+    page = index.read_text()
+    for ref in report.referenced_files(page):
+        assert (index.parent / ref).is_file(), ref
+    data = json.loads((index.parent / "report.json").read_text())
+    assert data["info"]["settings"]["seed"] == 3
+    assert set(data["info"]["timings"]) == {"dataset", "worlds", "manifold", "grouping", "servo"}
+    assert "numpy" in data["info"]["versions"]
+    assert "<h2>Reproducing this report</h2>" in page
+
+
+def test_a_failing_stage_fails_the_run_and_names_the_stage(tmp_path, monkeypatch):
+    _stub_stages(monkeypatch, fail="grouping")
+    monkeypatch.setattr(report, "stage_worlds", lambda *a: {"topdown": {}, "manifolds": {}})
+    with pytest.raises(report.StageError, match=r"stage 'grouping' failed .*RuntimeError: boom"):
+        report.run_pipeline(tmp_path, progress=False)
+    assert not (tmp_path / "report" / report.INDEX).exists()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [({"episodes": 0}, "episodes"), ({"videos": -1}, "videos"), ({"policies": ()}, "policies")],
+)
+def test_run_settings_refuse_bad_values(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        report.RunSettings(**kwargs)
+
+
+# --------------------------------------------------------------------------- topomap run
+
+
+def test_run_arguments_default_and_custom():
+    args = build_parser().parse_args(["run"])
+    assert (args.out, args.seed, args.episodes, args.baselines) == (
+        "out",
+        0,
+        4,
+        ("oracle", "random"),
+    )
+    args = build_parser().parse_args(
+        ["run", "--out", "x", "--seed", "7", "--episodes", "2", "--baselines", "greedy,random"]
+    )
+    assert (args.out, args.seed, args.episodes, args.baselines) == ("x", 7, 2, ("greedy", "random"))
+
+
+@pytest.mark.parametrize(
+    "argv", [["run", "--episodes", "0"], ["run", "--baselines", "teleport"], ["run", "--jobs", "0"]]
+)
+def test_run_refuses_bad_arguments(argv, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        build_parser().parse_args(argv)
+    assert exit_info.value.code == 2
+    assert "error" in capsys.readouterr().err
+
+
+def test_cmd_run_passes_settings_and_reports_a_failed_stage(tmp_path, monkeypatch, capsys):
+    seen = {}
+
+    def fake_pipeline(out, settings, *, progress, command):
+        seen.update(out=out, settings=settings, progress=progress, command=command)
+        raise report.StageError("stage 'servo' failed after 1.0 s: RuntimeError: no map")
+
+    monkeypatch.setattr(report, "run_pipeline", fake_pipeline)
+    argv = ["run", "--out", str(tmp_path), "--seed", "5", "--episodes", "3", "--quiet"]
+    assert cli_main([*argv, "--baselines", "servo,oracle", "--videos", "0"]) == 1
+    s = seen["settings"]
+    assert (s.seed, s.episodes, s.policies, s.videos) == (5, 3, ("servo", "oracle"), 0)
+    assert seen["out"] == str(tmp_path) and seen["progress"] is False
+    assert "--seed 5" in seen["command"] and "--baselines oracle" in seen["command"]
+    assert "topomap run: stage 'servo' failed" in capsys.readouterr().err
+
+
+def test_cmd_run_refuses_bad_settings_without_a_traceback(monkeypatch, capsys):
+    assert cli_main(["run", "--videos", "-2", "--quiet"]) == 2
+    assert "videos must be an integer >= 0" in capsys.readouterr().err
+
+
+def test_cmd_run_explains_a_dataset_of_other_settings(monkeypatch, capsys):
+    def fake_pipeline(out, settings, *, progress, command):
+        try:
+            raise FileExistsError("out/dataset already holds a dataset collected with other")
+        except FileExistsError as err:
+            raise report.StageError("stage 'dataset' failed") from err
+
+    monkeypatch.setattr(report, "run_pipeline", fake_pipeline)
+    assert cli_main(["run", "--seed", "9", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "already holds a dataset" in err and "give another --out" in err
+    assert "Traceback" not in err

@@ -1,0 +1,120 @@
+import warnings
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from servo.env import ServoEnv
+from servo.map_store import MapError, save_map
+
+
+@pytest.fixture(scope="module")
+def env(servo_maps):
+    e = ServoEnv("hallway", servo_maps["hallway"], max_steps=50)
+    yield e
+    e.close()
+
+
+# check_env's advice the base env deliberately does not take (see tests/sim/test_env.py):
+# (v, omega) keep their physical units, and odometry is unbounded.
+EXPECTED_WARNINGS = (
+    "symmetric and normalized space",
+    "maximum value is infinity",
+    "minimum value is -infinity",
+)
+
+
+def test_check_env(env):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    unexpected = [
+        str(w.message) for w in caught if not any(e in str(w.message) for e in EXPECTED_WARNINGS)
+    ]
+    assert not unexpected
+
+
+def test_cross_manifold_task_and_info(env):
+    for seed in range(5):
+        obs, info = env.reset(seed=seed)
+        assert info["start_manifold"] != info["target_manifold"]
+        assert obs["target_image"].shape == obs["image"].shape
+        np.testing.assert_allclose(obs["odometry"], 0.0, atol=1e-12)
+        assert info["distance"] > 0.5 and info["reason"] is None
+    obs, r, _, _, info = env.step(np.array([0.5, 0.0], np.float32))
+    assert {"reward_signal", "reward_success", "reward_collision"} <= set(info)
+    assert r == pytest.approx(
+        info["reward_signal"] + info["reward_success"] + info["reward_collision"]
+    )
+
+
+def test_deterministic_for_a_seed(env):
+    def rollout():
+        obs, _ = env.reset(seed=7)
+        out = [obs]
+        for k in range(5):
+            obs, *_ = env.step(np.array([1.0, 0.3 * (-1) ** k], np.float32))
+            out.append(obs)
+        return out
+
+    a, b = rollout(), rollout()
+    for oa, ob in zip(a, b, strict=True):
+        for key in oa:
+            np.testing.assert_array_equal(oa[key], ob[key])
+
+
+def test_success_terminates_at_the_target(env):
+    m = env.map
+    target = 40
+    _, info = env.reset(seed=0, options={"target": target, "pose": m.true_poses[target]})
+    assert info["success"]
+    _, _, term, _, info = env.step(np.zeros(2, np.float32))
+    assert term and info["reason"] == "success"
+
+
+def test_step_limit_truncates(env):
+    env.reset(seed=1)
+    for _ in range(env.max_steps):
+        _, _, term, trunc, info = env.step(np.zeros(2, np.float32))
+    assert trunc and not term and info["reason"] == "time limit"
+
+
+def test_pushing_a_wall_ends_as_stuck(servo_maps):
+    e = ServoEnv("hallway", servo_maps["hallway"], max_steps=200)
+    # Facing the end wall of the main hallway (x = 0), a few cm away from it.
+    e.reset(seed=0, options={"pose": (0.5, 0.0, np.pi), "target": 100})
+    for _ in range(200):
+        _, _, term, trunc, info = e.step(np.array([1.0, 0.0], np.float32))
+        if term or trunc:
+            break
+    e.close()
+    assert term and info["reason"] == "stuck"
+
+
+@pytest.mark.parametrize(
+    "options, match",
+    [
+        ({"target": 99_999}, r"options\['target'\]"),
+        ({"target_manifold": "kitchen"}, "manifold must be one of"),
+        ({"start_view": -3}, r"options\['start_view'\]"),
+        ({"target_manifold": "lawn-left"}, "no stored view on manifold 'lawn-left'"),
+    ],
+)
+def test_bad_options_are_named(env, options, match):
+    with pytest.raises((ValueError, MapError), match=match):
+        env.reset(seed=0, options=options)
+
+
+def test_async_vector_env_spawn(servo_maps, tmp_path):
+    from gymnasium.vector import AsyncVectorEnv
+
+    path = save_map(servo_maps["hallway"], tmp_path)
+    fns = [lambda: ServoEnv("hallway", str(path), max_steps=20)] * 2
+    venv = AsyncVectorEnv(fns, context="spawn")
+    try:
+        obs, _ = venv.reset(seed=3)
+        assert obs["image"].shape == (2, 240, 320, 3)
+        obs, r, *_ = venv.step(np.tile(np.float32([0.5, 0.0]), (2, 1)))
+        assert r.shape == (2,) and np.isfinite(r).all()
+    finally:
+        venv.close()
