@@ -248,6 +248,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--videos", type=int, default=1, help="episode videos per world (with --out)")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.set_defaults(func=cmd_servo_eval)
+
+    from scripts.sweep import add_parser as add_sweep_parser
+
+    add_sweep_parser(sub, default_out=DEFAULT_OUT)
     return p
 
 

@@ -1,4 +1,9 @@
-"""Shared fixtures. Importing ``sim`` first chooses the headless GL backend."""
+"""Shared fixtures. Importing ``sim`` first chooses the headless GL backend.
+
+The default dataset is collected once per session into a temp dir, and the servo maps are built
+from it, so every test sees the same data on every machine, whatever lies in out/."""
+
+from pathlib import Path
 
 import pytest
 
@@ -21,3 +26,20 @@ def default_dataset(tmp_path_factory):
     directory = tmp_path_factory.mktemp("default_dataset")
     collect_dataset(directory, CollectionSettings(), progress=False)
     return load_dataset(directory)
+
+
+@pytest.fixture(scope="session")
+def servo_dataset(default_dataset) -> Path:
+    return default_dataset.path
+
+
+@pytest.fixture(scope="session")
+def map_cache(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("servo-maps")
+
+
+@pytest.fixture(scope="session")
+def servo_maps(servo_dataset, map_cache):
+    from servo.map_store import load_or_build
+
+    return {w: load_or_build(w, servo_dataset, map_cache) for w in ("hallway", "lawn")}
