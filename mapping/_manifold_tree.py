@@ -256,12 +256,16 @@ def _pair_separability(sq_dist: np.ndarray, a: np.ndarray, b: np.ndarray, space:
     return float((e_ab - 0.5 * (e_aa + e_bb)).max())
 
 
-def _adjacent_pairs(sq_dist: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
-    """Pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point."""
+def _nearest_neighbours(sq_dist: np.ndarray) -> np.ndarray:
+    """Indices of each point's k nearest other points, (n, k)."""
     k = min(_ADJACENCY_NEIGHBOURS, sq_dist.shape[0] - 1)
     masked = sq_dist + np.diag(np.full(sq_dist.shape[0], np.inf))
-    nearest = np.argpartition(masked, k - 1, axis=1)[:, :k]
-    a = np.repeat(labels, k)
+    return np.argpartition(masked, k - 1, axis=1)[:, :k]
+
+
+def _adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
+    """Pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point."""
+    a = np.repeat(labels, nearest.shape[1])
     b = labels[nearest.ravel()]
     keep = a != b
     lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
@@ -285,8 +289,9 @@ def separability_merge(
     key = list(range(len(leaves)))  # a stable id per live group
     next_id = len(leaves)
     cache: dict[tuple[int, int], float] = {}
+    nearest = _nearest_neighbours(sq_dist)
     while len(groups) > n_clusters:
-        pairs = _adjacent_pairs(sq_dist, labels) or {
+        pairs = _adjacent_pairs(nearest, labels) or {
             (i, j) for i in range(len(groups)) for j in range(i + 1, len(groups))
         }
         best = None
