@@ -286,9 +286,8 @@ def separability_merge(
     labels = np.empty(sq_dist.shape[0], dtype=np.intp)
     for c, idx in enumerate(leaves):
         labels[idx] = c
-    key = list(range(len(leaves)))  # a stable id per live group
-    next_id = len(leaves)
-    cache: dict[tuple[int, int], float] = {}
+    # A group is named by its leaves, so a score stays valid until either group changes.
+    cache: dict[tuple[tuple[int, ...], tuple[int, ...]], float] = {}
     nearest = _nearest_neighbours(sq_dist)
     while len(groups) > n_clusters:
         pairs = _adjacent_pairs(nearest, labels) or {
@@ -296,7 +295,7 @@ def separability_merge(
         }
         best = None
         for i, j in sorted(pairs):
-            ids = (key[i], key[j])
+            ids = (tuple(groups[i]), tuple(groups[j]))
             if ids not in cache:
                 cache[ids] = _pair_separability(sq_dist, members[i], members[j], space)
             if best is None or cache[ids] < best[0]:
@@ -304,9 +303,7 @@ def separability_merge(
         _, i, j = best
         groups[i] = sorted(groups[i] + groups[j])
         members[i] = np.sort(np.concatenate([members[i], members[j]]))
-        key[i] = next_id
-        next_id += 1
-        del groups[j], members[j], key[j]
+        del groups[j], members[j]
         for g, idx in enumerate(members):
             labels[idx] = g
     return groups

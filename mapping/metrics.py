@@ -14,7 +14,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["adjusted_rand_index", "clustering_error", "contingency_matrix", "purity"]
+__all__ = [
+    "adjusted_rand_index",
+    "best_matching",
+    "clustering_error",
+    "contingency_matrix",
+    "purity",
+]
 
 
 def _check_labellings(y_true: ArrayLike, y_pred: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -90,11 +96,27 @@ def clustering_error(y_true: ArrayLike, y_pred: ArrayLike) -> float:
     >>> clustering_error([0, 0, 0, 0], [0, 0, 1, 2])
     0.5
     """
-    counts = contingency_matrix(y_true, y_pred)
-    rows, cols = linear_sum_assignment(counts, maximize=True)
+    counts, rows, cols = _hungarian(y_true, y_pred)
     matched = int(counts[rows, cols].sum())
     n = int(counts.sum())
     return float(n - matched) / n
+
+
+def _hungarian(y_true: ArrayLike, y_pred: ArrayLike):
+    """Contingency matrix and the (class rows, cluster columns) of the best one-to-one match."""
+    counts = contingency_matrix(y_true, y_pred)
+    rows, cols = linear_sum_assignment(counts, maximize=True)
+    return counts, rows, cols
+
+
+def best_matching(y_true: ArrayLike, y_pred: ArrayLike) -> dict:
+    """The matching :func:`clustering_error` scores: predicted cluster -> its true class.
+
+    Clusters left unmatched (more clusters than classes) are absent from the dict.
+    """
+    _, rows, cols = _hungarian(y_true, y_pred)
+    classes, clusters = np.unique(np.asarray(y_true)), np.unique(np.asarray(y_pred))
+    return {clusters[j].item(): classes[i].item() for i, j in zip(rows, cols, strict=True)}
 
 
 def purity(y_true: ArrayLike, y_pred: ArrayLike) -> float:

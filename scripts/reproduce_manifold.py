@@ -139,9 +139,7 @@ def real_rows(dataset, progress: bool = True) -> tuple[list[dict], dict]:
 def plot_labels(panels: dict[str, tuple[np.ndarray, dict]], path: Path, xlabel: str) -> Path:
     """Paper-style plot (Figures 2-6): true label (red stars) and predicted label (blue
     squares, mapped to the true labels by the Hungarian matching) against the index."""
-    from scipy.optimize import linear_sum_assignment
-
-    from mapping.metrics import contingency_matrix
+    from mapping.metrics import best_matching
 
     plt = agg_pyplot()
 
@@ -151,11 +149,8 @@ def plot_labels(panels: dict[str, tuple[np.ndarray, dict]], path: Path, xlabel: 
     for r, (name, (y, preds)) in enumerate(panels.items()):
         for c, method in enumerate(METHODS):
             pred = preds[method]
-            table = contingency_matrix(y, pred)
-            classes, clusters = np.unique(y), np.unique(pred)
-            rows, cols = linear_sum_assignment(-table)
-            mapping = {clusters[j]: classes[i] for i, j in zip(rows, cols, strict=True)}
-            shown = np.array([mapping.get(p, -1) for p in pred])
+            mapping = best_matching(y, pred)
+            shown = np.array([mapping.get(p, -1) for p in pred.tolist()])
             ax = axes[r, c]
             idx = np.arange(len(y))
             ax.plot(idx, y, "r*", ms=4, label="true")

@@ -94,3 +94,13 @@ def test_bad_input_raises(score):
         score([], [])
     with pytest.raises(ValueError, match="y_pred must be 1-D"):
         score([0, 1], [[0, 1]])
+
+
+def test_best_matching_is_the_matching_clustering_error_scores():
+    from mapping.metrics import best_matching
+
+    y_true = np.array([0, 0, 0, 1, 1, 2])
+    y_pred = np.array([7, 7, 5, 5, 5, 9])
+    assert best_matching(y_true, y_pred) == {7: 0, 5: 1, 9: 2}
+    # more clusters than classes: the extra cluster is left unmatched
+    assert best_matching([0, 0, 1, 1], [3, 4, 5, 5]) in ({3: 0, 5: 1}, {4: 0, 5: 1})
