@@ -291,14 +291,4 @@ def build_hallway(app: Appearance) -> World:
     add_robot(scene)
     x1 = MAIN_LENGTH + CORRIDOR_WIDTH
     bounds = (0.0, x1 + BRANCH_LENGTH, -_HW - BRANCH_LENGTH, _HW + BRANCH_LENGTH)
-    return World(
-        name=names.HALLWAY,
-        xml=scene.to_xml(),
-        assets=scene.assets,
-        manifolds=_regions(),
-        footprints=scene.footprints,
-        bounds=bounds,
-        routes=_routes(),
-        appearance=dict(app.params),
-        randomized=app.rng is not None,
-    )
+    return World.from_scene(names.HALLWAY, scene, app, _regions(), bounds, _routes())

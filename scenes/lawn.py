@@ -245,14 +245,4 @@ def build_lawn(app: Appearance) -> World:
     _scenery(scene, app)
     add_robot(scene)
     bounds = (0.0, _FAR, -_TOP, _TOP)
-    return World(
-        name=names.LAWN,
-        xml=scene.to_xml(),
-        assets=scene.assets,
-        manifolds=_regions(),
-        footprints=scene.footprints,
-        bounds=bounds,
-        routes=_routes(),
-        appearance=dict(app.params),
-        randomized=app.rng is not None,
-    )
+    return World.from_scene(names.LAWN, scene, app, _regions(), bounds, _routes())

@@ -105,6 +105,29 @@ class World:
     appearance: dict
     randomized: bool = False
 
+    @classmethod
+    def from_scene(
+        cls,
+        name: str,
+        scene,
+        app: Appearance,
+        manifolds: ManifoldMap,
+        bounds: tuple[float, float, float, float],
+        routes: dict[str, Route],
+    ) -> World:
+        """The finished world of a built :class:`~scenes.mjcf.SceneBuilder` scene."""
+        return cls(
+            name=name,
+            xml=scene.to_xml(),
+            assets=scene.assets,
+            manifolds=manifolds,
+            footprints=scene.footprints,
+            bounds=bounds,
+            routes=routes,
+            appearance=dict(app.params),
+            randomized=app.rng is not None,
+        )
+
     def manifold_at(self, xy) -> np.ndarray:
         """Manifold ids at points (..., 2): indices into :data:`scenes.names.MANIFOLDS`, -1 off."""
         return self.manifolds.label_at(xy)
