@@ -29,7 +29,7 @@ import numpy as np
 
 from mapping.features import ColorHistogramFeatures, ScanFeatures, scan_to_points
 from mapping.manifold import ManifoldClustering
-from mapping.metrics import adjusted_rand_index, purity
+from mapping.metrics import adjusted_rand_index, contingency_matrix, purity
 from mapping.partition import ObservationGraphPartitioner
 from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
 from scenes import MANIFOLDS, build_world
@@ -62,11 +62,9 @@ def score_groups(truth: np.ndarray, labels: np.ndarray) -> dict:
     truth, labels = truth[on], labels[on]
     manifolds = np.unique(truth)
     groups = np.unique(labels)
-    majority = {
-        int(g): int(np.bincount(truth[labels == g], minlength=len(MANIFOLDS)).argmax())
-        for g in groups
-    }
-    per = {MANIFOLDS[m]: sum(v == m for v in majority.values()) for m in manifolds}
+    # The contingency matrix purity is computed from: rows manifolds, columns groups.
+    majority = manifolds[contingency_matrix(truth, labels).argmax(axis=0)]
+    per = {MANIFOLDS[m]: int(np.sum(majority == m)) for m in manifolds}
     touching = {MANIFOLDS[m]: len(np.unique(labels[truth == m])) for m in manifolds}
     return {
         "frames": int(on.sum()),
