@@ -18,14 +18,18 @@ import numpy as np
 import servo  # noqa: F401  (headless GL before mujoco)
 from servo.controller import ManifoldServo
 from servo.env import ServoEnv
-from servo.map_store import DEFAULT_DATASET, build_map, load_or_build
+from servo.map_store import build_map, load_or_build
+from sim.datahome import default_dataset
 
 
-def bench_world(world: str, episodes: int) -> dict:
+def bench_world(world: str, episodes: int, dataset=None, cache=None) -> dict:
+    """Time one world's map build, controller steps and env steps; ``dataset`` and ``cache``
+    default to the data home's (``sim.datahome``)."""
+    dataset = default_dataset() if dataset is None else dataset
     start = time.perf_counter()
-    build_map(DEFAULT_DATASET, world)  # timed; the cached copy below is what the env uses
+    build_map(dataset, world)  # timed; the cached copy below is what the env uses
     build_s = time.perf_counter() - start
-    m = load_or_build(world)
+    m = load_or_build(world, dataset, cache)
     env = ServoEnv(world, m)
     ctl = ManifoldServo(m, world=world)
     first, steps, env_steps = [], [], []
@@ -57,6 +61,34 @@ def bench_world(world: str, episodes: int) -> dict:
     }
 
 
+# Known limitation (docs/servo.md): from the middle of the uniform straight branch, global
+# localisation can start ~2 m off along it, more than a tracking correction may move, so the
+# episode to the right branch fails on some machines and succeeds on others.
+KNOWN_LIMITATION = ("hallway", "hallway-straight", "hallway-right", 11)
+
+
+def known_limitation(dataset=None, cache=None) -> dict:
+    """Run the known-limitation episode (start and target: the middle stored views of the two
+    manifolds); returns its record."""
+    from scenes import MANIFOLDS
+    from servo.evaluate import run_episode
+
+    world, start, target, seed = KNOWN_LIMITATION
+    dataset = default_dataset() if dataset is None else dataset
+    m = load_or_build(world, dataset, cache)
+
+    def middle(name):
+        views = np.flatnonzero(m.true_labels == MANIFOLDS.index(name))
+        return int(views[len(views) // 2])
+
+    env = ServoEnv(world, m, max_steps=500)
+    try:
+        options = {"start_view": middle(start), "target": middle(target)}
+        return run_episode(env, ManifoldServo(m, world=world), seed, options)
+    finally:
+        env.close()
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__)
     p.add_argument("--episodes", type=int, default=5)
@@ -67,6 +99,9 @@ def main() -> None:
     print(" | ".join(keys))
     for r in rows:
         print(" | ".join(f"{r[k]:.2f}" if isinstance(r[k], float) else str(r[k]) for k in keys))
+    r = known_limitation()
+    print(f"known limitation {KNOWN_LIMITATION[1]} -> {KNOWN_LIMITATION[2]}: {r['reason']}, "
+          f"final distance {r['final_distance']:.2f} m")  # fmt: skip
 
 
 if __name__ == "__main__":

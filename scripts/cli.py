@@ -81,7 +81,7 @@ def _policies(text: str) -> tuple[str, ...]:
 def cmd_run(args) -> int:
     """The main job, end to end on the default worlds: collect the default dataset (reused when
     present), evaluate both mapping methods and the servo, and write ``<out>/report/``."""
-    from scripts.report import RunSettings, StageError, run_pipeline
+    from scripts.report import OutputError, RunSettings, StageError, run_pipeline
 
     settings = RunSettings(
         seed=args.seed,
@@ -103,6 +103,9 @@ def cmd_run(args) -> int:
         index = run_pipeline(
             args.out, settings, progress=not args.quiet, command=" ".join(["topomap run", *rest])
         )
+    except OutputError as err:
+        print(f"topomap run: --{err}", file=sys.stderr)
+        return 2
     except StageError as err:
         if isinstance(err.__cause__, FileExistsError):  # the dataset of another seed
             print(

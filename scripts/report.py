@@ -28,6 +28,7 @@ import os
 import platform
 import re
 import subprocess
+import tempfile
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -38,6 +39,7 @@ import numpy as np
 from scenes.fileio import atomic_write_bytes
 
 __all__ = [
+    "OutputError",
     "RunSettings",
     "StageError",
     "build_html",
@@ -85,6 +87,10 @@ class RunSettings:
 
 class StageError(RuntimeError):
     """A stage of the run failed; the message names it and how long it ran."""
+
+
+class OutputError(ValueError):
+    """The output folder cannot be created or written."""
 
 
 # --------------------------------------------------------------------------- HTML pieces
@@ -697,12 +703,22 @@ def run_pipeline(
     from sim.dataset import load_dataset
 
     settings = settings or RunSettings()
-    out = Path(out)
+    shown = Path(out)
+    # Absolute from here on: the page links its files relative to the report folder, whatever
+    # the working directory.
+    out = shown.resolve()
     root = out / REPORT_DIR
     data_dir = out / "dataset"
     dirs = {name: root / name for name in ("worlds", "manifold", "grouping", "servo")}
-    for d in dirs.values():
-        d.mkdir(parents=True, exist_ok=True)
+    try:
+        for d in dirs.values():
+            d.mkdir(parents=True, exist_ok=True)
+        probe = tempfile.NamedTemporaryFile(dir=root, prefix=".write-test-")
+        probe.close()
+    except OSError as err:
+        raise OutputError(
+            f"out must be a folder this user can write ({shown}): {type(err).__name__}: {err}"
+        ) from err
     timer = _Timer(progress)
     start = time.perf_counter()
     load_at_start = os.getloadavg()
@@ -733,7 +749,7 @@ def run_pipeline(
         "command": command,
         "settings": {
             **asdict(settings),
-            "dataset": f"{data_dir} ({len(dataset.sequences)} sequences, "
+            "dataset": f"{shown / 'dataset'} ({len(dataset.sequences)} sequences, "
             f"{sum(len(s) for s in dataset.sequences.values())} frames)",
             "collection": json.dumps(collection.to_json(), sort_keys=True),
         },

@@ -55,11 +55,6 @@ COLUMNS = (  # (key, header, format)
 )
 
 
-def episode_seeds(seed: int, episodes: int) -> list[int]:
-    """Reset seeds of the episodes of one sweep seed (as ``servo.evaluate.evaluate``)."""
-    return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
-
-
 def parse_seeds(text: str) -> list[int]:
     """``"0-3"`` -> [0, 1, 2, 3]; ``"0,2,5-6"`` -> [0, 2, 5, 6]."""
     seeds: list[int] = []
@@ -106,9 +101,10 @@ def _check(worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_ste
 
 def _map_path(servo_map, cache: Path, scratch: Path) -> Path:
     """A saved copy of the map for the workers to load (the cache's own file when it is there)."""
+    from servo.map_file import map_paths
     from servo.map_store import save_map
 
-    cached = Path(cache) / f"{servo_map.world}-{servo_map.key}.json"
+    cached, _ = map_paths(cache, servo_map.world, servo_map.key)
     return cached if cached.is_file() else save_map(servo_map, scratch)
 
 
@@ -207,6 +203,8 @@ def run_batch(
 ) -> list[dict]:
     """All episodes of one (world, setting) on the vector env ``envs`` (of :class:`SweepEnv`),
     one policy per sub-env; returns the records in (seed, episode) order."""
+    from servo.evaluate import episode_seeds
+
     n = envs.num_envs
     queue = [(s, e, r) for s in seeds for e, r in enumerate(episode_seeds(s, episodes_per_seed))]
     pending = list(reversed(queue))
@@ -311,9 +309,9 @@ def run_sweep(
     ``settings`` are names of :data:`SETTINGS`. ``num_envs`` (default ``os.cpu_count()``)
     sub-envs, in worker processes started once for the whole sweep. ``maps``: ``{world:
     ServoMap}`` to use, else the cached map of each world (``servo.map_store.load_or_build(world,
-    dataset, cache)``). Rows: the columns of :data:`COLUMNS` plus ``act_ms``, ``reasons``,
-    ``num_envs``, ``startup_s`` (starting the workers, once per sweep, in no row's ``wall_s``)
-    and ``episodes_detail``.
+    dataset, cache)``; None: the data home's, see ``sim.datahome``). Rows: the columns of
+    :data:`COLUMNS` plus ``act_ms``, ``reasons``, ``num_envs``, ``startup_s`` (starting the
+    workers, once per sweep, in no row's ``wall_s``) and ``episodes_detail``.
     """
     from gymnasium.vector import AsyncVectorEnv, AutoresetMode
     from threadpoolctl import threadpool_limits
@@ -321,14 +319,14 @@ def run_sweep(
 
     from scenes import build_world
     from servo.evaluate import make_policy
-    from servo.map_store import DEFAULT_CACHE, DEFAULT_DATASET, load_or_build
+    from servo.map_store import load_or_build
+    from sim.datahome import maps_dir
 
     num_envs = (os.cpu_count() or 1) if num_envs is None else num_envs
     worlds, seeds, settings = _check(
         worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_steps
     )
-    dataset = DEFAULT_DATASET if dataset is None else dataset
-    cache = DEFAULT_CACHE if cache is None else cache
+    cache = maps_dir() if cache is None else cache  # the data home's, as load_or_build's
     maps = {w: (maps or {}).get(w) or load_or_build(w, dataset, cache) for w in worlds}
     n = min(num_envs, len(seeds) * episodes_per_seed)
     rows = []

@@ -88,7 +88,7 @@ class ServoEnv(gym.Env):
         if servo_map is None:
             servo_map = load_or_build(world)
         elif isinstance(servo_map, str | os.PathLike):
-            servo_map = load_map(servo_map)  # a path keeps vector-env workers cheap to spawn
+            servo_map = load_map(servo_map, world)  # a path keeps vector-env workers cheap
         if not isinstance(servo_map, ServoMap):
             raise TypeError(
                 f"servo_map must be a ServoMap, a saved map's path or None, got "

@@ -15,6 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from scenes import WORLDS
 from servo.baselines import GreedyFProbing, OraclePolicy, RandomPolicy
 from servo.controller import ManifoldServo
 from servo.env import ServoEnv
@@ -34,6 +35,12 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator):
     if name == "random":
         return RandomPolicy(rng)
     raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
+
+
+def episode_seeds(seed: int, episodes: int) -> list[int]:
+    """Episode ``i``'s seed: the ``i``-th child of ``SeedSequence(seed)``, so a run is
+    reproducible and a longer run extends a shorter one."""
+    return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
 
 
 def run_episode(env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None):
@@ -152,6 +159,7 @@ def evaluate(
     cross_manifold: bool = True,
     max_steps: int = 600,
     servo_map: ServoMap | None = None,
+    home: str | Path | None = None,
     out: str | Path | None = None,
     videos: int = 0,
     progress: bool = True,
@@ -160,7 +168,9 @@ def evaluate(
 
     Episode ``i`` is seeded with the ``i``-th child of ``SeedSequence(seed)``, so a run is
     reproducible and a longer run extends a shorter one. With ``out``, writes
-    ``<world>-<policy>-trajectories.png`` and ``videos`` mp4s of the first episodes.
+    ``<world>-<policy>-trajectories.png`` and ``videos`` mp4s of the first episodes. Without
+    ``servo_map``, the world's map is loaded from (or built in) the data home ``home`` (see
+    ``sim.datahome``: the argument, then ``TOPOMAP_HOME``, then the per-user cache).
     """
     from tqdm.auto import tqdm
 
@@ -168,7 +178,9 @@ def evaluate(
         raise ValueError(f"episodes must be an integer >= 1, got {episodes}")
     if policy not in POLICIES:
         raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
-    servo_map = servo_map or load_or_build(world)
+    if world not in WORLDS:
+        raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
+    servo_map = servo_map or load_or_build(world, home=home, progress=progress)
     env = ServoEnv(
         world,
         servo_map,
@@ -178,7 +190,7 @@ def evaluate(
         odometry_noise=odometry_noise,
         render_mode="rgb_array" if videos else None,
     )
-    seeds = [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
+    seeds = episode_seeds(seed, episodes)
     pol = make_policy(policy, env, np.random.default_rng(seed))
     records = []
     try:

@@ -14,8 +14,9 @@ scan and its (ICP-refined) odometry pose, plus
 The true poses and manifold labels of the views are kept too, for the env and the evaluation
 only; the controller never reads them.
 
-The map is built once per (dataset, settings) and cached as ``.npz`` + ``.json`` (no pickle),
-keyed by a hash of the dataset's checksums, the settings and the clustering's source code.
+The map is built once per (dataset, settings) and cached in the format of ``servo.map_file``
+(no pickle, verified on load), keyed by a hash of the dataset's checksums, the settings, the
+source of every module that builds or stores a map, and the numeric libraries' versions.
 """
 
 from __future__ import annotations
@@ -23,142 +24,49 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from dataclasses import asdict, dataclass, field
+import warnings
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 
+import mapping
 from mapping.features import ImageFeatures, scan_to_points
 from mapping.icp import densify_scan, icp, refine_poses
 from mapping.manifold import ManifoldClustering
 from mapping.topology import se2_relative
-from scenes import MANIFOLDS, WORLDS
-from servo import estimator_io
-from sim.dataset import Dataset, load_dataset, read_meta, write_sequence
+from scenes import WORLDS
+from servo.map_file import FORMAT_VERSION, load_map, map_paths, save_map
+from servo.map_types import MapError, MapSettings, ServoMap
+from sim import datahome
+from sim.dataset import Dataset, load_dataset, read_meta
 
-FORMAT_VERSION = 1
-DEFAULT_DATASET = Path("out/dataset")
-DEFAULT_CACHE = Path("out/servo-maps")
-_CLUSTERING_SOURCES = ("manifold.py", "_manifold_kernel.py", "_manifold_predict.py",
-                       "_manifold_split.py", "_manifold_tree.py")  # fmt: skip
+__all__ = ["MapError", "MapSettings", "ServoMap", "build_map", "load_map", "load_or_build",
+           "map_key", "save_map"]  # fmt: skip
 
-
-class MapError(ValueError):
-    """A servo map that does not fit the world, the sensors or the request."""
+# Everything whose code decides a map's content or file: a change to any of them is a new key.
+_KEY_PACKAGES = ("numpy", "scipy", "scikit-learn", "opencv-python-headless")
 
 
-@dataclass(frozen=True)
-class MapSettings:
-    """What determines a map besides the dataset.
-
-    stride : keep every ``stride``-th frame of each sequence as a stored view (2: the paper's
-        split, frames 0, 2, 4, ... build the map).
-    image_size : (width, height) of the image features (``ImageFeatures``, unit-normalised so
-        brightness changes cancel).
-    min_cluster_size : Q of ``ManifoldClustering``.
-    link_radius : m, odometry distance within which views of two sequences may be linked.
-    link_rmse : m, largest ICP residual accepted for a link.
-    """
-
-    stride: int = 2
-    image_size: tuple[int, int] = (80, 60)
-    min_cluster_size: int = 8
-    link_radius: float = 4.0
-    link_rmse: float = 0.06
-
-    def __post_init__(self):
-        if int(self.stride) != self.stride or self.stride < 1:
-            raise ValueError(f"stride must be an integer >= 1, got {self.stride}")
-        if int(self.min_cluster_size) != self.min_cluster_size or self.min_cluster_size < 1:
-            raise ValueError(
-                f"min_cluster_size must be an integer >= 1, got {self.min_cluster_size}"
-            )
-
-    def to_json(self) -> dict:
-        d = asdict(self)
-        d["image_size"] = list(self.image_size)
-        return d
+def _key_sources() -> list[Path]:
+    servo_dir = Path(__file__).resolve().parent
+    sim_dir = Path(datahome.__file__).resolve().parent
+    return sorted(Path(mapping.__file__).resolve().parent.glob("*.py")) + [
+        servo_dir / "map_store.py",
+        servo_dir / "map_types.py",
+        servo_dir / "map_file.py",
+        sim_dir / "dataset.py",
+    ]
 
 
-@dataclass
-class ServoMap:
-    """The stored views of one world and the graphs over them (see the module docstring).
-
-    Arrays are indexed by view: ``images`` (n, H, W, 3) uint8, ``features`` (n, d) float32,
-    ``scans`` (n, B) float32, ``poses`` (n, 3) refined odometry in each sequence's own frame,
-    ``sequence`` (n,) and ``frame`` (n,) where it was recorded, ``clusters`` (n,) the
-    clustering's labels. ``edges`` (E, 2) with ``edge_transforms`` (E, 3): the pose of view
-    ``edges[e, 1]`` in the frame of view ``edges[e, 0]`` (one direction stored).
-    ``true_poses`` and ``true_labels`` are ground truth for the env and evaluation only.
-    """
-
-    world: str
-    key: str
-    images: np.ndarray
-    features: np.ndarray
-    scans: np.ndarray
-    angles: np.ndarray
-    max_range: float
-    poses: np.ndarray
-    sequence: np.ndarray
-    frame: np.ndarray
-    sequence_names: list[str]
-    clusters: np.ndarray
-    edges: np.ndarray
-    edge_transforms: np.ndarray
-    clustering: ManifoldClustering
-    image_features: ImageFeatures
-    true_poses: np.ndarray
-    true_labels: np.ndarray
-    settings: MapSettings = field(default_factory=MapSettings)
-
-    def __len__(self) -> int:
-        return len(self.clusters)
-
-    @property
-    def n_clusters(self) -> int:
-        return int(self.clusters.max()) + 1
-
-    @property
-    def image_shape(self) -> tuple[int, ...]:
-        return tuple(self.images.shape[1:])
-
-    @property
-    def manifold_graph(self) -> np.ndarray:
-        """(K, K) bool: cluster b follows cluster a somewhere in a recorded sequence (both ways
-        stored: a robot may drive a corridor either way)."""
-        K = self.n_clusters
-        adj = np.zeros((K, K), bool)
-        for s in np.unique(self.sequence):
-            c = self.clusters[self.sequence == s]
-            change = c[1:] != c[:-1]
-            adj[c[:-1][change], c[1:][change]] = True
-        return adj | adj.T
-
-    def true_manifold(self, view: int) -> str | None:
-        label = int(self.true_labels[view])
-        return None if label < 0 else MANIFOLDS[label]
-
-    def check_view(self, view, name: str = "target") -> int:
-        """``view`` as a valid stored-view index, or a ``MapError`` naming ``name``."""
-        if isinstance(view, bool) or not isinstance(view, int | np.integer):
-            raise MapError(f"{name} must be the integer index of a stored view, got {view!r}")
-        if not 0 <= int(view) < len(self):
-            raise MapError(
-                f"{name} must be a stored view in [0, {len(self)}) of the {self.world} map, "
-                f"got {view}"
-            )
-        return int(view)
-
-    def check_world(self, world: str) -> None:
-        if world != self.world:
-            raise MapError(
-                f"this servo map was fitted on the {self.world!r} world and cannot be used in "
-                f"the {world!r} world: build the map from the {world!r} dataset"
-            )
-
-    def scan_points(self, view: int) -> np.ndarray:
-        return scan_to_points(self.scans[view], self.angles, self.max_range)
+def _versions() -> list[str]:
+    out = []
+    for name in _KEY_PACKAGES:
+        try:
+            out.append(f"{name}=={version(name)}")
+        except PackageNotFoundError:
+            out.append(f"{name} missing")
+    return out
 
 
 # -- building ---------------------------------------------------------------------------------
@@ -171,18 +79,15 @@ def _world_sequences(dataset: Dataset, world: str) -> list[str]:
 
 def map_key(meta: dict, world: str, settings: MapSettings) -> str:
     """Hash of what the map depends on: the world's sequence checksums, the settings, the
-    feature and sensor settings of the dataset and the clustering's source code."""
+    source of every module that builds or stores a map (the whole ``mapping`` package, the
+    servo map modules, the dataset reader) and the numeric libraries' versions."""
     h = hashlib.sha256()
     entries = {n: e["sha256"] for n, e in meta["sequences"].items() if e["world"] == world}
     if not entries:
         raise MapError(f"the dataset has no sequence of world {world!r}")
-    h.update(json.dumps([FORMAT_VERSION, world, entries, settings.to_json()]).encode())
-    src = Path(ManifoldClustering.__module__.replace(".", "/")).parent
-    root = Path(__file__).resolve().parents[1] / src
-    for name in _CLUSTERING_SOURCES:
-        p = root / name
-        if p.is_file():
-            h.update(p.read_bytes())
+    h.update(json.dumps([FORMAT_VERSION, world, entries, settings.to_json(), _versions()]).encode())
+    for p in _key_sources():
+        h.update(p.name.encode() + b"\0" + p.read_bytes())
     return h.hexdigest()[:16]
 
 
@@ -286,75 +191,39 @@ def build_map(
     )
 
 
-# -- saving and loading -----------------------------------------------------------------------
-_ARRAYS = ("images", "features", "scans", "angles", "poses", "sequence", "frame", "clusters",
-           "edges", "edge_transforms", "true_poses", "true_labels")  # fmt: skip
-
-
-def save_map(m: ServoMap, directory: str | os.PathLike) -> Path:
-    """Write ``<world>-<key>.npz`` and ``.json`` atomically; returns the ``.json`` path."""
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    stem = directory / f"{m.world}-{m.key}"
-    arrays = {k: getattr(m, k) for k in _ARRAYS}
-    c_meta, c_arrays = estimator_io.dump(m.clustering, "clustering")
-    f_meta, f_arrays = estimator_io.dump(m.image_features, "image_features")
-    digest = write_sequence(stem.with_suffix(".npz"), {**arrays, **c_arrays, **f_arrays})
-    meta = {
-        "format": "topomap-servo-map",
-        "version": FORMAT_VERSION,
-        "world": m.world,
-        "key": m.key,
-        "max_range": m.max_range,
-        "sequence_names": m.sequence_names,
-        "settings": m.settings.to_json(),
-        "clustering": c_meta,
-        "image_features": f_meta,
-        "sha256": digest,
-    }
-    from scenes.fileio import atomic_write_bytes
-
-    path = stem.with_suffix(".json")
-    atomic_write_bytes(path, (json.dumps(meta, indent=2) + "\n").encode())
-    return path
-
-
-def load_map(path: str | os.PathLike) -> ServoMap:
-    """Read a map written by :func:`save_map` (``allow_pickle=False``)."""
-    path = Path(path).with_suffix(".json")
-    if not path.is_file():
-        raise MapError(f"no servo map at {path}")
-    meta = json.loads(path.read_text())
-    if meta.get("format") != "topomap-servo-map" or meta.get("version") != FORMAT_VERSION:
-        raise MapError(f"{path} is not a servo map of format version {FORMAT_VERSION}")
-    with np.load(path.with_suffix(".npz"), allow_pickle=False) as npz:
-        arrays = {k: npz[k] for k in npz.files}
-    s = meta["settings"]
-    return ServoMap(
-        world=meta["world"],
-        key=meta["key"],
-        max_range=float(meta["max_range"]),
-        sequence_names=list(meta["sequence_names"]),
-        clustering=estimator_io.load(ManifoldClustering, meta["clustering"], arrays, "clustering"),
-        image_features=estimator_io.load(
-            ImageFeatures, meta["image_features"], arrays, "image_features"
-        ),
-        settings=MapSettings(**{**s, "image_size": tuple(s["image_size"])}),
-        **{k: arrays[k] for k in _ARRAYS},
-    )
-
-
 def load_or_build(
     world: str,
-    dataset: str | os.PathLike = DEFAULT_DATASET,
-    cache: str | os.PathLike = DEFAULT_CACHE,
+    dataset: str | os.PathLike | None = None,
+    cache: str | os.PathLike | None = None,
     settings: MapSettings | None = None,
+    *,
+    home: str | os.PathLike | None = None,
+    progress: bool = True,
 ) -> ServoMap:
-    """The cached map of ``world`` for this dataset and settings, built on first use."""
+    """The cached map of ``world`` for this dataset and settings, built on first use.
+
+    ``dataset`` and ``cache`` default to the data home's (``sim.datahome``: the ``home``
+    argument, then ``TOPOMAP_HOME``, then the per-user cache), never the working directory;
+    the default dataset is collected there when missing. A cached map that fails
+    :func:`~servo.map_file.load_map`'s checks is rebuilt, with a warning saying why.
+    """
+    if world not in WORLDS:
+        raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
     settings = settings or MapSettings()
-    path = Path(cache) / f"{world}-{map_key(read_meta(dataset), world, settings)}.json"
+    if dataset is None:
+        dataset = datahome.default_dataset(home, progress=progress)
+    dataset = Path(dataset)
+    if dataset.exists() and not dataset.is_dir():
+        raise ValueError(f"dataset must be a dataset folder, got the file {dataset}")
+    cache = datahome.maps_dir(home) if cache is None else Path(cache)
+    if cache.exists() and not cache.is_dir():
+        raise ValueError(f"cache must be a folder for servo maps, got the file {cache}")
+    path, _ = map_paths(cache, world, map_key(read_meta(dataset), world, settings))
     if path.is_file():
-        return load_map(path)
+        try:
+            return load_map(path, world)
+        except MapError as err:
+            warnings.warn(f"rebuilding the servo map: {err}", RuntimeWarning, stacklevel=2)
     m = build_map(load_dataset(dataset), world, settings)
     save_map(m, cache)
     return m

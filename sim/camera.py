@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from scenes import names
-from sim._gl import INSTALL_HINT
+from sim._gl import INSTALL_HINT, check_fork_safe, note_context_created
 
 MAX_SIZE = 4096
 
@@ -57,12 +57,14 @@ class Camera:
         # A frame larger than the off-screen buffer grows the buffer instead of failing.
         g.offwidth = max(g.offwidth, self.config.width)
         g.offheight = max(g.offheight, self.config.height)
+        check_fork_safe()
         try:
             renderer = mujoco.Renderer(self.model, self.config.height, self.config.width)
         except Exception as err:  # the GL backends raise several unrelated types
             raise RuntimeError(
                 f"could not create an off-screen renderer ({err}). {INSTALL_HINT}"
             ) from err
+        note_context_created()
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self.config.shadows
         return renderer
 

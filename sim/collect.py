@@ -185,6 +185,8 @@ def collect_dataset(
 
     settings = settings or CollectionSettings()
     directory = Path(directory)
+    if directory.exists() and not directory.is_dir():
+        raise FileExistsError(f"{directory} is a file; give a folder for the dataset")
     directory.mkdir(parents=True, exist_ok=True)
     meta = _base_meta(settings)
     if (directory / ds.META_FILE).exists():

@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import tempfile
 import zipfile
 from dataclasses import dataclass
@@ -48,6 +49,19 @@ ARRAYS = {  # name: (dtype, trailing shape rank or None for per-dataset constant
     "times": np.float64,
 }
 PER_FRAME = ("images", "scans", "poses", "odometry", "commands", "labels", "times")
+SHAPES = {  # trailing shape per frame (angles: per dataset); -1: any size, checked against others
+    "images": (-1, -1, 3),
+    "scans": (-1,),
+    "angles": (-1,),
+    "poses": (3,),
+    "odometry": (3,),
+    "commands": (2,),
+    "labels": (),
+    "times": (),
+}
+_FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\.npz\Z")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
+_SHA256 = re.compile(r"[0-9a-f]{64}\Z")
 
 
 class DatasetError(ValueError):
@@ -137,6 +151,8 @@ def file_sha256(path: Path) -> str:
 # -- reading ---------------------------------------------------------------------------------
 def read_meta(directory: str | os.PathLike) -> dict:
     path = Path(directory) / META_FILE
+    if Path(directory).is_file():
+        raise DatasetError(f"{directory} is a file, not a dataset folder")
     if not path.is_file():
         raise DatasetError(f"no dataset at {directory}: {META_FILE} is missing")
     try:
@@ -150,7 +166,32 @@ def read_meta(directory: str | os.PathLike) -> dict:
             f"{directory} has schema version {meta.get('schema_version')!r}; this code reads "
             f"version {SCHEMA_VERSION}: collect it again with this version"
         )
+    sequences = meta.get("sequences", {})
+    if not isinstance(sequences, dict):
+        raise DatasetError(f"{path}: 'sequences' must be an object of sequence entries")
+    for name, entry in sequences.items():
+        _check_entry(path, name, entry)
     return meta
+
+
+def _check_entry(path: Path, name: str, entry) -> None:
+    """A sequence entry of ``meta.json``: a plain ``.npz`` file name inside the dataset folder
+    (never a path elsewhere), a world name, a frame count and a SHA-256."""
+    fields = ("file", "world", "frames", "sha256")
+    if not isinstance(entry, dict) or any(k not in entry for k in fields):
+        raise DatasetError(f"{path}: sequence {name!r} must have the fields {list(fields)}")
+    file, world, frames, digest = (entry[k] for k in fields)
+    if not (isinstance(file, str) and _FILE_NAME.match(file)):
+        raise DatasetError(
+            f"{path}: sequence {name!r} names the file {file!r}; expected a plain file name "
+            "ending in .npz inside the dataset folder"
+        )
+    if not (isinstance(world, str) and _NAME.match(world)):
+        raise DatasetError(f"{path}: sequence {name!r} has the world {world!r}")
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 0:
+        raise DatasetError(f"{path}: sequence {name!r} has {frames!r} frames; expected >= 0")
+    if not (isinstance(digest, str) and _SHA256.match(digest)):
+        raise DatasetError(f"{path}: sequence {name!r} has no valid sha256")
 
 
 def load_sequence(directory: Path, name: str, entry: dict, verify: bool = True) -> Sequence:
@@ -178,6 +219,21 @@ def load_sequence(directory: Path, name: str, entry: dict, verify: bool = True) 
             raise DatasetError(
                 f"sequence {name!r}: {k} has dtype {arrays[k].dtype}, expected {np.dtype(dtype)}"
             )
+        trailing = arrays[k].shape[0 if k == "angles" else 1 :]
+        want = SHAPES[k]
+        if len(trailing) != len(want) or any(
+            w not in (-1, t) for w, t in zip(want, trailing, strict=True)
+        ):
+            lead = () if k == "angles" else ("frames",)
+            expected = ", ".join([*lead, *("*" if w < 0 else str(w) for w in want)])
+            raise DatasetError(
+                f"sequence {name!r}: {k} has shape {arrays[k].shape}; expected ({expected})"
+            )
+    if arrays["scans"].shape[1] != len(arrays["angles"]):
+        raise DatasetError(
+            f"sequence {name!r}: scans have {arrays['scans'].shape[1]} beams but angles has "
+            f"{len(arrays['angles'])}"
+        )
     return Sequence(
         name=name, world=entry["world"], depth=arrays.get("depth"), **{k: arrays[k] for k in ARRAYS}
     )

@@ -352,3 +352,75 @@ def test_cmd_run_explains_a_dataset_of_other_settings(monkeypatch, capsys):
     err = capsys.readouterr().err
     assert "already holds a dataset" in err and "give another --out" in err
     assert "Traceback" not in err
+
+
+def _stub_internals(monkeypatch):
+    """Stub what the stages call (not the stages): the stages' own path handling runs as in a
+    real run, each stub writing its files where the real function would."""
+    dataset = _fake_dataset()
+    monkeypatch.setattr("sim.collect.collect_dataset", lambda *a, **k: None)
+    monkeypatch.setattr("sim.dataset.load_dataset", lambda *a, **k: dataset)
+
+    def reproduce(data_dir, out_dir, progress=True):
+        (Path(out_dir) / "real_labels.png").write_bytes(PNG)
+        return {**MANIFOLD, "figures": ["real_labels.png"]}
+
+    def evaluate_grouping(dataset, out_dir, loop=False, progress=True):
+        (Path(out_dir) / "hallway_groups.png").write_bytes(PNG)
+        return GROUPING
+
+    def evaluate(world, episodes, seed, policy="servo", *, out=None, videos=0, **kw):
+        plot = Path(out) / f"{world}-{policy}-trajectories.png"  # as given: here relative
+        plot.write_bytes(PNG)
+        for i in range(videos):
+            (Path(out) / f"{world}-{policy}-episode{i}.mp4").write_bytes(b"mp4")
+        return {**SERVO, "world": world, "policy": policy, "plot": str(plot)}
+
+    monkeypatch.setattr("scripts.reproduce_manifold.reproduce", reproduce)
+    monkeypatch.setattr("scripts.eval_grouping.evaluate_grouping", evaluate_grouping)
+    monkeypatch.setattr("servo.evaluate.evaluate", evaluate)
+    monkeypatch.setattr("servo.map_store.load_or_build", lambda *a, **k: None)
+
+
+def test_run_with_the_default_relative_out_links_every_file(tmp_path, monkeypatch, capsys):
+    """`topomap run` as the README gives it (default ``--out out``), from a fresh working
+    directory: the page's links resolve from the report folder, not the working directory."""
+    _stub_internals(monkeypatch)
+    monkeypatch.chdir(tmp_path)
+    assert cli_main(["run", "--quiet"]) == 0
+    index = tmp_path / "out" / "report" / report.INDEX
+    refs = report.referenced_files(index.read_text())
+    assert any(r.endswith(".mp4") for r in refs) and any("manifold/" in r for r in refs)
+    for ref in refs:
+        assert not Path(ref).is_absolute() and not ref.startswith("out/"), ref
+        assert (index.parent / ref).is_file(), ref
+    assert "report:" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("kind", ["file", "under a file"])
+def test_run_refuses_an_output_folder_it_cannot_write(tmp_path, capsys, kind):
+    (tmp_path / "f").write_text("not a folder")
+    out = tmp_path / "f" if kind == "file" else tmp_path / "f" / "out"
+    assert cli_main(["run", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--out must be a folder this user can write" in err and "Traceback" not in err
+    assert (tmp_path / "f").read_text() == "not a folder"
+
+
+def test_check_report_finds_missing_and_outside_links(tmp_path, capsys):
+    from scripts.check_report import main, problems
+
+    (tmp_path / "a.png").write_bytes(PNG)
+    figures = [report.figure(f, f) for f in ("a.png", "b.png", "../x.png")]
+    page = report.build_html("t", [report.section("s", "S", *figures)])
+    (tmp_path.parent / "x.png").write_bytes(PNG)
+    index = tmp_path / report.INDEX
+    index.write_text(page)
+    assert problems(index) == ["../x.png: not a path inside " + str(tmp_path.resolve()),
+                               "b.png: missing"]  # fmt: skip
+    assert main([str(index)]) == 1
+    assert "b.png: missing" in capsys.readouterr().err
+    assert problems(tmp_path / "nope.html") == [f"{tmp_path / 'nope.html'} does not exist"]
+    (tmp_path / "b.png").write_bytes(PNG)
+    index.write_text(page.replace("../x.png", "a.png"))
+    assert main([str(index)]) == 0

@@ -8,7 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from scripts.sweep import SETTINGS, episode_seeds, parse_seeds, run_sweep, sweep_meta, write_table
+from scripts.sweep import SETTINGS, parse_seeds, run_sweep, sweep_meta, write_table
+from servo.evaluate import episode_seeds
 
 MAX_STEPS = 12
 SEEDS = [0, 1]

@@ -132,3 +132,56 @@ def test_cli_collect_refuses_and_reports(tmp_path, capsys):
     assert "other settings" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["collect", "--world", "moon", "--out", str(tmp_path)])
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        (lambda e: e.update(file="../../etc/passwd.npz"), "plain file name"),
+        (lambda e: e.update(file="/tmp/x.npz"), "plain file name"),
+        (lambda e: e.pop("sha256"), "must have the fields"),
+        (lambda e: e.update(frames=-3), "frames; expected >= 0"),
+        (lambda e: e.update(frames="10"), "frames; expected >= 0"),
+        (lambda e: e.update(world="../x"), "has the world"),
+    ],
+)
+def test_a_crafted_meta_is_refused(small_dataset, tmp_path, change, match):
+    import shutil
+
+    d = tmp_path / "d"
+    shutil.copytree(small_dataset, d)
+    meta = json.loads((d / "meta.json").read_text())
+    change(next(iter(meta["sequences"].values())))
+    (d / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(DatasetError, match=match):
+        load_dataset(d)
+
+
+def test_arrays_of_the_wrong_shape_are_refused(small_dataset, tmp_path):
+    import shutil
+
+    from sim.dataset import file_sha256, load_sequence, write_sequence
+
+    d = tmp_path / "d"
+    shutil.copytree(small_dataset, d)
+    meta = json.loads((d / "meta.json").read_text())
+    name, entry = next(iter(meta["sequences"].items()))
+    with np.load(d / entry["file"]) as f:
+        arrays = {k: f[k] for k in f.files}
+    for key, bad, match in [
+        ("poses", arrays["poses"][:, :2], r"poses has shape .*expected \(frames, 3\)"),
+        ("angles", arrays["angles"][:-1], "scans have .* beams but angles has"),
+        ("images", arrays["images"][..., 0], r"expected \(frames, \*, \*, 3\)"),
+    ]:
+        write_sequence(d / entry["file"], {**arrays, key: bad})
+        with pytest.raises(DatasetError, match=match):
+            load_sequence(d, name, {**entry, "sha256": file_sha256(d / entry["file"])})
+
+
+def test_a_file_is_not_a_dataset_folder(tmp_path):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(DatasetError, match="is a file, not a dataset folder"):
+        load_dataset(tmp_path / "f")
+    with pytest.raises(FileExistsError, match="is a file; give a folder"):
+        collect_dataset(tmp_path / "f", CollectionSettings(frames=2), progress=False)
+    assert (tmp_path / "f").read_text() == "x"

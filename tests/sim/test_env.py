@@ -93,3 +93,44 @@ def test_async_vector_env_runs():
         assert obs["scan"].shape == (2, 361) and rewards.shape == (2,)
     finally:
         envs.close()
+
+
+_FORK_AFTER_RENDER = """
+import sim, gymnasium as gym
+from sim.camera import CameraConfig
+small = {"camera": CameraConfig(width=64, height=48)}
+env = gym.make("topomap/Hallway-v0", **small)
+env.reset(seed=0)  # the parent now holds a GL context
+env.close()
+envs = gym.make_vec("topomap/Hallway-v0", num_envs=2, vectorization_mode="async",
+                    vector_kwargs={"context": "fork"}, **small)
+try:
+    obs, _ = envs.reset(seed=0)
+    print("ok", obs["image"].shape)
+finally:
+    envs.close()
+"""
+
+
+@pytest.mark.parametrize("threads", [None, "2"])
+def test_forked_vector_env_after_rendering_works_or_fails_at_once(threads):
+    """The default (fork) context after the parent rendered: works with sim's default
+    ``LP_NUM_THREADS=0``; with render threads on, fails at once saying to use spawn. A fresh
+    interpreter, since Mesa reads the variable once; the timeout turns a hang into a failure."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "LP_NUM_THREADS"}
+    if threads:
+        env["LP_NUM_THREADS"] = threads
+    run = subprocess.run(
+        [sys.executable, "-c", _FORK_AFTER_RENDER],
+        env=env, capture_output=True, text=True, timeout=240,
+    )  # fmt: skip
+    if threads is None:
+        assert run.returncode == 0 and "ok (2, 48, 64, 3)" in run.stdout, run.stderr[-2000:]
+    else:
+        assert run.returncode != 0
+        assert "forked after its parent created an OpenGL context" in run.stderr
+        assert "'context': 'spawn'" in run.stderr

@@ -1,0 +1,46 @@
+"""Check that a written report is whole: ``python -m scripts.check_report out/report/index.html``.
+
+Exits non-zero, listing what is wrong, if the page is missing or links to a file that is not
+there, or to anything outside the report folder (the report must open offline, moved anywhere).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from scripts.report import referenced_files
+
+
+def problems(index: Path) -> list[str]:
+    """What is wrong with the report at ``index`` (empty: nothing)."""
+    if not index.is_file():
+        return [f"{index} does not exist"]
+    root = index.parent.resolve()
+    out = []
+    for ref in referenced_files(index.read_text(encoding="utf-8")):
+        target = (root / ref).resolve()
+        if "://" in ref or Path(ref).is_absolute() or not target.is_relative_to(root):
+            out.append(f"{ref}: not a path inside {root}")
+        elif not target.is_file():
+            out.append(f"{ref}: missing")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 1:
+        print("usage: python -m scripts.check_report PATH/TO/index.html", file=sys.stderr)
+        return 2
+    index = Path(args[0])
+    found = problems(index)
+    for p in found:
+        print(f"check_report: {p}", file=sys.stderr)
+    if not found:
+        print(f"check_report: {index} and the {len(referenced_files(index.read_text()))} "
+              "files it links are all there")  # fmt: skip
+    return 1 if found else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,110 @@
+"""The data home: one documented place for the default dataset and the servo maps.
+
+Library entry points that need the default data (``servo.load_or_build``, ``ServoEnv`` with no
+map, ``servo.evaluate.evaluate``) never look in the working directory. They resolve, in order:
+
+1. the ``home`` argument, if given;
+2. the ``TOPOMAP_HOME`` environment variable, if set and not empty;
+3. a per-user cache directory: ``$XDG_CACHE_HOME/topomap`` or ``~/.cache/topomap``.
+
+A home named by 1 or 2 must already exist (a typo should not scatter data over the disk); the
+per-user cache is created on first use. The home holds ``dataset/`` (the default dataset,
+collected with a progress bar when missing, never replaced) and ``servo-maps/`` (the map cache).
+The command line keeps its own ``--out`` folders and does not use the home.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+ENV_VAR = "TOPOMAP_HOME"
+DATASET_DIR = "dataset"
+MAPS_DIR = "servo-maps"
+LOCK_FILE = ".lock"
+
+
+class DataHomeError(ValueError):
+    """The data home named by an argument or ``TOPOMAP_HOME`` is missing or not a folder."""
+
+
+def user_cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/topomap``, else ``~/.cache/topomap`` (the XDG base-directory rule)."""
+    base = os.environ.get("XDG_CACHE_HOME") or ""
+    root = Path(base) if Path(base).is_absolute() else Path.home() / ".cache"
+    return root / "topomap"
+
+
+def data_home(home: str | os.PathLike | None = None) -> Path:
+    """The data home as an absolute path (see the module docstring for the order)."""
+    if home is not None:
+        path, source = Path(home).expanduser(), "home"
+    elif os.environ.get(ENV_VAR):
+        path, source = Path(os.environ[ENV_VAR]).expanduser(), f"the {ENV_VAR} variable"
+    else:
+        path = user_cache_dir()
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise DataHomeError(
+                f"cannot create the per-user data home {path} ({err}); set {ENV_VAR} to a "
+                "writable folder"
+            ) from err
+        return path.resolve()
+    if not path.exists():
+        raise DataHomeError(
+            f"{source} names the data home {str(path)!r}, which does not exist: create the "
+            "folder first, or leave it unset to use the per-user cache"
+        )
+    if not path.is_dir():
+        raise DataHomeError(f"{source} names the data home {str(path)!r}, which is not a folder")
+    return path.resolve()
+
+
+@contextlib.contextmanager
+def home_lock(home: Path):
+    """Hold an exclusive lock on the home while collecting or building into it, so two
+    processes (two notebooks, vector-env workers) never write the same files at once."""
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no cross-process lock, the atomic writes still hold
+        yield
+        return
+    with open(home / LOCK_FILE, "a+b") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def default_dataset(home: str | os.PathLike | None = None, progress: bool = True) -> Path:
+    """The default dataset in the data home, collected (with a progress bar) if it is missing.
+
+    An existing dataset there is never replaced: one collected with other settings, or a
+    damaged one, is reported by ``sim.collect`` / ``sim.dataset`` with what to do.
+    """
+    from sim.collect import CollectionSettings, collect_dataset
+    from sim.dataset import META_FILE, read_meta
+
+    root = data_home(home)
+    directory = root / DATASET_DIR
+    if directory.exists() and not directory.is_dir():
+        raise DataHomeError(f"{directory} should be the default dataset folder but is a file")
+    meta_path = directory / META_FILE
+    if meta_path.is_file() and read_meta(directory).get("complete", False):
+        return directory
+    with home_lock(root):
+        if not (meta_path.is_file() and read_meta(directory).get("complete", False)):
+            collect_dataset(directory, CollectionSettings(), progress=progress)
+    return directory
+
+
+def maps_dir(home: str | os.PathLike | None = None) -> Path:
+    """The servo-map cache of the data home (created on first use)."""
+    directory = data_home(home) / MAPS_DIR
+    if directory.exists() and not directory.is_dir():
+        raise DataHomeError(f"{directory} should be the servo-map cache folder but is a file")
+    directory.mkdir(exist_ok=True)
+    return directory
