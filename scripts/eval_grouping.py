@@ -266,7 +266,8 @@ def evaluate_grouping(
     shown = "odometry+icp" if True in icp else variants[-1]  # the grouping drawn and compared
     worlds = dataset.worlds
     # a loop is driven in the simulated world: not for a dataset imported from a robot's log
-    loops = [w for w in worlds if w in WORLDS] if loop else []
+    simulated = dataset.has_ground_truth
+    loops = [w for w in worlds if w in WORLDS and simulated] if loop else []
     steps = len(worlds) * (len(variants) + compare + figures) + len(loops) * (
         len(variants) + figures
     )

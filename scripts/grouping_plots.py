@@ -140,9 +140,9 @@ def draw_topology(
 def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
     """The four figures of one grouping (``runs``: a ``sim.runs.Runs``; ``model``: the fitted
     ``ObservationGraphPartitioner``): groups over the map, local maps, weights, topology. The
-    map of the true manifolds is drawn behind when ``runs.world`` is one of ours."""
+    map of the true manifolds is drawn behind for a simulated world of ours."""
     plt = agg_pyplot()
-    draw_map = _map_background(runs.world)
+    draw_map = _map_background(runs.world) if runs.has_ground_truth else None
 
     written = []
     fig, ax = plt.subplots(figsize=(8, 7))
