@@ -1,5 +1,5 @@
-"""The ``topomap`` command line: ``collect``, ``preview``, ``worlds``, ``run``, ``reproduce``,
-``group-eval`` and ``servo-eval``."""
+"""The ``topomap`` command line: ``collect``, ``import``, ``preview``, ``worlds``, ``run``,
+``reproduce``, ``group-eval`` and ``servo-eval``."""
 
 from __future__ import annotations
 
@@ -48,6 +48,35 @@ def cmd_collect(args) -> int:
         print(f"topomap collect: {err}", file=sys.stderr)
         return 2
     print(f"dataset ready in {out} ({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def cmd_import(args) -> int:
+    """A robot's ROS 1 / ROS 2 bags as a dataset (``sim.rosbag_import``)."""
+    from sim.dataset import load_dataset
+    from sim.rosbag_import import ImportSettings, import_rosbags
+
+    settings = ImportSettings(
+        scan_topic=args.scan_topic,
+        image_topic=args.image_topic,
+        odom_topic=args.odom_topic,
+        world=args.world,
+        image_tolerance=args.image_tolerance,
+        odom_max_gap=args.odom_max_gap,
+        min_travel=args.min_travel,
+        min_turn=args.min_turn,
+        laser_offset=tuple(args.laser_offset),
+    )
+    try:
+        out = import_rosbags(
+            args.rosbag, args.out, settings, overwrite=args.overwrite, progress=not args.quiet
+        )
+    except FileExistsError as err:
+        print(f"topomap import: {err}", file=sys.stderr)
+        return 2
+    for name, seq in load_dataset(out).sequences.items():
+        print(f"{name}: {len(seq)} frames, {seq.times[-1]:.1f} s")
+    print(f"dataset ready in {out} (no ground truth)")
     return 0
 
 
@@ -196,6 +225,29 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--beams", type=_positive_int, default=361)
     c.add_argument("--max-range", type=float, default=20.0)
     c.set_defaults(func=cmd_collect)
+
+    i = sub.add_parser("import", help="a robot's ROS 1 / ROS 2 bags as a dataset (own data)")
+    i.add_argument("--rosbag", nargs="+", required=True, help="bags: drives through one place")
+    i.add_argument("--scan-topic", required=True, help="sensor_msgs/LaserScan topic")
+    i.add_argument("--image-topic", required=True, help="sensor_msgs/Image or CompressedImage")
+    i.add_argument("--odom-topic", required=True, help="nav_msgs/Odometry topic")
+    i.add_argument("--out", required=True, help="dataset directory (must not exist yet)")
+    i.add_argument("--world", default="robot", help="name of the place (default: robot)")
+    i.add_argument("--image-tolerance", type=float, default=0.1, help="s, scan to image")
+    i.add_argument("--odom-max-gap", type=float, default=0.5, help="s, between odometry msgs")
+    i.add_argument("--min-travel", type=float, default=0.1, help="m between frames (0: off)")
+    i.add_argument("--min-turn", type=float, default=0.2, help="rad between frames (0: off)")
+    i.add_argument(
+        "--laser-offset",
+        type=float,
+        nargs=3,
+        default=(0.0, 0.0, 0.0),
+        metavar=("X", "Y", "YAW"),
+        help="the laser's pose on the robot (m, m, rad)",
+    )
+    i.add_argument("--overwrite", action="store_true", help="replace an imported dataset")
+    i.add_argument("--quiet", action="store_true", help="no progress bar")
+    i.set_defaults(func=cmd_import)
 
     v = sub.add_parser("preview", help="contact sheets and trajectory maps of a dataset")
     v.add_argument("--data", required=True)

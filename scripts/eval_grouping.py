@@ -4,7 +4,7 @@
     topomap group-eval --data out/dataset --out out/grouping [--json]
 
 For each world, the default dataset's three sequences (main manifold, then one branch each) are
-grouped together in one observation graph (``run_starts`` marks where each drive begins), with
+grouped together in one observation graph (``groups``: the drive each frame belongs to), with
 the noisy odometry poses, without and with ICP refinement, and with the true poses as a
 reference. A longer loop through each world (main -> every branch, back to the junction between
 them; ``scripts.grouping_loop``) is grouped the same way. Groups are scored against the
@@ -12,8 +12,11 @@ ground-truth manifolds. Then both sensors meet both methods: the recursive min-N
 on the scans' overlap and on an image-similarity graph, and the manifold clustering
 (Grudic & Mulligan) on scan features and on images.
 
-Writes ``grouping.json`` (every number) and PNG figures like the paper's Figures 3 and 5 into
-the output directory.
+Writes ``grouping.json`` (every number), ``groups.npz`` (every frame's group) and PNG figures
+like the paper's Figures 3 and 5 into the output directory.
+
+A dataset without ground truth (imported from a robot's log, ``topomap import``) is grouped and
+drawn the same way, with odometry only and no scores: its tables say "no ground-truth labels".
 """
 
 from __future__ import annotations
@@ -27,15 +30,16 @@ from pathlib import Path
 
 import numpy as np
 
-from mapping.features import ColorHistogramFeatures, ScanFeatures, scan_to_points
+from mapping.features import ColorHistogramFeatures, ScanFeatures
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import adjusted_rand_index, contingency_matrix, purity
 from mapping.partition import ObservationGraphPartitioner
 from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
-from scenes import MANIFOLDS, build_world
+from scenes import MANIFOLDS, WORLDS
 from scripts import grouping_plots as gp
 from scripts.grouping_loop import collect_loop
 from sim import dataset as ds
+from sim.runs import Runs
 
 __all__ = ["TARGETS", "evaluate_grouping", "format_report", "main", "score_groups"]
 
@@ -43,6 +47,8 @@ __all__ = ["TARGETS", "evaluate_grouping", "format_report", "main", "score_group
 TARGETS = {"purity_min": 0.9, "max_groups_per_manifold": 3}
 MC_MIN_CLUSTER_SIZE = 35  # Q of docs/manifold-clustering.md on the same sequences
 JSON_FILE = "grouping.json"
+NO_LABELS = "no ground-truth labels: groups are not scored (purity, ARI, drift and targets: --)"
+LABELS_FILE = "groups.npz"  # per case and variant, the group of every frame (numpy .npz)
 
 
 # --------------------------------------------------------------------------- scoring
@@ -85,61 +91,49 @@ def meets_targets(score: dict) -> bool:
     )
 
 
-# --------------------------------------------------------------------------- data
-
-
-class WorldRuns:
-    """The runs (sequences) of one world concatenated: scans as points, poses, truth, images."""
-
-    def __init__(self, sequences: Sequence[ds.Sequence], max_range: float | None = None):
-        if not sequences:
-            raise ValueError("sequences is empty")
-        self.world = sequences[0].world
-        self.names = [s.name for s in sequences]
-        self.ranges = np.concatenate([s.scans for s in sequences])
-        self.scans = [scan_to_points(r, s.angles, max_range) for s in sequences for r in s.scans]
-        self.poses = np.concatenate([s.poses for s in sequences])
-        self.odometry = np.concatenate([s.odometry for s in sequences])
-        self.truth = np.concatenate([s.labels for s in sequences]).astype(int)
-        self.images = np.concatenate([s.images for s in sequences])
-        lengths = [len(s) for s in sequences]
-        self.run_starts = np.cumsum([0, *lengths[:-1]])
-        finite = self.ranges[np.isfinite(self.ranges)]
-        # the sensor's range when known, else the longest return seen (features scale by it)
-        self.max_range = float(max_range or (finite.max() if finite.size else 1.0))
-
-    def __len__(self) -> int:
-        return len(self.scans)
-
-
-def _by_world(dataset: ds.Dataset) -> dict[str, list[ds.Sequence]]:
-    worlds: dict[str, list[ds.Sequence]] = {}
-    for seq in dataset.sequences.values():
-        worlds.setdefault(seq.world, []).append(seq)
-    return worlds
-
-
 # --------------------------------------------------------------------------- grouping
 
 
-def group_scans(runs: WorldRuns, poses: str) -> tuple[ObservationGraphPartitioner, dict]:
+def group_scans(runs: Runs, poses: str) -> tuple[ObservationGraphPartitioner, dict]:
     """The partitioner at default settings on ``runs`` with ``poses`` in {"true", "odometry",
-    "odometry+icp"}; returns the fitted model and its scores, drift and time."""
+    "odometry+icp"}; returns the fitted model and its scores (None without ground truth),
+    drift (None without true poses) and time."""
+    if poses == "true" and runs.poses is None:
+        raise ValueError(f"{runs.world}: no true poses to group with (no ground truth)")
     model = ObservationGraphPartitioner(scan_matching=poses == "odometry+icp")
     given = runs.poses if poses == "true" else runs.odometry
     start = time.perf_counter()
     model.fit(runs.scans, given, run_starts=runs.run_starts)
     seconds = time.perf_counter() - start
-    err = model.poses_[:, :2] - runs.poses[:, :2]
-    score = score_groups(runs.truth, model.labels_)
+    if runs.has_ground_truth:
+        score = score_groups(runs.labels, model.labels_)
+        err = model.poses_[:, :2] - runs.poses[:, :2]
+        drift, met = float(np.hypot(err[:, 0], err[:, 1]).max()), meets_targets(score)
+    else:
+        score = unscored(len(runs), model.labels_)
+        drift = met = None
     score.update(
         poses=poses,
-        max_drift_m=float(np.hypot(err[:, 0], err[:, 1]).max()),
+        max_drift_m=drift,
         seconds=seconds,
-        meets_targets=meets_targets(score),
+        meets_targets=met,
         arcs=len(model.topology_.arcs),
     )
     return model, score
+
+
+def unscored(frames: int, labels: np.ndarray) -> dict:
+    """The keys of :func:`score_groups` for groups that cannot be scored (no ground truth):
+    the counts, and None for every score."""
+    keys = ("purity", "ari", "max_groups_per_manifold", "max_groups_touching")
+    return {
+        "frames": frames,
+        "groups": len(np.unique(labels)),
+        **dict.fromkeys(keys),
+        "groups_per_manifold": {},
+        "groups_touching": {},
+        "scored": "no ground-truth labels",
+    }
 
 
 def pose_variants(icp: Sequence[bool], true_poses: bool) -> list[str]:
@@ -147,40 +141,59 @@ def pose_variants(icp: Sequence[bool], true_poses: bool) -> list[str]:
     return names + ["odometry+icp" if flag else "odometry" for flag in icp]
 
 
-def compare_methods(runs: WorldRuns, scan_model: ObservationGraphPartitioner, scan_score: dict):
+def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_score: dict):
     """Both sensors x both methods on one world (the four-way table).
 
     - partition x scans: ``scan_model`` (already fitted; its pose variant is recorded).
     - partition x images: ``fit_affinity`` on ``knn_gaussian_affinity`` of the image vectors
       (k = ceil(sqrt(n)) neighbours, sigma = median k-th-neighbour distance).
     - manifold clustering x scans / images: ``ManifoldClustering(K, Q)`` with K the number of
-      ground-truth manifolds of the world and Q = min(35, n // (2K)).
+      ground-truth manifolds of the world (without ground truth: the number of groups the scan
+      partition found) and Q = min(35, n // (2K)).
+
+    Each entry holds its ``labels`` (one per frame) beside the scores.
     """
-    out = {"partition/scans": {**_brief(scan_score), "poses": scan_score["poses"]}}
+
+    def score(labels):
+        if runs.has_ground_truth:
+            return score_groups(runs.labels, labels)
+        return unscored(len(runs), labels)
+
+    out = {
+        "partition/scans": {
+            **_brief(scan_score),
+            "poses": scan_score["poses"],
+            "labels": scan_model.labels_,
+        }
+    }
     # The image features that reproduce the paper's image result (docs/manifold-clustering.md).
     images = ColorHistogramFeatures().fit_transform(runs.images)
     start = time.perf_counter()
     W, sigma = knn_gaussian_affinity(images)
     labels = ObservationGraphPartitioner().fit_affinity(W).labels_
     out["partition/images"] = {
-        **_brief(score_groups(runs.truth, labels), time.perf_counter() - start),
+        **_brief(score(labels), time.perf_counter() - start),
         "n_neighbors": default_n_neighbors(len(runs)),
         "sigma": sigma,
+        "labels": labels,
     }
     features = {
         "scans": ScanFeatures(max_range=runs.max_range).fit_transform(runs.ranges),
         "images": images,
     }
-    k = len(np.unique(runs.truth[runs.truth >= 0]))
+    if runs.has_ground_truth:
+        k = len(np.unique(runs.labels[runs.labels >= 0]))
+    else:
+        k = scan_model.n_groups_
     q = max(1, min(MC_MIN_CLUSTER_SIZE, len(runs) // (2 * k)))
     for sensor, X in features.items():
         start = time.perf_counter()
         labels = ManifoldClustering(n_clusters=k, min_cluster_size=q).fit(X).labels_
-        score = score_groups(runs.truth, labels)
         out[f"manifold/{sensor}"] = {
-            **_brief(score, time.perf_counter() - start),
+            **_brief(score(labels), time.perf_counter() - start),
             "K": k,
             "Q": q,
+            "labels": labels,
         }
     return out
 
@@ -190,64 +203,6 @@ def _brief(score: dict, seconds: float | None = None) -> dict:
     out = {k: score[k] for k in keys}
     out["seconds"] = score.get("seconds") if seconds is None else seconds
     return out
-
-
-# --------------------------------------------------------------------------- figures
-
-
-def write_figures(
-    out_dir: Path, tag: str, runs: WorldRuns, model: ObservationGraphPartitioner
-) -> list[Path]:
-    """The four figures of one grouping: groups over the map, local maps, weights, topology."""
-    plt = gp.agg_pyplot()
-    world = build_world(runs.world)
-    from sim.topdown import TopDownView
-
-    view = TopDownView(world, max_size=900)
-    h, w = view.size
-    extent = (
-        view.origin[0],
-        view.origin[0] + w / view.scale,
-        view.origin[1] - h / view.scale,
-        view.origin[1],
-    )
-    background = view.draw()
-
-    def draw_map(ax):
-        ax.imshow(background, extent=extent, alpha=0.55)
-
-    written = []
-    fig, ax = plt.subplots(figsize=(8, 7))
-    draw_map(ax)
-    gp.draw_groups(
-        ax, runs.scans, model.poses_, model.labels_, every=2, arrows=False, point_size=1.5
-    )
-    ax.set_title(
-        f"{tag}: {len(runs)} scans in {model.n_groups_} groups (colour = group; background: "
-        "true manifolds)",
-        fontsize=9,
-    )
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_groups.png"))
-
-    cols = min(4, model.n_groups_)
-    rows = int(np.ceil(model.n_groups_ / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.6 * rows), squeeze=False)
-    gp.draw_local_maps(axes, model.local_maps_, model.labels_)
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_local_maps.png"))
-
-    fig, ax = plt.subplots(figsize=(5, 4.6))
-    gp.draw_weights(ax, model.affinity_matrix_, model.labels_, f"{tag}: SSO weights by group")
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_weights.png"))
-
-    fig, ax = plt.subplots(figsize=(7, 6))
-    gp.draw_topology(ax, model.topology_, draw_map)
-    ax.set_title(f"{tag}: topological map (solid: trajectory, dashed: overlap)", fontsize=9)
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_topology.png"))
-    return written
 
 
 # --------------------------------------------------------------------------- the evaluation
@@ -272,13 +227,17 @@ def evaluate_grouping(
     dataset : Dataset or path
         The dataset (``sim.dataset``); its sequences are grouped per world.
     out_dir : path
-        Where ``grouping.json``, the figures and the loop sequences (``loop/``) go.
+        Where ``grouping.json``, ``groups.npz`` (the group of every frame, per case and
+        variant, and the drive index ``.../groups``), the figures and the loop sequences
+        (``loop/``) go.
     icp : sequence of bool, default (False, True)
         Odometry variants to group: raw odometry (False) and odometry refined by ICP (True).
     true_poses : bool, default True
-        Also group with the true poses (the upper bound the paper assumes: SLAM poses).
+        Also group with the true poses (the upper bound the paper assumes: SLAM poses), when
+        the dataset has them.
     loop : bool, default True
-        Also drive and group a loop through each world (collected once, cached in ``loop/``).
+        Also drive and group a loop through each simulated world (collected once, cached in
+        ``loop/``); skipped for a world that is not one of ours (an imported dataset).
     loop_frames : int, optional
         Frames of each loop; default: the dataset's frame spacing (``grouping_loop``).
     compare : bool, default True
@@ -298,60 +257,75 @@ def evaluate_grouping(
     if not isinstance(dataset, ds.Dataset):
         dataset = ds.load_dataset(dataset)
     icp = tuple(bool(flag) for flag in icp)
+    true_poses = true_poses and dataset.has_ground_truth  # imported logs have none
     if not icp and not true_poses:
-        raise ValueError("nothing to group: icp is empty and true_poses is False")
+        raise ValueError("nothing to group: icp is empty and there are no true poses")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     variants = pose_variants(icp, true_poses)
     shown = "odometry+icp" if True in icp else variants[-1]  # the grouping drawn and compared
-    worlds = _by_world(dataset)
-    laser = dataset.meta.get("settings", {}).get("laser", {})
-    max_range = laser.get("max_range")
-    steps = len(worlds) * (len(variants) * (1 + loop) + compare + figures * (1 + loop))
+    worlds = dataset.worlds
+    # a loop is driven in the simulated world: not for a dataset imported from a robot's log
+    simulated = dataset.has_ground_truth
+    loops = [w for w in worlds if w in WORLDS and simulated] if loop else []
+    steps = len(worlds) * (len(variants) + compare + figures) + len(loops) * (
+        len(variants) + figures
+    )
     bar = tqdm(total=steps, desc="group-eval", unit="step", disable=not progress)
     result = {
         "dataset": str(dataset.path),
         "settings": {
             "partitioner": "ObservationGraphPartitioner() defaults (threshold 1, delta 0.1 m, "
             "assoc mrpt, normalized Laplacian); ICP = scan_matching=True",
-            "runs": "each world's sequences grouped together; run_starts at each sequence",
+            "runs": "each world's sequences grouped together; groups = the drive of each frame",
             "targets": TARGETS,
             "image_features": "ColorHistogramFeatures() (HSV 8x4x4 in 2x2 cells)",
             "image_graph": "knn_gaussian_affinity: k = ceil(sqrt(n)), sigma = median distance "
             "to the k-th neighbour",
-            "manifold_clustering": "K = manifolds of the world, Q = min(35, n // (2K))",
+            "manifold_clustering": "K = manifolds of the world (without ground truth: groups "
+            "of the scan partition), Q = min(35, n // (2K))",
             "shown": shown,
             "cpu_count": os.cpu_count(),
         },
+        "ground_truth": dataset.has_ground_truth,
         "default": {},
         "loop": {},
         "compare": {},
         "figures": [],
+        "labels_file": LABELS_FILE,
     }
+    labels = {}  # "section/world/variant" -> one group label per frame (LABELS_FILE)
     start = time.perf_counter()
     try:
-        for world, sequences in worlds.items():
-            cases = [("default", world, WorldRuns(sequences, max_range))]
-            if loop:
+        for world in worlds:
+            cases = [("default", world, dataset.runs(world))]
+            if world in loops:
                 bar.set_postfix_str(f"collect {world} loop")
                 seq = collect_loop(world, out_dir / "loop", frames=loop_frames)
-                cases.append(("loop", f"{world}-loop", WorldRuns([seq], max_range)))
+                cases.append(
+                    ("loop", f"{world}-loop", Runs.from_sequences([seq], dataset.max_range))
+                )
             for section, tag, runs in cases:
                 result[section][world] = {"frames": len(runs), "sequences": runs.names}
+                labels[f"{section}/{world}/groups"] = runs.groups
                 for variant in variants:
                     bar.set_postfix_str(f"{tag} {variant}")
                     model, score = group_scans(runs, variant)
                     result[section][world][variant] = score
+                    labels[f"{section}/{world}/{variant}"] = model.labels_
                     bar.update()
                     if variant != shown:
                         continue
                     if figures:
-                        paths = write_figures(out_dir, tag, runs, model)
+                        paths = gp.write_figures(out_dir, tag, runs, model)
                         result["figures"] += [p.name for p in paths]
                         bar.update()
                     if compare and section == "default":
                         bar.set_postfix_str(f"{world}: four-way comparison")
-                        result["compare"][world] = compare_methods(runs, model, score)
+                        rows = compare_methods(runs, model, score)
+                        for name, row in rows.items():
+                            labels[f"compare/{world}/{name}"] = row.pop("labels")
+                        result["compare"][world] = rows
                         bar.update()
     finally:
         bar.close()
@@ -361,7 +335,9 @@ def evaluate_grouping(
         for section in ("default", "loop")
         for world in result[section]
         for variant in variants
+        if result[section][world][variant]["meets_targets"] is not None
     }
+    ds.write_sequence(out_dir / LABELS_FILE, {k: np.asarray(v) for k, v in labels.items()})
     ds.write_json(out_dir / JSON_FILE, _jsonable(result))
     return result
 
@@ -380,9 +356,14 @@ def _jsonable(obj):
 # --------------------------------------------------------------------------- report
 
 
+def _cell(value, spec: str) -> str:
+    return "--" if value is None else format(value, spec)
+
+
 def format_report(result: dict) -> str:
     """Markdown tables of the groupings and of the four-way comparison."""
-    lines = [
+    lines = [] if result.get("ground_truth", True) else [NO_LABELS, ""]
+    lines += [
         "| case | poses | frames | groups | purity | ARI | groups per manifold (majority) "
         "| max touching | drift (m) | time (s) | targets |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
@@ -392,12 +373,13 @@ def format_report(result: dict) -> str:
             for variant, s in entry.items():
                 if not isinstance(s, dict):
                     continue
-                per = " / ".join(str(v) for v in s["groups_per_manifold"].values())
+                per = " / ".join(str(v) for v in s["groups_per_manifold"].values()) or "--"
+                met = {True: "met", False: "missed", None: "--"}[s["meets_targets"]]
                 lines.append(
                     f"| {world}{'-loop' if section == 'loop' else ''} | {variant} | {s['frames']} "
-                    f"| {s['groups']} | {s['purity']:.3f} | {s['ari']:+.3f} | {per} "
-                    f"| {s['max_groups_touching']} | {s['max_drift_m']:.2f} | {s['seconds']:.2f} "
-                    f"| {'met' if s['meets_targets'] else 'missed'} |"
+                    f"| {s['groups']} | {_cell(s['purity'], '.3f')} | {_cell(s['ari'], '+.3f')} "
+                    f"| {per} | {_cell(s['max_groups_touching'], 'd')} "
+                    f"| {_cell(s['max_drift_m'], '.2f')} | {s['seconds']:.2f} | {met} |"
                 )
     if result["compare"]:
         lines += [
@@ -409,8 +391,9 @@ def format_report(result: dict) -> str:
         for world, rows in result["compare"].items():
             for name, s in rows.items():
                 lines.append(
-                    f"| {world} | {name} | {s['groups']} | {s['purity']:.3f} | {s['ari']:+.3f} "
-                    f"| {s['max_groups_per_manifold']} | {s['seconds']:.2f} |"
+                    f"| {world} | {name} | {s['groups']} | {_cell(s['purity'], '.3f')} "
+                    f"| {_cell(s['ari'], '+.3f')} | {_cell(s['max_groups_per_manifold'], 'd')} "
+                    f"| {s['seconds']:.2f} |"
                 )
     return "\n".join(lines)
 
@@ -439,7 +422,10 @@ def run(args) -> int:
         print(json.dumps(_jsonable(result), indent=2))
     else:
         print(format_report(result))
-        print(f"\nwrote {Path(args.out) / JSON_FILE} and {len(result['figures'])} figures")
+        print(
+            f"\nwrote {Path(args.out) / JSON_FILE}, {Path(args.out) / LABELS_FILE} and "
+            f"{len(result['figures'])} figures"
+        )
     return 0
 
 

@@ -27,6 +27,7 @@ __all__ = [
     "draw_weights",
     "group_colour",
     "save_figure",
+    "write_figures",
 ]
 
 
@@ -134,3 +135,68 @@ def draw_topology(
         ax.scatter(f[0], f[1], s=220, color=group_colour(k), edgecolors="k", zorder=3)
         ax.text(f[0], f[1], str(k), ha="center", va="center", fontsize=8, zorder=4)
     ax.set_aspect("equal")
+
+
+def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
+    """The four figures of one grouping (``runs``: a ``sim.runs.Runs``; ``model``: the fitted
+    ``ObservationGraphPartitioner``): groups over the map, local maps, weights, topology. The
+    map of the true manifolds is drawn behind for a simulated world of ours."""
+    plt = agg_pyplot()
+    draw_map = _map_background(runs.world) if runs.has_ground_truth else None
+
+    written = []
+    fig, ax = plt.subplots(figsize=(8, 7))
+    if draw_map is not None:
+        draw_map(ax)
+    draw_groups(ax, runs.scans, model.poses_, model.labels_, every=2, arrows=False, point_size=1.5)
+    behind = "; background: true manifolds" if draw_map is not None else ""
+    ax.set_title(
+        f"{tag}: {len(runs)} scans in {model.n_groups_} groups (colour = group{behind})",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_groups.png"))
+
+    cols = min(4, model.n_groups_)
+    rows = int(np.ceil(model.n_groups_ / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.6 * rows), squeeze=False)
+    draw_local_maps(axes, model.local_maps_, model.labels_)
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_local_maps.png"))
+
+    fig, ax = plt.subplots(figsize=(5, 4.6))
+    draw_weights(ax, model.affinity_matrix_, model.labels_, f"{tag}: SSO weights by group")
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_weights.png"))
+
+    fig, ax = plt.subplots(figsize=(7, 6))
+    draw_topology(ax, model.topology_, draw_map)
+    ax.set_title(f"{tag}: topological map (solid: trajectory, dashed: overlap)", fontsize=9)
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_topology.png"))
+    return written
+
+
+def _map_background(world_name: str) -> Callable[[object], None] | None:
+    """A function drawing the top-down map of one of our worlds into an axis; None for a
+    world that is not ours (an imported dataset)."""
+    from scenes import WORLDS, build_world
+
+    if world_name not in WORLDS:
+        return None
+    from sim.topdown import TopDownView
+
+    view = TopDownView(build_world(world_name), max_size=900)
+    h, w = view.size
+    extent = (
+        view.origin[0],
+        view.origin[0] + w / view.scale,
+        view.origin[1] - h / view.scale,
+        view.origin[1],
+    )
+    background = view.draw()
+
+    def draw_map(ax):
+        ax.imshow(background, extent=extent, alpha=0.55)
+
+    return draw_map

@@ -196,7 +196,7 @@ def section_manifold(result: dict) -> str:
         f"Manifold clustering ({PAPER['manifold']})",
         "<p>Error: the fraction of points in the wrong cluster after the best matching of "
         "clusters to true manifolds. See docs/manifold-clustering.md for the choices made "
-        "where the paper is ambiguous.</p>",
+        "where the paper is ambiguous.</p>" + _no_labels_note(result),
         synthetic,
         real,
         '<div class="row">',
@@ -234,7 +234,7 @@ def section_grouping(result: dict, prefix: str = "") -> str:
         "<p>Each world's three sequences are grouped together in one observation graph; groups "
         f"are scored against the true manifolds. Targets: purity &ge; "
         f"{fmt(purity_min, 2)}, at most {fmt(max_groups)} "
-        "groups per manifold. See docs/observation-grouping.md.</p>",
+        "groups per manifold. See docs/observation-grouping.md.</p>" + _no_labels_note(result),
         table(
             "Laser observation grouping per world and pose source",
             (
@@ -286,6 +286,17 @@ def section_grouping(result: dict, prefix: str = "") -> str:
         parts.append(figure(f"{prefix}{name}", Path(name).stem.replace("_", " ")))
     parts.append("</div>")
     return section("grouping", f"Observation grouping ({PAPER['grouping']})", *parts)
+
+
+def _no_labels_note(result: dict) -> str:
+    """A note for results of a dataset without ground truth (imported from a robot's log)."""
+    if result.get("ground_truth", True):
+        return ""
+    return (
+        "<p><strong>No ground-truth labels</strong> in this dataset (imported from a robot's "
+        "log): the methods ran and their clusters and figures are here, but nothing can be "
+        "scored (&ndash;).</p>"
+    )
 
 
 def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:

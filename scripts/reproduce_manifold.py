@@ -9,8 +9,14 @@ Synthetic (Figures 1-5): the four sets of :mod:`mapping.synthetic`, K = 3, Q = 2
 the paper did) and self-tuning spectral clustering. Real (Figure 6): every second frame of each
 sequence of the dataset builds the map, the others are the test set, K = 8, Q = 35; the same
 three methods on three feature sets (the paper's raw pixels, HSV colour histograms, laser
-scans). Writes ``results.json`` and paper-style plots of true and predicted label against the
-point or frame index; ``docs/manifold-clustering.md`` quotes the numbers.
+scans). Writes ``results.json``, ``clusters.npz`` (every frame's cluster) and paper-style plots
+of true and predicted label against the point or frame index; ``docs/manifold-clustering.md``
+quotes the numbers.
+
+On a dataset without ground truth (imported from a robot's log, ``topomap import``) the same
+methods run with K = ``--clusters`` (default the paper's 8) and write their clusters and plots,
+without errors ("no ground-truth labels"); the oracle best-sigma NCut, which picks sigma by the
+labels, is left out.
 """
 
 from __future__ import annotations
@@ -46,6 +52,9 @@ PAPER_SYNTHETIC = {
 }
 PAPER_REAL = {"ours": 0.0289, "best-sigma NCut": 0.344}
 METHODS = ("ours", "best-sigma NCut", "self-tuning")
+NO_LABELS = "no ground-truth labels: clusters are not scored (errors: --)"
+CLUSTERS_FILE = "clusters.npz"  # every frame's cluster per feature set and method
+PAPER_PIXELS = (320, 240)  # the paper's raw-pixel resolution (width, height)
 
 
 def _progress(total: int, enabled: bool, desc: str):
@@ -55,16 +64,16 @@ def _progress(total: int, enabled: bool, desc: str):
 
 
 def _fit_three(X, y, K, Q, X_test=None):
-    """(method, train labels, test labels or None, extra) for the three methods."""
+    """(method, train labels, test labels or None, extra) for the three methods; without
+    labels ``y`` (None) the oracle best-sigma NCut is left out."""
     ours = ManifoldClustering(K, Q).fit(X)
-    sweep = best_sigma_ncut(X, y, K)
     tuned = SelfTuningSpectralClustering(K).fit(X)
+    fitted = [("ours", ours, {"leaves": int(ours.leaf_labels_.max() + 1)})]
+    if y is not None:
+        sweep = best_sigma_ncut(X, y, K)
+        fitted.append(("best-sigma NCut", sweep.model, {"sigma": sweep.sigma}))
     out = []
-    for name, model, extra in (
-        ("ours", ours, {"leaves": int(ours.leaf_labels_.max() + 1)}),
-        ("best-sigma NCut", sweep.model, {"sigma": sweep.sigma}),
-        ("self-tuning", tuned, {}),
-    ):
+    for name, model, extra in (*fitted, ("self-tuning", tuned, {})):
         test = None if X_test is None else model.predict(X_test)
         out.append((name, model.labels_, test, extra))
     return out
@@ -97,18 +106,31 @@ def feature_sets(dataset) -> dict[str, tuple[str, object, np.ndarray]]:
     """name -> (sensor, transformer, raw readings) of the three compared feature sets."""
     images = dataset.concat("images")
     scans = dataset.concat("scans")
-    max_range = float(dataset.meta["settings"]["laser"]["max_range"])
+    max_range = dataset.max_range
+    if max_range is None:
+        finite = scans[np.isfinite(scans)]
+        max_range = float(finite.max()) if finite.size else 1.0
+    # another camera's frames are brought to the paper's resolution first
+    size = None if images.shape[2:0:-1] == PAPER_PIXELS else PAPER_PIXELS
     return {
-        "raw pixels 320x240 RGB (paper)": ("images", ImageFeatures(), images),
+        "raw pixels 320x240 RGB (paper)": ("images", ImageFeatures(size=size), images),
         "HSV histograms 8x4x4, 2x2 cells": ("images", ColorHistogramFeatures(), images),
         "laser ranges": ("scans", ScanFeatures(max_range=max_range), scans),
     }
 
 
-def real_rows(dataset, progress: bool = True) -> tuple[list[dict], dict]:
-    """Train and test error of the three methods on each feature set (paper split)."""
-    y = dataset.concat("labels")
+def real_rows(
+    dataset, progress: bool = True, n_clusters: int | None = None
+) -> tuple[list[dict], dict]:
+    """Train and test error of the three methods on each feature set (paper split), K
+    ``n_clusters`` (default the paper's 8). Without ground truth: the clusters, no errors."""
+    truth = dataset.has_ground_truth
     train, test = dataset.paper_split()
+    y = dataset.concat("labels") if truth else np.full(len(train), -1)
+    K = REAL_K if n_clusters is None else int(n_clusters)
+    if K < 1:
+        raise ValueError(f"n_clusters must be >= 1, got {n_clusters}")
+    Q = max(1, min(REAL_Q, int(train.sum()) // K))  # K * Q must fit in the training frames
     rows, labels = [], {}
     sets = feature_sets(dataset)
     with _progress(len(sets), progress, "8-manifold dataset") as bar:
@@ -116,8 +138,8 @@ def real_rows(dataset, progress: bool = True) -> tuple[list[dict], dict]:
             start = time.perf_counter()
             X_train = transformer.fit_transform(raw[train])
             X_test = transformer.transform(raw[test])
-            results = _fit_three(X_train, y[train], REAL_K, REAL_Q, X_test)
-            labels[name] = (y[test], {m: t for m, _, t, _ in results})
+            results = _fit_three(X_train, y[train] if truth else None, K, Q, X_test)
+            labels[name] = (y[test] if truth else None, {m: t for m, _, t, _ in results})
             for method, lab, pred, extra in results:
                 rows.append(
                     {
@@ -125,9 +147,14 @@ def real_rows(dataset, progress: bool = True) -> tuple[list[dict], dict]:
                         "features": name,
                         "dims": int(X_train.shape[1]),
                         "method": method,
-                        "train_error": clustering_error(y[train], lab),
-                        "test_error": clustering_error(y[test], pred),
+                        "K": K,
+                        "Q": Q,
+                        "clusters": len(np.unique(lab)),
+                        "train_error": clustering_error(y[train], lab) if truth else None,
+                        "test_error": clustering_error(y[test], pred) if truth else None,
                         "paper_error": PAPER_REAL.get(method) if sensor == "images" else None,
+                        "train_labels": lab,
+                        "test_labels": pred,
                         **extra,
                     }
                 )
@@ -138,24 +165,29 @@ def real_rows(dataset, progress: bool = True) -> tuple[list[dict], dict]:
 
 def plot_labels(panels: dict[str, tuple[np.ndarray, dict]], path: Path, xlabel: str) -> Path:
     """Paper-style plot (Figures 2-6): true label (red stars) and predicted label (blue
-    squares, mapped to the true labels by the Hungarian matching) against the index."""
+    squares, mapped to the true labels by the Hungarian matching) against the index. A panel
+    whose true labels are None (no ground truth) shows the predicted clusters as they are."""
     from mapping.metrics import best_matching
 
     plt = agg_pyplot()
-
+    methods = [m for m in METHODS if any(m in preds for _, preds in panels.values())]
     fig, axes = plt.subplots(
-        len(panels), len(METHODS), figsize=(4.2 * len(METHODS), 2.2 * len(panels)), squeeze=False
+        len(panels), len(methods), figsize=(4.2 * len(methods), 2.2 * len(panels)), squeeze=False
     )
     for r, (name, (y, preds)) in enumerate(panels.items()):
-        for c, method in enumerate(METHODS):
-            pred = preds[method]
-            mapping = best_matching(y, pred)
-            shown = np.array([mapping.get(p, -1) for p in pred.tolist()])
-            ax = axes[r, c]
-            idx = np.arange(len(y))
-            ax.plot(idx, y, "r*", ms=4, label="true")
-            ax.plot(idx, shown, "bs", ms=3, mfc="none", label="predicted")
-            ax.set_title(f"{name}: {method} ({clustering_error(y, pred):.1%})", fontsize=8)
+        for c, method in enumerate(methods):
+            pred, ax = preds[method], axes[r, c]
+            idx = np.arange(len(pred))
+            if y is None:
+                ax.plot(idx, pred, "bs", ms=3, mfc="none", label="cluster")
+                ax.set_title(f"{name}: {method} (no ground-truth labels)", fontsize=8)
+            else:
+                mapping = best_matching(y, pred)
+                shown = np.array([mapping.get(p, -1) for p in pred.tolist()])
+                ax.plot(idx, y, "r*", ms=4, label="true")
+                ax.plot(idx, shown, "bs", ms=3, mfc="none", label="predicted")
+                error = clustering_error(y, pred)
+                ax.set_title(f"{name}: {method} ({error:.1%})", fontsize=8)
             ax.set_xlabel(xlabel, fontsize=8)
             ax.tick_params(labelsize=7)
             if r == 0 and c == 0:
@@ -164,17 +196,29 @@ def plot_labels(panels: dict[str, tuple[np.ndarray, dict]], path: Path, xlabel: 
     return save_figure(fig, path)
 
 
-def reproduce(dataset_dir: str | Path, out_dir: str | Path, *, progress: bool = True) -> dict:
-    """Run both reproductions; write ``results.json`` and the plots into ``out_dir``.
+def reproduce(
+    dataset_dir: str | Path,
+    out_dir: str | Path,
+    *,
+    progress: bool = True,
+    n_clusters: int | None = None,
+) -> dict:
+    """Run both reproductions; write ``results.json``, ``clusters.npz`` and the plots into
+    ``out_dir``.
+
+    ``n_clusters`` is K on the dataset (default the paper's 8). On a dataset without ground
+    truth the errors are None and ``ground_truth`` is False.
 
     Returns
     -------
     dict
         ``synthetic`` and ``real`` (lists of rows: errors per set / feature set and method,
         with the paper's claim or number beside them), ``figures`` (PNG paths relative to
-        ``out_dir``) and ``timings`` (seconds per part).
+        ``out_dir``), ``clusters_file`` (per "features/method/train" and ".../test", every
+        frame's cluster) and ``timings`` (seconds per part).
     """
     from sim.dataset import load_dataset
+    from sim.dataset import write_sequence as write_npz
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -183,8 +227,15 @@ def reproduce(dataset_dir: str | Path, out_dir: str | Path, *, progress: bool = 
     synthetic, synthetic_labels = synthetic_rows(progress)
     timings["synthetic"] = time.perf_counter() - start
     start = time.perf_counter()
-    real, real_labels = real_rows(load_dataset(dataset_dir), progress)
+    dataset = load_dataset(dataset_dir)
+    real, real_labels = real_rows(dataset, progress, n_clusters)
     timings["real"] = time.perf_counter() - start
+    clusters = {}
+    for row in real:
+        key = f"{row['features']}/{row['method']}"
+        clusters[f"{key}/train"] = np.asarray(row.pop("train_labels"))
+        clusters[f"{key}/test"] = np.asarray(row.pop("test_labels"))
+    write_npz(out / CLUSTERS_FILE, clusters)
     figures = [
         plot_labels(synthetic_labels, out / "synthetic_labels.png", "point index"),
         plot_labels(real_labels, out / "real_labels.png", "test frame index"),
@@ -193,10 +244,16 @@ def reproduce(dataset_dir: str | Path, out_dir: str | Path, *, progress: bool = 
         "synthetic": synthetic,
         "real": real,
         "figures": [str(p.relative_to(out)) for p in figures],
+        "clusters_file": CLUSTERS_FILE,
+        "ground_truth": dataset.has_ground_truth,
         "timings": timings,
         "settings": {
             "synthetic": {"K": SYNTHETIC_K, "Q": SYNTHETIC_Q},
-            "real": {"K": REAL_K, "Q": REAL_Q, "split": "even frames train, odd frames test"},
+            "real": {
+                "K": real[0]["K"],
+                "Q": real[0]["Q"],
+                "split": "even frames train, odd frames test",
+            },
             "dataset": str(dataset_dir),
         },
     }
@@ -209,13 +266,16 @@ def markdown_tables(result: dict) -> str:
     lines = ["| set | method | error | paper's claim |", "|---|---|---|---|"]
     for r in result["synthetic"]:
         lines.append(f"| {r['set']} | {r['method']} | {r['error']:.3f} | {r['paper_claim']} |")
-    lines += ["", "| features | method | train error | test error | paper |"]
-    lines.append("|---|---|---|---|---|")
+    lines += [""] + ([] if result.get("ground_truth", True) else [NO_LABELS, ""])
+    lines += ["| features | method | train error | test error | paper |", "|---|---|---|---|---|"]
+
+    def pct(value):
+        return "--" if value is None else f"{value:.1%}"
+
     for r in result["real"]:
-        paper = "--" if r["paper_error"] is None else f"{r['paper_error']:.1%}"
         lines.append(
-            f"| {r['features']} | {r['method']} | {r['train_error']:.1%} | "
-            f"{r['test_error']:.1%} | {paper} |"
+            f"| {r['features']} | {r['method']} | {pct(r['train_error'])} | "
+            f"{pct(r['test_error'])} | {pct(r['paper_error'])} |"
         )
     return "\n".join(lines)
 
@@ -225,11 +285,17 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     parser.add_argument("--data", required=True, help="dataset directory (topomap collect)")
     parser.add_argument("--out", required=True, help="directory for results.json and plots")
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.add_argument(
+        "--clusters",
+        type=int,
+        default=None,
+        help=f"K on the dataset (default {REAL_K}, the paper's; for your own data)",
+    )
     return parser
 
 
 def run(args) -> int:
-    result = reproduce(args.data, args.out)
+    result = reproduce(args.data, args.out, n_clusters=args.clusters)
     print(json.dumps(result, indent=2) if args.json else markdown_tables(result))
     return 0
 

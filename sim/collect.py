@@ -162,6 +162,7 @@ def _base_meta(settings: CollectionSettings) -> dict:
     return {
         "format": ds.FORMAT_NAME,
         "schema_version": ds.SCHEMA_VERSION,
+        "ground_truth": True,
         "settings": settings.to_json(),
         "manifolds": list(names.MANIFOLDS),
         "sequences": {},

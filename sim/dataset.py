@@ -9,12 +9,17 @@ Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
         depth     float32 (N, H, W)     metric depth (only when collected with depth)
         scans     float32 (N, B)        laser ranges, +inf = no return within max range
         angles    float32 (B,)          beam angles in the sensor frame (rad, CCW, 0 = ahead)
-        poses     float64 (N, 3)        true pose (x, y, yaw) in the world frame
+        poses     float64 (N, 3)        true pose (x, y, yaw) in the world frame (*)
         odometry  float64 (N, 3)        odometry pose (starts at the true start pose)
         commands  float64 (N, 2)        command (v m/s, omega rad/s) being executed
         labels    int16   (N,)          ground-truth manifold id (index into meta "manifolds"),
-                                        -1 if on no manifold
+                                        -1 if on no manifold (*)
         times     float64 (N,)          simulation time (s)
+
+(*) ground truth: present when ``meta["ground_truth"]`` is true (collected in simulation); a
+dataset imported from a robot's log (:mod:`sim.rosbag_import`) has ``"ground_truth": false``,
+no ``poses`` or ``labels`` arrays and no manifolds. Schema version 1 (before that key existed)
+is still read, as a dataset with ground truth.
 
 Every file is written to a temporary name and renamed, and ``meta.json`` lists a sequence only
 after its file is complete, so an interrupted collection never leaves a half-written sequence.
@@ -34,8 +39,10 @@ from pathlib import Path
 import numpy as np
 
 from scenes.fileio import atomic_write_bytes
+from sim.runs import Runs
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+READABLE_VERSIONS = (1, 2)  # version 2 added "ground_truth" (false: no poses, no labels)
 FORMAT_NAME = "topomap-dataset"
 META_FILE = "meta.json"
 ARRAYS = {  # name: (dtype, trailing shape rank or None for per-dataset constants)
@@ -62,6 +69,7 @@ SHAPES = {  # trailing shape per frame (angles: per dataset); -1: any size, chec
 _FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\.npz\Z")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
+GROUND_TRUTH = ("poses", "labels")  # absent from a dataset without ground truth
 
 
 class DatasetError(ValueError):
@@ -77,15 +85,15 @@ class Sequence:
     images: np.ndarray
     scans: np.ndarray
     angles: np.ndarray
-    poses: np.ndarray
     odometry: np.ndarray
     commands: np.ndarray
-    labels: np.ndarray
     times: np.ndarray
+    poses: np.ndarray | None = None  # None without ground truth
+    labels: np.ndarray | None = None  # None without ground truth
     depth: np.ndarray | None = None
 
     def __len__(self) -> int:
-        return len(self.labels)
+        return len(self.times)
 
 
 @dataclass
@@ -100,10 +108,42 @@ class Dataset:
     def manifolds(self) -> list[str]:
         return list(self.meta["manifolds"])
 
+    @property
+    def has_ground_truth(self) -> bool:
+        """True poses and manifold labels are recorded (simulated data; not imported logs)."""
+        return bool(self.meta.get("ground_truth", True))
+
+    @property
+    def max_range(self) -> float | None:
+        """The laser's maximum range (m) from the settings; readings at or beyond it are no
+        return. None when the settings do not say."""
+        value = self.meta.get("settings", {}).get("laser", {}).get("max_range")
+        return None if value is None else float(value)
+
+    @property
+    def worlds(self) -> list[str]:
+        """The worlds (places) of the sequences, in order of first appearance."""
+        return list(dict.fromkeys(s.world for s in self.sequences.values()))
+
     def concat(self, field: str, names: list[str] | None = None) -> np.ndarray:
         """One array of ``field`` over sequences (in ``meta`` order, or ``names``)."""
         names = list(self.sequences) if names is None else names
+        if field in GROUND_TRUTH and not self.has_ground_truth:
+            raise DatasetError(f"{self.path} has no ground truth: no {field!r} to concatenate")
         return np.concatenate([getattr(self.sequences[n], field) for n in names])
+
+    def runs(self, world: str) -> Runs:
+        """Every sequence (drive) of ``world`` together, in the form the mapping methods take.
+
+        See :class:`Runs`; no-return beams (``inf``, and readings at or beyond the dataset's
+        :attr:`max_range`) are left out of the scan points.
+        """
+        sequences = [s for s in self.sequences.values() if s.world == world]
+        if not sequences:
+            raise ValueError(
+                f"{self.path} has no sequence in world {world!r}: it has {self.worlds}"
+            )
+        return Runs.from_sequences(sequences, self.max_range)
 
     def paper_split(self) -> tuple[np.ndarray, np.ndarray]:
         """Boolean masks (train, test) over :meth:`concat` order: every second frame of each
@@ -161,10 +201,15 @@ def read_meta(directory: str | os.PathLike) -> dict:
         raise DatasetError(f"{path} is not valid JSON: {err}") from err
     if meta.get("format") != FORMAT_NAME:
         raise DatasetError(f"{path} is not a {FORMAT_NAME} (format={meta.get('format')!r})")
-    if meta.get("schema_version") != SCHEMA_VERSION:
+    if meta.get("schema_version") not in READABLE_VERSIONS:
         raise DatasetError(
             f"{directory} has schema version {meta.get('schema_version')!r}; this code reads "
-            f"version {SCHEMA_VERSION}: collect it again with this version"
+            f"versions {READABLE_VERSIONS}: collect it again with this version"
+        )
+    if meta["schema_version"] >= 2 and not isinstance(meta.get("ground_truth"), bool):
+        raise DatasetError(
+            f"{path}: 'ground_truth' must be true or false in schema version 2, got "
+            f"{meta.get('ground_truth')!r}"
         )
     sequences = meta.get("sequences", {})
     if not isinstance(sequences, dict):
@@ -194,7 +239,11 @@ def _check_entry(path: Path, name: str, entry) -> None:
         raise DatasetError(f"{path}: sequence {name!r} has no valid sha256")
 
 
-def load_sequence(directory: Path, name: str, entry: dict, verify: bool = True) -> Sequence:
+def load_sequence(
+    directory: Path, name: str, entry: dict, verify: bool = True, ground_truth: bool = True
+) -> Sequence:
+    """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
+    whether ``poses`` and ``labels`` must be there (True) or must not (False)."""
     path = Path(directory) / entry["file"]
     if not path.is_file():
         raise DatasetError(f"sequence {name!r}: {path} is missing")
@@ -207,14 +256,23 @@ def load_sequence(directory: Path, name: str, entry: dict, verify: bool = True) 
             arrays = {k: npz[k] for k in npz.files}
     except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
         raise DatasetError(f"sequence {name!r}: {path} cannot be read ({err})") from err
-    missing = [k for k in ARRAYS if k not in arrays]
+    expected = [k for k in ARRAYS if ground_truth or k not in GROUND_TRUTH]
+    missing = [k for k in expected if k not in arrays]
     if missing:
         raise DatasetError(f"sequence {name!r}: arrays {missing} missing from {path}")
+    extra = [k for k in GROUND_TRUTH if k in arrays and not ground_truth]
+    if extra:
+        raise DatasetError(
+            f"sequence {name!r}: {path} holds {extra} but meta.json says ground_truth is false"
+        )
     n = entry["frames"]
-    for k in PER_FRAME + (("depth",) if "depth" in arrays else ()):
-        if len(arrays[k]) != n:
-            raise DatasetError(f"sequence {name!r}: {k} has {len(arrays[k])} frames, meta says {n}")
-    for k, dtype in ARRAYS.items():
+    for k in [k for k in PER_FRAME if k in expected] + (["depth"] if "depth" in arrays else []):
+        if arrays[k].ndim == 0 or len(arrays[k]) != n:
+            raise DatasetError(
+                f"sequence {name!r}: {k} has shape {arrays[k].shape}, meta says {n} frames"
+            )
+    for k in expected:
+        dtype = ARRAYS[k]
         if arrays[k].dtype != dtype:
             raise DatasetError(
                 f"sequence {name!r}: {k} has dtype {arrays[k].dtype}, expected {np.dtype(dtype)}"
@@ -225,9 +283,9 @@ def load_sequence(directory: Path, name: str, entry: dict, verify: bool = True) 
             w not in (-1, t) for w, t in zip(want, trailing, strict=True)
         ):
             lead = () if k == "angles" else ("frames",)
-            expected = ", ".join([*lead, *("*" if w < 0 else str(w) for w in want)])
+            form = ", ".join([*lead, *("*" if w < 0 else str(w) for w in want)])
             raise DatasetError(
-                f"sequence {name!r}: {k} has shape {arrays[k].shape}; expected ({expected})"
+                f"sequence {name!r}: {k} has shape {arrays[k].shape}; expected ({form})"
             )
     if arrays["scans"].shape[1] != len(arrays["angles"]):
         raise DatasetError(
@@ -235,7 +293,10 @@ def load_sequence(directory: Path, name: str, entry: dict, verify: bool = True) 
             f"{len(arrays['angles'])}"
         )
     return Sequence(
-        name=name, world=entry["world"], depth=arrays.get("depth"), **{k: arrays[k] for k in ARRAYS}
+        name=name,
+        world=entry["world"],
+        depth=arrays.get("depth"),
+        **{k: arrays[k] for k in expected},
     )
 
 
@@ -254,8 +315,9 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
             f"{directory} is an incomplete collection ({len(meta.get('sequences', {}))} sequences "
             "done): rerun the same `topomap collect` command to resume it"
         )
+    ground_truth = bool(meta.get("ground_truth", True))
     seqs = {
-        name: load_sequence(directory, name, entry, verify)
+        name: load_sequence(directory, name, entry, verify, ground_truth)
         for name, entry in meta["sequences"].items()
     }
     return Dataset(directory, meta, seqs)

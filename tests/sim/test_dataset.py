@@ -157,6 +157,52 @@ def test_a_crafted_meta_is_refused(small_dataset, tmp_path, change, match):
         load_dataset(d)
 
 
+def test_runs_hand_out_what_the_mapping_methods_take(small_dataset):
+    from sim.laser import scan_to_points
+
+    ds = load_dataset(small_dataset)
+    runs = ds.runs("lawn")
+    assert runs.names == ["lawn-left", "lawn-straight", "lawn-right"]
+    assert len(runs) == 18 and runs.groups.tolist() == [0] * 6 + [1] * 6 + [2] * 6
+    assert runs.run_starts.tolist() == [0, 6, 12]
+    assert runs.max_range == ds.max_range == SETTINGS.laser.max_range
+    seq = ds.sequences["lawn-straight"]
+    np.testing.assert_array_equal(runs.odometry[6:12], seq.odometry)
+    np.testing.assert_array_equal(runs.poses[6:12], seq.poses)
+    np.testing.assert_array_equal(runs.labels, ds.concat("labels"))
+    assert runs.images.shape == (18, 36, 48, 3) and runs.ranges.shape == (18, 361)
+    np.testing.assert_allclose(runs.scans[7], scan_to_points(seq.scans[1], seq.angles))
+    with pytest.raises(ValueError, match=r"no sequence in world 'hallway'.*\['lawn'\]"):
+        ds.runs("hallway")
+
+
+def test_runs_leave_out_readings_at_the_datasets_max_range(small_dataset):
+    ds = load_dataset(small_dataset)
+    seq = ds.sequences["lawn-left"]
+    seq.scans[0, :3] = [np.inf, SETTINGS.laser.max_range, 1.0]  # no return reported two ways
+    runs = ds.runs("lawn")
+    kept = np.isfinite(seq.scans[0]) & (seq.scans[0] < SETTINGS.laser.max_range)
+    assert len(runs.scans[0]) == kept.sum() and kept[2] and not kept[:2].any()
+
+
+def test_schema_1_still_reads_and_ground_truth_flag_is_checked(small_dataset, tmp_path):
+    import shutil
+
+    d = tmp_path / "d"
+    shutil.copytree(small_dataset, d)
+    meta = json.loads((d / "meta.json").read_text())
+    assert meta["ground_truth"] is True
+    old = {k: v for k, v in meta.items() if k != "ground_truth"} | {"schema_version": 1}
+    (d / "meta.json").write_text(json.dumps(old))
+    assert load_dataset(d).has_ground_truth
+    (d / "meta.json").write_text(json.dumps({**old, "schema_version": 2}))
+    with pytest.raises(DatasetError, match="'ground_truth' must be true or false"):
+        load_dataset(d)
+    (d / "meta.json").write_text(json.dumps({**meta, "ground_truth": False}))
+    with pytest.raises(DatasetError, match=r"holds \['poses', 'labels'\] but meta.json says"):
+        load_dataset(d)
+
+
 def test_arrays_of_the_wrong_shape_are_refused(small_dataset, tmp_path):
     import shutil
 
