@@ -24,6 +24,7 @@ from mapping._manifold_predict import ClusterModel
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import (
     COMBINE_RULES,
+    Combination,
     SplitNode,
     build_tree,
     combine_leaves,
@@ -41,13 +42,8 @@ _DTYPES = ("float32", "float64")
 
 # scikit-learn estimator checks that cannot apply to ManifoldClustering, with the reason; passed
 # as ``expected_failed_checks`` to ``parametrize_with_checks`` (tests/mapping/test_sklearn_checks).
-EXPECTED_FAILED_CHECKS = {
-    "check_fit2d_1feature": (
-        "sets n_clusters=1; clustering along manifolds needs K >= 2, since every split and "
-        "every cluster's (sigma_j, alpha_j) maximise Omega(2) of eq. 9, which compares a "
-        "cluster with the rest of the data"
-    ),
-}
+# None so far: every check of scikit-learn passes.
+EXPECTED_FAILED_CHECKS: dict[str, str] = {}
 
 
 class ManifoldClustering(ClusterMixin, BaseEstimator):
@@ -62,7 +58,10 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     Parameters
     ----------
     n_clusters : int, default 2
-        K, the number of clusters (>= 2).
+        K, the number of clusters (>= 1). With K = 1 all points form one cluster whose
+        (sigma_1, alpha_1) are those of the root split (eq. 9 scores a cluster against the
+        rest, which is empty then); ``predict`` is then trivial but ``signal`` still servos
+        along the one manifold.
     min_cluster_size : int, default 10
         Q, the minimum number of points of a leaf of the bisection (>= 1);
         ``n_clusters * min_cluster_size`` must not exceed the number of samples.
@@ -125,7 +124,7 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     """
 
     _parameter_constraints: dict = {
-        "n_clusters": [Interval(Integral, 2, None, closed="left")],
+        "n_clusters": [Interval(Integral, 1, None, closed="left")],
         "min_cluster_size": [Interval(Integral, 1, None, closed="left")],
         "n_sigmas": [Interval(Integral, 2, None, closed="left")],
         "n_alphas": [Interval(Integral, 2, None, closed="left")],
@@ -231,15 +230,20 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         self, X: np.ndarray, D2: np.ndarray, K: int, Q: int, space: SearchSpace
     ) -> None:
         tree = build_tree(D2, Q, space)
-        ensure_leaves(tree, D2, K, space)
+        # At least two leaves: the root split's kernel gives outlier_scores_ (and K = 1's).
+        ensure_leaves(tree, D2, max(K, 2), space)
         leaves = [leaf.indices for leaf in tree.leaves()]
         groups = None
-        if self.combine == "separability":
-            groups = separability_merge(D2, leaves, K, space)
-        elif self.combine == "cut":
-            position = {id(leaf): c for c, leaf in enumerate(tree.leaves())}
-            groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(tree, K)]
-        combo = combine_leaves(D2, leaves, K, space, groups=groups)
+        if K == 1:
+            one = (np.array([tree.sigma]), np.array([tree.alpha]), np.array([tree.omega]))
+            combo = Combination([list(range(len(leaves)))], *one)
+        else:
+            if self.combine == "separability":
+                groups = separability_merge(D2, leaves, K, space)
+            elif self.combine == "cut":
+                position = {id(leaf): c for c, leaf in enumerate(tree.leaves())}
+                groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(tree, K)]
+            combo = combine_leaves(D2, leaves, K, space, groups=groups)
 
         members = [np.sort(np.concatenate([leaves[c] for c in g])) for g in combo.groups]
         # Number clusters by first appearance so labels do not depend on the merge order.
@@ -281,7 +285,7 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     @staticmethod
     def _root_outliers(D2: np.ndarray, tree: SplitNode) -> np.ndarray:
         """eq. 10 on all points, in the kernel of the root split (or a mid-range one)."""
-        if tree.children is None:  # pragma: no cover - K >= 2 always splits the root
+        if tree.children is None:  # pragma: no cover - ensure_leaves always splits the root
             raise RuntimeError("the root was not split")
         basis = SpectralBasis.from_sq_distances(D2, tree.sigma)
         return outlier_vector(basis.dense_distances(tree.alpha))

@@ -149,6 +149,21 @@ def test_fewer_leaves_than_clusters_still_gives_k_clusters():
     assert np.unique(model.labels_).size == 4
 
 
+def test_one_cluster_uses_the_root_kernel_and_still_servos(fitted_lines):
+    X, _, three = fitted_lines
+    model = ManifoldClustering(1, 10).fit(X)
+    np.testing.assert_array_equal(model.labels_, 0)
+    assert model.sigmas_[0] == model.tree_.sigma and model.alphas_[0] == model.tree_.alpha
+    np.testing.assert_array_equal(model.outlier_scores_, three.outlier_scores_)
+    np.testing.assert_array_equal(model.predict(X[:5]), 0)
+    np.testing.assert_array_equal(model.predict_proba(X[:5]), 1.0)
+    f = model.signal(X, 0)
+    assert np.argmax(f) == model.centers_[0]
+    # fewer than 2 Q points: the root is still split once, so its kernel exists
+    small = ManifoldClustering(1, 10).fit(X[:15])
+    assert small.tree_.children is not None and np.isfinite(small.sigmas_).all()
+
+
 # --- prediction and the servo signal ------------------------------------------------------------
 def test_predict_held_out_points():
     X, y = three_lines(n=80, noise=0.003)
@@ -203,9 +218,9 @@ def test_signal_bad_cluster_and_target(fitted_lines):
     ("params", "match"),
     [
         (
-            {"n_clusters": 1},
+            {"n_clusters": 0},
             r"'n_clusters' parameter of ManifoldClustering must be an int in "
-            r"the range \[2, inf\)",
+            r"the range \[1, inf\)",
         ),
         ({"n_clusters": 2.5}, "'n_clusters' parameter of ManifoldClustering must be an int"),
         ({"min_cluster_size": 0}, r"'min_cluster_size' parameter .* range \[1, inf\)"),
