@@ -258,6 +258,8 @@ class SelfTuningSpectralClustering(_SpectralBase):
         As in :class:`NormalizedCutClustering`.
     scales_ : ndarray of shape (n,)
         The local scale sigma_i of each training point.
+    min_scale_ : float
+        Floor of every scale, also of new points': 1e-9 times the training data's diameter.
     """
 
     _parameter_constraints: dict = {
@@ -286,10 +288,10 @@ class SelfTuningSpectralClustering(_SpectralBase):
         d = np.sqrt(np.partition(D2, kth, axis=1)[:, kth])
         # Duplicated points can have a zero k-th neighbour distance; floor the scale at a tiny
         # fraction of the data's spread so that W stays finite and such points stay connected.
-        return np.maximum(d, 1e-9 * self._spread)
+        return np.maximum(d, self.min_scale_)
 
     def _affinity(self, D2: np.ndarray) -> np.ndarray:
-        self._spread = float(np.sqrt(D2.max()))
+        self.min_scale_ = 1e-9 * float(np.sqrt(D2.max()))
         self.scales_ = self._local_scales(D2, exclude_self=True)
         return np.exp(-D2 / np.outer(self.scales_, self.scales_))
 
