@@ -8,12 +8,11 @@ from importlib import import_module
 
 # name -> module that defines it (one line per name, keep sorted by module)
 _EXPORTS = {
-    "NotFittedError": "mapping.baselines",
     "NormalizedCutClustering": "mapping.baselines",
     "SelfTuningSpectralClustering": "mapping.baselines",
     "best_sigma_ncut": "mapping.baselines",
-    "ColorHistogramFeatures": "mapping.features",
-    "ImageFeatures": "mapping.features",
+    "ColorHistogramFeatures": "mapping.image_features",
+    "ImageFeatures": "mapping.image_features",
     "ScanFeatures": "mapping.features",
     "scan_to_points": "mapping.features",
     "icp": "mapping.icp",
@@ -29,6 +28,7 @@ _EXPORTS = {
     "recursive_ncut_partition": "mapping.partition",
     "spectral_bisection": "mapping.partition",
     "TopologicalMap": "mapping.topology",
+    "NotFittedError": "sklearn.exceptions",  # what every estimator here raises before fit
 }
 
 __all__ = sorted(_EXPORTS)

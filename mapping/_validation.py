@@ -1,9 +1,11 @@
-"""Input checks and the BLAS thread policy shared by the estimators of ``mapping``."""
+"""The BLAS thread policy shared by the estimators of ``mapping``.
+
+Input and parameter checks are scikit-learn's (``validate_data``, ``_parameter_constraints``,
+``check_is_fitted``); only what scikit-learn does not do lives here.
+"""
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import ArrayLike
 from threadpoolctl import ThreadpoolController
 
 _CONTROLLER: ThreadpoolController | None = None
@@ -22,46 +24,3 @@ def single_threaded_blas():
     if _CONTROLLER is None:  # scanning the loaded libraries costs ~2 ms; do it once
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=1, user_api="blas")
-
-
-class NotFittedError(ValueError, AttributeError):
-    """Raised when an estimator is used before ``fit`` (same bases as scikit-learn's)."""
-
-
-def check_array(
-    X: ArrayLike, name: str = "X", min_samples: int = 2, keep_float32: bool = False
-) -> np.ndarray:
-    """X as a finite, C-contiguous 2-D float array; float64 unless ``keep_float32`` and X is
-    float32 already. Refuses non-numeric data, wrong rank, too few samples, no features,
-    NaN and infinity, naming ``name``."""
-    X = np.asarray(X)
-    if X.dtype.kind not in "biuf":
-        raise ValueError(f"{name} must be numeric, got dtype {X.dtype}")
-    dtype = np.float32 if keep_float32 and X.dtype == np.float32 else np.float64
-    X = np.ascontiguousarray(X, dtype=dtype)
-    if X.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D array (n_samples, n_features), got shape {X.shape}")
-    if X.shape[0] < min_samples:
-        raise ValueError(f"{name} needs at least {min_samples} samples, got {X.shape[0]}")
-    if X.shape[1] == 0:
-        raise ValueError(f"{name} has no features (shape[1] == 0)")
-    if not np.isfinite(X).all():
-        raise ValueError(f"{name} contains NaN or infinity")
-    return X
-
-
-def check_fitted_input(estimator: object, X: ArrayLike, keep_float32: bool = False) -> np.ndarray:
-    """New points for a fitted estimator: fitted, then :func:`check_array`, then the feature
-    count of ``fit`` (``n_features_in_``)."""
-    if not hasattr(estimator, "labels_"):
-        raise NotFittedError(
-            f"this {type(estimator).__name__} is not fitted yet; call fit(X) before using it"
-        )
-    X = check_array(X, min_samples=1, keep_float32=keep_float32)
-    expected = estimator.n_features_in_  # type: ignore[attr-defined]
-    if X.shape[1] != expected:
-        raise ValueError(
-            f"X has {X.shape[1]} features, but {type(estimator).__name__} was fitted with "
-            f"{expected} features (n_features_in_)"
-        )
-    return X

@@ -9,29 +9,31 @@
 
 Both follow Ng, Jordan & Weiss [15]: ``S = D^-1/2 W D^-1/2`` (the same normalised affinity the
 paper builds in Section II-A), the top ``n_clusters`` eigenvectors of S as an embedding, rows
-scaled to unit length, k-means in the embedding. New points are embedded with the Nystrom
-out-of-sample extension of Bengio et al. [22], which the paper used for its NCut test error.
+scaled to unit length, k-means (scikit-learn's ``KMeans``) in the embedding. New points are
+embedded with the Nystrom out-of-sample extension of Bengio et al. [22], which the paper used
+for its NCut test error.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from numbers import Integral, Real
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import eigh
+from sklearn.base import BaseEstimator, ClusterMixin, TransformerMixin, _fit_context
+from sklearn.cluster import KMeans
+from sklearn.metrics import pairwise_distances_argmin
+from sklearn.utils import check_array, check_consistent_length, column_or_1d
+from sklearn.utils._param_validation import Interval
+from sklearn.utils.validation import check_is_fitted, validate_data
 
-from mapping._validation import (
-    NotFittedError,
-    check_array,
-    check_fitted_input,
-    single_threaded_blas,
-)
+from mapping._validation import single_threaded_blas
 from mapping.metrics import clustering_error
 
 __all__ = [
     "NormalizedCutClustering",
-    "NotFittedError",
     "SelfTuningSpectralClustering",
     "SigmaSweep",
     "best_sigma_ncut",
@@ -41,12 +43,6 @@ __all__ = [
 
 # Degrees and norms below this are treated as zero (a point with no neighbours at this sigma).
 _TINY = 1e-300
-
-
-def _check_int(value: object, name: str, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-    return int(value)
 
 
 def squared_distances(A: ArrayLike, B: ArrayLike | None = None) -> np.ndarray:
@@ -73,48 +69,20 @@ def squared_distances(A: ArrayLike, B: ArrayLike | None = None) -> np.ndarray:
     return D2
 
 
-def _kmeans(
-    Z: np.ndarray, k: int, rng: np.random.Generator, n_init: int, max_iter: int = 100
-) -> tuple[np.ndarray, np.ndarray]:
-    """Lloyd's k-means with k-means++ seeding; best of ``n_init`` runs by inertia."""
-    n = Z.shape[0]
-    best_inertia, best = np.inf, None
-    sq_norms = np.einsum("ij,ij->i", Z, Z)
-    for _ in range(n_init):
-        # k-means++ (Arthur & Vassilvitskii): next centre drawn with probability ~ D(x)^2.
-        centres = np.empty((k, Z.shape[1]))
-        centres[0] = Z[rng.integers(n)]
-        d2 = np.maximum(sq_norms - 2 * Z @ centres[0] + centres[0] @ centres[0], 0.0)
-        for c in range(1, k):
-            total = d2.sum()
-            idx = rng.choice(n, p=d2 / total) if total > 0 else rng.integers(n)
-            centres[c] = Z[idx]
-            d2 = np.minimum(d2, np.maximum(((Z - centres[c]) ** 2).sum(axis=1), 0.0))
-        labels = np.full(n, -1)
-        for _ in range(max_iter):
-            dist = sq_norms[:, None] - 2 * Z @ centres.T + np.einsum("ij,ij->i", centres, centres)
-            new_labels = dist.argmin(axis=1)
-            if np.array_equal(new_labels, labels):
-                break
-            labels = new_labels
-            for c in range(k):
-                members = labels == c
-                # An empty cluster keeps its old centre rather than becoming NaN.
-                if members.any():
-                    centres[c] = Z[members].mean(axis=0)
-        inertia = float(dist[np.arange(n), labels].sum())
-        if inertia < best_inertia:
-            best_inertia, best = inertia, (labels.copy(), centres.copy())
-    return best
-
-
 def _unit_rows(E: np.ndarray) -> np.ndarray:
     norms = np.linalg.norm(E, axis=1, keepdims=True)
     return E / np.maximum(norms, _TINY)
 
 
-class _SpectralBase:
+class _SpectralBase(ClusterMixin, TransformerMixin, BaseEstimator):
     """Shared NJW pipeline; subclasses define the affinity of training and new points."""
+
+    _parameter_constraints: dict = {
+        "n_clusters": [Interval(Integral, 1, None, closed="left")],
+        "n_init": [Interval(Integral, 1, None, closed="left")],
+        # an int seed only: the results are reproducible by construction
+        "random_state": [Interval(Integral, 0, 2**32 - 1, closed="both")],
+    }
 
     def _affinity(self, D2: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -122,18 +90,26 @@ class _SpectralBase:
     def _affinity_new(self, D2_new: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def _validate_params(self, n_samples: int) -> None:
-        _check_int(self.n_clusters, "n_clusters", 2)
+    def _check_n_samples(self, n_samples: int) -> None:
+        """The checks the parameter constraints cannot express (they depend on the data)."""
         if self.n_clusters > n_samples:
             raise ValueError(
                 f"n_clusters={self.n_clusters} exceeds the number of samples ({n_samples})"
             )
-        _check_int(self.n_init, "n_init", 1)
 
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: ArrayLike, y: None = None) -> _SpectralBase:
-        """Cluster the rows of X; sets ``labels_`` and the state ``predict`` needs."""
-        X = check_array(X)
-        self._validate_params(X.shape[0])
+        """Cluster the rows of X; sets ``labels_`` and the state ``predict`` needs.
+
+        Parameters
+        ----------
+        X : array-like of shape (n, d)
+            Finite training points, not all identical.
+        y : None
+            Ignored; present for scikit-learn compatibility.
+        """
+        X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
+        self._check_n_samples(X.shape[0])
         return self._fit_sqdist(X, squared_distances(X))
 
     def _fit_sqdist(self, X: np.ndarray, D2: np.ndarray) -> _SpectralBase:
@@ -155,23 +131,21 @@ class _SpectralBase:
         flip = np.sign(evecs[np.abs(evecs).argmax(axis=0), np.arange(k)])
         evecs = evecs * np.where(flip == 0, 1.0, flip)
         embedding = _unit_rows(evecs)
-        rng = np.random.default_rng(self.random_state)
-        labels, centres = _kmeans(embedding, k, rng, self.n_init)
+        kmeans = KMeans(k, n_init=self.n_init, random_state=self.random_state).fit(embedding)
 
         self.X_fit_ = X
-        self.n_features_in_ = X.shape[1]
         self.affinity_matrix_ = W
         self.degrees_ = deg
         self.eigenvalues_ = evals
         self.eigenvectors_ = evecs
         self.embedding_ = embedding
-        self.cluster_centers_ = centres
-        self.labels_ = labels
+        self.cluster_centers_ = kmeans.cluster_centers_
+        self.labels_ = kmeans.labels_.astype(np.intp)
         return self
 
-    def fit_predict(self, X: ArrayLike, y: None = None) -> np.ndarray:
-        """Fit and return ``labels_``."""
-        return self.fit(X).labels_
+    def _check_query(self, X: ArrayLike) -> np.ndarray:
+        check_is_fitted(self, "labels_")
+        return validate_data(self, X, dtype=np.float64, reset=False)
 
     def _nystrom(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Embedding of new points, their affinity sums and squared distances to training."""
@@ -192,7 +166,7 @@ class _SpectralBase:
         training point this is its own embedding row except that ``W(x_j, x_j)``, left out of
         the training affinity, now counts; the difference vanishes as the degrees grow.
         """
-        return self._nystrom(check_fitted_input(self, X))[0]
+        return self._nystrom(self._check_query(X))[0]
 
     def predict(self, X: ArrayLike) -> np.ndarray:
         """Assign new points to the nearest k-means centre of their Nystrom embedding.
@@ -200,14 +174,8 @@ class _SpectralBase:
         A point whose affinity to every training point underflows to 0 (far from all data at
         this scale) has no Nystrom embedding; it takes the label of its nearest training point.
         """
-        E, d_new, D2 = self._nystrom(check_fitted_input(self, X))
-        centres = self.cluster_centers_
-        dist = (
-            np.einsum("ij,ij->i", E, E)[:, None]
-            - 2.0 * E @ centres.T
-            + np.einsum("ij,ij->i", centres, centres)[None, :]
-        )
-        labels = dist.argmin(axis=1)
+        E, d_new, D2 = self._nystrom(self._check_query(X))
+        labels = pairwise_distances_argmin(E, self.cluster_centers_).astype(np.intp)
         isolated = d_new <= _TINY
         if isolated.any():
             labels[isolated] = self.labels_[D2[isolated].argmin(axis=1)]
@@ -224,12 +192,12 @@ class NormalizedCutClustering(_SpectralBase):
 
     Parameters
     ----------
-    n_clusters : int
-        Number of clusters K (>= 2).
-    sigma : float
+    n_clusters : int, default 2
+        Number of clusters K (>= 1).
+    sigma : float, default 1.0
         Gaussian kernel width, the same for every cluster; > 0.
     n_init : int, default 10
-        k-means restarts; the run with the lowest inertia is kept.
+        k-means restarts (``KMeans``); the run with the lowest inertia is kept.
     random_state : int, default 0
         Seed of the k-means initialisation (results are deterministic for a seed).
 
@@ -245,21 +213,18 @@ class NormalizedCutClustering(_SpectralBase):
         Row-normalised eigenvectors; ``cluster_centers_`` are the k-means centres in it.
     """
 
+    _parameter_constraints: dict = {
+        **_SpectralBase._parameter_constraints,
+        "sigma": [Interval(Real, 0, None, closed="neither")],
+    }
+
     def __init__(
-        self, n_clusters: int, sigma: float, *, n_init: int = 10, random_state: int = 0
+        self, n_clusters: int = 2, sigma: float = 1.0, *, n_init: int = 10, random_state: int = 0
     ) -> None:
         self.n_clusters = n_clusters
         self.sigma = sigma
         self.n_init = n_init
         self.random_state = random_state
-
-    def _validate_params(self, n_samples: int) -> None:
-        super()._validate_params(n_samples)
-        sigma = self.sigma
-        if isinstance(sigma, bool) or not isinstance(sigma, int | float | np.number):
-            raise ValueError(f"sigma must be a positive number, got {sigma!r}")
-        if not (np.isfinite(sigma) and sigma > 0):
-            raise ValueError(f"sigma must be a positive finite number, got {sigma!r}")
 
     def _affinity(self, D2: np.ndarray) -> np.ndarray:
         return np.exp(-D2 / (2.0 * float(self.sigma) ** 2))
@@ -278,8 +243,8 @@ class SelfTuningSpectralClustering(_SpectralBase):
 
     Parameters
     ----------
-    n_clusters : int
-        Number of clusters K (>= 2).
+    n_clusters : int, default 2
+        Number of clusters K (>= 1).
     n_neighbors : int, default 7
         Neighbour that sets the local scale (7 in the original paper); < n_samples.
     n_init : int, default 10
@@ -293,19 +258,25 @@ class SelfTuningSpectralClustering(_SpectralBase):
         As in :class:`NormalizedCutClustering`.
     scales_ : ndarray of shape (n,)
         The local scale sigma_i of each training point.
+    min_scale_ : float
+        Floor of every scale, also of new points': 1e-9 times the training data's diameter.
     """
 
+    _parameter_constraints: dict = {
+        **_SpectralBase._parameter_constraints,
+        "n_neighbors": [Interval(Integral, 1, None, closed="left")],
+    }
+
     def __init__(
-        self, n_clusters: int, n_neighbors: int = 7, *, n_init: int = 10, random_state: int = 0
+        self, n_clusters: int = 2, n_neighbors: int = 7, *, n_init: int = 10, random_state: int = 0
     ) -> None:
         self.n_clusters = n_clusters
         self.n_neighbors = n_neighbors
         self.n_init = n_init
         self.random_state = random_state
 
-    def _validate_params(self, n_samples: int) -> None:
-        super()._validate_params(n_samples)
-        _check_int(self.n_neighbors, "n_neighbors", 1)
+    def _check_n_samples(self, n_samples: int) -> None:
+        super()._check_n_samples(n_samples)
         if self.n_neighbors >= n_samples:
             raise ValueError(
                 f"n_neighbors={self.n_neighbors} must be smaller than the number of samples "
@@ -317,10 +288,10 @@ class SelfTuningSpectralClustering(_SpectralBase):
         d = np.sqrt(np.partition(D2, kth, axis=1)[:, kth])
         # Duplicated points can have a zero k-th neighbour distance; floor the scale at a tiny
         # fraction of the data's spread so that W stays finite and such points stay connected.
-        return np.maximum(d, 1e-9 * self._spread)
+        return np.maximum(d, self.min_scale_)
 
     def _affinity(self, D2: np.ndarray) -> np.ndarray:
-        self._spread = float(np.sqrt(D2.max()))
+        self.min_scale_ = 1e-9 * float(np.sqrt(D2.max()))
         self.scales_ = self._local_scales(D2, exclude_self=True)
         return np.exp(-D2 / np.outer(self.scales_, self.scales_))
 
@@ -388,10 +359,9 @@ def best_sigma_ncut(
         ``sigma``, ``error`` and fitted ``model`` of the best sigma, plus all ``sigmas`` and
         ``errors`` of the sweep.
     """
-    X = check_array(X)
-    y = np.asarray(y)
-    if y.shape != (X.shape[0],):
-        raise ValueError(f"y must have shape ({X.shape[0]},) to match X, got {y.shape}")
+    X = check_array(X, dtype=np.float64, ensure_min_samples=2)
+    y = column_or_1d(y)
+    check_consistent_length(X, y)
     D2 = squared_distances(X)
     if not D2.max() > 0:
         raise ValueError("X: all samples are identical; there is nothing to cluster")
@@ -418,7 +388,9 @@ def _fit_ncut(
 ) -> NormalizedCutClustering | None:
     """Fit on precomputed squared distances; None when every affinity underflows at sigma."""
     model = NormalizedCutClustering(n_clusters, sigma, n_init=n_init, random_state=random_state)
-    model._validate_params(X.shape[0])
+    model._validate_params()
+    model._check_n_samples(X.shape[0])
+    model.n_features_in_ = X.shape[1]  # what validate_data would have set in fit
     try:
         return model._fit_sqdist(X, D2)
     except ValueError:

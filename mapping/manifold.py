@@ -11,14 +11,20 @@ paper is ambiguous, and the evidence for them, are in ``docs/manifold-clustering
 
 from __future__ import annotations
 
+from numbers import Integral, Real
+
 import numpy as np
 from numpy.typing import ArrayLike
+from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from mapping._manifold_kernel import SpectralBasis, outlier_vector
 from mapping._manifold_predict import ClusterModel
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import (
     COMBINE_RULES,
+    Combination,
     SplitNode,
     build_tree,
     combine_leaves,
@@ -26,33 +32,21 @@ from mapping._manifold_tree import (
     ensure_leaves,
     separability_merge,
 )
-from mapping._validation import (
-    NotFittedError,
-    check_array,
-    check_fitted_input,
-    single_threaded_blas,
-)
+from mapping._validation import single_threaded_blas
 from mapping.baselines import squared_distances
 
-__all__ = ["ManifoldClustering", "NotFittedError"]
+__all__ = ["EXPECTED_FAILED_CHECKS", "ManifoldClustering"]
 
 _NORMALIZATIONS = ("column", "none")
 _DTYPES = ("float32", "float64")
 
-
-def _check_int(value: object, name: str, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-    return int(value)
-
-
-def _check_choice(value: object, name: str, choices: tuple[str, ...]) -> str:
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
-    return str(value)
+# scikit-learn estimator checks that cannot apply to ManifoldClustering, with the reason; passed
+# as ``expected_failed_checks`` to ``parametrize_with_checks`` (tests/mapping/test_sklearn_checks).
+# None so far: every check of scikit-learn passes.
+EXPECTED_FAILED_CHECKS: dict[str, str] = {}
 
 
-class ManifoldClustering:
+class ManifoldClustering(ClusterMixin, BaseEstimator):
     """Clustering along manifolds with per-cluster kernel parameters (Grudic & Mulligan).
 
     Bisects the data recursively; each split chooses its own Gaussian width sigma and
@@ -63,9 +57,12 @@ class ManifoldClustering:
 
     Parameters
     ----------
-    n_clusters : int
-        K, the number of clusters (>= 2).
-    min_cluster_size : int
+    n_clusters : int, default 2
+        K, the number of clusters (>= 1). With K = 1 all points form one cluster whose
+        (sigma_1, alpha_1) are those of the root split (eq. 9 scores a cluster against the
+        rest, which is empty then); ``predict`` is then trivial but ``signal`` still servos
+        along the one manifold.
+    min_cluster_size : int, default 10
         Q, the minimum number of points of a leaf of the bisection (>= 1);
         ``n_clusters * min_cluster_size`` must not exceed the number of samples.
     n_sigmas : int, default 16
@@ -126,10 +123,26 @@ class ManifoldClustering:
     [40, 40]
     """
 
+    _parameter_constraints: dict = {
+        "n_clusters": [Interval(Integral, 1, None, closed="left")],
+        "min_cluster_size": [Interval(Integral, 1, None, closed="left")],
+        "n_sigmas": [Interval(Integral, 2, None, closed="left")],
+        "n_alphas": [Interval(Integral, 2, None, closed="left")],
+        # a pair inside (0, 1); the bounds are checked in fit (no constraint type for pairs)
+        "alpha_range": [tuple, list],
+        "refine": ["boolean"],
+        "predict_alpha": [Interval(Real, 0, 1, closed="neither"), None],
+        "normalize": [StrOptions(set(_NORMALIZATIONS))],
+        "omega_sign": [StrOptions(set(OMEGA_SIGNS))],
+        "seed_rule": [StrOptions(set(SEED_RULES))],
+        "combine": [StrOptions(set(COMBINE_RULES))],
+        "store_dtype": [StrOptions(set(_DTYPES))],
+    }
+
     def __init__(
         self,
-        n_clusters: int,
-        min_cluster_size: int,
+        n_clusters: int = 2,
+        min_cluster_size: int = 10,
         *,
         n_sigmas: int = 16,
         n_alphas: int = 12,
@@ -156,42 +169,35 @@ class ManifoldClustering:
         self.store_dtype = store_dtype
 
     # ------------------------------------------------------------------ validation
-    def _validate_params(self, n_samples: int) -> SearchSpace:
-        K = _check_int(self.n_clusters, "n_clusters", 2)
-        Q = _check_int(self.min_cluster_size, "min_cluster_size", 1)
+    def _search_space(self, n_samples: int) -> SearchSpace:
+        """The checks the parameter constraints cannot express, and the (sigma, alpha) grid."""
+        K, Q = self.n_clusters, self.min_cluster_size
         if K * Q > n_samples:
             raise ValueError(
                 f"n_clusters * min_cluster_size = {K} * {Q} = {K * Q} exceeds the number of "
                 f"samples ({n_samples})"
             )
-        _check_int(self.n_sigmas, "n_sigmas", 2)
-        _check_int(self.n_alphas, "n_alphas", 2)
-        lo, hi = self._alpha_bounds("alpha_range", self.alpha_range)
-        if self.predict_alpha is not None:
-            self._alpha_bounds("predict_alpha", (self.predict_alpha, self.predict_alpha))
-        _check_choice(self.normalize, "normalize", _NORMALIZATIONS)
-        _check_choice(self.combine, "combine", COMBINE_RULES)
-        _check_choice(self.store_dtype, "store_dtype", _DTYPES)
+        try:
+            lo, hi = (float(v) for v in self.alpha_range)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"alpha_range must be a pair (low, high) in (0, 1), got {self.alpha_range!r}"
+            ) from None
+        if not (0.0 < lo <= hi < 1.0):
+            raise ValueError(
+                f"alpha_range must lie in (0, 1) with low <= high, got {self.alpha_range!r}"
+            )
         return SearchSpace(
             n_sigmas=int(self.n_sigmas),
             t_bounds=(-np.log10(1.0 - lo), -np.log10(1.0 - hi)),
             n_alphas=int(self.n_alphas),
             refine=bool(self.refine),
-            omega_sign=_check_choice(self.omega_sign, "omega_sign", OMEGA_SIGNS),
-            seed_rule=_check_choice(self.seed_rule, "seed_rule", SEED_RULES),
+            omega_sign=self.omega_sign,
+            seed_rule=self.seed_rule,
         )
 
-    @staticmethod
-    def _alpha_bounds(name: str, value: object) -> tuple[float, float]:
-        try:
-            lo, hi = (float(v) for v in value)  # type: ignore[union-attr]
-        except (TypeError, ValueError):
-            raise ValueError(f"{name} must be a number or pair in (0, 1), got {value!r}") from None
-        if not (0.0 < lo <= hi < 1.0):
-            raise ValueError(f"{name} must lie in (0, 1) (low <= high), got {value!r}")
-        return lo, hi
-
     # ------------------------------------------------------------------ fit
+    @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: ArrayLike, y: None = None) -> ManifoldClustering:
         """Cluster the rows of X.
 
@@ -207,8 +213,8 @@ class ManifoldClustering:
         ManifoldClustering
             self, fitted.
         """
-        X = check_array(X, min_samples=2, keep_float32=True)
-        space = self._validate_params(X.shape[0])
+        X = validate_data(self, X, dtype=[np.float64, np.float32], order="C", ensure_min_samples=2)
+        space = self._search_space(X.shape[0])
         # Squared distances once, in float64 after centring (a float32 Gram matrix loses
         # near-duplicate images entirely); every node and every sigma reuses blocks of it.
         D2 = squared_distances(X)
@@ -224,15 +230,20 @@ class ManifoldClustering:
         self, X: np.ndarray, D2: np.ndarray, K: int, Q: int, space: SearchSpace
     ) -> None:
         tree = build_tree(D2, Q, space)
-        ensure_leaves(tree, D2, K, space)
+        # At least two leaves: the root split's kernel gives outlier_scores_ (and K = 1's).
+        ensure_leaves(tree, D2, max(K, 2), space)
         leaves = [leaf.indices for leaf in tree.leaves()]
         groups = None
-        if self.combine == "separability":
-            groups = separability_merge(D2, leaves, K, space)
-        elif self.combine == "cut":
-            position = {id(leaf): c for c, leaf in enumerate(tree.leaves())}
-            groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(tree, K)]
-        combo = combine_leaves(D2, leaves, K, space, groups=groups)
+        if K == 1:
+            one = (np.array([tree.sigma]), np.array([tree.alpha]), np.array([tree.omega]))
+            combo = Combination([list(range(len(leaves)))], *one)
+        else:
+            if self.combine == "separability":
+                groups = separability_merge(D2, leaves, K, space)
+            elif self.combine == "cut":
+                position = {id(leaf): c for c, leaf in enumerate(tree.leaves())}
+                groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(tree, K)]
+            combo = combine_leaves(D2, leaves, K, space, groups=groups)
 
         members = [np.sort(np.concatenate([leaves[c] for c in g])) for g in combo.groups]
         # Number clusters by first appearance so labels do not depend on the merge order.
@@ -269,20 +280,20 @@ class ManifoldClustering:
         self.leaf_labels_ = leaf_labels
         self.outlier_scores_ = self._root_outliers(D2, tree)
         self.cluster_outlier_scores_ = inside
-        self.n_features_in_ = X.shape[1]
         self._models = models
 
     @staticmethod
     def _root_outliers(D2: np.ndarray, tree: SplitNode) -> np.ndarray:
         """eq. 10 on all points, in the kernel of the root split (or a mid-range one)."""
-        if tree.children is None:  # pragma: no cover - K >= 2 always splits the root
+        if tree.children is None:  # pragma: no cover - ensure_leaves always splits the root
             raise RuntimeError("the root was not split")
         basis = SpectralBasis.from_sq_distances(D2, tree.sigma)
         return outlier_vector(basis.dense_distances(tree.alpha))
 
-    def fit_predict(self, X: ArrayLike, y: None = None) -> np.ndarray:
-        """Fit and return ``labels_``."""
-        return self.fit(X).labels_
+    def _check_query(self, X: ArrayLike) -> np.ndarray:
+        """New points: fitted, then finite 2-D float with the feature count of ``fit``."""
+        check_is_fitted(self, "labels_")
+        return validate_data(self, X, dtype=[np.float64, np.float32], order="C", reset=False)
 
     # ------------------------------------------------------------------ predict
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -311,7 +322,7 @@ class ManifoldClustering:
         -------
         ndarray of shape (k,)
         """
-        scores, nearest = self._scores(check_fitted_input(self, X, keep_float32=True))
+        scores, nearest = self._scores(self._check_query(X))
         labels = np.argmax(scores, axis=1)
         lost = ~(scores.max(axis=1) > 0)
         labels[lost] = np.argmin(nearest[lost], axis=1)
@@ -332,7 +343,7 @@ class ManifoldClustering:
         -------
         ndarray of shape (k, K)
         """
-        scores, nearest = self._scores(check_fitted_input(self, X, keep_float32=True))
+        scores, nearest = self._scores(self._check_query(X))
         total = scores.sum(axis=1, keepdims=True)
         proba = np.zeros_like(scores)
         found = total[:, 0] > 0
@@ -361,7 +372,7 @@ class ManifoldClustering:
             closer to the target along the manifold, 0 when x is unreachable at sigma_j.
         """
         X = np.asarray(X)
-        X = check_fitted_input(self, X[None, :] if X.ndim == 1 else X, keep_float32=True)
+        X = self._check_query(X[None, :] if X.ndim == 1 else X)
         n_models = len(self._models)
         if (
             isinstance(cluster, bool)

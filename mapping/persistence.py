@@ -78,7 +78,10 @@ def dump(estimator, prefix: str) -> tuple[dict, dict[str, np.ndarray]]:
     params = {name: _jsonable(getattr(estimator, name)) for name in _params(cls)}
     fitted, records, skipped = {}, {}, []
     for name, v in vars(estimator).items():
-        if _FITTED.match(name) and (isinstance(v, np.ndarray) or _scalar(v) is not NotImplemented):
+        # numeric arrays only: an object array (feature_names_in_ of a DataFrame fit) would
+        # need pickle; it is skipped like any other attribute not needed to predict
+        numeric = isinstance(v, np.ndarray) and v.dtype.kind in "biuf"
+        if _FITTED.match(name) and (numeric or _scalar(v) is not NotImplemented):
             fitted[name] = _dump_value(v, f"{prefix}/{name}", arrays)
         elif (
             _PRIVATE.match(name)

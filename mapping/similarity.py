@@ -10,10 +10,12 @@ sparse: only each vector's nearest neighbours are joined.
 from __future__ import annotations
 
 import math
+from numbers import Integral
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike
+from sklearn.utils import check_array, check_scalar
 
 from mapping.baselines import squared_distances
 
@@ -50,16 +52,10 @@ def knn_gaussian_affinity(
     sigma : float
         The width used (0 when all vectors coincide; the edges then have weight 1).
     """
-    X = np.asarray(X, dtype=float)
-    if X.ndim != 2 or X.shape[0] < 2:
-        raise ValueError(f"X must have shape (n, d) with n >= 2, got {X.shape}")
-    if not np.isfinite(X).all():
-        raise ValueError("X contains NaN or inf")
+    X = check_array(X, dtype=np.float64, ensure_min_samples=2)
     n = X.shape[0]
     k = default_n_neighbors(n) if n_neighbors is None else n_neighbors
-    if isinstance(k, bool) or int(k) != k or not 1 <= k <= n - 1:
-        raise ValueError(f"n_neighbors must be an integer in [1, {n - 1}], got {n_neighbors!r}")
-    k = int(k)
+    k = check_scalar(k, "n_neighbors", Integral, min_val=1, max_val=n - 1)
     # exact distances by the Gram matrix: KD-trees do not help in pixel dimensions
     D2 = squared_distances(X)
     np.fill_diagonal(D2, np.inf)  # a vector is not its own neighbour

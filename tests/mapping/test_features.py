@@ -3,11 +3,11 @@
 import cv2
 import numpy as np
 import pytest
+from sklearn.exceptions import NotFittedError
 
 from mapping.features import (
     ImageFeatures,
     ScanFeatures,
-    fit_pca,
     images_to_vectors,
     normalize_rows,
     scan_ranges,
@@ -75,24 +75,33 @@ def test_pca_projection_orthonormal_deterministic_and_sign_fixed(images):
     np.testing.assert_allclose(Z.var(axis=0, ddof=1), feats.explained_variance_)
     top = np.abs(feats.components_).argmax(axis=1)
     assert np.all(feats.components_[np.arange(5), top] > 0)
-    _, comps, _ = fit_pca(-feats.transform(images), 2)  # negated data, same sign rule
+    # negated images (255 - x): the same axes up to sign, and the same sign rule holds
+    negated = ImageFeatures(size=(8, 6), n_components=2).fit(255 - images)
+    comps = negated.components_
     assert np.all(comps[np.arange(2), np.abs(comps).argmax(axis=1)] > 0)
+    np.testing.assert_allclose(np.abs(comps @ feats.components_[:2].T), np.eye(2), atol=1e-9)
+    # fitted state is plain arrays (servo/estimator_io saves them), not a PCA object
+    assert not any(hasattr(v, "fit") for v in vars(feats).values())
     np.testing.assert_array_equal(
         Z, ImageFeatures(size=(8, 6), n_components=5).fit_transform(images)
     )
 
 
 def test_image_features_bad_input(images):
-    with pytest.raises(ValueError, match="normalization must be one of"):
+    with pytest.raises(ValueError, match="'normalization' parameter of ImageFeatures must be"):
         ImageFeatures(normalization="l2").fit(images)
-    with pytest.raises(ValueError, match="not fitted"):
+    with pytest.raises(NotFittedError, match="not fitted"):
         ImageFeatures().transform(images)
     with pytest.raises(ValueError, match="fitted with"):
         ImageFeatures(size=(8, 6)).fit(images).transform(images[..., 0])
-    with pytest.raises(ValueError, match="n_components must be in"):
+    with pytest.raises(ValueError, match="n_components=50 must be between"):
         ImageFeatures(n_components=50).fit(images)
     with pytest.raises(ValueError, match="size must be"):
         images_to_vectors(images, size=(0, 4))
+    with pytest.raises(ValueError, match="size must be"):
+        ImageFeatures(size=(8,)).fit(images)
+    with pytest.raises(ValueError, match="'method' parameter of normalize_rows"):
+        normalize_rows(np.zeros((2, 3)), "l2")
     with pytest.raises(ValueError, match="images must have shape"):
         images_to_vectors(np.zeros((2, 4, 4, 4)))
     with pytest.raises(ValueError, match="NaN or inf"):
@@ -146,17 +155,33 @@ def test_scan_features_fit_transform_and_bad_input():
     feats = ScanFeatures(max_range=10.0, representation="inverse", n_sectors=36)
     out = feats.fit_transform(scans)
     assert out.shape == (5, 36) and np.isfinite(out).all()
-    assert feats.transform(scans[0]).shape == (1, 36)
-    with pytest.raises(ValueError, match="360 beams"):
+    assert feats.n_features_in_ == 360 and feats.max_range_ == 10.0
+    np.testing.assert_array_equal(feats.transform(scans[:1]), out[:1])
+    with pytest.raises(ValueError, match="X has 100 features, but ScanFeatures is expecting 360"):
         feats.transform(scans[:, :100])
-    with pytest.raises(ValueError, match="not fitted"):
+    with pytest.raises(ValueError, match="Reshape your data"):
+        feats.transform(scans[0])  # one scan is a batch of one, as in scikit-learn
+    with pytest.raises(NotFittedError, match="not fitted"):
         ScanFeatures(10.0).transform(scans)
-    with pytest.raises(ValueError, match="representation must be one of"):
+    with pytest.raises(ValueError, match="'representation' parameter of ScanFeatures must be"):
         ScanFeatures(10.0, "occupancy").fit(scans)
+    with pytest.raises(ValueError, match="'representation' parameter of scan_vectors must be"):
+        scan_vectors(scans, 10.0, "occupancy")
+    with pytest.raises(ValueError, match="'max_range' parameter"):
+        ScanFeatures(-1.0).fit(scans)
     with pytest.raises(ValueError, match="n_sectors must be in"):
         ScanFeatures(10.0, n_sectors=400).fit(scans)
     with pytest.raises(ValueError, match="min_range must be in"):
         ScanFeatures(10.0, "inverse", min_range=20.0).fit(scans)
+
+
+def test_scan_features_max_range_from_the_training_scans():
+    scans = np.array([[1.0, np.inf, 4.0, np.nan], [2.5, 6.0, -1.0, np.inf]])
+    feats = ScanFeatures().fit(scans)
+    assert feats.max_range_ == 6.0  # the largest finite reading; inf, NaN and -1 ignored
+    np.testing.assert_allclose(feats.transform(scans), scan_vectors(scans, 6.0))
+    with pytest.raises(ValueError, match="no finite positive reading"):
+        ScanFeatures().fit(np.full((2, 3), np.inf))
 
 
 def test_scan_to_points_sensor_frame_and_drops_no_returns():
@@ -190,7 +215,7 @@ def test_color_histogram_features_interface_and_bad_input(images):
     from mapping import ColorHistogramFeatures
 
     model = ColorHistogramFeatures(bins=(4, 2, 2), grid=(1, 1))
-    with pytest.raises(ValueError, match="not fitted"):
+    with pytest.raises(NotFittedError, match="not fitted"):
         model.transform(images)
     X = model.fit_transform(images)
     assert X.shape == (len(images), 16) and model.n_features_in_ == 16

@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
+from sklearn.exceptions import NotFittedError
+from sklearn.metrics import adjusted_rand_score
 
-from mapping.baselines import NotFittedError
 from mapping.manifold import ManifoldClustering
-from mapping.metrics import adjusted_rand_index, clustering_error
+from mapping.metrics import clustering_error
 from mapping.synthetic import SYNTHETIC_SETS
 
 
@@ -131,7 +132,7 @@ def test_labels_invariant_to_row_permutation(fitted_lines):
     X, _, model = fitted_lines
     perm = np.random.default_rng(1).permutation(len(X))
     permuted = ManifoldClustering(3, 10).fit(X[perm])
-    assert adjusted_rand_index(model.labels_[perm], permuted.labels_) == 1.0
+    assert adjusted_rand_score(model.labels_[perm], permuted.labels_) == 1.0
     np.testing.assert_allclose(np.sort(permuted.sigmas_), np.sort(model.sigmas_), rtol=1e-6)
 
 
@@ -146,6 +147,21 @@ def test_fewer_leaves_than_clusters_still_gives_k_clusters():
     X, _ = three_lines(n=20, noise=0.004)
     model = ManifoldClustering(4, 15).fit(X)
     assert np.unique(model.labels_).size == 4
+
+
+def test_one_cluster_uses_the_root_kernel_and_still_servos(fitted_lines):
+    X, _, three = fitted_lines
+    model = ManifoldClustering(1, 10).fit(X)
+    np.testing.assert_array_equal(model.labels_, 0)
+    assert model.sigmas_[0] == model.tree_.sigma and model.alphas_[0] == model.tree_.alpha
+    np.testing.assert_array_equal(model.outlier_scores_, three.outlier_scores_)
+    np.testing.assert_array_equal(model.predict(X[:5]), 0)
+    np.testing.assert_array_equal(model.predict_proba(X[:5]), 1.0)
+    f = model.signal(X, 0)
+    assert np.argmax(f) == model.centers_[0]
+    # fewer than 2 Q points: the root is still split once, so its kernel exists
+    small = ManifoldClustering(1, 10).fit(X[:15])
+    assert small.tree_.children is not None and np.isfinite(small.sigmas_).all()
 
 
 # --- prediction and the servo signal ------------------------------------------------------------
@@ -201,13 +217,21 @@ def test_signal_bad_cluster_and_target(fitted_lines):
 @pytest.mark.parametrize(
     ("params", "match"),
     [
-        ({"n_clusters": 1, "min_cluster_size": 5}, "n_clusters must be an integer >= 2"),
-        ({"n_clusters": 2.5, "min_cluster_size": 5}, "n_clusters must be an integer"),
-        ({"n_clusters": 3, "min_cluster_size": 0}, "min_cluster_size must be an integer >= 1"),
+        (
+            {"n_clusters": 0},
+            r"'n_clusters' parameter of ManifoldClustering must be an int in "
+            r"the range \[1, inf\)",
+        ),
+        ({"n_clusters": 2.5}, "'n_clusters' parameter of ManifoldClustering must be an int"),
+        ({"min_cluster_size": 0}, r"'min_cluster_size' parameter .* range \[1, inf\)"),
         ({"n_clusters": 3, "min_cluster_size": 41}, r"n_clusters \* min_cluster_size = 3 \* 41"),
-        ({"n_clusters": 3, "min_cluster_size": 5, "normalize": "max"}, "normalize must be"),
-        ({"n_clusters": 3, "min_cluster_size": 5, "alpha_range": (0.5, 1.0)}, "alpha_range"),
-        ({"n_clusters": 3, "min_cluster_size": 5, "predict_alpha": 1.5}, "predict_alpha"),
+        ({"normalize": "max"}, "'normalize' parameter of ManifoldClustering must be a str among"),
+        ({"combine": "best"}, "'combine' parameter"),
+        ({"store_dtype": "float16"}, "'store_dtype' parameter"),
+        ({"alpha_range": (0.5, 1.0)}, r"alpha_range must lie in \(0, 1\)"),
+        ({"alpha_range": (0.5,)}, "alpha_range must be a pair"),
+        ({"alpha_range": 0.5}, "'alpha_range' parameter"),
+        ({"predict_alpha": 1.5}, "'predict_alpha' parameter"),
     ],
 )
 def test_bad_parameters(params, match):
@@ -219,12 +243,12 @@ def test_bad_parameters(params, match):
 @pytest.mark.parametrize(
     ("X", "match"),
     [
-        (np.zeros((1, 3)), "at least 2 samples"),
-        (np.array([[0.0, 1.0], [np.nan, 0.0], [1.0, 1.0], [2.0, 2.0]]), "NaN or infinity"),
-        (np.array([[0.0, 1.0], [np.inf, 0.0], [1.0, 1.0], [2.0, 2.0]]), "NaN or infinity"),
+        (np.zeros((1, 3)), r"1 sample\(s\)"),
+        (np.array([[0.0, 1.0], [np.nan, 0.0], [1.0, 1.0], [2.0, 2.0]]), "Input X contains NaN"),
+        (np.array([[0.0, 1.0], [np.inf, 0.0], [1.0, 1.0], [2.0, 2.0]]), "X contains infinity"),
         (np.ones((10, 3)), "all samples are identical"),
-        (np.zeros(10), "2-D array"),
-        (np.array([["a", "b"], ["c", "d"]]), "numeric"),
+        (np.zeros(10), "Expected 2D array, got 1D array"),
+        (np.array([["a", "b"], ["c", "d"]]), "could not convert string to float"),
     ],
 )
 def test_bad_training_data(X, match):
@@ -238,11 +262,17 @@ def test_predict_before_fit():
         with pytest.raises(NotFittedError, match="not fitted yet"):
             call(np.zeros((2, 2)))
     assert issubclass(NotFittedError, ValueError) and issubclass(NotFittedError, AttributeError)
+    # the same NotFittedError as scikit-learn's own, also re-exported by mapping
+    import mapping
+
+    assert mapping.NotFittedError is NotFittedError
 
 
 def test_predict_feature_mismatch_and_nan(fitted_lines):
     _, _, model = fitted_lines
-    with pytest.raises(ValueError, match="X has 3 features, but ManifoldClustering was fitted"):
+    with pytest.raises(ValueError, match="X has 3 features, but ManifoldClustering is expecting 2"):
         model.predict(np.zeros((2, 3)))
-    with pytest.raises(ValueError, match="NaN or infinity"):
+    with pytest.raises(ValueError, match="X contains NaN"):
         model.predict(np.array([[np.nan, 0.0]]))
+    with pytest.raises(ValueError, match="X has 3 features"):
+        model.signal(np.zeros(3), 0)

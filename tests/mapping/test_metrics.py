@@ -1,8 +1,7 @@
-"""Clustering scores: known values, label-permutation invariance, agreement with scikit-learn."""
+"""Clustering scores: known values, label-permutation invariance, input checks."""
 
 import numpy as np
 import pytest
-from sklearn.metrics import adjusted_rand_score
 
 from mapping.metrics import adjusted_rand_index, clustering_error, contingency_matrix, purity
 
@@ -58,32 +57,12 @@ def test_purity_rewards_over_segmentation_unlike_clustering_error():
     assert purity([0, 0, 1, 1], [0, 0, 0, 1]) == pytest.approx(0.75)
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_ari_matches_sklearn(seed):
-    rng = np.random.default_rng(seed)
-    n = int(rng.integers(2, 300))
-    y_true = rng.integers(0, int(rng.integers(1, 6)), size=n)
-    y_pred = np.where(rng.random(n) < 0.5, y_true, rng.integers(0, 7, size=n))
-    assert adjusted_rand_index(y_true, y_pred) == pytest.approx(
-        adjusted_rand_score(y_true, y_pred), abs=1e-12
-    )
-
-
-@pytest.mark.parametrize(
-    ("y_true", "y_pred"),
-    [([0, 0, 0], [1, 1, 1]), ([0, 1, 2], [5, 4, 3]), ([7], [7]), ([0, 0, 1], [0, 1, 2])],
-)
-def test_ari_degenerate_partitions_follow_sklearn(y_true, y_pred):
-    assert adjusted_rand_index(y_true, y_pred) == pytest.approx(adjusted_rand_score(y_true, y_pred))
-
-
-def test_ari_large_input_does_not_overflow():
-    y_true = np.repeat(np.arange(2), 60_000)
-    y_pred = y_true.copy()
-    y_pred[:1000] = 1
-    assert adjusted_rand_index(y_true, y_pred) == pytest.approx(
-        adjusted_rand_score(y_true, y_pred), rel=1e-9
-    )
+def test_ari_known_values():
+    # the ARI of scikit-learn, behind this module's checks: identical partitions up to renaming
+    # score 1, including the degenerate ones; a known hand-computed value
+    assert adjusted_rand_index([0, 0, 1, 1], ["b", "b", "a", "a"]) == 1.0
+    assert adjusted_rand_index([0, 0, 0], [1, 1, 1]) == 1.0
+    assert adjusted_rand_index([0, 0, 1, 1], [0, 0, 1, 2]) == pytest.approx(0.5714285714)
 
 
 @pytest.mark.parametrize("score", [clustering_error, purity, adjusted_rand_index])

@@ -20,7 +20,7 @@ def test_graph_is_symmetric_sparse_with_unit_diagonal():
     np.fill_diagonal(D, np.inf)
     assert sigma == pytest.approx(np.median(np.sort(D, axis=1)[:, 3]))
     i, j = np.argwhere(np.triu(Wd, 1) > 0)[0]
-    assert Wd[i, j] == pytest.approx(np.exp(-D[i, j] ** 2 / (2 * sigma**2)))
+    assert Wd[i, j] == pytest.approx(np.exp(-(D[i, j] ** 2) / (2 * sigma**2)))
 
 
 def test_two_separated_blobs_are_two_groups():
@@ -35,7 +35,7 @@ def test_default_neighbours_and_bad_input():
     assert default_n_neighbors(100) == 10 and default_n_neighbors(2) == 1
     W, sigma = knn_gaussian_affinity(np.zeros((4, 2)), n_neighbors=3)
     assert sigma == 0 and W.toarray().min() == 1.0  # identical vectors: all edges full
-    for X, match in ((np.zeros((1, 3)), "X must"), ([[0.0, np.nan], [1, 1]], "NaN")):
+    for X, match in ((np.zeros((1, 3)), "1 sample"), ([[0.0, np.nan], [1, 1]], "NaN")):
         with pytest.raises(ValueError, match=match):
             knn_gaussian_affinity(X)
     with pytest.raises(ValueError, match="n_neighbors"):

@@ -1,0 +1,332 @@
+"""Images to fixed-length feature vectors, for both mapping methods.
+
+The paper clusters raw pixels (3 x 320 x 240 values per image, Section III-B).
+:func:`images_to_vectors` keeps that as the default and adds a resolution, colour or grey, and
+a normalisation; :class:`ImageFeatures` wraps it with an optional PCA projection fitted on the
+training images (scikit-learn's ``PCA``). :func:`color_histograms` /
+:class:`ColorHistogramFeatures` are the compact alternative that reproduces the paper's image
+result here: per-cell HSV histograms, square-rooted so that Euclidean distance is the Hellinger
+distance (docs/manifold-clustering.md, "Images").
+
+Everything is vectorised over images; the only Python loop is one OpenCV call per image.
+"""
+
+from __future__ import annotations
+
+from numbers import Integral
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.decomposition import PCA
+from sklearn.utils._param_validation import Interval, StrOptions, validate_params
+from sklearn.utils.validation import check_is_fitted
+
+__all__ = [
+    "IMAGE_NORMALIZATIONS",
+    "ColorHistogramFeatures",
+    "ImageFeatures",
+    "color_histograms",
+    "images_to_vectors",
+    "normalize_rows",
+]
+
+IMAGE_NORMALIZATIONS = ("none", "unit", "standardize")
+# ITU-R BT.601 luma weights, the ones cv2.cvtColor uses for RGB -> grey.
+_LUMA = np.array([0.299, 0.587, 0.114])
+
+
+def _positive_pair(value: object, name: str, what: str) -> tuple[int, int]:
+    """``value`` as a pair of positive ints (an image size, a grid), or a clear error."""
+    try:
+        a, b = (int(v) for v in value)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {what} of positive ints, got {value!r}") from None
+    if a < 1 or b < 1:
+        raise ValueError(f"{name} must be {what} of positive ints, got {value!r}")
+    return a, b
+
+
+def _image_tags(tags):
+    """Tags of the image transformers: their input is a batch of images, not a 2-D table.
+
+    scikit-learn's estimator checks only feed 2-D tables, so they cannot apply (they skip an
+    estimator without ``two_d_array``, as for its own ``PatchExtractor``); the API checks that
+    need no data, and image versions of the others, are in tests/mapping/test_sklearn_checks.py.
+    """
+    tags.input_tags.two_d_array = False
+    tags.input_tags.three_d_array = True
+    return tags
+
+
+def images_to_vectors(
+    images: ArrayLike, size: tuple[int, int] | None = None, color: bool = True
+) -> np.ndarray:
+    """Flatten images into rows of pixel values in [0, 1].
+
+    Parameters
+    ----------
+    images : array-like of shape (H, W, 3), (H, W), (n, H, W, 3) or (n, H, W)
+        One image or a batch; RGB or grey; uint8 (0-255) or float (already in [0, 1]). A 3-D
+        array whose last axis has length 3 is read as one RGB image, otherwise as grey images.
+    size : (width, height), optional
+        Resample to this resolution with ``cv2.INTER_AREA`` (pixel-area averaging, which does
+        not alias when shrinking). None keeps the native resolution, as the paper did.
+    color : bool, default True
+        Keep the three channels; False converts RGB to grey (BT.601 luma).
+
+    Returns
+    -------
+    ndarray of shape (n, width * height * channels), float64
+    """
+    images = np.asarray(images)
+    if images.dtype.kind not in "uif":
+        raise ValueError(f"images must be numeric, got dtype {images.dtype}")
+    # (H, W) is one grey image and (H, W, 3) one colour image; (n, H, W) a grey batch.
+    if images.ndim == 2 or (images.ndim == 3 and images.shape[-1] == 3):
+        images = images[None]
+    if images.ndim not in (3, 4) or (images.ndim == 4 and images.shape[-1] != 3):
+        raise ValueError(
+            f"images must have shape (n, H, W, 3), (n, H, W), (H, W, 3) or (H, W), "
+            f"got {np.shape(images)}"
+        )
+    if images.shape[0] == 0:
+        raise ValueError("images is empty")
+    if images.dtype.kind == "f" and not np.isfinite(images).all():
+        raise ValueError("images contain NaN or inf")
+    if size is not None:
+        width, height = _positive_pair(size, "size", "(width, height)")
+    else:
+        height, width = images.shape[1:3]
+    grey = not color and images.ndim == 4
+    channels = 1 if grey or images.ndim == 3 else 3
+    # Integers are exact in float32 (cv2's fastest float type); float input keeps float64.
+    work = np.float32 if images.dtype.kind in "ui" else np.float64
+    out = np.empty((images.shape[0], height, width, channels))
+    # One image at a time: the output is the only full-size float copy of the batch.
+    for i, im in enumerate(images):
+        im = im.astype(work, copy=False)
+        if size is not None:
+            im = cv2.resize(im, (width, height), interpolation=cv2.INTER_AREA)
+        out[i] = (im @ _LUMA)[..., None] if grey else im.reshape(height, width, channels)
+    if images.dtype == np.uint8:
+        out *= 1.0 / 255.0
+    return out.reshape(out.shape[0], -1)
+
+
+@validate_params(
+    {"X": ["array-like"], "method": [StrOptions({"none", "unit"})]},
+    prefer_skip_nested_validation=True,
+)
+def normalize_rows(X: np.ndarray, method: str = "unit") -> np.ndarray:
+    """Per-vector normalisation: ``"unit"`` subtracts each row's mean and scales it to norm 1.
+
+    This removes global brightness and contrast changes between views. A constant row (zero
+    norm after centring) stays all zeros. ``"none"`` returns X unchanged (as float64).
+    """
+    X = np.asarray(X, dtype=np.float64)
+    if method == "none":
+        return X
+    X = X - X.mean(axis=1, keepdims=True)
+    norms = np.linalg.norm(X, axis=1, keepdims=True)
+    return np.divide(X, norms, out=np.zeros_like(X), where=norms > 0)
+
+
+class ImageFeatures(TransformerMixin, BaseEstimator):
+    """Images -> feature vectors: resolution, colour, normalisation, optional PCA.
+
+    Parameters
+    ----------
+    size : (width, height), optional
+        Target resolution (``cv2.INTER_AREA``); None keeps the input resolution.
+    color : bool, default True
+        RGB (True) or grey (False).
+    normalization : {"none", "unit", "standardize"}, default "none"
+        "unit": each image zero-mean and unit-norm (invariant to brightness and contrast);
+        "standardize": each pixel standardised with the mean and std of the training images.
+        "none" is the paper's raw pixels.
+    n_components : int, optional
+        Project onto this many principal components of the training vectors (scikit-learn's
+        ``PCA`` with the exact SVD solver, so no randomness enters; at most the number of
+        training images).
+
+    Attributes
+    ----------
+    n_features_in_ : int
+        Pixel values per image after resizing and colour conversion.
+    mean_, scale_ : ndarray of shape (n_features_in_,)
+        Per-pixel statistics ("standardize" only).
+    pca_mean_ : ndarray of shape (n_features_in_,)
+    components_ : ndarray of shape (n_components, n_features_in_)
+        Orthonormal principal axes; the largest-magnitude entry of each is positive
+        (scikit-learn's sign rule), so the projection is the same across runs and platforms.
+    explained_variance_ : ndarray of shape (n_components,)
+        The PCA projection (``n_components`` only), copied from the fitted ``PCA`` so that the
+        fitted state is plain arrays.
+    """
+
+    _parameter_constraints: dict = {
+        "size": ["array-like", None],
+        "color": ["boolean"],
+        "normalization": [StrOptions(set(IMAGE_NORMALIZATIONS))],
+        "n_components": [Interval(Integral, 1, None, closed="left"), None],
+    }
+
+    def __init__(
+        self,
+        size: tuple[int, int] | None = None,
+        color: bool = True,
+        normalization: str = "none",
+        n_components: int | None = None,
+    ) -> None:
+        self.size = size
+        self.color = color
+        self.normalization = normalization
+        self.n_components = n_components
+
+    def __sklearn_tags__(self):
+        return _image_tags(super().__sklearn_tags__())
+
+    def _pixels(self, images: ArrayLike) -> np.ndarray:
+        X = images_to_vectors(images, self.size, self.color)
+        return normalize_rows(X, "unit" if self.normalization == "unit" else "none")
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, images: ArrayLike, y: None = None) -> ImageFeatures:
+        """Learn the standardisation and PCA (if any) from training images.
+
+        Parameters
+        ----------
+        images : array-like of shape (n, H, W, 3) or (n, H, W)
+            Training images (see :func:`images_to_vectors`).
+        y : None
+            Ignored.
+        """
+        X = self._pixels(images)
+        self.n_features_in_ = X.shape[1]
+        if self.normalization == "standardize":
+            self.mean_ = X.mean(axis=0)
+            std = X.std(axis=0)
+            # Constant pixels (e.g. a uniform sky) carry no information: leave them centred at 0.
+            self.scale_ = np.where(std > 0, std, 1.0)
+            X = (X - self.mean_) / self.scale_
+        if self.n_components is not None:
+            pca = PCA(self.n_components, svd_solver="full").fit(X)
+            self.pca_mean_ = pca.mean_
+            self.components_ = pca.components_
+            self.explained_variance_ = pca.explained_variance_
+        return self
+
+    def transform(self, images: ArrayLike) -> np.ndarray:
+        """Feature vectors of shape (n, n_components or n_features_in_)."""
+        check_is_fitted(self, "n_features_in_")
+        X = self._pixels(images)
+        if X.shape[1] != self.n_features_in_:
+            raise ValueError(
+                f"images give {X.shape[1]} values per image, fitted with {self.n_features_in_}; "
+                "check size and color"
+            )
+        if self.normalization == "standardize":
+            X = (X - self.mean_) / self.scale_
+        if self.n_components is not None:
+            # PCA.transform without whitening, from the stored arrays
+            X = (X - self.pca_mean_) @ self.components_.T
+        return X
+
+
+def color_histograms(
+    images: ArrayLike, bins: tuple[int, int, int] = (8, 4, 4), grid: tuple[int, int] = (2, 2)
+) -> np.ndarray:
+    """Square-rooted HSV histograms of each cell of a grid over each image.
+
+    Parameters
+    ----------
+    images : array-like of uint8, shape (H, W, 3) or (n, H, W, 3)
+        RGB images.
+    bins : (hue, saturation, value) bins
+        Hue bins cover OpenCV's 0-179, the others 0-255, all equally wide.
+    grid : (columns, rows)
+        Cells per image; each gets its own histogram, so a little layout survives.
+
+    Returns
+    -------
+    ndarray of shape (n, columns * rows * prod(bins))
+        Per cell, ``sqrt(count / pixels of the cell)``: each cell's part has unit norm and the
+        Euclidean distance between two rows is sqrt(2 * cells) times the root-mean-square
+        Hellinger distance of their cells.
+    """
+    arr = np.asarray(images)
+    if arr.ndim == 3:
+        arr = arr[None]
+    if arr.ndim != 4 or arr.shape[-1] != 3 or arr.dtype != np.uint8:
+        raise ValueError(
+            f"images must be uint8 RGB of shape (H, W, 3) or (n, H, W, 3), got {arr.dtype} "
+            f"{arr.shape}"
+        )
+    nb = np.asarray(bins, dtype=np.int64)
+    if nb.shape != (3,) or (nb < 1).any():
+        raise ValueError(f"bins must be three positive ints (hue, saturation, value), got {bins}")
+    cols, rows = _positive_pair(grid, "grid", "(columns, rows)")
+    n, H, W, _ = arr.shape
+    if H < rows or W < cols:
+        raise ValueError(f"grid {grid} has more cells than the {W}x{H} image has pixels")
+    cell = (np.arange(H) * rows // H)[:, None] * cols + (np.arange(W) * cols // W)[None, :]
+    n_bins = int(nb.prod())
+    per_image = n_bins * cols * rows
+    # Per-pixel (cell, bin) code as a lookup: one table per channel, added up in int32.
+    tops = (180, 256, 256)  # OpenCV's 8-bit hue is 0-179
+    lut = [(np.arange(256) * k // top).astype(np.int32) for k, top in zip(nb, tops, strict=True)]
+    stride = (int(nb[1] * nb[2]), int(nb[2]), 1)
+    base = (cell * n_bins).astype(np.int32)
+    counts = np.empty((n, per_image), dtype=np.float64)
+    for i, im in enumerate(arr):  # one image at a time keeps the working set in cache
+        hsv = cv2.cvtColor(im, cv2.COLOR_RGB2HSV)
+        code = base + lut[0][hsv[..., 0]] * stride[0]
+        code += lut[1][hsv[..., 1]] * stride[1] + lut[2][hsv[..., 2]]
+        counts[i] = np.bincount(code.ravel(), minlength=per_image)
+    counts = counts.reshape(n, cols * rows, n_bins)
+    pixels = np.bincount(cell.ravel(), minlength=cols * rows)
+    return np.sqrt(counts / pixels[None, :, None]).reshape(n, per_image)
+
+
+class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
+    """Images -> per-cell HSV histograms (:func:`color_histograms`), a transformer.
+
+    Stateless apart from remembering the feature count, so ``fit`` only validates; it exists
+    so that this and :class:`ImageFeatures` are interchangeable in a pipeline.
+
+    Parameters
+    ----------
+    bins : (hue, saturation, value), default (8, 4, 4)
+    grid : (columns, rows), default (2, 2)
+        See :func:`color_histograms`.
+
+    Attributes
+    ----------
+    n_features_in_ : int
+        Values per image, ``columns * rows * prod(bins)``.
+    """
+
+    _parameter_constraints: dict = {"bins": ["array-like"], "grid": ["array-like"]}
+
+    def __init__(
+        self, bins: tuple[int, int, int] = (8, 4, 4), grid: tuple[int, int] = (2, 2)
+    ) -> None:
+        self.bins = bins
+        self.grid = grid
+
+    def __sklearn_tags__(self):
+        return _image_tags(super().__sklearn_tags__())
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, images: ArrayLike, y: None = None) -> ColorHistogramFeatures:
+        """Check the parameters and images; remember the feature count."""
+        first = np.asarray(images)[:1]
+        self.n_features_in_ = color_histograms(first, self.bins, self.grid).shape[1]
+        return self
+
+    def transform(self, images: ArrayLike) -> np.ndarray:
+        """Feature vectors of shape (n, cells * prod(bins))."""
+        check_is_fitted(self, "n_features_in_")
+        return color_histograms(images, self.bins, self.grid)
