@@ -20,8 +20,9 @@ import numpy as np
 
 from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
 from mapping.metrics import adjusted_rand_index, purity
+from mapping.ncut import recursive_ncut_partition
 from mapping.overlap import sensed_space_overlap
-from mapping.partition import ObservationGraphPartitioner, recursive_ncut_partition
+from mapping.partition import ObservationGraphPartitioner
 
 STEP = 1.17  # metres between scans: 77 scans in the paper-sized office
 DENSE_STEP = 0.5  # a denser keyframe rate, for the stress row

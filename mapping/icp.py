@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.topology import check_run_starts, se2_compose, se2_relative, transform_points
+from mapping.topology import run_starts_from_groups, se2_compose, se2_relative, transform_points
 
 __all__ = ["IcpResult", "densify_scan", "icp", "refine_poses"]
 
@@ -158,7 +158,7 @@ def refine_poses(
     max_iterations: int = 50,
     min_matches: int = 20,
     min_overlap: float = 0.5,
-    run_starts: ArrayLike | None = None,
+    groups: ArrayLike | None = None,
 ) -> np.ndarray:
     """Replace consecutive odometry increments by ICP scan matching and re-chain the poses.
 
@@ -168,19 +168,20 @@ def refine_poses(
     increment; otherwise (an empty scan, too little shared structure) the odometry increment is
     kept. The poses are re-chained from ``poses[0]``.
 
-    ``run_starts`` lists the indices where a new run (another drive, with its own odometry)
-    begins: there is no odometry increment from the previous scan, so such a scan keeps its
-    input pose and the next ones chain from it.
+    ``groups`` gives the run (drive) of each scan, scikit-learn's per-sample convention (see
+    ``mapping.topology.run_starts_from_groups``): where a new run begins there is no odometry
+    increment from the previous scan, so that scan keeps its input pose and the next ones
+    chain from it.
 
     Returns
     -------
     ndarray of shape (N, 3)
-        Refined poses; ``poses[0]`` and ``poses[run_starts]`` are unchanged.
+        Refined poses; the first pose of every run is unchanged.
     """
     poses = np.asarray(poses, dtype=float)
     out = poses.copy()
     odometry = se2_relative(poses[:-1], poses[1:])
-    starts = check_run_starts(run_starts, len(poses))
+    starts = run_starts_from_groups(groups, len(poses))
     for i in range(1, len(poses)):
         if starts[i]:
             continue

@@ -4,7 +4,7 @@
     topomap group-eval --data out/dataset --out out/grouping [--json]
 
 For each world, the default dataset's three sequences (main manifold, then one branch each) are
-grouped together in one observation graph (``run_starts`` marks where each drive begins), with
+grouped together in one observation graph (``groups`` gives each scan's drive), with
 the noisy odometry poses, without and with ICP refinement, and with the true poses as a
 reference. A longer loop through each world (main -> every branch, back to the junction between
 them; ``scripts.grouping_loop``) is grouped the same way. Groups are scored against the
@@ -102,8 +102,8 @@ class WorldRuns:
         self.odometry = np.concatenate([s.odometry for s in sequences])
         self.truth = np.concatenate([s.labels for s in sequences]).astype(int)
         self.images = np.concatenate([s.images for s in sequences])
-        lengths = [len(s) for s in sequences]
-        self.run_starts = np.cumsum([0, *lengths[:-1]])
+        # the run (drive) of each scan, scikit-learn's per-sample ``groups``
+        self.groups = np.repeat(np.arange(len(sequences)), [len(s) for s in sequences])
         finite = self.ranges[np.isfinite(self.ranges)]
         # the sensor's range when known, else the longest return seen (features scale by it)
         self.max_range = float(max_range or (finite.max() if finite.size else 1.0))
@@ -128,7 +128,7 @@ def group_scans(runs: WorldRuns, poses: str) -> tuple[ObservationGraphPartitione
     model = ObservationGraphPartitioner(scan_matching=poses == "odometry+icp")
     given = runs.poses if poses == "true" else runs.odometry
     start = time.perf_counter()
-    model.fit(runs.scans, given, run_starts=runs.run_starts)
+    model.fit(runs.scans, given, groups=runs.groups)
     seconds = time.perf_counter() - start
     err = model.poses_[:, :2] - runs.poses[:, :2]
     score = score_groups(runs.truth, model.labels_)
@@ -151,7 +151,7 @@ def compare_methods(runs: WorldRuns, scan_model: ObservationGraphPartitioner, sc
     """Both sensors x both methods on one world (the four-way table).
 
     - partition x scans: ``scan_model`` (already fitted; its pose variant is recorded).
-    - partition x images: ``fit_affinity`` on ``knn_gaussian_affinity`` of the image vectors
+    - partition x images: ``affinity="precomputed"`` on ``knn_gaussian_affinity`` of the images
       (k = ceil(sqrt(n)) neighbours, sigma = median k-th-neighbour distance).
     - manifold clustering x scans / images: ``ManifoldClustering(K, Q)`` with K the number of
       ground-truth manifolds of the world and Q = min(35, n // (2K)).
@@ -161,7 +161,7 @@ def compare_methods(runs: WorldRuns, scan_model: ObservationGraphPartitioner, sc
     images = ColorHistogramFeatures().fit_transform(runs.images)
     start = time.perf_counter()
     W, sigma = knn_gaussian_affinity(images)
-    labels = ObservationGraphPartitioner().fit_affinity(W).labels_
+    labels = ObservationGraphPartitioner(affinity="precomputed").fit(W).labels_
     out["partition/images"] = {
         **_brief(score_groups(runs.truth, labels), time.perf_counter() - start),
         "n_neighbors": default_n_neighbors(len(runs)),
@@ -314,7 +314,7 @@ def evaluate_grouping(
         "settings": {
             "partitioner": "ObservationGraphPartitioner() defaults (threshold 1, delta 0.1 m, "
             "assoc mrpt, normalized Laplacian); ICP = scan_matching=True",
-            "runs": "each world's sequences grouped together; run_starts at each sequence",
+            "runs": "each world's sequences grouped together; groups = sequence of each scan",
             "targets": TARGETS,
             "image_features": "ColorHistogramFeatures() (HSV 8x4x4 in 2x2 cells)",
             "image_graph": "knn_gaussian_affinity: k = ceil(sqrt(n)), sigma = median distance "
