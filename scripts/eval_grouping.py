@@ -198,12 +198,10 @@ def _brief(score: dict, seconds: float | None = None) -> dict:
 def write_figures(
     out_dir: Path, tag: str, runs: WorldRuns, model: ObservationGraphPartitioner
 ) -> list[Path]:
-    """The four figures of one grouping: groups over the map, local maps, weights, topology."""
-    plt = gp.agg_pyplot()
-    world = build_world(runs.world)
+    """The four figures of one grouping over the world's top-down view (true manifolds)."""
     from sim.topdown import TopDownView
 
-    view = TopDownView(world, max_size=900)
+    view = TopDownView(build_world(runs.world), max_size=900)
     h, w = view.size
     extent = (
         view.origin[0],
@@ -211,43 +209,13 @@ def write_figures(
         view.origin[1] - h / view.scale,
         view.origin[1],
     )
-    background = view.draw()
+    image = view.draw()
 
     def draw_map(ax):
-        ax.imshow(background, extent=extent, alpha=0.55)
+        ax.imshow(image, extent=extent, alpha=0.55)
 
-    written = []
-    fig, ax = plt.subplots(figsize=(8, 7))
-    draw_map(ax)
-    gp.draw_groups(
-        ax, runs.scans, model.poses_, model.labels_, every=2, arrows=False, point_size=1.5
-    )
-    ax.set_title(
-        f"{tag}: {len(runs)} scans in {model.n_groups_} groups (colour = group; background: "
-        "true manifolds)",
-        fontsize=9,
-    )
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_groups.png"))
-
-    cols = min(4, model.n_groups_)
-    rows = int(np.ceil(model.n_groups_ / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.6 * rows), squeeze=False)
-    gp.draw_local_maps(axes, model.local_maps_, model.labels_)
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_local_maps.png"))
-
-    fig, ax = plt.subplots(figsize=(5, 4.6))
-    gp.draw_weights(ax, model.affinity_matrix_, model.labels_, f"{tag}: SSO weights by group")
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_weights.png"))
-
-    fig, ax = plt.subplots(figsize=(7, 6))
-    gp.draw_topology(ax, model.topology_, draw_map)
-    ax.set_title(f"{tag}: topological map (solid: trajectory, dashed: overlap)", fontsize=9)
-    fig.tight_layout()
-    written.append(gp.save_figure(fig, out_dir / f"{tag}_topology.png"))
-    return written
+    caption = "; background: true manifolds"
+    return gp.write_grouping_figures(out_dir, tag, runs.scans, model, draw_map, caption)
 
 
 # --------------------------------------------------------------------------- the evaluation
@@ -418,7 +386,15 @@ def format_report(result: dict) -> str:
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
     """The command line (shared with ``topomap group-eval``)."""
     p = parser or argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", required=True, help="dataset directory")
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument("--data", help="dataset directory")
+    source.add_argument(
+        "--carmen",
+        action="append",
+        metavar="LOG",
+        help="a Carmen laser log (.log or .log.gz; repeat for several) to group instead of a "
+        "dataset (scripts.eval_carmen)",
+    )
     p.add_argument("--out", required=True, help="output directory (JSON, figures, loops)")
     p.add_argument("--json", action="store_true", help="print the JSON instead of the tables")
     p.add_argument("--no-loop", action="store_true", help="skip the loop through each world")

@@ -27,6 +27,7 @@ __all__ = [
     "draw_weights",
     "group_colour",
     "save_figure",
+    "write_grouping_figures",
 ]
 
 
@@ -134,3 +135,48 @@ def draw_topology(
         ax.scatter(f[0], f[1], s=220, color=group_colour(k), edgecolors="k", zorder=3)
         ax.text(f[0], f[1], str(k), ha="center", va="center", fontsize=8, zorder=4)
     ax.set_aspect("equal")
+
+
+def write_grouping_figures(
+    out_dir: str | Path,
+    tag: str,
+    scans: Sequence[np.ndarray],
+    model,
+    background: Callable[[object], None] | None = None,
+    caption: str = "",
+    every: int = 2,
+) -> list[Path]:
+    """The four figures of one fitted ``ObservationGraphPartitioner``: groups over the map,
+    local maps, weights and topology, as ``{tag}_groups.png``, ``_local_maps``, ``_weights``
+    and ``_topology`` in ``out_dir``. ``background(ax)`` draws the map under the groups and
+    the topology; ``caption`` is added to the title of the groups figure."""
+    plt = agg_pyplot()
+    out_dir = Path(out_dir)
+    written = []
+    fig, ax = plt.subplots(figsize=(8, 7))
+    if background is not None:
+        background(ax)
+    draw_groups(ax, scans, model.poses_, model.labels_, every=every, arrows=False, point_size=1.5)
+    title = f"{tag}: {len(scans)} scans in {model.n_groups_} groups (colour = group{caption})"
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_groups.png"))
+
+    cols = min(4, model.n_groups_)
+    rows = int(np.ceil(model.n_groups_ / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.6 * rows), squeeze=False)
+    draw_local_maps(axes, model.local_maps_, model.labels_)
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_local_maps.png"))
+
+    fig, ax = plt.subplots(figsize=(5, 4.6))
+    draw_weights(ax, model.affinity_matrix_, model.labels_, f"{tag}: SSO weights by group")
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_weights.png"))
+
+    fig, ax = plt.subplots(figsize=(7, 6))
+    draw_topology(ax, model.topology_, background)
+    ax.set_title(f"{tag}: topological map (solid: trajectory, dashed: overlap)", fontsize=9)
+    fig.tight_layout()
+    written.append(save_figure(fig, out_dir / f"{tag}_topology.png"))
+    return written
