@@ -8,6 +8,7 @@ increment, before the overlap is computed.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -46,15 +47,19 @@ class IcpResult:
 
 
 def _kabsch_2d(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Least-squares rigid motion ``(x, y, yaw)`` taking points ``p`` onto ``q`` (SVD)."""
+    """Least-squares rigid motion ``(x, y, yaw)`` taking points ``p`` onto ``q``.
+
+    In 2-D the SVD solution of the Kabsch/Umeyama problem has a closed form: the rotation
+    angle is ``atan2(sum(p' x q'), sum(p' . q'))`` of the centred points, always a proper
+    rotation; one ``atan2`` instead of an SVD per ICP iteration.
+    """
     pc, qc = p.mean(axis=0), q.mean(axis=0)
-    H = (p - pc).T @ (q - qc)
-    U, _, Vt = np.linalg.svd(H)
-    # reflection guard: force det(R) = +1
-    S = np.diag([1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
-    R = Vt.T @ S @ U.T
-    t = qc - R @ pc
-    return np.array([t[0], t[1], np.arctan2(R[1, 0], R[0, 0])])
+    pp, qq = p - pc, q - qc
+    cross = float(np.dot(pp[:, 0], qq[:, 1]) - np.dot(pp[:, 1], qq[:, 0]))
+    dot = float(np.dot(pp[:, 0], qq[:, 0]) + np.dot(pp[:, 1], qq[:, 1]))
+    theta = math.atan2(cross, dot)
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([qc[0] - (c * pc[0] - s * pc[1]), qc[1] - (s * pc[0] + c * pc[1]), theta])
 
 
 def icp(

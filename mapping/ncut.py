@@ -9,6 +9,7 @@ laser-scan estimator built on it (Sections III-IV).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -18,6 +19,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg
 from numpy.typing import ArrayLike
 from scipy.sparse.csgraph import connected_components
+
+from mapping._validation import single_threaded_blas
 
 __all__ = [
     "SplitNode",
@@ -29,11 +32,18 @@ __all__ = [
 ASSOC = ("mrpt", "paper")
 LAPLACIAN = ("normalized", "unnormalized")
 SOLVERS = ("auto", "dense", "sparse")
-# Below this many nodes a dense eigendecomposition beats ARPACK's shift-invert (see the docs'
-# benchmark); above it the dense O(n^3) solve dominates the fit.
-DENSE_MAX_NODES = 200
+# Below this many nodes a dense eigendecomposition (LAPACK's MRRR for the one eigenvector, one
+# BLAS thread) beats the sparse solvers: LOBPCG took 160 ms per bisection of the 440-scan ACES
+# log, LAPACK 18 ms; above it the dense O(n^3) solve dominates (bench/bench_partition.py).
+DENSE_MAX_NODES = 1000
+# Up to this many nodes the recursion indexes subgraphs out of one dense copy of W (32 MB):
+# fancy indexing of a dense array is ~10x cheaper than of a CSR matrix.
+DENSE_INDEX_MAX_NODES = 2048
 # Shift for the shift-invert Lanczos: just below the zero eigenvalue of the Laplacian.
 _SHIFT = -1e-3
+# LOBPCG: iterations, and the residual ||L z - lambda z|| above which ARPACK takes over.
+_LOBPCG_MAXITER = 200
+_LOBPCG_RESIDUAL = 1e-6
 
 
 def check_weights(W: ArrayLike | sp.sparray, name: str = "W") -> np.ndarray | sp.csr_array:
@@ -131,8 +141,10 @@ def spectral_bisection(
         Symmetric non-negative weights, ``n >= 2``.
     laplacian : {"normalized", "unnormalized"}
     solver : {"auto", "dense", "sparse"}
-        ``"dense"``: LAPACK on the full matrix; ``"sparse"``: ARPACK shift-invert Lanczos;
-        ``"auto"``: dense up to ``DENSE_MAX_NODES`` nodes.
+        ``"dense"``: LAPACK on the full matrix; ``"sparse"``: LOBPCG on the sparse Laplacian,
+        constrained orthogonal to its known null vector (``D^1/2 1``), falling back to ARPACK's
+        shift-invert Lanczos if LOBPCG does not converge; ``"auto"``: dense up to
+        ``DENSE_MAX_NODES`` nodes.
 
     Returns
     -------
@@ -152,6 +164,7 @@ def spectral_bisection(
 
 def _bisect(W, laplacian: str, solver: str) -> tuple[np.ndarray, np.ndarray]:
     """``spectral_bisection`` without the input checks (the recursion checks ``W`` once)."""
+    # a CSR copy: csgraph's own dense input path goes through masked arrays, ~10x slower
     n_comp, comp = connected_components(sp.csr_array(W), directed=False)
     if n_comp > 1:
         y = (comp == comp[0]).astype(float)
@@ -177,12 +190,35 @@ def _second_eigenvector(W, deg: np.ndarray, laplacian: str, solver: str) -> np.n
     else:
         Ws = sp.csr_array(W)
         L = sp.diags_array(deg) - Ws
-        L = (sp.diags_array(scale) @ L @ sp.diags_array(scale)).tocsc()
-        # a fixed start vector keeps ARPACK deterministic
-        v0 = np.linspace(1.0, 2.0, n)
-        _, z = scipy.sparse.linalg.eigsh(L, k=2, sigma=_SHIFT, which="LM", v0=v0)
-        z = z[:, 1]
+        L = (sp.diags_array(scale) @ L @ sp.diags_array(scale)).tocsr()
+        z = _sparse_second_eigenvector(L, 1.0 / scale)
     return scale * z  # back to y of eq. 10 (identity for the unnormalised Laplacian)
+
+
+def _sparse_second_eigenvector(L: sp.csr_array, null: np.ndarray) -> np.ndarray:
+    """Second-smallest eigenvector of the symmetric Laplacian ``L`` of a connected graph.
+
+    The smallest eigenpair is known (eigenvalue 0, eigenvector ``null``: ``D^1/2 1`` for eq. 11,
+    the ones for ``D - W``), so LOBPCG seeks the smallest eigenvector orthogonal to it; it
+    needs only products with ``L``, where the shift-invert Lanczos factorises ``L`` (on a
+    5000-scan log the factorisations took 3.3 of 5.2 s). The start vector is the trajectory
+    order, ``linspace(1, 2, n)``: fixed, so the result is deterministic, and close to the
+    answer for scans in time order (the Fiedler vector of a trajectory varies slowly along it).
+    A residual above ``_LOBPCG_RESIDUAL`` hands over to ARPACK.
+    """
+    n = L.shape[0]
+    start = np.linspace(1.0, 2.0, n)
+    constraint = (null / np.linalg.norm(null))[:, None]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # non-convergence is checked below
+        lam, X = scipy.sparse.linalg.lobpcg(
+            L, start[:, None], Y=constraint, largest=False, tol=1e-9, maxiter=_LOBPCG_MAXITER
+        )
+    z = X[:, 0]
+    if np.linalg.norm(L @ z - lam[0] * z) <= _LOBPCG_RESIDUAL:
+        return z
+    _, z = scipy.sparse.linalg.eigsh(L.tocsc(), k=2, sigma=_SHIFT, which="LM", v0=start)
+    return z[:, 1]
 
 
 @dataclass
@@ -268,22 +304,32 @@ def recursive_ncut_partition(
     n = W.shape[0]
     if n == 0:
         raise ValueError("W has no nodes")
-    W = sp.csr_array(W) if n > DENSE_MAX_NODES else (W.toarray() if sp.issparse(W) else W)
+    if n > DENSE_INDEX_MAX_NODES:
+        W = sp.csr_array(W)
+    elif sp.issparse(W):
+        W = W.toarray()
     root = SplitNode(np.arange(n), None)
     stack = [root]
-    while stack:  # explicit stack: no recursion limit for long trajectories
-        node = stack.pop()
-        idx = node.indices
-        if idx.size < 2:
-            continue
-        sub = W[idx][:, idx]
-        mask, _ = _bisect(sub, laplacian, solver)
-        if mask.all():  # constant eigenvector: nothing to split
-            continue
-        node.ncut = _ncut(sub, mask, assoc)
-        if node.ncut < threshold and min(mask.sum(), (~mask).sum()) >= min_size:
-            node.children = (SplitNode(idx[mask], None), SplitNode(idx[~mask], None))
-            stack.extend(reversed(node.children))
+    # hundreds of small eigensolves: BLAS threads only contend (see single_threaded_blas)
+    with single_threaded_blas():
+        while stack:  # explicit stack: no recursion limit for long trajectories
+            node = stack.pop()
+            idx = node.indices
+            if idx.size < 2:
+                continue
+            if sp.issparse(W):
+                sub = W[idx][:, idx]
+                if idx.size <= DENSE_MAX_NODES:
+                    sub = sub.toarray()
+            else:
+                sub = W[np.ix_(idx, idx)]
+            mask, _ = _bisect(sub, laplacian, solver)
+            if mask.all():  # constant eigenvector: nothing to split
+                continue
+            node.ncut = _ncut(sub, mask, assoc)
+            if node.ncut < threshold and min(mask.sum(), (~mask).sum()) >= min_size:
+                node.children = (SplitNode(idx[mask], None), SplitNode(idx[~mask], None))
+                stack.extend(reversed(node.children))
     labels = np.empty(n, dtype=np.intp)
     leaves = sorted(root.leaves(), key=lambda leaf: leaf.indices.min())
     for k, leaf in enumerate(leaves):

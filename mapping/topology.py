@@ -292,25 +292,36 @@ def build_topology(
     q_j = se2_relative(frames[b], poses[j])
     d_ij = se2_relative(poses[i], poses[j])
     estimates = se2_compose(se2_compose(q_i, d_ij), se2_inverse(q_j))
-    arcs = []
-    keys = a * (labels.max() + 1) + b
-    for key in np.unique(keys):
-        sel = keys == key
-        est = estimates[sel]
-        mean = se2_mean(est)
-        r = np.hypot(np.mean(np.cos(est[:, 2])), np.mean(np.sin(est[:, 2])))
-        spread = np.array(
-            [
-                float(np.sqrt(est[:, 0].var() + est[:, 1].var())),
-                float(np.sqrt(max(-2.0 * np.log(min(r, 1.0)), 0.0))) if r > 0 else np.pi,
-            ]
+    # per-arc sums over its pairs (one bincount each instead of a loop over arcs)
+    keys, arc = np.unique(a * (labels.max() + 1) + b, return_inverse=True)
+    count = np.bincount(arc)
+
+    def mean(values: np.ndarray) -> np.ndarray:
+        return np.bincount(arc, weights=values) / count
+
+    mx, my = mean(estimates[:, 0]), mean(estimates[:, 1])
+    c, s = mean(np.cos(estimates[:, 2])), mean(np.sin(estimates[:, 2]))
+    heading = np.arctan2(s, c)
+    # spreads from deviations about the means (two passes: no cancellation when all agree)
+    var = mean((estimates[:, 0] - mx[arc]) ** 2 + (estimates[:, 1] - my[arc]) ** 2)
+    # mean resultant length, measured along the mean heading; circular std sqrt(-2 ln r)
+    r = np.where(np.hypot(c, s) > 0, mean(np.cos(wrap_angle(estimates[:, 2] - heading[arc]))), 0)
+    with np.errstate(divide="ignore"):
+        circ = np.where(r > 0, np.sqrt(np.maximum(-2.0 * np.log(np.minimum(r, 1.0)), 0)), np.pi)
+    by_traj = np.bincount(arc, weights=~kind) > 0
+    by_over = np.bincount(arc, weights=kind) > 0
+    n_groups = labels.max() + 1
+    arcs = [
+        TopologyArc(
+            int(key // n_groups),
+            int(key % n_groups),
+            np.array([mx[k], my[k], heading[k]]),
+            int(count[k]),
+            frozenset(
+                name for name, flag in (("trajectory", by_traj[k]), ("overlap", by_over[k])) if flag
+            ),
+            np.array([np.sqrt(var[k]), circ[k]]),
         )
-        via = frozenset(
-            name
-            for name, flag in (("trajectory", ~kind[sel]), ("overlap", kind[sel]))
-            if flag.any()
-        )
-        src = int(a[sel][0])
-        dst = int(b[sel][0])
-        arcs.append(TopologyArc(src, dst, mean, int(sel.sum()), via, spread))
+        for k, key in enumerate(keys)
+    ]
     return TopologicalMap(reference, frames, arcs)

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils._param_validation import InvalidParameterError
@@ -295,3 +296,37 @@ def test_precomputed_affinity_input():
         model.fit(np.triu(two_cliques()))
     with pytest.raises(ValueError, match="poses is required"):
         ObservationGraphPartitioner().fit([np.ones((3, 2))])
+
+
+def test_lobpcg_falls_back_to_arpack(monkeypatch):
+    W, truth = block_graph(np.random.default_rng(1))
+    calls = []
+    eigsh = scipy.sparse.linalg.eigsh
+    monkeypatch.setattr(
+        scipy.sparse.linalg, "eigsh", lambda *a, **k: calls.append(1) or eigsh(*a, **k)
+    )
+    lobpcg, _ = recursive_ncut_partition(sp.csr_array(W), solver="sparse")
+    assert not calls  # LOBPCG converged on every bisection
+    monkeypatch.setattr("mapping.ncut._LOBPCG_MAXITER", 1)  # not converged: ARPACK takes over
+    arpack, _ = recursive_ncut_partition(sp.csr_array(W), solver="sparse")
+    assert calls
+    np.testing.assert_array_equal(lobpcg, arpack)
+    assert purity(truth, arpack) == 1.0
+
+
+def test_large_graphs_take_the_sparse_index_path(monkeypatch):
+    W, _ = block_graph(np.random.default_rng(2))
+    dense, _ = recursive_ncut_partition(W)
+    monkeypatch.setattr("mapping.ncut.DENSE_INDEX_MAX_NODES", 10)
+    monkeypatch.setattr("mapping.ncut.DENSE_MAX_NODES", 50)
+    np.testing.assert_array_equal(recursive_ncut_partition(sp.csr_array(W))[0], dense)
+
+
+def test_voxel_size(office):
+    _, scans, poses = office
+    exact = ObservationGraphPartitioner(voxel_size=None, scan_matching=False).fit(scans, poses)
+    fast = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)  # "auto"
+    np.testing.assert_array_equal(fast.labels_, exact.labels_)
+    assert abs(fast.affinity_matrix_ - exact.affinity_matrix_).max() < 0.05
+    with pytest.raises(ValueError, match="voxel_size .* must not exceed match_distance"):
+        ObservationGraphPartitioner(voxel_size=0.2).fit(scans, poses)
