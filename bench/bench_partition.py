@@ -4,6 +4,7 @@
     .venv/bin/python bench/bench_partition.py --experiments  # assoc/threshold and noise tables
     .venv/bin/python bench/bench_partition.py --plots        # docs/img/grouping_*.png
     .venv/bin/python bench/bench_partition.py --targets      # issue 14's speed targets
+    .venv/bin/python bench/bench_partition.py --incremental  # partial_fit per scan at 1000
 
 All data are synthetic scans of ``mapping._synthetic_scans.office_world``: a corridor with
 rooms, a route touring every room, a 181-beam 180-degree laser with 8 m range. The office of
@@ -108,6 +109,37 @@ def bench_targets(repeats: int = 5) -> None:
           f"ARI {adjusted_rand_index(truth, labels):+.3f}, {len(scans)} scans, "
           f"{sum(map(len, scans))} points")  # fmt: skip
     print("targets: each real log <= 0.3 s, dense office <= 10 s, ICP on <= 3x ICP off")
+
+
+def bench_incremental(start: int = 1000, added: int = 100) -> None:
+    """``partial_fit`` one scan at a time after ``start`` scans (target <= 20 ms per scan),
+    beside ``fit`` of the same scans in the same run, and the groups of both."""
+    print(f"os.cpu_count() = {os.cpu_count()}, load average = {os.getloadavg()}")
+    world = office_world(n_rooms=12)
+    poses = office_path(world, step=0.25)[: start + added]
+    scans = raycast(world.segments, poses, range_noise=0.01, rng=np.random.default_rng(0))
+    model = ObservationGraphPartitioner(scan_matching=False)
+    t0 = time.perf_counter()
+    model.partial_fit(scans[:start], poses[:start])
+    t_first = time.perf_counter() - t0
+    per_scan = []
+    for i in range(start, len(scans)):
+        t0 = time.perf_counter()
+        model.partial_fit(scans[i : i + 1], poses[i : i + 1])
+        per_scan.append(time.perf_counter() - t0)
+    batch = ObservationGraphPartitioner(scan_matching=False)
+    t_batch = _best_of(lambda: batch.fit(scans, poses), 1)
+    ms = 1000 * np.array(per_scan)
+    truth = world.region_labels(poses)
+    print(f"12-room office, 181 beams, 0.25 m apart: {start} scans by partial_fit in "
+          f"{t_first:.2f} s, then {added} more one at a time")  # fmt: skip
+    print(f"  per scan: median {np.median(ms):.1f} ms, 95th percentile "
+          f"{np.percentile(ms, 95):.1f} ms, max {ms.max():.1f} ms (target <= 20 ms)")  # fmt: skip
+    print(f"  fit of all {len(scans)} scans: {t_batch:.2f} s")
+    for name, m in (("partial_fit", model), ("fit", batch)):
+        print(f"  {name:<11} {m.n_groups_:>3} groups  purity {purity(truth, m.labels_):.3f}  "
+              f"ARI {adjusted_rand_index(truth, m.labels_):+.3f}")  # fmt: skip
+    print(f"  ARI between them {adjusted_rand_index(batch.labels_, model.labels_):+.3f}")
 
 
 def _target_row(tag, scans, poses, repeats, exact=True, icp=True) -> np.ndarray:
@@ -240,6 +272,7 @@ def main() -> None:
     parser.add_argument("--experiments", action="store_true", help="assoc and noise tables")
     parser.add_argument("--plots", action="store_true", help="write docs/img/grouping_*.png")
     parser.add_argument("--targets", action="store_true", help="issue 14's speed targets")
+    parser.add_argument("--incremental", action="store_true", help="partial_fit per scan")
     args = parser.parse_args()
     if args.experiments:
         experiment_assoc()
@@ -248,7 +281,9 @@ def main() -> None:
         make_plots()
     if args.targets:
         bench_targets()
-    if not (args.experiments or args.plots or args.targets):
+    if args.incremental:
+        bench_incremental()
+    if not (args.experiments or args.plots or args.targets or args.incremental):
         bench_cost()
 
 

@@ -301,9 +301,22 @@ def recursive_ncut_partition(
             raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
     _check_solver(solver)
     W = check_weights(W)
-    n = W.shape[0]
-    if n == 0:
+    if W.shape[0] == 0:
         raise ValueError("W has no nodes")
+    return partition_checked(W, threshold, assoc, laplacian, min_size, solver)
+
+
+def partition_checked(
+    W: np.ndarray | sp.csr_array,
+    threshold: float,
+    assoc: str,
+    laplacian: str,
+    min_size: int,
+    solver: str,
+) -> tuple[np.ndarray, SplitNode]:
+    """``recursive_ncut_partition`` on arguments already checked (a valid, non-empty ``W``):
+    for callers that re-partition many small graphs, such as ``partial_fit``."""
+    n = W.shape[0]
     if n > DENSE_INDEX_MAX_NODES:
         W = sp.csr_array(W)
     elif sp.issparse(W):

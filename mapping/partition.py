@@ -21,6 +21,7 @@ from sklearn.base import BaseEstimator, ClusterMixin
 from sklearn.utils._param_validation import Interval, StrOptions
 
 from mapping.icp import refine_poses
+from mapping.incremental import VoxelOverlapIndex, add_scans
 from mapping.ncut import (
     ASSOC,
     LAPLACIAN,
@@ -36,6 +37,8 @@ from mapping.topology import (
     build_topology,
     group_frames,
     run_starts_from_groups,
+    se2_compose,
+    se2_relative,
 )
 
 __all__ = ["ObservationGraphPartitioner"]
@@ -191,6 +194,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         self
         """
         self._validate_params()
+        self.__dict__.pop("_incremental", None)  # a new fit ends any partial_fit sequence
         if self.affinity == "precomputed":
             return self._fit_precomputed(X, poses, groups)
         if poses is None:
@@ -234,6 +238,102 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     ) -> np.ndarray:
         """``fit`` and return ``labels_``."""
         return self.fit(X, poses, groups=groups).labels_
+
+    def partial_fit(self, X: Sequence[ArrayLike], poses: ArrayLike) -> ObservationGraphPartitioner:
+        """Add scans as the robot drives and update the groups incrementally.
+
+        Each new scan (in driving order, one run) becomes a node; its overlaps to the scans
+        already there come from a voxel index restricted by pose and range
+        (``mapping.incremental.VoxelOverlapIndex``: the same weights as ``fit``'s voxel
+        overlap), and only the groups it overlaps are merged with it and partitioned again
+        (``mapping.incremental.repartition``), as MRPT's incremental partitioner does. The
+        result is the same graph as ``fit`` on all scans so far; the groups are the same
+        wherever a new scan's groups are not joined to the rest (e.g. a new building, or a
+        room seen from nowhere else), and otherwise a local re-partition of what changed.
+
+        ``labels_``, ``n_groups_``, ``poses_`` and ``affinity_matrix_`` are updated;
+        ``local_maps_`` and ``topology_`` are rebuilt when read; ``split_tree_`` is not kept.
+        ``fit`` starts over. Needs ``affinity="sso"`` and a ``voxel_size``.
+
+        Parameters
+        ----------
+        X : sequence of array-like of shape (M_i, 2)
+            The new scans, sensor-frame points.
+        poses : array-like of shape (k, 3)
+            Their poses, continuing the poses given so far (with ``scan_matching`` the
+            increments from the previous scan are refined by ICP, as in ``fit``).
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        if self.affinity == "precomputed" or self.voxel_size is None:
+            raise ValueError("partial_fit needs affinity='sso' and a voxel_size (not None)")
+        if hasattr(self, "labels_") and "_incremental" not in self.__dict__:
+            raise ValueError(
+                "this model was fitted with fit(); partial_fit continues only a partial_fit "
+                "sequence: start it on an unfitted estimator (e.g. clone(model))"
+            )
+        scans, given = check_scans_and_poses(X, poses)
+        state = self.__dict__.setdefault(
+            "_incremental",
+            {
+                "index": VoxelOverlapIndex(self.match_distance, self._voxel_size()),
+                "scans": [],
+                "given": np.empty((0, 3)),
+                "poses": np.empty((0, 3)),
+                "arcs": [(np.empty(0, np.intp),) * 2 + (np.empty(0),)],
+                "raw": np.empty(0, dtype=np.intp),
+            },
+        )
+        poses_now = self._chain(state, scans, given)
+        options = {k: getattr(self, k) for k in ("threshold", "assoc", "laplacian", "solver")}
+        rows, cols, vals, raw = add_scans(
+            state, scans, poses_now, min_size=self.min_size, **options
+        )
+        state.update(
+            scans=state["scans"] + scans,
+            given=np.concatenate([state["given"], given]),
+            poses=np.concatenate([state["poses"], poses_now]),
+            arcs=[(rows, cols, vals)],
+            raw=raw,
+        )
+        n = raw.size
+        labels = _fill_from_nearest(raw) if self.empty_scans == "nearest" else raw
+        self.labels_ = labels
+        self.n_groups_ = int(labels.max()) + 1
+        self.poses_ = state["poses"]
+        self.affinity_matrix_ = sp.csr_array((vals, (rows, cols)), shape=(n, n))
+        for name in ("split_tree_", "local_maps_", "topology_"):
+            self.__dict__.pop(name, None)  # local maps and topology: rebuilt when read
+        return self
+
+    def _chain(self, state: dict, scans: list, given: np.ndarray) -> np.ndarray:
+        """Poses of the new scans: as given, or ICP-refined increments chained from the last
+        refined pose (``refine_poses`` on the previous scan and the new ones)."""
+        if not self.scan_matching:
+            return given
+        if not state["scans"]:
+            return refine_poses(scans, given, max_correspondence_distance=self.icp_max_distance)
+        ext = refine_poses(
+            [state["scans"][-1], *scans],
+            np.concatenate([state["given"][-1:], given]),
+            max_correspondence_distance=self.icp_max_distance,
+        )
+        return se2_compose(state["poses"][-1], se2_relative(ext[0], ext[1:]))
+
+    def __getattr__(self, name: str):
+        # local maps and topology after partial_fit, built on first read
+        state = self.__dict__.get("_incremental")
+        if name not in ("local_maps_", "topology_") or state is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        reference, frames = group_frames(state["poses"], self.labels_)
+        self.local_maps_ = build_local_maps(state["scans"], state["poses"], self.labels_, frames)
+        self.topology_ = build_topology(
+            state["poses"], self.labels_, self.affinity_matrix_, reference, frames
+        )
+        return self.__dict__[name]
 
     def _fit_precomputed(self, W, poses, groups) -> ObservationGraphPartitioner:
         if poses is not None or groups is not None:
