@@ -21,12 +21,12 @@ _EXPORTS = {
     "adjusted_rand_index": "mapping.metrics",
     "clustering_error": "mapping.metrics",
     "purity": "mapping.metrics",
+    "SplitNode": "mapping.ncut",
+    "ncut": "mapping.ncut",
+    "recursive_ncut_partition": "mapping.ncut",
+    "spectral_bisection": "mapping.ncut",
     "sensed_space_overlap": "mapping.overlap",
     "ObservationGraphPartitioner": "mapping.partition",
-    "SplitNode": "mapping.partition",
-    "ncut": "mapping.partition",
-    "recursive_ncut_partition": "mapping.partition",
-    "spectral_bisection": "mapping.partition",
     "TopologicalMap": "mapping.topology",
     "NotFittedError": "sklearn.exceptions",  # what every estimator here raises before fit
 }

@@ -182,22 +182,30 @@ def raycast(
         raise ValueError("rng is required when range_noise > 0")
     angles = np.linspace(-fov / 2, fov / 2, n_beams)
     a, e = segments[:, :2], segments[:, 2:] - segments[:, :2]
+    poses = np.asarray(poses, dtype=float)
     scans = []
-    for x, y, yaw in np.asarray(poses, dtype=float):
-        u = np.stack([np.cos(angles + yaw), np.sin(angles + yaw)], axis=1)  # (K, 2)
-        ao = a - (x, y)  # (S, 2)
-        denom = u[:, None, 0] * e[None, :, 1] - u[:, None, 1] * e[None, :, 0]  # (K, S)
+    # poses in chunks of ~4M beam-wall tests: vectorised, and memory stays bounded
+    chunk = max(1, 4_000_000 // max(1, n_beams * len(segments)))
+    for start in range(0, len(poses), chunk):
+        x, y, yaw = poses[start : start + chunk].T
+        th = angles[None, :] + yaw[:, None]
+        u = np.stack([np.cos(th), np.sin(th)], axis=-1)  # (P, K, 2)
+        ao = a[None, :, :] - np.stack([x, y], axis=-1)[:, None, :]  # (P, S, 2)
+        denom = u[:, :, None, 0] * e[None, None, :, 1] - u[:, :, None, 1] * e[None, None, :, 0]
         ok = np.abs(denom) > WALL_EPS
         safe = np.where(ok, denom, 1.0)
-        t = (ao[None, :, 0] * e[None, :, 1] - ao[None, :, 1] * e[None, :, 0]) / safe
-        s = (ao[None, :, 0] * u[:, None, 1] - ao[None, :, 1] * u[:, None, 0]) / safe
+        t = (
+            ao[:, None, :, 0] * e[None, None, :, 1] - ao[:, None, :, 1] * e[None, None, :, 0]
+        ) / safe
+        s = (ao[:, None, :, 0] * u[:, :, None, 1] - ao[:, None, :, 1] * u[:, :, None, 0]) / safe
         hit = ok & (t > 1e-9) & (s >= 0.0) & (s <= 1.0)
-        rng_k = np.where(hit, t, np.inf).min(axis=1)
-        valid = rng_k <= max_range
-        r = rng_k[valid]
-        if range_noise > 0:
-            r = r + rng.normal(0.0, range_noise, r.shape)
-        scans.append(np.column_stack([r * np.cos(angles[valid]), r * np.sin(angles[valid])]))
+        ranges = np.where(hit, t, np.inf).min(axis=2)  # (P, K)
+        for rng_k in ranges:
+            valid = rng_k <= max_range
+            r = rng_k[valid]
+            if range_noise > 0:
+                r = r + rng.normal(0.0, range_noise, r.shape)
+            scans.append(np.column_stack([r * np.cos(angles[valid]), r * np.sin(angles[valid])]))
     return scans
 
 

@@ -8,6 +8,7 @@ increment, before the overlap is computed.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -15,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.topology import check_run_starts, se2_compose, se2_relative, transform_points
+from mapping.topology import run_starts_from_groups, se2_compose, se2_relative, transform_points
 
 __all__ = ["IcpResult", "densify_scan", "icp", "refine_poses"]
 
@@ -46,15 +47,19 @@ class IcpResult:
 
 
 def _kabsch_2d(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Least-squares rigid motion ``(x, y, yaw)`` taking points ``p`` onto ``q`` (SVD)."""
+    """Least-squares rigid motion ``(x, y, yaw)`` taking points ``p`` onto ``q``.
+
+    In 2-D the SVD solution of the Kabsch/Umeyama problem has a closed form: the rotation
+    angle is ``atan2(sum(p' x q'), sum(p' . q'))`` of the centred points, always a proper
+    rotation; one ``atan2`` instead of an SVD per ICP iteration.
+    """
     pc, qc = p.mean(axis=0), q.mean(axis=0)
-    H = (p - pc).T @ (q - qc)
-    U, _, Vt = np.linalg.svd(H)
-    # reflection guard: force det(R) = +1
-    S = np.diag([1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
-    R = Vt.T @ S @ U.T
-    t = qc - R @ pc
-    return np.array([t[0], t[1], np.arctan2(R[1, 0], R[0, 0])])
+    pp, qq = p - pc, q - qc
+    cross = float(np.dot(pp[:, 0], qq[:, 1]) - np.dot(pp[:, 1], qq[:, 0]))
+    dot = float(np.dot(pp[:, 0], qq[:, 0]) + np.dot(pp[:, 1], qq[:, 1]))
+    theta = math.atan2(cross, dot)
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([qc[0] - (c * pc[0] - s * pc[1]), qc[1] - (s * pc[0] + c * pc[1]), theta])
 
 
 def icp(
@@ -158,7 +163,7 @@ def refine_poses(
     max_iterations: int = 50,
     min_matches: int = 20,
     min_overlap: float = 0.5,
-    run_starts: ArrayLike | None = None,
+    groups: ArrayLike | None = None,
 ) -> np.ndarray:
     """Replace consecutive odometry increments by ICP scan matching and re-chain the poses.
 
@@ -168,19 +173,20 @@ def refine_poses(
     increment; otherwise (an empty scan, too little shared structure) the odometry increment is
     kept. The poses are re-chained from ``poses[0]``.
 
-    ``run_starts`` lists the indices where a new run (another drive, with its own odometry)
-    begins: there is no odometry increment from the previous scan, so such a scan keeps its
-    input pose and the next ones chain from it.
+    ``groups`` gives the run (drive) of each scan, scikit-learn's per-sample convention (see
+    ``mapping.topology.run_starts_from_groups``): where a new run begins there is no odometry
+    increment from the previous scan, so that scan keeps its input pose and the next ones
+    chain from it.
 
     Returns
     -------
     ndarray of shape (N, 3)
-        Refined poses; ``poses[0]`` and ``poses[run_starts]`` are unchanged.
+        Refined poses; the first pose of every run is unchanged.
     """
     poses = np.asarray(poses, dtype=float)
     out = poses.copy()
     odometry = se2_relative(poses[:-1], poses[1:])
-    starts = check_run_starts(run_starts, len(poses))
+    starts = run_starts_from_groups(groups, len(poses))
     for i in range(1, len(poses)):
         if starts[i]:
             continue

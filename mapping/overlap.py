@@ -17,12 +17,14 @@ from scipy.spatial import cKDTree
 
 from mapping.topology import transform_points
 
-__all__ = ["check_scans_and_poses", "sensed_space_overlap", "world_points"]
+__all__ = ["check_scans_and_poses", "sensed_space_overlap", "voxel_incidence", "world_points"]
 
 _METHODS = ("auto", "per_scan", "global")
 # Above this many points in all, the self-join's list of close point pairs (tens per point)
 # costs more memory than it saves time; see the benchmark in docs/observation-grouping.md.
 GLOBAL_MAX_POINTS = 25_000
+# Voxel grids with a bounding box up to this many cells use a dense lookup table (64 MB).
+DENSE_GRID_MAX_CELLS = 8_000_000
 
 
 def check_scans_and_poses(
@@ -170,6 +172,85 @@ def _fractions_global(
     return counts.row, counts.col, counts.data / sizes[counts.row]
 
 
+def _voxel_offsets(radius_cells: float) -> np.ndarray:
+    """Integer offsets ``(dx, dy)`` with ``dx^2 + dy^2 <= radius_cells^2``: the disc of eq. 16
+    on the voxel grid."""
+    r = int(np.floor(radius_cells + 1e-9))
+    dx, dy = np.meshgrid(np.arange(-r, r + 1), np.arange(-r, r + 1), indexing="ij")
+    keep = dx**2 + dy**2 <= radius_cells**2 + 1e-9
+    return np.column_stack([dx[keep], dy[keep]])
+
+
+def voxel_incidence(
+    pts: Sequence[np.ndarray], voxel_size: float
+) -> tuple[sp.csr_array, np.ndarray]:
+    """Downsample world-frame scans to a voxel grid shared by all scans.
+
+    Returns the binary incidence ``A`` (scan x occupied voxel; a scan has 1 for each voxel its
+    points fall in, however many) and the integer grid coordinates ``(V, 2)`` of the voxels.
+    The grid is anchored at the world origin, so the same place falls in the same voxel in
+    every scan.
+    """
+    sizes = np.array([len(p) for p in pts])
+    if sizes.sum() == 0:
+        return sp.csr_array((len(pts), 0)), np.empty((0, 2), dtype=np.int64)
+    cells = np.floor(np.concatenate(pts) / voxel_size).astype(np.int64)
+    lo = cells.min(axis=0)
+    span = cells.max(axis=0) - lo + 1
+    key = (cells[:, 0] - lo[0]) * span[1] + (cells[:, 1] - lo[1])  # row-major cell id
+    voxels, column = np.unique(key, return_inverse=True)
+    owner = np.repeat(np.arange(len(pts)), sizes)
+    A = sp.csr_array((np.ones(len(key)), (owner, column)), shape=(len(pts), len(voxels)))
+    A.sum_duplicates()  # A[i, u] = the number of points of scan i in voxel u
+    grid = np.column_stack([voxels // span[1] + lo[0], voxels % span[1] + lo[1]])
+    return A, grid
+
+
+def _voxel_adjacency(grid: np.ndarray, offsets: np.ndarray) -> sp.csr_array:
+    """``K[u, w] = 1`` when occupied voxels ``u`` and ``w`` differ by one of ``offsets``."""
+    reach = int(np.abs(offsets).max())
+    lo = grid.min(axis=0) - reach
+    span = grid.max(axis=0) - lo + reach + 1
+    key = (grid[:, 0] - lo[0]) * span[1] + (grid[:, 1] - lo[1])  # sorted: grid is row-major
+    # offsets in lexicographic order shift the row-major keys in increasing order, so each
+    # row's columns come out sorted and the CSR arrays are built directly
+    shifts = np.sort(offsets[:, 0] * span[1] + offsets[:, 1])
+    shifted = key[:, None] + shifts[None, :]  # (V, offsets)
+    if span[0] * span[1] <= DENSE_GRID_MAX_CELLS:
+        # a lookup table over the bounding box: one gather per offset
+        table = np.full(span[0] * span[1], -1, dtype=np.int64)
+        table[key] = np.arange(len(key))
+        cols = table[shifted]
+        hit = cols >= 0
+    else:  # a huge, sparse map: binary search in the sorted keys instead
+        cols = np.minimum(np.searchsorted(key, shifted), len(key) - 1)
+        hit = key[cols] == shifted
+    indptr = np.concatenate([[0], np.cumsum(hit.sum(axis=1))])
+    return sp.csr_array((np.ones(int(indptr[-1])), cols[hit], indptr), shape=(len(key), len(key)))
+
+
+def _fractions_voxel(
+    pts: list[np.ndarray], delta: float, voxel_size: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Matched fractions ``Pi(i, j)`` (eq. 17) of the voxel-downsampled scans.
+
+    Every scan becomes the set of voxels its points fall in (``A``); voxel ``u`` of scan ``i``
+    matches scan ``j`` when a voxel of ``j`` lies within ``delta`` of it, centre to centre
+    (eq. 16 on the grid). With ``K`` the voxel adjacency of that disc, ``D = A K`` (binarised)
+    marks the voxels near each scan, and ``A D^T`` counts the matched voxels of every pair at
+    once: two sparse products, no loop over scans or pairs.
+    """
+    A, grid = voxel_incidence(pts, voxel_size)
+    K = _voxel_adjacency(grid, _voxel_offsets(delta / voxel_size))
+    occupied = A.copy()
+    occupied.data[:] = 1.0
+    near = occupied @ K
+    near.data[:] = 1.0
+    counts = (A @ near.T).tocoo()
+    n_points = np.asarray(A.sum(axis=1)).ravel()
+    return counts.row, counts.col, counts.data / n_points[counts.row]
+
+
 def sensed_space_overlap(
     scans: Sequence[ArrayLike],
     poses: ArrayLike,
@@ -178,6 +259,7 @@ def sensed_space_overlap(
     sparse: bool = False,
     method: str = "auto",
     workers: int = 1,
+    voxel_size: float | None = None,
 ) -> np.ndarray | sp.csr_array:
     """Sensed-space-overlap matrix of laser scans (eq. 16-18).
 
@@ -192,6 +274,14 @@ def sensed_space_overlap(
     and time grow with the overlapping pairs only. ``"global"`` self-joins one KD-tree over all
     points; it avoids the per-scan Python loop, which is ~2x faster for small maps, but its
     memory grows with the number of close point pairs.
+
+    With ``voxel_size`` the scans are first downsampled to a voxel grid shared by all scans (as
+    MRPT's map partitioner does): each scan becomes the voxels its points fall in, and eq. 16-18
+    are applied to the voxel centres, with the ``delta`` disc on the grid. ``Pi(i, j)`` then
+    counts voxels rather than points, so the many beams that hit a nearby wall count once per
+    voxel; snapping moves a point by at most ``voxel_size / sqrt(2)``. Two sparse matrix
+    products give all pairs at once (``_fractions_voxel``), much faster than the exact methods
+    on long or dense logs.
 
     Parameters
     ----------
@@ -210,6 +300,9 @@ def sensed_space_overlap(
         ``"per_scan"``.
     workers : int, default 1
         Threads for the per-scan KD-tree queries (``-1``: all cores); small batches gain little.
+    voxel_size : float, optional
+        Side of the voxels in metres, ``<= delta``; ``None`` (default) computes eq. 16-18 exactly
+        on the points with ``method``.
 
     Returns
     -------
@@ -228,6 +321,8 @@ def sensed_space_overlap(
         raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
     if not np.isscalar(delta) or not np.isfinite(delta) or delta <= 0:
         raise ValueError(f"delta must be a positive finite distance in metres, got {delta!r}")
+    if voxel_size is not None and not (np.isscalar(voxel_size) and 0 < voxel_size <= delta):
+        raise ValueError(f"voxel_size must be None or in (0, delta = {delta}], got {voxel_size!r}")
     scans, poses = check_scans_and_poses(scans, poses)
     n = len(scans)
     pts = world_points(scans, poses)
@@ -236,10 +331,16 @@ def sensed_space_overlap(
 
     rows, cols, vals = [], [], []
     if len(nonempty) > 1:
-        if method == "auto":
-            method = "global" if sizes.sum() <= GLOBAL_MAX_POINTS else "per_scan"
-        fractions = _fractions_global if method == "global" else _fractions_per_scan
-        src, dst, pi_vals = fractions([pts[i] for i in nonempty], float(delta), workers)
+        kept = [pts[i] for i in nonempty]
+        if voxel_size is not None:
+            src, dst, pi_vals = _fractions_voxel(kept, float(delta), float(voxel_size))
+            cross = src != dst  # the unit diagonal is added below
+            src, dst, pi_vals = src[cross], dst[cross], pi_vals[cross]
+        else:
+            if method == "auto":
+                method = "global" if sizes.sum() <= GLOBAL_MAX_POINTS else "per_scan"
+            fractions = _fractions_global if method == "global" else _fractions_per_scan
+            src, dst, pi_vals = fractions(kept, float(delta), workers)
         # eq. 18: Psi = (Pi(i, j) + Pi(j, i)) / 2; the COO sums both halves into one entry
         rows += [nonempty[src], nonempty[dst]]
         cols += [nonempty[dst], nonempty[src]]

@@ -1,309 +1,50 @@
-"""Recursive minimum-normalised-cut partition of an observation graph (Blanco et al., Section II).
+"""The observation-grouping estimator of laser scans (Blanco et al., Sections III-IV).
 
-The functional core works on any symmetric non-negative weight matrix (dense or
-``scipy.sparse``): ``ncut`` is eq. 1, ``spectral_bisection`` solves eq. 10-11 and splits the
-second eigenvector at its mean, ``recursive_ncut_partition`` applies the bisection while the cut
-is accepted (eq. 12-13, Section II-B). ``ObservationGraphPartitioner`` is the laser-scan
-estimator built on it (Sections III-IV).
+``ObservationGraphPartitioner`` builds the observation graph of scans weighted by their
+sensed-space overlap (``mapping.overlap``), splits it with the recursive min-Ncut of
+``mapping.ncut``, and turns the groups into local maps and a metric-topological map
+(``mapping.topology``). It is a scikit-learn estimator: ``get_params``/``set_params``/``clone``
+work, parameters are checked against ``_parameter_constraints``, and with
+``affinity="precomputed"`` it partitions any ready-made similarity graph.
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
+from numbers import Integral, Real
 
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
-import scipy.sparse.linalg
 from numpy.typing import ArrayLike
-from scipy.sparse.csgraph import connected_components
+from sklearn.base import BaseEstimator, ClusterMixin
+from sklearn.utils._param_validation import Interval, StrOptions
 
 from mapping.icp import refine_poses
+from mapping.incremental import VoxelOverlapIndex, add_scans
+from mapping.ncut import (
+    ASSOC,
+    LAPLACIAN,
+    SOLVERS,
+    SplitNode,
+    check_weights,
+    recursive_ncut_partition,
+)
 from mapping.overlap import check_scans_and_poses, sensed_space_overlap
 from mapping.topology import (
     TopologicalMap,
     build_local_maps,
     build_topology,
-    check_run_starts,
     group_frames,
+    run_starts_from_groups,
+    se2_compose,
+    se2_relative,
 )
 
-__all__ = [
-    "ObservationGraphPartitioner",
-    "SplitNode",
-    "ncut",
-    "recursive_ncut_partition",
-    "spectral_bisection",
-]
-
-_ASSOC = ("mrpt", "paper")
-_LAPLACIAN = ("normalized", "unnormalized")
-_SOLVERS = ("auto", "dense", "sparse")
-# Below this many nodes a dense eigendecomposition beats ARPACK's shift-invert (see the docs'
-# benchmark); above it the dense O(n^3) solve dominates the fit.
-DENSE_MAX_NODES = 200
-# Shift for the shift-invert Lanczos: just below the zero eigenvalue of the Laplacian.
-_SHIFT = -1e-3
+__all__ = ["ObservationGraphPartitioner"]
 
 
-def _check_weights(W: ArrayLike | sp.sparray, name: str = "W") -> np.ndarray | sp.csr_array:
-    """Return ``W`` as float ndarray or csr_array after checking it is a valid graph."""
-    if sp.issparse(W):
-        W = sp.csr_array(W, dtype=float)
-        values = W.data
-    else:
-        W = np.asarray(W, dtype=float)
-        values = W
-    if W.ndim != 2 or W.shape[0] != W.shape[1]:
-        raise ValueError(f"{name} must be a square matrix, got shape {W.shape}")
-    if not np.isfinite(values).all():
-        raise ValueError(f"{name} contains NaN or inf")
-    if (values < 0).any():
-        raise ValueError(f"{name} must be non-negative (weights are overlaps or similarities)")
-    asym = abs(W - W.T).max()
-    if asym > 1e-9 * max(1.0, abs(values).max(initial=0.0)):
-        raise ValueError(f"{name} must be symmetric (max |W - W.T| = {asym:.3g})")
-    return W
-
-
-def _check_solver(solver: str) -> None:
-    if solver not in _SOLVERS:
-        raise ValueError(f"solver must be one of {_SOLVERS}, got {solver!r}")
-
-
-def ncut(W: ArrayLike | sp.sparray, mask: ArrayLike, assoc: str = "mrpt") -> float:
-    """Normalised cut of the bisection ``A = mask``, ``B = ~mask`` (eq. 1).
-
-    ``Ncut = cut(A, B) / assoc(A, V) + cut(A, B) / assoc(B, V)`` with ``cut`` the summed
-    weight between the groups (eq. 2). ``assoc`` selects how the association is counted:
-
-    - ``"mrpt"``: ``assoc(A, V) = cut(A, B) + assoc(A, A)`` (eq. 5) with ``assoc(A, A)`` the
-      weight of each unordered pair inside ``A`` counted once, self-weights excluded, the same
-      basis as ``cut``. This is MRPT's ``CGraphPartitioner::nCut``.
-    - ``"paper"``: eq. 3 as written, ``sum_{u in A, v in V} W_uv``: the degree volume, which
-      counts each pair inside ``A`` twice and includes the diagonal.
-
-    Returns 0 when ``cut(A, B) = 0`` (two disconnected groups), else a value in ``(0, 2]``.
-
-    Raises
-    ------
-    ValueError
-        If ``mask`` does not have one entry per node, or one side of the bisection is empty.
-    """
-    if assoc not in _ASSOC:
-        raise ValueError(f"assoc must be one of {_ASSOC}, got {assoc!r}")
-    W = _check_weights(W)
-    mask = np.asarray(mask, dtype=bool)
-    if mask.shape != (W.shape[0],):
-        raise ValueError(f"mask must have shape ({W.shape[0]},), got {mask.shape}")
-    if mask.all() or not mask.any():
-        raise ValueError("mask must put at least one node on each side of the bisection")
-    return _ncut(W, mask, assoc)
-
-
-def _ncut(W: np.ndarray | sp.csr_array, mask: np.ndarray, assoc: str) -> float:
-    x = mask.astype(float)
-    wx = W @ x  # weight from each node into A
-    deg = np.asarray(W.sum(axis=1)).ravel()
-    vol_a = float(x @ deg)
-    within_a = float(x @ wx)  # ordered pairs in A, diagonal included
-    cut = vol_a - within_a
-    if cut <= 0:
-        return 0.0
-    vol_b = float(deg.sum()) - vol_a
-    if assoc == "paper":  # eq. 3
-        return cut / vol_a + cut / vol_b
-    diag = W.diagonal()
-    # eq. 5 with intra-group pairs once and no self-weights, as in MRPT
-    assoc_aa = 0.5 * (within_a - float(x @ diag))
-    assoc_bb = 0.5 * (vol_b - cut - float((1.0 - x) @ diag))
-    return cut / (cut + assoc_aa) + cut / (cut + assoc_bb)
-
-
-def spectral_bisection(
-    W: ArrayLike | sp.sparray, laplacian: str = "normalized", solver: str = "auto"
-) -> tuple[np.ndarray, np.ndarray]:
-    """Bisect a graph with the second eigenvector of its Laplacian, split at its mean.
-
-    ``laplacian="normalized"`` solves the generalised eigenproblem ``(D - W) y = lambda D y``
-    (eq. 10) through its symmetric form ``D^-1/2 (D - W) D^-1/2 z = lambda z``, ``y = D^-1/2 z``
-    (eq. 11), whose second-smallest eigenvector relaxes the min-Ncut problem (eq. 8).
-    ``"unnormalized"`` uses ``(D - W) y = lambda y`` as MRPT does. Nodes with ``y >= mean(y)``
-    form ``A`` (the paper's choice over the sign, Section II-A).
-
-    A disconnected graph has a multiple zero eigenvalue, so its "second eigenvector" is any
-    combination of component indicators; the bisection then separates the connected component
-    of node 0 from the rest (a cut of weight 0, the limit the eigenvector approaches).
-
-    Parameters
-    ----------
-    W : array-like or sparse matrix of shape (n, n)
-        Symmetric non-negative weights, ``n >= 2``.
-    laplacian : {"normalized", "unnormalized"}
-    solver : {"auto", "dense", "sparse"}
-        ``"dense"``: LAPACK on the full matrix; ``"sparse"``: ARPACK shift-invert Lanczos;
-        ``"auto"``: dense up to ``DENSE_MAX_NODES`` nodes.
-
-    Returns
-    -------
-    mask : ndarray of shape (n,), bool
-        Membership of ``A``; oriented so that node 0 is in ``A``.
-    y : ndarray of shape (n,)
-        The eigenvector (the component indicator for a disconnected graph).
-    """
-    if laplacian not in _LAPLACIAN:
-        raise ValueError(f"laplacian must be one of {_LAPLACIAN}, got {laplacian!r}")
-    _check_solver(solver)
-    W = _check_weights(W)
-    if W.shape[0] < 2:
-        raise ValueError(f"W must have at least 2 nodes to bisect, got {W.shape[0]}")
-    return _bisect(W, laplacian, solver)
-
-
-def _bisect(W, laplacian: str, solver: str) -> tuple[np.ndarray, np.ndarray]:
-    """``spectral_bisection`` without the input checks (the recursion checks ``W`` once)."""
-    n_comp, comp = connected_components(sp.csr_array(W), directed=False)
-    if n_comp > 1:
-        y = (comp == comp[0]).astype(float)
-        return y > 0.5, y
-    deg = np.asarray(W.sum(axis=1)).ravel()
-    y = _second_eigenvector(W, deg, laplacian, solver)
-    mask = y >= y.mean()
-    if not mask[0]:
-        mask, y = ~mask, -y
-    return mask, y
-
-
-def _second_eigenvector(W, deg: np.ndarray, laplacian: str, solver: str) -> np.ndarray:
-    n = W.shape[0]
-    scale = 1.0 / np.sqrt(deg) if laplacian == "normalized" else np.ones(n)
-    use_dense = solver == "dense" or (solver == "auto" and n <= DENSE_MAX_NODES) or n < 4
-    if use_dense:
-        Wd = W.toarray() if sp.issparse(W) else W
-        L = np.diag(deg) - Wd
-        L = scale[:, None] * L * scale[None, :]  # eq. 11: D^-1/2 (D - W) D^-1/2
-        _, z = scipy.linalg.eigh(L, subset_by_index=[1, 1])
-        z = z[:, 0]
-    else:
-        Ws = sp.csr_array(W)
-        L = sp.diags_array(deg) - Ws
-        L = (sp.diags_array(scale) @ L @ sp.diags_array(scale)).tocsc()
-        # a fixed start vector keeps ARPACK deterministic
-        v0 = np.linspace(1.0, 2.0, n)
-        _, z = scipy.sparse.linalg.eigsh(L, k=2, sigma=_SHIFT, which="LM", v0=v0)
-        z = z[:, 1]
-    return scale * z  # back to y of eq. 10 (identity for the unnormalised Laplacian)
-
-
-@dataclass
-class SplitNode:
-    """A node of the recursive bisection tree.
-
-    Attributes
-    ----------
-    indices : ndarray of int
-        Nodes of the original graph in this subgraph.
-    ncut : float or None
-        Ncut (eq. 1) of the best bisection found for this subgraph, whether accepted or not;
-        ``None`` when no bisection was possible (a single node, or a constant eigenvector).
-    children : tuple of SplitNode
-        The two halves if the bisection was accepted (``ncut < threshold``), else empty.
-    """
-
-    indices: np.ndarray
-    ncut: float | None
-    children: tuple[SplitNode, ...] = ()
-
-    @property
-    def accepted(self) -> bool:
-        """Whether this subgraph was split."""
-        return bool(self.children)
-
-    def walk(self) -> Iterator[SplitNode]:
-        """Pre-order traversal of the tree."""
-        yield self
-        for child in self.children:
-            yield from child.walk()
-
-    def leaves(self) -> list[SplitNode]:
-        """The final groups, in traversal order."""
-        return [node for node in self.walk() if not node.children]
-
-
-def recursive_ncut_partition(
-    W: ArrayLike | sp.sparray,
-    threshold: float = 1.0,
-    *,
-    assoc: str = "mrpt",
-    laplacian: str = "normalized",
-    min_size: int = 1,
-    solver: str = "auto",
-) -> tuple[np.ndarray, SplitNode]:
-    """Recursive spectral bisection while the min-Ncut is below ``threshold`` (Section II-B).
-
-    ``RecursivePart(G)``: bisect ``G`` with ``spectral_bisection``; if ``Ncut < threshold``
-    (eq. 12-13 give ``threshold = 1``) partition both halves again, else ``G`` is a group.
-
-    Parameters
-    ----------
-    W : array-like or sparse matrix of shape (n, n)
-        Symmetric non-negative weights; any similarity graph (scan overlap, image similarity).
-    threshold : float, default 1.0
-        Accept a bisection while ``Ncut < threshold``; in ``[0, 2]``.
-    assoc : {"mrpt", "paper"}
-        How ``ncut`` counts the association (see ``ncut``).
-    laplacian : {"normalized", "unnormalized"}
-        Eigenproblem of the bisection (see ``spectral_bisection``).
-    min_size : int, default 1
-        Reject a bisection that leaves fewer nodes than this on either side.
-    solver : {"auto", "dense", "sparse"}
-        Eigensolver (see ``spectral_bisection``).
-
-    Returns
-    -------
-    labels : ndarray of shape (n,), int
-        Group of each node, numbered in the order of each group's first node.
-    tree : SplitNode
-        The bisection tree with each Ncut.
-    """
-    if not np.isscalar(threshold) or not 0.0 <= threshold <= 2.0:
-        raise ValueError(f"threshold must be a number in [0, 2], got {threshold!r}")
-    if int(min_size) != min_size or min_size < 1:
-        raise ValueError(f"min_size must be a positive integer, got {min_size!r}")
-    for name, value, allowed in (("assoc", assoc, _ASSOC), ("laplacian", laplacian, _LAPLACIAN)):
-        if value not in allowed:
-            raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
-    _check_solver(solver)
-    W = _check_weights(W)
-    n = W.shape[0]
-    if n == 0:
-        raise ValueError("W has no nodes")
-    W = sp.csr_array(W) if n > DENSE_MAX_NODES else (W.toarray() if sp.issparse(W) else W)
-    root = SplitNode(np.arange(n), None)
-    stack = [root]
-    while stack:  # explicit stack: no recursion limit for long trajectories
-        node = stack.pop()
-        idx = node.indices
-        if idx.size < 2:
-            continue
-        sub = W[idx][:, idx]
-        mask, _ = _bisect(sub, laplacian, solver)
-        if mask.all():  # constant eigenvector: nothing to split
-            continue
-        node.ncut = _ncut(sub, mask, assoc)
-        if node.ncut < threshold and min(mask.sum(), (~mask).sum()) >= min_size:
-            node.children = (SplitNode(idx[mask], None), SplitNode(idx[~mask], None))
-            stack.extend(reversed(node.children))
-    labels = np.empty(n, dtype=np.intp)
-    leaves = sorted(root.leaves(), key=lambda leaf: leaf.indices.min())
-    for k, leaf in enumerate(leaves):
-        labels[leaf.indices] = k
-    return labels, root
-
-
-class ObservationGraphPartitioner:
+class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     """Group laser scans into local maps by sensed-space overlap and recursive min-Ncut.
 
     Blanco et al., Sections III-IV: every scan with its pose is a node of the observation graph
@@ -315,12 +56,22 @@ class ObservationGraphPartitioner:
     Parameters
     ----------
     threshold : float, default 1.0
-        Accept a bisection while its Ncut is below this (eq. 12-13).
+        Accept a bisection while its Ncut is below this (eq. 12-13); in ``[0, 2]``.
     match_distance : float, default 0.1
         Tolerance ``delta`` of eq. 16, in metres.
+    voxel_size : float, "auto" or None, default "auto"
+        Downsample the scans to a voxel grid of this side (metres, at most ``match_distance``)
+        before the overlap, as MRPT does (``mapping.overlap.sensed_space_overlap``); ``"auto"``
+        is ``match_distance / 4``; ``None`` computes eq. 16-18 exactly on every point
+        (slower; docs/observation-grouping.md compares both).
+    affinity : {"sso", "precomputed"}, default "sso"
+        ``"sso"``: ``fit(scans, poses)`` weighs the graph by the sensed-space overlap.
+        ``"precomputed"``: ``fit(W)`` partitions the symmetric non-negative weight matrix ``W``
+        (e.g. an image-similarity graph, ``mapping.similarity``); without poses there are no
+        local maps or topology.
     assoc : {"mrpt", "paper"}, default "mrpt"
-        How the association of eq. 1 is counted (see ``ncut``); ``"mrpt"`` is the basis on
-        which the threshold of 1 separates rooms, see ``docs/observation-grouping.md``.
+        How the association of eq. 1 is counted (see ``mapping.ncut.ncut``); ``"mrpt"`` is the
+        basis on which the threshold of 1 separates rooms, see ``docs/observation-grouping.md``.
     laplacian : {"normalized", "unnormalized"}, default "normalized"
         Eigenproblem of the bisection: eq. 10 (the paper) or MRPT's ``(D - W) y = lambda y``.
     min_size : int, default 1
@@ -342,24 +93,50 @@ class ObservationGraphPartitioner:
     labels_ : ndarray of shape (N,)
         Group of each scan, numbered in order of first appearance.
     affinity_matrix_ : scipy.sparse.csr_array of shape (N, N)
-        The sensed-space-overlap weights ``W`` (eq. 18).
+        The weights ``W``: the sensed-space overlap (eq. 18), or the precomputed matrix.
     split_tree_ : SplitNode
         The recursive bisection with each Ncut (indices into all scans).
     n_groups_ : int
     poses_ : ndarray of shape (N, 3)
-        Poses used for the overlap (ICP-refined when ``scan_matching``).
+        Poses used for the overlap (ICP-refined when ``scan_matching``); ``affinity="sso"`` only,
+        like the two attributes below.
     local_maps_ : list of ndarray of shape (P_k, 2)
         Each group's points in the frame of its reference scan ``topology_.reference_scans[k]``
         (the scan closest to the group's mean position; see ``mapping.topology.group_frames``).
     topology_ : mapping.topology.TopologicalMap
         Groups as nodes, arcs with relative transformations between local-map frames.
+
+    Examples
+    --------
+    >>> from mapping._synthetic_scans import office_path, office_world, raycast
+    >>> world = office_world()
+    >>> poses = office_path(world, step=1.17)
+    >>> model = ObservationGraphPartitioner(scan_matching=False)
+    >>> model.fit(raycast(world.segments, poses), poses).n_groups_
+    8
     """
+
+    _parameter_constraints: dict = {
+        "threshold": [Interval(Real, 0.0, 2.0, closed="both")],
+        "match_distance": [Interval(Real, 0.0, None, closed="neither")],
+        "voxel_size": [Interval(Real, 0.0, None, closed="neither"), StrOptions({"auto"}), None],
+        "affinity": [StrOptions({"sso", "precomputed"})],
+        "assoc": [StrOptions(set(ASSOC))],
+        "laplacian": [StrOptions(set(LAPLACIAN))],
+        "min_size": [Interval(Integral, 1, None, closed="left")],
+        "scan_matching": ["boolean"],
+        "icp_max_distance": [Interval(Real, 0.0, None, closed="neither")],
+        "empty_scans": [StrOptions({"nearest", "noise"})],
+        "solver": [StrOptions(set(SOLVERS))],
+    }
 
     def __init__(
         self,
         threshold: float = 1.0,
         match_distance: float = 0.1,
         *,
+        voxel_size: float | str | None = "auto",
+        affinity: str = "sso",
         assoc: str = "mrpt",
         laplacian: str = "normalized",
         min_size: int = 1,
@@ -370,6 +147,8 @@ class ObservationGraphPartitioner:
     ) -> None:
         self.threshold = threshold
         self.match_distance = match_distance
+        self.voxel_size = voxel_size
+        self.affinity = affinity
         self.assoc = assoc
         self.laplacian = laplacian
         self.min_size = min_size
@@ -378,47 +157,57 @@ class ObservationGraphPartitioner:
         self.empty_scans = empty_scans
         self.solver = solver
 
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.pairwise = self.affinity == "precomputed"
+        tags.input_tags.sparse = self.affinity == "precomputed"
+        tags.input_tags.two_d_array = self.affinity == "precomputed"
+        return tags
+
     def fit(
         self,
-        scans: Sequence[ArrayLike],
-        poses: ArrayLike,
+        X: Sequence[ArrayLike] | ArrayLike | sp.sparray,
+        poses: ArrayLike | None = None,
         *,
-        run_starts: ArrayLike | None = None,
+        groups: ArrayLike | None = None,
     ) -> ObservationGraphPartitioner:
-        """Group ``scans`` taken at ``poses`` and build the local maps and topology.
+        """Group the scans ``X`` taken at ``poses`` and build the local maps and topology.
 
         Parameters
         ----------
-        scans : sequence of array-like of shape (M_i, 2)
-            Points in each sensor frame; ``M_i`` may be 0.
+        X : sequence of array-like of shape (M_i, 2), or (N, N) matrix
+            ``affinity="sso"``: the points of each scan in its sensor frame (``M_i`` may be 0).
+            ``affinity="precomputed"``: the symmetric non-negative weights (dense or sparse).
         poses : array-like of shape (N, 3)
-            World poses ``(x, y, yaw)``, e.g. odometry.
-        run_starts : array-like of int, optional
-            Indices where another run (drive) of the same place begins, when several are
-            grouped together in one common frame. The overlap does not care, but consecutive
-            indices across a run boundary are not trajectory neighbours: the scan matching does
-            not chain across them, arcs ``via`` the trajectory do not join them, and an empty
-            scan takes its group from its own run.
+            World poses ``(x, y, yaw)`` of the scans, e.g. odometry; required for ``"sso"``,
+            not used with ``"precomputed"``. It takes the place of scikit-learn's ``y``.
+        groups : array-like of shape (N,), optional
+            The run (drive) each scan belongs to, scikit-learn's per-sample convention (as in
+            ``GroupKFold``), when several drives of the same place are grouped together in one
+            common frame; each run's scans are consecutive. The overlap does not care, but
+            consecutive scans of different runs are not trajectory neighbours: the scan
+            matching does not chain across them, arcs ``via`` the trajectory do not join them,
+            and an empty scan takes its group from its own run. Default: one run.
 
         Returns
         -------
         self
         """
-        md = self.match_distance
-        if not np.isscalar(md) or not np.isfinite(md) or md <= 0:
-            raise ValueError(f"match_distance must be a positive distance in metres, got {md!r}")
-        if self.empty_scans not in ("nearest", "noise"):
-            raise ValueError(f"empty_scans must be 'nearest' or 'noise', got {self.empty_scans!r}")
-        scans, poses = check_scans_and_poses(scans, poses)
-        starts = check_run_starts(run_starts, len(scans))
+        self._validate_params()
+        self.__dict__.pop("_incremental", None)  # a new fit ends any partial_fit sequence
+        if self.affinity == "precomputed":
+            return self._fit_precomputed(X, poses, groups)
+        if poses is None:
+            raise ValueError("poses is required with affinity='sso': fit(scans, poses)")
+        scans, poses = check_scans_and_poses(X, poses)
+        starts = run_starts_from_groups(groups, len(scans))
         if self.scan_matching:
             poses = refine_poses(
-                scans,
-                poses,
-                max_correspondence_distance=self.icp_max_distance,
-                run_starts=np.flatnonzero(starts),
+                scans, poses, max_correspondence_distance=self.icp_max_distance, groups=groups
             )
-        W = sensed_space_overlap(scans, poses, self.match_distance, sparse=True)
+        W = sensed_space_overlap(
+            scans, poses, self.match_distance, sparse=True, voxel_size=self._voxel_size()
+        )
         has_points = np.array([len(s) > 0 for s in scans])
         kept = np.flatnonzero(has_points)
         labels = np.full(len(scans), -1, dtype=np.intp)
@@ -437,26 +226,141 @@ class ObservationGraphPartitioner:
         self.n_groups_ = int(labels.max()) + 1
         reference, frames = group_frames(poses, labels)
         self.local_maps_ = build_local_maps(scans, poses, labels, frames)
-        self.topology_: TopologicalMap = build_topology(
-            poses, labels, W, reference, frames, np.flatnonzero(starts)
-        )
+        self.topology_: TopologicalMap = build_topology(poses, labels, W, reference, frames, groups)
         return self
 
-    def fit_affinity(self, W: ArrayLike | sp.sparray) -> ObservationGraphPartitioner:
-        """Partition a precomputed similarity graph (e.g. of images) the same way.
+    def fit_predict(
+        self,
+        X: Sequence[ArrayLike] | ArrayLike | sp.sparray,
+        poses: ArrayLike | None = None,
+        *,
+        groups: ArrayLike | None = None,
+    ) -> np.ndarray:
+        """``fit`` and return ``labels_``."""
+        return self.fit(X, poses, groups=groups).labels_
 
-        Sets ``labels_``, ``affinity_matrix_``, ``split_tree_`` and ``n_groups_`` only: without
-        poses there are no local maps or topology.
+    def partial_fit(self, X: Sequence[ArrayLike], poses: ArrayLike) -> ObservationGraphPartitioner:
+        """Add scans as the robot drives and update the groups incrementally.
+
+        Each new scan (in driving order, one run) becomes a node; its overlaps to the scans
+        already there come from a voxel index restricted by pose and range
+        (``mapping.incremental.VoxelOverlapIndex``: the same weights as ``fit``'s voxel
+        overlap), and only the groups it overlaps are merged with it and partitioned again
+        (``mapping.incremental.repartition``), as MRPT's incremental partitioner does. The
+        result is the same graph as ``fit`` on all scans so far; the groups are the same
+        wherever a new scan's groups are not joined to the rest (e.g. a new building, or a
+        room seen from nowhere else), and otherwise a local re-partition of what changed.
+
+        ``labels_``, ``n_groups_``, ``poses_`` and ``affinity_matrix_`` are updated;
+        ``local_maps_`` and ``topology_`` are rebuilt when read; ``split_tree_`` is not kept.
+        ``fit`` starts over. Needs ``affinity="sso"`` and a ``voxel_size``.
+
+        Parameters
+        ----------
+        X : sequence of array-like of shape (M_i, 2)
+            The new scans, sensor-frame points.
+        poses : array-like of shape (k, 3)
+            Their poses, continuing the poses given so far (with ``scan_matching`` the
+            increments from the previous scan are refined by ICP, as in ``fit``).
+
+        Returns
+        -------
+        self
         """
-        W = _check_weights(W)
+        self._validate_params()
+        if self.affinity == "precomputed" or self.voxel_size is None:
+            raise ValueError("partial_fit needs affinity='sso' and a voxel_size (not None)")
+        if hasattr(self, "labels_") and "_incremental" not in self.__dict__:
+            raise ValueError(
+                "this model was fitted with fit(); partial_fit continues only a partial_fit "
+                "sequence: start it on an unfitted estimator (e.g. clone(model))"
+            )
+        scans, given = check_scans_and_poses(X, poses)
+        state = self.__dict__.setdefault(
+            "_incremental",
+            {
+                "index": VoxelOverlapIndex(self.match_distance, self._voxel_size()),
+                "scans": [],
+                "given": np.empty((0, 3)),
+                "poses": np.empty((0, 3)),
+                "arcs": [(np.empty(0, np.intp),) * 2 + (np.empty(0),)],
+                "raw": np.empty(0, dtype=np.intp),
+            },
+        )
+        poses_now = self._chain(state, scans, given)
+        options = {k: getattr(self, k) for k in ("threshold", "assoc", "laplacian", "solver")}
+        rows, cols, vals, raw = add_scans(
+            state, scans, poses_now, min_size=self.min_size, **options
+        )
+        state.update(
+            scans=state["scans"] + scans,
+            given=np.concatenate([state["given"], given]),
+            poses=np.concatenate([state["poses"], poses_now]),
+            arcs=[(rows, cols, vals)],
+            raw=raw,
+        )
+        n = raw.size
+        labels = _fill_from_nearest(raw) if self.empty_scans == "nearest" else raw
+        self.labels_ = labels
+        self.n_groups_ = int(labels.max()) + 1
+        self.poses_ = state["poses"]
+        self.affinity_matrix_ = sp.csr_array((vals, (rows, cols)), shape=(n, n))
+        for name in ("split_tree_", "local_maps_", "topology_"):
+            self.__dict__.pop(name, None)  # local maps and topology: rebuilt when read
+        return self
+
+    def _chain(self, state: dict, scans: list, given: np.ndarray) -> np.ndarray:
+        """Poses of the new scans: as given, or ICP-refined increments chained from the last
+        refined pose (``refine_poses`` on the previous scan and the new ones)."""
+        if not self.scan_matching:
+            return given
+        if not state["scans"]:
+            return refine_poses(scans, given, max_correspondence_distance=self.icp_max_distance)
+        ext = refine_poses(
+            [state["scans"][-1], *scans],
+            np.concatenate([state["given"][-1:], given]),
+            max_correspondence_distance=self.icp_max_distance,
+        )
+        return se2_compose(state["poses"][-1], se2_relative(ext[0], ext[1:]))
+
+    def __getattr__(self, name: str):
+        # local maps and topology after partial_fit, built on first read
+        state = self.__dict__.get("_incremental")
+        if name not in ("local_maps_", "topology_") or state is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        reference, frames = group_frames(state["poses"], self.labels_)
+        self.local_maps_ = build_local_maps(state["scans"], state["poses"], self.labels_, frames)
+        self.topology_ = build_topology(
+            state["poses"], self.labels_, self.affinity_matrix_, reference, frames
+        )
+        return self.__dict__[name]
+
+    def _fit_precomputed(self, W, poses, groups) -> ObservationGraphPartitioner:
+        if poses is not None or groups is not None:
+            raise ValueError(
+                "poses and groups are not used with affinity='precomputed'; pass only the "
+                "weight matrix: fit(W)"
+            )
+        W = check_weights(W, "X (the precomputed affinity)")
+        if W.shape[0] == 0:
+            raise ValueError("X (the precomputed affinity) has no nodes")
         self.labels_, self.split_tree_ = self._partition(W)
         self.affinity_matrix_ = sp.csr_array(W)
         self.n_groups_ = int(self.labels_.max()) + 1
+        for name in ("poses_", "local_maps_", "topology_"):  # left from an earlier "sso" fit
+            self.__dict__.pop(name, None)
         return self
 
-    def fit_predict(self, scans: Sequence[ArrayLike], poses: ArrayLike) -> np.ndarray:
-        """``fit`` and return ``labels_``."""
-        return self.fit(scans, poses).labels_
+    def _voxel_size(self) -> float | None:
+        if self.voxel_size == "auto":
+            return self.match_distance / 4
+        if self.voxel_size is not None and self.voxel_size > self.match_distance:
+            raise ValueError(
+                f"voxel_size ({self.voxel_size}) must not exceed match_distance "
+                f"({self.match_distance}): a voxel wider than the tolerance merges what eq. 16 "
+                "tells apart"
+            )
+        return self.voxel_size
 
     def _partition(self, W) -> tuple[np.ndarray, SplitNode]:
         return recursive_ncut_partition(

@@ -23,9 +23,9 @@ __all__ = [
     "TopologyArc",
     "build_local_maps",
     "build_topology",
-    "check_run_starts",
     "circular_mean",
     "group_frames",
+    "run_starts_from_groups",
     "se2_compose",
     "se2_inverse",
     "se2_mean",
@@ -88,22 +88,44 @@ def se2_mean(poses: ArrayLike) -> np.ndarray:
     return np.array([poses[:, 0].mean(), poses[:, 1].mean(), circular_mean(poses[:, 2])])
 
 
-def check_run_starts(run_starts: ArrayLike | None, n: int) -> np.ndarray:
-    """``run_starts`` (indices where a new run begins) as a boolean mask of length ``n``.
+def run_starts_from_groups(groups: ArrayLike | None, n: int) -> np.ndarray:
+    """Where each run begins, from ``groups``, the run (drive) of each of ``n`` samples.
 
-    Index 0 always starts a run. Raises ``ValueError`` naming ``run_starts`` for indices that
-    are not integers in ``[0, n)``.
+    ``groups`` follows scikit-learn's convention for a per-sample grouping (as in
+    ``GroupKFold``): one label per sample, any hashable values. Samples of one run must be
+    consecutive (they are one drive in time order); a run starts wherever the label changes.
+    ``None`` is one run.
+
+    Returns
+    -------
+    ndarray of shape (n,), bool
+        True where a run begins; index 0 always does.
+
+    Raises
+    ------
+    ValueError
+        Naming ``groups``: not one label per sample, a missing (NaN) label, or a run whose
+        samples are not consecutive.
     """
-    mask = np.zeros(n, dtype=bool)
+    starts = np.zeros(n, dtype=bool)
     if n:
-        mask[0] = True
-    if run_starts is None:
-        return mask
-    idx = np.asarray(run_starts).ravel()
-    if idx.size and (idx.dtype.kind not in "iu" or idx.min() < 0 or idx.max() >= n):
-        raise ValueError(f"run_starts must be integer indices in [0, {n}), got {idx.tolist()}")
-    mask[idx.astype(np.intp)] = True
-    return mask
+        starts[0] = True
+    if groups is None:
+        return starts
+    groups = np.asarray(groups)
+    if groups.shape != (n,):
+        raise ValueError(f"groups must have one label per sample, shape ({n},), got {groups.shape}")
+    if groups.dtype.kind == "f" and np.isnan(groups).any():
+        raise ValueError("groups contains NaN; give every sample the label of its run")
+    starts[1:] = groups[1:] != groups[:-1]
+    first = groups[starts]
+    if len(np.unique(first)) != len(first):
+        values, counts = np.unique(first, return_counts=True)
+        raise ValueError(
+            "groups must keep each run's samples consecutive; label(s) "
+            f"{values[counts > 1].tolist()[:5]} occur in separate stretches"
+        )
+    return starts
 
 
 # --------------------------------------------------------------------------- local maps
@@ -240,7 +262,7 @@ def build_topology(
     affinity,
     reference: np.ndarray,
     frames: np.ndarray,
-    run_starts: ArrayLike | None = None,
+    groups: ArrayLike | None = None,
 ) -> TopologicalMap:
     """Build the arcs between groups and their relative transformations (Section IV-A, step 4).
 
@@ -253,11 +275,11 @@ def build_topology(
     the differential poses, every estimate is the same up to rounding and ``spread`` is ~0;
     they differ when local maps are refined independently.
 
-    ``run_starts`` (see ``check_run_starts``): scans where a new run begins are not joined to
-    the scan before them by the trajectory (the last scan of one drive and the first of the
-    next are not neighbours).
+    ``groups`` (the run of each scan, see ``run_starts_from_groups``): a scan where a new run
+    begins is not joined to the scan before it by the trajectory (the last scan of one drive
+    and the first of the next are not neighbours).
     """
-    starts = check_run_starts(run_starts, labels.shape[0])
+    starts = run_starts_from_groups(groups, labels.shape[0])
     pairs, kind, glabels = _connecting_pairs(labels, affinity, starts)
     if pairs.size == 0:
         return TopologicalMap(reference, frames, [])
@@ -270,25 +292,36 @@ def build_topology(
     q_j = se2_relative(frames[b], poses[j])
     d_ij = se2_relative(poses[i], poses[j])
     estimates = se2_compose(se2_compose(q_i, d_ij), se2_inverse(q_j))
-    arcs = []
-    keys = a * (labels.max() + 1) + b
-    for key in np.unique(keys):
-        sel = keys == key
-        est = estimates[sel]
-        mean = se2_mean(est)
-        r = np.hypot(np.mean(np.cos(est[:, 2])), np.mean(np.sin(est[:, 2])))
-        spread = np.array(
-            [
-                float(np.sqrt(est[:, 0].var() + est[:, 1].var())),
-                float(np.sqrt(max(-2.0 * np.log(min(r, 1.0)), 0.0))) if r > 0 else np.pi,
-            ]
+    # per-arc sums over its pairs (one bincount each instead of a loop over arcs)
+    keys, arc = np.unique(a * (labels.max() + 1) + b, return_inverse=True)
+    count = np.bincount(arc)
+
+    def mean(values: np.ndarray) -> np.ndarray:
+        return np.bincount(arc, weights=values) / count
+
+    mx, my = mean(estimates[:, 0]), mean(estimates[:, 1])
+    c, s = mean(np.cos(estimates[:, 2])), mean(np.sin(estimates[:, 2]))
+    heading = np.arctan2(s, c)
+    # spreads from deviations about the means (two passes: no cancellation when all agree)
+    var = mean((estimates[:, 0] - mx[arc]) ** 2 + (estimates[:, 1] - my[arc]) ** 2)
+    # mean resultant length, measured along the mean heading; circular std sqrt(-2 ln r)
+    r = np.where(np.hypot(c, s) > 0, mean(np.cos(wrap_angle(estimates[:, 2] - heading[arc]))), 0)
+    with np.errstate(divide="ignore"):
+        circ = np.where(r > 0, np.sqrt(np.maximum(-2.0 * np.log(np.minimum(r, 1.0)), 0)), np.pi)
+    by_traj = np.bincount(arc, weights=~kind) > 0
+    by_over = np.bincount(arc, weights=kind) > 0
+    n_groups = labels.max() + 1
+    arcs = [
+        TopologyArc(
+            int(key // n_groups),
+            int(key % n_groups),
+            np.array([mx[k], my[k], heading[k]]),
+            int(count[k]),
+            frozenset(
+                name for name, flag in (("trajectory", by_traj[k]), ("overlap", by_over[k])) if flag
+            ),
+            np.array([np.sqrt(var[k]), circ[k]]),
         )
-        via = frozenset(
-            name
-            for name, flag in (("trajectory", ~kind[sel]), ("overlap", kind[sel]))
-            if flag.any()
-        )
-        src = int(a[sel][0])
-        dst = int(b[sel][0])
-        arcs.append(TopologyArc(src, dst, mean, int(sel.sum()), via, spread))
+        for k, key in enumerate(keys)
+    ]
     return TopologicalMap(reference, frames, arcs)

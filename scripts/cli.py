@@ -153,7 +153,10 @@ def cmd_run(args) -> int:
 
 
 def cmd_group_eval(args) -> int:
-    from scripts.eval_grouping import run
+    if args.carmen:
+        from scripts.eval_carmen import run
+    else:
+        from scripts.eval_grouping import run
 
     return run(args)
 

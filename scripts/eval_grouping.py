@@ -103,7 +103,7 @@ def group_scans(runs: Runs, poses: str) -> tuple[ObservationGraphPartitioner, di
     model = ObservationGraphPartitioner(scan_matching=poses == "odometry+icp")
     given = runs.poses if poses == "true" else runs.odometry
     start = time.perf_counter()
-    model.fit(runs.scans, given, run_starts=runs.run_starts)
+    model.fit(runs.scans, given, groups=runs.groups)
     seconds = time.perf_counter() - start
     if runs.has_ground_truth:
         score = score_groups(runs.labels, model.labels_)
@@ -145,7 +145,7 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
     """Both sensors x both methods on one world (the four-way table).
 
     - partition x scans: ``scan_model`` (already fitted; its pose variant is recorded).
-    - partition x images: ``fit_affinity`` on ``knn_gaussian_affinity`` of the image vectors
+    - partition x images: ``affinity="precomputed"`` on ``knn_gaussian_affinity`` of the images
       (k = ceil(sqrt(n)) neighbours, sigma = median k-th-neighbour distance).
     - manifold clustering x scans / images: ``ManifoldClustering(K, Q)`` with K the number of
       ground-truth manifolds of the world (without ground truth: the number of groups the scan
@@ -170,7 +170,7 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
     images = ColorHistogramFeatures().fit_transform(runs.images)
     start = time.perf_counter()
     W, sigma = knn_gaussian_affinity(images)
-    labels = ObservationGraphPartitioner().fit_affinity(W).labels_
+    labels = ObservationGraphPartitioner(affinity="precomputed").fit(W).labels_
     out["partition/images"] = {
         **_brief(score(labels), time.perf_counter() - start),
         "n_neighbors": default_n_neighbors(len(runs)),
@@ -401,7 +401,15 @@ def format_report(result: dict) -> str:
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
     """The command line (shared with ``topomap group-eval``)."""
     p = parser or argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", required=True, help="dataset directory")
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument("--data", help="dataset directory")
+    source.add_argument(
+        "--carmen",
+        action="append",
+        metavar="LOG",
+        help="a Carmen laser log (.log or .log.gz; repeat for several) to group instead of a "
+        "dataset (scripts.eval_carmen)",
+    )
     p.add_argument("--out", required=True, help="output directory (JSON, figures, loops)")
     p.add_argument("--json", action="store_true", help="print the JSON instead of the tables")
     p.add_argument("--no-loop", action="store_true", help="skip the loop through each world")

@@ -28,6 +28,7 @@ __all__ = [
     "group_colour",
     "save_figure",
     "write_figures",
+    "write_grouping_figures",
 ]
 
 
@@ -137,23 +138,28 @@ def draw_topology(
     ax.set_aspect("equal")
 
 
-def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
-    """The four figures of one grouping (``runs``: a ``sim.runs.Runs``; ``model``: the fitted
-    ``ObservationGraphPartitioner``): groups over the map, local maps, weights, topology. The
-    map of the true manifolds is drawn behind for a simulated world of ours."""
+def write_grouping_figures(
+    out_dir: str | Path,
+    tag: str,
+    scans: Sequence[np.ndarray],
+    model,
+    background: Callable[[object], None] | None = None,
+    caption: str = "",
+    every: int = 2,
+) -> list[Path]:
+    """The four figures of one fitted ``ObservationGraphPartitioner``: groups over the map,
+    local maps, weights and topology, as ``{tag}_groups.png``, ``_local_maps``, ``_weights``
+    and ``_topology`` in ``out_dir``. ``background(ax)`` draws the map under the groups and
+    the topology; ``caption`` is added to the title of the groups figure."""
     plt = agg_pyplot()
-    draw_map = _map_background(runs.world) if runs.has_ground_truth else None
-
+    out_dir = Path(out_dir)
     written = []
     fig, ax = plt.subplots(figsize=(8, 7))
-    if draw_map is not None:
-        draw_map(ax)
-    draw_groups(ax, runs.scans, model.poses_, model.labels_, every=2, arrows=False, point_size=1.5)
-    behind = "; background: true manifolds" if draw_map is not None else ""
-    ax.set_title(
-        f"{tag}: {len(runs)} scans in {model.n_groups_} groups (colour = group{behind})",
-        fontsize=9,
-    )
+    if background is not None:
+        background(ax)
+    draw_groups(ax, scans, model.poses_, model.labels_, every=every, arrows=False, point_size=1.5)
+    title = f"{tag}: {len(scans)} scans in {model.n_groups_} groups (colour = group{caption})"
+    ax.set_title(title, fontsize=9)
     fig.tight_layout()
     written.append(save_figure(fig, out_dir / f"{tag}_groups.png"))
 
@@ -170,11 +176,19 @@ def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
     written.append(save_figure(fig, out_dir / f"{tag}_weights.png"))
 
     fig, ax = plt.subplots(figsize=(7, 6))
-    draw_topology(ax, model.topology_, draw_map)
+    draw_topology(ax, model.topology_, background)
     ax.set_title(f"{tag}: topological map (solid: trajectory, dashed: overlap)", fontsize=9)
     fig.tight_layout()
     written.append(save_figure(fig, out_dir / f"{tag}_topology.png"))
     return written
+
+
+def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
+    """:func:`write_grouping_figures` of one grouping of a ``sim.runs.Runs``, over the map of
+    the true manifolds for a simulated world of ours (none for an imported dataset)."""
+    draw_map = _map_background(runs.world) if runs.has_ground_truth else None
+    caption = "; background: true manifolds" if draw_map is not None else ""
+    return write_grouping_figures(out_dir, tag, runs.scans, model, draw_map, caption)
 
 
 def _map_background(world_name: str) -> Callable[[object], None] | None:

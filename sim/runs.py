@@ -104,10 +104,5 @@ class Runs:
     def has_ground_truth(self) -> bool:
         return self.labels is not None
 
-    @property
-    def run_starts(self) -> np.ndarray:
-        """The first frame of each drive (the older form of ``groups``)."""
-        return np.flatnonzero(np.r_[True, np.diff(self.groups) != 0])
-
     def __len__(self) -> int:
         return len(self.groups)

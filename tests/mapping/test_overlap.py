@@ -139,3 +139,49 @@ def test_rejects_bad_scans_and_poses():
         sensed_space_overlap([], np.zeros((0, 3)), 0.1)
     with pytest.raises(ValueError, match="method must be one of"):
         sensed_space_overlap(good, np.zeros((2, 3)), 0.1, method="fast")
+
+
+def brute_force_voxel_overlap(scans, poses, delta, voxel):
+    """Eq. 16-18 with every point snapped to the centre of its voxel: the closed form the
+    voxel path computes with sparse products."""
+    cells = [np.floor(p / voxel) for p in world_points(scans, poses)]
+    n = len(cells)
+    pi = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            if len(cells[i]) and len(cells[j]):
+                d2 = cdist(cells[i], cells[j], "sqeuclidean")  # in voxels, exact integers
+                pi[i, j] = np.mean(d2.min(axis=1) <= (delta / voxel) ** 2 + 1e-9)
+    return 0.5 * (pi + pi.T)
+
+
+@pytest.mark.parametrize("voxel", [0.1, 0.05, 0.025, 0.03])
+def test_voxel_path_is_the_sso_of_snapped_points(office, voxel, monkeypatch):
+    _, scans, poses = office
+    idx = np.arange(0, len(scans), 3)
+    sub_scans, sub_poses = [scans[i] for i in idx], poses[idx]
+    expected = brute_force_voxel_overlap(sub_scans, sub_poses, 0.1, voxel)
+    np.fill_diagonal(expected, 1.0)
+    W = sensed_space_overlap(sub_scans, sub_poses, 0.1, voxel_size=voxel)
+    np.testing.assert_allclose(W, expected, atol=1e-12)
+    # the binary search for maps too large for the lookup table gives the same matrix
+    monkeypatch.setattr("mapping.overlap.DENSE_GRID_MAX_CELLS", 0)
+    np.testing.assert_array_equal(
+        sensed_space_overlap(sub_scans, sub_poses, 0.1, voxel_size=voxel), W
+    )
+
+
+def test_voxel_path_stays_close_to_exact(office):
+    # snapping to 2.5 cm voxels moves a point by <= 1.8 cm: a few matches at the tolerance flip
+    _, scans, poses = office
+    exact = sensed_space_overlap(scans, poses, 0.1)
+    voxel = sensed_space_overlap(scans, poses, 0.1, voxel_size=0.025)
+    assert np.abs(voxel - exact).max() < 0.05
+    assert np.abs(voxel - exact)[exact > 0].mean() < 0.01
+    assert np.mean((voxel > 0) != (exact > 0)) < 0.01
+
+
+@pytest.mark.parametrize("voxel", [0.0, -0.01, 0.2, np.nan])
+def test_rejects_bad_voxel_size(voxel):
+    with pytest.raises(ValueError, match="voxel_size must be None or in"):
+        sensed_space_overlap([np.ones((2, 2))] * 2, np.zeros((2, 3)), 0.1, voxel_size=voxel)

@@ -3,15 +3,16 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+from sklearn.utils._param_validation import InvalidParameterError
+from sklearn.utils.validation import check_is_fitted
 
 from mapping._synthetic_scans import office_path, office_world, raycast
 from mapping.metrics import purity
-from mapping.partition import (
-    ObservationGraphPartitioner,
-    ncut,
-    recursive_ncut_partition,
-    spectral_bisection,
-)
+from mapping.ncut import ncut, recursive_ncut_partition, spectral_bisection
+from mapping.partition import ObservationGraphPartitioner
 
 EPS = 0.1  # the weak edge between the cliques
 
@@ -172,10 +173,11 @@ def test_fit_is_deterministic(office):
     np.testing.assert_array_equal(a.affinity_matrix_.toarray(), b.affinity_matrix_.toarray())
 
 
-def test_fit_affinity_is_the_same_partition(office):
+def test_precomputed_affinity_is_the_same_partition(office):
     _, scans, poses = office
     model = ObservationGraphPartitioner().fit(scans, poses)
-    other = ObservationGraphPartitioner().fit_affinity(model.affinity_matrix_.toarray())
+    other = ObservationGraphPartitioner(affinity="precomputed")
+    other.fit(model.affinity_matrix_.toarray())
     np.testing.assert_array_equal(other.labels_, model.labels_)
     labels, _ = recursive_ncut_partition(model.affinity_matrix_)
     np.testing.assert_array_equal(labels, model.labels_)
@@ -220,7 +222,7 @@ def test_estimator_rejects_bad_input(office):
         ObservationGraphPartitioner().fit(scans, bad)
 
 
-def test_run_starts_keep_runs_apart(office):
+def test_groups_keep_runs_apart(office):
     """Two drives of the same place grouped together: no ICP chaining across the boundary and
     empty scans take their group from their own run."""
     _, scans, poses = office
@@ -229,12 +231,102 @@ def test_run_starts_keep_runs_apart(office):
     both_poses = np.concatenate([poses, poses])
     both_scans[n] = np.empty((0, 2))  # first scan of the second run
     model = ObservationGraphPartitioner(scan_matching=True)
-    labels = model.fit(both_scans, both_poses, run_starts=[n]).labels_
+    groups = np.repeat(["first", "second"], n)  # any labels, as in scikit-learn's GroupKFold
+    labels = model.fit(both_scans, both_poses, groups=groups).labels_
     # the second run starts where it was given, not chained from the end of the first
     np.testing.assert_array_equal(model.poses_[n], poses[0])
     assert labels[n - 1] != labels[n + 1]  # the two ends are different places
     assert labels[n] == labels[n + 1]
-    # without run_starts the empty scan joins the end of the first run (the tie goes earlier)
+    # without groups the empty scan joins the end of the first run (the tie goes earlier)
     assert ObservationGraphPartitioner().fit(both_scans, both_poses).labels_[n] == labels[n - 1]
-    with pytest.raises(ValueError, match="run_starts"):
-        ObservationGraphPartitioner().fit(scans, poses, run_starts=[n])
+    with pytest.raises(ValueError, match="one label per sample"):
+        ObservationGraphPartitioner().fit(scans, poses, groups=[0] * (n - 1))
+    with pytest.raises(ValueError, match="consecutive"):
+        ObservationGraphPartitioner().fit(both_scans, both_poses, groups=np.arange(2 * n) % 2)
+
+
+# --------------------------------------------------------------------------- scikit-learn API
+
+
+def test_params_clone_and_not_fitted(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(threshold=0.8, scan_matching=False)
+    params = model.get_params()
+    assert params["threshold"] == 0.8 and params["affinity"] == "sso"
+    twin = clone(model)
+    assert twin is not model and twin.get_params() == params
+    with pytest.raises(NotFittedError):
+        check_is_fitted(twin)
+    twin.set_params(threshold=1.0).fit(scans, poses)
+    check_is_fitted(twin)
+    reference = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)
+    np.testing.assert_array_equal(twin.labels_, reference.labels_)
+    assert not hasattr(clone(twin), "labels_")  # clone copies parameters, not the fit
+    np.testing.assert_array_equal(
+        ObservationGraphPartitioner(scan_matching=False).fit_predict(scans, poses),
+        reference.labels_,
+    )
+
+
+@pytest.mark.parametrize(
+    ("params", "match"),
+    [
+        ({"threshold": 3.0}, "'threshold' parameter"),
+        ({"match_distance": float("nan")}, "'match_distance' parameter"),
+        ({"affinity": "cosine"}, "'affinity' parameter"),
+        ({"min_size": 0}, "'min_size' parameter"),
+        ({"solver": "lobpcg"}, "'solver' parameter"),
+        ({"scan_matching": "yes"}, "'scan_matching' parameter"),
+    ],
+)
+def test_parameters_are_validated_by_scikit_learn(office, params, match):
+    _, scans, poses = office
+    with pytest.raises(InvalidParameterError, match=match):
+        ObservationGraphPartitioner(**params).fit(scans, poses)
+
+
+def test_precomputed_affinity_input():
+    model = ObservationGraphPartitioner(affinity="precomputed")
+    np.testing.assert_array_equal(model.fit_predict(sp.csr_array(two_cliques())), MASK == 0)
+    assert model.n_groups_ == 2 and model.__sklearn_tags__().input_tags.pairwise
+    assert not hasattr(model, "topology_")  # no poses: no local maps, no topology
+    with pytest.raises(ValueError, match="not used with affinity='precomputed'"):
+        model.fit(two_cliques(), np.zeros((6, 3)))
+    with pytest.raises(ValueError, match="precomputed affinity.*symmetric"):
+        model.fit(np.triu(two_cliques()))
+    with pytest.raises(ValueError, match="poses is required"):
+        ObservationGraphPartitioner().fit([np.ones((3, 2))])
+
+
+def test_lobpcg_falls_back_to_arpack(monkeypatch):
+    W, truth = block_graph(np.random.default_rng(1))
+    calls = []
+    eigsh = scipy.sparse.linalg.eigsh
+    monkeypatch.setattr(
+        scipy.sparse.linalg, "eigsh", lambda *a, **k: calls.append(1) or eigsh(*a, **k)
+    )
+    lobpcg, _ = recursive_ncut_partition(sp.csr_array(W), solver="sparse")
+    assert not calls  # LOBPCG converged on every bisection
+    monkeypatch.setattr("mapping.ncut._LOBPCG_MAXITER", 1)  # not converged: ARPACK takes over
+    arpack, _ = recursive_ncut_partition(sp.csr_array(W), solver="sparse")
+    assert calls
+    np.testing.assert_array_equal(lobpcg, arpack)
+    assert purity(truth, arpack) == 1.0
+
+
+def test_large_graphs_take_the_sparse_index_path(monkeypatch):
+    W, _ = block_graph(np.random.default_rng(2))
+    dense, _ = recursive_ncut_partition(W)
+    monkeypatch.setattr("mapping.ncut.DENSE_INDEX_MAX_NODES", 10)
+    monkeypatch.setattr("mapping.ncut.DENSE_MAX_NODES", 50)
+    np.testing.assert_array_equal(recursive_ncut_partition(sp.csr_array(W))[0], dense)
+
+
+def test_voxel_size(office):
+    _, scans, poses = office
+    exact = ObservationGraphPartitioner(voxel_size=None, scan_matching=False).fit(scans, poses)
+    fast = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)  # "auto"
+    np.testing.assert_array_equal(fast.labels_, exact.labels_)
+    assert abs(fast.affinity_matrix_ - exact.affinity_matrix_).max() < 0.05
+    with pytest.raises(ValueError, match="voxel_size .* must not exceed match_distance"):
+        ObservationGraphPartitioner(voxel_size=0.2).fit(scans, poses)

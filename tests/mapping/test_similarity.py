@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mapping.partition import recursive_ncut_partition
+from mapping.ncut import recursive_ncut_partition
 from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
 
 

@@ -100,4 +100,5 @@ def test_no_trajectory_arc_across_runs():
     W = np.eye(4)  # no overlap between the groups
     frames = poses[[0, 2]]
     assert build_topology(poses, labels, W, np.array([0, 2]), frames).edges() == [(0, 1)]
-    assert build_topology(poses, labels, W, np.array([0, 2]), frames, run_starts=[2]).arcs == []
+    runs = [0, 0, 1, 1]
+    assert build_topology(poses, labels, W, np.array([0, 2]), frames, groups=runs).arcs == []

@@ -1,0 +1,254 @@
+"""Read 2-D laser logs in the Carmen format (``FLASER`` and ``ROBOTLASER1`` lines).
+
+Carmen logs are text, one message per line, optionally gzip-compressed; public laser datasets
+(e.g. Radish) come in it. Two messages carry a scan with its pose:
+
+- ``FLASER n r_1 ... r_n x y theta odom_x odom_y odom_theta ipc_timestamp ipc_hostname
+  logger_timestamp``: ``n`` ranges spread evenly over 180 degrees from -90 to +90 degrees
+  around the heading, the laser pose ``(x, y, theta)`` and the odometry pose.
+- ``ROBOTLASER1 laser_type start_angle field_of_view angular_resolution maximum_range accuracy
+  remission_mode n r_1 ... r_n m e_1 ... e_m laser_x laser_y laser_theta robot_x robot_y
+  robot_theta tv rv forward_safety_dist side_safety_dist turn_axis timestamp hostname
+  logger_timestamp``: the beam geometry and the maximum range travel with the scan; the pose
+  is the laser's.
+
+A log holds one of the two (``message="auto"`` takes ``ROBOTLASER1`` when present, since it
+states its own geometry, else ``FLASER``). Every other message (``PARAM``, ``ODOM``, ``#``
+comments, ...) carries no scan and is skipped, except ``PARAM robot_front_laser_max``, the
+sensor's maximum range for ``FLASER`` logs. Every line that is read is checked; a bad one stops
+the whole read with a ``CarmenError`` naming the file and the line, so nothing is half-loaded.
+"""
+
+from __future__ import annotations
+
+import gzip
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["CarmenError", "CarmenLog", "read_carmen"]
+
+MESSAGES = ("FLASER", "ROBOTLASER1")
+_FLASER_TAIL = 9  # x y theta odom_x odom_y odom_theta ipc_timestamp hostname logger_timestamp
+_ROBOTLASER_HEAD = 7  # laser_type start_angle fov resolution max_range accuracy remission_mode
+_ROBOTLASER_TAIL = 14  # laser pose, robot pose, tv rv, 3 safety fields, timestamp host logger
+_MAX_RANGE_PARAM = "robot_front_laser_max"
+
+
+class CarmenError(ValueError):
+    """A Carmen log that cannot be read; the message names the file and the line."""
+
+
+@dataclass(frozen=True)
+class CarmenLog:
+    """The scans of a Carmen log with their poses.
+
+    Attributes
+    ----------
+    path : Path
+    message : str
+        ``"FLASER"`` or ``"ROBOTLASER1"``: the lines the scans come from.
+    ranges : ndarray of shape (N, B)
+        Ranges in metres; readings ``>= max_range`` are no-returns (Carmen logs the maximum).
+    angles : ndarray of shape (B,)
+        Beam angles in the laser frame (radians, counter-clockwise from the x axis).
+    max_range : float
+        The sensor's maximum range: ``ROBOTLASER1``'s own field, else ``PARAM
+        robot_front_laser_max``, else the largest reading of the log (the value Carmen writes
+        for a beam without a return), unless given to ``read_carmen``.
+    poses : ndarray of shape (N, 3)
+        Laser poses ``(x, y, theta)`` in the log's world frame (corrected poses in a corrected
+        log).
+    odometry : ndarray of shape (N, 3) or None
+        The odometry pose of each ``FLASER`` scan (``ROBOTLASER1`` has none).
+    timestamps : ndarray of shape (N,)
+        ``ipc_timestamp`` (``FLASER``) or ``timestamp`` (``ROBOTLASER1``) in seconds.
+    line_numbers : ndarray of shape (N,)
+        1-based line of each scan in the file.
+    """
+
+    path: Path
+    message: str
+    ranges: np.ndarray
+    angles: np.ndarray
+    max_range: float
+    poses: np.ndarray
+    odometry: np.ndarray | None
+    timestamps: np.ndarray
+    line_numbers: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.ranges.shape[0])
+
+
+def _open_text(path: Path):
+    with open(path, "rb") as f:
+        gz = f.read(2) == b"\x1f\x8b"
+    return gzip.open(path, "rt", encoding="ascii") if gz else open(path, encoding="ascii")
+
+
+def _read_lines(path: Path) -> list[str]:
+    try:
+        with _open_text(path) as f:
+            return f.read().splitlines()
+    except (OSError, EOFError, UnicodeDecodeError) as err:  # gzip errors are OSError/EOFError
+        raise CarmenError(f"{path}: cannot read as a (gzip) text Carmen log: {err}") from err
+
+
+def _numbers(path: Path, line_no: int, fields: list[str], what: str) -> np.ndarray:
+    try:
+        values = np.array([float(v) for v in fields])
+    except ValueError:
+        bad = next(v for v in fields if not _is_float(v))
+        raise CarmenError(f"{path}, line {line_no}: non-numeric {what} field {bad!r}") from None
+    if not np.isfinite(values).all():
+        raise CarmenError(f"{path}, line {line_no}: {what} contains NaN or infinity")
+    return values
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _count(path: Path, line_no: int, fields: list[str], at: int, what: str) -> int:
+    if at >= len(fields):
+        raise CarmenError(f"{path}, line {line_no}: truncated line, no {what} count")
+    text = fields[at]
+    if not text.isdigit():
+        raise CarmenError(f"{path}, line {line_no}: {what} count must be an integer, got {text!r}")
+    return int(text)
+
+
+def _parse_flaser(path: Path, line_no: int, fields: list[str]) -> dict:
+    n = _count(path, line_no, fields, 1, "range")
+    expected = 2 + n + _FLASER_TAIL
+    if len(fields) != expected:
+        raise CarmenError(
+            f"{path}, line {line_no}: FLASER with {n} ranges needs {expected} fields, got "
+            f"{len(fields)} (truncated line, or a range count that does not match its ranges)"
+        )
+    ranges = _numbers(path, line_no, fields[2 : 2 + n], "range")
+    tail = _numbers(path, line_no, fields[2 + n : 2 + n + 7], "pose")
+    return {"ranges": ranges, "pose": tail[:3], "odometry": tail[3:6], "time": tail[6]}
+
+
+def _parse_robotlaser(path: Path, line_no: int, fields: list[str]) -> dict:
+    n = _count(path, line_no, fields, 1 + _ROBOTLASER_HEAD, "range")
+    at = 2 + _ROBOTLASER_HEAD + n  # the remission count
+    m = _count(path, line_no, fields, at, "remission")
+    expected = at + 1 + m + _ROBOTLASER_TAIL
+    if len(fields) != expected:
+        raise CarmenError(
+            f"{path}, line {line_no}: ROBOTLASER1 with {n} ranges and {m} remissions needs "
+            f"{expected} fields, got {len(fields)} (truncated line, or a count that does not "
+            "match its values)"
+        )
+    head = _numbers(path, line_no, fields[1 : 1 + _ROBOTLASER_HEAD], "header")
+    ranges = _numbers(path, line_no, fields[2 + _ROBOTLASER_HEAD : at], "range")
+    tail = _numbers(path, line_no, fields[at + 1 + m : at + 1 + m + 12], "pose")
+    return {
+        "ranges": ranges,
+        "geometry": head[1:5],  # start angle, field of view, resolution, max range
+        "pose": tail[:3],
+        "odometry": None,
+        "time": tail[11],
+    }
+
+
+def read_carmen(
+    path: str | os.PathLike,
+    *,
+    message: str = "auto",
+    max_range: float | None = None,
+) -> CarmenLog:
+    """Read the laser scans and poses of a Carmen log (plain or gzip text).
+
+    Parameters
+    ----------
+    path : path
+    message : {"auto", "FLASER", "ROBOTLASER1"}, default "auto"
+        Which lines hold the scans; ``"auto"``: ``ROBOTLASER1`` when the log has any, else
+        ``FLASER``.
+    max_range : float, optional
+        The sensor's maximum range in metres, overriding what the log says (see
+        ``CarmenLog.max_range``).
+
+    Returns
+    -------
+    CarmenLog
+
+    Raises
+    ------
+    CarmenError
+        Naming the file and the line: no scans, a truncated line, a non-numeric field, NaN or
+        infinite ranges or poses, negative ranges, a count that does not match its values,
+        scans with different numbers of beams or different beam geometry.
+    """
+    path = Path(path)
+    if message not in ("auto", *MESSAGES):
+        raise ValueError(f"message must be 'auto' or one of {MESSAGES}, got {message!r}")
+    if max_range is not None and not (math.isfinite(max_range) and max_range > 0):
+        raise ValueError(f"max_range must be a positive distance in metres, got {max_range!r}")
+    lines = _read_lines(path)
+    firsts = [line.split(maxsplit=1)[0] if line.strip() else "" for line in lines]
+    if message == "auto":
+        message = "ROBOTLASER1" if "ROBOTLASER1" in firsts else "FLASER"
+    parse = _parse_flaser if message == "FLASER" else _parse_robotlaser
+    scans, numbers, param_max = [], [], None
+    for k, (first, line) in enumerate(zip(firsts, lines, strict=True), start=1):
+        if first == message:
+            scans.append(parse(path, k, line.split()))
+            numbers.append(k)
+        elif first == "PARAM":
+            fields = line.split()
+            if len(fields) >= 3 and fields[1] == _MAX_RANGE_PARAM and _is_float(fields[2]):
+                param_max = float(fields[2])
+    if not scans:
+        raise CarmenError(f"{path}: no {message} lines, so no scans (lines read: {len(lines)})")
+    n_beams = len(scans[0]["ranges"])
+    for scan, k in zip(scans, numbers, strict=True):
+        if len(scan["ranges"]) != n_beams:
+            raise CarmenError(
+                f"{path}, line {k}: {len(scan['ranges'])} ranges, but line {numbers[0]} has "
+                f"{n_beams}; one log must keep one beam layout"
+            )
+        if (scan["ranges"] < 0).any():
+            raise CarmenError(f"{path}, line {k}: negative range")
+    ranges = np.stack([s["ranges"] for s in scans])
+    if message == "FLASER":
+        # README of the Radish logs: n beams spread evenly from -90 to +90 degrees
+        angles = np.linspace(-np.pi / 2, np.pi / 2, n_beams)
+        log_max = param_max if param_max is not None else float(ranges.max())
+        odometry = np.stack([s["odometry"] for s in scans])
+    else:
+        geometry = np.stack([s["geometry"] for s in scans])
+        changed = np.flatnonzero(np.any(geometry != geometry[0], axis=1))
+        if changed.size:
+            raise CarmenError(
+                f"{path}, line {numbers[changed[0]]}: beam geometry (start angle, field of "
+                f"view, resolution, max range) differs from line {numbers[0]}"
+            )
+        start, _, resolution, log_max = geometry[0]
+        angles = start + resolution * np.arange(n_beams)
+        odometry = None
+    max_range = float(log_max if max_range is None else max_range)
+    if not (math.isfinite(max_range) and max_range > 0):
+        raise CarmenError(f"{path}: maximum range {max_range!r} is not a positive distance")
+    return CarmenLog(
+        path=path,
+        message=message,
+        ranges=ranges,
+        angles=angles,
+        max_range=max_range,
+        poses=np.stack([s["pose"] for s in scans]),
+        odometry=odometry,
+        timestamps=np.array([s["time"] for s in scans]),
+        line_numbers=np.array(numbers),
+    )
