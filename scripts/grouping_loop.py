@@ -97,12 +97,13 @@ def collect_loop(
     meta_path = cache_dir / f"{name}.json"
     key = {"settings": settings.to_json(), "waypoints": route.waypoints.tolist()}
     if meta_path.is_file():
-        meta = json.loads(meta_path.read_text())
-        if meta.get("key") == key:
-            try:
+        try:  # a cache: anything unreadable or foreign in it is collected again
+            meta = json.loads(meta_path.read_text(encoding="utf-8"))
+            if isinstance(meta, dict) and meta.get("key") == key:
+                ds.check_entry(meta_path, name, meta.get("entry"))
                 return ds.load_sequence(cache_dir, name, meta["entry"])
-            except ds.DatasetError:
-                pass  # truncated or modified: collect again
+        except (UnicodeDecodeError, json.JSONDecodeError, ds.DatasetError):
+            pass
     # collect_sequence looks routes up in the (cached) world by name; the loop is one more
     # route of that world, added under a name no default sequence uses.
     world.routes[name] = route

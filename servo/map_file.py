@@ -14,7 +14,6 @@ import hashlib
 import json
 import os
 import re
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +24,7 @@ from mapping.manifold import ManifoldClustering
 from scenes import WORLDS
 from scenes.fileio import atomic_write_bytes
 from servo.map_types import MapError, MapSettings, ServoMap
-from sim.dataset import file_sha256, write_sequence
+from sim.dataset import read_npz, write_sequence
 
 FORMAT = "topomap-servo-map"
 FORMAT_VERSION = 2
@@ -173,16 +172,7 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
     if not path.is_file():
         raise MapError(f"no servo map at {path}")
     meta = _read_meta(path, world)
-    _check(npz_path.is_file(), path, f"its arrays {npz_path.name} are missing")
-    if file_sha256(npz_path) != meta["sha256"]:
-        raise MapError(
-            f"{npz_path} is truncated or modified: its SHA-256 does not match {path.name}"
-        )
-    try:
-        with np.load(npz_path, allow_pickle=False) as npz:
-            arrays = {k: npz[k] for k in npz.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
-        raise MapError(f"{npz_path} cannot be read as a servo map ({err})") from err
+    arrays = read_npz(npz_path, meta["sha256"], "the servo map's arrays ", MapError)
     _check_arrays(arrays, npz_path)
     try:
         settings = MapSettings.from_json(meta["settings"])

@@ -215,11 +215,11 @@ def read_meta(directory: str | os.PathLike) -> dict:
     if not isinstance(sequences, dict):
         raise DatasetError(f"{path}: 'sequences' must be an object of sequence entries")
     for name, entry in sequences.items():
-        _check_entry(path, name, entry)
+        check_entry(path, name, entry)
     return meta
 
 
-def _check_entry(path: Path, name: str, entry) -> None:
+def check_entry(path: Path, name: str, entry) -> None:
     """A sequence entry of ``meta.json``: a plain ``.npz`` file name inside the dataset folder
     (never a path elsewhere), a world name, a frame count and a SHA-256."""
     fields = ("file", "world", "frames", "sha256")
@@ -239,23 +239,30 @@ def _check_entry(path: Path, name: str, entry) -> None:
         raise DatasetError(f"{path}: sequence {name!r} has no valid sha256")
 
 
+def read_npz(
+    path: Path, sha256: str | None, context: str = "", error: type[Exception] = DatasetError
+) -> dict[str, np.ndarray]:
+    """The arrays of an ``.npz`` (as :func:`write_sequence` writes them), read without pickle
+    after checking its SHA-256 when ``sha256`` is given; a missing, modified or unreadable file
+    raises ``error`` starting with ``context``."""
+    if not path.is_file():
+        raise error(f"{context}{path} is missing")
+    if sha256 is not None and file_sha256(path) != sha256:
+        raise error(f"{context}{path} is truncated or modified (checksum mismatch)")
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
+        raise error(f"{context}{path} cannot be read ({err})") from err
+
+
 def load_sequence(
     directory: Path, name: str, entry: dict, verify: bool = True, ground_truth: bool = True
 ) -> Sequence:
     """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
     whether ``poses`` and ``labels`` must be there (True) or must not (False)."""
     path = Path(directory) / entry["file"]
-    if not path.is_file():
-        raise DatasetError(f"sequence {name!r}: {path} is missing")
-    if verify and file_sha256(path) != entry["sha256"]:
-        raise DatasetError(
-            f"sequence {name!r}: {path} is truncated or modified (checksum mismatch)"
-        )
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            arrays = {k: npz[k] for k in npz.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
-        raise DatasetError(f"sequence {name!r}: {path} cannot be read ({err})") from err
+    arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
     expected = [k for k in ARRAYS if ground_truth or k not in GROUND_TRUTH]
     missing = [k for k in expected if k not in arrays]
     if missing:
