@@ -153,7 +153,9 @@ def cmd_run(args) -> int:
 
 
 def cmd_group_eval(args) -> int:
-    if args.carmen:
+    if args.local_maps:
+        from scripts.eval_local_maps import run
+    elif args.carmen:
         from scripts.eval_carmen import run
     else:
         from scripts.eval_grouping import run

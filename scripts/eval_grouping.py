@@ -415,10 +415,19 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     p.add_argument("--no-loop", action="store_true", help="skip the loop through each world")
     p.add_argument("--loop-frames", type=int, default=None, help="frames of each loop")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--local-maps",
+        action="store_true",
+        help="test the local maps' consistency against submap baselines (scripts.eval_local_maps)",
+    )
     return p
 
 
 def run(args) -> int:
+    if getattr(args, "local_maps", False):
+        from scripts import eval_local_maps
+
+        return eval_local_maps.run(args)
     result = evaluate_grouping(
         args.data,
         args.out,

@@ -1,0 +1,76 @@
+"""Local maps rebuilt from groups, their consistency, held-out localisation, submap baselines."""
+
+import numpy as np
+import pytest
+
+from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
+from mapping.local_maps import align_groups, localise_held_out, map_residuals, submap_labels
+from mapping.topology import transform_points
+
+
+@pytest.fixture(scope="module")
+def office():
+    world = office_world()
+    poses = office_path(world, step=0.5)[:60]
+    scans = raycast(world.segments, poses, range_noise=0.005, rng=np.random.default_rng(1))
+    return scans, poses
+
+
+def test_submap_labels_by_count_and_by_distance():
+    poses = np.column_stack([np.arange(10.0), np.zeros(10), np.zeros(10)])
+    np.testing.assert_array_equal(submap_labels(poses, n_scans=4), [0] * 4 + [1] * 4 + [2] * 2)
+    np.testing.assert_array_equal(submap_labels(poses, distance=3.0), [0] * 4 + [1] * 4 + [2] * 2)
+    runs = np.array([0] * 5 + [1] * 5)
+    np.testing.assert_array_equal(
+        submap_labels(poses, n_scans=4, groups=runs), [0] * 4 + [1] + [2] * 4 + [3]
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [({}, "exactly one"), ({"n_scans": 0}, "n_scans"), ({"distance": -1.0}, "distance")],
+)
+def test_submap_labels_refuses_bad_sizes(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        submap_labels(np.zeros((3, 3)), **kwargs)
+
+
+def test_true_poses_give_crisp_maps_and_drift_does_not(office):
+    scans, poses = office
+    labels = submap_labels(poses, n_scans=10)
+    crisp = map_residuals(scans, poses, labels)
+    odo = simulate_odometry(poses, np.random.default_rng(3), 0.05, 0.03)
+    smeared = map_residuals(scans, odo, labels)
+    assert crisp["mean_m"] < 0.05 and crisp["pairs"] > 0
+    assert smeared["mean_m"] > 2 * crisp["mean_m"]
+
+
+def test_align_groups_makes_drifted_submaps_crisp_again(office):
+    scans, poses = office
+    labels = submap_labels(poses, n_scans=10)
+    odo = simulate_odometry(poses, np.random.default_rng(3), 0.05, 0.03)
+    aligned = align_groups(scans, odo, labels)
+    before = map_residuals(scans, odo, labels)["mean_m"]
+    after = map_residuals(scans, aligned, labels)["mean_m"]
+    assert after < 0.6 * before
+    first = [np.flatnonzero(labels == g)[0] for g in np.unique(labels)]
+    np.testing.assert_array_equal(aligned[first], odo[first])  # each map keeps its anchor
+
+
+def test_held_out_scans_localise_against_a_consistent_map(office):
+    scans, poses = office
+    held = np.array([12, 27, 44])
+    train = np.setdiff1d(np.arange(len(poses)), held)
+    cloud = np.concatenate([transform_points(poses[k], scans[k]) for k in train])
+    rng = np.random.default_rng(0)
+    errors = localise_held_out(
+        scans, poses, poses, held, held - 1, {0: cloud}, [0] * 3, rng, init_sigma=(0.05, 0.01)
+    )
+    assert np.all(errors[:, 0] < 0.1) and np.all(errors[:, 1] < np.deg2rad(2))
+    # walls 15 cm thick: the points of both faces are within the 0.5 m gate
+    # a map shifted across the corridor relative to the anchor's pose: the error shows it
+    shifted = {0: cloud + [0.0, 0.3]}
+    errors = localise_held_out(
+        scans, poses, poses, held, held - 1, shifted, [0] * 3, rng, init_sigma=(0.05, 0.01)
+    )
+    assert errors[:, 0].mean() > 0.15  # a scan along a corridor cannot see part of the shift
