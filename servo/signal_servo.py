@@ -1,0 +1,250 @@
+"""``SignalServo``: servo between manifolds by F^j(k) (Section II-G), camera and odometry only.
+
+1. *Observe and localise.* Turn in place once around; at every few degrees compare the image
+   with the stored views (:class:`~servo.localise.ImageLocaliser`: the clusters eq. 13 ranks
+   first, then the best horizontally-aligned view). The best match over the turn is the global
+   fix: a stored view and the odometry heading that faces the way it looks.
+2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
+   view to the target, cut into waypoint views about ``spacing`` apart.
+3. *Servo.* Toward the current waypoint: heading from image alignment (the best horizontal
+   shift against the waypoint image; odometry carries the heading across the turns between
+   waypoints, where the images share nothing), forward or in reverse as the recording is
+   driven (:func:`steer`). :class:`WaypointTracker` moves on when F toward the next waypoint
+   overtakes F toward the current one (view-sequence navigation).
+4. *Arrive.* On the target, drive while F toward it rises and stop past its peak.
+
+The controller never reads the simulator's truth; ``info`` is ignored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mapping.topology import wrap_angle
+from servo.localise import ImageLocaliser
+from servo.map_types import ServoMap
+from servo.route import RouteGraph
+from sim.simulator import CONTROL_DT
+
+
+@dataclass(frozen=True)
+class SignalServoConfig:
+    """Everything that tunes :class:`SignalServo` (tuned on the ``dev`` split only).
+
+    speed / reverse_speed : m/s forward and backward (a recording driven backwards).
+    spacing : m between waypoint views.
+    turn_rate : rad/s of the observing turn and of turns toward an odometry heading.
+    observe_every : steps between localisations during the observing turn.
+    heading_gain : omega per rad of heading error.
+    image_trust : largest aligned image distance (0..4) at which the image's heading is used.
+    odometry_turn : rad of heading error beyond which the robot turns on the spot.
+    overrun : a waypoint is given up after driving ``overrun`` times its distance plus 0.5 m.
+    arrive_drop : stop once F toward the target falls below this share of its peak.
+    arrive_min : F toward the target (0..1) the peak must reach first.
+    """
+
+    speed: float = 0.8
+    reverse_speed: float = 0.45
+    spacing: float = 0.8
+    turn_rate: float = 1.2
+    observe_every: int = 2
+    heading_gain: float = 2.0
+    image_trust: float = 0.6
+    odometry_turn: float = 0.3
+    overrun: float = 2.0
+    arrive_drop: float = 0.6
+    arrive_min: float = 0.05
+
+    def __post_init__(self):
+        for name in ("speed", "reverse_speed", "spacing", "turn_rate", "heading_gain",
+                     "image_trust", "odometry_turn", "overrun"):  # fmt: skip
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not 0 < self.speed <= 1.5 or not 0 < self.reverse_speed <= 0.5:
+            raise ValueError("speed must be in (0, 1.5] and reverse_speed in (0, 0.5] m/s")
+        if int(self.observe_every) != self.observe_every or self.observe_every < 1:
+            raise ValueError(f"observe_every must be an integer >= 1, got {self.observe_every}")
+        if not 0 < self.arrive_drop < 1:
+            raise ValueError(f"arrive_drop must be in (0, 1), got {self.arrive_drop}")
+
+
+def steer(heading_error: float, direction: int, config: SignalServoConfig) -> np.ndarray:
+    """(v, omega) toward a waypoint whose heading is ``heading_error`` rad to the left:
+    turn on the spot when far off, else drive (``direction`` +1 forward, -1 reverse) and
+    slow down as the error grows."""
+    omega = float(np.clip(config.heading_gain * heading_error, -1.2, 1.2))
+    if abs(heading_error) > config.odometry_turn:
+        return np.array([0.0, omega])
+    v = config.speed if direction > 0 else -config.reverse_speed
+    return np.array([v * (1.0 - 0.7 * abs(heading_error) / config.odometry_turn), omega])
+
+
+class WaypointTracker:
+    """Which waypoint view the robot is servoing to: the current one until F toward the next
+    overtakes it (or, where both are 0, the next one aligns better), or until the robot has
+    driven well past the distance the map puts between them."""
+
+    def __init__(self, waypoints: list[int], directions: np.ndarray, gaps: np.ndarray,
+                 overrun: float):  # fmt: skip
+        if not len(waypoints) == len(directions) == len(gaps) or not waypoints:
+            raise ValueError("waypoints, directions and gaps must be equally long, not empty")
+        self.waypoints, self.directions, self.gaps = list(waypoints), directions, gaps
+        self.overrun = float(overrun)
+        self.index = 0
+        self.driven = 0.0  # m since the current waypoint became current
+
+    @property
+    def current(self) -> int:
+        return self.waypoints[self.index]
+
+    @property
+    def next(self) -> int | None:
+        return self.waypoints[self.index + 1] if self.index + 1 < len(self.waypoints) else None
+
+    @property
+    def last(self) -> bool:
+        return self.index == len(self.waypoints) - 1
+
+    def update(self, f_current: float, f_next: float, d_current: float, d_next: float,
+               moved: float) -> bool:  # fmt: skip
+        """Advance if the next waypoint has overtaken the current one; True if it did."""
+        self.driven += moved
+        if self.last:
+            return False
+        overtaken = f_next > f_current if max(f_next, f_current) > 0 else d_next < d_current
+        overrun = self.driven > self.overrun * self.gaps[self.index] + 0.5
+        if overtaken or overrun:
+            self.index += 1
+            self.driven = 0.0
+            return True
+        return False
+
+
+class SignalServo:
+    """Servo to a stored view by F^j(k) with the camera and odometry (see the module doc).
+
+    Parameters
+    ----------
+    servo_map : ServoMap
+    config : SignalServoConfig, optional
+    world : str, optional   the world it will drive in (a map of another world is refused).
+
+    Attributes (after ``act``)
+    ----------
+    phase_ : "observe", "follow", "arrive" or "done".
+    route_ : stored views of the route; ``waypoint_``: the current waypoint view.
+    manifold_ : cluster of the current image by eq. 13 (``predict``).
+    done_ : bool
+    """
+
+    def __init__(self, servo_map: ServoMap, *, config: SignalServoConfig | None = None,
+                 world: str | None = None):  # fmt: skip
+        if not isinstance(servo_map, ServoMap):
+            raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
+        if world is not None:
+            servo_map.check_world(world)
+        self.map = servo_map
+        self.config = config or SignalServoConfig()
+        if not isinstance(self.config, SignalServoConfig):
+            raise TypeError("config must be a SignalServoConfig")
+        self.localiser = ImageLocaliser(servo_map)
+        self.routes = RouteGraph(servo_map)
+        self.target = None
+
+    def reset(self, target: int, info: dict | None = None) -> None:
+        """Start an episode toward stored view ``target`` (``info`` is ignored)."""
+        self.target = self.map.check_view(target, "target")
+        self.phase_ = "observe"
+        self.done_ = False
+        self.route_: list[int] = []
+        self.waypoint_: int | None = None
+        self.manifold_ = -1
+        self._odo = None
+        self._turned = 0.0
+        self._steps = 0
+        self._best = (np.inf, None, 0.0)  # aligned distance, view, odometry heading facing it
+        self._goal_yaw = 0.0  # odometry heading that faces the current waypoint's view
+        self._f_peak = 0.0
+
+    def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
+        if not isinstance(observation, dict):
+            raise ValueError(f"observation must be a dict, got {type(observation).__name__}")
+        for key in ("image", "odometry"):
+            if key not in observation:
+                raise ValueError(f"observation is missing {key!r}")
+        x = self.localiser.features(observation["image"])
+        odo = np.asarray(observation["odometry"], np.float64)
+        if odo.shape != (3,) or not np.all(np.isfinite(odo)):
+            raise ValueError(
+                f"observation['odometry'] must be a finite (x, y, yaw), got shape {odo.shape}"
+            )
+        return x, odo
+
+    def act(self, observation, info: dict | None = None) -> np.ndarray:
+        """The command (v, omega) for this observation (``info`` is ignored)."""
+        if self.target is None:
+            raise RuntimeError("call reset(target) before act(observation)")
+        x, odo = self._check(observation)
+        moved = 0.0 if self._odo is None else float(np.hypot(*(odo[:2] - self._odo[:2])))
+        if self._odo is not None:
+            self._turned += abs(wrap_angle(odo[2] - self._odo[2]))
+        self._odo = odo
+        self._steps += 1
+        if self.phase_ == "observe":
+            return self._observe(x, odo).astype(np.float32)
+        if self.phase_ == "done":
+            return np.zeros(2, np.float32)
+        return self._follow(x, odo, moved).astype(np.float32)
+
+    # -- phases -----------------------------------------------------------------------------
+    def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
+        c = self.config
+        if self._steps % c.observe_every == 1 or c.observe_every == 1:
+            view, yaw, d = self.localiser.localise(x)
+            if d < self._best[0]:
+                self._best = (d, view, float(odo[2] + yaw))
+        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT:
+            return np.array([0.0, c.turn_rate])
+        _, view, heading = self._best
+        self.manifold_ = int(self.map.clusters[view])
+        self.route_ = self.routes.route(view, self.target)
+        frames = self.routes.frames(self.route_)
+        waypoints, directions = self.routes.waypoints(self.route_, self.config.spacing)
+        index = [self.route_.index(w) for w in waypoints]
+        pos = frames[[0, *index], :2]
+        gaps = np.hypot(*np.diff(pos, axis=0).T)
+        self._yaw = dict(zip(waypoints, frames[index, 2], strict=True))
+        self._yaw[view] = 0.0
+        self.tracker = WaypointTracker(waypoints, directions, gaps, c.overrun)
+        # the odometry heading facing the first waypoint's view: the fix's, turned by the
+        # route frames between them
+        self._goal_yaw = heading + self._yaw[waypoints[0]]
+        self.waypoint_ = waypoints[0]
+        self.phase_ = "follow"
+        return np.zeros(2)
+
+    def _follow(self, x: np.ndarray, odo: np.ndarray, moved: float) -> np.ndarray:
+        c, t = self.config, self.tracker
+        d, yaw = self.localiser.align(x, [t.current, t.next if t.next is not None else t.current])
+        if d[0] <= c.image_trust and abs(wrap_angle(self._goal_yaw - odo[2] - yaw[0])) < 0.5:
+            self._goal_yaw = float(odo[2] + yaw[0])  # the image corrects odometry's heading
+        f_cur = self.localiser.signal(x, t.current)
+        if not t.last:
+            f_next = self.localiser.signal(x, t.next)
+            before = t.current
+            if t.update(f_cur, f_next, d[0], d[1], moved):
+                self._goal_yaw += self._yaw[t.current] - self._yaw[before]
+                self.waypoint_ = t.current
+                f_cur = f_next
+        else:
+            t.update(f_cur, 0.0, d[0], d[0], moved)
+        error = float(wrap_angle(self._goal_yaw - odo[2]))
+        if t.last:
+            self.phase_ = "arrive"
+            self._f_peak = max(self._f_peak, f_cur)
+            if self._f_peak >= c.arrive_min and f_cur < c.arrive_drop * self._f_peak:
+                self.phase_, self.done_ = "done", True
+                return np.zeros(2)
+        return steer(error, int(t.directions[t.index]), c)
