@@ -18,6 +18,7 @@ The controller never reads the simulator's truth; ``info`` is ignored.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +44,8 @@ class SignalServoConfig:
     overrun : a waypoint is given up after driving ``overrun`` times its distance plus 0.5 m.
     arrive_drop : stop once F toward the target falls below this share of its peak.
     arrive_min : F toward the target (0..1) the peak must reach first.
+    stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
+        does not see means a wall: drive the other way for ``backup_steps`` steps.
     """
 
     speed: float = 0.8
@@ -56,6 +59,8 @@ class SignalServoConfig:
     overrun: float = 2.0
     arrive_drop: float = 0.6
     arrive_min: float = 0.05
+    stuck_steps: int = 10
+    backup_steps: int = 8
 
     def __post_init__(self):
         for name in ("speed", "reverse_speed", "spacing", "turn_rate", "heading_gain",
@@ -167,6 +172,9 @@ class SignalServo:
         self._best = (np.inf, None, 0.0)  # aligned distance, view, odometry heading facing it
         self._goal_yaw = 0.0  # odometry heading that faces the current waypoint's view
         self._f_peak = 0.0
+        self._moves: deque = deque(maxlen=self.config.stuck_steps)
+        self._backup = 0
+        self._last_direction = 1
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
         if not isinstance(observation, dict):
@@ -196,7 +204,18 @@ class SignalServo:
             return self._observe(x, odo).astype(np.float32)
         if self.phase_ == "done":
             return np.zeros(2, np.float32)
-        return self._follow(x, odo, moved).astype(np.float32)
+        if self._backup > 0:
+            self._backup -= 1
+            return np.array([-0.4 * self._last_direction, 0.0], np.float32)
+        action = self._follow(x, odo, moved)
+        self._moves.append((abs(action[0]), moved))
+        if len(self._moves) == self._moves.maxlen:
+            cmd, got = np.array(self._moves).sum(axis=0)
+            if cmd > 0.2 * len(self._moves) and got < 0.2 * cmd * CONTROL_DT:
+                self._moves.clear()
+                self._last_direction = int(np.sign(action[0]))
+                self._backup = self.config.backup_steps
+        return action.astype(np.float32)
 
     # -- phases -----------------------------------------------------------------------------
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
