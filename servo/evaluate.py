@@ -50,13 +50,19 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
     raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
 
 
+_F_AT_VIEW: dict[tuple[str, int], float] = {}
+
+
 def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
     """F^j(k) of eq. 13 toward stored view ``view`` in its cluster, divided by F at the view
     itself (1 at the view, 0 where the cluster gives no signal)."""
-    x = m.image_features.transform(np.asarray(image)[None]).astype(np.float32)
     c = int(m.clusters[view])
-    f = m.clustering.signal(np.concatenate([x, m.features[view][None]]), c, int(view))
-    return float(f[0] / max(f[1], 1e-12))
+    key = (m.key, int(view))
+    if key not in _F_AT_VIEW:
+        f = m.clustering.signal(m.features[view][None], c, int(view))[0]
+        _F_AT_VIEW[key] = max(float(f), 1e-12)
+    x = m.image_features.transform(np.asarray(image)[None]).astype(np.float32)
+    return float(m.clustering.signal(x, c, int(view))[0]) / _F_AT_VIEW[key]
 
 
 def episode_seeds(seed: int, episodes: int) -> list[int]:

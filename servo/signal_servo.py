@@ -23,10 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mapping.topology import wrap_angle
+from mapping.topology import se2_compose, se2_relative, wrap_angle
 from servo.localise import ImageLocaliser
 from servo.map_types import ServoMap
 from servo.route import RouteGraph
+from servo.steering import Arrival, pursue
 from sim.simulator import CONTROL_DT
 
 
@@ -44,6 +45,8 @@ class SignalServoConfig:
     overrun : a waypoint is given up after driving ``overrun`` times its distance plus 0.5 m.
     arrive_drop : stop once F toward the target falls below this share of its peak.
     arrive_min : F toward the target (0..1) the peak must reach first.
+    reach : m from a waypoint (by odometry) that counts as reaching it when its recording is
+        driven backwards (its images face away).
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
         does not see means a wall: drive the other way for ``backup_steps`` steps.
     """
@@ -60,6 +63,7 @@ class SignalServoConfig:
     arrive_drop: float = 0.6
     arrive_min: float = 0.05
     stuck_steps: int = 10
+    reach: float = 0.4
     backup_steps: int = 8
 
     def __post_init__(self):
@@ -121,10 +125,15 @@ class WaypointTracker:
         overtaken = f_next > f_current if max(f_next, f_current) > 0 else d_next < d_current
         overrun = self.driven > self.overrun * self.gaps[self.index] + 0.5
         if overtaken or overrun:
-            self.index += 1
-            self.driven = 0.0
+            self.advance()
             return True
         return False
+
+    def advance(self) -> None:
+        """Move on to the next waypoint (reached by other means than F)."""
+        if not self.last:
+            self.index += 1
+            self.driven = 0.0
 
 
 class SignalServo:
@@ -170,7 +179,6 @@ class SignalServo:
         self._turned = 0.0
         self._steps = 0
         self._best = (np.inf, None, 0.0)  # aligned distance, view, odometry heading facing it
-        self._goal_yaw = 0.0  # odometry heading that faces the current waypoint's view
         self._f_peak = 0.0
         self._moves: deque = deque(maxlen=self.config.stuck_steps)
         self._backup = 0
@@ -196,6 +204,7 @@ class SignalServo:
             raise RuntimeError("call reset(target) before act(observation)")
         x, odo = self._check(observation)
         moved = 0.0 if self._odo is None else float(np.hypot(*(odo[:2] - self._odo[:2])))
+        self._prev_odo = odo if self._odo is None else self._odo
         if self._odo is not None:
             self._turned += abs(wrap_angle(odo[2] - self._odo[2]))
         self._odo = odo
@@ -207,7 +216,7 @@ class SignalServo:
         if self._backup > 0:
             self._backup -= 1
             return np.array([-0.4 * self._last_direction, 0.0], np.float32)
-        action = self._follow(x, odo, moved)
+        action = self._follow(x, odo, se2_relative(self._prev_odo, odo))
         self._moves.append((abs(action[0]), moved))
         if len(self._moves) == self._moves.maxlen:
             cmd, got = np.array(self._moves).sum(axis=0)
@@ -229,41 +238,58 @@ class SignalServo:
         _, view, heading = self._best
         self.manifold_ = int(self.map.clusters[view])
         self.route_ = self.routes.route(view, self.target)
-        frames = self.routes.frames(self.route_)
+        self._frames = self.routes.frames(self.route_)
         waypoints, directions = self.routes.waypoints(self.route_, self.config.spacing)
-        index = [self.route_.index(w) for w in waypoints]
-        pos = frames[[0, *index], :2]
+        self._index = {w: self.route_.index(w) for w in waypoints}
+        pos = self._frames[[0, *self._index.values()], :2]
         gaps = np.hypot(*np.diff(pos, axis=0).T)
-        self._yaw = dict(zip(waypoints, frames[index, 2], strict=True))
-        self._yaw[view] = 0.0
         self.tracker = WaypointTracker(waypoints, directions, gaps, c.overrun)
-        # the odometry heading facing the first waypoint's view: the fix's, turned by the
-        # route frames between them
-        self._goal_yaw = heading + self._yaw[waypoints[0]]
+        # The robot in the route's frame: at the fix's view, turned from its heading by what
+        # odometry measured since; odometry carries it, waypoint images reset it.
+        self._pose = np.array([0.0, 0.0, wrap_angle(odo[2] - heading)])
+        self._arrival = Arrival()
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
         return np.zeros(2)
 
-    def _follow(self, x: np.ndarray, odo: np.ndarray, moved: float) -> np.ndarray:
+    def _follow(self, x: np.ndarray, odo: np.ndarray, odo_step: np.ndarray) -> np.ndarray:
         c, t = self.config, self.tracker
-        d, yaw = self.localiser.align(x, [t.current, t.next if t.next is not None else t.current])
-        if d[0] <= c.image_trust and abs(wrap_angle(self._goal_yaw - odo[2] - yaw[0])) < 0.5:
-            self._goal_yaw = float(odo[2] + yaw[0])  # the image corrects odometry's heading
+        self._pose = se2_compose(self._pose, odo_step)
+        frame = self._frames[self._index[t.current]]
+        goal = se2_relative(self._pose, frame)  # the waypoint view's pose in the robot frame
+        if t.directions[t.index] < 0:
+            # The recording is driven backwards: its images face away from the way to go and
+            # tell nothing ahead, so drive facing the way by odometry from the last image fix.
+            if t.last:
+                action = self._arrival(goal)
+                if self._arrival.done:
+                    self.phase_, self.done_ = "done", True
+                return action
+            if np.hypot(*goal[:2]) < c.reach:
+                t.advance()
+                self.waypoint_ = t.current
+            return pursue(goal[:2], c.speed)
+        nxt = t.next if t.next is not None else t.current
+        d, yaw = self.localiser.align(x, [t.current, nxt])
+        seen = d[0] <= c.image_trust and abs(wrap_angle(frame[2] - yaw[0] - self._pose[2])) < 0.5
+        if seen:
+            # the image fixes the heading relative to the view: robot yaw = view yaw - error
+            self._pose[2] = wrap_angle(frame[2] - yaw[0])
+            goal = se2_relative(self._pose, frame)
+        if abs(goal[2]) > c.odometry_turn:
+            return steer(float(goal[2]), 1, c)  # turn to face the view (odometry) first
+        error = float(yaw[0]) if seen else float(goal[2])
         f_cur = self.localiser.signal(x, t.current)
         if not t.last:
-            f_next = self.localiser.signal(x, t.next)
-            before = t.current
-            if t.update(f_cur, f_next, d[0], d[1], moved):
-                self._goal_yaw += self._yaw[t.current] - self._yaw[before]
+            f_next = self.localiser.signal(x, nxt)
+            if t.update(f_cur, f_next, d[0], d[1], float(np.hypot(*odo_step[:2]))):
+                # F has peaked on the waypoint just left: the robot is about there
+                self._pose[:2] = frame[:2]
                 self.waypoint_ = t.current
-                f_cur = f_next
         else:
-            t.update(f_cur, 0.0, d[0], d[0], moved)
-        error = float(wrap_angle(self._goal_yaw - odo[2]))
-        if t.last:
             self.phase_ = "arrive"
             self._f_peak = max(self._f_peak, f_cur)
             if self._f_peak >= c.arrive_min and f_cur < c.arrive_drop * self._f_peak:
                 self.phase_, self.done_ = "done", True
                 return np.zeros(2)
-        return steer(error, int(t.directions[t.index]), c)
+        return steer(error, 1, c)

@@ -135,6 +135,8 @@ def test_waypoint_tracker_advances_when_f_overtakes():
     assert t.update(0.0, 0.0, 0.4, 0.3, 0.1) and t.current == 5 and t.last
     t = WaypointTracker([3, 4], np.array([1, 1]), np.array([0.5, 0.5]), overrun=2.0)
     assert t.update(0.5, 0.1, 0.1, 0.3, 2.0)  # driven far past it: given up
+    t.advance()  # at the last one: stays
+    assert t.current == 4 and t.last
     with pytest.raises(ValueError, match="equally long"):
         WaypointTracker([3], np.array([1, 1]), np.array([1.0]), 2.0)
 
