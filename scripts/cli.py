@@ -170,41 +170,52 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_servo_eval(args) -> int:
-    """Closed-loop servo evaluation (``servo.evaluate``) in one world or both."""
+    """Closed-loop servo evaluation by the benchmark protocol (``servo.protocol``): one start
+    tier and split, in one world or both, episodes in parallel over the cores."""
     import json
+    from pathlib import Path
 
-    from servo.evaluate import evaluate
+    from servo.map_file import map_paths
     from servo.map_store import load_or_build
+    from servo.protocol import Protocol, run_protocol
 
     results = []
     for world in _worlds(args.world):
+        protocol = Protocol(world, args.tier, args.split, randomize=args.randomize,
+                            odometry_noise=not args.no_odometry_noise,
+                            max_steps=args.max_steps)  # fmt: skip
         servo_map = load_or_build(world, dataset=args.data, cache=args.maps)
-        r = evaluate(
-            world,
-            args.episodes,
-            args.seed,
-            policy=args.policy,
-            randomize=args.randomize,
-            odometry_noise=not args.no_odometry_noise,
-            servo_map=servo_map,
-            out=args.out,
-            videos=args.videos if args.out else 0,
-            progress=not args.json,
-        )
+        path, _ = map_paths(args.maps, world, servo_map.key)
+        r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
+                         args.policy, workers=args.workers, progress=not args.json)  # fmt: skip
         results.append(r)
+    if args.out:
+        from scenes.fileio import atomic_write_bytes
+
+        name = f"servo-eval-{args.tier}-{args.split}-{args.policy}.json"
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(Path(args.out) / name, json.dumps(results, indent=2).encode())
     if args.json:
         print(json.dumps(results if len(results) > 1 else results[0], indent=2))
         return 0
     for r in results:
+        lo, hi = r["success_ci95"]
+        sig = r["signal"]
         print(
-            f"{r['world']:8s} {r['policy']:7s} episodes {r['episodes']:3d}  success "
-            f"{r['success_rate']:.2f}  SPL {r['spl']:.2f}  final distance "
+            f"{r['world']:8s} {r['policy']:7s} {r['tier']}/{r['split']}"
+            f"{'/randomize' if r['randomize'] else ''}  episodes {r['episodes']:3d}  success "
+            f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]  SPL {r['spl']:.2f}  final distance "
             f"{r['final_distance']:.2f} m  heading {r['final_heading_error_deg']:.1f} deg  "
-            f"act {r['act_ms']:.2f} ms"
+            f"collisions {r['collisions']:.1f}  act {r['act_ms']:.2f} ms  reasons {r['reasons']}"
         )
+        if sig["pairs"]:
+            print(f"    F toward the target rises as the true distance falls in "
+                  f"{sig['rises']:.2f} of {sig['pairs']} step pairs ({sig['flat_zero']:.2f}: "
+                  f"F = 0 at both ends)")  # fmt: skip
         for pair, s in r["per_pair"].items():
-            print(f"    {pair:36s} n={s['episodes']:3d}  success {s['success_rate']:.2f}  "
-                  f"SPL {s['spl']:.2f}")  # fmt: skip
+            lo, hi = s["success_ci95"]
+            print(f"    {pair:36s} n={s['episodes']:3d}  success {s['success_rate']:.2f} "
+                  f"[{lo:.2f}, {hi:.2f}]  SPL {s['spl']:.2f}")  # fmt: skip
     return 0
 
 
@@ -297,15 +308,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
     e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
-    e.add_argument("--episodes", type=_positive_int, default=20)
-    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--episodes", type=_positive_int, default=20, help="per world")
+    e.add_argument("--tier", default="view", help="start tier: view or anywhere")
+    e.add_argument("--split", default="dev", help="episode split: dev (tuning) or test")
     e.add_argument("--policy", choices=POLICIES, default="servo")
+    e.add_argument("--max-steps", type=_positive_int, default=600)
+    e.add_argument("--workers", type=_positive_int, default=None, help="default: the cores")
     e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")
     e.add_argument("--no-odometry-noise", action="store_true", help="perfect wheel odometry")
     e.add_argument("--data", default=f"{DEFAULT_OUT}/dataset", help="dataset the map is built from")
     e.add_argument("--maps", default=f"{DEFAULT_OUT}/servo-maps", help="servo map cache")
-    e.add_argument("--out", default=None, help="write trajectory plots and videos here")
-    e.add_argument("--videos", type=int, default=1, help="episode videos per world (with --out)")
+    e.add_argument("--out", default=None, help="write the results' JSON here")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.set_defaults(func=cmd_servo_eval)
 

@@ -1,8 +1,10 @@
 """Closed-loop servoing between manifolds (the paper's Section II-G, run in simulation).
 
 ``servo.ServoEnv`` is the task (registered as ``topomap/HallwayServo-v0`` and
-``topomap/LawnServo-v0`` on import), ``servo.ManifoldServo`` the controller, ``servo.baselines``
-its comparisons and ``servo.evaluate`` the closed-loop evaluation. Heavy modules load lazily.
+``topomap/LawnServo-v0`` on import), ``servo.ManifoldServo`` the laser+image controller,
+``servo.SignalServo`` the camera-only one that servoes by F^j(k), ``servo.protocol`` the
+benchmark protocol, ``servo.baselines`` its comparisons and ``servo.evaluate`` the
+closed-loop evaluation. Heavy modules load lazily.
 """
 
 from importlib import import_module
@@ -18,6 +20,10 @@ _EXPORTS = {
     "load_or_build": "servo.map_store",
     "ServoEnv": "servo.env",
     "ManifoldServo": "servo.controller",
+    "SignalServo": "servo.signal_servo",
+    "SignalServoConfig": "servo.signal_servo",
+    "Protocol": "servo.protocol",
+    "run_protocol": "servo.protocol",
     "evaluate": "servo.evaluate",
 }
 

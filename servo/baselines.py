@@ -12,7 +12,10 @@ import numpy as np
 from mapping.topology import se2_relative
 from scenes import World
 from servo.geodesic import GeodesicField
+from servo.localise import ImageLocaliser
 from servo.map_store import ServoMap
+from servo.route import RouteGraph
+from servo.signal_servo import WaypointTracker
 from servo.steering import Arrival, pursue
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
@@ -43,37 +46,71 @@ PROBES = np.array([(0.5, 0.0), (0.4, 0.8), (0.4, -0.8), (0.0, 1.0), (0.0, -1.0),
 
 class GreedyFProbing:
     """The paper's greedy servo, literally: probe candidate motions, keep the one that raises
-    F^j(k) toward the target most (eq. 13), repeat.
+    F^j(k) most (eq. 13), repeat.
 
     Each probe is executed for one step, F is read from the next image, and the probe is
     undone by the opposite command; after all probes the best is executed ``commit`` times.
+
+    With ``waypoints`` (the fair baseline), F is taken toward the next waypoint view of a
+    route in the current manifold: the first image is localised
+    (:class:`~servo.localise.ImageLocaliser`), the route over the view graph is cut into
+    waypoints ``spacing`` apart, and the probing moves on when F toward the next waypoint
+    overtakes F toward the current one (:class:`~servo.signal_servo.WaypointTracker`).
+    Without (``policy="greedy-target"``, the earlier variant, labelled as such) F is taken
+    toward the final target only, whose cluster gives no signal from another manifold.
+
+    ``budget_factor``: the evaluation multiplies its step limit by this, so that the probing
+    (12 probe steps per ``commit`` steps of motion) can cover the route and the result
+    measures F, not the step budget.
     """
 
-    def __init__(self, servo_map: ServoMap, commit: int = 3):
+    def __init__(self, servo_map: ServoMap, commit: int = 8, *, waypoints: bool = True,
+                 spacing: float = 0.8):  # fmt: skip
+        if int(commit) != commit or commit < 1:
+            raise ValueError(f"commit must be an integer >= 1, got {commit}")
         self.map, self.commit = servo_map, int(commit)
+        self.waypoints, self.spacing = bool(waypoints), float(spacing)
+        self.budget_factor = 1 + int(np.ceil(2 * len(PROBES) / self.commit))
+        self.localiser = ImageLocaliser(servo_map)
+        self.routes = RouteGraph(servo_map) if waypoints else None
 
     def reset(self, target: int, info: dict | None = None) -> None:
         self.target = self.map.check_view(target, "target")
-        self._cluster = int(self.map.clusters[self.target])
+        self.waypoint_ = self.target
+        self.tracker = None
         self._plan: list[tuple[str, int]] = []
         self._scores = np.full(len(PROBES), -np.inf)
         self._pending: int | None = None
+        self._odo = None
 
-    def _signal(self, image) -> float:
-        x = self.map.image_features.transform(np.asarray(image)[None]).astype(np.float32)
-        return float(self.map.clustering.signal(x, self._cluster, self.target)[0])
+    def _start(self, x: np.ndarray) -> None:
+        view, _, _ = self.localiser.localise(x)
+        route = self.routes.route(view, self.target)
+        waypoints, directions = self.routes.waypoints(route, self.spacing)
+        gaps = np.full(len(waypoints), self.spacing)
+        self.tracker = WaypointTracker(waypoints, directions, gaps, overrun=np.inf)
+        self.waypoint_ = self.tracker.current
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
+        x = self.localiser.features(observation["image"])
+        if self.waypoints and self.tracker is None:
+            self._start(x)
         if self._pending is not None:  # the image after a probe: score it
-            self._scores[self._pending] = self._signal(observation["image"])
+            self._scores[self._pending] = self.localiser.signal(x, self.waypoint_)
             self._pending = None
         if not self._plan:
+            if self.tracker is not None and not self.tracker.last:
+                t = self.tracker
+                f = [self.localiser.signal(x, v) for v in (t.current, t.next)]
+                if t.update(f[0], f[1], 1.0, 1.0, 0.0):
+                    self.waypoint_ = t.current
+                    self._scores[:] = -np.inf
             if np.isfinite(self._scores).all():
                 best = int(np.argmax(self._scores))
                 self._plan = [("go", best)] * self.commit
                 self._scores[:] = -np.inf
             else:
-                self._plan = [x for k in range(len(PROBES)) for x in (("probe", k), ("undo", k))]
+                self._plan = [p for k in range(len(PROBES)) for p in (("probe", k), ("undo", k))]
         kind, k = self._plan.pop(0)
         if kind == "probe":
             self._pending = k

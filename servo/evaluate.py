@@ -22,19 +22,47 @@ from servo.env import ServoEnv
 from servo.geodesic import GeodesicField
 from servo.map_store import ServoMap, load_or_build
 
-POLICIES = ("servo", "oracle", "greedy", "random")
+POLICIES = ("servo", "signal", "oracle", "greedy", "greedy-target", "random")
+SIGNAL_LAG = 5  # steps between the two ends of a step pair in the F-vs-distance summary
+SIGNAL_MIN_DROP = 0.1  # m of true (geodesic) distance a pair must fall to count
 
 
-def make_policy(name: str, env: ServoEnv, rng: np.random.Generator):
+def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
+    """The policy ``name`` of :data:`POLICIES` for ``env`` (``options``: its keyword
+    arguments). ``greedy`` probes toward the next waypoint view of the route
+    (:class:`~servo.baselines.GreedyFProbing`); ``greedy-target``: the earlier variant that
+    probes toward the final target only (labelled as such: its cluster gives no signal from
+    another manifold)."""
     if name == "servo":
-        return ManifoldServo(env.map, world=env.map.world)
+        return ManifoldServo(env.map, world=env.map.world, **options)
+    if name == "signal":
+        from servo.signal_servo import SignalServo
+
+        return SignalServo(env.map, world=env.map.world, **options)
     if name == "oracle":
-        return OraclePolicy(env.base.world)
+        return OraclePolicy(env.base.world, **options)
     if name == "greedy":
-        return GreedyFProbing(env.map)
+        return GreedyFProbing(env.map, **options)
+    if name == "greedy-target":
+        return GreedyFProbing(env.map, waypoints=False, **options)
     if name == "random":
-        return RandomPolicy(rng)
+        return RandomPolicy(rng, **options)
     raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
+
+
+_F_AT_VIEW: dict[tuple[str, int], float] = {}
+
+
+def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
+    """F^j(k) of eq. 13 toward stored view ``view`` in its cluster, divided by F at the view
+    itself (1 at the view, 0 where the cluster gives no signal)."""
+    c = int(m.clusters[view])
+    key = (m.key, int(view))
+    if key not in _F_AT_VIEW:
+        f = m.clustering.signal(m.features[view][None], c, int(view))[0]
+        _F_AT_VIEW[key] = max(float(f), 1e-12)
+    x = m.image_features.transform(np.asarray(image)[None]).astype(np.float32)
+    return float(m.clustering.signal(x, c, int(view))[0]) / _F_AT_VIEW[key]
 
 
 def episode_seeds(seed: int, episodes: int) -> list[int]:
@@ -47,15 +75,25 @@ def run_episode(env: ServoEnv, policy, seed: int, options: dict | None = None, f
     """One episode; returns its record (and appends video frames to ``frames`` if given)."""
     obs, info = env.reset(seed=seed, options=options)
     start = info["pose"].copy()
-    shortest = GeodesicField(env.base.world, info["target_pose"]).distance(start[:2])
+    field = GeodesicField(env.base.world, info["target_pose"])
+    shortest = field.distance(start[:2])
+    if not np.isfinite(shortest):
+        raise ValueError(f"episode {seed}: the target is unreachable from the start {start}")
     policy.reset(info["target_view"], info)
     trail, collisions, act_time = [start], 0, []
+    f_target, f_waypoint, true_dist = [info["signal"]], [], [shortest]
     while True:
         t0 = time.perf_counter()
         action = policy.act(obs, info)
         act_time.append(time.perf_counter() - t0)
+        waypoint = getattr(policy, "waypoint_", None)
         obs, _, terminated, truncated, info = env.step(action)
         trail.append(info["pose"].copy())
+        f_target.append(float(info["signal"]))
+        true_dist.append(field.distance(info["pose"][:2]))
+        f_waypoint.append(
+            np.nan if waypoint is None else signal_toward(env.map, obs["image"], waypoint)
+        )
         collisions += int(info["collision"])
         if frames is not None:
             frames.append(np.concatenate([obs["image"], _fit(env.render(), obs["image"])], axis=1))
@@ -80,6 +118,12 @@ def run_episode(env: ServoEnv, policy, seed: int, options: dict | None = None, f
         "act_ms": float(1e3 * np.mean(act_time)),
         "trail": np.asarray(trail),
         "target_pose": np.asarray(info["target_pose"]),
+        "start_pose": start,
+        # F along the trajectory (item 5): toward the target and the policy's waypoint view
+        # (NaN: the policy has none), and the true geodesic distance to the target per step.
+        "signal_target": np.asarray(f_target),
+        "signal_waypoint": np.asarray(f_waypoint),
+        "true_distance": np.asarray(true_dist),
     }
 
 
@@ -89,19 +133,50 @@ def _fit(top: np.ndarray, image: np.ndarray) -> np.ndarray:
     return cv2.resize(top, (w, h), interpolation=cv2.INTER_AREA)
 
 
+def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
+    """How often F^j(k) toward the target rises as the true distance falls (the paper's
+    premise, Section II-G), over step pairs ``lag`` apart whose geodesic distance to the
+    target fell by at least ``SIGNAL_MIN_DROP``: ``rises`` (share where F rose), ``flat_zero``
+    (share where F was 0 at both ends: no signal, e.g. on another manifold), ``pairs``."""
+    rises = zero = pairs = 0
+    for r in records:
+        f, d = r.get("signal_target"), r.get("true_distance")
+        if f is None or len(f) <= lag:
+            continue
+        fall = d[:-lag] - d[lag:] >= SIGNAL_MIN_DROP
+        df = f[lag:] - f[:-lag]
+        both_zero = (f[lag:] == 0) & (f[:-lag] == 0)
+        pairs += int(fall.sum())
+        rises += int((fall & (df > 0)).sum())
+        zero += int((fall & both_zero).sum())
+    return {
+        "pairs": pairs,
+        "rises": rises / pairs if pairs else None,
+        "flat_zero": zero / pairs if pairs else None,
+        "lag": lag,
+    }
+
+
 def summarise(records: list[dict]) -> dict:
-    """Aggregate episode records: overall and per (start manifold, target manifold)."""
+    """Aggregate episode records: overall and per (start manifold, target manifold), success
+    with its Wilson 95% interval, and F along the trajectories (:func:`signal_agreement`)."""
+    from servo.protocol import wilson_interval
 
     def agg(rs):
         ok = [r for r in rs if r["success"]]
         return {
             "episodes": len(rs),
-            "success_rate": float(np.mean([r["success"] for r in rs])),
+            "successes": len(ok),
+            "success_rate": len(ok) / len(rs),
+            "success_ci95": list(wilson_interval(len(ok), len(rs))),
             "spl": float(np.mean([r["spl"] for r in rs])),
             "final_distance": float(np.median([r["final_distance"] for r in rs])),
             "final_heading_error_deg": float(np.median([r["final_heading_error_deg"] for r in rs])),
             "steps": float(np.mean([r["steps"] for r in ok])) if ok else None,
             "collisions": float(np.mean([r["collisions"] for r in rs])),
+            "reasons": {
+                k: sum(r["reason"] == k for r in rs) for k in sorted({str(r["reason"]) for r in rs})
+            },
         }
 
     pairs = defaultdict(list)
@@ -109,13 +184,13 @@ def summarise(records: list[dict]) -> dict:
         pairs[f"{r['start_manifold']} -> {r['target_manifold']}"].append(r)
     out = agg(records)
     out["act_ms"] = float(np.mean([r["act_ms"] for r in records]))
-    out["reasons"] = dict(sorted(
-        {k: sum(r["reason"] == k for r in records) for k in {r["reason"] for r in records}}.items()
-    ))  # fmt: skip
+    out["signal"] = signal_agreement(records)
     out["per_pair"] = {k: agg(v) for k, v in sorted(pairs.items())}
     out["episodes_detail"] = [
-        {k: v for k, v in r.items() if k not in ("trail", "target_pose")} for r in records
-    ]
+        {k: (v.tolist() if isinstance(v, np.ndarray) and k == "start_pose" else v)
+         for k, v in r.items() if not isinstance(v, np.ndarray) or k == "start_pose"}
+        for r in records
+    ]  # fmt: skip
     return out
 
 

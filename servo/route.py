@@ -1,0 +1,84 @@
+"""The route graph of a servo map: stored views joined along recordings and across the links
+where recordings meet, weighted by the scan-matched odometry between them (no ground truth).
+Routes are shortest paths in it; waypoints are route views about ``spacing`` apart."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse.csgraph import dijkstra
+
+from mapping.topology import se2_compose, se2_relative
+from servo.map_types import MapError, ServoMap
+
+LINK_PENALTY = 1.0  # m added to a link between recordings: stay on one recording if possible
+
+
+class RouteGraph:
+    """Shortest routes over the view graph of ``servo_map`` (its ``edges``)."""
+
+    def __init__(self, servo_map: ServoMap, link_penalty: float = LINK_PENALTY):
+        if not isinstance(servo_map, ServoMap):
+            raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
+        m = self.map = servo_map
+        a, b = m.edges.T
+        cross = m.sequence[a] != m.sequence[b]
+        w = np.hypot(*m.edge_transforms[:, :2].T) + 0.05 + float(link_penalty) * cross
+        n = len(m)
+        self.graph = sparse.csr_matrix((np.r_[w, w], (np.r_[a, b], np.r_[b, a])), shape=(n, n))
+        self.transform: dict[tuple[int, int], np.ndarray] = {}
+        for (i, j), t in zip(m.edges, m.edge_transforms, strict=True):
+            self.transform[(int(i), int(j))] = t
+            self.transform[(int(j), int(i))] = se2_relative(t, np.zeros(3))
+
+    def route(self, start: int, target: int) -> list[int]:
+        """Stored views from ``start`` to ``target`` (both included) along the shortest path."""
+        start = self.map.check_view(start, "start")
+        target = self.map.check_view(target, "target")
+        _, pred = dijkstra(self.graph, indices=start, return_predecessors=True)
+        route = [target]
+        while route[-1] != start:
+            p = int(pred[route[-1]])
+            if p < 0:
+                raise MapError(f"stored view {target} is unreachable from view {start}")
+            route.append(p)
+        return route[::-1]
+
+    def frames(self, route: list[int]) -> np.ndarray:
+        """(len(route), 3): each route view's pose in the first one's frame (edges chained)."""
+        out = [np.zeros(3)]
+        for i, j in itertools.pairwise(route):
+            out.append(se2_compose(out[-1], self.transform[(i, j)]))
+        return np.array(out)
+
+    def waypoints(self, route: list[int], spacing: float) -> tuple[list[int], np.ndarray]:
+        """Route views about ``spacing`` m apart along the route (the last is the target) and
+        each one's direction of travel: +1 when the next waypoint lies ahead of the view's
+        heading (drive forward facing it), -1 when behind (the recording is driven backwards:
+        reverse, still facing the way the view looks)."""
+        if not spacing > 0:
+            raise ValueError(f"spacing must be > 0 m, got {spacing}")
+        f = self.frames(route)
+        arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(f[:, :2], axis=0).T))]
+        keep, last = [], -np.inf
+        for k in range(1, len(route)):
+            if arc[k] - last >= spacing or k == len(route) - 1:
+                keep.append(k)
+                last = arc[k]
+        if not keep:  # already at the target view
+            keep = [0]
+        direction = []
+        prev = 0
+        for k in keep:
+            # the waypoint seen from the previous one, in the waypoint's own frame
+            rel = se2_relative(f[k], f[prev]) if k != prev else np.zeros(3)
+            direction.append(-1 if rel[0] > 0 else 1)
+            prev = k
+        return [route[k] for k in keep], np.array(direction)
+
+    def manifold_route(self, route: list[int]) -> list[int]:
+        """The clusters the route crosses, in order (the manifold graph's path)."""
+        c = self.map.clusters[route]
+        return [int(v) for v in c[np.r_[True, c[1:] != c[:-1]]]]
