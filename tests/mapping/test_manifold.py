@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.metrics import adjusted_rand_score
 
@@ -276,3 +277,19 @@ def test_predict_feature_mismatch_and_nan(fitted_lines):
         model.predict(np.array([[np.nan, 0.0]]))
     with pytest.raises(ValueError, match="X has 3 features"):
         model.signal(np.zeros(3), 0)
+
+
+def test_projection_tol_and_query_forms_keep_predictions(fitted_lines):
+    X, _, model = fitted_lines
+    queries = X[1::3] + 1e-3
+    pred, f = model.predict(queries), model.signal(queries, 0)
+    # lists, Fortran order and float32 go through validate_data, plain arrays skip it
+    np.testing.assert_array_equal(model.predict(queries.tolist()), pred)
+    np.testing.assert_array_equal(model.predict(np.asfortranarray(queries)), pred)
+    np.testing.assert_allclose(model.signal(queries.astype(np.float32), 0), f, rtol=1e-4)
+    cut = clone(model).set_params(projection_tol=1e-3).fit(X)
+    np.testing.assert_array_equal(cut.labels_, model.labels_)
+    np.testing.assert_array_equal(cut.predict(queries), pred)
+    # the lines' noise direction is dropped: signals move by well under 1% of their peak
+    assert [m.basis.shape[0] for m in cut._models] == [1, 1, 1]
+    np.testing.assert_allclose(cut.signal(queries, 0), f, rtol=0, atol=1e-2 * f.max())

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from mapping import _manifold_predict
 from mapping._manifold_kernel import (
     SpectralBasis,
     manifold_distances,
@@ -11,7 +12,7 @@ from mapping._manifold_kernel import (
     outlier_vector,
     seed_pair,
 )
-from mapping._manifold_predict import ClusterModel
+from mapping._manifold_predict import ClusterModel, sq_distances_all
 from mapping._manifold_split import SearchSpace, split_scores
 from mapping.baselines import squared_distances
 
@@ -128,3 +129,61 @@ def test_eq13_signal_is_zero_when_the_point_is_unreachable():
     model = ClusterModel.build(X, np.arange(20), squared_distances(X), 0.05, 0.99, 0, np.float64)
     far = model.signal(model.sq_distances(np.array([[1e4]])), 0)
     np.testing.assert_array_equal(far, 0.0)
+
+
+# --- the projected distances of eq. 13 (one r x d product per query) ----------------------------
+def _curve_in_subspace(rng, n=40, rank=5, d=300, noise=0.0):
+    """Points of a smooth curve spanning ``rank`` directions of R^d, offset far from 0."""
+    t = np.linspace(0, 3, n)[:, None]
+    coeffs = np.hstack([np.sin(t * (k + 1)) for k in range(rank)])
+    X = coeffs @ rng.normal(size=(rank, d)) + 50.0
+    return X + noise * rng.normal(size=X.shape)
+
+
+def test_projection_basis_spans_the_cluster_and_distances_are_exact():
+    rng = np.random.default_rng(3)
+    X = _curve_in_subspace(rng)
+    queries = X[:7] + 0.01 * rng.normal(size=(7, X.shape[1]))  # mostly outside the span
+    model = ClusterModel.build(X, np.arange(40), squared_distances(X), 0.5, 0.99, 0, np.float64)
+    # a centred curve of 5 directions spans at most 5; nothing of the queries is lost
+    assert model.basis.shape[0] <= 5
+    np.testing.assert_allclose(model.basis @ model.basis.T, np.eye(model.basis.shape[0]), atol=1e-9)
+    exact = ((queries[:, None, :] - X[None, :, :]) ** 2).sum(axis=2)
+    np.testing.assert_allclose(model.sq_distances(queries), exact, rtol=1e-9, atol=1e-9)
+
+
+def test_projection_tol_drops_noise_directions_within_the_stated_bound():
+    rng = np.random.default_rng(4)
+    X = _curve_in_subspace(rng, noise=1e-3)
+    queries = X[:7] + 1e-3 * rng.normal(size=(7, X.shape[1]))
+    block = squared_distances(X)
+    full = ClusterModel.build(X, np.arange(40), block, 0.5, 0.99, 0, np.float64)
+    cut = ClusterModel.build(X, np.arange(40), block, 0.5, 0.99, 0, np.float64, tol=1e-4)
+    assert full.basis.shape[0] == 39 and cut.basis.shape[0] < 10  # noise spans the rest
+    # the only term left out is -2 x_perp . r_i, at most 2 |x_perp| |r_i| (Cauchy-Schwarz)
+    centred_q = queries - cut.mean
+    x_perp = centred_q - (centred_q @ cut.basis.T) @ cut.basis
+    r = (X - cut.mean) - cut.coords @ cut.basis
+    bound = 2.0 * np.linalg.norm(x_perp, axis=1)[:, None] * np.linalg.norm(r, axis=1)[None, :]
+    error = np.abs(cut.sq_distances(queries) - full.sq_distances(queries))
+    assert (error <= bound + 1e-9).all() and error.max() > 0
+    f_full = full.signal(full.sq_distances(queries), 3)
+    np.testing.assert_allclose(cut.signal(cut.sq_distances(queries), 3), f_full, rtol=1e-3)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_distances_of_all_clusters_match_each_cluster_alone(dtype, monkeypatch):
+    # blocks of 2 rows: the batch takes the path that centres each block once for all clusters
+    monkeypatch.setattr(_manifold_predict, "_CENTRE_ELEMENTS", 600)
+    rng = np.random.default_rng(5)
+    X = np.vstack([_curve_in_subspace(rng, noise=1e-3), _curve_in_subspace(rng, noise=1e-3) + 3])
+    D2 = squared_distances(X)
+    parts = [np.arange(40), np.arange(40, 80)]
+    models = [
+        ClusterModel.build(X, idx, D2[np.ix_(idx, idx)], 0.5, 0.99, 0, np.dtype(dtype))
+        for idx in parts
+    ]
+    queries = X[::9] + 1e-3 * rng.normal(size=(9, X.shape[1]))
+    rtol = 1e-9 if dtype == np.float64 else 1e-3
+    for model, both in zip(models, sq_distances_all(models, queries), strict=True):
+        np.testing.assert_allclose(both, model.sq_distances(queries), rtol=rtol, atol=rtol)
