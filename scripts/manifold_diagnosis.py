@@ -130,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None, help="JSON of the variant rows")
     parser.add_argument("--figure", type=Path, default=None, help="distance histogram PNG")
     parser.add_argument("--no-variants", action="store_true", help="only the space summary")
+    parser.add_argument("--default-only", action="store_true", help="only the default variant")
     args = parser.parse_args(argv)
     result, panels = [], {}
     for data_dir in args.data:
@@ -137,7 +138,8 @@ def main(argv: list[str] | None = None) -> int:
             X, y = load_split(data_dir, features)
             entry = {"data": str(data_dir), "features": features, **space_summary(X, y)}
             if not args.no_variants:
-                entry["variants"] = variant_rows(X, y)
+                first = dict(list(VARIANTS.items())[:1])
+                entry["variants"] = variant_rows(X, y, first if args.default_only else VARIANTS)
             result.append(entry)
             panels[f"{features}, {data_dir.name}"] = (X, y)
             print(json.dumps(entry, indent=1), flush=True)

@@ -58,7 +58,7 @@ def tables(progress: bool = True) -> list[dict]:
     for m in tqdm(BRANCHING_N, disable=not progress, desc="branching sequences"):
         X, y = branching_sequences(m, BRANCHING_D, np.random.default_rng(0))
         Q = min(BRANCHING_Q, (len(y) // 2) // BRANCHING_K)
-        tag = {"set": f"branching n={len(y)}", "n": len(y), "Q": Q}
+        tag = {"set": f"branching n={len(y)} ({len(y[::2])} train)", "n": len(y), "Q": Q}
         rows += _rows(tag, X, y, BRANCHING_K, Q, split=True)
     return rows
 
