@@ -53,6 +53,30 @@ def majority_merge_error(y: np.ndarray, leaves: np.ndarray) -> float:
     return clustering_error(y, merged)
 
 
+def knn_leaf_merge(X: np.ndarray, leaves: np.ndarray, n_clusters: int, k: int = 10) -> np.ndarray:
+    """A candidate combine rule, measured here only: join the leaves along the kNN graph.
+
+    The leaf graph's weight between leaves a and b is the number of symmetrised k-nearest-
+    neighbour edges between their points, divided by ``sqrt(|a| |b|)``; scikit-learn's
+    ``SpectralClustering(affinity="precomputed")`` cuts it into ``n_clusters`` groups. Returns
+    each point's group.
+    """
+    from sklearn.cluster import SpectralClustering
+    from sklearn.neighbors import kneighbors_graph
+
+    A = kneighbors_graph(X, k)
+    A = ((A + A.T) > 0).astype(np.float64)
+    C = np.unique(leaves).size
+    onehot = np.zeros((len(leaves), C))
+    onehot[np.arange(len(leaves)), np.unique(leaves, return_inverse=True)[1]] = 1.0
+    W = onehot.T @ (A @ onehot)
+    sizes = onehot.sum(axis=0)
+    W /= np.sqrt(np.outer(sizes, sizes))
+    np.fill_diagonal(W, 0.0)
+    groups = SpectralClustering(n_clusters, affinity="precomputed", random_state=0).fit_predict(W)
+    return groups[np.unique(leaves, return_inverse=True)[1]]
+
+
 def variant_rows(X: np.ndarray, y: np.ndarray, variants=VARIANTS) -> list[dict]:
     """Error, leaf count, leaf purity and majority-merge bound of each variant on (X, y)."""
     rows = []
@@ -65,6 +89,9 @@ def variant_rows(X: np.ndarray, y: np.ndarray, variants=VARIANTS) -> list[dict]:
                 "leaves": int(model.leaf_labels_.max() + 1),
                 "leaf_purity": purity(y, model.leaf_labels_),
                 "majority_merge_error": majority_merge_error(y, model.leaf_labels_),
+                "knn_leaf_merge_error": clustering_error(
+                    y, knn_leaf_merge(X, model.leaf_labels_, K)
+                ),
             }
         )
     return rows

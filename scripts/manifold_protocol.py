@@ -94,8 +94,11 @@ def _cell_path(out: Path, condition: str, features: str, seed: int) -> Path:
 
 
 def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=True) -> None:
-    """Compute the cells of ``plan`` not cached yet (a dataset not collected yet is skipped)."""
+    """Compute the cells of ``plan`` not cached yet; a dataset not collected (or not completely)
+    is skipped with a message."""
     from tqdm.auto import tqdm
+
+    from sim.dataset import DatasetError
 
     (out / "cells").mkdir(parents=True, exist_ok=True)
     for condition, features, seed in tqdm(plan, disable=not progress, desc="protocol cells"):
@@ -108,7 +111,11 @@ def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=
         if not all((p / "meta.json").exists() for p in needed):
             print(f"skipped {condition}/{features}/seed {seed}: dataset not collected yet")
             continue
-        result = cell(root, condition, features, seed)
+        try:
+            result = cell(root, condition, features, seed)
+        except DatasetError as err:  # e.g. a collection that stopped half-way
+            print(f"skipped {condition}/{features}/seed {seed}: {err}")
+            continue
         atomic_write_bytes(path, (json.dumps(result, indent=2) + "\n").encode())
 
 

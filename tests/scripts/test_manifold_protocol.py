@@ -59,3 +59,16 @@ def test_load_cells_refuses_a_foreign_file(tmp_path):
     (tmp_path / "cells" / "x.json").write_text("[1, 2]")
     with pytest.raises(ValueError, match="x.json: not a protocol cell"):
         load_cells(tmp_path)
+
+
+def test_run_cells_skips_missing_and_broken_datasets(tmp_path, capsys):
+    from scripts.manifold_protocol import run_cells
+
+    (tmp_path / "m-data-1").mkdir()
+    (tmp_path / "m-data-1" / "meta.json").write_text("{}")  # not a finished collection
+    out = tmp_path / "out"
+    run_cells(tmp_path, out, [("interleaved", "hsv", 0), ("interleaved", "hsv", 1)], False)
+    printed = capsys.readouterr().out
+    assert "skipped interleaved/hsv/seed 0: dataset not collected yet" in printed
+    assert "skipped interleaved/hsv/seed 1:" in printed
+    assert list((out / "cells").iterdir()) == []

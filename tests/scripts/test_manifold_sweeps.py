@@ -4,7 +4,12 @@ import numpy as np
 import pytest
 
 from mapping.synthetic import branching_sequences
-from scripts.manifold_diagnosis import majority_merge_error, neighbour_distances, space_summary
+from scripts.manifold_diagnosis import (
+    knn_leaf_merge,
+    majority_merge_error,
+    neighbour_distances,
+    space_summary,
+)
 from scripts.manifold_methods import METHODS
 from scripts.manifold_sweeps import markdown_table, plot_sweeps, sweep_points
 
@@ -52,3 +57,14 @@ def test_branching_sequences_shape_and_checks():
     assert X.shape == (40, 7) and np.array_equal(np.bincount(y), [5] * 8)
     with pytest.raises(ValueError, match="rng must be a numpy.random.Generator"):
         branching_sequences(5, 7, 0)
+
+
+def test_knn_leaf_merge_joins_the_leaves_of_each_line():
+    x = np.linspace(0, 1, 40)
+    X = np.concatenate([np.column_stack([x, 0 * x]), np.column_stack([x, 0 * x + 5])])
+    y = np.repeat([0, 1], 40)
+    leaves = np.repeat([0, 1, 2, 3], 20)  # two leaves per line
+    assert majority_merge_error(y, leaves) == 0.0
+    groups = knn_leaf_merge(X, leaves, 2, k=5)
+    assert np.array_equal(groups[:40], np.full(40, groups[0]))
+    assert np.array_equal(groups[40:], np.full(40, groups[40])) and groups[0] != groups[40]
