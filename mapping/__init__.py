@@ -14,6 +14,8 @@ _EXPORTS = {
     "ColorHistogramFeatures": "mapping.image_features",
     "ImageFeatures": "mapping.image_features",
     "ScanFeatures": "mapping.features",
+    "EigengapNCutClustering": "mapping.label_free",
+    "KNNSpectralClustering": "mapping.label_free",
     "scan_to_points": "mapping.features",
     "icp": "mapping.icp",
     "refine_poses": "mapping.icp",

@@ -31,6 +31,7 @@ import numpy as np
 
 __all__ = [
     "SYNTHETIC_SETS",
+    "branching_sequences",
     "converging_paths",
     "lines_variable_spacing",
     "make_all",
@@ -248,6 +249,44 @@ def make_all(
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """All four sets with default parameters, keyed as in :data:`SYNTHETIC_SETS`."""
     return {name: make(noise=noise, rng=rng) for name, make in SYNTHETIC_SETS.items()}
+
+
+def branching_sequences(
+    n_per_seq: int, d: int, rng: np.random.Generator, noise: float = 0.02
+) -> tuple[np.ndarray, np.ndarray]:
+    """8 smooth sequences in R^d shaped like the robot's two worlds: per world a trunk and three
+    branches leaving its end (speeds 0.03, 0.05, 0.08 against the trunk's 0.05).
+
+    The same draws as ``bench/bench_manifold.py``'s benchmark data (identical output for the
+    same generator), so the tables of ``scripts.manifold_sweeps`` and the speed benchmark use
+    one data set. Each curve is ``start + t drift + sum_k (sin(f_k t + p_k) - sin p_k) u_k``
+    with four random unit-scale directions u_k; labels 0..7 in order (trunk, 3 branches,
+    trunk, 3 branches); isotropic noise ``noise / sqrt(d)`` per coordinate.
+    """
+    if isinstance(n_per_seq, bool) or not isinstance(n_per_seq, int | np.integer) or n_per_seq < 1:
+        raise ValueError(f"n_per_seq must be a positive integer, got {n_per_seq!r}")
+    if isinstance(d, bool) or not isinstance(d, int | np.integer) or d < 1:
+        raise ValueError(f"d must be a positive integer, got {d!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError("rng must be a numpy.random.Generator")
+    parts = []
+
+    def curve(start: np.ndarray, speed: float) -> np.ndarray:
+        t = np.arange(1, n_per_seq + 1)[:, None] * speed
+        dirs = rng.normal(size=(4, d)) / np.sqrt(d)
+        freq = rng.uniform(0.2, 1.0, size=4)
+        phase = rng.uniform(0, 2 * np.pi, size=4)
+        drift = rng.normal(size=d) / np.sqrt(d)
+        return start + t * drift + (np.sin(t * freq + phase) - np.sin(phase)) @ dirs
+
+    for _world in range(2):
+        trunk = curve(rng.normal(size=d) * 9 / np.sqrt(d), 0.05)
+        parts.append(trunk)
+        for speed in (0.03, 0.05, 0.08):
+            parts.append(curve(trunk[-1], speed))
+    X = np.concatenate(parts)
+    X += noise / np.sqrt(d) * rng.normal(size=X.shape)
+    return X, np.repeat(np.arange(len(parts)), n_per_seq)
 
 
 def plot_sets(path: str | None = None, sets: dict | None = None):

@@ -5,11 +5,19 @@ import json
 
 import numpy as np
 import pytest
+from scipy.stats import binomtest
 
 from mapping import ColorHistogramFeatures, ManifoldClustering, clustering_error
 from scripts.reproduce_manifold import markdown_tables, plot_labels, synthetic_rows
 
-PAPER_TEST_ERROR = 0.0289  # Grudic & Mulligan, Section III-B
+# The dev seed (0, this dataset), on which the features and the merge rule were chosen, gives
+# 13 test errors of 450 and 12 training errors of 450 (measured for issue 13; the older table
+# in the docs says 2.2 % train). The margins are the 95 % Wilson upper bounds of those counts,
+# the spread one run of this size has. On fresh seeds the same frozen settings err 13-24 %
+# (docs/manifold-clustering.md, "Results that survive scrutiny"): this pins the dev seed, not
+# a claim about the method.
+DEV_TEST_BOUND = binomtest(13, 450).proportion_ci(method="wilson").high  # 0.049
+DEV_TRAIN_BOUND = binomtest(12, 450).proportion_ci(method="wilson").high  # 0.046
 
 
 @pytest.fixture(scope="module")
@@ -22,12 +30,11 @@ def image_fit(default_dataset):
     return model, features, images, y, train, test
 
 
-def test_image_test_error_meets_the_papers(image_fit):
+def test_image_errors_on_the_dev_seed_within_their_sampling_margin(image_fit):
     model, features, images, y, train, test = image_fit
-    assert clustering_error(y[train], model.labels_) <= 0.03
-    assert clustering_error(y[test], model.predict(features.transform(images[test]))) <= (
-        PAPER_TEST_ERROR
-    )
+    assert clustering_error(y[train], model.labels_) <= DEV_TRAIN_BOUND
+    test_error = clustering_error(y[test], model.predict(features.transform(images[test])))
+    assert test_error <= DEV_TEST_BOUND
 
 
 def test_image_clusters_are_the_eight_manifolds(image_fit):

@@ -1,0 +1,181 @@
+"""Where manifold clustering loses on the image datasets: the tree or the merge, and the space.
+
+For one dataset seed and one feature set (raw pixels, the paper's, or HSV histograms) on the
+paper's split (even frames):
+
+* every combine rule and the printed eq. 9 / eq. 12 variants of ``ManifoldClustering``, each
+  with its error, the purity of the recursive split's leaves (before any combining) and the
+  *majority-merge bound*: the error when every leaf is given its majority manifold, the best
+  that any combining of these leaves can reach. A pure tree with a bad error blames the merge;
+  an impure tree blames the split or the space;
+* the space itself: for each frame the distance to its nearest frame of the same manifold and
+  to its nearest frame of any other manifold. Where the second is often the smaller, no
+  neighbourhood-graph method can follow the manifolds (the 1-NN disagreement rate says how
+  often).
+
+Usage::
+
+    python -m scripts.manifold_diagnosis --data ROOT/m-data-0 --features raw --out out/diag.json
+    python -m scripts.manifold_diagnosis --figure docs/img/x.png --data ... (distance figure)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from mapping import ManifoldClustering, clustering_error, purity
+from mapping.baselines import squared_distances
+from scenes.fileio import atomic_write_bytes
+from scripts.manifold_protocol import FEATURES, K, Q
+
+#: name -> ManifoldClustering settings of each variant (the default first)
+VARIANTS = {
+    "default (separability merge)": {},
+    "combine=merge": {"combine": "merge"},
+    "combine=cut": {"combine": "cut"},
+    "eq. 9 as printed": {"omega_sign": "printed"},
+    "eq. 12 as printed": {"seed_rule": "printed"},
+}
+
+
+def majority_merge_error(y: np.ndarray, leaves: np.ndarray) -> float:
+    """Clustering error when each leaf takes its majority label: the best any combining of
+    the leaves into clusters can do (a lower bound on the error of every combine rule)."""
+    y, leaves = np.asarray(y), np.asarray(leaves)
+    merged = np.empty_like(y)
+    for leaf in np.unique(leaves):
+        members = leaves == leaf
+        merged[members] = np.bincount(y[members]).argmax()
+    return clustering_error(y, merged)
+
+
+def knn_leaf_merge(X: np.ndarray, leaves: np.ndarray, n_clusters: int, k: int = 10) -> np.ndarray:
+    """A candidate combine rule, measured here only: join the leaves along the kNN graph.
+
+    The leaf graph's weight between leaves a and b is the number of symmetrised k-nearest-
+    neighbour edges between their points, divided by ``sqrt(|a| |b|)``; scikit-learn's
+    ``SpectralClustering(affinity="precomputed")`` cuts it into ``n_clusters`` groups. Returns
+    each point's group.
+    """
+    from sklearn.cluster import SpectralClustering
+    from sklearn.neighbors import kneighbors_graph
+
+    A = kneighbors_graph(X, k)
+    A = ((A + A.T) > 0).astype(np.float64)
+    C = np.unique(leaves).size
+    onehot = np.zeros((len(leaves), C))
+    onehot[np.arange(len(leaves)), np.unique(leaves, return_inverse=True)[1]] = 1.0
+    W = onehot.T @ (A @ onehot)
+    sizes = onehot.sum(axis=0)
+    W /= np.sqrt(np.outer(sizes, sizes))
+    np.fill_diagonal(W, 0.0)
+    groups = SpectralClustering(n_clusters, affinity="precomputed", random_state=0).fit_predict(W)
+    return groups[np.unique(leaves, return_inverse=True)[1]]
+
+
+def variant_rows(X: np.ndarray, y: np.ndarray, variants=VARIANTS) -> list[dict]:
+    """Error, leaf count, leaf purity and majority-merge bound of each variant on (X, y)."""
+    rows = []
+    for name, settings in variants.items():
+        model = ManifoldClustering(K, Q, **settings).fit(X)
+        rows.append(
+            {
+                "variant": name,
+                "error": clustering_error(y, model.labels_),
+                "leaves": int(model.leaf_labels_.max() + 1),
+                "leaf_purity": purity(y, model.leaf_labels_),
+                "majority_merge_error": majority_merge_error(y, model.leaf_labels_),
+                "knn_leaf_merge_error": clustering_error(
+                    y, knn_leaf_merge(X, model.leaf_labels_, K)
+                ),
+            }
+        )
+    return rows
+
+
+def neighbour_distances(X: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
+    """Per frame: distance to its nearest other frame of the same manifold (``within``) and to
+    its nearest frame of another manifold (``between``)."""
+    D = np.sqrt(squared_distances(X))
+    np.fill_diagonal(D, np.inf)
+    same = y[:, None] == y[None, :]
+    within = np.where(same, D, np.inf).min(axis=1)
+    between = np.where(~same, D, np.inf).min(axis=1)
+    return {"within": within, "between": between}
+
+
+def space_summary(X: np.ndarray, y: np.ndarray) -> dict:
+    """1-NN disagreement (nearest frame on another manifold) and median distance ratio."""
+    d = neighbour_distances(X, y)
+    return {
+        "nn_other_manifold": float(np.mean(d["between"] < d["within"])),
+        "median_between_over_within": float(np.median(d["between"] / d["within"])),
+    }
+
+
+def load_split(data_dir: Path, features: str) -> tuple[np.ndarray, np.ndarray]:
+    """Features and labels of the even (map-building) frames of a dataset."""
+    from sim.dataset import load_dataset
+
+    data = load_dataset(data_dir)
+    train, _ = data.paper_split()
+    images = data.concat("images")[train]
+    X = FEATURES[features][1]().fit_transform(images)
+    return X, data.concat("labels")[train]
+
+
+def plot_distances(panels: dict[str, tuple[np.ndarray, np.ndarray]], path: Path) -> Path:
+    """Histograms of the within / between nearest-neighbour distances, one panel per space."""
+    from scripts.grouping_plots import agg_pyplot, save_figure
+
+    plt = agg_pyplot()
+    fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.6), squeeze=False)
+    for ax, (name, (X, y)) in zip(axes[0], panels.items(), strict=True):
+        d = neighbour_distances(X, y)
+        scale = np.median(d["within"])
+        bins = np.linspace(0, np.percentile(d["between"] / scale, 99), 40)
+        ax.hist(d["within"] / scale, bins, alpha=0.6, label="nearest frame, same manifold")
+        ax.hist(d["between"] / scale, bins, alpha=0.6, label="nearest frame, other manifold")
+        s = space_summary(X, y)
+        ax.set_title(
+            f"{name}: nearest frame on another manifold {s['nn_other_manifold']:.0%}", fontsize=8
+        )
+        ax.set_xlabel("distance / median within-manifold NN distance", fontsize=8)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, nargs="+", required=True, help="dataset folders")
+    parser.add_argument("--features", nargs="+", choices=tuple(FEATURES), default=["raw"])
+    parser.add_argument("--out", type=Path, default=None, help="JSON of the variant rows")
+    parser.add_argument("--figure", type=Path, default=None, help="distance histogram PNG")
+    parser.add_argument("--no-variants", action="store_true", help="only the space summary")
+    parser.add_argument("--default-only", action="store_true", help="only the default variant")
+    args = parser.parse_args(argv)
+    result, panels = [], {}
+    for data_dir in args.data:
+        for features in args.features:
+            X, y = load_split(data_dir, features)
+            entry = {"data": str(data_dir), "features": features, **space_summary(X, y)}
+            if not args.no_variants:
+                first = dict(list(VARIANTS.items())[:1])
+                entry["variants"] = variant_rows(X, y, first if args.default_only else VARIANTS)
+            result.append(entry)
+            panels[f"{features}, {data_dir.name}"] = (X, y)
+            print(json.dumps(entry, indent=1), flush=True)
+    if args.out is not None:
+        atomic_write_bytes(args.out, (json.dumps(result, indent=2) + "\n").encode())
+    if args.figure is not None:
+        print(f"wrote {plot_distances(panels, args.figure)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

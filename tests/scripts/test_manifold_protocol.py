@@ -1,0 +1,74 @@
+"""The frozen protocol's scoring and summary (the dataset cells run in docs, not here)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from mapping.synthetic import parallel_lines
+from scripts.manifold_methods import METHODS, NCUT_ORACLE, OURS, bootstrap_mean, score_methods
+from scripts.manifold_protocol import load_cells, markdown, summarize
+
+
+def test_bootstrap_mean_interval_contains_mean_and_is_reproducible():
+    x = [0.02, 0.05, 0.17, 0.03, 0.04]
+    a = bootstrap_mean(x, np.random.default_rng(0))
+    b = bootstrap_mean(x, np.random.default_rng(0))
+    assert a == b and a["lo"] < a["mean"] < a["hi"] and a["n"] == 5
+    assert a["lo"] >= min(x) and a["hi"] <= max(x)
+    assert bootstrap_mean([0.1], np.random.default_rng(0)) == {
+        "mean": 0.1,
+        "lo": 0.1,
+        "hi": 0.1,
+        "n": 1,
+    }
+    with pytest.raises(ValueError, match="non-empty 1-D list of finite numbers"):
+        bootstrap_mean([np.nan], np.random.default_rng(0))
+
+
+def test_every_method_scores_train_and_test_on_parallel_lines():
+    X, y = parallel_lines(n_per_line=30, gap=0.3)
+    rows = score_methods(X[::2], y[::2], 3, 5, X[1::2], y[1::2])
+    assert [r["method"] for r in rows] == list(METHODS)
+    by = {r["method"]: r for r in rows}
+    assert by[OURS]["train_error"] == 0.0 and by[OURS]["test_error"] == 0.0
+    assert by[NCUT_ORACLE]["test_error"] == 0.0
+    assert all(0.0 <= r["test_error"] <= 1.0 for r in rows)
+
+
+def _cell(seed, errors):
+    rows = [{"method": m, "test_error": e} for m, e in zip(METHODS, errors, strict=False)]
+    return {"condition": "interleaved", "features": "hsv", "seed": seed, "rows": rows}
+
+
+def test_summary_keeps_the_dev_seed_apart(tmp_path):
+    cells = [_cell(0, [0.03, 0.1]), _cell(1, [0.2, 0.1]), _cell(2, [0.1, 0.05])]
+    (tmp_path / "cells").mkdir()
+    for c in cells:
+        (tmp_path / "cells" / f"{c['seed']}.json").write_text(json.dumps(c))
+    summary = summarize(load_cells(tmp_path))
+    ours = next(r for r in summary if r["method"] == OURS)
+    assert ours["dev_error"] == 0.03 and ours["seeds"] == [1, 2]
+    assert ours["summary"]["mean"] == pytest.approx(0.15)
+    table = markdown(summary)
+    assert "| interleaved | hsv | ours | 3.0% | 15.0% [" in table and "| 10.0%-20.0% |" in table
+
+
+def test_load_cells_refuses_a_foreign_file(tmp_path):
+    (tmp_path / "cells").mkdir()
+    (tmp_path / "cells" / "x.json").write_text("[1, 2]")
+    with pytest.raises(ValueError, match="x.json: not a protocol cell"):
+        load_cells(tmp_path)
+
+
+def test_run_cells_skips_missing_and_broken_datasets(tmp_path, capsys):
+    from scripts.manifold_protocol import run_cells
+
+    (tmp_path / "m-data-1").mkdir()
+    (tmp_path / "m-data-1" / "meta.json").write_text("{}")  # not a finished collection
+    out = tmp_path / "out"
+    run_cells(tmp_path, out, [("interleaved", "hsv", 0), ("interleaved", "hsv", 1)], False)
+    printed = capsys.readouterr().out
+    assert "skipped interleaved/hsv/seed 0: dataset not collected yet" in printed
+    assert "skipped interleaved/hsv/seed 1:" in printed
+    assert list((out / "cells").iterdir()) == []

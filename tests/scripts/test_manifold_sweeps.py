@@ -1,0 +1,70 @@
+"""Synthetic sweeps and the diagnosis helpers of issue 13 (the full runs are in the docs)."""
+
+import numpy as np
+import pytest
+
+from mapping.synthetic import branching_sequences
+from scripts.manifold_diagnosis import (
+    knn_leaf_merge,
+    majority_merge_error,
+    neighbour_distances,
+    space_summary,
+)
+from scripts.manifold_methods import METHODS
+from scripts.manifold_sweeps import markdown_table, plot_sweeps, sweep_points
+
+
+def test_sweep_points_span_the_hard_regime():
+    gap = sweep_points("gap")
+    assert [p["gap"] / p["spacings"][-1] for p in gap] == pytest.approx([0.5, 1, 1.5, 2, 3, 6])
+    density = sweep_points("density")
+    assert all(p["gap"] == 0.1 for p in density)
+    assert [p["spacings"][-1] / p["spacings"][0] for p in density] == pytest.approx([1, 2, 4, 6, 8])
+    with pytest.raises(ValueError, match="sweep kind must be 'gap' or 'density'"):
+        sweep_points("noise")
+
+
+def test_sweep_table_and_figure(tmp_path):
+    rows = [
+        {"sweep": "gap", "ratio": r, "method": m, "train_error": e, "test_error": None}
+        for r, e in ((0.5, 0.4), (1.0, 0.1))
+        for m in METHODS
+    ]
+    table = markdown_table(rows, "ratio")
+    assert "| 0.5 | 0.400 |" in table and "| 1.0 | 0.100 |" in table
+    assert plot_sweeps(rows, tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_majority_merge_bound():
+    y = np.array([0, 0, 0, 1, 1, 1])
+    assert majority_merge_error(y, np.array([0, 0, 1, 2, 2, 3])) == 0.0  # pure leaves
+    assert majority_merge_error(y, np.array([0, 0, 1, 1, 2, 2])) == pytest.approx(1 / 6)
+
+
+def test_neighbour_distances_flag_a_crossing():
+    # two parallel lines 1 apart sampled every 2: each point's nearest is on the other line
+    X = np.array([[0, 0], [2, 0], [4, 0], [0, 1], [2, 1], [4, 1]], float)
+    y = np.array([0, 0, 0, 1, 1, 1])
+    d = neighbour_distances(X, y)
+    np.testing.assert_allclose(d["within"], 2.0)
+    np.testing.assert_allclose(d["between"], 1.0)
+    assert space_summary(X, y)["nn_other_manifold"] == 1.0
+    assert space_summary(X * [[1, 4]], y)["nn_other_manifold"] == 0.0
+
+
+def test_branching_sequences_shape_and_checks():
+    X, y = branching_sequences(5, 7, np.random.default_rng(0))
+    assert X.shape == (40, 7) and np.array_equal(np.bincount(y), [5] * 8)
+    with pytest.raises(ValueError, match="rng must be a numpy.random.Generator"):
+        branching_sequences(5, 7, 0)
+
+
+def test_knn_leaf_merge_joins_the_leaves_of_each_line():
+    x = np.linspace(0, 1, 40)
+    X = np.concatenate([np.column_stack([x, 0 * x]), np.column_stack([x, 0 * x + 5])])
+    y = np.repeat([0, 1], 40)
+    leaves = np.repeat([0, 1, 2, 3], 20)  # two leaves per line
+    assert majority_merge_error(y, leaves) == 0.0
+    groups = knn_leaf_merge(X, leaves, 2, k=5)
+    assert np.array_equal(groups[:40], np.full(40, groups[0]))
+    assert np.array_equal(groups[40:], np.full(40, groups[40])) and groups[0] != groups[40]
