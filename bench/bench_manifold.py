@@ -28,32 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import clustering_error
-
-
-def branching_sequences(
-    n_per_seq: int, d: int, rng: np.random.Generator, noise: float = 0.02
-) -> tuple[np.ndarray, np.ndarray]:
-    """8 sequences of ``n_per_seq`` points in R^d: per world a trunk and three branches."""
-    parts, labels = [], []
-
-    def curve(start: np.ndarray, speed: float) -> np.ndarray:
-        t = np.arange(1, n_per_seq + 1)[:, None] * speed
-        dirs = rng.normal(size=(4, d)) / np.sqrt(d)
-        freq = rng.uniform(0.2, 1.0, size=4)
-        phase = rng.uniform(0, 2 * np.pi, size=4)
-        drift = rng.normal(size=d) / np.sqrt(d)
-        return start + t * drift + (np.sin(t * freq + phase) - np.sin(phase)) @ dirs
-
-    for _world in range(2):
-        trunk = curve(rng.normal(size=d) * 9 / np.sqrt(d), 0.05)
-        parts.append(trunk)
-        for speed in (0.03, 0.05, 0.08):
-            parts.append(curve(trunk[-1], speed))
-    for k, part in enumerate(parts):
-        labels += [k] * len(part)
-    X = np.concatenate(parts)
-    X += noise / np.sqrt(d) * rng.normal(size=X.shape)
-    return X, np.array(labels)
+from mapping.synthetic import branching_sequences
 
 
 def _time(fn, repeat: int = 1) -> float:
