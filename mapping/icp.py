@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.topology import run_starts_from_groups, se2_compose, se2_relative, transform_points
+from mapping.topology import run_starts_from_groups, se2_compose, se2_relative
 
 __all__ = ["IcpResult", "densify_scan", "icp", "refine_poses"]
 
@@ -46,20 +46,22 @@ class IcpResult:
     converged: bool
 
 
-def _kabsch_2d(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _kabsch_2d(p: np.ndarray, q: np.ndarray) -> tuple[float, float, float]:
     """Least-squares rigid motion ``(x, y, yaw)`` taking points ``p`` onto ``q``.
 
     In 2-D the SVD solution of the Kabsch/Umeyama problem has a closed form: the rotation
     angle is ``atan2(sum(p' x q'), sum(p' . q'))`` of the centred points, always a proper
-    rotation; one ``atan2`` instead of an SVD per ICP iteration.
+    rotation; one ``atan2`` instead of an SVD per ICP iteration. The centred sums come from
+    one 2x2 product (``p^T q - n pc qc^T``): ICP calls this every iteration, and per-call
+    overhead, not arithmetic, is what it costs.
     """
-    pc, qc = p.mean(axis=0), q.mean(axis=0)
-    pp, qq = p - pc, q - qc
-    cross = float(np.dot(pp[:, 0], qq[:, 1]) - np.dot(pp[:, 1], qq[:, 0]))
-    dot = float(np.dot(pp[:, 0], qq[:, 0]) + np.dot(pp[:, 1], qq[:, 1]))
-    theta = math.atan2(cross, dot)
+    n = len(p)
+    pc, qc = p.sum(axis=0) / n, q.sum(axis=0) / n
+    h = p.T @ q - n * np.outer(pc, qc)
+    theta = math.atan2(float(h[0, 1] - h[1, 0]), float(h[0, 0] + h[1, 1]))
     c, s = math.cos(theta), math.sin(theta)
-    return np.array([qc[0] - (c * pc[0] - s * pc[1]), qc[1] - (s * pc[0] + c * pc[1]), theta])
+    px, py, qx, qy = float(pc[0]), float(pc[1]), float(qc[0]), float(qc[1])
+    return qx - (c * px - s * py), qy - (s * px + c * py), theta
 
 
 def icp(
@@ -112,24 +114,42 @@ def icp(
     if len(source) < min_matches or len(target) < min_matches:
         return IcpResult(T, np.inf, 0, 0, False)
     tree = cKDTree(target) if target_tree is None else target_tree
+    # the pose is kept as scalars and composed by hand: with a few hundred points per scan,
+    # array helpers' overhead per iteration costs as much as the KD-tree query
+    x, y, yaw = (float(v) for v in T)
     n_matches, rmse = 0, np.inf
     for it in range(1, max_iterations + 1):
-        moved = transform_points(T, source)
+        c, s = math.cos(yaw), math.sin(yaw)
+        moved = source @ np.array([[c, s], [-s, c]]) + (x, y)
         d, idx = tree.query(moved, k=1, distance_upper_bound=max_correspondence_distance)
         ok = np.isfinite(d)
-        n_matches = int(ok.sum())
+        n_matches = int(np.count_nonzero(ok))
         if n_matches < min_matches:
-            return IcpResult(T, np.inf, n_matches, it, False)
+            return IcpResult(np.array([x, y, yaw]), np.inf, n_matches, it, False)
         # adaptive gate: pairs far beyond the typical residual are points without a
         # counterpart (newly seen structure); they would drag the solution
-        gate = max(3.0 * float(np.median(d[ok])), min_correspondence_distance)
+        gate = max(3.0 * _median(d[ok]), min_correspondence_distance)
         ok &= d <= gate
-        rmse = float(np.sqrt(np.mean(d[ok] ** 2)))
-        step = _kabsch_2d(moved[ok], target[idx[ok]])
-        T = se2_compose(step, T)
-        if np.hypot(step[0], step[1]) < tolerance and abs(step[2]) < tolerance:
-            return IcpResult(T, rmse, n_matches, it, True)
-    return IcpResult(T, rmse, n_matches, max_iterations, False)
+        dk = d[ok]
+        rmse = math.sqrt(float(dk @ dk) / len(dk))
+        sx, sy, syaw = _kabsch_2d(moved[ok], target[idx[ok]])
+        # T <- step ⊕ T (mapping.topology.se2_compose, on scalars)
+        cs, ss = math.cos(syaw), math.sin(syaw)
+        x, y = sx + cs * x - ss * y, sy + ss * x + cs * y
+        yaw = (yaw + syaw + math.pi) % (2.0 * math.pi) - math.pi
+        if math.hypot(sx, sy) < tolerance and abs(syaw) < tolerance:
+            return IcpResult(np.array([x, y, yaw]), rmse, n_matches, it, True)
+    return IcpResult(np.array([x, y, yaw]), rmse, n_matches, max_iterations, False)
+
+
+def _median(values: np.ndarray) -> float:
+    """``np.median`` of a non-empty 1-D array, without its dispatch overhead."""
+    n = len(values)
+    k = n // 2
+    if n % 2:
+        return float(np.partition(values, k)[k])
+    part = np.partition(values, (k - 1, k))
+    return 0.5 * float(part[k - 1] + part[k])
 
 
 def densify_scan(points: np.ndarray, spacing: float = 0.02, max_gap: float = 0.3) -> np.ndarray:

@@ -37,7 +37,14 @@ from mapping.partition import ObservationGraphPartitioner
 from mapping.topology import run_starts_from_groups, transform_points
 from sim.odometry import Odometry, OdometryConfig
 
-__all__ = ["JSON_FILE", "evaluate_case", "format_report", "simulated_odometry", "split"]
+__all__ = [
+    "JSON_FILE",
+    "evaluate_case",
+    "format_report",
+    "score_submaps",
+    "simulated_odometry",
+    "split",
+]
 
 JSON_FILE = "local_maps.json"
 SUCCESS = (0.1, np.deg2rad(2.0))  # localised: relative pose within 0.1 m and 2 degrees
@@ -101,7 +108,7 @@ def evaluate_case(
     hold_every: int = 5,
 ) -> dict:
     """All four methods on one case with one kind of ``poses``; ``truth`` scores them."""
-    train, held, anchor = split(groups, hold_every)
+    train, held, _ = split(groups, hold_every)
     tscans = [scans[i] for i in train]
     tposes, tgroups = poses[train], groups[train]
     start = time.perf_counter()
@@ -116,31 +123,57 @@ def evaluate_case(
         "every d m": submap_labels(tposes, distance=distance, groups=tgroups),
         "global": np.zeros(len(train), dtype=int),
     }
-    # held-out scan -> position of its anchor among the training scans
-    anchor_pos = np.searchsorted(train, anchor)
     out = {"train": len(train), "held_out": len(held), "grouping_seconds": grouping_s}
     out["baseline_sizes"] = {"n_scans": n_scans, "distance_m": distance}
     for name, lab in labels.items():
         # the global map is the mapper's own: its poses as given, not re-aligned
-        aligned = tposes.copy() if name == "global" else align_groups(tscans, tposes, lab)
-        full = poses.copy()
-        full[train] = aligned
-        maps = {
-            int(g): np.concatenate(
-                [
-                    transform_points(aligned[k], densify_scan(tscans[k]))
-                    for k in np.flatnonzero(lab == g)
-                ]
-            )
-            for g in np.unique(lab)
-        }
-        errors = localise_held_out(scans, full, truth, held, anchor, maps, lab[anchor_pos], rng)
-        out[name] = {
-            "submaps": len(np.unique(lab)),
-            "residuals": map_residuals(tscans, aligned, lab),
-            "localisation": _rates(errors, rng),
-        }
+        out[name] = score_submaps(
+            scans, truth, poses, groups, lab, rng, hold_every=hold_every, align=name != "global"
+        )
     return out
+
+
+def score_submaps(
+    scans: list[np.ndarray],
+    truth: np.ndarray,
+    poses: np.ndarray,
+    groups: np.ndarray,
+    labels: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    hold_every: int = 5,
+    align: bool = True,
+) -> dict:
+    """Consistency and held-out localisation of one cut of the training scans into submaps.
+
+    ``labels`` gives the submap of each *training* scan (``split(groups, hold_every)[0]``);
+    each submap is rebuilt by scan-to-map ICP (unless ``align`` is False) and scored.
+    """
+    train, held, anchor = split(groups, hold_every)
+    labels = np.asarray(labels)
+    if labels.shape != (len(train),):
+        raise ValueError(f"labels must have one entry per training scan ({len(train)},)")
+    tscans, tposes = [scans[i] for i in train], poses[train]
+    aligned = align_groups(tscans, tposes, labels) if align else tposes.copy()
+    full = poses.copy()
+    full[train] = aligned
+    maps = {
+        int(g): np.concatenate(
+            [
+                transform_points(aligned[k], densify_scan(tscans[k]))
+                for k in np.flatnonzero(labels == g)
+            ]
+        )
+        for g in np.unique(labels)
+    }
+    # held-out scan -> position of its anchor among the training scans
+    anchor_pos = np.searchsorted(train, anchor)
+    errors = localise_held_out(scans, full, truth, held, anchor, maps, labels[anchor_pos], rng)
+    return {
+        "submaps": len(np.unique(labels)),
+        "residuals": map_residuals(tscans, aligned, labels),
+        "localisation": _rates(errors, rng),
+    }
 
 
 def evaluate_cases(cases: dict, out_dir: str | os.PathLike, *, seed: int = 0, progress=True):
