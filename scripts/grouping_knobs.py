@@ -178,6 +178,9 @@ def evaluate_knobs(cases: list[Case], out_dir, *, seed: int = 0, progress: bool 
 
     from sim.dataset import write_json
 
+    names = [c.name for c in cases]
+    if len(set(names)) != len(names):
+        raise ValueError(f"cases must have distinct names, got {names}")
     dev = [c for c in cases if c.role == "dev"]
     result = {
         "defaults": DEFAULTS,
@@ -260,21 +263,17 @@ def world_cases(data, roles: dict[str, str], suffix: str = "") -> list[Case]:
     dataset = data if isinstance(data, ds.Dataset) else ds.load_dataset(data)
     if not dataset.has_ground_truth:
         raise ValueError(f"{dataset.path}: the knob sweep needs true poses and manifold labels")
+    if dataset.meta.get("settings", {}).get("randomize", False):
+        # the 360-degree scans are taken in the canonical world, which a randomised
+        # dataset's clutter does not match
+        raise ValueError(f"{dataset.path}: the knob sweep needs a dataset without --randomize")
     cases = []
     for world in dataset.worlds:
         runs = dataset.runs(world)
         wide = rescan_360(world, runs.poses, dataset.max_range)
-        cases.append(
-            Case(
-                world,
-                roles.get(world, "test"),
-                runs.scans,
-                runs.poses,
-                runs.groups,
-                runs.labels,
-                wide,
-            )
-        )
+        name = world + suffix
+        role = roles.get(name, "test")
+        cases.append(Case(name, role, runs.scans, runs.poses, runs.groups, runs.labels, wide))
     return cases
 
 

@@ -74,3 +74,9 @@ def test_sweep_on_a_synthetic_office(tmp_path, monkeypatch):
         assert best["dev_score"] > result["settings"]["defaults"]["dev_score"] + gk.MIN_GAIN
     text = gk.format_report(result)
     assert "office (dev)" in text and "n/a" in text and "chosen" in text
+
+
+def test_cases_need_distinct_names(tmp_path):
+    case = gk.Case("same", "dev", [np.zeros((0, 2))], np.zeros((1, 3)), np.zeros(1, dtype=int))
+    with pytest.raises(ValueError, match="distinct names"):
+        gk.evaluate_knobs([case, case], tmp_path, progress=False)
