@@ -1,9 +1,12 @@
-"""Speed of the servo controller: one ``ManifoldServo.act`` (localise + decide) per env step,
-the one-off global localisation at the start of an episode, the env step itself, and the map
-build.
+"""Speed of the servo controllers: one ``act`` (localise + decide) per env step of the
+laser+image ``ManifoldServo`` (``policy="servo"``) and of the camera-only ``SignalServo``
+(``policy="signal"``), the first step of an episode (the servo's one-off global localisation;
+the signal controller localises while it turns in place, over its first steps), the env step
+itself, and the map build.
 
-Run: ``.venv/bin/python bench/bench_servo.py [--episodes N]``. Prints the machine's core count
-and a table; the target (issue 5) is a controller step within 10 ms on a 2-core CPU machine.
+Run: ``.venv/bin/python bench/bench_servo.py [--episodes N] [--policy servo signal]``. Prints
+the machine's core count and a table; the targets (issues 5 and 12) are a controller step
+within 10 ms median and the start-of-episode localisation within 0.5 s on a 2-core CPU machine.
 """
 
 from __future__ import annotations
@@ -18,20 +21,21 @@ import numpy as np
 import servo  # noqa: F401  (headless GL before mujoco)
 from servo.controller import ManifoldServo
 from servo.env import ServoEnv
+from servo.evaluate import make_policy
 from servo.map_store import build_map, load_or_build
 from sim.datahome import default_dataset
 
 
-def bench_world(world: str, episodes: int, dataset=None, cache=None) -> dict:
-    """Time one world's map build, controller steps and env steps; ``dataset`` and ``cache``
-    default to the data home's (``sim.datahome``)."""
+def bench_world(world: str, episodes: int, dataset=None, cache=None, policy: str = "servo") -> dict:
+    """Time one world's map build, ``policy``'s controller steps and env steps; ``dataset``
+    and ``cache`` default to the data home's (``sim.datahome``)."""
     dataset = default_dataset() if dataset is None else dataset
     start = time.perf_counter()
     build_map(dataset, world)  # timed; the cached copy below is what the env uses
     build_s = time.perf_counter() - start
     m = load_or_build(world, dataset, cache)
     env = ServoEnv(world, m)
-    ctl = ManifoldServo(m, world=world)
+    ctl = make_policy(policy, env, np.random.default_rng(0))
     first, steps, env_steps = [], [], []
     try:
         for ep in range(episodes):
@@ -51,6 +55,7 @@ def bench_world(world: str, episodes: int, dataset=None, cache=None) -> dict:
     ms = 1e3 * np.asarray(steps)
     return {
         "world": world,
+        "policy": policy,
         "steps": len(steps),
         "act median (ms)": np.median(ms),
         "act p95 (ms)": np.percentile(ms, 95),
@@ -92,9 +97,14 @@ def known_limitation(dataset=None, cache=None) -> dict:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__)
     p.add_argument("--episodes", type=int, default=5)
+    p.add_argument("--policy", nargs="+", default=["servo", "signal"], choices=["servo", "signal"])
     args = p.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores")
-    rows = [bench_world(w, args.episodes) for w in ("hallway", "lawn")]
+    rows = [
+        bench_world(w, args.episodes, policy=pol)
+        for pol in args.policy
+        for w in ("hallway", "lawn")
+    ]
     keys = list(rows[0])
     print(" | ".join(keys))
     for r in rows:
