@@ -55,6 +55,9 @@ METHODS = ("ours", "best-sigma NCut", "self-tuning")
 NO_LABELS = "no ground-truth labels: clusters are not scored (errors: --)"
 CLUSTERS_FILE = "clusters.npz"  # every frame's cluster per feature set and method
 PAPER_PIXELS = (320, 240)  # the paper's raw-pixel resolution (width, height)
+# The paper's 2.89 % / 34.4 % were measured on raw pixels: its numbers are shown beside that
+# feature set only, never beside features the paper did not use.
+PAPER_FEATURES = "raw pixels 320x240 RGB (paper)"
 
 
 def _progress(total: int, enabled: bool, desc: str):
@@ -113,10 +116,16 @@ def feature_sets(dataset) -> dict[str, tuple[str, object, np.ndarray]]:
     # another camera's frames are brought to the paper's resolution first
     size = None if images.shape[2:0:-1] == PAPER_PIXELS else PAPER_PIXELS
     return {
-        "raw pixels 320x240 RGB (paper)": ("images", ImageFeatures(size=size), images),
+        PAPER_FEATURES: ("images", ImageFeatures(size=size), images),
         "HSV histograms 8x4x4, 2x2 cells": ("images", ColorHistogramFeatures(), images),
         "laser ranges": ("scans", ScanFeatures(max_range=max_range), scans),
     }
+
+
+def paper_error(features: str, method: str) -> float | None:
+    """The paper's error for ``method``, only beside the feature set it was measured on (raw
+    pixels): beside HSV histograms or laser ranges it would read as a claim it never made."""
+    return PAPER_REAL.get(method) if features == PAPER_FEATURES else None
 
 
 def real_rows(
@@ -152,7 +161,7 @@ def real_rows(
                         "clusters": len(np.unique(lab)),
                         "train_error": clustering_error(y[train], lab) if truth else None,
                         "test_error": clustering_error(y[test], pred) if truth else None,
-                        "paper_error": PAPER_REAL.get(method) if sensor == "images" else None,
+                        "paper_error": paper_error(name, method),
                         "train_labels": lab,
                         "test_labels": pred,
                         **extra,

@@ -8,7 +8,14 @@ import pytest
 from scipy.stats import binomtest
 
 from mapping import ColorHistogramFeatures, ManifoldClustering, clustering_error
-from scripts.reproduce_manifold import markdown_tables, plot_labels, synthetic_rows
+from scripts.reproduce_manifold import (
+    PAPER_FEATURES,
+    feature_sets,
+    markdown_tables,
+    paper_error,
+    plot_labels,
+    synthetic_rows,
+)
 
 # The dev seed (0, this dataset), on which the features and the merge rule were chosen, gives
 # 13 test errors of 450 and 12 training errors of 450 (measured for issue 13; the older table
@@ -72,3 +79,12 @@ def test_label_plot_and_tables(tmp_path):
     text = markdown_tables(result)
     assert "| a | ours | 0.000 | x |" in text and "| f | ours | 1.0% | 2.0% | 2.9% |" in text
     json.dumps(result)
+
+
+def test_paper_numbers_only_beside_raw_pixels(default_dataset):
+    names = list(feature_sets(default_dataset))
+    assert PAPER_FEATURES in names
+    for name in names:
+        expected = {"ours": 0.0289, "best-sigma NCut": 0.344} if name == PAPER_FEATURES else {}
+        for method in ("ours", "best-sigma NCut", "self-tuning"):
+            assert paper_error(name, method) == expected.get(method), (name, method)
