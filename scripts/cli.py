@@ -17,6 +17,16 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}") from None
+    if not (value >= 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
+    return value
+
+
 def _worlds(choice: str) -> tuple[str, ...]:
     from scenes import WORLDS
 
@@ -27,6 +37,7 @@ def _settings(args):
     from sim.camera import CameraConfig
     from sim.collect import CollectionSettings
     from sim.laser import LaserConfig
+    from sim.teleop import TeleopConfig
 
     return CollectionSettings(
         worlds=_worlds(args.world),
@@ -35,6 +46,7 @@ def _settings(args):
         randomize=args.randomize,
         camera=CameraConfig(width=args.width, height=args.height, depth=args.depth),
         laser=LaserConfig(beams=args.beams, max_range=args.max_range),
+        teleop=TeleopConfig().scaled(args.teleop_jitter),
     )
 
 
@@ -231,6 +243,14 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--frames", type=_positive_int, default=150, help="frames per sequence")
     c.add_argument("--randomize", action="store_true", help="domain-randomised worlds")
+    c.add_argument(
+        "--teleop-jitter",
+        type=_non_negative_float,
+        default=1.0,
+        metavar="SCALE",
+        help="scale of the driver's random speed, turn, wander and start jitter (0: the route's "
+        "centre line, the same pass for every seed; default 1)",
+    )
     c.add_argument("--overwrite", action="store_true", help="replace a dataset with other settings")
     c.add_argument(
         "--jobs", type=_positive_int, default=None, help="worker processes (default: cores)"

@@ -7,7 +7,7 @@ and turn rate. Another seed gives another realistic pass along the same route.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -38,6 +38,20 @@ class TeleopConfig:
                 raise ValueError(f"teleop {k} must be finite and >= 0, got {v}")
         if self.speed <= 0 or self.lookahead <= 0 or self.wander_length <= 0:
             raise ValueError("teleop speed, lookahead and wander_length must be > 0")
+
+    def scaled(self, jitter: float) -> TeleopConfig:
+        """The same driver with every random term (speed and turn jitter, lateral wander,
+        start jitter) times ``jitter``: 0 drives the route's centre line at constant speed,
+        the same pass for every seed; 1 is this config."""
+        if not (np.isfinite(jitter) and jitter >= 0):
+            raise ValueError(f"teleop jitter must be a finite number >= 0, got {jitter}")
+        return replace(
+            self,
+            speed_jitter=self.speed_jitter * jitter,
+            turn_jitter=self.turn_jitter * jitter,
+            lateral_wander=self.lateral_wander * jitter,
+            start_jitter=tuple(v * jitter for v in self.start_jitter),
+        )
 
 
 class Polyline:

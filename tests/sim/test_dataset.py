@@ -230,3 +230,30 @@ def test_a_file_is_not_a_dataset_folder(tmp_path):
     with pytest.raises(FileExistsError, match="is a file; give a folder"):
         collect_dataset(tmp_path / "f", CollectionSettings(frames=2), progress=False)
     assert (tmp_path / "f").read_text() == "x"
+
+
+def test_teleop_jitter_off_drives_the_same_pass_for_every_seed(tmp_path):
+    from dataclasses import replace
+
+    from sim.teleop import TeleopConfig
+
+    assert TeleopConfig().scaled(1.0) == TeleopConfig()  # the default dataset is unchanged
+    poses = {}
+    for jitter in (0.0, 1.0):
+        for seed in (3, 4):
+            settings = replace(SETTINGS, seed=seed, teleop=TeleopConfig().scaled(jitter))
+            path = tmp_path / f"{jitter}-{seed}"
+            collect_dataset(path, settings, jobs=1, progress=False)
+            poses[jitter, seed] = load_dataset(path).concat("poses")
+    np.testing.assert_allclose(poses[0.0, 3], poses[0.0, 4], atol=1e-9)
+    assert not np.allclose(poses[1.0, 3], poses[1.0, 4])  # jitter on: two seeds, two passes
+    with pytest.raises(ValueError, match="teleop jitter must be a finite number >= 0"):
+        TeleopConfig().scaled(-1.0)
+
+
+def test_cli_teleop_jitter_is_checked(capsys):
+    from scripts.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["collect", "--world", "lawn", "--out", "x", "--teleop-jitter", "-1"])
+    assert "--teleop-jitter" in capsys.readouterr().err
