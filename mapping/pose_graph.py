@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.icp import densify_scan, icp
+from mapping.icp import densify_scan, icp_batch
 from mapping.topology import run_starts_from_groups, se2_compose, se2_relative
 
 __all__ = ["LoopClosureResult", "absolute_trajectory_error", "close_loops"]
@@ -123,20 +123,27 @@ def close_loops(
     chained = odometry.copy()
     odo_noise, icp_noise = _noise(odometry_sigmas), _noise(icp_sigmas)
     prior = _noise((1e-3, 1e-3, 1e-4))
+    steps = se2_relative(odometry[:-1], odometry[1:])
+    follows = np.flatnonzero(~starts[1:]) + 1  # scans with a predecessor in their run
+    seq = icp_batch(
+        [scans[i] for i in follows], [densify_scan(scans[i - 1]) for i in follows],
+        steps[follows - 1], max_correspondence_distance=0.5, workers=-1,
+    )  # fmt: skip
+    matched = np.zeros(n, dtype=bool)
+    sizes = np.array([len(scans[i]) for i in follows], dtype=int)
+    ok = seq.converged & (seq.n_matches >= 0.5 * sizes)
+    matched[follows[ok]] = True
+    steps[follows[ok] - 1] = seq.transforms[ok]
     for i in range(n):
         if starts[i]:
             graph.add(gtsam.PriorFactorPose2(i, gtsam.Pose2(*odometry[i]), prior))
             continue
-        step, noise = se2_relative(odometry[i - 1], odometry[i]), odo_noise
-        res = icp(scans[i], densify_scan(scans[i - 1]), step, max_correspondence_distance=0.5)
-        if res.converged and res.n_matches >= 0.5 * len(scans[i]):
-            step, noise = res.transform, icp_noise
-        graph.add(gtsam.BetweenFactorPose2(i - 1, i, gtsam.Pose2(*step), noise))
-        chained[i] = se2_compose(chained[i - 1], step)
+        noise = icp_noise if matched[i] else odo_noise
+        graph.add(gtsam.BetweenFactorPose2(i - 1, i, gtsam.Pose2(*steps[i - 1]), noise))
+        chained[i] = se2_compose(chained[i - 1], steps[i - 1])
 
     tree = cKDTree(chained[:, :2])
-    loops, candidates = [], 0
-    loop_noise = _noise(loop_sigmas, robust)
+    proposed = []
     for i in range(0, n, stride):
         near = np.asarray(tree.query_ball_point(chained[i, :2], loop_radius), dtype=int)
         near = near[(near < i) & ((run[near] != run[i]) | (i - near >= min_separation))]
@@ -147,21 +154,22 @@ def close_loops(
         visits = np.split(near, np.flatnonzero(np.diff(near) > 1) + 1)
         for visit in visits:
             d = np.hypot(*(chained[visit, :2] - chained[i, :2]).T)
-            j = int(visit[np.argmin(d)])
-            candidates += 1
-            res = icp(
-                scans[i],
-                densify_scan(scans[j]),
-                se2_relative(chained[j], chained[i]),
-                max_correspondence_distance=icp_max_distance,
-            )
-            if (
-                res.converged
-                and res.n_matches >= min_overlap * len(scans[i])
-                and res.rmse <= max_rmse
-            ):
-                graph.add(gtsam.BetweenFactorPose2(j, i, gtsam.Pose2(*res.transform), loop_noise))
-                loops.append((i, j))
+            proposed.append((i, int(visit[np.argmin(d)])))
+    candidates, loops = len(proposed), []
+    if proposed:
+        pair = np.asarray(proposed, dtype=int)
+        res = icp_batch(
+            [scans[i] for i in pair[:, 0]], [densify_scan(scans[j]) for j in pair[:, 1]],
+            se2_relative(chained[pair[:, 1]], chained[pair[:, 0]]),
+            max_correspondence_distance=icp_max_distance, workers=-1,
+        )  # fmt: skip
+        sizes = np.array([len(scans[i]) for i in pair[:, 0]], dtype=int)
+        good = res.converged & (res.n_matches >= min_overlap * sizes) & (res.rmse <= max_rmse)
+        loop_noise = _noise(loop_sigmas, robust)
+        for k in np.flatnonzero(good):
+            i, j = (int(v) for v in pair[k])
+            graph.add(gtsam.BetweenFactorPose2(j, i, gtsam.Pose2(*res.transforms[k]), loop_noise))
+            loops.append((i, j))
     initial = gtsam.Values()
     for i in range(n):
         initial.insert(i, gtsam.Pose2(*chained[i]))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
-from mapping.icp import _kabsch_2d, densify_scan, icp, refine_poses
+from mapping.icp import _kabsch_2d, densify_scan, icp, icp_batch, refine_poses
 from mapping.topology import se2_relative, transform_points
 
 
@@ -90,3 +90,58 @@ def test_refine_poses_keeps_odometry_for_empty_scans(office):
     np.testing.assert_allclose(
         se2_relative(refined[1:3], refined[2:4]), se2_relative(odo[1:3], odo[2:4]), atol=1e-12
     )
+
+
+def _brute_force_icp(source, target, init, max_d=0.5, min_d=0.05, iters=50, tol=1e-6, min_m=10):
+    """The ICP of ``icp``'s docstring with nearest neighbours from all pairwise distances: the
+    reference for the batch's remembered-neighbour shortcut."""
+    x, y, yaw = init
+    for _ in range(iters):
+        c, s = np.cos(yaw), np.sin(yaw)
+        moved = source @ np.array([[c, s], [-s, c]]) + (x, y)
+        dist = np.linalg.norm(moved[:, None] - target[None], axis=2)
+        idx, d = dist.argmin(axis=1), dist.min(axis=1)
+        ok = d <= max_d
+        if ok.sum() < min_m:
+            return np.array([x, y, yaw]), False
+        ok &= d <= max(3 * np.median(d[ok]), min_d)
+        sx, sy, syaw = _kabsch_2d(moved[ok], target[idx[ok]])
+        cs, ss = np.cos(syaw), np.sin(syaw)
+        x, y, yaw = sx + cs * x - ss * y, sy + ss * x + cs * y, yaw + syaw
+        if np.hypot(sx, sy) < tol and abs(syaw) < tol:
+            return np.array([x, y, np.angle(np.exp(1j * yaw))]), True
+    return np.array([x, y, np.angle(np.exp(1j * yaw))]), False
+
+
+def test_icp_batch_matches_exact_nearest_neighbour_icp(office):
+    _, scans, poses = office
+    rng = np.random.default_rng(5)
+    idx = np.arange(1, len(scans), 3)
+    sources = [scans[i] for i in idx]
+    targets = [densify_scan(scans[i - 1], spacing=0.05) for i in idx]
+    inits = se2_relative(poses[idx - 1], poses[idx]) + rng.normal(0, [0.08, 0.08, 0.04], (len(idx), 3))
+    batch = icp_batch(sources, targets, inits)
+    for k, (src, tgt, init) in enumerate(zip(sources, targets, inits)):
+        ref, converged = _brute_force_icp(src, tgt, init)
+        assert batch.converged[k] == converged
+        np.testing.assert_allclose(batch.transforms[k], ref, atol=1e-9)
+        # a pair's result does not depend on the other pairs in the batch
+        single = icp(src, tgt, init)
+        np.testing.assert_allclose(single.transform, batch.transforms[k], atol=1e-9)
+        assert single.n_iterations == batch.n_iterations[k]
+
+
+def test_icp_batch_leaves_short_pairs_at_their_seed_and_checks_shapes():
+    pts = np.random.default_rng(0).uniform(-3, 3, (40, 2))
+    res = icp_batch([pts, pts[:4], np.empty((0, 2))], [pts, pts, pts], np.zeros((3, 3)))
+    assert res.converged.tolist() == [True, False, False]
+    np.testing.assert_array_equal(res.transforms[1:], 0.0)
+    assert res[1].n_matches == 0 and res[2].n_iterations == 0
+    with pytest.raises(ValueError, match="inits must have shape"):
+        icp_batch([pts], [pts], np.zeros(3))
+    with pytest.raises(ValueError, match="one entry per source"):
+        icp_batch([pts, pts], [pts], np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="target_tree is only for a single pair"):
+        from scipy.spatial import cKDTree
+
+        icp_batch([pts, pts], [pts, pts], np.zeros((2, 3)), target_tree=cKDTree(pts))
