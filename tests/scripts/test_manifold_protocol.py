@@ -27,7 +27,10 @@ def test_bootstrap_mean_interval_contains_mean_and_is_reproducible():
 
 
 def test_every_method_scores_train_and_test_on_parallel_lines():
-    X, y = parallel_lines(n_per_line=30, gap=0.3)
+    # 40 points a line, 0.5 apart: ours is exact with every OpenBLAS kernel (Haswell, SkylakeX,
+    # Zen). At 30 points and 0.3 one split sits on a tie that the AVX-512 kernels break the
+    # other way (2 of 45 training points), so that setting is not pinned here.
+    X, y = parallel_lines(n_per_line=40, gap=0.5)
     rows = score_methods(X[::2], y[::2], 3, 5, X[1::2], y[1::2])
     assert [r["method"] for r in rows] == list(METHODS)
     by = {r["method"]: r for r in rows}
