@@ -226,60 +226,112 @@ def test_stage_worlds_writes_one_image_per_world_and_manifold(tmp_path):
     assert row.shape == (24, 3 * 32 + 24, 3)  # three frames and a square map crop
 
 
-def _stub_stages(monkeypatch, fail: str | None = None):
-    """Replace the collection and the four stages by stubs writing one small file each."""
+def _fake_stages(fail: str | None = None, **runs):
+    """The default stages with fake work injected (no patching): the fake dataset, and each
+    evaluation returning the tests' result and writing the files its section links to; the
+    ``worlds`` stage runs for real. ``fail`` names a stage that raises; ``runs`` replace more."""
+    from sim.collect import CollectionSettings
+
     dataset = _fake_dataset()
-    monkeypatch.setattr("sim.collect.collect_dataset", lambda *a, **k: None)
-    monkeypatch.setattr("sim.dataset.load_dataset", lambda *a, **k: dataset)
 
     def stage(name, result, files):
-        def fn(*args, **kwargs):
+        def run(ctx):
             if name == fail:
                 raise RuntimeError("boom")
-            root = next(a for a in args if isinstance(a, Path) and a.name == "report")
             for f in files:
-                (root / f).parent.mkdir(parents=True, exist_ok=True)
-                (root / f).write_bytes(PNG)
+                (ctx.root / f).parent.mkdir(parents=True, exist_ok=True)
+                (ctx.root / f).write_bytes(PNG)
             return result
 
-        return fn
+        return run
 
-    monkeypatch.setattr(report, "stage_manifold", stage("manifold", MANIFOLD, MANIFOLD["figures"]))
-    grouping = stage("grouping", GROUPING, [])
-
-    def grouping_stage(dataset, out_dir, settings, progress):
-        (out_dir / "hallway_groups.png").write_bytes(PNG)
-        return grouping(out_dir.parent)
-
-    monkeypatch.setattr(report, "stage_grouping", grouping_stage)
-    monkeypatch.setattr(
-        report,
-        "stage_servo",
-        stage("servo", {"results": [SERVO], "videos": {}}, [SERVO["plot"]]),
-    )
+    fakes = {
+        "dataset": stage(
+            "dataset", {"dataset": dataset, "collection": CollectionSettings(seed=0)}, []
+        ),
+        "manifold": stage("manifold", MANIFOLD, MANIFOLD["figures"]),
+        "grouping": stage("grouping", GROUPING, ["grouping/hallway_groups.png"]),
+        "servo": stage("servo", {"results": [SERVO], "videos": {}}, [SERVO["plot"]]),
+    }
+    return report.replace_runs(report.STAGES, **{**fakes, **runs})
 
 
-def test_run_pipeline_writes_a_complete_report(tmp_path, monkeypatch):
-    _stub_stages(monkeypatch)
+def test_run_pipeline_writes_a_complete_report(tmp_path):
     settings = report.RunSettings(seed=3, episodes=2)
-    index = report.run_pipeline(tmp_path, settings, progress=False)
+    index = report.run_pipeline(tmp_path, settings, progress=False, stages=_fake_stages())
     assert index == tmp_path / "report" / report.INDEX
     page = index.read_text()
     for ref in report.referenced_files(page):
         assert (index.parent / ref).is_file(), ref
     data = json.loads((index.parent / "report.json").read_text())
     assert data["info"]["settings"]["seed"] == 3
+    assert data["info"]["settings"]["dataset"].endswith("(1 sequences, 8 frames)")
     assert set(data["info"]["timings"]) == {"dataset", "worlds", "manifold", "grouping", "servo"}
     assert "numpy" in data["info"]["versions"]
+    assert list(data) == ["worlds", "manifold", "servo", "grouping", "info"]
+    assert data["grouping"] == "grouping/grouping.json"
     assert "<h2>Reproducing this report</h2>" in page
 
 
-def test_a_failing_stage_fails_the_run_and_names_the_stage(tmp_path, monkeypatch):
-    _stub_stages(monkeypatch, fail="grouping")
-    monkeypatch.setattr(report, "stage_worlds", lambda *a: {"topdown": {}, "manifolds": {}})
+def test_a_failing_stage_fails_the_run_and_names_the_stage(tmp_path):
+    stages = _fake_stages(fail="grouping", worlds=lambda ctx: {"topdown": {}, "manifolds": {}})
     with pytest.raises(report.StageError, match=r"stage 'grouping' failed .*RuntimeError: boom"):
-        report.run_pipeline(tmp_path, progress=False)
+        report.run_pipeline(tmp_path, progress=False, stages=stages)
     assert not (tmp_path / "report" / report.INDEX).exists()
+
+
+def test_the_pipeline_runs_the_stages_it_is_given_in_order(tmp_path, capsys):
+    """A registry of other stages: each gets its folder and its section, in the given order,
+    and sees the results of the stages before it."""
+    dataset_stage = _fake_stages()[0]
+    seen = []
+
+    def note(ctx):
+        seen.append(sorted(ctx.results))
+        (ctx.dir("notes") / "a.png").write_bytes(PNG)
+        return {"worlds": ctx.worlds}
+
+    stages = [
+        report.Stage("notes", note, section=lambda r, ctx: report.section("notes", "Notes")),
+        dataset_stage,
+        report.Stage("after", lambda ctx: {"n": len(ctx.results)}, folder=False, recorded=False),
+    ]
+    with pytest.raises(report.StageError, match="stage 'notes' failed .*KeyError"):
+        report.run_pipeline(tmp_path / "a", progress=False, stages=stages)  # no dataset yet
+    stages = [stages[1], stages[0], stages[2]]
+    index = report.run_pipeline(tmp_path / "b", progress=True, stages=stages)
+    assert seen == [[], ["dataset"]]
+    page = index.read_text()
+    assert page.index('<section id="notes">') < page.index('<section id="reproduce">')
+    assert '<section id="worlds">' not in page
+    data = json.loads((index.parent / "report.json").read_text())
+    assert list(data) == ["notes", "info"] and data["notes"] == {"worlds": ["hallway"]}
+    assert list(data["info"]["timings"]) == ["dataset", "notes", "after"]
+    assert sorted(p.name for p in index.parent.iterdir()) == ["index.html", "notes", "report.json"]
+    out = capsys.readouterr().out
+    assert out.index("== stage dataset") < out.index("== stage notes") < out.index("== stage after")
+
+
+def test_replace_runs_refuses_an_unknown_stage():
+    with pytest.raises(KeyError, match="teleport"):
+        report.replace_runs(report.STAGES, teleport=lambda ctx: {})
+    assert report.replace_runs(report.STAGES) == report.STAGES
+
+
+def test_python_dash_m_takes_the_run_arguments():
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run(
+        [sys.executable, "-m", "scripts.report", "--help"],
+        cwd=root,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    assert "--episodes" in out.stdout and "--baselines" in out.stdout
 
 
 @pytest.mark.parametrize(

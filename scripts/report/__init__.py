@@ -1,0 +1,95 @@
+"""The end-to-end run behind ``topomap run``: collect, evaluate, and write one HTML report.
+
+    topomap run [--out out] [--seed 0] [--episodes 4] [--baselines oracle,random]
+
+(``python -m scripts.report`` takes the same arguments.) Stages (the registry
+:data:`~scripts.report.pipeline.STAGES`, each writing into its own folder of ``<out>/report/``,
+each timed; a failing stage stops the run with :class:`StageError` naming it):
+
+1. ``worlds``: a top-down view per world with the dataset's trajectories, and per manifold
+   sample camera frames beside the laser scan drawn on the map (``worlds/``);
+2. ``manifold``: the manifold-clustering reproduction (``scripts.reproduce_manifold``):
+   synthetic and real tables with the paper's numbers beside ours, and its figures;
+3. ``grouping``: the observation grouping (``scripts.eval_grouping``): tables, laser groups,
+   local maps, topological graph and weights;
+4. ``servo``: closed-loop servoing (``servo.evaluate``) per world, the servo policy and the
+   baselines: results per manifold pair, trajectories on the map, episode videos.
+
+``index.html`` references the PNGs and mp4s beside it by relative paths (no external
+resource) and ends with what is needed to reproduce it: settings, seed, versions, commit,
+machine and timings. ``report.json`` holds every number. The HTML is built by small functions
+(``section_*``) of plain dicts, so each can be tested on fake inputs.
+
+Modules: :mod:`~scripts.report.html` (escaping, tables, figures, the page),
+:mod:`~scripts.report.sections` (one builder per section), :mod:`~scripts.report.drawing` and
+:mod:`~scripts.report.stages` (the stages' work), :mod:`~scripts.report.provenance` (versions,
+machine, commit), :mod:`~scripts.report.settings` (:class:`RunSettings`, the errors) and
+:mod:`~scripts.report.pipeline` (the stage registry and :func:`run_pipeline`, which takes the
+stages as an argument: tests pass fake ones).
+"""
+
+from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet, save_png
+from scripts.report.html import (
+    INDEX,
+    STYLE,
+    build_html,
+    esc,
+    figure,
+    fmt,
+    referenced_files,
+    section,
+    table,
+    write_report,
+)
+from scripts.report.pipeline import STAGES, RunContext, Stage, replace_runs, run_pipeline
+from scripts.report.provenance import VERSION_PACKAGES, git_commit, machine, versions
+from scripts.report.sections import (
+    PAPER,
+    section_grouping,
+    section_manifold,
+    section_reproduce,
+    section_servo,
+    section_worlds,
+)
+from scripts.report.settings import REPORT_DIR, OutputError, RunSettings, StageError
+from scripts.report.stages import stage_grouping, stage_manifold, stage_servo, stage_worlds
+
+__all__ = [
+    "INDEX",
+    "PAPER",
+    "REPORT_DIR",
+    "STAGES",
+    "STYLE",
+    "VERSION_PACKAGES",
+    "OutputError",
+    "RunContext",
+    "RunSettings",
+    "Stage",
+    "StageError",
+    "build_html",
+    "esc",
+    "figure",
+    "fmt",
+    "git_commit",
+    "laser_crop",
+    "machine",
+    "manifold_samples",
+    "referenced_files",
+    "replace_runs",
+    "run_pipeline",
+    "sample_sheet",
+    "save_png",
+    "section",
+    "section_grouping",
+    "section_manifold",
+    "section_reproduce",
+    "section_servo",
+    "section_worlds",
+    "stage_grouping",
+    "stage_manifold",
+    "stage_servo",
+    "stage_worlds",
+    "table",
+    "versions",
+    "write_report",
+]

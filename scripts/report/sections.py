@@ -1,0 +1,288 @@
+"""One builder per section of the report page, each of a plain dict (the stage's result), so
+each can be tested on fake inputs; paths in the dicts are relative to the report's root."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from scripts.report.html import esc, figure, fmt, section, table
+
+__all__ = [
+    "PAPER",
+    "section_grouping",
+    "section_manifold",
+    "section_reproduce",
+    "section_servo",
+    "section_worlds",
+]
+
+PAPER = {
+    "manifold": "Grudic & Mulligan, topological mapping with visual manifolds",
+    "grouping": "Blanco et al., observation grouping by sensed-space overlap",
+}
+
+
+def section_worlds(result: dict) -> str:
+    """``result``: {"topdown": {world: path}, "manifolds": {manifold: {"image", "frames"}}}
+    (paths relative to the report's root)."""
+    parts = [
+        "<p>Top-down views: manifold regions in colour, obstacles dark, the dataset's true "
+        "trajectories on them. Per manifold: three camera frames spread over its stretch of "
+        "the route and, right, a 16 m square of the map around the robot at the middle frame "
+        "with its laser scan (red: every 8th ray and every hit).</p>",
+        '<div class="row">',
+        *(figure(p, f"{w}: top-down view and trajectories") for w, p in result["topdown"].items()),
+        "</div>",
+    ]
+    for name, entry in result["manifolds"].items():
+        frames = ", ".join(f"{s} #{i}" for s, i in entry["frames"])
+        parts.append(figure(entry["image"], f"{name}: frames {frames}; laser on the map"))
+    return section("worlds", "The worlds", *parts)
+
+
+def section_manifold(result: dict) -> str:
+    """``result`` of ``scripts.reproduce_manifold.reproduce`` (paths relative to the root)."""
+    synthetic = table(
+        "Synthetic sets: clustering error, ours beside the paper's claim",
+        ("set", "method", "error", "paper"),
+        ([r["set"], r["method"], r["error"], r.get("paper_claim")] for r in result["synthetic"]),
+    )
+    real = table(
+        "Simulated image and laser sequences: clustering error on the map (train: every "
+        "second frame) and on the other frames (test), beside the paper's",
+        ("sensor", "features", "method", "train error", "test error", "paper"),
+        (
+            [
+                r["sensor"],
+                r["features"],
+                r["method"],
+                r["train_error"],
+                r.get("test_error"),
+                r.get("paper_error"),
+            ]
+            for r in result["real"]
+        ),
+    )
+    figs = [figure(p, Path(p).stem.replace("_", " ")) for p in result.get("figures", [])]
+    return section(
+        "manifold",
+        f"Manifold clustering ({PAPER['manifold']})",
+        "<p>Error: the fraction of points in the wrong cluster after the best matching of "
+        "clusters to true manifolds. See docs/manifold-clustering.md for the choices made "
+        "where the paper is ambiguous.</p>" + _no_labels_note(result),
+        synthetic,
+        real,
+        '<div class="row">',
+        *figs,
+        "</div>",
+    )
+
+
+def section_grouping(result: dict, prefix: str = "") -> str:
+    """``result`` of ``scripts.eval_grouping.evaluate_grouping``; figures under ``prefix``."""
+    rows = []
+    for part in ("default", "loop"):
+        for world, entry in result.get(part, {}).items():
+            for variant, s in entry.items():
+                if isinstance(s, dict):
+                    per = " / ".join(str(v) for v in s["groups_per_manifold"].values())
+                    tag = f"{world}-loop" if part == "loop" else world
+                    rows.append(
+                        [
+                            tag,
+                            variant,
+                            s["frames"],
+                            s["groups"],
+                            s["purity"],
+                            s["ari"],
+                            per,
+                            s["max_drift_m"],
+                            s["seconds"],
+                            s["meets_targets"],
+                        ]
+                    )
+    targets = result.get("settings", {}).get("targets", {})
+    purity_min, max_groups = targets.get("purity_min"), targets.get("max_groups_per_manifold")
+    parts = [
+        "<p>Each world's three sequences are grouped together in one observation graph; groups "
+        f"are scored against the true manifolds. Targets: purity &ge; "
+        f"{fmt(purity_min, 2)}, at most {fmt(max_groups)} "
+        "groups per manifold. See docs/observation-grouping.md.</p>" + _no_labels_note(result),
+        table(
+            "Laser observation grouping per world and pose source",
+            (
+                "case",
+                "poses",
+                "frames",
+                "groups",
+                "purity",
+                "ARI",
+                "groups per manifold",
+                "max drift (m)",
+                "time (s)",
+                "targets met",
+            ),
+            rows,
+        ),
+    ]
+    compare = [
+        [
+            world,
+            name,
+            s["groups"],
+            s["purity"],
+            s["ari"],
+            s["max_groups_per_manifold"],
+            s["seconds"],
+        ]
+        for world, entries in result.get("compare", {}).items()
+        for name, s in entries.items()
+    ]
+    if compare:
+        parts.append(
+            table(
+                "Both methods on both sensors (method / sensor)",
+                (
+                    "world",
+                    "method / sensor",
+                    "groups",
+                    "purity",
+                    "ARI",
+                    "max groups per manifold",
+                    "time (s)",
+                ),
+                compare,
+            )
+        )
+    parts.append('<div class="row">')
+    for name in result.get("figures", []):
+        parts.append(figure(f"{prefix}{name}", Path(name).stem.replace("_", " ")))
+    parts.append("</div>")
+    return section("grouping", f"Observation grouping ({PAPER['grouping']})", *parts)
+
+
+def _no_labels_note(result: dict) -> str:
+    """A note for results of a dataset without ground truth (imported from a robot's log)."""
+    if result.get("ground_truth", True):
+        return ""
+    return (
+        "<p><strong>No ground-truth labels</strong> in this dataset (imported from a robot's "
+        "log): the methods ran and their clusters and figures are here, but nothing can be "
+        "scored (&ndash;).</p>"
+    )
+
+
+def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
+    """``results``: ``servo.evaluate.evaluate`` dicts (with ``plot`` relative to the root);
+    ``videos``: per "world/policy", video paths relative to the root."""
+    summary = table(
+        "Closed-loop servoing per world and policy (final distance and heading error: median)",
+        (
+            "world",
+            "policy",
+            "episodes",
+            "success rate",
+            "SPL",
+            "final distance (m)",
+            "heading error (deg)",
+            "steps (successes)",
+            "collisions",
+            "act (ms)",
+            "end reasons",
+        ),
+        (
+            [
+                r["world"],
+                r["policy"],
+                r["episodes"],
+                r["success_rate"],
+                r["spl"],
+                r["final_distance"],
+                r["final_heading_error_deg"],
+                r["steps"],
+                r["collisions"],
+                r["act_ms"],
+                ", ".join(f"{k}: {v}" for k, v in r.get("reasons", {}).items()),
+            ]
+            for r in results
+        ),
+    )
+    pairs = table(
+        "Per manifold pair (start -> target)",
+        (
+            "world",
+            "policy",
+            "start -> target",
+            "episodes",
+            "success rate",
+            "SPL",
+            "final distance (m)",
+            "collisions",
+        ),
+        (
+            [
+                r["world"],
+                r["policy"],
+                pair,
+                s["episodes"],
+                s["success_rate"],
+                s["spl"],
+                s["final_distance"],
+                s["collisions"],
+            ]
+            for r in results
+            for pair, s in r["per_pair"].items()
+        ),
+    )
+    parts = [
+        "<p>Each episode starts the robot somewhere on the map and gives it a stored view to "
+        "reach; success is ending near that view's pose. SPL weighs success by the shortest "
+        "free-space path over the path driven. Baselines: the oracle (follows the shortest "
+        "route with the true pose: the upper bound), random commands (the lower bound), and "
+        "greedy probing of the servo signal when asked for. See docs/servo.md.</p>",
+        summary,
+        pairs,
+        '<div class="row">',
+    ]
+    for r in results:
+        if r.get("plot"):
+            parts.append(
+                figure(
+                    r["plot"],
+                    f"{r['world']} / {r['policy']}: trails (green: success, red: "
+                    "failure), targets as outlines",
+                )
+            )
+    parts.append("</div>")
+    links = [
+        f'<li>{esc(key)}: <a href="{esc(v)}">{esc(Path(v).name)}</a></li>'
+        for key, paths in videos.items()
+        for v in paths
+    ]
+    if links:
+        parts += [
+            "<p>Episode videos (camera view beside the top-down map; MPEG-4, if the browser "
+            "does not play them, open them with a video player):</p>",
+            "<ul>",
+            *links,
+            "</ul>",
+        ]
+    return section("servo", "Closed-loop servoing", *parts)
+
+
+def section_reproduce(info: dict) -> str:
+    """``info``: {"command", "settings", "versions", "machine", "commit", "timings", "total"}."""
+    rows = [[k, v] for k, v in info["settings"].items()]
+    timings = [[k, v] for k, v in info["timings"].items()] + [["total", info["total"]]]
+    return section(
+        "reproduce",
+        "Reproducing this report",
+        f"<p>Command: <code>{esc(info['command'])}</code> at commit "
+        f"<code>{esc(info.get('commit') or 'unknown')}</code> (uncommitted changes are not "
+        "recorded).</p>",
+        table("Settings", ("setting", "value"), rows),
+        table("Versions", ("package", "version"), info["versions"].items()),
+        table("Machine", ("what", "value"), info["machine"].items()),
+        table("Stage timings (s)", ("stage", "seconds"), timings),
+    )
