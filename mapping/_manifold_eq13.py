@@ -63,11 +63,12 @@ def sparse_signal(
     total = w.sum(axis=1)
     out = np.zeros(w.shape[0])
     reach = total > _TINY
-    support = (w > 0.0) & reach[:, None]
-    size = support.sum(axis=1)
+    support = w > 0.0
+    support &= reach[:, None]
+    size = np.count_nonzero(support, axis=1)
     # Rows sorted by |S| and cut into blocks each padded to its own largest |S|: one row
     # near many points does not make every row of a batch pay for an m x m system.
-    order = np.argsort(size, kind="stable")[np.count_nonzero(~reach) :]
+    order = np.argsort(size, kind="stable")[w.shape[0] - np.count_nonzero(reach) :]
     if order.size == 0:
         return out
     step = max(1, _BATCH_ELEMENTS // int(size[order[-1]]) ** 2)
@@ -76,20 +77,22 @@ def sparse_signal(
         r = int(size[rows[-1]])
         # the support's positions first (stable: ascending), then filler with g = 0
         pos = np.argsort(~support[rows], axis=1, kind="stable")[:, :r]
-        ws = np.take_along_axis(w[rows], pos, axis=1)
-        ws[np.arange(r)[None, :] >= size[rows][:, None]] = 0.0
+        rr = rows[:, None]
+        ws = w[rr, pos]
+        if size[rows[0]] < r:
+            ws[np.arange(r)[None, :] >= size[rr]] = 0.0
         root = np.sqrt(ws)
-        g = root / np.sqrt(np.take_along_axis(degrees[cluster[rows]], pos, axis=1))
-        c = cluster[rows][:, None]
-        system = g[:, :, None] * inverse[c[:, :, None], pos[:, :, None], pos[:, None, :]]
-        system *= g[:, None, :]
+        c = cluster[rr]
+        g = root / np.sqrt(degrees[c, pos])
+        system = inverse[c[:, :, None], pos[:, :, None], pos[:, None, :]]
+        system *= g[:, :, None] * g[:, None, :]
         system.reshape(len(rows), r * r)[:, :: r + 1] += 1.0
         v = np.linalg.solve(system, root[:, :, None])[:, :, 0]
-        t = target[rows]
-        toward = np.einsum("kr,kr->k", inverse[c, t[:, None], pos], g * v)
-        d_t = degrees[cluster[rows], t]
-        toward *= np.sqrt((d_t + w[rows, t]) / d_t / total[rows])
+        t = target[rr]
+        toward = np.einsum("kr,kr,kr->k", inverse[c, t, pos], g, v)
+        d_t, total_r, t = degrees[c[:, 0], t[:, 0]], total[rows], t[:, 0]
+        toward *= np.sqrt((d_t + w[rows, t]) / (d_t * total_r))
         a = alpha[rows]
-        gap = np.einsum("kr,kr->k", root, v) / total[rows]  # 1 - s^T A^-1 s
+        gap = np.einsum("kr,kr->k", root, v) / total_r  # 1 - s^T A^-1 s
         out[rows] = (1.0 - a) * a * toward / (1.0 - a * a + a * a * gap)
     return out
