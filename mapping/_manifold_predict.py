@@ -187,19 +187,15 @@ class ClusterModel:
         Uses ``beta = 1 - alpha``. A row whose affinity to every cluster point underflows to 0
         (x is unreachable at sigma_j) gets exactly 0.
         """
-        with single_threaded_blas():
-            return self.signal_unlimited(sq_dist, target)
-
-    def signal_unlimited(self, sq_dist: np.ndarray, target: int) -> np.ndarray:
-        """:meth:`signal` for a caller that already limits BLAS to one thread."""
         w = affinity(sq_dist, self.sigma)
-        if self.inverse is None:
-            return dense_signal(self.weights, self.degrees, self.alpha, w, target)
         k = w.shape[0]
-        return sparse_signal(
-            self.inverse[None], self.degrees[None], w, np.zeros(k, dtype=np.intp),
-            np.full(k, target), np.full(k, self.alpha),
-        )  # fmt: skip
+        with single_threaded_blas():
+            if self.inverse is None:
+                return dense_signal(self.weights, self.degrees, self.alpha, w, target)
+            return sparse_signal(
+                self.inverse[None], self.degrees[None], w, np.zeros(k, dtype=np.intp),
+                np.full(k, target), np.full(k, self.alpha),
+            )  # fmt: skip
 
 
 class Stack:
@@ -277,13 +273,17 @@ class Stack:
         K, k = d2.shape[:2]
         w = np.exp(d2 * self.gain[:, None, None])
         entry = np.repeat(np.arange(K), k)
-        f = sparse_signal(
-            self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
-            self.alphas[entry],
-        ).reshape(K, k)  # fmt: skip
-        for j in self.dense:
-            m = self.models[j]
-            f[j] = dense_signal(m.weights, m.degrees, m.alpha, w[j, :, : self.sizes[j]], m.centre)
+        # Distances above keep all BLAS threads (a big product at image size, as in ``fit``);
+        # the small solves run on one: a second thread only spins there.
+        with single_threaded_blas():
+            f = sparse_signal(
+                self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
+                self.alphas[entry],
+            ).reshape(K, k)  # fmt: skip
+            for j in self.dense:
+                m = self.models[j]
+                w_j = w[j, :, : self.sizes[j]]
+                f[j] = dense_signal(m.weights, m.degrees, m.alpha, w_j, m.centre)
         if normalize:
             f /= self.scales[:, None]
         return f.T, (d2.min(axis=2) * -self.gain[:, None]).T

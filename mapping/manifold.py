@@ -313,8 +313,7 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     # ------------------------------------------------------------------ predict
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
-        with single_threaded_blas():  # small products: a second thread only adds contention
-            return Stack.of(self._models).scores(X, self.normalize == "column")
+        return Stack.of(self._models).scores(X, self.normalize == "column")
 
     def predict(self, X: ArrayLike) -> np.ndarray:
         """Assign new points by eq. 13: ``y = argmax_j F^j(k)``.
@@ -400,5 +399,4 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
                     f"got {target!r}"
                 )
             local = int(hits[0])
-        with single_threaded_blas():  # memory-bound at image size: one thread is 3x faster here
-            return model.signal_unlimited(model.sq_distances(X), local)
+        return model.signal(model.sq_distances(X), local)
