@@ -95,6 +95,9 @@ class ClusterModel:
         Row sums of W.
     scale : float
         Divisor that makes F comparable across clusters in ``predict`` (see the docs).
+    inverse : ndarray of shape (m, m) or None
+        ``H = (I - alpha D^-1/2 W D^-1/2)^-1`` for eq. 13's Woodbury form; None when a training
+        point has degree 0. Derived from the fields on construction (also of a loaded model).
     """
 
     indices: np.ndarray
@@ -110,7 +113,7 @@ class ClusterModel:
     scale: float
 
     def __post_init__(self) -> None:
-        # H of the module docstring: derived, so not a field (saved files keep their layout).
+        # Not a field: saved files keep their layout, and a loaded model derives it again.
         inverse = None
         if (self.degrees > _TINY).all():
             root = 1.0 / np.sqrt(self.degrees)
