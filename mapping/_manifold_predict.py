@@ -119,7 +119,9 @@ class ClusterModel:
             root = 1.0 / np.sqrt(self.degrees)
             A0 = -self.alpha * (root[:, None] * self.weights * root[None, :])
             A0.flat[:: A0.shape[0] + 1] += 1.0
-            inverse = np.linalg.inv(A0)
+            # one thread always: a model loaded from a file must get H bit for bit as in fit
+            with single_threaded_blas():
+                inverse = np.linalg.inv(A0)
             inverse = 0.5 * (inverse + inverse.T)  # symmetric to round-off; exactly, for Woodbury
         object.__setattr__(self, "inverse", inverse)
         object.__setattr__(self, "_stacks", {})
