@@ -3,7 +3,8 @@
 Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
 
 * fit of 600 points, K = 8, Q = 35, at d = 2000 and d = 230400 (a 320x240 RGB image);
-* ``signal`` for one view toward a cluster centre (median of repeated calls);
+* ``signal`` for one view toward a cluster centre and ``predict`` of one view (median of 50
+  calls; ``--one-view`` prints only these and the fits they need);
 * fit time for n = 300, 600, 1200, 2400 (d = 2000) beside sklearn's SpectralClustering.
 
 ``--experiments`` instead prints the tables behind docs/manifold-clustering.md: clustering
@@ -64,7 +65,7 @@ def _one_view_timings(model: ManifoldClustering, held_out: np.ndarray, d: int, t
     )
 
 
-def timings(quick: bool) -> None:
+def timings(quick: bool, one_view: bool = False) -> None:
     print(f"os.cpu_count() = {os.cpu_count()}")
     print(f"OPENBLAS_NUM_THREADS = {os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
     print("\n| case | time |\n|---|---|")
@@ -83,6 +84,8 @@ def timings(quick: bool) -> None:
             f"| fit n=600 K=8 Q=35 d={d} | {t_fit:.2f} s (train err {err_train:.3f}, "
             f"test err {err_test:.3f}) |"
         )
+    if one_view:
+        return
 
     from sklearn.cluster import SpectralClustering
 
@@ -153,8 +156,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes only")
     parser.add_argument("--experiments", action="store_true", help="ambiguity tables instead")
+    parser.add_argument(
+        "--one-view", action="store_true", help="fit and one-view signal/predict rows only"
+    )
     args = parser.parse_args()
-    experiments() if args.experiments else timings(args.quick)
+    experiments() if args.experiments else timings(args.quick, args.one_view)
 
 
 if __name__ == "__main__":

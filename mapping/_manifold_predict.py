@@ -12,10 +12,24 @@ the Schur complement gives the x-row of the inverse, so toward target t
 
     F^j(k) = beta alpha (s^T A^-1 e_t) / (1 - alpha^2 s^T A^-1 s).
 
-A is m x m and SPD (``|eig(R W R)| <= 1`` as a principal block of S^j), so one call costs a
-distance computation, O(m^2) to form A and one small Cholesky solve with two right-hand sides.
-It is exact: no approximation of the degrees. Rows of a batch are solved together with a
-batched ``numpy.linalg.solve``.
+A is m x m and SPD (``|eig(R W R)| <= 1`` as a principal block of S^j). The call is reduced
+to a system the size of the support of w: with ``M0 = D - alpha W`` (D the training degrees),
+``A = R (M0 + diag(w)) R``, so with ``z = (M0 + diag(w))^-1 w``
+
+    F^j(k) = beta alpha z_t sqrt(d_t + w_t) / sqrt(sum w) / (1 - alpha^2 w.z / sum w),
+
+and ``diag(w)`` has rank |S|, S the points with ``w_i > 0`` (Gaussian affinities underflow to
+exactly 0 a few sigma away, so S is usually a handful of points, often none). Woodbury on the
+fit-time inverse ``H = (I - alpha D^-1/2 W D^-1/2)^-1`` (its condition number is at most
+``(1 + alpha) / (1 - alpha)``, unlike M0's) gives, with ``g = sqrt(w_S / d_S)``,
+
+    (I + diag(g) H_SS diag(g)) v = sqrt(w_S),   u = g v,
+    z_t sqrt(d_t + w_t) = sqrt((d_t + w_t) / d_t) H_tS . u,   w.z = sum w - sqrt(w_S) . v,
+
+an |S| x |S| SPD system whose eigenvalues are >= 1. It is exact (no degree is approximated or
+affinity dropped: entries outside S are exactly 0). A cluster with a training point of degree
+0 has no H and keeps the dense solve of A. Both solvers are in :mod:`mapping._manifold_eq13`;
+rows and clusters of a batch are solved together, sorted by |S| and padded with identity rows.
 
 The distances: the cluster's centred points are kept as coordinates in an orthonormal basis of
 their span (r x d, from the eigendecomposition of their Gram matrix) plus the squared norm of
@@ -27,26 +41,28 @@ singular value below 1e-10 of the largest are dropped, so the omission is at the
 float32 round-off); with ``tol > 0`` the weakest directions holding at most a fraction ``tol``
 of the cluster's energy are dropped too (image noise, mostly), and the omitted term is bounded
 by ``2 |x_perp| |r_i|`` (Cauchy-Schwarz) and near 0 for noise independent of the training
-points'. ``predict`` computes all clusters' distances with :func:`sq_distances_all`.
+points'. ``predict`` goes through :class:`Stack`: every cluster's arrays padded to one size,
+so one view costs one projection per cluster and a few batched numpy calls, not K of each.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import _TINY, affinity
 from mapping._validation import single_threaded_blas
 
-# Rows per batched solve: bounds the (rows, m, m) work array to ~32 MB.
-_BATCH_ELEMENTS = 4_000_000
 # Query elements centred at once (~32 MB of float64).
 _CENTRE_ELEMENTS = 4_000_000
 # Directions of a cluster's span with a squared singular value below this fraction of the
 # largest are numerically zero: kept in the residual norms, not in the basis (dividing by their
 # singular value would amplify round-off into the basis).
 _RANK_FLOOR = 1e-10
+# Queries at most this many elements (rows x d) take the stacked path of ``Stack.scores``.
+_STACK_ELEMENTS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -79,6 +95,9 @@ class ClusterModel:
         Row sums of W.
     scale : float
         Divisor that makes F comparable across clusters in ``predict`` (see the docs).
+    inverse : ndarray of shape (m, m) or None
+        ``H = (I - alpha D^-1/2 W D^-1/2)^-1`` for eq. 13's Woodbury form; None when a training
+        point has degree 0. Derived from the fields on construction (also of a loaded model).
     """
 
     indices: np.ndarray
@@ -92,6 +111,20 @@ class ClusterModel:
     weights: np.ndarray
     degrees: np.ndarray
     scale: float
+
+    def __post_init__(self) -> None:
+        # Not a field: saved files keep their layout, and a loaded model derives it again.
+        inverse = None
+        if (self.degrees > _TINY).all():
+            root = 1.0 / np.sqrt(self.degrees)
+            A0 = -self.alpha * (root[:, None] * self.weights * root[None, :])
+            A0.flat[:: A0.shape[0] + 1] += 1.0
+            # one thread always: a model loaded from a file must get H bit for bit as in fit
+            with single_threaded_blas():
+                inverse = np.linalg.inv(A0)
+            inverse = 0.5 * (inverse + inverse.T)  # symmetric to round-off; exactly, for Woodbury
+        object.__setattr__(self, "inverse", inverse)
+        object.__setattr__(self, "_stacks", {})
 
     @classmethod
     def build(
@@ -131,7 +164,7 @@ class ClusterModel:
         return model.with_scale(_column_scale(W, alpha, centre))
 
     def with_scale(self, scale: float) -> ClusterModel:
-        return ClusterModel(**{**self.__dict__, "scale": scale})
+        return replace(self, scale=scale)
 
     def sq_distances(self, X: np.ndarray) -> np.ndarray:
         """Squared distances (k, m) of rows of X to the cluster's points, clipped at 0.
@@ -160,34 +193,105 @@ class ClusterModel:
         (x is unreachable at sigma_j) gets exactly 0.
         """
         w = affinity(sq_dist, self.sigma)
-        total = w.sum(axis=1)
-        out = np.zeros(sq_dist.shape[0])
-        rows = np.flatnonzero(total > _TINY)
-        m = self.degrees.shape[0]
-        step = max(1, _BATCH_ELEMENTS // (m * m))
+        k = w.shape[0]
         with single_threaded_blas():
-            for start in range(0, rows.shape[0], step):
-                r = rows[start : start + step]
-                out[r] = self._signal_rows(w[r], total[r], target)
-        return out
+            if self.inverse is None:
+                return dense_signal(self.weights, self.degrees, self.alpha, w, target)
+            return sparse_signal(
+                self.inverse[None], self.degrees[None], w, np.zeros(k, dtype=np.intp),
+                np.full(k, target), np.full(k, self.alpha),
+            )  # fmt: skip
 
-    def _signal_rows(self, w: np.ndarray, total: np.ndarray, target: int) -> np.ndarray:
-        alpha = self.alpha
-        deg = self.degrees[None, :] + w
-        # A training point with no neighbour and no edge to x keeps a zero row in S^j.
-        inv_sqrt = np.zeros_like(deg)
-        np.divide(1.0, np.sqrt(deg), out=inv_sqrt, where=deg > _TINY)
-        A = -alpha * (inv_sqrt[:, :, None] * self.weights[None] * inv_sqrt[:, None, :])
-        idx = np.arange(deg.shape[1])
-        A[:, idx, idx] += 1.0
-        s = inv_sqrt * w / np.sqrt(total)[:, None]
-        rhs = np.zeros((deg.shape[0], deg.shape[1], 2))
-        rhs[:, target, 0] = 1.0
-        rhs[:, :, 1] = s
-        sol = np.linalg.solve(A, rhs)
-        toward = np.einsum("ki,ki->k", s, sol[:, :, 0])
-        self_loop = np.einsum("ki,ki->k", s, sol[:, :, 1])
-        return (1.0 - alpha) * alpha * toward / (1.0 - alpha * alpha * self_loop)
+
+class Stack:
+    """Every cluster's arrays padded to the largest cluster, for ``predict`` of a few views.
+
+    Padding: zero basis coordinates and an infinite squared norm (a padded point is at
+    infinite distance, affinity exactly 0), H = 0 and degree 1 (never in a support).
+    """
+
+    def __init__(self, models: tuple[ClusterModel, ...]) -> None:
+        self.models = models
+        K = len(models)
+        sizes = [m.indices.shape[0] for m in models]
+        n, r = max(sizes), max(m.basis.shape[0] for m in models)
+        self.sizes = np.array(sizes)
+        self.ranks = [m.basis.shape[0] for m in models]
+        self.coords_t = np.zeros((K, r, n))
+        self.sq_norms = np.full((K, n), np.inf)
+        self.inverse = np.zeros((K, n, n))
+        self.degrees = np.ones((K, n))
+        for j, m in enumerate(models):
+            size, rank = sizes[j], self.ranks[j]
+            self.coords_t[j, :rank, :size] = m.coords.T
+            self.sq_norms[j, :size] = m.sq_norms
+            if m.inverse is not None:  # else H = 0, d = 1: harmless until dense_signal's turn
+                self.inverse[j, :size, :size] = m.inverse
+                self.degrees[j, :size] = m.degrees
+        self.dense = [j for j, m in enumerate(models) if m.inverse is None]
+        self.centres = np.array([m.centre for m in models], dtype=np.intp)
+        self.alphas = np.array([m.alpha for m in models])
+        self.scales = np.array([m.scale for m in models])
+        self.gain = np.array([-0.5 / (m.sigma * m.sigma) for m in models])
+
+    @classmethod
+    def of(cls, models: list[ClusterModel]) -> Stack:
+        """The stack of these models, built once and kept by the first of them."""
+        cache = models[0]._stacks
+        key = tuple(map(id, models))
+        hit = cache.get(key)
+        # the stack holds the models, so while cached their ids cannot be reused
+        if hit is None or any(a is not b for a, b in zip(hit.models, models, strict=True)):
+            hit = cache[key] = cls(tuple(models))
+        return hit
+
+    def sq_distances(self, X: np.ndarray) -> np.ndarray:
+        """``ClusterModel.sq_distances`` of every cluster, (K, k, n), padding at infinity.
+
+        Each cluster's projection is the same float32/float64 product as the cluster's own
+        (bit for bit); only the float64 coordinates product is batched.
+        """
+        k, d = X.shape
+        K, r = self.coords_t.shape[:2]
+        if k * d > _STACK_ELEMENTS:
+            d2 = np.full((K, k, self.sq_norms.shape[1]), np.inf)
+            for j, part in enumerate(sq_distances_all(list(self.models), X)):
+                d2[j, :, : self.sizes[j]] = part
+            return d2
+        centred = np.empty((k, d))
+        q = np.empty((K, k, 1))
+        c = np.zeros((K, k, r))
+        for j, m in enumerate(self.models):
+            np.subtract(X, m.mean, out=centred)
+            q[j, :, 0] = np.einsum("ij,ij->i", centred, centred)
+            c[j, :, : self.ranks[j]] = np.asarray(centred, dtype=m.basis.dtype) @ m.basis.T
+        d2 = c @ self.coords_t
+        d2 *= -2.0
+        d2 += q
+        d2 += self.sq_norms[:, None, :]
+        return np.maximum(d2, 0.0, out=d2)
+
+    def scores(self, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np.ndarray]:
+        """F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``,
+        and ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K) for the rows where every F is 0."""
+        d2 = self.sq_distances(X)
+        K, k = d2.shape[:2]
+        w = np.exp(d2 * self.gain[:, None, None])
+        entry = np.repeat(np.arange(K), k)
+        # Distances above keep all BLAS threads (a big product at image size, as in ``fit``);
+        # the small solves run on one: a second thread only spins there.
+        with single_threaded_blas():
+            f = sparse_signal(
+                self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
+                self.alphas[entry],
+            ).reshape(K, k)  # fmt: skip
+            for j in self.dense:
+                m = self.models[j]
+                w_j = w[j, :, : self.sizes[j]]
+                f[j] = dense_signal(m.weights, m.degrees, m.alpha, w_j, m.centre)
+        if normalize:
+            f /= self.scales[:, None]
+        return f.T, (d2.min(axis=2) * -self.gain[:, None]).T
 
 
 def sq_distances_all(models: list[ClusterModel], X: np.ndarray) -> list[np.ndarray]:

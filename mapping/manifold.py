@@ -20,7 +20,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from mapping._manifold_kernel import SpectralBasis, outlier_vector
-from mapping._manifold_predict import ClusterModel, sq_distances_all
+from mapping._manifold_predict import ClusterModel, Stack
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import (
     COMBINE_RULES,
@@ -313,14 +313,7 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     # ------------------------------------------------------------------ predict
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
-        scores = np.empty((X.shape[0], len(self._models)))
-        nearest = np.empty_like(scores)
-        dists = sq_distances_all(self._models, X)
-        for j, (model, d2) in enumerate(zip(self._models, dists, strict=True)):
-            f = model.signal(d2, model.centre)
-            scores[:, j] = f / model.scale if self.normalize == "column" else f
-            nearest[:, j] = d2.min(axis=1) / (2.0 * model.sigma**2)
-        return scores, nearest
+        return Stack.of(self._models).scores(X, self.normalize == "column")
 
     def predict(self, X: ArrayLike) -> np.ndarray:
         """Assign new points by eq. 13: ``y = argmax_j F^j(k)``.
