@@ -235,7 +235,7 @@ def _iterate(
     reach = max(float(np.abs(s).max()) for s in sources) + float(np.abs(pose[pairs, :2]).max())
     reach += max(float(np.abs(t).max()) for t in targets) + 2.0 * max_distance + 1.0
     shift = 2.0 * reach * np.arange(len(pairs))  # row k's target lies at x + shift[k]
-    stacked = np.concatenate([t + (s, 0.0) for t, s in zip(targets, shift)])
+    stacked = np.concatenate([t + (s, 0.0) for t, s in zip(targets, shift, strict=True)])
     if tree is None:
         tree = cKDTree(stacked)
     elif tree.n != len(stacked):

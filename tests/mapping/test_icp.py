@@ -119,9 +119,10 @@ def test_icp_batch_matches_exact_nearest_neighbour_icp(office):
     idx = np.arange(1, len(scans), 3)
     sources = [scans[i] for i in idx]
     targets = [densify_scan(scans[i - 1], spacing=0.05) for i in idx]
-    inits = se2_relative(poses[idx - 1], poses[idx]) + rng.normal(0, [0.08, 0.08, 0.04], (len(idx), 3))
+    noise = rng.normal(0, [0.08, 0.08, 0.04], (len(idx), 3))
+    inits = se2_relative(poses[idx - 1], poses[idx]) + noise
     batch = icp_batch(sources, targets, inits)
-    for k, (src, tgt, init) in enumerate(zip(sources, targets, inits)):
+    for k, (src, tgt, init) in enumerate(zip(sources, targets, inits, strict=True)):
         ref, converged = _brute_force_icp(src, tgt, init)
         assert batch.converged[k] == converged
         np.testing.assert_allclose(batch.transforms[k], ref, atol=1e-9)
