@@ -18,9 +18,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from common.geometry import transform_points
 from mapping.ncut import partition_checked
 from mapping.overlap import _voxel_offsets
-from mapping.topology import transform_points
 
 __all__ = ["VoxelOverlapIndex", "add_scans", "repartition"]
 

@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.topology import transform_points
+from common.geometry import transform_points
 
 __all__ = ["check_scans_and_poses", "sensed_space_overlap", "voxel_incidence", "world_points"]
 

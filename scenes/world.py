@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import atomic_write_bytes
 from scenes import names
-from scenes.fileio import atomic_write_bytes
 from scenes.regions import Footprint, ManifoldMap, OccupancyGrid, Route, rasterise_free_space
 
 # Domain randomisation table, as Miniworld's params: name -> (default, low, high). Without an

@@ -202,7 +202,7 @@ def cmd_servo_eval(args) -> int:
                          args.policy, workers=args.workers, progress=not args.json)  # fmt: skip
         results.append(r)
     if args.out:
-        from scenes.fileio import atomic_write_bytes
+        from common.fileio import atomic_write_bytes
 
         name = f"servo-eval-{args.tier}-{args.split}-{args.policy}.json"
         Path(args.out).mkdir(parents=True, exist_ok=True)

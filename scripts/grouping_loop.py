@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import write_json
 from scenes import names
 from scenes.regions import Route
 from sim import dataset as ds
@@ -111,5 +112,5 @@ def collect_loop(
     arrays = collect_sequence(settings, index, world_name, name, tick)
     entry = {"file": f"{name}.npz", "world": world_name, "frames": frames}
     entry["sha256"] = ds.write_sequence(cache_dir / entry["file"], arrays)
-    ds.write_json(meta_path, {"key": key, "entry": entry})
+    write_json(meta_path, {"key": key, "entry": entry})
     return ds.load_sequence(cache_dir, name, entry)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mapping.topology import se2_relative
+from common.geometry import se2_relative
 from scenes import World
 from servo.geodesic import GeodesicField
 from servo.localise import ImageLocaliser

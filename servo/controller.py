@@ -28,9 +28,8 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from mapping.features import scan_to_points
+from common.geometry import scan_to_points, se2_compose, se2_relative, transform_points, wrap_angle
 from mapping.icp import densify_scan, icp
-from mapping.topology import se2_compose, se2_relative, transform_points, wrap_angle
 from servo.map_store import MapError, ServoMap
 from servo.steering import Arrival, pursue
 from sim.simulator import CONTROL_DT

@@ -8,7 +8,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from mapping.topology import se2_relative, wrap_angle
+from common.geometry import se2_relative, wrap_angle
 from scenes import MANIFOLDS
 from servo.map_store import MapError, ServoMap, load_map, load_or_build
 from sim.env import NavigationEnv

@@ -11,7 +11,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from mapping.features import ImageFeatures, scan_to_points
+from common.geometry import scan_to_points
+from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
 from scenes import MANIFOLDS
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mapping.topology import se2_compose, se2_relative, wrap_angle
+from common.geometry import se2_compose, se2_relative, wrap_angle
 from servo.localise import ImageLocaliser
 from servo.map_types import ServoMap
 from servo.route import RouteGraph

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import write_json
 from scenes import World, build_world, names
 from sim import dataset as ds
 from sim.camera import CameraConfig
@@ -210,7 +211,7 @@ def collect_dataset(
         else:
             _remove_dataset(directory, old)
     todo = [s for s in settings.sequences() if s[2] not in meta["sequences"]]
-    ds.write_json(directory / ds.META_FILE, meta)
+    write_json(directory / ds.META_FILE, meta)
     bar = tqdm(
         total=len(todo) * settings.frames,
         unit="frame",
@@ -223,7 +224,7 @@ def collect_dataset(
             for index, world, route in todo:
                 name, entry = _collect_to_file_inline(settings, index, world, route, directory, bar)
                 meta["sequences"][name] = entry
-                ds.write_json(directory / ds.META_FILE, meta)
+                write_json(directory / ds.META_FILE, meta)
         else:
             ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
             queue = ctx.Queue()
@@ -240,7 +241,7 @@ def collect_dataset(
                         pending.discard(f)
                         name, entry = f.result()
                         meta["sequences"][name] = entry
-                        ds.write_json(directory / ds.META_FILE, meta)
+                        write_json(directory / ds.META_FILE, meta)
                     _drain(queue, bar, timeout=0.2)
                 _drain(queue, bar, timeout=0.0)
     finally:
@@ -248,7 +249,7 @@ def collect_dataset(
     # Sequences in the canonical order, whatever order the workers finished in.
     meta["sequences"] = {r: meta["sequences"][r] for _, _, r in settings.sequences()}
     meta["complete"] = True
-    ds.write_json(directory / ds.META_FILE, meta)
+    write_json(directory / ds.META_FILE, meta)
     return directory
 
 

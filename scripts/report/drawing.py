@@ -1,26 +1,11 @@
-"""Drawing for the ``worlds`` stage: PNG writing, per manifold sample frames, the laser scan
+"""Drawing for the ``worlds`` stage: per manifold sample frames, the laser scan
 on a crop of the map, and the contact sheet of the samples."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from scenes.fileio import atomic_write_bytes
-
-__all__ = ["laser_crop", "manifold_samples", "sample_sheet", "save_png"]
-
-
-def save_png(path: Path, rgb: np.ndarray) -> Path:
-    import cv2
-
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
-    if not ok:
-        raise RuntimeError(f"could not encode {path}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, buf.tobytes())
-    return path
+__all__ = ["laser_crop", "manifold_samples", "sample_sheet"]
 
 
 def manifold_samples(dataset) -> dict[int, tuple]:
