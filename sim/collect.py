@@ -74,7 +74,9 @@ class CollectionSettings:
 
 
 @lru_cache(maxsize=4)
-def _world(name: str, seed: int, randomize: bool) -> World:
+def collection_world(name: str, seed: int, randomize: bool) -> World:
+    """The world a collection of ``seed`` drives in: canonical, or (``randomize``) the
+    randomised draw of that seed and world; built once per process."""
     rng = np.random.default_rng([seed, 1000 + names.WORLDS.index(name)]) if randomize else None
     return build_world(name, rng)
 
@@ -83,7 +85,7 @@ def collect_sequence(
     settings: CollectionSettings, index: int, world_name: str, route_name: str, tick=None
 ) -> dict[str, np.ndarray]:
     """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays."""
-    world = _world(world_name, settings.seed, settings.randomize)
+    world = collection_world(world_name, settings.seed, settings.randomize)
     teleop_rng, noise_rng, odo_rng = np.random.default_rng([settings.seed, index]).spawn(3)
     sim = Simulator(world, settings.camera, settings.laser, settings.odometry, TELEOP_CONTROL_DT)
     try:

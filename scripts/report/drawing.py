@@ -38,7 +38,7 @@ def laser_crop(view, pose, scan, angles, trail, size: int, half_m: float = 8.0) 
         cv2.line(img, tuple(c), tuple(p), (240, 120, 120), 1, cv2.LINE_AA)
     for p in px:
         cv2.circle(img, tuple(p), 2, (220, 20, 20), -1)
-    view._robot(img, pose, (30, 30, 30))
+    view.draw_robot(img, pose, (30, 30, 30))
     half = int(half_m * view.scale)
     img = cv2.copyMakeBorder(img, half, half, half, half, cv2.BORDER_CONSTANT, value=(60,) * 3)
     crop = img[c[1] : c[1] + 2 * half, c[0] : c[0] + 2 * half]
