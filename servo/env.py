@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import os
-from numbers import Real
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from common.geometry import se2_relative, wrap_angle
+from common.validation import check_finite, check_int
 from scenes import MANIFOLDS
 from servo.map_store import MapError, ServoMap, load_map, load_or_build
 from servo.registration import MAX_EPISODE_STEPS
@@ -103,19 +103,10 @@ class ServoEnv(gym.Env):
                 f"{type(servo_map).__name__}"
             )
         servo_map.check_world(world)
-        if int(max_steps) != max_steps or max_steps < 1:
-            raise ValueError(f"max_steps must be an integer >= 1, got {max_steps}")
-        weights = {
-            "signal_weight": signal_weight,
-            "success_reward": success_reward,
-            "collision_penalty": collision_penalty,
-        }
-        for name, value in weights.items():
-            if isinstance(value, bool) or not isinstance(value, Real) or not np.isfinite(value):
-                raise ValueError(f"{name} must be a finite number, got {value!r}")
-        self.signal_weight = float(signal_weight)
-        self.success_reward = float(success_reward)
-        self.collision_penalty = float(collision_penalty)
+        check_int(max_steps, "max_steps")
+        self.signal_weight = check_finite(signal_weight, "signal_weight")
+        self.success_reward = check_finite(success_reward, "success_reward")
+        self.collision_penalty = check_finite(collision_penalty, "collision_penalty")
         self.map = servo_map
         self.max_steps = int(max_steps)
         self.cross_manifold = bool(cross_manifold)

@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 
 from common.fileio import write_png
+from common.validation import check_int
 from scenes import WORLDS
 from servo.baselines import GreedyFProbing, OraclePolicy, RandomPolicy
 from servo.controller import ManifoldServo
@@ -248,8 +249,7 @@ def evaluate(
     """
     from tqdm.auto import tqdm
 
-    if int(episodes) != episodes or episodes < 1:
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes}")
+    check_int(episodes, "episodes")
     if policy not in POLICIES:
         raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
     if world not in WORLDS:

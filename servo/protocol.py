@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.validation import check_int
 from scenes import MANIFOLDS, WORLDS
 
 TIERS = ("view", "anywhere")
@@ -53,8 +54,7 @@ class Protocol:
             raise ValueError(f"tier must be one of {TIERS}, got {self.tier!r}")
         if self.split not in SPLITS:
             raise ValueError(f"split must be one of {SPLITS}, got {self.split!r}")
-        if int(self.max_steps) != self.max_steps or self.max_steps < 1:
-            raise ValueError(f"max_steps must be an integer >= 1, got {self.max_steps}")
+        check_int(self.max_steps, "max_steps")
 
 
 @dataclass(frozen=True)
@@ -74,8 +74,7 @@ def manifold_pairs(true_labels: np.ndarray) -> list[tuple[str, str]]:
 def episode_specs(protocol: Protocol, true_labels: np.ndarray, episodes: int) -> list[EpisodeSpec]:
     """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
     one). Seeds depend on the split and the world only, so tiers and settings share episodes."""
-    if int(episodes) != episodes or episodes < 1:
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes}")
+    check_int(episodes, "episodes")
     pairs = manifold_pairs(true_labels)
     if not pairs:
         raise ValueError("the map needs stored views on at least two manifolds")
