@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.topology import run_starts_from_groups, se2_compose, se2_relative
+from common.geometry import se2_compose, se2_relative
+from mapping.topology import run_starts_from_groups
 
 __all__ = ["IcpBatchResult", "IcpResult", "densify_scan", "icp", "icp_batch", "refine_poses"]
 

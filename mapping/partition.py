@@ -20,13 +20,14 @@ from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator, ClusterMixin
 from sklearn.utils._param_validation import Interval, StrOptions
 
+from common.geometry import se2_compose, se2_relative
 from mapping.icp import refine_poses
 from mapping.incremental import VoxelOverlapIndex, add_scans
 from mapping.ncut import (
     ASSOC,
     LAPLACIAN,
     SOLVERS,
-    SplitNode,
+    NcutNode,
     check_weights,
     recursive_ncut_partition,
 )
@@ -37,8 +38,6 @@ from mapping.topology import (
     build_topology,
     group_frames,
     run_starts_from_groups,
-    se2_compose,
-    se2_relative,
 )
 
 __all__ = ["ObservationGraphPartitioner"]
@@ -99,7 +98,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         Group of each scan, numbered in order of first appearance.
     affinity_matrix_ : scipy.sparse.csr_array of shape (N, N)
         The weights ``W``: the sensed-space overlap (eq. 18), or the precomputed matrix.
-    split_tree_ : SplitNode
+    split_tree_ : NcutNode
         The recursive bisection with each Ncut (indices into all scans).
     n_groups_ : int
     poses_ : ndarray of shape (N, 3)
@@ -225,7 +224,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
             labels[kept] = sub_labels
             _reindex(tree, kept)
         else:
-            tree = SplitNode(np.arange(0), None)
+            tree = NcutNode(np.arange(0))
         if self.empty_scans == "nearest":
             labels = _fill_from_nearest(labels, starts)
         self.poses_ = poses
@@ -375,7 +374,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
             )
         return self.voxel_size
 
-    def _partition(self, W) -> tuple[np.ndarray, SplitNode]:
+    def _partition(self, W) -> tuple[np.ndarray, NcutNode]:
         return recursive_ncut_partition(
             W,
             self.threshold,
@@ -386,7 +385,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         )
 
 
-def _reindex(tree: SplitNode, kept: np.ndarray) -> None:
+def _reindex(tree: NcutNode, kept: np.ndarray) -> None:
     """Map the tree's indices from the partitioned subset back to all scans."""
     for node in tree.walk():
         node.indices = kept[node.indices]
