@@ -23,15 +23,27 @@ RANDOMIZATION: dict[str, tuple[float, float, float]] = {
     "clutter_shift": (0.0, -0.5, 0.5),  # m, furniture and posters slid along their wall
 }
 TEXTURE_SEED = 20_040_607  # canonical textures: fixed noise, part of the world's identity
+# How the manifolds of a world differ in look. "default": each branch has its own wall, floor
+# and light colour (a colour histogram tells them apart). "hard": every branch shares the main
+# manifold's wall, floor (ground) and light materials, so only the layout (branch directions,
+# lengths, furniture and landmarks) tells them apart (issue 13, item 5).
+APPEARANCE_MODES = ("default", "hard")
 
 
 @dataclass(frozen=True)
 class Appearance:
-    """One draw from :data:`RANDOMIZATION` plus the generator that made the textures."""
+    """One draw from :data:`RANDOMIZATION` plus the generator that made the textures, and the
+    appearance mode (one of :data:`APPEARANCE_MODES`)."""
 
     params: dict
     texture_rng: np.random.Generator = field(compare=False, repr=False)
     rng: np.random.Generator | None = field(compare=False, repr=False, default=None)
+    mode: str = "default"
+
+    @property
+    def shared_materials(self) -> bool:
+        """Whether every branch wears the main manifold's wall, floor and light materials."""
+        return self.mode == "hard"
 
     def __getitem__(self, key: str) -> float:
         return self.params[key]
@@ -59,16 +71,26 @@ class Appearance:
         return float(self.rng.uniform(*RANDOMIZATION[key][1:]))
 
 
-def draw_appearance(rng: np.random.Generator | None) -> Appearance:
-    """Defaults and canonical textures without an RNG; a randomised draw with one."""
+def check_appearance_mode(mode) -> str:
+    """``mode`` if it is one of :data:`APPEARANCE_MODES`, else a ValueError naming them."""
+    if not isinstance(mode, str) or mode not in APPEARANCE_MODES:
+        raise ValueError(f"appearance must be one of {APPEARANCE_MODES}, got {mode!r}")
+    return mode
+
+
+def draw_appearance(rng: np.random.Generator | None, mode: str = "default") -> Appearance:
+    """Defaults and canonical textures without an RNG; a randomised draw with one. ``mode``
+    only changes which materials the builders assign, never what the generators draw, so a
+    hard world has the same textures, lights and clutter draws as its default twin."""
+    mode = check_appearance_mode(mode)
     if rng is None:
         params = {k: v[0] for k, v in RANDOMIZATION.items()}
-        return Appearance(params, np.random.default_rng(TEXTURE_SEED), None)
+        return Appearance(params, np.random.default_rng(TEXTURE_SEED), None, mode)
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__}")
     params = {k: float(rng.uniform(lo, hi)) for k, (_, lo, hi) in RANDOMIZATION.items()}
     texture_rng, layout_rng = rng.spawn(2)
-    return Appearance(params, texture_rng, layout_rng)
+    return Appearance(params, texture_rng, layout_rng, mode)
 
 
 @dataclass
@@ -93,6 +115,10 @@ class World:
         Teleop routes, one per branch: main manifold, then the branch.
     appearance : dict
         The randomisation parameters this world was built with.
+    randomized : bool
+        Whether those were drawn (else the defaults).
+    appearance_mode : str
+        One of :data:`APPEARANCE_MODES`.
     """
 
     name: str
@@ -104,6 +130,7 @@ class World:
     routes: dict[str, Route]
     appearance: dict
     randomized: bool = False
+    appearance_mode: str = "default"
 
     @classmethod
     def from_scene(
@@ -126,6 +153,7 @@ class World:
             routes=routes,
             appearance=dict(app.params),
             randomized=app.rng is not None,
+            appearance_mode=app.mode,
         )
 
     def manifold_at(self, xy) -> np.ndarray:
@@ -157,7 +185,9 @@ def _free_space_cached(world: World, resolution: float, inflation: float) -> Occ
     )
 
 
-def build_world(name: str, rng: np.random.Generator | None = None) -> World:
+def build_world(
+    name: str, rng: np.random.Generator | None = None, appearance: str = "default"
+) -> World:
     """Build a world by name.
 
     Parameters
@@ -167,10 +197,13 @@ def build_world(name: str, rng: np.random.Generator | None = None) -> World:
         Without one, the canonical world (fixed textures, default lights and clutter). With one,
         a domain-randomised variant (textures, colours, lighting, clutter placement), the same
         for the same generator state.
+    appearance : {"default", "hard"}
+        ``"hard"``: every branch shares the main manifold's wall, floor and light materials
+        (see :data:`APPEARANCE_MODES`); the geometry is that of the default world.
     """
     if name not in names.WORLDS:
         raise ValueError(f"world must be one of {names.WORLDS}, got {name!r}")
-    appearance = draw_appearance(rng)
+    appearance = draw_appearance(rng, appearance)
     if name == names.HALLWAY:
         from scenes.hallway import build_hallway
 

@@ -44,6 +44,7 @@ def _settings(args):
         frames=args.frames,
         seed=args.seed,
         randomize=args.randomize,
+        appearance=args.appearance,
         camera=CameraConfig(width=args.width, height=args.height, depth=args.depth),
         laser=LaserConfig(beams=args.beams, max_range=args.max_range),
         teleop=TeleopConfig().scaled(args.teleop_jitter),
@@ -233,6 +234,7 @@ def cmd_servo_eval(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from scenes import WORLDS
+    from scenes.world import APPEARANCE_MODES
 
     p = argparse.ArgumentParser(prog="topomap", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
@@ -243,6 +245,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--frames", type=_positive_int, default=150, help="frames per sequence")
     c.add_argument("--randomize", action="store_true", help="domain-randomised worlds")
+    c.add_argument(
+        "--appearance",
+        choices=APPEARANCE_MODES,
+        default="default",
+        help="hard: every branch shares the main manifold's wall, floor and light materials, "
+        "so only the layout tells the manifolds apart (default: each its own)",
+    )
     c.add_argument(
         "--teleop-jitter",
         type=_non_negative_float,

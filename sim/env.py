@@ -55,7 +55,8 @@ class NavigationEnv(gym.Env):
         ``world`` ("hallway" | "lawn"), ``render_mode`` (None | "rgb_array": a top-down map
         with the robot, its laser and its trail), ``camera`` (CameraConfig), ``laser``
         (LaserConfig), ``odometry`` (OdometryConfig), ``sensors`` (subset of
-        ("image", "scan")), ``randomize`` (re-draw lights and colours each reset).
+        ("image", "scan")), ``randomize`` (re-draw lights and colours each reset),
+        ``appearance`` ("default" | "hard": every branch in the main manifold's materials).
 
     Version History
         v0: initial version.
@@ -72,6 +73,7 @@ class NavigationEnv(gym.Env):
         odometry: OdometryConfig | None = None,
         sensors: tuple[str, ...] = SENSORS,
         randomize: bool = False,
+        appearance: str = "default",
     ):
         if world not in WORLDS:
             raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
@@ -89,7 +91,7 @@ class NavigationEnv(gym.Env):
         self.randomize = randomize
         self.camera_config = camera or CameraConfig()
         self.laser_config = laser or LaserConfig()
-        self.world = build_world(world)
+        self.world = build_world(world, appearance=appearance)
         self.sim = Simulator(
             self.world,
             self.camera_config if "image" in sensors else None,

@@ -75,3 +75,16 @@ def test_run_cells_skips_missing_and_broken_datasets(tmp_path, capsys):
     assert "skipped interleaved/hsv/seed 0: dataset not collected yet" in printed
     assert "skipped interleaved/hsv/seed 1:" in printed
     assert list((out / "cells").iterdir()) == []
+
+
+def test_a_dataset_made_for_another_condition_is_refused(tmp_path):
+    from scripts.manifold_protocol import cell, dataset_dir
+    from sim.camera import CameraConfig
+    from sim.collect import CollectionSettings, collect_dataset
+
+    settings = CollectionSettings(worlds=("lawn",), frames=4, camera=CameraConfig(32, 24))
+    collect_dataset(dataset_dir(tmp_path, 0, "hard"), settings, jobs=1, progress=False)
+    with pytest.raises(ValueError, match="condition 'hard' needs a dataset collected with"):
+        cell(tmp_path, "hard", "hsv", 0)
+    assert dataset_dir(tmp_path, 0, "hard").name == "m-data-h0"
+    assert dataset_dir(tmp_path, 0, "randomized").name == "m-data-r0"
