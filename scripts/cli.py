@@ -132,6 +132,7 @@ def cmd_run(args) -> int:
         videos=args.videos,
         grouping_loop=args.grouping_loop,
         jobs=args.jobs,
+        protocol=args.protocol,
     )
     rest = [
         f"--seed {args.seed}",
@@ -140,6 +141,7 @@ def cmd_run(args) -> int:
         f"--videos {args.videos}",
     ]
     rest += ["--grouping-loop"] * args.grouping_loop
+    rest += [f"--protocol {args.protocol}"] * (args.protocol is not None)
     start = time.perf_counter()
     try:
         index = run_pipeline(
@@ -320,6 +322,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--videos", type=int, default=1, help="servo episode videos per world")
     r.add_argument("--grouping-loop", action="store_true", help="also group a loop per world")
+    r.add_argument(
+        "--protocol",
+        default=None,
+        metavar="DIR",
+        help="a folder written by python -m scripts.manifold_protocol --out DIR: the report "
+        "shows its per-seed manifold-clustering errors (the run does not compute them)",
+    )
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.set_defaults(func=cmd_run)
 

@@ -145,14 +145,41 @@ def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=
 
 
 def load_cells(out: Path) -> list[dict]:
-    """Every cached cell under ``out/cells``, checked for the fields the summary reads."""
+    """Every cached cell under ``out/cells``, checked for the fields the summary reads (the
+    files may come from elsewhere: the report reads a folder it is given)."""
     cells = []
     for path in sorted((Path(out) / "cells").glob("*.json")):
-        data = json.loads(path.read_text())
-        if not (isinstance(data, dict) and {"condition", "features", "seed", "rows"} <= set(data)):
-            raise ValueError(f"{path}: not a protocol cell (condition, features, seed, rows)")
+        try:
+            data = json.loads(path.read_text())
+        except (UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise ValueError(f"{path}: not a protocol cell: not JSON ({err})") from err
+        problem = _cell_problem(data)
+        if problem:
+            raise ValueError(f"{path}: not a protocol cell (condition, features, seed, rows): "
+                             f"{problem}")  # fmt: skip
         cells.append(data)
     return cells
+
+
+def _cell_problem(data) -> str | None:
+    """What is wrong with a cell read from disk, or None."""
+    if not (isinstance(data, dict) and {"condition", "features", "seed", "rows"} <= set(data)):
+        return "a JSON object with these keys expected"
+    if data["condition"] not in CONDITIONS:
+        return f"condition must be one of {CONDITIONS}, got {data['condition']!r}"
+    if not isinstance(data["features"], str):
+        return f"features must be a string, got {data['features']!r}"
+    if not isinstance(data["seed"], int) or isinstance(data["seed"], bool) or data["seed"] < 0:
+        return f"seed must be an integer >= 0, got {data['seed']!r}"
+    if not isinstance(data["rows"], list):
+        return "rows must be a list"
+    for row in data["rows"]:
+        ok = isinstance(row, dict) and isinstance(row.get("method"), str)
+        error = row.get("test_error") if ok else None
+        is_number = isinstance(error, int | float) and not isinstance(error, bool)
+        if not (ok and is_number and 0.0 <= error <= 1.0):
+            return f"each row must have a method name and a test_error in [0, 1], got {row!r}"
+    return None
 
 
 def summarize(cells: list[dict], seed: int = 0) -> list[dict]:

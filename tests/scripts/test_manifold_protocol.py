@@ -57,10 +57,25 @@ def test_summary_keeps_the_dev_seed_apart(tmp_path):
     assert "| interleaved | hsv | ours | 3.0% | 15.0% [" in table and "| 10.0%-20.0% |" in table
 
 
-def test_load_cells_refuses_a_foreign_file(tmp_path):
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[1, 2]", "JSON object with these keys"),
+        ("{nope", "not JSON"),
+        ('{"condition": "sunny", "features": "hsv", "seed": 1, "rows": []}', "condition must"),
+        ('{"condition": "hard", "features": "hsv", "seed": -1, "rows": []}', "seed must"),
+        ('{"condition": "hard", "features": "hsv", "seed": 1, "rows": {}}', "rows must"),
+        (
+            '{"condition": "hard", "features": "hsv", "seed": 1, '
+            '"rows": [{"method": "ours", "test_error": NaN}]}',
+            "test_error in",
+        ),
+    ],
+)
+def test_load_cells_refuses_a_foreign_file(tmp_path, text, match):
     (tmp_path / "cells").mkdir()
-    (tmp_path / "cells" / "x.json").write_text("[1, 2]")
-    with pytest.raises(ValueError, match="x.json: not a protocol cell"):
+    (tmp_path / "cells" / "x.json").write_text(text)
+    with pytest.raises(ValueError, match=f"x.json: not a protocol cell.*{match}"):
         load_cells(tmp_path)
 
 
