@@ -65,7 +65,9 @@ def dataset_dir(root: Path, seed: int, condition: str = "interleaved") -> Path:
     return Path(root) / f"m-data-{_DATASETS[condition][0]}{seed}"
 
 
-def _load(path: Path, condition: str):
+def load_for(path: Path, condition: str):
+    """The labelled dataset at ``path``, refused unless its ``meta.json`` says it was collected
+    for ``condition`` (randomised or not, its appearance mode)."""
     from sim.dataset import load_dataset
 
     data = load_dataset(path)
@@ -89,9 +91,10 @@ def cell(root: Path, condition: str, features: str, seed: int) -> dict:
         raise ValueError(f"condition must be one of {CONDITIONS}, got {condition!r}")
     if features not in FEATURES:
         raise ValueError(f"features must be one of {tuple(FEATURES)}, got {features!r}")
-    train_data = _load(dataset_dir(root, seed, condition), condition)
-    held_out = condition == "held-out"
-    test_data = _load(dataset_dir(root, seed + 1, condition), condition) if held_out else train_data
+    train_data = load_for(dataset_dir(root, seed, condition), condition)
+    test_data = train_data
+    if condition == "held-out":
+        test_data = load_for(dataset_dir(root, seed + 1, condition), condition)
     train, _ = train_data.paper_split()
     _, test = test_data.paper_split()
     images_train = train_data.concat("images")[train]

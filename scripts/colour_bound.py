@@ -1,0 +1,110 @@
+"""How much colour tells about the manifolds, by appearance mode (issue 13, item 5): a
+supervised bound on the frozen protocol's features (HSV histograms 8x4x4 in 2x2 cells).
+
+    python -m scripts.colour_bound --root ROOT --seeds 1 2 3 --out OUT
+
+A classifier trained with the labels of the dev dataset (seed 0, every frame) predicts the
+manifold of every frame of each fresh seed's dataset (other drives of the same worlds), once on
+the default worlds (``ROOT/m-data-S``) and once on the hard ones (``ROOT/m-data-hS``, the same
+drives with every branch in the main manifold's materials; ``scripts.manifold_protocol``'s
+folders). Its error is what these features can at best support with labels: if the hard mode
+raises it, the default mode's manifolds were told apart by colour. Classifiers as in
+``scripts.laser_bound``: 5-nearest-neighbours and a random forest.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from mapping import ColorHistogramFeatures
+from scripts.manifold_methods import bootstrap_mean
+from scripts.manifold_protocol import DEV_SEED, dataset_dir, load_for
+
+__all__ = ["JSON_FILE", "MODES", "evaluate", "format_report", "main"]
+
+JSON_FILE = "colour_bound.json"
+MODES = {"default": "interleaved", "hard": "hard"}  # appearance mode -> protocol condition
+
+
+def _features(path: Path, condition: str) -> tuple[np.ndarray, np.ndarray]:
+    data = load_for(path, condition)  # labelled, and collected in the expected mode
+    X = ColorHistogramFeatures().fit_transform(data.concat("images"))
+    return X, data.concat("labels").astype(int)
+
+
+def _classifiers(seed: int) -> dict:
+    from sklearn.ensemble import RandomForestClassifier
+    from sklearn.neighbors import KNeighborsClassifier
+
+    return {
+        "5-NN (supervised)": KNeighborsClassifier(5),
+        "random forest (supervised)": RandomForestClassifier(200, random_state=seed, n_jobs=1),
+    }
+
+
+def evaluate(root: Path, seeds, modes=tuple(MODES), seed: int = 0) -> dict:
+    """Per appearance mode and classifier: the error on each fresh seed's frames of a
+    classifier trained on the dev seed's, and their mean with a bootstrap 95% interval."""
+    bad = [m for m in modes if m not in MODES]
+    if bad or not modes:
+        raise ValueError(f"modes must be a non-empty subset of {tuple(MODES)}, got {modes}")
+    if not seeds or DEV_SEED in seeds:
+        raise ValueError(f"seeds must be fresh seeds (not the dev seed {DEV_SEED}), got {seeds}")
+    rng = np.random.default_rng(seed)
+    result = {"root": str(root), "seeds": list(seeds), "rows": []}
+    for mode in modes:
+        condition = MODES[mode]
+        X_dev, y_dev = _features(dataset_dir(root, DEV_SEED, condition), condition)
+        tests = [_features(dataset_dir(root, s, condition), condition) for s in seeds]
+        for name, clf in _classifiers(seed).items():
+            clf.fit(X_dev, y_dev)
+            errors = [float(np.mean(clf.predict(X) != y)) for X, y in tests]
+            result["rows"].append(
+                {
+                    "appearance": mode,
+                    "method": name,
+                    "errors": errors,
+                    "summary": bootstrap_mean(errors, rng),
+                }
+            )
+    return result
+
+
+def format_report(result: dict) -> str:
+    lines = [
+        "| appearance | classifier (trained on the dev seed) | error: mean [95% CI] | "
+        "per fresh seed (%) |",
+        "|---|---|---|---|",
+    ]
+    for r in result["rows"]:
+        s = r["summary"]
+        per = ", ".join(f"{100 * e:.1f}" for e in r["errors"])
+        lines.append(
+            f"| {r['appearance']} | {r['method']} | {100 * s['mean']:.1f}% "
+            f"[{100 * s['lo']:.1f}, {100 * s['hi']:.1f}] | {per} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from sim.dataset import write_json
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--root", type=Path, required=True, help="folder of the m-data-* sets")
+    p.add_argument("--seeds", type=int, nargs="+", required=True, help="fresh seeds")
+    p.add_argument("--modes", nargs="+", choices=tuple(MODES), default=list(MODES))
+    p.add_argument("--out", type=Path, required=True, help="output folder (colour_bound.json)")
+    args = p.parse_args(argv)
+    result = evaluate(args.root, args.seeds, tuple(args.modes))
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_json(args.out / JSON_FILE, result)
+    print(format_report(result))
+    print(f"\nwrote {args.out / JSON_FILE}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
