@@ -1,7 +1,7 @@
 """How much colour tells about the manifolds, by appearance mode (issue 13, item 5): a
 supervised bound on the frozen protocol's features (HSV histograms 8x4x4 in 2x2 cells).
 
-    python -m scripts.colour_bound --root ROOT --seeds 1 2 3 --out OUT
+    python -m scripts.colour_bound --root ROOT --seeds 1 2 3 --out OUT [--figure PNG]
 
 A classifier trained with the labels of the dev dataset (seed 0, every frame) predicts the
 manifold of every frame of each fresh seed's dataset (other drives of the same worlds), once on
@@ -23,7 +23,7 @@ from mapping import ColorHistogramFeatures
 from scripts.manifold_methods import bootstrap_mean
 from scripts.manifold_protocol import DEV_SEED, dataset_dir, load_for
 
-__all__ = ["JSON_FILE", "MODES", "evaluate", "format_report", "main"]
+__all__ = ["JSON_FILE", "MODES", "draw_modes", "evaluate", "format_report", "main"]
 
 JSON_FILE = "colour_bound.json"
 MODES = {"default": "interleaved", "hard": "hard"}  # appearance mode -> protocol condition
@@ -89,6 +89,27 @@ def format_report(result: dict) -> str:
     return "\n".join(lines)
 
 
+def draw_modes(root: Path, path: Path, seed: int = DEV_SEED) -> Path:
+    """A figure of the middle frame of every manifold (columns, in ``scenes.MANIFOLDS`` order)
+    in the default (top row) and the hard worlds (bottom row) of one seed: the same poses."""
+    import cv2
+
+    from scenes import MANIFOLDS
+    from scripts.report.drawing import manifold_samples, save_png
+
+    rows = []
+    for condition in MODES.values():
+        data = load_for(dataset_dir(root, seed, condition), condition)
+        tiles = []
+        for m, (seq, frames) in manifold_samples(data).items():
+            tile = cv2.resize(seq.images[frames[1]], (160, 120), interpolation=cv2.INTER_AREA)
+            cv2.putText(tile, MANIFOLDS[m], (3, 12), cv2.FONT_HERSHEY_SIMPLEX, 0.33,
+                        (255, 255, 255), 1, cv2.LINE_AA)  # fmt: skip
+            tiles.append(tile)
+        rows.append(np.concatenate(tiles, axis=1))
+    return save_png(Path(path), np.concatenate(rows, axis=0))
+
+
 def main(argv: list[str] | None = None) -> int:
     from sim.dataset import write_json
 
@@ -97,7 +118,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seeds", type=int, nargs="+", required=True, help="fresh seeds")
     p.add_argument("--modes", nargs="+", choices=tuple(MODES), default=list(MODES))
     p.add_argument("--out", type=Path, required=True, help="output folder (colour_bound.json)")
+    p.add_argument("--figure", type=Path, default=None, help="PNG: the dev seed, both modes")
     args = p.parse_args(argv)
+    if args.figure is not None:
+        print(f"wrote {draw_modes(args.root, args.figure)}")
     result = evaluate(args.root, args.seeds, tuple(args.modes))
     args.out.mkdir(parents=True, exist_ok=True)
     write_json(args.out / JSON_FILE, result)
