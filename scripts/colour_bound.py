@@ -29,9 +29,9 @@ JSON_FILE = "colour_bound.json"
 MODES = {"default": "interleaved", "hard": "hard"}  # appearance mode -> protocol condition
 
 
-def _features(path: Path, condition: str) -> tuple[np.ndarray, np.ndarray]:
+def _features(path: Path, condition: str, grid) -> tuple[np.ndarray, np.ndarray]:
     data = load_for(path, condition)  # labelled, and collected in the expected mode
-    X = ColorHistogramFeatures().fit_transform(data.concat("images"))
+    X = ColorHistogramFeatures(grid=grid).fit_transform(data.concat("images"))
     return X, data.concat("labels").astype(int)
 
 
@@ -45,20 +45,22 @@ def _classifiers(seed: int) -> dict:
     }
 
 
-def evaluate(root: Path, seeds, modes=tuple(MODES), seed: int = 0) -> dict:
+def evaluate(root: Path, seeds, modes=tuple(MODES), seed: int = 0, grid=(2, 2)) -> dict:
     """Per appearance mode and classifier: the error on each fresh seed's frames of a
-    classifier trained on the dev seed's, and their mean with a bootstrap 95% interval."""
+    classifier trained on the dev seed's, and their mean with a bootstrap 95% interval.
+    ``grid``: the histograms' cells (the protocol's 2x2; 1x1 keeps colour and drops where in
+    the image it is)."""
     bad = [m for m in modes if m not in MODES]
     if bad or not modes:
         raise ValueError(f"modes must be a non-empty subset of {tuple(MODES)}, got {modes}")
     if not seeds or DEV_SEED in seeds:
         raise ValueError(f"seeds must be fresh seeds (not the dev seed {DEV_SEED}), got {seeds}")
     rng = np.random.default_rng(seed)
-    result = {"root": str(root), "seeds": list(seeds), "rows": []}
+    result = {"root": str(root), "seeds": list(seeds), "grid": list(grid), "rows": []}
     for mode in modes:
         condition = MODES[mode]
-        X_dev, y_dev = _features(dataset_dir(root, DEV_SEED, condition), condition)
-        tests = [_features(dataset_dir(root, s, condition), condition) for s in seeds]
+        X_dev, y_dev = _features(dataset_dir(root, DEV_SEED, condition), condition, grid)
+        tests = [_features(dataset_dir(root, s, condition), condition, grid) for s in seeds]
         for name, clf in _classifiers(seed).items():
             clf.fit(X_dev, y_dev)
             errors = [float(np.mean(clf.predict(X) != y)) for X, y in tests]
@@ -119,10 +121,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--modes", nargs="+", choices=tuple(MODES), default=list(MODES))
     p.add_argument("--out", type=Path, required=True, help="output folder (colour_bound.json)")
     p.add_argument("--figure", type=Path, default=None, help="PNG: the dev seed, both modes")
+    p.add_argument(
+        "--grid",
+        type=int,
+        nargs=2,
+        default=(2, 2),
+        metavar=("COLUMNS", "ROWS"),
+        help="histogram cells (default: the protocol's 2 2)",
+    )
     args = p.parse_args(argv)
     if args.figure is not None:
         print(f"wrote {draw_modes(args.root, args.figure)}")
-    result = evaluate(args.root, args.seeds, tuple(args.modes))
+    result = evaluate(args.root, args.seeds, tuple(args.modes), grid=tuple(args.grid))
     args.out.mkdir(parents=True, exist_ok=True)
     write_json(args.out / JSON_FILE, result)
     print(format_report(result))
