@@ -60,9 +60,15 @@ FEATURES = {
 }
 
 
+def _check_condition(condition: str) -> str:
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+    return condition
+
+
 def dataset_dir(root: Path, seed: int, condition: str = "interleaved") -> Path:
     """Where ``topomap collect`` was asked to put the dataset of ``seed`` for ``condition``."""
-    return Path(root) / f"m-data-{_DATASETS[condition][0]}{seed}"
+    return Path(root) / f"m-data-{_DATASETS[_check_condition(condition)][0]}{seed}"
 
 
 def load_for(path: Path, condition: str):
@@ -70,13 +76,16 @@ def load_for(path: Path, condition: str):
     for ``condition`` (randomised or not, its appearance mode)."""
     from sim.dataset import load_dataset
 
+    _check_condition(condition)
     data = load_dataset(path)
     if not data.has_ground_truth:
         raise ValueError(f"{path}: the protocol needs a simulated dataset with labels")
     settings = data.meta.get("settings", {})
     # a dataset without the key predates the option: default appearance, as ``to_json`` says
-    made = {"randomize": settings.get("randomize"), "appearance": "default"}
-    made["appearance"] = settings.get("appearance", "default")
+    made = {
+        "randomize": settings.get("randomize"),
+        "appearance": settings.get("appearance", "default"),
+    }
     if made != _DATASETS[condition][1]:
         raise ValueError(
             f"{path}: condition {condition!r} needs a dataset collected with "
@@ -87,8 +96,7 @@ def load_for(path: Path, condition: str):
 
 def cell(root: Path, condition: str, features: str, seed: int) -> dict:
     """Errors of every method in one (condition, features, seed) cell of the protocol."""
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+    _check_condition(condition)
     if features not in FEATURES:
         raise ValueError(f"features must be one of {tuple(FEATURES)}, got {features!r}")
     train_data = load_for(dataset_dir(root, seed, condition), condition)

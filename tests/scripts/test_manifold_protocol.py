@@ -103,3 +103,5 @@ def test_a_dataset_made_for_another_condition_is_refused(tmp_path):
         cell(tmp_path, "hard", "hsv", 0)
     assert dataset_dir(tmp_path, 0, "hard").name == "m-data-h0"
     assert dataset_dir(tmp_path, 0, "randomized").name == "m-data-r0"
+    with pytest.raises(ValueError, match="condition must be one of"):
+        dataset_dir(tmp_path, 0, "sunny")
