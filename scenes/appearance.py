@@ -6,7 +6,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["RANDOMIZATION", "TEXTURE_SEED", "Appearance", "draw_appearance"]
+__all__ = [
+    "APPEARANCE_MODES",
+    "RANDOMIZATION",
+    "TEXTURE_SEED",
+    "Appearance",
+    "check_appearance_mode",
+    "draw_appearance",
+]
 
 # Domain randomisation table, as Miniworld's params: name -> (default, low, high). Without an
 # RNG every parameter takes its default, so the canonical world is one fixed scene.
@@ -18,15 +25,27 @@ RANDOMIZATION: dict[str, tuple[float, float, float]] = {
     "clutter_shift": (0.0, -0.5, 0.5),  # m, furniture and posters slid along their wall
 }
 TEXTURE_SEED = 20_040_607  # canonical textures: fixed noise, part of the world's identity
+# How the manifolds of a world differ in look. "default": each branch has its own wall, floor
+# and light colour (a colour histogram tells them apart). "hard": every branch shares the main
+# manifold's wall, floor (ground) and light materials, so only the layout (branch directions,
+# lengths, furniture and landmarks) tells them apart (issue 13, item 5).
+APPEARANCE_MODES = ("default", "hard")
 
 
 @dataclass(frozen=True)
 class Appearance:
-    """One draw from :data:`RANDOMIZATION` plus the generator that made the textures."""
+    """One draw from :data:`RANDOMIZATION` plus the generator that made the textures, and the
+    appearance mode (one of :data:`APPEARANCE_MODES`)."""
 
     params: dict
     texture_rng: np.random.Generator = field(compare=False, repr=False)
     rng: np.random.Generator | None = field(compare=False, repr=False, default=None)
+    mode: str = "default"
+
+    @property
+    def shared_materials(self) -> bool:
+        """Whether every branch wears the main manifold's wall, floor and light materials."""
+        return self.mode == "hard"
 
     def __getitem__(self, key: str) -> float:
         return self.params[key]
@@ -54,13 +73,23 @@ class Appearance:
         return float(self.rng.uniform(*RANDOMIZATION[key][1:]))
 
 
-def draw_appearance(rng: np.random.Generator | None) -> Appearance:
-    """Defaults and canonical textures without an RNG; a randomised draw with one."""
+def check_appearance_mode(mode) -> str:
+    """``mode`` if it is one of :data:`APPEARANCE_MODES`, else a ValueError naming them."""
+    if not isinstance(mode, str) or mode not in APPEARANCE_MODES:
+        raise ValueError(f"appearance must be one of {APPEARANCE_MODES}, got {mode!r}")
+    return mode
+
+
+def draw_appearance(rng: np.random.Generator | None, mode: str = "default") -> Appearance:
+    """Defaults and canonical textures without an RNG; a randomised draw with one. ``mode``
+    only changes which materials the builders assign, never what the generators draw, so a
+    hard world has the same textures, lights and clutter draws as its default twin."""
+    mode = check_appearance_mode(mode)
     if rng is None:
         params = {k: v[0] for k, v in RANDOMIZATION.items()}
-        return Appearance(params, np.random.default_rng(TEXTURE_SEED), None)
+        return Appearance(params, np.random.default_rng(TEXTURE_SEED), None, mode)
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__}")
     params = {k: float(rng.uniform(lo, hi)) for k, (_, lo, hi) in RANDOMIZATION.items()}
     texture_rng, layout_rng = rng.spawn(2)
-    return Appearance(params, texture_rng, layout_rng)
+    return Appearance(params, texture_rng, layout_rng, mode)

@@ -5,6 +5,9 @@ rows 1-4). Each branch has its own character, as real corridors do:
 - left: red brick, wooden floor, bookshelves and a bench, warm light;
 - straight: blue striped walls, black-and-white tiles, posters and plants, cool light;
 - right: bare concrete, green linoleum, grey lockers and fire extinguishers, dim light.
+
+In the ``"hard"`` appearance mode every branch has the main corridor's walls, carpet and white
+light; only the furniture, posters and the branches' directions tell them apart.
 """
 
 from __future__ import annotations
@@ -267,6 +270,8 @@ def _lights(scene: SceneBuilder, app: Appearance) -> None:
         ("light_right", (_JX, -_HW - 8.0 + d), (0.6, 0.65, 0.6)),
     ]
     for name, (x, y), colour in spots:
+        if app.shared_materials:  # a branch's light colour would tell it apart as its paint does
+            colour = spots[0][2]
         scene.light(
             name, (x, y, z), diffuse=app.light(colour), attenuation=(0.4, 0.0, 0.04), cutoff=85.0
         )
@@ -280,7 +285,8 @@ def build_hallway(app: Appearance) -> World:
     _materials(scene, app)
     ceiling_z = WALL_HEIGHT + 0.05
     for seg, (rect, sides) in SEGMENTS.items():
-        style = "main" if seg == "junction" else seg
+        # the junction is part of the main corridor's look; in the hard mode every branch is
+        style = "main" if seg == "junction" or app.shared_materials else seg
         add_floor(scene, f"{seg}_floor", rect, f"mat_{style}_floor")
         add_floor(scene, f"{seg}_ceiling", rect, "mat_ceiling", z=ceiling_z + 0.05)
         if sides:

@@ -2,6 +2,9 @@
 (up the driveway to the garage), straight on (a gravel path through an orchard to a shed) or
 to the right (a concrete sidewalk toward the street and a parked car). The paper's Fig. 7,
 rows 5-8. Trees and bushes are trimesh meshes; their collision is primitive proxies.
+
+In the ``"hard"`` appearance mode every area is lawn (no asphalt, gravel or slabs) and every
+boundary is the wooden fence; the buildings, trees, car and the arms' directions remain.
 """
 
 from __future__ import annotations
@@ -37,6 +40,13 @@ AREAS = {
     "left": Rect(_X0, _X1, _HL, _TOP),
     "straight": Rect(_X1, _FAR, -_HL, _HL),
     "right": Rect(_X0, _X1, -_TOP, -_HL),
+}
+GROUND = {  # the default mode's surface of each area (the hard mode: grass everywhere)
+    "lawn": "mat_grass",
+    "junction": "mat_asphalt",
+    "left": "mat_asphalt",
+    "straight": "mat_grass",
+    "right": "mat_slabs",
 }
 LAWN_TREES = ((5.0, 3.6), (9.5, -3.8), (13.0, 4.0), (3.0, -4.2))  # in the lawn, off the path
 ORCHARD_TREES = tuple((_X1 + 3.0 + 4.5 * k, s * 3.4) for k in range(4) for s in (1, -1))
@@ -138,26 +148,29 @@ def _building(
 def _scenery(scene: SceneBuilder, app: Appearance) -> None:
     rng = app.texture_rng
     s = app.shift
-    # Ground: each area its own surface; a large grass apron all around for the horizon.
+    hard = app.shared_materials
+    # Ground: each area its own surface; a large grass apron all around for the horizon. In the
+    # hard mode every area is lawn and every boundary (hedge, stone wall) is the wooden fence.
+    ground = dict.fromkeys(AREAS, "mat_grass") if hard else GROUND
+    hedge_mat, stone_mat = ("mat_fence", "mat_fence") if hard else ("mat_hedge", "mat_stone")
     add_floor(
         scene, "apron_floor", Rect(-30, _FAR + 30, -_TOP - 30, _TOP + 30), "mat_grass", z=-0.01
     )
-    add_floor(scene, "lawn_floor", AREAS["lawn"], "mat_grass")
-    add_floor(scene, "junction_floor", AREAS["junction"], "mat_asphalt")
-    add_floor(scene, "left_floor", AREAS["left"], "mat_asphalt")
-    add_floor(scene, "straight_floor", AREAS["straight"], "mat_grass")
-    add_floor(scene, "straight_path_floor", Rect(_X1, _FAR, -1.2, 1.2), "mat_gravel", z=0.005)
-    add_floor(scene, "right_floor", AREAS["right"], "mat_slabs")
+    for area in ("lawn", "junction", "left", "straight"):
+        add_floor(scene, f"{area}_floor", AREAS[area], ground[area])
+    if not hard:  # the gravel path would mark the straight arm
+        add_floor(scene, "straight_path_floor", Rect(_X1, _FAR, -1.2, 1.2), "mat_gravel", z=0.005)
+    add_floor(scene, "right_floor", AREAS["right"], ground["right"])
     # Lawn: wooden fence behind the start, hedge on the left, the house on the right.
     _fence(scene, "lawn_fence_w", 0.0, -_HL, 0.0, _HL)
-    hedge(scene, "lawn_hedge_n", 0.0, _HL + 0.4, _X0, _HL + 0.4, rng, "mat_hedge")
+    hedge(scene, "lawn_hedge_n", 0.0, _HL + 0.4, _X0, _HL + 0.4, rng, hedge_mat)
     _building(scene, "house", Rect(1.0, _X0 - 1.0, -_HL - 7.0, -_HL), 3.0, "mat_facade", 2.0)
     _fence(scene, "lawn_fence_s0", 0.0, -_HL, 1.0, -_HL)
     _fence(scene, "lawn_fence_s1", _X0 - 1.0, -_HL, _X0, -_HL)
     for k, (x, y) in enumerate(LAWN_TREES):
         tree(scene, f"lawn_tree{k}", x + s("clutter_shift"), y, rng, "mat_bark", "mat_leaves")
     # Left: driveway between a hedge and a fence, up to the garage.
-    hedge(scene, "left_hedge_w", _X0 - 0.4, _HL, _X0 - 0.4, _TOP, rng, "mat_hedge")
+    hedge(scene, "left_hedge_w", _X0 - 0.4, _HL, _X0 - 0.4, _TOP, rng, hedge_mat)
     _fence(scene, "left_fence_e", _X1, _HL, _X1, _TOP)
     _building(
         scene,
@@ -195,8 +208,8 @@ def _scenery(scene: SceneBuilder, app: Appearance) -> None:
     _fence(scene, "straight_fence_e1", _FAR, 2.5, _FAR, _HL)
     # Right: sidewalk between the house's side fence and a stone wall, to the street.
     _fence(scene, "right_fence_w", _X0, -_TOP, _X0, -_HL)
-    _fence(scene, "right_wall_e", _X1, -_TOP, _X1, -_HL, material="mat_stone", height=0.8)
-    _fence(scene, "right_wall_s", _X0, -_TOP, _X1, -_TOP, material="mat_stone", height=0.8)
+    _fence(scene, "right_wall_e", _X1, -_TOP, _X1, -_HL, material=stone_mat, height=0.8)
+    _fence(scene, "right_wall_s", _X0, -_TOP, _X1, -_TOP, material=stone_mat, height=0.8)
     # the car slides away from the sidewalk, never onto it: a shift toward the route would
     # block the end of lawn-right (randomised seed 4 stalled the teleop there)
     car_x = _JX + 1.2 + abs(s("clutter_shift"))

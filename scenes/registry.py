@@ -25,7 +25,9 @@ BUILDERS: dict[str, Callable[[Appearance], World]] = {
 }
 
 
-def build_world(name: str, rng: np.random.Generator | None = None) -> World:
+def build_world(
+    name: str, rng: np.random.Generator | None = None, appearance: str = "default"
+) -> World:
     """Build a world by name.
 
     Parameters
@@ -35,7 +37,11 @@ def build_world(name: str, rng: np.random.Generator | None = None) -> World:
         Without one, the canonical world (fixed textures, default lights and clutter). With one,
         a domain-randomised variant (textures, colours, lighting, clutter placement), the same
         for the same generator state.
+    appearance : {"default", "hard"}
+        ``"hard"``: every branch shares the main manifold's wall, floor and light materials
+        (see :data:`~scenes.appearance.APPEARANCE_MODES`); the geometry is that of the default
+        world.
     """
     if name not in names.WORLDS:
         raise ValueError(f"world must be one of {names.WORLDS}, got {name!r}")
-    return BUILDERS[name](draw_appearance(rng))
+    return BUILDERS[name](draw_appearance(rng, appearance))

@@ -39,6 +39,10 @@ class World:
         Teleop routes, one per branch: main manifold, then the branch.
     appearance : dict
         The randomisation parameters this world was built with.
+    randomized : bool
+        Whether those were drawn (else the defaults).
+    appearance_mode : str
+        One of :data:`APPEARANCE_MODES`.
     """
 
     name: str
@@ -50,6 +54,7 @@ class World:
     routes: dict[str, Route]
     appearance: dict
     randomized: bool = False
+    appearance_mode: str = "default"
     # Free-space grids already rasterised, per (resolution, inflation). A World compares by
     # value and is mutable, so it is not hashable; the cache lives on the instance instead.
     _free_space: dict = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -75,6 +80,7 @@ class World:
             routes=routes,
             appearance=dict(app.params),
             randomized=app.rng is not None,
+            appearance_mode=app.mode,
         )
 
     def manifold_at(self, xy) -> np.ndarray:

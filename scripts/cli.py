@@ -23,6 +23,7 @@ def _settings(args):
         frames=args.frames,
         seed=args.seed,
         randomize=args.randomize,
+        appearance=args.appearance,
         camera=CameraConfig(width=args.width, height=args.height, depth=args.depth),
         laser=LaserConfig(beams=args.beams, max_range=args.max_range),
         teleop=TeleopConfig().scaled(args.teleop_jitter),
@@ -100,6 +101,7 @@ def cmd_run(args) -> int:
         videos=args.videos,
         grouping_loop=args.grouping_loop,
         jobs=args.jobs,
+        protocol=args.protocol,
     )
     rest = [
         f"--seed {args.seed}",
@@ -108,6 +110,7 @@ def cmd_run(args) -> int:
         f"--videos {args.videos}",
     ]
     rest += ["--grouping-loop"] * args.grouping_loop
+    rest += [f"--protocol {args.protocol}"] * (args.protocol is not None)
     start = time.perf_counter()
     try:
         index = run_pipeline(
@@ -202,6 +205,7 @@ def cmd_servo_eval(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from scenes import WORLDS
+    from scenes.appearance import APPEARANCE_MODES
 
     p = argparse.ArgumentParser(prog="topomap", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
@@ -212,6 +216,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--frames", type=positive_int, default=150, help="frames per sequence")
     c.add_argument("--randomize", action="store_true", help="domain-randomised worlds")
+    c.add_argument(
+        "--appearance",
+        choices=APPEARANCE_MODES,
+        default="default",
+        help="hard: every branch shares the main manifold's wall, floor and light materials, "
+        "so only the layout tells the manifolds apart (default: each its own)",
+    )
     c.add_argument(
         "--teleop-jitter",
         type=non_negative_float,
@@ -280,6 +291,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--videos", type=int, default=1, help="servo episode videos per world")
     r.add_argument("--grouping-loop", action="store_true", help="also group a loop per world")
+    r.add_argument(
+        "--protocol",
+        default=None,
+        metavar="DIR",
+        help="a folder written by python -m scripts.manifold_protocol --out DIR: the report "
+        "shows its per-seed manifold-clustering errors (the run does not compute them)",
+    )
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.set_defaults(func=cmd_run)
 

@@ -88,7 +88,7 @@ def collect_loop(
     if world_name not in names.WORLDS:
         raise ValueError(f"world_name must be one of {names.WORLDS}, got {world_name!r}")
     settings = settings or CollectionSettings(worlds=(world_name,))
-    world = collection_world(world_name, settings.seed, settings.randomize)
+    world = collection_world(world_name, settings.seed, settings.randomize, settings.appearance)
     route = loop_route(world)
     frames = loop_frames(world, route, settings.frames) if frames is None else frames
     settings = replace(settings, frames=frames)  # validates frames

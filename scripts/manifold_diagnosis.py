@@ -13,6 +13,9 @@ paper's split (even frames):
   neighbourhood-graph method can follow the manifolds (the 1-NN disagreement rate says how
   often).
 
+* with ``--by-junction``: where the errors are, by the frame's distance to its world's
+  junction centre (the labels switch there), for ours and scikit-learn's 10-NN graph.
+
 Usage::
 
     python -m scripts.manifold_diagnosis --data ROOT/m-data-0 --features raw --out out/diag.json
@@ -22,6 +25,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 from pathlib import Path
 
@@ -30,6 +34,7 @@ import numpy as np
 from common.fileio import atomic_write_bytes
 from mapping import ManifoldClustering, clustering_error, purity
 from mapping.distances import squared_distances
+from mapping.metrics import best_matching
 from scripts.manifold_protocol import FEATURES, K, Q
 
 #: name -> ManifoldClustering settings of each variant (the default first)
@@ -117,6 +122,69 @@ def space_summary(X: np.ndarray, y: np.ndarray) -> dict:
     }
 
 
+JUNCTION_BANDS = (0.0, 2.0, 5.0, 10.0, np.inf)  # m from the junction's centre
+
+
+def junction_centre(world) -> np.ndarray:
+    """The one point every manifold region of ``world`` has as a vertex: the junction's
+    centre, where the labels switch from the main manifold to a branch."""
+    common = None
+    for region in world.manifolds.regions:
+        points = {tuple(np.round(p, 9)) for p in np.asarray(region.polygon, float)}
+        common = points if common is None else common & points
+    if not common or len(common) != 1:
+        raise ValueError(f"{world.name}: the manifold regions share {len(common or ())} vertices")
+    return np.array(next(iter(common)))
+
+
+def junction_distances(data_dir: Path) -> np.ndarray:
+    """Distance (m) of each even (map-building) frame's true position to its world's junction
+    centre, in ``load_split``'s order."""
+    from scenes import build_world
+    from sim.dataset import load_dataset
+
+    data = load_dataset(data_dir)
+    seqs = list(data.sequences.values())
+    centres = {w: junction_centre(build_world(w)) for w in {s.world for s in seqs}}
+    d = np.concatenate([np.linalg.norm(s.poses[:, :2] - centres[s.world], axis=1) for s in seqs])
+    return d[data.paper_split()[0]]
+
+
+def errors_by_band(y, pred, distance, bands=JUNCTION_BANDS) -> list[dict]:
+    """Per band of ``distance``: its frames and the fraction of them misassigned, under the
+    best matching of clusters to manifolds over all frames (the one ``clustering_error``
+    scores, so the bands' errors weighted by their frames sum to it)."""
+    y, pred, distance = np.asarray(y), np.asarray(pred), np.asarray(distance)
+    match = best_matching(y, pred)
+    wrong = np.array(
+        [match.get(c, None) != t for c, t in zip(pred.tolist(), y.tolist(), strict=True)]
+    )
+    rows = []
+    for lo, hi in itertools.pairwise(bands):
+        inside = (distance >= lo) & (distance < hi)
+        rows.append(
+            {
+                "from_m": float(lo),
+                "to_m": None if np.isinf(hi) else float(hi),
+                "frames": int(inside.sum()),
+                "error": float(wrong[inside].mean()) if inside.any() else None,
+            }
+        )
+    return rows
+
+
+def junction_rows(X: np.ndarray, y: np.ndarray, distance: np.ndarray) -> dict[str, list[dict]]:
+    """``errors_by_band`` of ours (default settings) and of scikit-learn's 10-NN spectral
+    clustering, the protocol's first baseline."""
+    from mapping.label_free import KNNSpectralClustering
+
+    models = {
+        "ours": ManifoldClustering(K, Q),
+        "scikit-learn kNN (k=10)": KNNSpectralClustering(K, n_neighbors=10),
+    }
+    return {name: errors_by_band(y, m.fit(X).labels_, distance) for name, m in models.items()}
+
+
 def load_split(data_dir: Path, features: str) -> tuple[np.ndarray, np.ndarray]:
     """Features and labels of the even (map-building) frames of a dataset."""
     from sim.dataset import load_dataset
@@ -158,6 +226,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--figure", type=Path, default=None, help="distance histogram PNG")
     parser.add_argument("--no-variants", action="store_true", help="only the space summary")
     parser.add_argument("--default-only", action="store_true", help="only the default variant")
+    parser.add_argument(
+        "--by-junction", action="store_true", help="errors by distance to the junction's centre"
+    )
     args = parser.parse_args(argv)
     result, panels = [], {}
     for data_dir in args.data:
@@ -167,6 +238,8 @@ def main(argv: list[str] | None = None) -> int:
             if not args.no_variants:
                 first = dict(list(VARIANTS.items())[:1])
                 entry["variants"] = variant_rows(X, y, first if args.default_only else VARIANTS)
+            if args.by_junction:
+                entry["by_junction"] = junction_rows(X, y, junction_distances(data_dir))
             result.append(entry)
             panels[f"{features}, {data_dir.name}"] = (X, y)
             print(json.dumps(entry, indent=1), flush=True)

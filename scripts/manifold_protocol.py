@@ -11,14 +11,22 @@ interval over seeds. Conditions (``CONDITIONS``):
 * ``held-out``: the map from seed S's even frames, the test frames are the odd frames of seed
   S+1's drives (another traversal of the same worlds, other teleop jitter);
 * ``randomized``: the interleaved split on worlds collected with ``--randomize`` (other
-  materials and lighting per seed).
+  materials and lighting per seed);
+* ``hard``: the interleaved split on worlds collected with ``--appearance hard`` (every branch
+  in the main manifold's materials, so colour cannot tell the branches apart; same drives as
+  the default dataset of the same seed).
 
 Usage::
 
     topomap collect --world all --seed S --out ROOT/m-data-S            (S = 0 .. 10)
     topomap collect --world all --seed S --randomize --out ROOT/m-data-rS
+    topomap collect --world all --seed S --appearance hard --out ROOT/m-data-hS
     python -m scripts.manifold_protocol --root ROOT --out out/protocol --seeds 1 2 3 \
-        --randomized 1 2 --features hsv raw
+        --randomized 1 2 --hard 1 2 --features hsv raw \
+        --conditions interleaved held-out randomized hard
+
+Each dataset's ``meta.json`` must say it was collected for its condition (randomised or not,
+its appearance mode), so that a dataset in the wrong folder is refused, not scored.
 
 Results are cached per (condition, features, seed) in ``OUT/cells/*.json``, so a later call
 with more seeds only computes the new cells; ``--table`` prints the summary table.
@@ -38,35 +46,63 @@ from scripts.manifold_methods import METHODS, bootstrap_mean, score_methods
 
 K, Q = 8, 35  # the paper's Section III-B
 DEV_SEED = 0
-CONDITIONS = ("interleaved", "held-out", "randomized")
+CONDITIONS = ("interleaved", "held-out", "randomized", "hard")
+# condition -> (folder prefix, the collection settings its datasets must have been made with)
+_DATASETS = {
+    "interleaved": ("", {"randomize": False, "appearance": "default"}),
+    "held-out": ("", {"randomize": False, "appearance": "default"}),
+    "randomized": ("r", {"randomize": True, "appearance": "default"}),
+    "hard": ("h", {"randomize": False, "appearance": "hard"}),
+}
 FEATURES = {
     "hsv": ("HSV histograms 8x4x4, 2x2 cells", ColorHistogramFeatures),
     "raw": ("raw pixels 320x240 RGB (paper)", ImageFeatures),
 }
 
 
-def dataset_dir(root: Path, seed: int, randomized: bool = False) -> Path:
-    """Where ``topomap collect`` was asked to put the dataset of ``seed``."""
-    return Path(root) / f"m-data-{'r' if randomized else ''}{seed}"
+def _check_condition(condition: str) -> str:
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+    return condition
 
 
-def _load(path: Path):
+def dataset_dir(root: Path, seed: int, condition: str = "interleaved") -> Path:
+    """Where ``topomap collect`` was asked to put the dataset of ``seed`` for ``condition``."""
+    return Path(root) / f"m-data-{_DATASETS[_check_condition(condition)][0]}{seed}"
+
+
+def load_for(path: Path, condition: str):
+    """The labelled dataset at ``path``, refused unless its ``meta.json`` says it was collected
+    for ``condition`` (randomised or not, its appearance mode)."""
     from sim.dataset import load_dataset
 
+    _check_condition(condition)
     data = load_dataset(path)
     if not data.has_ground_truth:
         raise ValueError(f"{path}: the protocol needs a simulated dataset with labels")
+    settings = data.meta.get("settings", {})
+    # a dataset without the key predates the option: default appearance, as ``to_json`` says
+    made = {
+        "randomize": settings.get("randomize"),
+        "appearance": settings.get("appearance", "default"),
+    }
+    if made != _DATASETS[condition][1]:
+        raise ValueError(
+            f"{path}: condition {condition!r} needs a dataset collected with "
+            f"{_DATASETS[condition][1]}, this one was collected with {made}"
+        )
     return data
 
 
 def cell(root: Path, condition: str, features: str, seed: int) -> dict:
     """Errors of every method in one (condition, features, seed) cell of the protocol."""
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+    _check_condition(condition)
     if features not in FEATURES:
         raise ValueError(f"features must be one of {tuple(FEATURES)}, got {features!r}")
-    train_data = _load(dataset_dir(root, seed, condition == "randomized"))
-    test_data = _load(dataset_dir(root, seed + 1)) if condition == "held-out" else train_data
+    train_data = load_for(dataset_dir(root, seed, condition), condition)
+    test_data = train_data
+    if condition == "held-out":
+        test_data = load_for(dataset_dir(root, seed + 1, condition), condition)
     train, _ = train_data.paper_split()
     _, test = test_data.paper_split()
     images_train = train_data.concat("images")[train]
@@ -105,9 +141,9 @@ def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=
         path = _cell_path(out, condition, features, seed)
         if path.exists():
             continue
-        needed = [dataset_dir(root, seed, condition == "randomized")]
+        needed = [dataset_dir(root, seed, condition)]
         if condition == "held-out":
-            needed.append(dataset_dir(root, seed + 1))
+            needed.append(dataset_dir(root, seed + 1, condition))
         if not all((p / "meta.json").exists() for p in needed):
             print(f"skipped {condition}/{features}/seed {seed}: dataset not collected yet")
             continue
@@ -120,14 +156,41 @@ def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=
 
 
 def load_cells(out: Path) -> list[dict]:
-    """Every cached cell under ``out/cells``, checked for the fields the summary reads."""
+    """Every cached cell under ``out/cells``, checked for the fields the summary reads (the
+    files may come from elsewhere: the report reads a folder it is given)."""
     cells = []
     for path in sorted((Path(out) / "cells").glob("*.json")):
-        data = json.loads(path.read_text())
-        if not (isinstance(data, dict) and {"condition", "features", "seed", "rows"} <= set(data)):
-            raise ValueError(f"{path}: not a protocol cell (condition, features, seed, rows)")
+        try:
+            data = json.loads(path.read_text())
+        except (UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise ValueError(f"{path}: not a protocol cell: not JSON ({err})") from err
+        problem = _cell_problem(data)
+        if problem:
+            raise ValueError(f"{path}: not a protocol cell (condition, features, seed, rows): "
+                             f"{problem}")  # fmt: skip
         cells.append(data)
     return cells
+
+
+def _cell_problem(data) -> str | None:
+    """What is wrong with a cell read from disk, or None."""
+    if not (isinstance(data, dict) and {"condition", "features", "seed", "rows"} <= set(data)):
+        return "a JSON object with these keys expected"
+    if data["condition"] not in CONDITIONS:
+        return f"condition must be one of {CONDITIONS}, got {data['condition']!r}"
+    if not isinstance(data["features"], str):
+        return f"features must be a string, got {data['features']!r}"
+    if not isinstance(data["seed"], int) or isinstance(data["seed"], bool) or data["seed"] < 0:
+        return f"seed must be an integer >= 0, got {data['seed']!r}"
+    if not isinstance(data["rows"], list):
+        return "rows must be a list"
+    for row in data["rows"]:
+        ok = isinstance(row, dict) and isinstance(row.get("method"), str)
+        error = row.get("test_error") if ok else None
+        is_number = isinstance(error, int | float) and not isinstance(error, bool)
+        if not (ok and is_number and 0.0 <= error <= 1.0):
+            return f"each row must have a method name and a test_error in [0, 1], got {row!r}"
+    return None
 
 
 def summarize(cells: list[dict], seed: int = 0) -> list[dict]:
@@ -196,6 +259,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="folder for cells/ and table")
     parser.add_argument("--seeds", type=int, nargs="*", default=[], help="fresh seeds")
     parser.add_argument("--randomized", type=int, nargs="*", default=[], help="randomised seeds")
+    parser.add_argument("--hard", type=int, nargs="*", default=[], help="hard-appearance seeds")
     parser.add_argument("--features", nargs="+", choices=tuple(FEATURES), default=["hsv"])
     parser.add_argument(
         "--conditions", nargs="+", choices=CONDITIONS, default=["interleaved", "held-out"]
@@ -203,14 +267,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--table", action="store_true", help="print the summary table")
     args = parser.parse_args(argv)
     plan = []
+    own_seeds = {"randomized": args.randomized, "hard": args.hard}
     for seed in [DEV_SEED, *args.seeds]:
         for features in args.features:
             for condition in args.conditions:
-                if condition != "randomized":
+                if condition not in own_seeds:
                     plan.append((condition, features, seed))
-    if "randomized" in args.conditions:
-        for seed in [DEV_SEED, *args.randomized]:
-            plan += [("randomized", f, seed) for f in args.features]
+    for condition, seeds in own_seeds.items():
+        if condition in args.conditions:
+            for seed in [DEV_SEED, *seeds]:
+                plan += [(condition, f, seed) for f in args.features]
     run_cells(args.root, args.out, plan)
     summary = summarize(load_cells(args.out))
     atomic_write_bytes(args.out / "summary.json", (json.dumps(summary, indent=2) + "\n").encode())

@@ -20,6 +20,7 @@ import numpy as np
 
 from common.fileio import write_json
 from scenes import World, build_world, names
+from scenes.appearance import check_appearance_mode
 from sim import dataset as ds
 from sim.camera import CameraConfig
 from sim.laser import LaserConfig
@@ -34,12 +35,17 @@ END_MARGIN = 0.3  # m: the last frame is taken this short of the route's end
 
 @dataclass(frozen=True)
 class CollectionSettings:
-    """Everything that determines a dataset's bytes (stored in ``meta.json``)."""
+    """Everything that determines a dataset's bytes (stored in ``meta.json``).
+
+    ``appearance`` is one of :data:`scenes.world.APPEARANCE_MODES`; ``"hard"`` worlds give
+    every branch the main manifold's materials (:func:`scenes.build_world`).
+    """
 
     worlds: tuple[str, ...] = names.WORLDS
     frames: int = DEFAULT_FRAMES
     seed: int = 0
     randomize: bool = False
+    appearance: str = "default"
     camera: CameraConfig = field(default_factory=CameraConfig)
     laser: LaserConfig = field(default_factory=LaserConfig)
     odometry: OdometryConfig = field(default_factory=OdometryConfig)
@@ -55,11 +61,17 @@ class CollectionSettings:
             raise ValueError(f"frames must be an integer >= 2, got {self.frames}")
         if int(self.seed) != self.seed or self.seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {self.seed}")
+        check_appearance_mode(self.appearance)
 
     def to_json(self) -> dict:
+        """The settings as ``meta.json`` stores them. ``appearance`` is written only when it is
+        not ``"default"``: datasets made before the option existed are default ones, and so
+        keep their bytes, stay resumable and compare equal (a missing key means default)."""
         d = asdict(self)
         d["worlds"] = list(self.worlds)
         d["teleop"]["start_jitter"] = list(self.teleop.start_jitter)
+        if self.appearance == "default":
+            del d["appearance"]
         return d
 
     def sequences(self) -> list[tuple[int, str, str]]:
@@ -74,18 +86,19 @@ class CollectionSettings:
 
 
 @lru_cache(maxsize=4)
-def collection_world(name: str, seed: int, randomize: bool) -> World:
+def collection_world(name: str, seed: int, randomize: bool, appearance: str = "default") -> World:
     """The world a collection of ``seed`` drives in: canonical, or (``randomize``) the
-    randomised draw of that seed and world; built once per process."""
+    randomised draw of that seed and world, in the ``appearance`` mode; built once per
+    process."""
     rng = np.random.default_rng([seed, 1000 + names.WORLDS.index(name)]) if randomize else None
-    return build_world(name, rng)
+    return build_world(name, rng, appearance)
 
 
 def collect_sequence(
     settings: CollectionSettings, index: int, world_name: str, route_name: str, tick=None
 ) -> dict[str, np.ndarray]:
     """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays."""
-    world = collection_world(world_name, settings.seed, settings.randomize)
+    world = collection_world(world_name, settings.seed, settings.randomize, settings.appearance)
     teleop_rng, noise_rng, odo_rng = np.random.default_rng([settings.seed, index]).spawn(3)
     sim = Simulator(world, settings.camera, settings.laser, settings.odometry, TELEOP_CONTROL_DT)
     try:

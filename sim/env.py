@@ -56,6 +56,7 @@ class NavigationEnv(gym.Env):
         with the robot, its laser and its trail), ``camera`` (CameraConfig), ``laser``
         (LaserConfig), ``odometry`` (OdometryConfig), ``sensors`` (subset of
         ("image", "scan")), ``randomize`` (re-draw lights and colours each reset),
+        ``appearance`` ("default" | "hard": every branch in the main manifold's materials),
         ``collision_penalty`` (1.0).
 
     Hooks for tasks built on it (``servo.ServoEnv``)
@@ -78,6 +79,7 @@ class NavigationEnv(gym.Env):
         sensors: tuple[str, ...] = SENSORS,
         randomize: bool = False,
         collision_penalty: float = COLLISION_PENALTY,
+        appearance: str = "default",
     ):
         if world not in WORLDS:
             raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
@@ -96,7 +98,7 @@ class NavigationEnv(gym.Env):
         self.collision_penalty = float(collision_penalty)
         self.camera_config = camera or CameraConfig()
         self.laser_config = laser or LaserConfig()
-        self.world = build_world(world)
+        self.world = build_world(world, appearance=appearance)
         self.sim = Simulator(
             self.world,
             self.camera_config if "image" in sensors else None,

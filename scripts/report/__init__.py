@@ -1,6 +1,7 @@
 """The end-to-end run behind ``topomap run``: collect, evaluate, and write one HTML report.
 
     topomap run [--out out] [--seed 0] [--episodes 4] [--baselines oracle,random]
+                [--protocol DIR]
 
 (``python -m scripts.report`` takes the same arguments.) Stages (the registry
 :data:`~scripts.report.pipeline.STAGES`, each writing into its own folder of ``<out>/report/``,
@@ -10,9 +11,12 @@ each timed; a failing stage stops the run with :class:`StageError` naming it):
    sample camera frames beside the laser scan drawn on the map (``worlds/``);
 2. ``manifold``: the manifold-clustering reproduction (``scripts.reproduce_manifold``):
    synthetic and real tables with the paper's numbers beside ours, and its figures;
-3. ``grouping``: the observation grouping (``scripts.eval_grouping``): tables, laser groups,
+3. ``seeds``: the manifold clustering's error on every dataset seed of the frozen protocol
+   (``scripts.manifold_protocol``), read from the folder given as ``--protocol`` (not
+   computed by the run: it would take far longer than 10 minutes); without one, how to make it;
+4. ``grouping``: the observation grouping (``scripts.eval_grouping``): tables, laser groups,
    local maps, topological graph and weights;
-4. ``servo``: closed-loop servoing (``servo.evaluate``) per world, the servo policy and the
+5. ``servo``: closed-loop servoing (``servo.evaluate``) per world, the servo policy and the
    baselines: results per manifold pair, trajectories on the map, episode videos.
 
 ``index.html`` references the PNGs and mp4s beside it by relative paths (no external
@@ -47,12 +51,19 @@ from scripts.report.sections import (
     PAPER,
     section_grouping,
     section_manifold,
+    section_protocol,
     section_reproduce,
     section_servo,
     section_worlds,
 )
 from scripts.report.settings import REPORT_DIR, OutputError, RunSettings, StageError
-from scripts.report.stages import stage_grouping, stage_manifold, stage_servo, stage_worlds
+from scripts.report.stages import (
+    stage_grouping,
+    stage_manifold,
+    stage_protocol,
+    stage_servo,
+    stage_worlds,
+)
 
 __all__ = [
     "INDEX",
@@ -81,11 +92,13 @@ __all__ = [
     "section",
     "section_grouping",
     "section_manifold",
+    "section_protocol",
     "section_reproduce",
     "section_servo",
     "section_worlds",
     "stage_grouping",
     "stage_manifold",
+    "stage_protocol",
     "stage_servo",
     "stage_worlds",
     "table",

@@ -27,12 +27,19 @@ from scripts.report.provenance import git_commit, machine, versions
 from scripts.report.sections import (
     section_grouping,
     section_manifold,
+    section_protocol,
     section_reproduce,
     section_servo,
     section_worlds,
 )
 from scripts.report.settings import REPORT_DIR, OutputError, RunSettings, StageError
-from scripts.report.stages import stage_grouping, stage_manifold, stage_servo, stage_worlds
+from scripts.report.stages import (
+    stage_grouping,
+    stage_manifold,
+    stage_protocol,
+    stage_servo,
+    stage_worlds,
+)
 
 __all__ = ["STAGES", "RunContext", "Stage", "replace_runs", "run_pipeline"]
 
@@ -136,6 +143,12 @@ STAGES: tuple[Stage, ...] = (
         "manifold",
         lambda ctx: stage_manifold(ctx.data_dir, ctx.dir("manifold"), ctx.root, ctx.progress),
         section=lambda result, ctx: section_manifold(result),
+    ),
+    Stage(
+        "seeds",
+        lambda ctx: stage_protocol(ctx.settings.protocol),
+        section=lambda result, ctx: section_protocol(result),
+        folder=False,
     ),
     Stage(
         "grouping",

@@ -6,12 +6,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from scripts.report.html import esc, figure, fmt, section, table
 
 __all__ = [
     "PAPER",
     "section_grouping",
     "section_manifold",
+    "section_protocol",
     "section_reproduce",
     "section_servo",
     "section_worlds",
@@ -76,6 +79,74 @@ def section_manifold(result: dict) -> str:
         '<div class="row">',
         *figs,
         "</div>",
+    )
+
+
+SPREAD = ("min", "median", "max")
+PROTOCOL_HOWTO = (
+    "collect the seeds (<code>topomap collect --world all --seed S --out ROOT/m-data-S</code>, "
+    "S = 0 ... 10), run <code>python -m scripts.manifold_protocol --root ROOT --out DIR "
+    "--seeds 1 2 3 4 5 6 7 8 9 10</code> (about a minute per seed and condition on 2 cores) "
+    "and give <code>topomap run --protocol DIR</code>"
+)
+
+
+def section_protocol(result: dict) -> str:
+    """``result`` of ``stage_protocol``: {"source": folder or None, "rows": the rows of
+    ``scripts.manifold_protocol.summarize``}. One table per condition and features: a row per
+    method, a column per seed (the dev seed first), then min / median / max and the mean with
+    its bootstrap 95% interval over the fresh seeds."""
+    intro = (
+        "<p>The manifold-clustering tables above are <strong>one dataset seed</strong>: seed 0, "
+        "the dev seed on which the features and the merge rule were chosen. What the method "
+        "does on other seeds is the frozen protocol's job: the same settings on fresh dataset "
+        "seeds, beside the label-free baselines a user would pick (see docs/"
+        "manifold-clustering.md, &ldquo;Results that survive scrutiny&rdquo;).</p>"
+    )
+    if result.get("source") is None:
+        return section(
+            "seeds",
+            "Manifold clustering: the spread over dataset seeds",
+            intro,
+            "<p><strong>Not part of this run</strong>: ten more datasets and their fits take "
+            "longer than the run's 10 minutes on 2 cores. To show it here, "
+            + PROTOCOL_HOWTO
+            + ".</p>",
+        )
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in result["rows"]:
+        groups.setdefault((r["condition"], r["features"]), []).append(r)
+    tables = []
+    for (condition, features), rows in groups.items():
+        seeds = sorted({s for r in rows for s in r["seeds"]})
+        body = []
+        for r in rows:
+            by_seed = dict(zip(r["seeds"], r["errors"], strict=True))
+            errors, stats = r["errors"], r["summary"]
+            spread = [min(errors), float(np.median(errors)), max(errors)] if errors else [None] * 3
+            mean = (
+                None
+                if stats is None
+                else f"{fmt(stats['mean'])} [{fmt(stats['lo'])}, {fmt(stats['hi'])}]"
+            )
+            body.append(
+                [r["method"], r["dev_error"], *(by_seed.get(s) for s in seeds), *spread, mean]
+            )
+        mean_header = f"mean [95% CI], {len(seeds)} fresh seeds"
+        tables.append(
+            table(
+                f"Test error by dataset seed: condition {condition}, features {features}",
+                ("method", "dev seed 0", *(f"seed {s}" for s in seeds), *SPREAD, mean_header),
+                body,
+            )
+        )
+    return section(
+        "seeds",
+        "Manifold clustering: the spread over dataset seeds",
+        intro,
+        f"<p>From <code>{esc(result['source'])}</code> ({result.get('cells', '?')} cells), "
+        "written by <code>scripts.manifold_protocol</code>, not recomputed by this run.</p>",
+        *tables,
     )
 
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 from common.validation import check_int
 
@@ -22,6 +23,10 @@ class RunSettings:
     videos : episode videos per world, of the ``servo`` policy.
     grouping_loop : also drive and group a loop through each world (``eval_grouping``).
     jobs : worker processes for the collection (None: one per core).
+    protocol : a folder written by ``python -m scripts.manifold_protocol --out`` (its
+        ``cells/*.json``), whose per-seed errors the report shows; None: the report says how to
+        make one. The run does not compute it: ten more datasets and their fits would take
+        far longer than the run's 10 minutes on 2 cores.
     """
 
     seed: int = 0
@@ -30,8 +35,15 @@ class RunSettings:
     videos: int = 1
     grouping_loop: bool = False
     jobs: int | None = None
+    protocol: str | None = None
 
     def __post_init__(self):
+        # checked here, not when the stage reads it, so a typo fails before minutes of work
+        if self.protocol is not None and not (Path(self.protocol) / "cells").is_dir():
+            raise ValueError(
+                "protocol must be a folder written by scripts.manifold_protocol (holding "
+                f"cells/), got {self.protocol!r}"
+            )
         check_int(self.episodes, "episodes")
         check_int(self.videos, "videos", minimum=0)
         if not self.policies:

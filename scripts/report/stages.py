@@ -13,7 +13,7 @@ from common.fileio import write_png
 from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet
 from scripts.report.settings import RunSettings
 
-__all__ = ["stage_grouping", "stage_manifold", "stage_servo", "stage_worlds"]
+__all__ = ["stage_grouping", "stage_manifold", "stage_protocol", "stage_servo", "stage_worlds"]
 
 
 def _rel(path, root: Path) -> str:
@@ -64,6 +64,23 @@ def stage_manifold(dataset_dir: Path, out_dir: Path, root: Path, progress: bool)
     result = dict(result)
     result["figures"] = [_rel(out_dir / p, root) for p in result.get("figures", [])]
     return result
+
+
+def stage_protocol(folder: str | Path | None) -> dict:
+    """The frozen protocol's per-seed errors from ``folder`` (``scripts.manifold_protocol``'s
+    ``--out``), summarised per condition, features and method; ``{"source": None}`` without one.
+    The cells are files from disk: ``load_cells`` checks their form."""
+    if folder is None:
+        return {"source": None, "rows": []}
+    from scripts.manifold_protocol import load_cells, summarize
+
+    cells = load_cells(Path(folder))
+    if not cells:
+        raise ValueError(
+            f"protocol: {folder} holds no cells/*.json; run python -m scripts.manifold_protocol "
+            f"--out {folder} first"
+        )
+    return {"source": str(folder), "cells": len(cells), "rows": summarize(cells)}
 
 
 def stage_grouping(dataset, out_dir: Path, settings: RunSettings, progress: bool) -> dict:

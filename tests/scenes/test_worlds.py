@@ -131,3 +131,73 @@ def test_the_registry_has_one_builder_per_world():
     assert tuple(BUILDERS) == WORLDS
     for name, builder in BUILDERS.items():
         assert builder(draw_appearance(None)).xml == build_world(name).xml
+
+
+def _geom_materials(world) -> dict[str, str | None]:
+    import xml.etree.ElementTree as ET
+
+    return {g.get("name"): g.get("material") for g in ET.fromstring(world.xml).iter("geom")}
+
+
+def _surfaces(world) -> dict[str, dict[str, set]]:
+    """Per manifold area: the materials of its floor and of its walls or boundaries."""
+    mats = _geom_materials(world)
+    if world.name == "hallway":
+        areas = {"main": "main", "left": "left", "straight": "straight", "right": "right"}
+        walls = {
+            a: {m for n, m in mats.items() if n.startswith(f"{p}_wall_")} for a, p in areas.items()
+        }
+    else:
+        areas = {"main": "lawn", "left": "left", "straight": "straight", "right": "right"}
+        boundary = ("fence", "hedge_", "_wall_")
+        walls = {
+            a: {
+                m
+                for n, m in mats.items()
+                if n.startswith(f"{p}_") and any(b in n for b in boundary) and m is not None
+            }
+            for a, p in areas.items()
+        }
+    floors = {a: {m for n, m in mats.items() if n.startswith(f"{p}_") and n.endswith("_floor")}
+              for a, p in areas.items()}  # fmt: skip
+    return {"floor": floors, "walls": walls}
+
+
+def _spot_colours(world) -> set[str]:
+    import xml.etree.ElementTree as ET
+
+    return {li.get("diffuse") for li in ET.fromstring(world.xml).iter("light")}
+
+
+@pytest.mark.parametrize("name", ["hallway", "lawn"])
+@pytest.mark.parametrize("rng_seed", [None, 5])
+def test_hard_mode_gives_every_branch_the_main_manifolds_materials(worlds, name, rng_seed):
+    rng = None if rng_seed is None else np.random.default_rng
+    default = worlds[name] if rng is None else build_world(name, rng(rng_seed))
+    hard = build_world(name, None if rng is None else rng(rng_seed), appearance="hard")
+    assert hard.appearance_mode == "hard" and default.appearance_mode == "default"
+    for kind in ("floor", "walls"):
+        d, h = _surfaces(default)[kind], _surfaces(hard)[kind]
+        assert all(d.values()) and all(h.values()), (kind, d, h)  # every area has some
+        assert len(set().union(*h.values())) == 1, (kind, h)  # one material for all areas
+        assert len(set().union(*d.values())) > 1, (kind, d)  # by default they differ
+    if name == "hallway":  # the branches' lights are as tinted as their paint by default
+        assert len(_spot_colours(hard)) == 1 < len(_spot_colours(default))
+
+
+@pytest.mark.parametrize("name", ["hallway", "lawn"])
+def test_hard_mode_keeps_the_geometry(worlds, name):
+    hard = build_world(name, appearance="hard")
+    default = worlds[name]
+    assert hard.routes.keys() == default.routes.keys()
+    for k, route in default.routes.items():
+        np.testing.assert_array_equal(hard.routes[k].waypoints, route.waypoints)
+    assert hard.footprints == default.footprints  # every colliding geom where it was
+    np.testing.assert_array_equal(hard.free_space(0.1).free, default.free_space(0.1).free)
+    compile_world(hard)  # and it is a valid model
+
+
+def test_bad_appearance_modes_are_refused():
+    for bad in ("Hard", "", None, 1):
+        with pytest.raises(ValueError, match=r"appearance must be one of \('default', 'hard'\)"):
+            build_world("hallway", appearance=bad)

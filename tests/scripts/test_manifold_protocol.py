@@ -57,10 +57,25 @@ def test_summary_keeps_the_dev_seed_apart(tmp_path):
     assert "| interleaved | hsv | ours | 3.0% | 15.0% [" in table and "| 10.0%-20.0% |" in table
 
 
-def test_load_cells_refuses_a_foreign_file(tmp_path):
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[1, 2]", "JSON object with these keys"),
+        ("{nope", "not JSON"),
+        ('{"condition": "sunny", "features": "hsv", "seed": 1, "rows": []}', "condition must"),
+        ('{"condition": "hard", "features": "hsv", "seed": -1, "rows": []}', "seed must"),
+        ('{"condition": "hard", "features": "hsv", "seed": 1, "rows": {}}', "rows must"),
+        (
+            '{"condition": "hard", "features": "hsv", "seed": 1, '
+            '"rows": [{"method": "ours", "test_error": NaN}]}',
+            "test_error in",
+        ),
+    ],
+)
+def test_load_cells_refuses_a_foreign_file(tmp_path, text, match):
     (tmp_path / "cells").mkdir()
-    (tmp_path / "cells" / "x.json").write_text("[1, 2]")
-    with pytest.raises(ValueError, match="x.json: not a protocol cell"):
+    (tmp_path / "cells" / "x.json").write_text(text)
+    with pytest.raises(ValueError, match=f"x.json: not a protocol cell.*{match}"):
         load_cells(tmp_path)
 
 
@@ -75,3 +90,18 @@ def test_run_cells_skips_missing_and_broken_datasets(tmp_path, capsys):
     assert "skipped interleaved/hsv/seed 0: dataset not collected yet" in printed
     assert "skipped interleaved/hsv/seed 1:" in printed
     assert list((out / "cells").iterdir()) == []
+
+
+def test_a_dataset_made_for_another_condition_is_refused(tmp_path):
+    from scripts.manifold_protocol import cell, dataset_dir
+    from sim.camera import CameraConfig
+    from sim.collect import CollectionSettings, collect_dataset
+
+    settings = CollectionSettings(worlds=("lawn",), frames=4, camera=CameraConfig(32, 24))
+    collect_dataset(dataset_dir(tmp_path, 0, "hard"), settings, jobs=1, progress=False)
+    with pytest.raises(ValueError, match="condition 'hard' needs a dataset collected with"):
+        cell(tmp_path, "hard", "hsv", 0)
+    assert dataset_dir(tmp_path, 0, "hard").name == "m-data-h0"
+    assert dataset_dir(tmp_path, 0, "randomized").name == "m-data-r0"
+    with pytest.raises(ValueError, match="condition must be one of"):
+        dataset_dir(tmp_path, 0, "sunny")

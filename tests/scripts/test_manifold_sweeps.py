@@ -68,3 +68,28 @@ def test_knn_leaf_merge_joins_the_leaves_of_each_line():
     groups = knn_leaf_merge(X, leaves, 2, k=5)
     assert np.array_equal(groups[:40], np.full(40, groups[0]))
     assert np.array_equal(groups[40:], np.full(40, groups[40])) and groups[0] != groups[40]
+
+
+@pytest.mark.parametrize("name", ["hallway", "lawn"])
+def test_the_junction_centre_is_where_every_manifold_meets(worlds, name):
+    from scripts.manifold_diagnosis import junction_centre
+
+    c = junction_centre(worlds[name])
+    angles = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    around = c + 0.3 * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    assert len(set(worlds[name].manifold_at(around).tolist())) == 4  # all four within 0.3 m
+
+
+def test_errors_by_band_split_the_error_by_distance():
+    from mapping import clustering_error
+    from scripts.manifold_diagnosis import errors_by_band
+
+    y = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    pred = np.array([5, 5, 5, 7, 7, 7, 7, 5])  # two frames wrong, both near (distance < 2)
+    distance = np.array([1.0, 6.0, 12.0, 0.5, 1.5, 6.0, 12.0, 0.2])
+    rows = errors_by_band(y, pred, distance)
+    assert [r["frames"] for r in rows] == [4, 0, 2, 2]
+    assert [r["error"] for r in rows] == [0.5, None, 0.0, 0.0]
+    assert rows[-1]["to_m"] is None
+    total = sum(r["error"] * r["frames"] for r in rows if r["frames"]) / len(y)
+    assert total == pytest.approx(clustering_error(y, pred))

@@ -266,9 +266,12 @@ def test_run_pipeline_writes_a_complete_report(tmp_path):
     data = json.loads((index.parent / "report.json").read_text())
     assert data["info"]["settings"]["seed"] == 3
     assert data["info"]["settings"]["dataset"].endswith("(1 sequences, 8 frames)")
-    assert set(data["info"]["timings"]) == {"dataset", "worlds", "manifold", "grouping", "servo"}
+    stages = {"dataset", "worlds", "manifold", "seeds", "grouping", "servo"}
+    assert set(data["info"]["timings"]) == stages
     assert "numpy" in data["info"]["versions"]
-    assert list(data) == ["worlds", "manifold", "servo", "grouping", "info"]
+    assert list(data) == ["worlds", "manifold", "seeds", "servo", "grouping", "info"]
+    assert data["seeds"] == {"source": None, "rows": []}  # no --protocol: said, not computed
+    assert "Not part of this run" in page and "topomap run --protocol DIR" in page
     assert data["grouping"] == "grouping/grouping.json"
     assert "<h2>Reproducing this report</h2>" in page
 
@@ -310,6 +313,60 @@ def test_the_pipeline_runs_the_stages_it_is_given_in_order(tmp_path, capsys):
     assert sorted(p.name for p in index.parent.iterdir()) == ["index.html", "notes", "report.json"]
     out = capsys.readouterr().out
     assert out.index("== stage dataset") < out.index("== stage notes") < out.index("== stage after")
+
+
+def _protocol_folder(path: Path, errors: dict[str, dict[int, float]]) -> Path:
+    """A folder as ``scripts.manifold_protocol`` writes it: one cell per seed, with the test
+    error of each method given as {method: {seed: error}}."""
+    (path / "cells").mkdir(parents=True)
+    seeds = sorted({seed for by_seed in errors.values() for seed in by_seed})
+    for seed in seeds:
+        rows = [{"method": m, "test_error": e[seed]} for m, e in errors.items() if seed in e]
+        cell = {"condition": "hard", "features": "hsv", "seed": seed, "rows": rows}
+        (path / "cells" / f"hard-hsv-{seed}.json").write_text(json.dumps(cell))
+    return path
+
+
+def _row(page: str, method: str) -> list[str]:
+    """The cells of ``method``'s row in the page's first table that has one."""
+    match = re.search(rf"<tr><td>{re.escape(method)}</td>(.*?)</tr>", page)
+    assert match, method
+    return re.findall(r"<td>(.*?)</td>", match.group(1))
+
+
+def test_the_report_shows_the_error_of_every_seed_from_a_protocol_folder(tmp_path):
+    errors = {
+        "ours": {0: 0.03, 1: 0.2, 2: 0.1, 3: 0.15},
+        "scikit-learn kNN (k=10)": {0: 0.12, 1: 0.05, 3: 0.07},  # seed 2 not run
+    }
+    folder = _protocol_folder(tmp_path / "proto", errors)
+    settings = report.RunSettings(protocol=str(folder))
+    index = report.run_pipeline(tmp_path / "out", settings, progress=False, stages=_fake_stages())
+    page = index.read_text()
+    assert page.index('<section id="manifold">') < page.index('<section id="seeds">')
+    assert "condition hard, features hsv" in page and str(folder) in page
+    # dev seed, seeds 1-3, min / median / max of the fresh seeds, then the mean and interval
+    ours = _row(page, "ours")
+    assert ours[:7] == ["0.030", "0.200", "0.100", "0.150", "0.100", "0.150", "0.200"]
+    assert ours[7].startswith("0.150 [")
+    knn = _row(page, "scikit-learn kNN (k=10)")
+    assert knn[:7] == ["0.120", "0.050", "&ndash;", "0.070", "0.050", "0.060", "0.070"]
+    data = json.loads((index.parent / "report.json").read_text())
+    by_method = {r["method"]: r for r in data["seeds"]["rows"]}
+    assert by_method["ours"]["seeds"] == [1, 2, 3] and by_method["ours"]["dev_error"] == 0.03
+
+
+def test_a_protocol_folder_is_checked(tmp_path, capsys):
+    with pytest.raises(ValueError, match="protocol must be a folder written by"):
+        report.RunSettings(protocol=str(tmp_path / "nope"))
+    assert cli_main(["run", "--protocol", str(tmp_path / "nope"), "--quiet"]) == 2
+    assert "protocol must be a folder" in capsys.readouterr().err
+    (tmp_path / "empty" / "cells").mkdir(parents=True)
+    with pytest.raises(ValueError, match="holds no cells"):
+        report.stage_protocol(tmp_path / "empty")
+    bad = _protocol_folder(tmp_path / "bad", {"ours": {1: 1.5}})
+    with pytest.raises(ValueError, match=r"hard-hsv-1.json: not a protocol cell .*test_error"):
+        report.stage_protocol(bad)
 
 
 def test_replace_runs_refuses_an_unknown_stage():

@@ -257,3 +257,31 @@ def test_cli_teleop_jitter_is_checked(capsys):
     with pytest.raises(SystemExit):
         main(["collect", "--world", "lawn", "--out", "x", "--teleop-jitter", "-1"])
     assert "--teleop-jitter" in capsys.readouterr().err
+
+
+def test_hard_appearance_is_recorded_and_drives_the_same_pass(small_dataset, tmp_path):
+    from dataclasses import replace
+
+    hard = replace(SETTINGS, appearance="hard")
+    collect_dataset(tmp_path / "hard", hard, jobs=1, progress=False)
+    meta = json.loads((tmp_path / "hard" / "meta.json").read_text())
+    assert meta["settings"]["appearance"] == "hard"
+    # a default dataset's meta has no key (its bytes are those of datasets made before the
+    # option), and the two settings are not the same collection
+    assert "appearance" not in json.loads((small_dataset / "meta.json").read_text())["settings"]
+    with pytest.raises(FileExistsError, match="other settings"):
+        collect_dataset(tmp_path / "hard", SETTINGS, jobs=1, progress=False)
+    a, b = load_dataset(small_dataset), load_dataset(tmp_path / "hard")
+    np.testing.assert_array_equal(a.concat("poses"), b.concat("poses"))  # same drives
+    assert not np.array_equal(a.concat("images"), b.concat("images"))  # other looks
+
+
+def test_bad_appearance_is_refused(capsys):
+    from scripts.cli import main
+
+    with pytest.raises(ValueError, match=r"appearance must be one of \('default', 'hard'\)"):
+        CollectionSettings(appearance="easy")
+    with pytest.raises(SystemExit):
+        main(["collect", "--world", "lawn", "--out", "x", "--appearance", "easy"])
+    err = capsys.readouterr().err
+    assert "--appearance" in err and "'hard'" in err

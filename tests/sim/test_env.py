@@ -71,6 +71,8 @@ def test_bad_arguments_name_the_choices():
         gym.make("topomap/Hallway-v0", world="moon")
     with pytest.raises(ValueError, match="sensors must be a non-empty subset"):
         gym.make("topomap/Hallway-v0", sensors=("sonar",))
+    with pytest.raises(ValueError, match="appearance must be one of"):
+        gym.make("topomap/Hallway-v0", appearance="dark")
     env = gym.make("topomap/Hallway-v0", sensors=("scan",))
     with pytest.raises(ValueError, match="not in free space"):
         env.reset(seed=0, options={"pose": (5.0, 3.0, 0.0)})
