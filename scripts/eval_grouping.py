@@ -39,6 +39,7 @@ from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
 from scenes import MANIFOLDS, WORLDS
 from scripts import grouping_plots as gp
 from scripts.grouping_loop import collect_loop
+from scripts.grouping_tables import comparison_table, grouping_table
 from sim import dataset as ds
 from sim.runs import Runs
 
@@ -48,7 +49,6 @@ __all__ = ["TARGETS", "evaluate_grouping", "format_report", "main", "score_group
 TARGETS = {"purity_min": 0.9, "max_groups_per_manifold": 3}
 MC_MIN_CLUSTER_SIZE = 35  # Q of docs/manifold-clustering.md on the same sequences
 JSON_FILE = "grouping.json"
-NO_LABELS = "no ground-truth labels: groups are not scored (purity, ARI, drift and targets: --)"
 LABELS_FILE = "groups.npz"  # per case and variant, the group of every frame (numpy .npz)
 
 
@@ -346,46 +346,13 @@ def evaluate_grouping(
 # --------------------------------------------------------------------------- report
 
 
-def _cell(value, spec: str) -> str:
-    return "--" if value is None else format(value, spec)
-
-
 def format_report(result: dict) -> str:
-    """Markdown tables of the groupings and of the four-way comparison."""
-    lines = [] if result.get("ground_truth", True) else [NO_LABELS, ""]
-    lines += [
-        "| case | poses | frames | groups | purity | ARI | groups per manifold (majority) "
-        "| max touching | drift (m) | time (s) | targets |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for section in ("default", "loop"):
-        for world, entry in result[section].items():
-            for variant, s in entry.items():
-                if not isinstance(s, dict):
-                    continue
-                per = " / ".join(str(v) for v in s["groups_per_manifold"].values()) or "--"
-                met = {True: "met", False: "missed", None: "--"}[s["meets_targets"]]
-                lines.append(
-                    f"| {world}{'-loop' if section == 'loop' else ''} | {variant} | {s['frames']} "
-                    f"| {s['groups']} | {_cell(s['purity'], '.3f')} | {_cell(s['ari'], '+.3f')} "
-                    f"| {per} | {_cell(s['max_groups_touching'], 'd')} "
-                    f"| {_cell(s['max_drift_m'], '.2f')} | {s['seconds']:.2f} | {met} |"
-                )
+    """Markdown tables of the groupings and of the four-way comparison
+    (``scripts.grouping_tables``, the same tables the HTML report shows)."""
+    tables = [grouping_table(result)]
     if result["compare"]:
-        lines += [
-            "",
-            "| world | method / sensor | groups | purity | ARI | max groups per manifold "
-            "| time (s) |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for world, rows in result["compare"].items():
-            for name, s in rows.items():
-                lines.append(
-                    f"| {world} | {name} | {s['groups']} | {_cell(s['purity'], '.3f')} "
-                    f"| {_cell(s['ari'], '+.3f')} | {_cell(s['max_groups_per_manifold'], 'd')} "
-                    f"| {s['seconds']:.2f} |"
-                )
-    return "\n".join(lines)
+        tables.append(comparison_table(result))
+    return "\n".join(t.to_markdown() for t in tables)
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:

@@ -151,28 +151,10 @@ def section_protocol(result: dict) -> str:
 
 
 def section_grouping(result: dict, prefix: str = "") -> str:
-    """``result`` of ``scripts.eval_grouping.evaluate_grouping``; figures under ``prefix``."""
-    rows = []
-    for part in ("default", "loop"):
-        for world, entry in result.get(part, {}).items():
-            for variant, s in entry.items():
-                if isinstance(s, dict):
-                    per = " / ".join(str(v) for v in s["groups_per_manifold"].values())
-                    tag = f"{world}-loop" if part == "loop" else world
-                    rows.append(
-                        [
-                            tag,
-                            variant,
-                            s["frames"],
-                            s["groups"],
-                            s["purity"],
-                            s["ari"],
-                            per,
-                            s["max_drift_m"],
-                            s["seconds"],
-                            s["meets_targets"],
-                        ]
-                    )
+    """``result`` of ``scripts.eval_grouping.evaluate_grouping``; figures under ``prefix``.
+    The tables are ``scripts.grouping_tables``', the ones the command line prints."""
+    from scripts.grouping_tables import comparison_table, grouping_table
+
     targets = result.get("settings", {}).get("targets", {})
     purity_min, max_groups = targets.get("purity_min"), targets.get("max_groups_per_manifold")
     parts = [
@@ -180,52 +162,10 @@ def section_grouping(result: dict, prefix: str = "") -> str:
         f"are scored against the true manifolds. Targets: purity &ge; "
         f"{fmt(purity_min, 2)}, at most {fmt(max_groups)} "
         "groups per manifold. See docs/observation-grouping.md.</p>" + _no_labels_note(result),
-        table(
-            "Laser observation grouping per world and pose source",
-            (
-                "case",
-                "poses",
-                "frames",
-                "groups",
-                "purity",
-                "ARI",
-                "groups per manifold",
-                "max drift (m)",
-                "time (s)",
-                "targets met",
-            ),
-            rows,
-        ),
+        grouping_table(result).to_html(),
     ]
-    compare = [
-        [
-            world,
-            name,
-            s["groups"],
-            s["purity"],
-            s["ari"],
-            s["max_groups_per_manifold"],
-            s["seconds"],
-        ]
-        for world, entries in result.get("compare", {}).items()
-        for name, s in entries.items()
-    ]
-    if compare:
-        parts.append(
-            table(
-                "Both methods on both sensors (method / sensor)",
-                (
-                    "world",
-                    "method / sensor",
-                    "groups",
-                    "purity",
-                    "ARI",
-                    "max groups per manifold",
-                    "time (s)",
-                ),
-                compare,
-            )
-        )
+    if result.get("compare"):
+        parts.append(comparison_table(result).to_html())
     parts.append('<div class="row">')
     for name in result.get("figures", []):
         parts.append(figure(f"{prefix}{name}", Path(name).stem.replace("_", " ")))

@@ -23,6 +23,7 @@ def _grouping_score(frames=10):
         "purity": 0.95,
         "ari": 0.5,
         "groups_per_manifold": {"hallway": 1, "hallway-left": 2},
+        "max_groups_touching": 2,
         "max_drift_m": 0.4,
         "seconds": 0.1,
         "meets_targets": True,
