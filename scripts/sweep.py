@@ -63,7 +63,7 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
-def _check(worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_steps):
+def _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps):
     from scenes import WORLDS
     from servo.evaluate import POLICIES
 
@@ -78,8 +78,7 @@ def _check(worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_ste
         raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
     if not seeds or any(isinstance(s, bool) or int(s) != s for s in seeds):
         raise ValueError(f"seeds must be a non-empty list of integers, got {seeds}")
-    for name, value in (("episodes_per_seed", episodes_per_seed), ("num_envs", num_envs),
-                        ("max_steps", max_steps)):  # fmt: skip
+    for name, value in (("episodes_per_seed", episodes_per_seed), ("max_steps", max_steps)):
         if isinstance(value, bool) or int(value) != value or value < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {value}")
     if len(set(worlds)) < len(worlds) or len(set(settings)) < len(settings):
@@ -142,9 +141,7 @@ def run_sweep(
     from sim.datahome import maps_dir
 
     num_envs = default_workers() if num_envs is None else num_envs
-    worlds, seeds, settings = _check(
-        worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_steps
-    )
+    worlds, seeds, settings = _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps)
     check_backend(backend, num_envs, address)
     tasks = sweep_tasks(worlds, settings, seeds, episodes_per_seed)
     n = min(num_envs, len(tasks))

@@ -16,7 +16,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from multiprocessing import get_context
 
-from scripts.sweep_episode import EpisodeRunner, EpisodeTask
+from scripts.sweep_episode import ONE_THREAD, EpisodeRunner, EpisodeTask
 from scripts.sweep_ray import RayBackend, parse_address  # imports Ray only when used
 
 BACKENDS = ("local", "ray")
@@ -24,8 +24,8 @@ BACKENDS = ("local", "ray")
 _RUNNER: list[EpisodeRunner] = []  # the pool worker's runner (one per process)
 
 
-def _init_pool_worker(maps: dict, policy: str, max_steps: int, single_thread: bool) -> None:
-    _RUNNER.append(EpisodeRunner(maps, policy, max_steps, single_thread))
+def _init_pool_worker(maps: dict, policy: str, max_steps: int) -> None:
+    _RUNNER.append(EpisodeRunner(maps, policy, max_steps))
 
 
 def _run_in_pool(task: EpisodeTask) -> dict:
@@ -46,13 +46,20 @@ class LocalBackend:
 
     def start(self, maps: dict, policy: str, max_steps: int) -> None:
         """``maps``: ``{world: ServoMap}``."""
-        args = (dict(maps), policy, int(max_steps), self.workers > 1)
+        args = (dict(maps), policy, int(max_steps))
         self._pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"),
                                          initializer=_init_pool_worker, initargs=args)  # fmt: skip
         # start the processes now (a spawned pool starts them all on its first task), so that
-        # their start-up counts as the sweep's start-up on both backends
-        for f in [self._pool.submit(os.getpid) for _ in range(self.workers)]:
-            f.result()
+        # their start-up counts as the sweep's start-up on both backends; they inherit
+        # ONE_THREAD from the environment they are started in
+        saved = dict(os.environ)
+        os.environ.update(ONE_THREAD)
+        try:
+            for f in [self._pool.submit(os.getpid) for _ in range(self.workers)]:
+                f.result()
+        finally:
+            os.environ.clear()
+            os.environ.update(saved)
 
     def run(self, tasks: list[EpisodeTask]) -> Iterator[tuple[int, dict]]:
         futures = {self._pool.submit(_run_in_pool, t): i for i, t in enumerate(tasks)}
@@ -70,7 +77,7 @@ def check_backend(backend: str, workers, address) -> None:
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if isinstance(workers, bool) or int(workers) != workers or workers < 1:
-        raise ValueError(f"num_envs (workers) must be an integer >= 1, got {workers}")
+        raise ValueError(f"num_envs must be an integer >= 1 (the workers), got {workers}")
     if address is not None and backend != "ray":
         raise ValueError(f"address is for the ray backend only, got backend {backend!r}")
     if address is not None and (not isinstance(address, str) or not address.strip()):

@@ -48,27 +48,34 @@ def sweep_tasks(worlds, settings, seeds, episodes_per_seed: int) -> list[Episode
     ]
 
 
-def configure_worker(single_thread: bool) -> None:
-    """Run this worker on one core: render in the calling thread and single-threaded BLAS (the
-    workers are the parallelism; more threads would only contend for the cores)."""
-    if single_thread:
-        from threadpoolctl import threadpool_limits
+# One thread per worker: Mesa renders in the calling thread, BLAS and OpenMP run single-threaded.
+# The workers are the parallelism, one per core (a Ray actor asks for one CPU); more threads only
+# contend for the cores (docs/sweeps.md, "Measured"). Set in a worker's environment before it
+# starts (libraries read them on loading), and again by configure_worker.
+ONE_THREAD = {"LP_NUM_THREADS": "0", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+              "MKL_NUM_THREADS": "1"}  # fmt: skip
 
-        # read by Mesa when the first GL context is made, i.e. after this (envs are lazy)
-        os.environ["LP_NUM_THREADS"] = "0"
-        threadpool_limits(1)
+
+def configure_worker() -> None:
+    """Run this worker on one core (:data:`ONE_THREAD`), where the process was started without
+    that environment: Mesa reads ``LP_NUM_THREADS`` at the first GL context (envs are built
+    lazily, after this), and ``threadpoolctl`` limits the BLAS and OpenMP pools already loaded."""
+    from threadpoolctl import threadpool_limits
+
+    os.environ.update(ONE_THREAD)
+    threadpool_limits(1)
 
 
 class EpisodeRunner:
     """Runs sweep episodes in one worker; keeps one ``ServoEnv`` per (world, setting), built on
     first use, so a worker pays for imports, maps and renderers once per sweep.
 
-    ``maps``: ``{world: ServoMap}``; ``policy``: a name of ``servo.evaluate.POLICIES``;
-    ``single_thread``: see :func:`configure_worker`.
+    ``maps``: ``{world: ServoMap}``; ``policy``: a name of ``servo.evaluate.POLICIES``. The
+    process is set to one thread (:func:`configure_worker`).
     """
 
-    def __init__(self, maps: dict, policy: str, max_steps: int, single_thread: bool = True):
-        configure_worker(single_thread)
+    def __init__(self, maps: dict, policy: str, max_steps: int):
+        configure_worker()
         self._maps = dict(maps)
         self._policy, self._max_steps = policy, int(max_steps)
         self._envs: dict = {}

@@ -19,7 +19,7 @@ import socket
 from collections.abc import Iterator
 from pathlib import Path
 
-from scripts.sweep_episode import EpisodeRunner, EpisodeTask
+from scripts.sweep_episode import ONE_THREAD, EpisodeRunner, EpisodeTask
 
 PROBE_TIMEOUT_S = 5.0  # how long an address may take to accept a TCP connection
 GCS_PORT, CLIENT_PORT = 6379, 10001  # Ray's defaults: `ray start --head`, the Ray Client server
@@ -92,7 +92,7 @@ def runtime_env(address: str | None) -> dict:
     on a local instance the same checkout (``PYTHONPATH``); on a cluster our packages, uploaded
     (``py_modules``: Ray takes local folders only in the job's runtime env, so
     :class:`RayBackend` passes this to ``ray.init`` and the ``env_vars`` to each actor)."""
-    env = {k: os.environ[k] for k in _PASS_ENV if k in os.environ}
+    env = {k: os.environ[k] for k in _PASS_ENV if k in os.environ} | ONE_THREAD
     if address is None:
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
         return {"env_vars": env}
@@ -146,14 +146,13 @@ class RayBackend:
         cpus = ray.cluster_resources().get("CPU", 0)
         if cpus < self.workers:
             raise ValueError(
-                f"num_envs (workers) must be at most the Ray cluster's {cpus:g} CPUs, "
+                f"num_envs (the workers) must be at most the Ray cluster's {cpus:g} CPUs, "
                 f"got {self.workers}"
             )
         ref = ray.put(maps)
         env = {"env_vars": runtime_env(self.address)["env_vars"]}
         actor = ray.remote(num_cpus=1, runtime_env=env)(EpisodeRunner)
-        single = self.workers > 1 or self.address is not None
-        self._actors = [actor.remote(ref, policy, max_steps, single) for _ in range(self.workers)]
+        self._actors = [actor.remote(ref, policy, max_steps) for _ in range(self.workers)]
         ray.get([a.__ray_ready__.remote() for a in self._actors])
 
     def run(self, tasks: list[EpisodeTask]) -> Iterator[tuple[int, dict]]:

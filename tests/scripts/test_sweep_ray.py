@@ -12,7 +12,7 @@ import pytest
 
 ray = pytest.importorskip("ray")
 
-from scripts.sweep import TIME_KEYS, run_sweep  # noqa: E402
+from scripts.sweep import SWEEP_KEYS, TIME_KEYS, run_sweep  # noqa: E402
 
 MAX_STEPS = 12
 SEEDS = [0, 1]
@@ -36,9 +36,7 @@ def _table(rows):
     """Everything in the rows but the timings and worker ids."""
     out = []
     for r in rows:
-        row = {k: v for k, v in r.items()
-               if k not in (*TIME_KEYS, "startup_s", "run_s", "episodes_per_min", "backend",
-                            "num_envs", "episodes_detail")}  # fmt: skip
+        row = {k: v for k, v in r.items() if k not in (*TIME_KEYS, *SWEEP_KEYS, "episodes_detail")}
         row["episodes"] = [{k: v for k, v in d.items() if k not in TIME_KEYS}
                            for d in r["episodes_detail"]]  # fmt: skip
         out.append(row)
