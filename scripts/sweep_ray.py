@@ -174,7 +174,9 @@ class RayBackend:
     def close(self) -> None:
         ray = self._ray
         for a in self._actors:
-            ray.kill(a)
+            # a graceful exit once its queue is empty: ray.kill's forced exit of a worker on a
+            # cluster once crashed in Ray's metrics thread (a SIGSEGV in the worker's log)
+            a.__ray_terminate__.remote()
         self._actors = []
         if self._started:
             ray.shutdown()

@@ -64,7 +64,7 @@ def test_ray_starts_and_stops_its_own_local_instance(hallway_map, local_rows):
 @pytest.fixture(scope="module")
 def ray_session():
     """A small local Ray the backend finds already running (and leaves running)."""
-    ray.init(num_cpus=2, include_dashboard=False, object_store_memory=200 << 20,
+    ray.init(address="local", num_cpus=2, include_dashboard=False, object_store_memory=200 << 20,
              logging_level="warning")  # fmt: skip
     yield ray
     ray.shutdown()
