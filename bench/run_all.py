@@ -284,7 +284,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"== {name}: {time.perf_counter() - t0:.0f} s", flush=True)
     info["load average at end"] = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     text = to_markdown(rows, info, time.perf_counter() - start, args.quick)
-    from scenes.fileio import atomic_write_bytes
+    from common.fileio import atomic_write_bytes
 
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -8,6 +8,7 @@ from importlib import import_module
 
 # name -> module that defines it (one line per name, keep sorted by module)
 _EXPORTS = {
+    "scan_to_points": "common.geometry",
     "NormalizedCutClustering": "mapping.baselines",
     "SelfTuningSpectralClustering": "mapping.baselines",
     "best_sigma_ncut": "mapping.baselines",
@@ -16,19 +17,18 @@ _EXPORTS = {
     "ScanFeatures": "mapping.features",
     "EigengapNCutClustering": "mapping.label_free",
     "KNNSpectralClustering": "mapping.label_free",
-    "scan_to_points": "mapping.features",
     "icp": "mapping.icp",
     "refine_poses": "mapping.icp",
     "ManifoldClustering": "mapping.manifold",
     "adjusted_rand_index": "mapping.metrics",
     "clustering_error": "mapping.metrics",
     "purity": "mapping.metrics",
-    "SplitNode": "mapping.ncut",
     "ncut": "mapping.ncut",
     "recursive_ncut_partition": "mapping.ncut",
     "spectral_bisection": "mapping.ncut",
     "sensed_space_overlap": "mapping.overlap",
     "ObservationGraphPartitioner": "mapping.partition",
+    "SplitNode": "mapping.split_tree",
     "TopologicalMap": "mapping.topology",
     "NotFittedError": "sklearn.exceptions",  # what every estimator here raises before fit
 }

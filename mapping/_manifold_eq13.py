@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mapping._manifold_kernel import _TINY
+from mapping.distances import TINY as _TINY
 
 # Rows per batched solve: bounds the (rows, m, m) work array to ~32 MB.
 _BATCH_ELEMENTS = 4_000_000

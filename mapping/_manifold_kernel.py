@@ -20,8 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import eigh
 
-# Degrees below this are treated as zero: the point has no neighbour at this sigma.
-_TINY = 1e-300
+from mapping.distances import TINY as _TINY
 
 
 def affinity(sq_dist: np.ndarray, sigma: float) -> np.ndarray:

@@ -52,8 +52,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mapping._manifold_eq13 import dense_signal, sparse_signal
-from mapping._manifold_kernel import _TINY, affinity
+from mapping._manifold_kernel import affinity
 from mapping._validation import single_threaded_blas
+from mapping.distances import TINY as _TINY
 
 # Query elements centred at once (~32 MB of float64).
 _CENTRE_ELEMENTS = 4_000_000

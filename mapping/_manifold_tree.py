@@ -24,6 +24,7 @@ import numpy as np
 
 from mapping._manifold_kernel import SpectralBasis, alpha_from_t
 from mapping._manifold_split import SearchSpace, best_split, sigma_bounds
+from mapping.split_tree import SplitNode
 
 # Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "separability" (the
 # default: merge the neighbouring pair least separable as two manifolds), "merge" (greedy
@@ -35,39 +36,31 @@ _ADJACENCY_NEIGHBOURS = 10
 
 
 @dataclass(eq=False)
-class SplitNode:
-    """A node of the bisection tree.
+class ManifoldNode(SplitNode):
+    """A node of the manifold bisection tree.
 
     Attributes
     ----------
     indices : ndarray of int
         Training indices of the node's points, ascending.
+    children : tuple of ManifoldNode
+        (p1, p2): p1 is the tight manifold seeded by x_l1, p2 the rest; empty for a leaf.
     omega, sigma, alpha : float
         Omega(2) of the node's split (eq. 9) and the (sigma, alpha) that maximised it;
         NaN for a leaf.
     seeds : tuple of int or None
         Training indices of the split's seeds x_l1, x_l2 (eq. 12); None for a leaf.
-    children : tuple of SplitNode or None
-        (p1, p2): p1 is the tight manifold seeded by x_l1, p2 the rest; None for a leaf.
     """
 
-    indices: np.ndarray
     omega: float = np.nan
     sigma: float = np.nan
     alpha: float = np.nan
     seeds: tuple[int, int] | None = None
-    children: tuple[SplitNode, SplitNode] | None = None
-
-    def leaves(self) -> list[SplitNode]:
-        """Leaves left to right (p1 before p2)."""
-        if self.children is None:
-            return [self]
-        return self.children[0].leaves() + self.children[1].leaves()
 
 
-def build_tree(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> SplitNode:
+def build_tree(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> ManifoldNode:
     """Bisect recursively until every leaf is smaller than ``2 * min_size`` (Section II-C)."""
-    root = SplitNode(np.arange(sq_dist.shape[0]))
+    root = ManifoldNode(np.arange(sq_dist.shape[0]))
     stack = [root]
     while stack:
         node = stack.pop()
@@ -78,15 +71,15 @@ def build_tree(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> SplitN
     return root
 
 
-def _split(node: SplitNode, sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> None:
+def _split(node: ManifoldNode, sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> None:
     idx = node.indices
     split = best_split(sq_dist[np.ix_(idx, idx)], min_size, space)
     node.omega, node.sigma, node.alpha = split.omega, split.sigma, split.alpha
     node.seeds = (int(idx[split.seeds[0]]), int(idx[split.seeds[1]]))
-    node.children = (SplitNode(idx[split.in_first]), SplitNode(idx[~split.in_first]))
+    node.children = (ManifoldNode(idx[split.in_first]), ManifoldNode(idx[~split.in_first]))
 
 
-def ensure_leaves(root: SplitNode, sq_dist: np.ndarray, n_clusters: int, space: SearchSpace):
+def ensure_leaves(root: ManifoldNode, sq_dist: np.ndarray, n_clusters: int, space: SearchSpace):
     """Split the largest leaves until there are at least ``n_clusters`` of them.
 
     Only needed when n is close to ``K * Q``: leaves hold between Q and 2 Q - 1 points, so C
@@ -227,12 +220,12 @@ def _merge(scores: _GroupScores, n_clusters: int) -> list[list[int]]:
     return groups
 
 
-def cut_tree(root: SplitNode, n_clusters: int) -> list[list[SplitNode]]:
+def cut_tree(root: ManifoldNode, n_clusters: int) -> list[list[ManifoldNode]]:
     """Alternative combination: expand the tree from the root, always splitting the frontier
     node of highest Omega, until there are K subtrees; each becomes one cluster."""
     frontier = [root]
     while len(frontier) < n_clusters:
-        inner = [node for node in frontier if node.children is not None]
+        inner = [node for node in frontier if not node.is_leaf]
         node = max(inner, key=lambda nd: nd.omega)
         frontier.remove(node)
         frontier.extend(node.children)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mapping.topology import se2_compose, se2_relative, wrap_angle
+from common.geometry import se2_compose, se2_relative, wrap_angle
 
 __all__ = [
     "OfficeWorld",

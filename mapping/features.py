@@ -6,9 +6,9 @@ its names are re-exported here.
 Laser scans: float32 range arrays of shape (n_beams,) or (n, n_beams), where ``+inf`` means
 "no return within max range" and NaN an invalid reading. :func:`scan_ranges` makes them finite
 (both become ``max_range``), :func:`scan_vectors` turns them into a range, inverse-range or
-polar occupancy-grid vector, and :class:`ScanFeatures` wraps that. :func:`scan_to_points` gives
-the returns as points in the sensor frame (x forward, y left; beam angles in radians,
-counter-clockwise from x). Everything is vectorised over scans and beams.
+polar occupancy-grid vector, and :class:`ScanFeatures` wraps that
+(:func:`common.geometry.scan_to_points` gives the returns as points instead). Everything is
+vectorised over scans and beams.
 """
 
 from __future__ import annotations
@@ -40,7 +40,6 @@ __all__ = [
     "images_to_vectors",
     "normalize_rows",
     "scan_ranges",
-    "scan_to_points",
     "scan_vectors",
 ]
 
@@ -232,35 +231,3 @@ class ScanFeatures(TransformerMixin, BaseEstimator):
         """Feature vectors of shape (n, D)."""
         check_is_fitted(self, "max_range_")
         return self._vectors(self._check_ranges(ranges, reset=False))
-
-
-def scan_to_points(
-    ranges: ArrayLike, angles: ArrayLike, max_range: float | None = None
-) -> np.ndarray:
-    """Returns of one scan as 2-D points in the sensor frame (x forward, y left).
-
-    Parameters
-    ----------
-    ranges : array-like of shape (n_beams,)
-        Ranges in metres; inf (no return), NaN, negative values and, if ``max_range`` is
-        given, readings at or beyond it are dropped.
-    angles : array-like of shape (n_beams,)
-        Beam angles in radians, counter-clockwise from the x axis.
-    max_range : float, optional
-        Drop readings ``>= max_range`` (sensors that report max range instead of inf).
-
-    Returns
-    -------
-    ndarray of shape (M, 2), float64, M <= n_beams
-    """
-    r = np.asarray(ranges, dtype=np.float64)
-    a = np.asarray(angles, dtype=np.float64)
-    if r.ndim != 1 or a.shape != r.shape:
-        raise ValueError(
-            f"ranges and angles must be 1-D of the same length, got {r.shape} and {a.shape}"
-        )
-    keep = np.isfinite(r) & (r >= 0) & np.isfinite(a)
-    if max_range is not None:
-        keep &= r < max_range
-    r, a = r[keep], a[keep]
-    return np.column_stack([r * np.cos(a), r * np.sin(a)])

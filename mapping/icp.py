@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.topology import run_starts_from_groups, se2_compose, se2_relative
+from common.geometry import se2_compose, se2_relative
+from mapping.topology import run_starts_from_groups
 
 __all__ = ["IcpBatchResult", "IcpResult", "densify_scan", "icp", "icp_batch", "refine_poses"]
 
@@ -237,7 +238,8 @@ def _iterate(
     shift = 2.0 * reach * np.arange(len(pairs))  # row k's target lies at x + shift[k]
     stacked = np.concatenate([t + (s, 0.0) for t, s in zip(targets, shift, strict=True)])
     if tree is None:
-        tree = cKDTree(stacked)
+        # unbalanced, uncompacted: ~40 % quicker to build, the same neighbours
+        tree = cKDTree(stacked, balanced_tree=False, compact_nodes=False)
     elif tree.n != len(stacked):
         raise ValueError(f"target_tree holds {tree.n} points, target {len(stacked)}")
     # the tree answers index tree.n for "no neighbour": a point at infinity
@@ -365,6 +367,7 @@ def refine_poses(
     min_matches: int = 20,
     min_overlap: float = 0.5,
     groups: ArrayLike | None = None,
+    decimation: int = 1,
 ) -> np.ndarray:
     """Replace consecutive odometry increments by ICP scan matching and re-chain the poses.
 
@@ -379,11 +382,19 @@ def refine_poses(
     increment from the previous scan, so that scan keeps its input pose and the next ones
     chain from it.
 
+    ``decimation`` keeps every ``decimation``-th point of each source scan (the target stays
+    whole), as MRPT's ICP does with ``corresponding_points_decimation``: a 2-D scan's
+    neighbouring beams say nearly the same thing, and the ICP costs in proportion to the
+    source points. ``min_matches`` and ``min_overlap`` then count the kept points.
+
     Returns
     -------
     ndarray of shape (N, 3)
         Refined poses; the first pose of every run is unchanged.
     """
+    integer = isinstance(decimation, int | np.integer) and not isinstance(decimation, bool)
+    if not integer or decimation < 1:
+        raise ValueError(f"decimation must be a positive integer, got {decimation!r}")
     poses = np.asarray(poses, dtype=float)
     steps = se2_relative(poses[:-1], poses[1:])
     starts = run_starts_from_groups(groups, len(poses))
@@ -392,16 +403,17 @@ def refine_poses(
         if not starts[i] and len(scans[i]) >= min_matches and len(scans[i - 1]) >= min_matches
     ]  # fmt: skip
     if pairs:
+        sources = [np.asarray(scans[i], dtype=float).reshape(-1, 2)[::decimation] for i in pairs]
         res = icp_batch(
-            [scans[i] for i in pairs],
+            sources,
             [densify_scan(scans[i - 1]) for i in pairs],
             steps[np.asarray(pairs) - 1],
             max_correspondence_distance=max_correspondence_distance,
             max_iterations=max_iterations,
-            min_matches=min_matches,
+            min_matches=-(-min_matches // decimation),
             workers=-1,
         )
-        sizes = np.array([len(scans[i]) for i in pairs])
+        sizes = np.array([len(s) for s in sources])
         keep = res.converged & (res.n_matches >= min_overlap * sizes)
         steps[np.asarray(pairs)[keep] - 1] = res.transforms[keep]
     out = poses.copy()

@@ -18,9 +18,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from common.geometry import transform_points
 from mapping.ncut import partition_checked
-from mapping.overlap import _voxel_offsets
-from mapping.topology import transform_points
+from mapping.overlap import voxel_offsets
 
 __all__ = ["VoxelOverlapIndex", "add_scans", "repartition"]
 
@@ -41,7 +41,7 @@ class VoxelOverlapIndex:
     def __init__(self, delta: float, voxel_size: float) -> None:
         self.delta = delta
         self.voxel_size = voxel_size
-        off = _voxel_offsets(delta / voxel_size)
+        off = voxel_offsets(delta / voxel_size)
         self._shifts = np.sort(off[:, 0] * (1 << _Y_BITS) + off[:, 1])
         self.keys: list[np.ndarray] = []  # sorted unique cell keys per scan
         self.counts: list[np.ndarray] = []  # points per cell

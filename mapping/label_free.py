@@ -30,7 +30,8 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from mapping._validation import single_threaded_blas
-from mapping.baselines import NormalizedCutClustering, default_sigmas, squared_distances
+from mapping.baselines import NormalizedCutClustering, default_sigmas
+from mapping.distances import squared_distances
 
 __all__ = ["EigengapNCutClustering", "KNNSpectralClustering", "eigengap"]
 

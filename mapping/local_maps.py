@@ -25,8 +25,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
+from common.geometry import se2_compose, se2_relative, transform_points
 from mapping.icp import densify_scan, icp
-from mapping.topology import run_starts_from_groups, se2_compose, se2_relative, transform_points
+from mapping.topology import run_starts_from_groups
 
 __all__ = [
     "align_group",

@@ -25,7 +25,6 @@ from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import (
     COMBINE_RULES,
     Combination,
-    SplitNode,
     build_tree,
     combine_leaves,
     cut_tree,
@@ -33,7 +32,8 @@ from mapping._manifold_tree import (
     separability_merge,
 )
 from mapping._validation import is_plain_query, single_threaded_blas
-from mapping.baselines import squared_distances
+from mapping.distances import squared_distances
+from mapping.split_tree import SplitNode
 
 __all__ = ["EXPECTED_FAILED_CHECKS", "ManifoldClustering"]
 

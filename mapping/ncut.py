@@ -10,7 +10,6 @@ laser-scan estimator built on it (Sections III-IV).
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,9 +20,10 @@ from numpy.typing import ArrayLike
 from scipy.sparse.csgraph import connected_components
 
 from mapping._validation import single_threaded_blas
+from mapping.split_tree import SplitNode
 
 __all__ = [
-    "SplitNode",
+    "NcutNode",
     "ncut",
     "recursive_ncut_partition",
     "spectral_bisection",
@@ -221,39 +221,27 @@ def _sparse_second_eigenvector(L: sp.csr_array, null: np.ndarray) -> np.ndarray:
     return z[:, 1]
 
 
-@dataclass
-class SplitNode:
-    """A node of the recursive bisection tree.
+@dataclass(eq=False)
+class NcutNode(SplitNode):
+    """A node of the recursive min-Ncut bisection tree.
 
     Attributes
     ----------
     indices : ndarray of int
         Nodes of the original graph in this subgraph.
+    children : tuple of NcutNode
+        The two halves if the bisection was accepted (``ncut < threshold``), else empty.
     ncut : float or None
         Ncut (eq. 1) of the best bisection found for this subgraph, whether accepted or not;
         ``None`` when no bisection was possible (a single node, or a constant eigenvector).
-    children : tuple of SplitNode
-        The two halves if the bisection was accepted (``ncut < threshold``), else empty.
     """
 
-    indices: np.ndarray
-    ncut: float | None
-    children: tuple[SplitNode, ...] = ()
+    ncut: float | None = None
 
     @property
     def accepted(self) -> bool:
         """Whether this subgraph was split."""
-        return bool(self.children)
-
-    def walk(self) -> Iterator[SplitNode]:
-        """Pre-order traversal of the tree."""
-        yield self
-        for child in self.children:
-            yield from child.walk()
-
-    def leaves(self) -> list[SplitNode]:
-        """The final groups, in traversal order."""
-        return [node for node in self.walk() if not node.children]
+        return not self.is_leaf
 
 
 def recursive_ncut_partition(
@@ -264,7 +252,7 @@ def recursive_ncut_partition(
     laplacian: str = "normalized",
     min_size: int = 1,
     solver: str = "auto",
-) -> tuple[np.ndarray, SplitNode]:
+) -> tuple[np.ndarray, NcutNode]:
     """Recursive spectral bisection while the min-Ncut is below ``threshold`` (Section II-B).
 
     ``RecursivePart(G)``: bisect ``G`` with ``spectral_bisection``; if ``Ncut < threshold``
@@ -289,7 +277,7 @@ def recursive_ncut_partition(
     -------
     labels : ndarray of shape (n,), int
         Group of each node, numbered in the order of each group's first node.
-    tree : SplitNode
+    tree : NcutNode
         The bisection tree with each Ncut.
     """
     if not np.isscalar(threshold) or not 0.0 <= threshold <= 2.0:
@@ -313,7 +301,7 @@ def partition_checked(
     laplacian: str,
     min_size: int,
     solver: str,
-) -> tuple[np.ndarray, SplitNode]:
+) -> tuple[np.ndarray, NcutNode]:
     """``recursive_ncut_partition`` on arguments already checked (a valid, non-empty ``W``):
     for callers that re-partition many small graphs, such as ``partial_fit``."""
     n = W.shape[0]
@@ -321,7 +309,7 @@ def partition_checked(
         W = sp.csr_array(W)
     elif sp.issparse(W):
         W = W.toarray()
-    root = SplitNode(np.arange(n), None)
+    root = NcutNode(np.arange(n))
     stack = [root]
     # hundreds of small eigensolves: BLAS threads only contend (see single_threaded_blas)
     with single_threaded_blas():
@@ -341,7 +329,7 @@ def partition_checked(
                 continue
             node.ncut = _ncut(sub, mask, assoc)
             if node.ncut < threshold and min(mask.sum(), (~mask).sum()) >= min_size:
-                node.children = (SplitNode(idx[mask], None), SplitNode(idx[~mask], None))
+                node.children = (NcutNode(idx[mask]), NcutNode(idx[~mask]))
                 stack.extend(reversed(node.children))
     labels = np.empty(n, dtype=np.intp)
     leaves = sorted(root.leaves(), key=lambda leaf: leaf.indices.min())

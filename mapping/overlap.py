@@ -15,9 +15,15 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
-from mapping.topology import transform_points
+from common.geometry import transform_points
 
-__all__ = ["check_scans_and_poses", "sensed_space_overlap", "voxel_incidence", "world_points"]
+__all__ = [
+    "check_scans_and_poses",
+    "sensed_space_overlap",
+    "voxel_incidence",
+    "voxel_offsets",
+    "world_points",
+]
 
 _METHODS = ("auto", "per_scan", "global")
 # Above this many points in all, the self-join's list of close point pairs (tens per point)
@@ -172,7 +178,7 @@ def _fractions_global(
     return counts.row, counts.col, counts.data / sizes[counts.row]
 
 
-def _voxel_offsets(radius_cells: float) -> np.ndarray:
+def voxel_offsets(radius_cells: float) -> np.ndarray:
     """Integer offsets ``(dx, dy)`` with ``dx^2 + dy^2 <= radius_cells^2``: the disc of eq. 16
     on the voxel grid."""
     r = int(np.floor(radius_cells + 1e-9))
@@ -241,7 +247,7 @@ def _fractions_voxel(
     once: two sparse products, no loop over scans or pairs.
     """
     A, grid = voxel_incidence(pts, voxel_size)
-    K = _voxel_adjacency(grid, _voxel_offsets(delta / voxel_size))
+    K = _voxel_adjacency(grid, voxel_offsets(delta / voxel_size))
     occupied = A.copy()
     occupied.data[:] = 1.0
     near = occupied @ K

@@ -47,6 +47,9 @@ def _scalar(value):
 
 
 def _jsonable(value):
+    # Stricter than common.fileio.jsonable on purpose: a parameter must come back from ``load``
+    # as it went in, and load only turns JSON lists into tuples, so arrays and dicts cannot
+    # round-trip and are refused here rather than saved and misread.
     if isinstance(value, tuple | list):
         return [_jsonable(v) for v in value]
     out = _scalar(value)

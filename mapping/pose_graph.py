@@ -26,8 +26,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
+from common.geometry import se2_compose, se2_relative
 from mapping.icp import densify_scan, icp_batch
-from mapping.topology import run_starts_from_groups, se2_compose, se2_relative
+from mapping.topology import run_starts_from_groups
 
 __all__ = ["LoopClosureResult", "absolute_trajectory_error", "close_loops"]
 

@@ -17,7 +17,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike
 from sklearn.utils import check_array, check_scalar
 
-from mapping.baselines import squared_distances
+from mapping.distances import squared_distances
 
 __all__ = ["default_n_neighbors", "knn_gaussian_affinity"]
 

@@ -1,13 +1,12 @@
-"""SE(2) pose algebra and the metric-topological map of grouped observations.
+"""The metric-topological map of grouped observations.
 
 Blanco et al., Section III and Section IV-A step 4: the groups found by the observation-graph
 partition become the nodes of a graph; each node stores a local metric map and each arc the
 "approximate relative transformation between the local maps", computed "by averaging the
 differential poses between scans of different groups".
 
-Poses are ``(x, y, yaw)`` rows. ``se2_compose(a, b)`` is ``a ⊕ b`` (``b`` expressed in the frame
-of ``a``, mapped to the frame ``a`` lives in); ``se2_relative(a, b)`` is ``a ⊖ b``-style
-"pose of ``b`` seen from ``a``" (``inverse(a) ⊕ b``). All helpers broadcast over leading axes.
+Poses are ``(x, y, yaw)`` rows; their algebra (``se2_compose``, ``se2_relative``, ...) is
+:mod:`common.geometry`'s.
 """
 
 from __future__ import annotations
@@ -18,74 +17,22 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from common.geometry import (
+    se2_compose,
+    se2_inverse,
+    se2_relative,
+    transform_points,
+    wrap_angle,
+)
+
 __all__ = [
     "TopologicalMap",
     "TopologyArc",
     "build_local_maps",
     "build_topology",
-    "circular_mean",
     "group_frames",
     "run_starts_from_groups",
-    "se2_compose",
-    "se2_inverse",
-    "se2_mean",
-    "se2_relative",
-    "transform_points",
-    "wrap_angle",
 ]
-
-
-# --------------------------------------------------------------------------- SE(2) algebra
-
-
-def wrap_angle(theta: ArrayLike) -> np.ndarray:
-    """Wrap angles to ``[-pi, pi)``."""
-    return (np.asarray(theta, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def se2_compose(a: ArrayLike, b: ArrayLike) -> np.ndarray:
-    """Compose poses, ``a ⊕ b``: the pose ``b`` (given in the frame of ``a``) in ``a``'s parent."""
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
-    y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
-    return np.stack([x, y, wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
-
-
-def se2_inverse(a: ArrayLike) -> np.ndarray:
-    """Inverse pose: ``se2_compose(a, se2_inverse(a))`` is the identity."""
-    a = np.asarray(a, dtype=float)
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    x = -c * a[..., 0] - s * a[..., 1]
-    y = s * a[..., 0] - c * a[..., 1]
-    return np.stack([x, y, wrap_angle(-a[..., 2])], axis=-1)
-
-
-def se2_relative(a: ArrayLike, b: ArrayLike) -> np.ndarray:
-    """Pose of ``b`` in the frame of ``a`` (the differential pose ``inverse(a) ⊕ b``)."""
-    return se2_compose(se2_inverse(a), b)
-
-
-def transform_points(pose: ArrayLike, points: ArrayLike) -> np.ndarray:
-    """Map ``(M, 2)`` points from the frame of ``pose`` to the frame ``pose`` lives in."""
-    pose = np.asarray(pose, dtype=float)
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    c, s = np.cos(pose[2]), np.sin(pose[2])
-    return points @ np.array([[c, s], [-s, c]]) + pose[:2]
-
-
-def circular_mean(angles: ArrayLike, weights: ArrayLike | None = None) -> float:
-    """Mean direction of angles (radians): the angle of the (weighted) mean unit vector."""
-    angles = np.asarray(angles, dtype=float)
-    w = np.ones_like(angles) if weights is None else np.asarray(weights, dtype=float)
-    return float(np.arctan2(np.sum(w * np.sin(angles)), np.sum(w * np.cos(angles))))
-
-
-def se2_mean(poses: ArrayLike) -> np.ndarray:
-    """Average of ``(K, 3)`` poses: arithmetic mean translation, circular mean heading."""
-    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
-    return np.array([poses[:, 0].mean(), poses[:, 1].mean(), circular_mean(poses[:, 2])])
 
 
 def run_starts_from_groups(groups: ArrayLike | None, n: int) -> np.ndarray:

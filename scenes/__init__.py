@@ -1,12 +1,14 @@
 """Worlds of the testbed, built in code: a branching indoor hallway and an outdoor lawn.
 
-``build_world(name, rng=None)`` returns a :class:`~scenes.world.World` with the MJCF, textures
-and the ground truth (manifold regions, free space, teleop routes). Nothing here imports
-MuJoCo: compiling and simulating is ``sim``'s job.
+``build_world(name, rng=None)`` (:mod:`scenes.registry`) returns a :class:`~scenes.world.World`
+with the MJCF, textures and the ground truth (manifold regions, free space, teleop routes).
+Nothing here imports MuJoCo: compiling and simulating is ``sim``'s job.
 """
 
+from scenes.appearance import RANDOMIZATION
 from scenes.names import MANIFOLD_IDS, MANIFOLDS, NO_MANIFOLD, WORLDS
-from scenes.world import RANDOMIZATION, World, build_world
+from scenes.registry import build_world
+from scenes.world import World
 
 __all__ = [
     "MANIFOLDS",

@@ -12,12 +12,13 @@ from __future__ import annotations
 import numpy as np
 
 from scenes import names, textures
+from scenes.appearance import Appearance
 from scenes.furnish import potted_plant, wall_box
 from scenes.layout import Rect, add_floor, add_walls
 from scenes.mjcf import SceneBuilder
 from scenes.regions import ManifoldMap, Region, Route
 from scenes.robot import add_robot
-from scenes.world import Appearance, World
+from scenes.world import World
 
 CORRIDOR_WIDTH = 2.4
 WALL_HEIGHT = 2.6

@@ -9,12 +9,13 @@ from __future__ import annotations
 import numpy as np
 
 from scenes import meshes, names, textures
+from scenes.appearance import Appearance
 from scenes.furnish import hedge, tree
 from scenes.layout import Rect, add_floor
 from scenes.mjcf import SceneBuilder
 from scenes.regions import ManifoldMap, Region, Route
 from scenes.robot import add_robot
-from scenes.world import Appearance, World
+from scenes.world import World
 
 LAWN_LENGTH = 16.0
 LAWN_WIDTH = 12.0

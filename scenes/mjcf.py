@@ -17,7 +17,8 @@ from scenes.regions import Footprint
 from scenes.textures import encode_png
 
 
-def _fmt(values) -> str:
+def fmt(values) -> str:
+    """Numbers as an MJCF attribute: space-separated, 6 significant digits."""
     return " ".join(f"{float(v):.6g}" for v in np.ravel(values))
 
 
@@ -69,14 +70,14 @@ class SceneBuilder:
     ) -> str:
         attrs = {
             "name": self._claim(name),
-            "rgba": _fmt(rgba),
-            "specular": _fmt(specular),
-            "shininess": _fmt(shininess),
-            "reflectance": _fmt(reflectance),
+            "rgba": fmt(rgba),
+            "specular": fmt(specular),
+            "shininess": fmt(shininess),
+            "reflectance": fmt(reflectance),
         }
         if texture is not None:
             attrs.update(
-                texture=texture, texrepeat=_fmt(texrepeat), texuniform=str(texuniform).lower()
+                texture=texture, texrepeat=fmt(texrepeat), texuniform=str(texuniform).lower()
             )
         ET.SubElement(self.asset, "material", **attrs)
         return name
@@ -128,11 +129,11 @@ class SceneBuilder:
             collide,
             group,
             type="box",
-            pos=_fmt(center),
-            size=_fmt(half_size),
-            euler=_fmt((0, 0, yaw)) if yaw else None,
+            pos=fmt(center),
+            size=fmt(half_size),
+            euler=fmt((0, 0, yaw)) if yaw else None,
             material=material,
-            rgba=_fmt(rgba) if rgba is not None else None,
+            rgba=fmt(rgba) if rgba is not None else None,
         )
 
     def cylinder(
@@ -156,10 +157,10 @@ class SceneBuilder:
             collide,
             group,
             type="cylinder",
-            pos=_fmt(center),
-            size=_fmt((radius, half_height)),
+            pos=fmt(center),
+            size=fmt((radius, half_height)),
             material=material,
-            rgba=_fmt(rgba) if rgba is not None else None,
+            rgba=fmt(rgba) if rgba is not None else None,
         )
 
     def mesh_geom(
@@ -179,9 +180,9 @@ class SceneBuilder:
             group,
             type="mesh",
             mesh=mesh,
-            pos=_fmt(pos),
+            pos=fmt(pos),
             material=material,
-            rgba=_fmt(rgba) if rgba is not None else None,
+            rgba=fmt(rgba) if rgba is not None else None,
         )
 
     def light(
@@ -201,20 +202,20 @@ class SceneBuilder:
             self.worldbody,
             "light",
             name=self._claim(name),
-            pos=_fmt(pos),
-            dir=_fmt(direction),
-            diffuse=_fmt(diffuse),
-            ambient=_fmt(ambient),
-            specular=_fmt(specular),
+            pos=fmt(pos),
+            dir=fmt(direction),
+            diffuse=fmt(diffuse),
+            ambient=fmt(ambient),
+            specular=fmt(specular),
             type="directional" if directional else "spot",
-            attenuation=_fmt(attenuation),
-            cutoff=_fmt(cutoff),
+            attenuation=fmt(attenuation),
+            cutoff=fmt(cutoff),
             castshadow=str(castshadow).lower(),
         )
 
     def camera(self, name: str, pos, xyaxes) -> ET.Element:
         return ET.SubElement(
-            self.worldbody, "camera", name=self._claim(name), pos=_fmt(pos), xyaxes=_fmt(xyaxes)
+            self.worldbody, "camera", name=self._claim(name), pos=fmt(pos), xyaxes=fmt(xyaxes)
         )
 
     def set_visual(
@@ -232,19 +233,19 @@ class SceneBuilder:
         ``znear``/``zfar`` are multiples of the model extent, so a 40 m world needs a tiny znear
         or the camera clips everything within half a metre.
         """
-        ET.SubElement(self.root, "statistic", extent=_fmt(extent), center=_fmt(center))
+        ET.SubElement(self.root, "statistic", extent=fmt(extent), center=fmt(center))
         ET.SubElement(self.visual, "global", offwidth=str(width), offheight=str(height), fovy="45")
         # offsamples=0: multisampling is what costs most on a software rasteriser.
         ET.SubElement(self.visual, "quality", offsamples="0", shadowsize="2048")
-        map_attrs = {"znear": _fmt(0.02 / extent), "zfar": _fmt(3.0)}
+        map_attrs = {"znear": fmt(0.02 / extent), "zfar": fmt(3.0)}
         if fog is not None:
-            map_attrs.update(fogstart=_fmt(fog[0]), fogend=_fmt(fog[1]))
+            map_attrs.update(fogstart=fmt(fog[0]), fogend=fmt(fog[1]))
         ET.SubElement(self.visual, "map", **map_attrs)
         ET.SubElement(
             self.visual,
             "headlight",
-            ambient=_fmt([headlight_ambient] * 3),
-            diffuse=_fmt([headlight_diffuse] * 3),
+            ambient=fmt([headlight_ambient] * 3),
+            diffuse=fmt([headlight_diffuse] * 3),
             specular="0 0 0",
         )
 

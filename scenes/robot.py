@@ -11,7 +11,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 from scenes import names
-from scenes.mjcf import SceneBuilder, _fmt
+from scenes.mjcf import SceneBuilder, fmt
 
 RADIUS = 0.22  # m, chassis (a Pioneer-sized base)
 CHASSIS_HEIGHT = 0.30  # m
@@ -38,7 +38,7 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
     ``(x, y, yaw)``; the simulator places it by writing ``qpos``.
     """
     body = ET.SubElement(scene.worldbody, "body", name=names.ROBOT_BODY, pos="0 0 0")
-    ET.SubElement(body, "inertial", pos="0 0 0.2", mass=_fmt(MASS), diaginertia="0.6 0.6 0.5")
+    ET.SubElement(body, "inertial", pos="0 0 0.2", mass=fmt(MASS), diaginertia="0.6 0.6 0.5")
     ET.SubElement(body, "joint", name=names.ROBOT_JOINT_X, type="slide", axis="1 0 0", damping="0")
     ET.SubElement(body, "joint", name=names.ROBOT_JOINT_Y, type="slide", axis="0 1 0", damping="0")
     ET.SubElement(body, "joint", name=names.ROBOT_JOINT_YAW, type="hinge", axis="0 0 1")
@@ -48,8 +48,8 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
         "geom",
         name=names.ROBOT_CHASSIS,
         type="cylinder",
-        size=_fmt((RADIUS, half)),
-        pos=_fmt((0, 0, CHASSIS_CLEARANCE + half)),
+        size=fmt((RADIUS, half)),
+        pos=fmt((0, 0, CHASSIS_CLEARANCE + half)),
         rgba="0.15 0.15 0.18 1",
         group=str(names.GROUP_ROBOT),
         friction="0.2 0.005 0.0001",
@@ -59,8 +59,8 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
         "geom",
         name="robot_mast",
         type="cylinder",
-        size=_fmt((0.025, (CAMERA_HEIGHT - CHASSIS_HEIGHT) / 2)),
-        pos=_fmt((0, 0, (CAMERA_HEIGHT + CHASSIS_HEIGHT) / 2)),
+        size=fmt((0.025, (CAMERA_HEIGHT - CHASSIS_HEIGHT) / 2)),
+        pos=fmt((0, 0, (CAMERA_HEIGHT + CHASSIS_HEIGHT) / 2)),
         rgba="0.6 0.6 0.6 1",
         group=str(names.GROUP_ROBOT),
         contype="0",
@@ -72,7 +72,7 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
         name="robot_nose",
         type="box",
         size="0.05 0.08 0.02",
-        pos=_fmt((RADIUS - 0.04, 0, CHASSIS_CLEARANCE + CHASSIS_HEIGHT + 0.02)),
+        pos=fmt((RADIUS - 0.04, 0, CHASSIS_CLEARANCE + CHASSIS_HEIGHT + 0.02)),
         rgba="0.9 0.5 0.1 1",
         group=str(names.GROUP_ROBOT),
         contype="0",
@@ -83,9 +83,9 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
         body,
         "camera",
         name=names.ROBOT_CAMERA,
-        pos=_fmt((CAMERA_FORWARD, 0, CAMERA_HEIGHT)),
+        pos=fmt((CAMERA_FORWARD, 0, CAMERA_HEIGHT)),
         xyaxes="0 -1 0 0 0 1",
-        fovy=_fmt(CAMERA_FOVY),
+        fovy=fmt(CAMERA_FOVY),
     )
     ET.SubElement(
         body,
@@ -96,7 +96,7 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
         fovy="60",
     )
     ET.SubElement(
-        body, "site", name=names.LASER_SITE, pos=_fmt((LASER_FORWARD, 0, LASER_HEIGHT)), size="0.03"
+        body, "site", name=names.LASER_SITE, pos=fmt((LASER_FORWARD, 0, LASER_HEIGHT)), size="0.03"
     )
     for act, joint, gain, limit in (
         (names.ROBOT_ACT_X, names.ROBOT_JOINT_X, VELOCITY_GAIN, MAX_FORCE),
@@ -108,7 +108,7 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
             "velocity",
             name=act,
             joint=joint,
-            kv=_fmt(gain),
-            forcerange=_fmt((-limit, limit)),
+            kv=fmt(gain),
+            forcerange=fmt((-limit, limit)),
         )
     return body

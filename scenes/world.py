@@ -1,74 +1,20 @@
-"""A built world: its MJCF, texture assets and ground truth (manifolds, free space, routes)."""
+"""A built world: its MJCF, texture assets and ground truth (manifolds, free space, routes).
+
+The builders (:mod:`scenes.hallway`, :mod:`scenes.lawn`) make one; :func:`scenes.build_world`
+(:mod:`scenes.registry`) picks the builder by name.
+"""
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
-from scenes import names
-from scenes.fileio import atomic_write_bytes
+from common.fileio import atomic_write_bytes
+from scenes.appearance import Appearance
 from scenes.regions import Footprint, ManifoldMap, OccupancyGrid, Route, rasterise_free_space
-
-# Domain randomisation table, as Miniworld's params: name -> (default, low, high). Without an
-# RNG every parameter takes its default, so the canonical world is one fixed scene.
-RANDOMIZATION: dict[str, tuple[float, float, float]] = {
-    "light_intensity": (1.0, 0.55, 1.45),  # multiplier on every light's diffuse colour
-    "light_tint": (0.0, -0.12, 0.12),  # per-channel shift of light colour
-    "light_shift": (0.0, -0.6, 0.6),  # m, light positions along the corridor / sun direction
-    "colour_jitter": (0.0, -0.08, 0.08),  # per-channel shift of every base texture colour
-    "clutter_shift": (0.0, -0.5, 0.5),  # m, furniture and posters slid along their wall
-}
-TEXTURE_SEED = 20_040_607  # canonical textures: fixed noise, part of the world's identity
-
-
-@dataclass(frozen=True)
-class Appearance:
-    """One draw from :data:`RANDOMIZATION` plus the generator that made the textures."""
-
-    params: dict
-    texture_rng: np.random.Generator = field(compare=False, repr=False)
-    rng: np.random.Generator | None = field(compare=False, repr=False, default=None)
-
-    def __getitem__(self, key: str) -> float:
-        return self.params[key]
-
-    def colour(self, rgb) -> tuple[float, float, float]:
-        """A base colour with this draw's jitter (a new jitter per call when randomised)."""
-        rgb = np.asarray(rgb, np.float64)
-        if self.rng is not None:
-            lo, hi = RANDOMIZATION["colour_jitter"][1:]
-            rgb = rgb + self.rng.uniform(lo, hi, 3)
-        return tuple(np.clip(rgb, 0.0, 1.0))
-
-    def light(self, rgb) -> tuple[float, float, float]:
-        tint = (
-            np.zeros(3)
-            if self.rng is None
-            else self.rng.uniform(*RANDOMIZATION["light_tint"][1:], 3)
-        )
-        return tuple(np.clip(np.asarray(rgb) * self["light_intensity"] + tint, 0.0, 1.0))
-
-    def shift(self, key: str) -> float:
-        """A fresh draw of a positional parameter (0 when not randomised)."""
-        if self.rng is None:
-            return RANDOMIZATION[key][0]
-        return float(self.rng.uniform(*RANDOMIZATION[key][1:]))
-
-
-def draw_appearance(rng: np.random.Generator | None) -> Appearance:
-    """Defaults and canonical textures without an RNG; a randomised draw with one."""
-    if rng is None:
-        params = {k: v[0] for k, v in RANDOMIZATION.items()}
-        return Appearance(params, np.random.default_rng(TEXTURE_SEED), None)
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__}")
-    params = {k: float(rng.uniform(lo, hi)) for k, (_, lo, hi) in RANDOMIZATION.items()}
-    texture_rng, layout_rng = rng.spawn(2)
-    return Appearance(params, texture_rng, layout_rng)
 
 
 @dataclass
@@ -104,6 +50,9 @@ class World:
     routes: dict[str, Route]
     appearance: dict
     randomized: bool = False
+    # Free-space grids already rasterised, per (resolution, inflation). A World compares by
+    # value and is mutable, so it is not hashable; the cache lives on the instance instead.
+    _free_space: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @classmethod
     def from_scene(
@@ -134,7 +83,12 @@ class World:
 
     def free_space(self, resolution: float = 0.05, inflation: float = 0.0) -> OccupancyGrid:
         """Occupancy grid of the walkable floor; ``inflation`` grows obstacles (robot radius)."""
-        return _free_space_cached(self, float(resolution), float(inflation))
+        key = (float(resolution), float(inflation))
+        if key not in self._free_space:
+            self._free_space[key] = rasterise_free_space(
+                self.manifolds, self.footprints, self.bounds, *key
+            )
+        return self._free_space[key]
 
     def write(self, directory: str | os.PathLike) -> Path:
         """Write ``<name>.xml`` and its textures, for MuJoCo's own viewer (``simulate``)."""
@@ -145,36 +99,3 @@ class World:
         path = directory / f"{self.name}.xml"
         atomic_write_bytes(path, self.xml.encode())
         return path
-
-    def __hash__(self) -> int:
-        return id(self)
-
-
-@lru_cache(maxsize=16)
-def _free_space_cached(world: World, resolution: float, inflation: float) -> OccupancyGrid:
-    return rasterise_free_space(
-        world.manifolds, world.footprints, world.bounds, resolution, inflation
-    )
-
-
-def build_world(name: str, rng: np.random.Generator | None = None) -> World:
-    """Build a world by name.
-
-    Parameters
-    ----------
-    name : {"hallway", "lawn"}
-    rng : numpy.random.Generator, optional
-        Without one, the canonical world (fixed textures, default lights and clutter). With one,
-        a domain-randomised variant (textures, colours, lighting, clutter placement), the same
-        for the same generator state.
-    """
-    if name not in names.WORLDS:
-        raise ValueError(f"world must be one of {names.WORLDS}, got {name!r}")
-    appearance = draw_appearance(rng)
-    if name == names.HALLWAY:
-        from scenes.hallway import build_hallway
-
-        return build_hallway(appearance)
-    from scenes.lawn import build_lawn
-
-    return build_lawn(appearance)

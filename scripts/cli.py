@@ -7,30 +7,9 @@ import argparse
 import sys
 import time
 
+from scripts.args import non_negative_float, policies, positive_int, worlds
+
 DEFAULT_OUT = "out"
-
-
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text}")
-    return value
-
-
-def _non_negative_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}") from None
-    if not (value >= 0 and value != float("inf")):
-        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
-    return value
-
-
-def _worlds(choice: str) -> tuple[str, ...]:
-    from scenes import WORLDS
-
-    return WORLDS if choice == "all" else (choice,)
 
 
 def _settings(args):
@@ -40,7 +19,7 @@ def _settings(args):
     from sim.teleop import TeleopConfig
 
     return CollectionSettings(
-        worlds=_worlds(args.world),
+        worlds=worlds(args.world),
         frames=args.frames,
         seed=args.seed,
         randomize=args.randomize,
@@ -104,19 +83,9 @@ def cmd_preview(args) -> int:
 def cmd_worlds(args) -> int:
     from scenes import build_world
 
-    for name in _worlds(args.world):
+    for name in worlds(args.world):
         print(build_world(name).write(args.out))
     return 0
-
-
-def _policies(text: str) -> tuple[str, ...]:
-    from servo.evaluate import POLICIES
-
-    names = tuple(n.strip() for n in text.split(",") if n.strip())
-    bad = [n for n in names if n not in POLICIES]
-    if bad:
-        raise argparse.ArgumentTypeError(f"unknown policies {bad}; choose from {POLICIES}")
-    return names
 
 
 def cmd_run(args) -> int:
@@ -192,7 +161,7 @@ def cmd_servo_eval(args) -> int:
     from servo.protocol import Protocol, run_protocol
 
     results = []
-    for world in _worlds(args.world):
+    for world in worlds(args.world):
         protocol = Protocol(world, args.tier, args.split, randomize=args.randomize,
                             odometry_noise=not args.no_odometry_noise,
                             max_steps=args.max_steps)  # fmt: skip
@@ -202,7 +171,7 @@ def cmd_servo_eval(args) -> int:
                          args.policy, workers=args.workers, progress=not args.json)  # fmt: skip
         results.append(r)
     if args.out:
-        from scenes.fileio import atomic_write_bytes
+        from common.fileio import atomic_write_bytes
 
         name = f"servo-eval-{args.tier}-{args.split}-{args.policy}.json"
         Path(args.out).mkdir(parents=True, exist_ok=True)
@@ -241,11 +210,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--world", choices=(*WORLDS, "all"), required=True)
     c.add_argument("--out", required=True, help="dataset directory")
     c.add_argument("--seed", type=int, default=0)
-    c.add_argument("--frames", type=_positive_int, default=150, help="frames per sequence")
+    c.add_argument("--frames", type=positive_int, default=150, help="frames per sequence")
     c.add_argument("--randomize", action="store_true", help="domain-randomised worlds")
     c.add_argument(
         "--teleop-jitter",
-        type=_non_negative_float,
+        type=non_negative_float,
         default=1.0,
         metavar="SCALE",
         help="scale of the driver's random speed, turn, wander and start jitter (0: the route's "
@@ -253,12 +222,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--overwrite", action="store_true", help="replace a dataset with other settings")
     c.add_argument(
-        "--jobs", type=_positive_int, default=None, help="worker processes (default: cores)"
+        "--jobs", type=positive_int, default=None, help="worker processes (default: cores)"
     )
-    c.add_argument("--width", type=_positive_int, default=320)
-    c.add_argument("--height", type=_positive_int, default=240)
+    c.add_argument("--width", type=positive_int, default=320)
+    c.add_argument("--height", type=positive_int, default=240)
     c.add_argument("--depth", action="store_true", help="also record depth images")
-    c.add_argument("--beams", type=_positive_int, default=361)
+    c.add_argument("--beams", type=positive_int, default=361)
     c.add_argument("--max-range", type=float, default=20.0)
     c.set_defaults(func=cmd_collect)
 
@@ -298,13 +267,13 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="the main job end to end on the default worlds")
     r.add_argument("--out", default=DEFAULT_OUT)
     r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--jobs", type=_positive_int, default=None, help="collection processes")
+    r.add_argument("--jobs", type=positive_int, default=None, help="collection processes")
     r.add_argument(
-        "--episodes", type=_positive_int, default=4, help="servo episodes per world and policy"
+        "--episodes", type=positive_int, default=4, help="servo episodes per world and policy"
     )
     r.add_argument(
         "--baselines",
-        type=_policies,
+        type=policies,
         default=("oracle", "random"),
         help="comma-separated servo baselines beside the servo policy: oracle, random, greedy "
         "(greedy probing is slow: about 10x a servo episode)",
@@ -328,12 +297,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
     e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
-    e.add_argument("--episodes", type=_positive_int, default=20, help="per world")
+    e.add_argument("--episodes", type=positive_int, default=20, help="per world")
     e.add_argument("--tier", default="view", help="start tier: view or anywhere")
     e.add_argument("--split", default="dev", help="episode split: dev (tuning) or test")
     e.add_argument("--policy", choices=POLICIES, default="servo")
-    e.add_argument("--max-steps", type=_positive_int, default=600)
-    e.add_argument("--workers", type=_positive_int, default=None, help="default: the cores")
+    e.add_argument("--max-steps", type=positive_int, default=600)
+    e.add_argument("--workers", type=positive_int, default=None, help="default: the cores")
     e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")
     e.add_argument("--no-odometry-noise", action="store_true", help="perfect wheel odometry")
     e.add_argument("--data", default=f"{DEFAULT_OUT}/dataset", help="dataset the map is built from")

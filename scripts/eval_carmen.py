@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mapping.features import scan_to_points
+from common.fileio import write_json
+from common.geometry import scan_to_points
 from mapping.partition import ObservationGraphPartitioner
 from scripts import grouping_plots as gp
 from sim.carmen import CarmenLog, read_carmen
-from sim.dataset import write_json
 
 __all__ = ["JSON_FILE", "evaluate_carmen", "format_report", "group_log", "run"]
 

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import jsonable, write_json
 from mapping.features import ColorHistogramFeatures, ScanFeatures
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import adjusted_rand_index, contingency_matrix, purity
@@ -338,19 +339,8 @@ def evaluate_grouping(
         if result[section][world][variant]["meets_targets"] is not None
     }
     ds.write_sequence(out_dir / LABELS_FILE, {k: np.asarray(v) for k, v in labels.items()})
-    ds.write_json(out_dir / JSON_FILE, _jsonable(result))
+    write_json(out_dir / JSON_FILE, result)
     return result
-
-
-def _jsonable(obj):
-    """numpy scalars to Python numbers, recursively (json cannot write np.float64 keys)."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return obj
 
 
 # --------------------------------------------------------------------------- report
@@ -436,7 +426,7 @@ def run(args) -> int:
         progress=not args.quiet,
     )
     if args.json:
-        print(json.dumps(_jsonable(result), indent=2))
+        print(json.dumps(jsonable(result), indent=2))
     else:
         print(format_report(result))
         print(

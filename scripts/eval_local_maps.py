@@ -31,10 +31,11 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from common.geometry import transform_points
 from mapping.icp import densify_scan, refine_poses
 from mapping.local_maps import align_groups, localise_held_out, map_residuals, submap_labels
 from mapping.partition import ObservationGraphPartitioner
-from mapping.topology import run_starts_from_groups, transform_points
+from mapping.topology import run_starts_from_groups
 from sim.odometry import Odometry, OdometryConfig
 
 __all__ = [
@@ -180,7 +181,7 @@ def evaluate_cases(cases: dict, out_dir: str | os.PathLike, *, seed: int = 0, pr
     """``cases``: name -> (scans, truth, odometry, groups). Writes ``local_maps.json``."""
     from tqdm.auto import tqdm
 
-    from sim.dataset import write_json
+    from common.fileio import write_json
 
     rng = np.random.default_rng(seed)
     result = {

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from common.fileio import write_json
 from mapping.partition import ObservationGraphPartitioner
 from mapping.pose_graph import absolute_trajectory_error, close_loops
 from scripts.eval_grouping import score_groups
@@ -49,7 +50,7 @@ def evaluate(data, out_dir) -> dict:
                 "grouping": score_groups(r.labels, model.labels_),
             }
         result[f"{world} loop"] = rows
-    ds.write_json(Path(out_dir) / JSON_FILE, result)
+    write_json(Path(out_dir) / JSON_FILE, result)
     return result
 
 
@@ -79,7 +80,7 @@ def evaluate_carmen(paths, out_dir) -> dict:
             }
         result[log.path.name.split(".")[0]] = rows
     Path(out_dir).mkdir(parents=True, exist_ok=True)
-    ds.write_json(Path(out_dir) / JSON_FILE, result)
+    write_json(Path(out_dir) / JSON_FILE, result)
     return result
 
 

@@ -176,7 +176,7 @@ def evaluate_knobs(cases: list[Case], out_dir, *, seed: int = 0, progress: bool 
     Writes ``knobs.json``."""
     from tqdm.auto import tqdm
 
-    from sim.dataset import write_json
+    from common.fileio import write_json
 
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
@@ -279,8 +279,9 @@ def world_cases(data, roles: dict[str, str], suffix: str = "") -> list[Case]:
 
 def rescan_360(world_name: str, poses: np.ndarray, max_range: float | None) -> list:
     """The scans a 360-degree, 720-beam laser takes at ``poses`` in the canonical world."""
+    from common.geometry import scan_to_points
     from scenes import build_world
-    from sim.laser import LaserConfig, scan_to_points
+    from sim.laser import LaserConfig
     from sim.odometry import OdometryConfig
     from sim.simulator import Simulator
 

@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import write_json
 from scenes import names
 from scenes.regions import Route
 from sim import dataset as ds
-from sim.collect import CollectionSettings, _world, collect_sequence
+from sim.collect import CollectionSettings, collect_sequence, collection_world
 
 __all__ = ["LOOP_INDEX", "collect_loop", "loop_frames", "loop_route"]
 
@@ -87,7 +88,7 @@ def collect_loop(
     if world_name not in names.WORLDS:
         raise ValueError(f"world_name must be one of {names.WORLDS}, got {world_name!r}")
     settings = settings or CollectionSettings(worlds=(world_name,))
-    world = _world(world_name, settings.seed, settings.randomize)
+    world = collection_world(world_name, settings.seed, settings.randomize)
     route = loop_route(world)
     frames = loop_frames(world, route, settings.frames) if frames is None else frames
     settings = replace(settings, frames=frames)  # validates frames
@@ -111,5 +112,5 @@ def collect_loop(
     arrays = collect_sequence(settings, index, world_name, name, tick)
     entry = {"file": f"{name}.npz", "world": world_name, "frames": frames}
     entry["sha256"] = ds.write_sequence(cache_dir / entry["file"], arrays)
-    ds.write_json(meta_path, {"key": key, "entry": entry})
+    write_json(meta_path, {"key": key, "entry": entry})
     return ds.load_sequence(cache_dir, name, entry)

@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mapping.topology import TopologicalMap, transform_points
-from scenes.fileio import atomic_write_bytes
+from common.fileio import atomic_write_bytes
+from common.geometry import transform_points
+from mapping.topology import TopologicalMap
 
 __all__ = [
     "agg_pyplot",

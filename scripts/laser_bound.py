@@ -122,7 +122,7 @@ def format_report(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from sim.dataset import write_json
+    from common.fileio import write_json
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--dev", type=Path, required=True, help="dataset whose labels train the bound")

@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import atomic_write_bytes
 from mapping import ManifoldClustering, clustering_error, purity
-from mapping.baselines import squared_distances
-from scenes.fileio import atomic_write_bytes
+from mapping.distances import squared_distances
 from scripts.manifold_protocol import FEATURES, K, Q
 
 #: name -> ManifoldClustering settings of each variant (the default first)

@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import atomic_write_bytes
 from mapping import ColorHistogramFeatures, ImageFeatures
-from scenes.fileio import atomic_write_bytes
 from scripts.manifold_methods import METHODS, bootstrap_mean, score_methods
 
 K, Q = 8, 35  # the paper's Section III-B

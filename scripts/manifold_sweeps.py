@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import atomic_write_bytes
 from mapping.synthetic import branching_sequences, lines_variable_spacing, make_all
-from scenes.fileio import atomic_write_bytes
 from scripts.manifold_methods import METHODS, score_methods
 
 NOISE = 0.002

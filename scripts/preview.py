@@ -7,17 +7,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from common.fileio import write_png
 from scenes import MANIFOLDS, build_world
-from sim.dataset import Dataset, atomic_write_bytes
+from sim.dataset import Dataset
 from sim.topdown import MANIFOLD_COLOURS, TopDownView
 
 THUMB = (160, 120)
-
-
-def _save_png(path: Path, rgb: np.ndarray) -> None:
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
-    assert ok
-    atomic_write_bytes(path, buf.tobytes())
 
 
 def contact_sheet(
@@ -57,11 +52,11 @@ def write_previews(dataset: Dataset, out: str | Path) -> list[Path]:
     for name, seq in dataset.sequences.items():
         by_world.setdefault(seq.world, []).append(seq)
         path = out / f"{name}_contact_sheet.png"
-        _save_png(path, contact_sheet(seq.images, seq.labels))
+        write_png(path, contact_sheet(seq.images, seq.labels))
         written.append(path)
         frames = [seq.images[i] for i in (0, len(seq) // 2, len(seq) - 1)]
         path = out / f"{name}_frames.png"
-        _save_png(path, np.concatenate(frames, axis=1))
+        write_png(path, np.concatenate(frames, axis=1))
         written.append(path)
     for world_name, seqs in by_world.items():
         view = TopDownView(build_world(world_name), max_size=640)
@@ -78,6 +73,6 @@ def write_previews(dataset: Dataset, out: str | Path) -> list[Path]:
                 )
                 cv2.circle(img, tuple(int(v) for v in p), 2, colour, -1, cv2.LINE_AA)
         path = out / f"{world_name}_trajectories.png"
-        _save_png(path, img)
+        write_png(path, img)
         written.append(path)
     return written

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import atomic_write_bytes
 from mapping import (
     ColorHistogramFeatures,
     ImageFeatures,
@@ -37,7 +38,6 @@ from mapping import (
 )
 from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
 from mapping.synthetic import make_all
-from scenes.fileio import atomic_write_bytes
 from scripts.grouping_plots import agg_pyplot, save_figure
 
 SYNTHETIC_K, SYNTHETIC_Q = 3, 20  # Section III-A

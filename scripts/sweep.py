@@ -274,7 +274,7 @@ def _run_from_args(args, worlds, seeds, settings) -> list[dict]:
 def add_parser(sub, default_out: str = "out"):
     """Add the ``sweep`` subcommand to the ``topomap`` parser's subparsers."""
     from scenes import WORLDS
-    from scripts.cli import _positive_int as positive
+    from scripts.args import positive_int as positive
     from servo.evaluate import POLICIES
 
     s = sub.add_parser(

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mapping.topology import se2_relative
+from common.geometry import se2_relative
+from common.validation import check_int
 from scenes import World
 from servo.geodesic import GeodesicField
 from servo.localise import ImageLocaliser
@@ -66,8 +67,7 @@ class GreedyFProbing:
 
     def __init__(self, servo_map: ServoMap, commit: int = 8, *, waypoints: bool = True,
                  spacing: float = 0.8):  # fmt: skip
-        if int(commit) != commit or commit < 1:
-            raise ValueError(f"commit must be an integer >= 1, got {commit}")
+        check_int(commit, "commit")
         self.map, self.commit = servo_map, int(commit)
         self.waypoints, self.spacing = bool(waypoints), float(spacing)
         self.budget_factor = 1 + int(np.ceil(2 * len(PROBES) / self.commit))

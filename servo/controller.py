@@ -28,11 +28,12 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from mapping.features import scan_to_points
-from mapping.icp import densify_scan, icp
-from mapping.topology import se2_compose, se2_relative, transform_points, wrap_angle
+from common.geometry import scan_to_points, se2_compose, se2_relative, wrap_angle
+from servo.localise import ImageLocaliser
 from servo.map_store import MapError, ServoMap
+from servo.scan_profile import clip_ranges, profile_distances
 from servo.steering import Arrival, pursue
+from servo.view_match import ViewMatcher, route_local_map
 from sim.simulator import CONTROL_DT
 
 LINK_PENALTY = 1.0  # m added to a link between sequences: stay on one recording if possible
@@ -48,19 +49,10 @@ RECHECK_MARGIN = 0.5  # score a distant view must win by
 PROFILE_WEIGHT = 3.0  # per metre of mean range difference
 IMAGE_WEIGHT = 4.0  # per unit of squared shifted-image distance (unit-norm crops: 0..4)
 IMAGE_SHIFT = 20  # feature-image pixels (of 80 across 58 deg: +-15 deg) tried as headings
-PROFILE_SHIFT = 70  # beams (35 deg at 0.5 deg per beam) tried as heading offsets
 VERIFY_SCORE = 1.4  # of _score's 2: most points of both scans matched
 ALIGNED = 0.2  # rad: heading error that ends the turn toward the target view's heading
 FACING_AWAY = np.deg2rad(60.0)  # heading off the stored view's beyond which ICP is partial
-SUBMAP_BEHIND = 2.0  # m of route behind the anchor whose views' scans join its local map
-SUBMAP_AHEAD = 6.0  # m of route ahead of it (the junction the robot is driving toward)
-SUBMAP_SPACING = 0.05  # m between the local map's points
 SUBMAP_REUSE = 1.0  # m of progress over which one local map serves (then one is built ahead)
-
-
-def _clip(scans: np.ndarray, max_range: float) -> np.ndarray:
-    """Ranges with no return (inf, NaN) read as ``max_range``, for comparing profiles."""
-    return np.nan_to_num(np.minimum(scans, max_range), nan=max_range, posinf=max_range)
 
 
 class ManifoldServo:
@@ -126,45 +118,24 @@ class ManifoldServo:
         for (i, j), t in zip(m.edges, m.edge_transforms, strict=True):
             self._transform[(int(i), int(j))] = t
             self._transform[(int(j), int(i))] = se2_relative(t, np.zeros(3))
-        self._trees: dict[int, tuple[cKDTree, np.ndarray]] = {}
+        self._matcher = ViewMatcher(servo_map)
         self._submaps: dict[int, tuple[cKDTree, np.ndarray]] = {}
-        self._ranges = _clip(m.scans, m.max_range)
-        self._view_crops = None
+        self._ranges = clip_ranges(m.scans, m.max_range)
+        self._beam_step = float(np.median(np.diff(m.angles)))
+        self._images: ImageLocaliser | None = None  # built on the first global localisation
         self.target = None
 
     # -- helpers ----------------------------------------------------------------------------
-    def _tree(self, view: int) -> tuple[cKDTree, np.ndarray]:
-        if view not in self._trees:
-            dense = densify_scan(self.map.scan_points(view))
-            self._trees[view] = (cKDTree(dense), dense)
-        return self._trees[view]
-
     def _submap(self, k: int) -> tuple[cKDTree, np.ndarray]:
-        """The local map around route view ``k``, in its frame: the scans of the route views
-        from ``SUBMAP_BEHIND`` behind to ``SUBMAP_AHEAD`` ahead, placed by the chained route
-        frames. Unlike one stored view's scan, it holds what views elsewhere saw (the
-        junction ahead, the end walls), whichever way the robot faces."""
+        """:func:`route_local_map` around route view ``k`` (only the current one is kept)."""
         if k not in self._submaps:
-            near = np.flatnonzero(
-                (self._arc >= self._arc[k] - SUBMAP_BEHIND)
-                & (self._arc <= self._arc[k] + SUBMAP_AHEAD)
-            )
-            parts = []
-            for j in near:
-                pts = densify_scan(self.map.scan_points(self.route_[j]), SUBMAP_SPACING)
-                parts.append(transform_points(se2_relative(self._frames[k], self._frames[j]), pts))
-            pts = np.concatenate(parts)
-            # thin to a grid: overlapping scans would otherwise weigh well-seen walls more
-            cells = np.unique(np.floor(pts / SUBMAP_SPACING).astype(np.int64), axis=0)
-            pts = (cells + 0.5) * SUBMAP_SPACING
-            self._submaps = {k: (cKDTree(pts), pts)}  # only the current one is kept
+            local = route_local_map(self.map, self.route_, self._frames, self._arc, k)
+            self._submaps = {k: local}
         return self._submaps[k]
 
     def _match(self, points: np.ndarray, view: int, init, iterations: int = 20, submap=False):
-        tree, dense = self._submap(view) if submap else self._tree(view)
-        res = icp(points, dense, init=init, target_tree=tree, max_iterations=iterations)
-        frac = res.n_matches / max(len(points), 1)
-        return res, frac
+        target = self._submap(view) if submap else None
+        return self._matcher.match(points, view, init, iterations, target=target)
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not isinstance(observation, dict):
@@ -204,61 +175,22 @@ class ManifoldServo:
         self.relocalisations_ = 0
         self.rechecks_ = 0
 
-    def _score(self, points: np.ndarray, view: int, init) -> tuple[float, np.ndarray]:
-        """ICP of the current scan on a stored view's, scored by the overlap both ways: the
-        share of current points matched and of the view's points matched. The second term is
-        what tells places along a uniform corridor apart (the end wall must match too)."""
-        res, frac = self._match(points, view, init, iterations=30)
-        if not np.isfinite(res.rmse):
-            return -np.inf, res.transform
-        view_points = self.map.scan_points(view)[::3]
-        moved = transform_points(res.transform, points)
-        d, _ = cKDTree(densify_scan(moved)).query(view_points, distance_upper_bound=0.15)
-        back = float(np.mean(np.isfinite(d))) if len(view_points) else 0.0
-        return frac + back - 2.0 * min(res.rmse, 0.5), res.transform
-
-    def _crops(self, images: np.ndarray, shift: int) -> np.ndarray:
-        """Central columns of feature images (n, H, W, 3) moved by ``shift`` pixels, each
-        crop zero-mean and unit-norm (so crops compare like the features do)."""
-        w = images.shape[2] - 2 * IMAGE_SHIFT
-        c = images[:, :, IMAGE_SHIFT + shift : IMAGE_SHIFT + shift + w].reshape(len(images), -1)
-        c = c - c.mean(axis=1, keepdims=True)
-        return c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-12)
-
     def _shifted_image_distances(self, x: np.ndarray) -> np.ndarray:
         """Squared distance of the current image to every stored view's, minimised over
-        horizontal shifts: a heading offset moves the scene sideways in the image, and the
-        plain feature distance would then compare different walls."""
-        if self._view_crops is None:
-            self._view_crops = self._crops(self._feature_images(self.map.features), 0)
-        cur = self._feature_images(x[None])
-        best = np.full(len(self.map), np.inf)
-        for s in range(-IMAGE_SHIFT, IMAGE_SHIFT + 1, 2):
-            best = np.minimum(best, 2.0 - 2.0 * self._view_crops @ self._crops(cur, s)[0])
-        return best
-
-    def _feature_images(self, X: np.ndarray) -> np.ndarray:
-        w, h = self.map.settings.image_size
-        return np.asarray(X, np.float32).reshape(len(X), h, w, -1)
+        horizontal shifts (:meth:`ImageLocaliser.align`): a heading offset moves the scene
+        sideways in the image, and the plain feature distance would then compare different
+        walls."""
+        if self._images is None:
+            self._images = ImageLocaliser(self.map, max_shift=IMAGE_SHIFT)
+        return self._images.align(x)[0]
 
     def _profile_distances(
         self, ranges: np.ndarray, views: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Mean range difference of the current scan to every stored view's over beam shifts
-        (a shift is a heading offset), and the heading of the best shift per view. Ranges
-        along the corridor (the end wall) place the robot where image features cannot."""
-        n = len(ranges)
-        step = float(np.median(np.diff(self.map.angles)))
+        """:func:`profile_distances` of the clipped current scan to every stored view's (or
+        those of ``views``)."""
         table = self._ranges if views is None else self._ranges[views]
-        best = np.full(len(table), np.inf)
-        yaw = np.zeros(len(table))
-        for s in range(-PROFILE_SHIFT, PROFILE_SHIFT + 1, 5):
-            cur = ranges[max(0, -s) : n - max(0, s)]
-            ref = table[:, max(0, s) : n - max(0, -s)]
-            d = np.abs(ref - cur).mean(axis=1)
-            better = d < best
-            best[better], yaw[better] = d[better], s * step
-        return best, yaw
+        return profile_distances(table, ranges, self._beam_step)
 
     def _localise(self, image: np.ndarray, scan: np.ndarray, points: np.ndarray) -> None:
         """Global localisation: candidate views nearest in image features and in laser ranges
@@ -267,7 +199,7 @@ class ManifoldServo:
         x = m.image_features.transform(image[None]).astype(np.float32)
         self.manifold_ = int(m.clustering.predict(x)[0])
         d_image = self._shifted_image_distances(x[0])
-        d_scan, yaw_scan = self._profile_distances(_clip(scan, m.max_range))
+        d_scan, yaw_scan = self._profile_distances(clip_ranges(scan, m.max_range))
         by_image = np.argsort(d_image)[:N_CANDIDATES]
         by_scan = np.argsort(d_scan)[:N_CANDIDATES]
         best = (-np.inf, None, None)
@@ -275,7 +207,7 @@ class ManifoldServo:
             (v, (yaw_scan[v],)) for v in by_scan
         ]:
             for yaw in yaws:
-                score, pose = self._score(points, int(view), (0.0, 0.0, yaw))
+                score, pose = self._matcher.score(points, int(view), (0.0, 0.0, yaw))
                 # ICP alone cannot tell places along a uniform corridor apart (the side walls
                 # match everywhere); the range profile (the end wall's distance) and the image
                 # (posters, furniture, a mirrored branch) can.
@@ -326,7 +258,7 @@ class ManifoldServo:
             self._pose = se2_compose(self._pose, se2_relative(self._odometry, odo))
             self._steps += 1
             if self.recheck and self._steps % RECHECK_STEPS == 0:
-                self._recheck(_clip(scan, self.map.max_range), points)
+                self._recheck(clip_ranges(scan, self.map.max_range), points)
             self._track(points)
         moved = 0.0 if self._odometry is None else float(np.hypot(*(odo[:2] - self._odometry[:2])))
         self._odometry = odo.copy()
@@ -349,10 +281,10 @@ class ManifoldServo:
         if abs(self._arc[k] - self._arc[self._anchor]) < RECHECK_MIN_JUMP:
             return
         here = self._anchor
-        mine, _ = self._score(points, self.route_[here], self._pose)
+        mine, _ = self._matcher.score(points, self.route_[here], self._pose)
         d_here, _ = self._profile_distances(ranges, np.array([self.route_[here]]))
         mine -= PROFILE_WEIGHT * float(d_here[0])
-        theirs, pose = self._score(points, self.route_[k], (0.0, 0.0, yaw))
+        theirs, pose = self._matcher.score(points, self.route_[k], (0.0, 0.0, yaw))
         theirs -= PROFILE_WEIGHT * d
         if theirs > mine + RECHECK_MARGIN:
             self._anchor, self._pose = k, pose
@@ -403,7 +335,7 @@ class ManifoldServo:
         failure otherwise (relocalise, up to ``MAX_RELOCALISATIONS`` times)."""
         if self.relocalisations_ > MAX_RELOCALISATIONS:
             return True
-        score, _ = self._score(self._points, self.target, se2_relative(goal, np.zeros(3)))
+        score, _ = self._matcher.score(self._points, self.target, se2_relative(goal, np.zeros(3)))
         return score >= VERIFY_SCORE
 
     def _lost(self) -> np.ndarray:

@@ -8,9 +8,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from mapping.topology import se2_relative, wrap_angle
+from common.geometry import se2_relative, wrap_angle
+from common.validation import check_finite, check_int
 from scenes import MANIFOLDS
 from servo.map_store import MapError, ServoMap, load_map, load_or_build
+from servo.registration import MAX_EPISODE_STEPS
 from sim.env import NavigationEnv
 from sim.odometry import OdometryConfig
 
@@ -44,14 +46,16 @@ class ServoEnv(gym.Env):
 
     Rewards
         ``reward_signal``: the change of F^j(k) toward the target (eq. 13) over the step,
-        divided by F at the target view itself; ``reward_success`` (+1 on arrival) and
-        ``reward_collision`` (-0.1 per step in contact).
+        divided by F at the target view itself, times ``signal_weight`` (1);
+        ``reward_success`` (``success_reward``, +1, on arrival) and ``reward_collision``
+        (``-collision_penalty``, -0.1, per step in contact).
 
     Episode End
         Terminated on success (within 0.5 m and 20 deg of the target pose) or when stuck
         (``STUCK_WINDOW`` steps in contact while moving less than ``STUCK_DISTANCE``);
-        truncated after ``max_steps``. ``info["reason"]``: "success", "stuck", "time limit" or
-        None while running.
+        truncated after ``max_steps``, the env's one time limit (it is registered without a
+        ``TimeLimit`` wrapper, so ``gym.make(..., max_steps=n)`` is not cut short by another
+        clock). ``info["reason"]``: "success", "stuck", "time limit" or None while running.
 
     Info
         ``pose`` (true), ``target_pose``, ``target_view``, ``start_manifold``,
@@ -63,7 +67,8 @@ class ServoEnv(gym.Env):
         ``world``, ``servo_map`` (a ServoMap, the path of a saved one, or None: the cached
         default map of the world),
         ``max_steps`` (600), ``cross_manifold`` (True), ``randomize`` (lights and colours per
-        episode), ``odometry_noise`` (True), ``render_mode`` (None | "rgb_array").
+        episode), ``odometry_noise`` (True), ``render_mode`` (None | "rgb_array"), the reward
+        weights ``signal_weight`` (1.0), ``success_reward`` (1.0), ``collision_penalty`` (0.1).
 
     Reset options
         ``target`` (stored view index) or ``target_manifold`` (name); ``start_view`` (stored
@@ -79,11 +84,14 @@ class ServoEnv(gym.Env):
         self,
         world: str = "hallway",
         servo_map: ServoMap | str | os.PathLike | None = None,
-        max_steps: int = 600,
+        max_steps: int = MAX_EPISODE_STEPS,
         cross_manifold: bool = True,
         randomize: bool = False,
         odometry_noise: bool = True,
         render_mode: str | None = None,
+        signal_weight: float = 1.0,
+        success_reward: float = SUCCESS_REWARD,
+        collision_penalty: float = COLLISION_PENALTY,
     ):
         if servo_map is None:
             servo_map = load_or_build(world)
@@ -95,8 +103,10 @@ class ServoEnv(gym.Env):
                 f"{type(servo_map).__name__}"
             )
         servo_map.check_world(world)
-        if int(max_steps) != max_steps or max_steps < 1:
-            raise ValueError(f"max_steps must be an integer >= 1, got {max_steps}")
+        check_int(max_steps, "max_steps")
+        self.signal_weight = check_finite(signal_weight, "signal_weight")
+        self.success_reward = check_finite(success_reward, "success_reward")
+        self.collision_penalty = check_finite(collision_penalty, "collision_penalty")
         self.map = servo_map
         self.max_steps = int(max_steps)
         self.cross_manifold = bool(cross_manifold)
@@ -136,7 +146,7 @@ class ServoEnv(gym.Env):
         return views
 
     def _start_pose(self, rng, view: int) -> np.ndarray:
-        free = self.base._free
+        free = self.base.occupancy
         base = self.map.true_poses[view]
         for _ in range(100):
             r, a = START_RADIUS * np.sqrt(rng.uniform()), rng.uniform(-np.pi, np.pi)
@@ -240,9 +250,9 @@ class ServoEnv(gym.Env):
         info = self._progress(info)
         f = self._signal(obs["image"]) / self._f_target
         parts = {
-            "reward_signal": f - self._f,
-            "reward_success": SUCCESS_REWARD if info["success"] else 0.0,
-            "reward_collision": -COLLISION_PENALTY if info["collision"] else 0.0,
+            "reward_signal": self.signal_weight * (f - self._f),
+            "reward_success": self.success_reward if info["success"] else 0.0,
+            "reward_collision": -self.collision_penalty if info["collision"] else 0.0,
         }
         self._f = f
         self._contacts = self._contacts + 1 if info["collision"] else 0
@@ -263,18 +273,7 @@ class ServoEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        if self.base._view is None:
-            from sim.topdown import TopDownView
-
-            self.base._view = TopDownView(self.base.world)
-        b = self.base
-        return b._view.draw(
-            b.sim.pose,
-            b._last_scan,
-            b.laser_config.angles,
-            np.asarray(b._trail),
-            target=self._target_pose,
-        )
+        return self.base.draw(target=self._target_pose)
 
     def close(self):
         """Free renderers; safe to call twice."""

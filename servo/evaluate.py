@@ -15,12 +15,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from common.fileio import write_png
+from common.validation import check_int
 from scenes import WORLDS
 from servo.baselines import GreedyFProbing, OraclePolicy, RandomPolicy
 from servo.controller import ManifoldServo
 from servo.env import ServoEnv
 from servo.geodesic import GeodesicField
 from servo.map_store import ServoMap, load_or_build
+from servo.stats import wilson_interval
 
 POLICIES = ("servo", "signal", "oracle", "greedy", "greedy-target", "random")
 SIGNAL_LAG = 5  # steps between the two ends of a step pair in the F-vs-distance summary
@@ -160,7 +163,6 @@ def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
 def summarise(records: list[dict]) -> dict:
     """Aggregate episode records: overall and per (start manifold, target manifold), success
     with its Wilson 95% interval, and F along the trajectories (:func:`signal_agreement`)."""
-    from servo.protocol import wilson_interval
 
     def agg(rs):
         ok = [r for r in rs if r["success"]]
@@ -205,10 +207,8 @@ def plot_trajectories(env: ServoEnv, records: list[dict], path: Path, limit: int
         pts = np.round(view.to_pixels(r["trail"][:, :2])).astype(np.int32)
         cv2.polylines(img, [pts], False, colour, 2, cv2.LINE_AA)
         cv2.circle(img, tuple(int(v) for v in pts[0]), 4, (0, 0, 0), -1)
-        view._robot(img, r["target_pose"], colour, outline_only=True)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    cv2.imwrite(str(path), cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
-    return path
+        view.draw_robot(img, r["target_pose"], colour, outline_only=True)
+    return write_png(path, img)
 
 
 def write_video(frames: list[np.ndarray], path: Path, fps: int = 10) -> Path:
@@ -249,8 +249,7 @@ def evaluate(
     """
     from tqdm.auto import tqdm
 
-    if int(episodes) != episodes or episodes < 1:
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes}")
+    check_int(episodes, "episodes")
     if policy not in POLICIES:
         raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
     if world not in WORLDS:

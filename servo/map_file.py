@@ -18,11 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import atomic_write_bytes
 from mapping import persistence
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
 from scenes import WORLDS
-from scenes.fileio import atomic_write_bytes
 from servo.map_types import MapError, MapSettings, ServoMap
 from sim.dataset import read_npz, write_sequence
 

@@ -31,10 +31,10 @@ from pathlib import Path
 import numpy as np
 
 import mapping
-from mapping.features import ImageFeatures, scan_to_points
+from common.geometry import scan_to_points, se2_relative
+from mapping.features import ImageFeatures
 from mapping.icp import densify_scan, icp, refine_poses
 from mapping.manifold import ManifoldClustering
-from mapping.topology import se2_relative
 from scenes import WORLDS
 from servo.map_file import FORMAT_VERSION, load_map, map_paths, save_map
 from servo.map_types import MapError, MapSettings, ServoMap

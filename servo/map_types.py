@@ -11,7 +11,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from mapping.features import ImageFeatures, scan_to_points
+from common.geometry import scan_to_points
+from common.validation import check_int
+from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
 from scenes import MANIFOLDS
 
@@ -40,12 +42,8 @@ class MapSettings:
     link_rmse: float = 0.06
 
     def __post_init__(self):
-        if int(self.stride) != self.stride or self.stride < 1:
-            raise ValueError(f"stride must be an integer >= 1, got {self.stride}")
-        if int(self.min_cluster_size) != self.min_cluster_size or self.min_cluster_size < 1:
-            raise ValueError(
-                f"min_cluster_size must be an integer >= 1, got {self.min_cluster_size}"
-            )
+        check_int(self.stride, "stride")
+        check_int(self.min_cluster_size, "min_cluster_size")
 
     def to_json(self) -> dict:
         d = asdict(self)

@@ -1,5 +1,6 @@
 """The servo benchmark protocol: named start tiers, named splits, deterministic episode sets,
-Wilson intervals, and a parallel runner over the machine's cores.
+and a parallel runner over the machine's cores (success rates carry the Wilson intervals of
+:mod:`servo.stats`).
 
 Tiers
     ``view``: today's starts, within 0.4 m and 17 deg of a stored view of the start manifold
@@ -27,24 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
+from common.validation import check_int
 from scenes import MANIFOLDS, WORLDS
 
 TIERS = ("view", "anywhere")
 SPLITS = ("dev", "test")
 PROTOCOL_ENTROPY = 0x5E2F0_12  # the benchmark's root seed (issue 12); never changed
-WILSON_Z = 1.959963984540054  # two-sided 95%
-
-
-def wilson_interval(successes: int, n: int, z: float = WILSON_Z) -> tuple[float, float]:
-    """Wilson score interval for a binomial rate (Wilson 1927), closed form:
-    ``(p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)``."""
-    if n < 1 or not 0 <= successes <= n:
-        raise ValueError(f"need 0 <= successes <= n and n >= 1, got {successes}/{n}")
-    p = successes / n
-    denom = 1.0 + z * z / n
-    centre = p + z * z / (2 * n)
-    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return float(max(0.0, (centre - half) / denom)), float(min(1.0, (centre + half) / denom))
 
 
 @dataclass(frozen=True)
@@ -65,8 +54,7 @@ class Protocol:
             raise ValueError(f"tier must be one of {TIERS}, got {self.tier!r}")
         if self.split not in SPLITS:
             raise ValueError(f"split must be one of {SPLITS}, got {self.split!r}")
-        if int(self.max_steps) != self.max_steps or self.max_steps < 1:
-            raise ValueError(f"max_steps must be an integer >= 1, got {self.max_steps}")
+        check_int(self.max_steps, "max_steps")
 
 
 @dataclass(frozen=True)
@@ -86,8 +74,7 @@ def manifold_pairs(true_labels: np.ndarray) -> list[tuple[str, str]]:
 def episode_specs(protocol: Protocol, true_labels: np.ndarray, episodes: int) -> list[EpisodeSpec]:
     """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
     one). Seeds depend on the split and the world only, so tiers and settings share episodes."""
-    if int(episodes) != episodes or episodes < 1:
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes}")
+    check_int(episodes, "episodes")
     pairs = manifold_pairs(true_labels)
     if not pairs:
         raise ValueError("the map needs stored views on at least two manifolds")

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mapping.topology import se2_compose, se2_relative, wrap_angle
+from common.geometry import se2_compose, se2_relative, wrap_angle
+from common.validation import check_int
 from servo.localise import ImageLocaliser
 from servo.map_types import ServoMap
 from servo.route import RouteGraph
@@ -73,8 +74,7 @@ class SignalServoConfig:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not 0 < self.speed <= 1.5 or not 0 < self.reverse_speed <= 0.5:
             raise ValueError("speed must be in (0, 1.5] and reverse_speed in (0, 0.5] m/s")
-        if int(self.observe_every) != self.observe_every or self.observe_every < 1:
-            raise ValueError(f"observe_every must be an integer >= 1, got {self.observe_every}")
+        check_int(self.observe_every, "observe_every")
         if not 0 < self.arrive_drop < 1:
             raise ValueError(f"arrive_drop must be in (0, 1), got {self.arrive_drop}")
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import write_json
 from scenes import World, build_world, names
 from sim import dataset as ds
 from sim.camera import CameraConfig
@@ -73,7 +74,9 @@ class CollectionSettings:
 
 
 @lru_cache(maxsize=4)
-def _world(name: str, seed: int, randomize: bool) -> World:
+def collection_world(name: str, seed: int, randomize: bool) -> World:
+    """The world a collection of ``seed`` drives in: canonical, or (``randomize``) the
+    randomised draw of that seed and world; built once per process."""
     rng = np.random.default_rng([seed, 1000 + names.WORLDS.index(name)]) if randomize else None
     return build_world(name, rng)
 
@@ -82,7 +85,7 @@ def collect_sequence(
     settings: CollectionSettings, index: int, world_name: str, route_name: str, tick=None
 ) -> dict[str, np.ndarray]:
     """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays."""
-    world = _world(world_name, settings.seed, settings.randomize)
+    world = collection_world(world_name, settings.seed, settings.randomize)
     teleop_rng, noise_rng, odo_rng = np.random.default_rng([settings.seed, index]).spawn(3)
     sim = Simulator(world, settings.camera, settings.laser, settings.odometry, TELEOP_CONTROL_DT)
     try:
@@ -210,7 +213,7 @@ def collect_dataset(
         else:
             _remove_dataset(directory, old)
     todo = [s for s in settings.sequences() if s[2] not in meta["sequences"]]
-    ds.write_json(directory / ds.META_FILE, meta)
+    write_json(directory / ds.META_FILE, meta)
     bar = tqdm(
         total=len(todo) * settings.frames,
         unit="frame",
@@ -223,7 +226,7 @@ def collect_dataset(
             for index, world, route in todo:
                 name, entry = _collect_to_file_inline(settings, index, world, route, directory, bar)
                 meta["sequences"][name] = entry
-                ds.write_json(directory / ds.META_FILE, meta)
+                write_json(directory / ds.META_FILE, meta)
         else:
             ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
             queue = ctx.Queue()
@@ -240,7 +243,7 @@ def collect_dataset(
                         pending.discard(f)
                         name, entry = f.result()
                         meta["sequences"][name] = entry
-                        ds.write_json(directory / ds.META_FILE, meta)
+                        write_json(directory / ds.META_FILE, meta)
                     _drain(queue, bar, timeout=0.2)
                 _drain(queue, bar, timeout=0.0)
     finally:
@@ -248,7 +251,7 @@ def collect_dataset(
     # Sequences in the canonical order, whatever order the workers finished in.
     meta["sequences"] = {r: meta["sequences"][r] for _, _, r in settings.sequences()}
     meta["complete"] = True
-    ds.write_json(directory / ds.META_FILE, meta)
+    write_json(directory / ds.META_FILE, meta)
     return directory
 
 

@@ -31,14 +31,13 @@ import hashlib
 import json
 import os
 import re
-import tempfile
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from scenes.fileio import atomic_write_bytes
+from common.fileio import atomic_path
 from sim.runs import Runs
 
 SCHEMA_VERSION = 2
@@ -153,17 +152,10 @@ class Dataset:
 
 
 # -- writing ---------------------------------------------------------------------------------
-def write_json(path: Path, obj: dict) -> None:
-    atomic_write_bytes(path, (json.dumps(obj, indent=2) + "\n").encode())
-
-
 def write_sequence(path: Path, arrays: dict[str, np.ndarray], compresslevel: int = 1) -> str:
     """Write arrays as an ``.npz`` (deflate level 1: most of the size win at a fraction of the
     time), atomically; return its SHA-256."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
             for key in sorted(arrays):
                 info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
@@ -172,11 +164,7 @@ def write_sequence(path: Path, arrays: dict[str, np.ndarray], compresslevel: int
                     np.lib.format.write_array(
                         f, np.ascontiguousarray(arrays[key]), allow_pickle=False
                     )
-        digest = file_sha256(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        digest = file_sha256(tmp)
     return digest
 
 

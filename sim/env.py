@@ -41,8 +41,8 @@ class NavigationEnv(gym.Env):
         ``sensors`` selects which keys are present (a laser-only env never renders).
 
     Rewards
-        ``-1`` on a step where the robot touches an obstacle, else ``0`` (``info
-        ["reward_collision"]``).
+        ``-collision_penalty`` (1) on a step where the robot touches an obstacle, else ``0``
+        (``info["reward_collision"]``).
 
     Episode End
         Never terminates; truncated by the registered ``max_episode_steps`` (1000).
@@ -55,7 +55,12 @@ class NavigationEnv(gym.Env):
         ``world`` ("hallway" | "lawn"), ``render_mode`` (None | "rgb_array": a top-down map
         with the robot, its laser and its trail), ``camera`` (CameraConfig), ``laser``
         (LaserConfig), ``odometry`` (OdometryConfig), ``sensors`` (subset of
-        ("image", "scan")), ``randomize`` (re-draw lights and colours each reset).
+        ("image", "scan")), ``randomize`` (re-draw lights and colours each reset),
+        ``collision_penalty`` (1.0).
+
+    Hooks for tasks built on it (``servo.ServoEnv``)
+        ``occupancy`` (the free-space grid of the world), ``sample_pose`` and ``draw(target=)``
+        (the top-down map, optionally with a target pose outlined).
 
     Version History
         v0: initial version.
@@ -72,6 +77,7 @@ class NavigationEnv(gym.Env):
         odometry: OdometryConfig | None = None,
         sensors: tuple[str, ...] = SENSORS,
         randomize: bool = False,
+        collision_penalty: float = COLLISION_PENALTY,
     ):
         if world not in WORLDS:
             raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
@@ -87,6 +93,7 @@ class NavigationEnv(gym.Env):
         self.render_mode = render_mode
         self.sensors = sensors
         self.randomize = randomize
+        self.collision_penalty = float(collision_penalty)
         self.camera_config = camera or CameraConfig()
         self.laser_config = laser or LaserConfig()
         self.world = build_world(world)
@@ -108,7 +115,7 @@ class NavigationEnv(gym.Env):
             np.array([V_LIMITS[0], -OMEGA_LIMIT], np.float32),
             np.array([V_LIMITS[1], OMEGA_LIMIT], np.float32),
         )
-        self._free = self.world.free_space(0.05)
+        self.occupancy = self.world.free_space(0.05)  # the walkable floor, for start poses
         self._view: TopDownView | None = None
         self._trail: list[np.ndarray] = []
         self._last_scan: np.ndarray | None = None
@@ -117,8 +124,8 @@ class NavigationEnv(gym.Env):
     # -- helpers ----------------------------------------------------------------------------
     def sample_pose(self, rng: np.random.Generator, manifold: str | None = None) -> np.ndarray:
         """A random pose at least ``START_CLEARANCE`` from obstacles, on ``manifold`` if given."""
-        ok = self._free.clearance >= START_CLEARANCE
-        centers = self._free.cell_centers()
+        ok = self.occupancy.clearance >= START_CLEARANCE
+        centers = self.occupancy.cell_centers()
         if manifold is not None:
             if manifold not in MANIFOLDS:
                 raise ValueError(f"manifold must be one of {MANIFOLDS}, got {manifold!r}")
@@ -167,8 +174,8 @@ class NavigationEnv(gym.Env):
                     f"options['pose'] must be a finite (x, y, yaw), got {options['pose']!r}"
                 )
             if (
-                not self._free.is_free(pose[:2])
-                or self._free.clearance[self._free.cell_of(pose[:2])] < RADIUS
+                not self.occupancy.is_free(pose[:2])
+                or self.occupancy.clearance[self.occupancy.cell_of(pose[:2])] < RADIUS
             ):
                 raise ValueError(f"options['pose'] {tuple(pose)} is not in free space")
         else:
@@ -186,19 +193,28 @@ class NavigationEnv(gym.Env):
         a = np.clip(a, self.action_space.low, self.action_space.high)
         collision = self.sim.step(a[0], a[1])
         self._trail.append(self.sim.pose)
-        reward = -COLLISION_PENALTY if collision else 0.0
+        reward = -self.collision_penalty if collision else 0.0
         info = self._info(collision)
         info["reward_collision"] = reward
         return self._observe(), reward, False, False, info
 
-    def render(self):
-        if self.render_mode != "rgb_array":
-            return None
+    def draw(self, target=None) -> np.ndarray:
+        """The top-down map: regions, the robot, its last scan, its trail since the reset and,
+        if given, a ``target`` pose (x, y, yaw) in outline. RGB uint8."""
         if self._view is None:
             self._view = TopDownView(self.world)
         return self._view.draw(
-            self.sim.pose, self._last_scan, self.laser_config.angles, np.asarray(self._trail)
+            self.sim.pose,
+            self._last_scan,
+            self.laser_config.angles,
+            np.asarray(self._trail),
+            target=target,
         )
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        return self.draw()
 
     def close(self):
         """Free renderers; safe to call twice."""

@@ -91,22 +91,3 @@ class Laser:
             np.maximum(ranges, 0.0, out=ranges)
         ranges[~hit] = np.inf
         return ranges.astype(np.float32)
-
-
-def scan_to_points(
-    ranges: np.ndarray, angles: np.ndarray, max_range: float | None = None
-) -> np.ndarray:
-    """Sensor-frame points (M, 2), x forward and y left, of the beams that returned: finite,
-    non-negative ranges, and below ``max_range`` when given (sensors that report their maximum
-    range for no return)."""
-    ranges = np.asarray(ranges, np.float64)
-    angles = np.asarray(angles, np.float64)
-    if ranges.ndim != 1 or angles.shape != ranges.shape:
-        raise ValueError(
-            f"ranges and angles must be 1-D of the same length, got {ranges.shape} and "
-            f"{angles.shape}"
-        )
-    ok = np.isfinite(ranges) & (ranges >= 0)
-    if max_range is not None:
-        ok &= ranges < max_range
-    return np.stack([ranges[ok] * np.cos(angles[ok]), ranges[ok] * np.sin(angles[ok])], axis=1)

@@ -12,10 +12,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-
-def wrap_angle(a):
-    """Angles wrapped to [-pi, pi)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+from common.geometry import wrap_angle
 
 
 @dataclass(frozen=True)

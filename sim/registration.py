@@ -7,8 +7,11 @@ import gymnasium as gym
 MAX_EPISODE_STEPS = 1000
 
 
-def register_per_world(env_ids: dict[str, str], entry_point: str, max_episode_steps: int) -> None:
-    """Register one env id per world (``{id: world}``), each once; shared by ``servo``."""
+def register_per_world(
+    env_ids: dict[str, str], entry_point: str, max_episode_steps: int | None
+) -> None:
+    """Register one env id per world (``{id: world}``), each once; shared by ``servo``.
+    ``max_episode_steps=None`` adds no ``TimeLimit`` wrapper (for envs with their own clock)."""
     for env_id, world in env_ids.items():
         if env_id not in gym.registry:
             gym.register(

@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import write_json
+from common.geometry import se2_compose, wrap_angle
 from sim import dataset as ds
 from sim.ros_messages import (
     RosbagImportError,
@@ -77,10 +79,6 @@ class ImportSettings:
                 raise ValueError(f"{name} must be a number >= 0, got {getattr(self, name)}")
         if len(self.laser_offset) != 3 or not np.all(np.isfinite(self.laser_offset)):
             raise ValueError(f"laser_offset must be 3 finite numbers, got {self.laser_offset}")
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 class _Stream:
@@ -222,8 +220,8 @@ def _align(scans: _Stream, images: _Stream, odom: _Stream, settings: ImportSetti
     w = ((t[idx] - t_odo[a]) / (t_odo[b] - t_odo[a]))[:, None]
     interp = o[a] * (1 - w) + o[b] * w
     yaw = np.unwrap(o[:, 2])
-    interp[:, 2] = _wrap(yaw[a] * (1 - w[:, 0]) + yaw[b] * w[:, 0])
-    pose = _compose(interp[:, :3], np.asarray(settings.laser_offset, dtype=np.float64))
+    interp[:, 2] = wrap_angle(yaw[a] * (1 - w[:, 0]) + yaw[b] * w[:, 0])
+    pose = se2_compose(interp[:, :3], np.asarray(settings.laser_offset, dtype=np.float64))
     keep = _spaced(pose, settings.min_travel, settings.min_turn)
     dropped["closer than min_travel and min_turn"] = int(len(idx) - keep.size)
     if keep.size == 0:
@@ -239,14 +237,6 @@ def _align(scans: _Stream, images: _Stream, odom: _Stream, settings: ImportSetti
     return frames, nearest[idx[keep]], dropped
 
 
-def _compose(pose: np.ndarray, offset: np.ndarray) -> np.ndarray:
-    """``pose`` (N, 3) composed with the sensor's ``offset`` (x, y, yaw) in the robot frame."""
-    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
-    x = pose[:, 0] + c * offset[0] - s * offset[1]
-    y = pose[:, 1] + s * offset[0] + c * offset[1]
-    return np.column_stack([x, y, _wrap(pose[:, 2] + offset[2])])
-
-
 def _spaced(pose: np.ndarray, min_travel: float, min_turn: float) -> np.ndarray:
     """Indices of the frames kept: the first, then each that moved ``min_travel`` or turned
     ``min_turn`` since the last kept one (either at 0 keeps every frame)."""
@@ -254,7 +244,7 @@ def _spaced(pose: np.ndarray, min_travel: float, min_turn: float) -> np.ndarray:
     for i in range(1, len(pose)):
         last = pose[keep[-1]]
         moved = np.hypot(*(pose[i, :2] - last[:2]))
-        turned = abs(_wrap(pose[i, 2] - last[2]))
+        turned = abs(wrap_angle(pose[i, 2] - last[2]))
         if moved >= min_travel or turned >= min_turn:
             keep.append(i)
     return np.asarray(keep, dtype=int)
@@ -380,4 +370,4 @@ def _write(directory: Path, seqs: dict, settings: ImportSettings, first: dict) -
             "dropped_scans": arrays["dropped"],
         }
     meta["complete"] = True
-    ds.write_json(directory / ds.META_FILE, meta)
+    write_json(directory / ds.META_FILE, meta)

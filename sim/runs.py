@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim.laser import scan_to_points
+from common.geometry import scan_to_points
 
 if TYPE_CHECKING:
     from sim.dataset import Sequence

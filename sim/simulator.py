@@ -10,10 +10,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from common.geometry import wrap_angle
 from scenes import World, names
 from sim.camera import Camera, CameraConfig
 from sim.laser import Laser, LaserConfig
-from sim.odometry import Odometry, OdometryConfig, wrap_angle
+from sim.odometry import Odometry, OdometryConfig
 
 CONTROL_DT = 0.1  # s per command: 10 Hz, a typical base controller rate
 V_LIMITS = (-0.5, 1.5)  # m/s: backing up slowly, walking pace forward

@@ -11,10 +11,10 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from common.geometry import wrap_angle
 from scenes import World
 from scenes.regions import Route
 from scenes.robot import RADIUS
-from sim.odometry import wrap_angle
 
 
 @dataclass(frozen=True)

@@ -62,7 +62,7 @@ class TopDownView:
             pts = np.round(self.to_pixels(np.asarray(trail)[:, :2])).astype(np.int32)
             cv2.polylines(img, [pts], False, (40, 40, 200), max(1, int(s * 0.05)), cv2.LINE_AA)
         if target is not None:
-            self._robot(img, target, (220, 40, 40), outline_only=True)
+            self.draw_robot(img, target, (220, 40, 40), outline_only=True)
         if pose is not None:
             if scan is not None and angles is not None:
                 ok = np.isfinite(scan)
@@ -77,10 +77,12 @@ class TopDownView:
                     & (px[:, 1] < img.shape[0])
                 )
                 img[px[inside, 1], px[inside, 0]] = (230, 30, 30)
-            self._robot(img, pose, (30, 30, 30))
+            self.draw_robot(img, pose, (30, 30, 30))
         return img
 
-    def _robot(self, img, pose, colour, outline_only: bool = False) -> None:
+    def draw_robot(self, img, pose, colour, outline_only: bool = False) -> None:
+        """Draw the robot at ``pose`` (x, y, yaw) on ``img`` in place: a disc of its radius
+        (only the outline with ``outline_only``, as for a target) and a heading tick."""
         from scenes.robot import RADIUS
 
         c = np.round(self.to_pixels(pose[:2])).astype(int)

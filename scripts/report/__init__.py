@@ -28,7 +28,7 @@ machine, commit), :mod:`~scripts.report.settings` (:class:`RunSettings`, the err
 stages as an argument: tests pass fake ones).
 """
 
-from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet, save_png
+from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet
 from scripts.report.html import (
     INDEX,
     STYLE,
@@ -78,7 +78,6 @@ __all__ = [
     "replace_runs",
     "run_pipeline",
     "sample_sheet",
-    "save_png",
     "section",
     "section_grouping",
     "section_manifold",

@@ -1,26 +1,11 @@
-"""Drawing for the ``worlds`` stage: PNG writing, per manifold sample frames, the laser scan
+"""Drawing for the ``worlds`` stage: per manifold sample frames, the laser scan
 on a crop of the map, and the contact sheet of the samples."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from scenes.fileio import atomic_write_bytes
-
-__all__ = ["laser_crop", "manifold_samples", "sample_sheet", "save_png"]
-
-
-def save_png(path: Path, rgb: np.ndarray) -> Path:
-    import cv2
-
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
-    if not ok:
-        raise RuntimeError(f"could not encode {path}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, buf.tobytes())
-    return path
+__all__ = ["laser_crop", "manifold_samples", "sample_sheet"]
 
 
 def manifold_samples(dataset) -> dict[int, tuple]:
@@ -53,7 +38,7 @@ def laser_crop(view, pose, scan, angles, trail, size: int, half_m: float = 8.0) 
         cv2.line(img, tuple(c), tuple(p), (240, 120, 120), 1, cv2.LINE_AA)
     for p in px:
         cv2.circle(img, tuple(p), 2, (220, 20, 20), -1)
-    view._robot(img, pose, (30, 30, 30))
+    view.draw_robot(img, pose, (30, 30, 30))
     half = int(half_m * view.scale)
     img = cv2.copyMakeBorder(img, half, half, half, half, cv2.BORDER_CONSTANT, value=(60,) * 3)
     crop = img[c[1] : c[1] + 2 * half, c[0] : c[0] + 2 * half]

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scenes.fileio import atomic_write_bytes
+from common.fileio import atomic_write_bytes
 
 __all__ = [
     "INDEX",

@@ -21,9 +21,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from scenes.fileio import atomic_write_bytes
+from common.fileio import atomic_write_bytes, jsonable
 from scripts.report.html import build_html, esc, write_report
 from scripts.report.provenance import git_commit, machine, versions
 from scripts.report.sections import (
@@ -188,15 +186,6 @@ class _Timer:
         return result
 
 
-def _json_default(obj):
-    """What ``json`` cannot write itself: numpy scalars and arrays, paths."""
-    if isinstance(obj, np.ndarray | np.generic):
-        return obj.tolist()
-    if isinstance(obj, Path):
-        return obj.as_posix()
-    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
-
-
 def run_pipeline(
     out: str | os.PathLike,
     settings: RunSettings | None = None,
@@ -261,6 +250,6 @@ def run_pipeline(
     report.update({s.name: f"{s.name}/{s.saved_as}" for s in recorded if s.saved_as is not None})
     report["info"] = info
     atomic_write_bytes(
-        root / "report.json", (json.dumps(report, indent=1, default=_json_default) + "\n").encode()
+        root / "report.json", (json.dumps(jsonable(report), indent=1) + "\n").encode()
     )
     return write_report(root, page)

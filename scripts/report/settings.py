@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from common.validation import check_int
+
 __all__ = ["REPORT_DIR", "OutputError", "RunSettings", "StageError"]
 
 REPORT_DIR = "report"
@@ -30,10 +32,8 @@ class RunSettings:
     jobs: int | None = None
 
     def __post_init__(self):
-        if int(self.episodes) != self.episodes or self.episodes < 1:
-            raise ValueError(f"episodes must be an integer >= 1, got {self.episodes}")
-        if int(self.videos) != self.videos or self.videos < 0:
-            raise ValueError(f"videos must be an integer >= 0, got {self.videos}")
+        check_int(self.episodes, "episodes")
+        check_int(self.videos, "videos", minimum=0)
         if not self.policies:
             raise ValueError("policies is empty")
 

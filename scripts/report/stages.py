@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet, save_png
+from common.fileio import write_png
+from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet
 from scripts.report.settings import RunSettings
 
 __all__ = ["stage_grouping", "stage_manifold", "stage_servo", "stage_worlds"]
@@ -38,7 +39,7 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
             if seq.world == world:
                 pts = np.round(view.to_pixels(seq.poses[:, :2])).astype(np.int32)
                 cv2.polylines(img, [pts], False, (40, 40, 200), 2, cv2.LINE_AA)
-        path = save_png(out_dir / f"{world}_topdown.png", img)
+        path = write_png(out_dir / f"{world}_topdown.png", img)
         result["topdown"][world] = _rel(path, root)
     for m, (seq, frames) in manifold_samples(dataset).items():
         h, middle = seq.images.shape[1], frames[1]
@@ -46,13 +47,13 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
             views[seq.world], seq.poses[middle], seq.scans[middle], seq.angles, seq.poses, h
         )
         row = np.concatenate([seq.images[i] for i in frames] + [crop], axis=1)
-        path = save_png(out_dir / f"{MANIFOLDS[m]}_samples.png", row)
+        path = write_png(out_dir / f"{MANIFOLDS[m]}_samples.png", row)
         result["manifolds"][MANIFOLDS[m]] = {
             "image": _rel(path, root),
             "frames": [[seq.name, i] for i in frames],
         }
         rows.setdefault(seq.world, []).append((MANIFOLDS[m], row))
-    result["sheet"] = _rel(save_png(out_dir / "samples.png", sample_sheet(rows)), root)
+    result["sheet"] = _rel(write_png(out_dir / "samples.png", sample_sheet(rows)), root)
     return result
 
 

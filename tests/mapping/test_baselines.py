@@ -10,8 +10,8 @@ from mapping.baselines import (
     NormalizedCutClustering,
     SelfTuningSpectralClustering,
     best_sigma_ncut,
-    squared_distances,
 )
+from mapping.distances import squared_distances
 from mapping.metrics import clustering_error
 from mapping.synthetic import converging_paths, parallel_lines
 

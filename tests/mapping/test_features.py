@@ -11,7 +11,6 @@ from mapping.features import (
     images_to_vectors,
     normalize_rows,
     scan_ranges,
-    scan_to_points,
     scan_vectors,
 )
 
@@ -182,16 +181,6 @@ def test_scan_features_max_range_from_the_training_scans():
     np.testing.assert_allclose(feats.transform(scans), scan_vectors(scans, 6.0))
     with pytest.raises(ValueError, match="no finite positive reading"):
         ScanFeatures().fit(np.full((2, 3), np.inf))
-
-
-def test_scan_to_points_sensor_frame_and_drops_no_returns():
-    angles = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2, 0.3])
-    ranges = np.array([2.0, 1.0, np.inf, 3.0, np.nan], dtype=np.float32)
-    pts = scan_to_points(ranges, angles)
-    np.testing.assert_allclose(pts, [[2.0, 0.0], [0.0, 1.0], [0.0, -3.0]], atol=1e-12)
-    assert scan_to_points(ranges, angles, max_range=3.0).shape == (2, 2)
-    with pytest.raises(ValueError, match="same length"):
-        scan_to_points(ranges, angles[:3])
 
 
 def test_color_histograms_match_opencv_calchist_per_cell(images):

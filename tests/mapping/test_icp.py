@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from common.geometry import se2_relative, transform_points
 from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
 from mapping.icp import _kabsch_2d, densify_scan, icp, icp_batch, refine_poses
-from mapping.topology import se2_relative, transform_points
 
 
 @pytest.fixture(scope="module")
@@ -66,10 +66,11 @@ def test_densify_scan_fills_small_gaps_only():
     assert not np.any((dense[:, 0] > 0.1) & (dense[:, 0] < 2.0))
 
 
-def test_refine_poses_removes_most_odometry_drift(office):
+@pytest.mark.parametrize("decimation", [1, 2])
+def test_refine_poses_removes_most_odometry_drift(office, decimation):
     _, scans, poses = office
     odo = simulate_odometry(poses, np.random.default_rng(3), 0.05, 0.02)
-    refined = refine_poses(scans, odo)
+    refined = refine_poses(scans, odo, decimation=decimation)
     np.testing.assert_array_equal(refined[0], odo[0])
 
     def increment_error(est):
@@ -78,6 +79,23 @@ def test_refine_poses_removes_most_odometry_drift(office):
     assert np.median(increment_error(refined)) < 0.2 * np.median(increment_error(odo))
     drift = np.hypot(*(odo[:, :2] - poses[:, :2]).T).max()
     assert np.hypot(*(refined[:, :2] - poses[:, :2]).T).max() < 0.5 * drift
+
+
+def test_refine_poses_decimation_matches_every_kth_source_point(office):
+    _, scans, poses = office
+    odo = simulate_odometry(poses[:6], np.random.default_rng(1), 0.05, 0.02)
+    halved = refine_poses(scans[:6], odo, decimation=2)
+    # the same as ICP of every second point onto the whole previous scan
+    res = icp_batch(
+        [s[::2] for s in scans[1:6]], [densify_scan(s) for s in scans[:5]],
+        se2_relative(odo[:-1], odo[1:]), min_matches=10,
+    )  # fmt: skip
+    assert res.converged.all()
+    np.testing.assert_allclose(se2_relative(halved[:-1], halved[1:]), res.transforms, atol=1e-12)
+    assert not np.allclose(halved, refine_poses(scans[:6], odo))
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(ValueError, match="decimation must be a positive integer"):
+            refine_poses(scans[:6], odo, decimation=bad)
 
 
 def test_refine_poses_keeps_odometry_for_empty_scans(office):

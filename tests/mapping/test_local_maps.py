@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from common.geometry import transform_points
 from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
 from mapping.local_maps import align_groups, localise_held_out, map_residuals, submap_labels
-from mapping.topology import transform_points
 
 
 @pytest.fixture(scope="module")

@@ -61,7 +61,7 @@ def test_greedy_merge_is_kept_but_loses_on_converging_paths():
 def test_separability_merge_joins_only_adjacent_groups():
     from mapping._manifold_split import SearchSpace
     from mapping._manifold_tree import separability_merge
-    from mapping.baselines import squared_distances
+    from mapping.distances import squared_distances
 
     # Four short segments on a line, then a far one: the far one is never joined while
     # adjacent segments are still available.
@@ -82,7 +82,7 @@ def test_per_cluster_sigma_on_variable_spacing():
 
 
 def _inner_nodes(node):
-    if node.children is None:
+    if node.is_leaf:
         return []
     return [node, *_inner_nodes(node.children[0]), *_inner_nodes(node.children[1])]
 
@@ -162,7 +162,7 @@ def test_one_cluster_uses_the_root_kernel_and_still_servos(fitted_lines):
     assert np.argmax(f) == model.centers_[0]
     # fewer than 2 Q points: the root is still split once, so its kernel exists
     small = ManifoldClustering(1, 10).fit(X[:15])
-    assert small.tree_.children is not None and np.isfinite(small.sigmas_).all()
+    assert not small.tree_.is_leaf and np.isfinite(small.sigmas_).all()
 
 
 # --- prediction and the servo signal ------------------------------------------------------------

@@ -11,7 +11,7 @@ import pytest
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import affinity, normalized_affinity
 from mapping._manifold_predict import ClusterModel, Stack
-from mapping.baselines import squared_distances
+from mapping.distances import squared_distances
 
 
 def _reference(points, x, sigma, alpha, target):

@@ -14,7 +14,7 @@ from mapping._manifold_kernel import (
 )
 from mapping._manifold_predict import ClusterModel, sq_distances_all
 from mapping._manifold_split import SearchSpace, split_scores
-from mapping.baselines import squared_distances
+from mapping.distances import squared_distances
 
 
 @pytest.fixture

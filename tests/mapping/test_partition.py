@@ -238,7 +238,8 @@ def test_groups_keep_runs_apart(office):
     assert labels[n - 1] != labels[n + 1]  # the two ends are different places
     assert labels[n] == labels[n + 1]
     # without groups the empty scan joins the end of the first run (the tie goes earlier)
-    assert ObservationGraphPartitioner().fit(both_scans, both_poses).labels_[n] == labels[n - 1]
+    chained = ObservationGraphPartitioner().fit(both_scans, both_poses).labels_
+    assert chained[n] == chained[n - 1]
     with pytest.raises(ValueError, match="one label per sample"):
         ObservationGraphPartitioner().fit(scans, poses, groups=[0] * (n - 1))
     with pytest.raises(ValueError, match="consecutive"):

@@ -1,41 +1,12 @@
-"""SE(2) algebra, local maps and the metric-topological map."""
+"""Local maps and the metric-topological map."""
 
 import numpy as np
 import pytest
 
+from common.geometry import se2_inverse, se2_relative, transform_points
 from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
 from mapping.partition import ObservationGraphPartitioner
-from mapping.topology import (
-    build_topology,
-    circular_mean,
-    se2_compose,
-    se2_inverse,
-    se2_relative,
-    transform_points,
-)
-
-
-def test_se2_algebra():
-    rng = np.random.default_rng(0)
-    a = rng.uniform(-3, 3, (10, 3))
-    b = rng.uniform(-3, 3, (10, 3))
-    np.testing.assert_allclose(se2_compose(a, se2_inverse(a)), np.zeros((10, 3)), atol=1e-12)
-    np.testing.assert_allclose(se2_compose(a, se2_relative(a, b))[:, :2], b[:, :2], atol=1e-12)
-    # composing poses is composing point maps
-    p = rng.normal(size=(5, 2))
-    np.testing.assert_allclose(
-        transform_points(se2_compose(a[0], b[0]), p),
-        transform_points(a[0], transform_points(b[0], p)),
-        atol=1e-12,
-    )
-    np.testing.assert_allclose(
-        transform_points([0, 0, np.pi / 2], [[1.0, 0.0]]), [[0, 1.0]], atol=1e-15
-    )
-
-
-def test_circular_mean_across_pi():
-    assert abs(abs(circular_mean([np.pi - 0.1, -np.pi + 0.1])) - np.pi) < 1e-12
-    assert circular_mean([0.1, -0.1, 0.3]) == pytest.approx(0.1, abs=1e-3)
+from mapping.topology import build_topology
 
 
 @pytest.fixture(scope="module")

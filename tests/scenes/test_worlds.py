@@ -109,3 +109,25 @@ def test_randomised_clutter_keeps_the_routes_drivable(seed):
                 ]
             )
             assert free.is_free(pts).all(), (seed, route.name)
+
+
+def test_a_world_compares_by_value_so_it_is_not_hashable():
+    # A mutable dataclass that compares by value must not hash by identity (issue 16): two equal
+    # worlds would be different dict keys. The free-space cache lives on the instance instead.
+    world = build_world("hallway")
+    with pytest.raises(TypeError, match="unhashable"):
+        hash(world)
+    grid = world.free_space(0.1)
+    assert world.free_space(0.1) is grid
+    assert world.free_space(0.1, inflation=RADIUS) is not grid
+    assert build_world("hallway").free_space(0.1) is not grid  # a fresh world, a fresh cache
+
+
+def test_the_registry_has_one_builder_per_world():
+    from scenes import WORLDS
+    from scenes.appearance import draw_appearance
+    from scenes.registry import BUILDERS
+
+    assert tuple(BUILDERS) == WORLDS
+    for name, builder in BUILDERS.items():
+        assert builder(draw_appearance(None)).xml == build_world(name).xml

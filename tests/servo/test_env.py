@@ -118,3 +118,47 @@ def test_async_vector_env_spawn(servo_maps, tmp_path):
         assert r.shape == (2,) and np.isfinite(r).all()
     finally:
         venv.close()
+
+
+def test_registered_task_has_one_clock_and_takes_the_reward_weights(env, servo_maps):
+    import gymnasium as gym
+    from gymnasium.wrappers import TimeLimit
+
+    made = gym.make(
+        "topomap/HallwayServo-v0",
+        servo_map=servo_maps["hallway"],
+        max_steps=70,
+        signal_weight=2.0,
+        collision_penalty=0.3,
+    )
+    try:
+        # no TimeLimit of the registry on top of the env's own max_steps (issue 16)
+        assert made.spec.max_episode_steps is None
+        wrapper = made
+        while isinstance(wrapper, gym.Wrapper):
+            assert not isinstance(wrapper, TimeLimit)
+            wrapper = wrapper.env
+        assert made.unwrapped.max_steps == 70
+        # the same seed and actions drive the same episode; only the weighted parts change
+        options = {"pose": (0.5, 0.0, np.pi), "target": 100}  # facing the end wall: contacts
+        env.reset(seed=0, options=options)
+        made.reset(seed=0, options=options)
+        contacts = 0
+        for _ in range(12):
+            action = np.array([1.0, 0.0], np.float32)
+            *_, a = env.step(action)
+            _, r2, *_, b = made.step(action)
+            np.testing.assert_array_equal(a["pose"], b["pose"])
+            assert b["reward_signal"] == pytest.approx(2.0 * a["reward_signal"])
+            assert b["reward_collision"] == pytest.approx(3.0 * a["reward_collision"])
+            assert r2 == pytest.approx(b["reward_signal"] + b["reward_collision"])
+            contacts += a["collision"]
+        assert contacts > 0
+    finally:
+        made.close()
+
+
+@pytest.mark.parametrize("name", ["signal_weight", "success_reward", "collision_penalty"])
+def test_reward_weights_must_be_finite_numbers(servo_maps, name):
+    with pytest.raises(ValueError, match=f"{name} must be a finite number"):
+        ServoEnv("hallway", servo_maps["hallway"], **{name: float("nan")})

@@ -8,9 +8,10 @@ from scenes import MANIFOLDS
 from servo.env import ServoEnv
 from servo.evaluate import signal_agreement, summarise
 from servo.localise import ImageLocaliser
-from servo.protocol import Protocol, episode_specs, reset_options, wilson_interval
+from servo.protocol import Protocol, episode_specs, reset_options
 from servo.route import RouteGraph
 from servo.signal_servo import SignalServo, SignalServoConfig, WaypointTracker, steer
+from servo.stats import wilson_interval
 
 
 @pytest.fixture(scope="module")

@@ -158,7 +158,7 @@ def test_a_crafted_meta_is_refused(small_dataset, tmp_path, change, match):
 
 
 def test_runs_hand_out_what_the_mapping_methods_take(small_dataset):
-    from sim.laser import scan_to_points
+    from common.geometry import scan_to_points
 
     ds = load_dataset(small_dataset)
     runs = ds.runs("lawn")

@@ -2,9 +2,10 @@ import mujoco
 import numpy as np
 import pytest
 
+from common.geometry import scan_to_points
 from scenes.robot import LASER_FORWARD, RADIUS
 from sim.camera import CameraConfig
-from sim.laser import LaserConfig, scan_to_points
+from sim.laser import LaserConfig
 from sim.odometry import OdometryConfig
 from sim.simulator import Simulator
 

@@ -1,0 +1,50 @@
+"""The node of a recursive bisection tree, shared by both methods' trees.
+
+The manifold clustering (Grudic & Mulligan, Section II-C, ``mapping._manifold_tree``) and the
+observation grouping (Blanco et al., Section II-B, ``mapping.ncut``) both bisect their data
+recursively. Their nodes are :class:`SplitNode` s with one convention: a node's ``children``
+are its two halves, or the empty tuple for a leaf. Each method subclasses it to record its own
+split criterion (Omega(2) with its sigma and alpha; the Ncut).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["SplitNode"]
+
+
+@dataclass(eq=False)
+class SplitNode:
+    """A node of a recursive bisection tree (nodes compare by identity).
+
+    Attributes
+    ----------
+    indices : ndarray of int
+        The samples (graph nodes) in this node.
+    children : tuple of SplitNode
+        The two halves if this node was split, else empty (a leaf).
+    """
+
+    indices: np.ndarray
+    children: tuple[SplitNode, ...] = ()
+
+    @property
+    def is_leaf(self) -> bool:
+        """Whether this node was left whole."""
+        return not self.children
+
+    def walk(self) -> Iterator[SplitNode]:
+        """Pre-order traversal (a node, then its first subtree, then its second)."""
+        stack = [self]
+        while stack:  # explicit stack: no recursion limit on deep trees of long trajectories
+            node = stack.pop()
+            yield node
+            stack.extend(reversed(node.children))
+
+    def leaves(self) -> list[SplitNode]:
+        """The leaves left to right (the first half's before the second's)."""
+        return [node for node in self.walk() if node.is_leaf]

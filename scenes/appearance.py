@@ -1,0 +1,66 @@
+"""Domain randomisation of a world's look: the table of parameters and one draw from it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["RANDOMIZATION", "TEXTURE_SEED", "Appearance", "draw_appearance"]
+
+# Domain randomisation table, as Miniworld's params: name -> (default, low, high). Without an
+# RNG every parameter takes its default, so the canonical world is one fixed scene.
+RANDOMIZATION: dict[str, tuple[float, float, float]] = {
+    "light_intensity": (1.0, 0.55, 1.45),  # multiplier on every light's diffuse colour
+    "light_tint": (0.0, -0.12, 0.12),  # per-channel shift of light colour
+    "light_shift": (0.0, -0.6, 0.6),  # m, light positions along the corridor / sun direction
+    "colour_jitter": (0.0, -0.08, 0.08),  # per-channel shift of every base texture colour
+    "clutter_shift": (0.0, -0.5, 0.5),  # m, furniture and posters slid along their wall
+}
+TEXTURE_SEED = 20_040_607  # canonical textures: fixed noise, part of the world's identity
+
+
+@dataclass(frozen=True)
+class Appearance:
+    """One draw from :data:`RANDOMIZATION` plus the generator that made the textures."""
+
+    params: dict
+    texture_rng: np.random.Generator = field(compare=False, repr=False)
+    rng: np.random.Generator | None = field(compare=False, repr=False, default=None)
+
+    def __getitem__(self, key: str) -> float:
+        return self.params[key]
+
+    def colour(self, rgb) -> tuple[float, float, float]:
+        """A base colour with this draw's jitter (a new jitter per call when randomised)."""
+        rgb = np.asarray(rgb, np.float64)
+        if self.rng is not None:
+            lo, hi = RANDOMIZATION["colour_jitter"][1:]
+            rgb = rgb + self.rng.uniform(lo, hi, 3)
+        return tuple(np.clip(rgb, 0.0, 1.0))
+
+    def light(self, rgb) -> tuple[float, float, float]:
+        tint = (
+            np.zeros(3)
+            if self.rng is None
+            else self.rng.uniform(*RANDOMIZATION["light_tint"][1:], 3)
+        )
+        return tuple(np.clip(np.asarray(rgb) * self["light_intensity"] + tint, 0.0, 1.0))
+
+    def shift(self, key: str) -> float:
+        """A fresh draw of a positional parameter (0 when not randomised)."""
+        if self.rng is None:
+            return RANDOMIZATION[key][0]
+        return float(self.rng.uniform(*RANDOMIZATION[key][1:]))
+
+
+def draw_appearance(rng: np.random.Generator | None) -> Appearance:
+    """Defaults and canonical textures without an RNG; a randomised draw with one."""
+    if rng is None:
+        params = {k: v[0] for k, v in RANDOMIZATION.items()}
+        return Appearance(params, np.random.default_rng(TEXTURE_SEED), None)
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator or None, got {type(rng).__name__}")
+    params = {k: float(rng.uniform(lo, hi)) for k, (_, lo, hi) in RANDOMIZATION.items()}
+    texture_rng, layout_rng = rng.spawn(2)
+    return Appearance(params, texture_rng, layout_rng)

@@ -1,0 +1,55 @@
+"""Atomic writes and JSON coercion."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from common.fileio import atomic_path, atomic_write_bytes, jsonable, write_json, write_png
+
+
+def test_jsonable_converts_numpy_and_paths_recursively():
+    obj = {
+        np.int64(3): np.float64(0.5),
+        "a": (np.arange(3), [np.bool_(True), None]),
+        "p": Path("x") / "y.png",
+        (1, 2): "tuple key",
+    }
+    out = jsonable(obj)
+    assert out == {3: 0.5, "a": [[0, 1, 2], [True, None]], "p": "x/y.png", "(1, 2)": "tuple key"}
+    assert type(next(iter(out))) is int and type(out[3]) is float
+    json.dumps(out)  # nothing numpy is left
+
+
+def test_jsonable_refuses_what_json_cannot_hold():
+    with pytest.raises(TypeError, match="set is not JSON serialisable"):
+        jsonable({"x": {1, 2}})
+
+
+def test_write_json_is_indented_and_ends_in_newline(tmp_path):
+    write_json(tmp_path / "r.json", {"n": np.int32(2), "v": np.array([1.5])})
+    text = (tmp_path / "r.json").read_text()
+    assert text == json.dumps({"n": 2, "v": [1.5]}, indent=2) + "\n"
+
+
+def test_failed_writes_leave_nothing_behind(tmp_path):
+    target = tmp_path / "f.bin"
+    atomic_write_bytes(target, b"old")
+    with pytest.raises(RuntimeError), atomic_path(target) as tmp:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("writer failed")
+    assert target.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.bin"]
+    with pytest.raises(TypeError):
+        atomic_write_bytes(target, "not bytes")
+    assert target.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.bin"]
+
+
+def test_write_png_round_trips_rgb(tmp_path):
+    cv2 = pytest.importorskip("cv2")
+    rgb = np.zeros((4, 5, 3), np.uint8)
+    rgb[..., 0] = 200  # red
+    path = write_png(tmp_path / "sub" / "img.png", rgb)
+    np.testing.assert_array_equal(cv2.imread(str(path))[..., ::-1], rgb)
