@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.validation import check_int
 from scripts.sweep_backends import BACKENDS, check_backend, default_workers, open_backend
 from scripts.sweep_episode import SETTINGS, sweep_tasks
 
@@ -78,9 +79,8 @@ def _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps):
         raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
     if not seeds or any(isinstance(s, bool) or int(s) != s for s in seeds):
         raise ValueError(f"seeds must be a non-empty list of integers, got {seeds}")
-    for name, value in (("episodes_per_seed", episodes_per_seed), ("max_steps", max_steps)):
-        if isinstance(value, bool) or int(value) != value or value < 1:
-            raise ValueError(f"{name} must be an integer >= 1, got {value}")
+    check_int(episodes_per_seed, "episodes_per_seed")
+    check_int(max_steps, "max_steps")
     if len(set(worlds)) < len(worlds) or len(set(settings)) < len(settings):
         raise ValueError("worlds and settings must not repeat")
     return worlds, [int(s) for s in seeds], settings

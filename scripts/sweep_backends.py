@@ -16,6 +16,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from multiprocessing import get_context
 
+from common.validation import check_int
 from scripts.sweep_episode import ONE_THREAD, EpisodeRunner, EpisodeTask
 from scripts.sweep_ray import RayBackend, parse_address  # imports Ray only when used
 
@@ -76,8 +77,7 @@ def check_backend(backend: str, workers, address) -> None:
     """Bad settings raise ValueError naming the parameter and the expected form."""
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    if isinstance(workers, bool) or int(workers) != workers or workers < 1:
-        raise ValueError(f"num_envs must be an integer >= 1 (the workers), got {workers}")
+    check_int(workers, "num_envs")
     if address is not None and backend != "ray":
         raise ValueError(f"address is for the ray backend only, got backend {backend!r}")
     if address is not None and (not isinstance(address, str) or not address.strip()):

@@ -26,7 +26,7 @@ GCS_PORT, CLIENT_PORT = 6379, 10001  # Ray's defaults: `ray start --head`, the R
 REPO = Path(__file__).resolve().parents[1]
 # HTTP/2 client preface, then an empty SETTINGS frame (length 0, type 4, no flags, stream 0)
 _H2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + b"\x00\x00\x00\x04\x00\x00\x00\x00\x00"
-_CODE = ["sim", "mapping", "servo", "scenes", "scripts"]  # the packages a worker imports
+_CODE = ["common", "scenes", "sim", "mapping", "servo", "scripts"]  # the packages a worker imports
 _PASS_ENV = ("MUJOCO_GL", "PYOPENGL_PLATFORM", "MUJOCO_EGL_DEVICE_ID", "TOPOMAP_HOME")
 
 
