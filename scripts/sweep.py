@@ -1,45 +1,32 @@
-"""Evaluation sweeps: many worlds, seeds and settings of the servo task, run in parallel in
-Gymnasium vector envs across the machine's cores, summarised as one table.
+"""Evaluation sweeps: many worlds, seeds and settings of the servo task, run in parallel on a
+local process pool or on Ray (``--backend ray``), summarised as one table.
 
-Each (world, setting) batch runs in one ``gymnasium.vector.AsyncVectorEnv`` of ``num_envs``
-:class:`~servo.env.ServoEnv` workers, started with the ``spawn`` context (a forked worker hangs
-on its first render once the parent has had a GL context). The policies run in the parent, one
-per sub-env, on the batched observations. Autoreset is disabled: a sub-env whose episode ends is
-reset explicitly (``reset_mask``) with the seed of the next pending episode, so every episode is
-a function of (world, setting, seed, episode index) alone, whatever ``num_envs``.
-
-Episode ``i`` of seed ``s`` is seeded as episode ``i`` of ``servo.evaluate.evaluate(world,
-episodes, s)``; episodes are scored by the same rules (``servo.evaluate``: success, SPL with the
-geodesic shortest path, final errors, steps, collisions) and aggregated with its ``summarise``.
+Every episode runs whole, env and policy together, in a worker
+(:class:`scripts.sweep_episode.EpisodeRunner`, on a backend of ``scripts.sweep_backends``), and
+is a function of (world, setting, seed, episode index) alone: episode ``i`` of seed ``s`` is
+episode ``i`` of ``servo.evaluate.evaluate(world, episodes, s)``, so the table is the same on
+every backend and any number of workers (its time columns apart). Episodes are scored by
+``servo.evaluate.run_episode`` and aggregated with its ``summarise``.
 
 Run as ``topomap sweep`` (see ``docs/sweeps.md``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import json
 import os
-import tempfile
+import sys
 import time
-from functools import partial
 from pathlib import Path
-from types import SimpleNamespace
 
-import gymnasium as gym
 import numpy as np
 
-import sim  # noqa: F401  (headless GL backend before mujoco)
+from common.validation import check_int
+from scripts.sweep_backends import BACKENDS, check_backend, default_workers, open_backend
+from scripts.sweep_episode import SETTINGS, sweep_tasks
 
-# name -> ServoEnv keyword arguments
-SETTINGS: dict[str, dict] = {
-    "default": {},
-    "randomized": {"randomize": True},
-    "no-odometry-noise": {"odometry_noise": False},
-    "randomized-no-odometry-noise": {"randomize": True, "odometry_noise": False},
-}
 COLUMNS = (  # (key, header, format)
     ("world", "world", "{}"),
     ("setting", "setting", "{}"),
@@ -51,8 +38,10 @@ COLUMNS = (  # (key, header, format)
     ("mean_final_heading_error_deg", "final heading (deg)", "{:.1f}"),
     ("mean_steps", "steps", "{:.1f}"),
     ("collisions", "collisions/episode", "{:.1f}"),
-    ("wall_s", "wall (s)", "{:.1f}"),
+    ("worker_s", "worker time (s)", "{:.1f}"),
 )
+SWEEP_KEYS = ("backend", "num_envs", "startup_s", "run_s", "episodes_per_min")  # whole-sweep facts
+TIME_KEYS = ("worker_s", "act_ms", "wall_s", "pid")  # differ run to run; the rest may not
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -75,7 +64,7 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
-def _check(worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_steps):
+def _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps):
     from scenes import WORLDS
     from servo.evaluate import POLICIES
 
@@ -90,168 +79,11 @@ def _check(worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_ste
         raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
     if not seeds or any(isinstance(s, bool) or int(s) != s for s in seeds):
         raise ValueError(f"seeds must be a non-empty list of integers, got {seeds}")
-    for name, value in (("episodes_per_seed", episodes_per_seed), ("num_envs", num_envs),
-                        ("max_steps", max_steps)):  # fmt: skip
-        if isinstance(value, bool) or int(value) != value or value < 1:
-            raise ValueError(f"{name} must be an integer >= 1, got {value}")
+    check_int(episodes_per_seed, "episodes_per_seed")
+    check_int(max_steps, "max_steps")
     if len(set(worlds)) < len(worlds) or len(set(settings)) < len(settings):
         raise ValueError("worlds and settings must not repeat")
     return worlds, [int(s) for s in seeds], settings
-
-
-def _map_path(servo_map, cache: Path, scratch: Path) -> Path:
-    """A saved copy of the map for the workers to load (the cache's own file when it is there)."""
-    from servo.map_file import map_paths
-    from servo.map_store import save_map
-
-    cached, _ = map_paths(cache, servo_map.world, servo_map.key)
-    return cached if cached.is_file() else save_map(servo_map, scratch)
-
-
-def _unbatch(infos: dict, i: int) -> dict:
-    """Sub-env ``i``'s info from a vector env's batched info dict."""
-    out = {}
-    for k, v in infos.items():
-        if k.startswith("_"):
-            continue
-        mask = infos.get(f"_{k}")
-        if mask is not None and not mask[i]:
-            continue
-        out[k] = _unbatch(v, i) if isinstance(v, dict) else v[i]
-    return out
-
-
-class _Replay:
-    """Stands in for the env in ``servo.evaluate.run_episode`` to replay a
-    finished episode from its infos, so that it is scored by that function itself."""
-
-    def __init__(self, world, infos: list[dict]):
-        self.base = SimpleNamespace(world=world)
-        self._infos = infos
-
-    def reset(self, seed=None, options=None):
-        self._k = 0
-        return None, self._infos[0]
-
-    def step(self, action):
-        self._k += 1
-        return None, 0.0, self._k == len(self._infos) - 1, False, self._infos[self._k]
-
-
-# the policy of a replay: its actions are already done
-_DONE = SimpleNamespace(reset=lambda *args: None, act=lambda *args: np.zeros(2, np.float32))
-
-
-def _score(world, seed: int, episode: int, reset_seed: int, infos: list[dict], act_s: list):
-    """The ``servo.evaluate.run_episode`` record of a finished episode (reset info, then one info
-    per step), with the sweep's seed and episode index and the policy's measured time."""
-    from servo.evaluate import run_episode
-
-    r = run_episode(_Replay(world, infos), _DONE, reset_seed)
-    r.update(seed=int(seed), episode=int(episode), reset_seed=int(reset_seed),
-             act_ms=float(1e3 * np.mean(act_s)), start_pose=r["trail"][0].tolist())  # fmt: skip
-    return r
-
-
-class SweepEnv(gym.Env):
-    """One vector-env worker: a :class:`~servo.env.ServoEnv` per (world, setting), built on
-    first use, chosen by the ``world`` and ``setting`` reset options (the other options go to
-    the ServoEnv). One worker serves a whole sweep, so processes, imports and maps are loaded
-    once, not once per batch.
-
-    ``maps``: ``{world: path of a saved ServoMap}``; ``first``: the (world, setting) built at
-    once (for the spaces).
-    """
-
-    def __init__(self, maps: dict, first: tuple[str, str], max_steps: int = 600):
-        self._paths, self._max_steps = dict(maps), int(max_steps)
-        self._maps: dict = {}
-        self._envs: dict = {}
-        self._env = self._get(*first)
-        self.observation_space = self._env.observation_space
-        self.action_space = self._env.action_space
-        self.metadata = self._env.metadata
-
-    def _get(self, world: str, setting: str):
-        from servo.env import ServoEnv
-        from servo.map_store import load_map
-
-        if (world, setting) not in self._envs:
-            if world not in self._maps:
-                self._maps[world] = load_map(self._paths[world])
-            self._envs[world, setting] = ServoEnv(
-                world, self._maps[world], max_steps=self._max_steps, **SETTINGS[setting]
-            )
-        return self._envs[world, setting]
-
-    def reset(self, *, seed=None, options=None):
-        options = dict(options or {})
-        self._env = self._get(options.pop("world"), options.pop("setting"))
-        return self._env.reset(seed=seed, options=options)
-
-    def step(self, action):
-        return self._env.step(action)
-
-    def close(self):
-        for env in self._envs.values():
-            env.close()
-        self._envs.clear()
-
-
-def run_batch(
-    envs, world, setting: str, seeds: list[int], episodes_per_seed: int, policies: list, bar=None
-) -> list[dict]:
-    """All episodes of one (world, setting) on the vector env ``envs`` (of :class:`SweepEnv`),
-    one policy per sub-env; returns the records in (seed, episode) order."""
-    from servo.evaluate import episode_seeds
-
-    n = envs.num_envs
-    queue = [(s, e, r) for s in seeds for e, r in enumerate(episode_seeds(s, episodes_per_seed))]
-    pending = list(reversed(queue))
-    records: dict[tuple[int, int], dict] = {}
-    running: list[dict | None] = [None] * n
-    obs = None
-
-    def start(mask: np.ndarray) -> None:
-        nonlocal obs
-        mask = mask.copy()
-        mask[np.flatnonzero(mask)[len(pending) :]] = False  # more free envs than episodes
-        todo = {int(i): pending.pop() for i in np.flatnonzero(mask)}
-        obs, infos = envs.reset(
-            seed=[int(todo[i][2]) if i in todo else None for i in range(n)],
-            options={"reset_mask": mask, "world": world.name, "setting": setting},
-        )
-        for i, (s, e, r) in todo.items():
-            info = _unbatch(infos, i)
-            pol = policies[i]
-            if hasattr(pol, "rng"):  # the random baseline: its own stream per episode
-                pol.rng = np.random.default_rng(r)
-            pol.reset(info["target_view"], info)
-            running[i] = {"key": (s, e, r), "infos": [info], "act": []}
-
-    start(np.ones(n, np.bool_))
-    while any(r is not None for r in running):
-        actions = np.zeros((n, 2), np.float32)  # idle sub-envs (none left to run) stand still
-        for i, run in enumerate(running):
-            if run is not None:
-                t0 = time.perf_counter()
-                actions[i] = policies[i].act({k: v[i] for k, v in obs.items()}, run["infos"][-1])
-                run["act"].append(time.perf_counter() - t0)
-        obs, _, terminated, truncated, infos = envs.step(actions)
-        done = np.zeros(n, np.bool_)
-        for i, run in enumerate(running):
-            if run is None:
-                continue
-            run["infos"].append(_unbatch(infos, i))
-            if terminated[i] or truncated[i]:
-                s, e, r = run["key"]
-                records[s, e] = _score(world, s, e, r, run["infos"], run["act"])
-                running[i], done[i] = None, True
-                if bar is not None:
-                    bar.update(1)
-        if done.any() and pending:
-            start(done)
-    return [records[s, e] for s, e, _ in queue]
 
 
 def summarise_batch(records: list[dict]) -> dict:
@@ -275,21 +107,6 @@ def summarise_batch(records: list[dict]) -> dict:
     }
 
 
-@contextlib.contextmanager
-def _one_thread_each(num_envs: int):
-    """With several workers, each renders in its own thread and runs single-threaded BLAS (the
-    processes are the parallelism; more threads would only contend for the cores)."""
-    saved = dict(os.environ)
-    if num_envs > 1:
-        for k in ("LP_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-            os.environ.setdefault(k, "0" if k == "LP_NUM_THREADS" else "1")
-    try:
-        yield
-    finally:
-        os.environ.clear()
-        os.environ.update(saved)
-
-
 def run_sweep(
     worlds,
     seeds,
@@ -303,71 +120,55 @@ def run_sweep(
     maps: dict | None = None,
     dataset: str | os.PathLike | None = None,
     cache: str | os.PathLike | None = None,
+    backend: str = "local",
+    address: str | None = None,
 ) -> list[dict]:
     """Run ``episodes_per_seed`` episodes per seed in every (world, setting); one row each.
 
-    ``settings`` are names of :data:`SETTINGS`. ``num_envs`` (default ``os.cpu_count()``)
-    sub-envs, in worker processes started once for the whole sweep. ``maps``: ``{world:
-    ServoMap}`` to use, else the cached map of each world (``servo.map_store.load_or_build(world,
-    dataset, cache)``; None: the data home's, see ``sim.datahome``). Rows: the columns of
-    :data:`COLUMNS` plus ``act_ms``, ``reasons``, ``num_envs``, ``startup_s`` (starting the
-    workers, once per sweep, in no row's ``wall_s``) and ``episodes_detail``.
+    ``settings`` are names of :data:`SETTINGS`. ``num_envs`` workers (default: the cores this
+    process may use) on ``backend`` (:data:`BACKENDS`: ``local`` processes or ``ray`` actors;
+    ``address``: an existing Ray cluster's, else a local Ray instance), started once for the
+    whole sweep. ``maps``: ``{world: ServoMap}`` to use, else the cached map of each world
+    (``servo.map_store.load_or_build(world, dataset, cache)``; None: the data home's, see
+    ``sim.datahome``). Rows: the columns of :data:`COLUMNS` (``worker_s``: the row's episodes'
+    wall time summed over the workers) plus ``act_ms``, ``reasons``, ``episodes_detail`` and
+    the sweep's ``backend``, ``num_envs``, ``startup_s`` (starting the workers), ``run_s``
+    (running every episode) and ``episodes_per_min`` (throughput over ``run_s``).
     """
-    from gymnasium.vector import AsyncVectorEnv, AutoresetMode
-    from threadpoolctl import threadpool_limits
     from tqdm.auto import tqdm
 
-    from scenes import build_world
-    from servo.evaluate import make_policy
     from servo.map_store import load_or_build
     from sim.datahome import maps_dir
 
-    num_envs = (os.cpu_count() or 1) if num_envs is None else num_envs
-    worlds, seeds, settings = _check(
-        worlds, seeds, settings, policy, episodes_per_seed, num_envs, max_steps
-    )
-    cache = maps_dir() if cache is None else cache  # the data home's, as load_or_build's
-    maps = {w: (maps or {}).get(w) or load_or_build(w, dataset, cache) for w in worlds}
-    n = min(num_envs, len(seeds) * episodes_per_seed)
-    rows = []
-    with (
-        tempfile.TemporaryDirectory(prefix="topomap-sweep-") as scratch,
-        tqdm(
-            total=len(worlds) * len(settings) * len(seeds) * episodes_per_seed,
-            desc=f"sweep {policy}",
-            unit="episode",
-            disable=not progress,
-        ) as bar,
-    ):
-        paths = {w: str(_map_path(m, Path(cache), Path(scratch))) for w, m in maps.items()}
-        make = partial(SweepEnv, paths, (worlds[0], settings[0]), max_steps)
+    num_envs = default_workers() if num_envs is None else num_envs
+    worlds, seeds, settings = _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps)
+    check_backend(backend, num_envs, address)
+    tasks = sweep_tasks(worlds, settings, seeds, episodes_per_seed)
+    n = min(num_envs, len(tasks))
+    records: list = [None] * len(tasks)
+    # the backend first: a missing Ray or an unreachable cluster fails before maps are built
+    with open_backend(backend, n, address) as workers:
+        cache = maps_dir() if cache is None else cache  # the data home's, as load_or_build's
+        maps = {w: (maps or {}).get(w) or load_or_build(w, dataset, cache) for w in worlds}
         t0 = time.perf_counter()
-        with _one_thread_each(n):
-            envs = AsyncVectorEnv(
-                [make] * n, context="spawn", autoreset_mode=AutoresetMode.DISABLED
-            )
-        startup = time.perf_counter() - t0
-        limit = threadpool_limits(1) if n > 1 else contextlib.nullcontext()
-        try:
-            with limit:  # the parent's controllers: single-threaded beside the workers
-                for world in worlds:
-                    env_world = build_world(world)
-                    # make_policy reads env.map and env.base.world only: no simulator in the parent
-                    proxy = SimpleNamespace(map=maps[world], base=SimpleNamespace(world=env_world))
-                    policies = [
-                        make_policy(policy, proxy, np.random.default_rng(0)) for _ in range(n)
-                    ]
-                    for setting in settings:
-                        bar.set_postfix_str(f"{world}/{setting}")
-                        t0 = time.perf_counter()
-                        records = run_batch(envs, env_world, setting, seeds, episodes_per_seed,
-                                            policies, bar)  # fmt: skip
-                        row = {"world": world, "setting": setting, "policy": policy}
-                        row.update(summarise_batch(records))
-                        row.update(wall_s=time.perf_counter() - t0, num_envs=n, startup_s=startup)
-                        rows.append(row)
-        finally:
-            envs.close()
+        workers.start(maps, policy, max_steps)
+        t1 = time.perf_counter()
+        with tqdm(total=len(tasks), desc=f"sweep {policy}", unit="episode",
+                  disable=not progress) as bar:  # fmt: skip
+            for i, record in workers.run(tasks):
+                records[i] = record
+                bar.update(1)
+        t2 = time.perf_counter()
+    sweep = {"backend": backend, "num_envs": n, "startup_s": t1 - t0, "run_s": t2 - t1,
+             "episodes_per_min": 60.0 * len(tasks) / (t2 - t1)}  # fmt: skip
+    rows = []
+    for world in worlds:
+        for setting in settings:
+            rs = [r for r, t in zip(records, tasks, strict=True)
+                  if (t.world, t.setting) == (world, setting)]  # fmt: skip
+            row = {"world": world, "setting": setting, "policy": policy}
+            row.update(summarise_batch(rs), worker_s=float(sum(r["wall_s"] for r in rs)), **sweep)
+            rows.append(row)
     return rows
 
 
@@ -380,10 +181,11 @@ def to_markdown(rows: list[dict], meta: dict) -> str:
     rule = "|" + "|".join("---" for _ in COLUMNS) + "|"
     body = ["| " + " | ".join(_cell(f, r[k]) for k, _, f in COLUMNS) + " |" for r in rows]
     footer = (
-        f"\n{meta['cores']} cores, num_envs {meta['num_envs']} (starting the workers: "
-        f"{meta['startup_s']:.1f} s), seeds {meta['seeds']}, "
+        f"\n{meta['cores']} cores, backend {meta['backend']}, num_envs {meta['num_envs']} "
+        f"(starting the workers: {meta['startup_s']:.1f} s), seeds {meta['seeds']}, "
         f"{meta['episodes_per_seed']} episodes per seed, max_steps {meta['max_steps']}, "
-        f"total wall {meta['wall_s']:.1f} s"
+        f"total wall {meta['wall_s']:.1f} s, throughput {meta['episodes_per_min']:.1f} "
+        f"episodes/min on {meta['num_envs']} workers (episodes only: {meta['run_s']:.1f} s)"
     )
     return "\n".join([head, rule, *body]) + "\n" + footer + "\n"
 
@@ -417,7 +219,8 @@ def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[st
 
 
 def sweep_meta(rows: list[dict], seeds, episodes_per_seed: int, max_steps: int, wall_s: float):
-    """The footer's facts: what was swept, on how many cores and workers, in how long."""
+    """The footer's facts: what was swept, on which backend, how many cores and workers, in how
+    long, and the throughput (episodes per minute of running episodes)."""
     return {
         "worlds": list(dict.fromkeys(r["world"] for r in rows)),
         "settings": list(dict.fromkeys(r["setting"] for r in rows)),
@@ -426,8 +229,7 @@ def sweep_meta(rows: list[dict], seeds, episodes_per_seed: int, max_steps: int, 
         "episodes_per_seed": episodes_per_seed,
         "max_steps": max_steps,
         "cores": os.cpu_count(),
-        "num_envs": rows[0]["num_envs"],
-        "startup_s": rows[0]["startup_s"],
+        **{k: rows[0][k] for k in SWEEP_KEYS},
         "wall_s": wall_s,
     }
 
@@ -439,25 +241,34 @@ def cmd_sweep(args) -> int:
     worlds = WORLDS if args.world == "all" else (args.world,)
     seeds = parse_seeds(args.seeds)
     settings = [s.strip() for s in args.settings.split(",") if s.strip()]
-    num_envs = args.jobs or os.cpu_count() or 1
     t0 = time.perf_counter()
-    rows = run_sweep(
-        worlds,
-        seeds,
-        settings,
-        policy=args.policy,
-        episodes_per_seed=args.episodes_per_seed,
-        num_envs=num_envs,
-        progress=not args.quiet,
-        max_steps=args.max_steps,
-        dataset=args.data,
-        cache=args.maps,
-    )
+    try:
+        rows = _run_from_args(args, worlds, seeds, settings)
+    except (ConnectionError, ImportError) as err:  # no cluster there, or no Ray: say so, briefly
+        print(f"topomap sweep: {err}", file=sys.stderr)
+        return 2
     meta = sweep_meta(rows, seeds, args.episodes_per_seed, args.max_steps, time.perf_counter() - t0)
     paths = write_table(rows, args.out, meta)
     print(paths["md"].read_text(), end="")
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0
+
+
+def _run_from_args(args, worlds, seeds, settings) -> list[dict]:
+    return run_sweep(
+        worlds,
+        seeds,
+        settings,
+        policy=args.policy,
+        episodes_per_seed=args.episodes_per_seed,
+        num_envs=args.jobs,
+        progress=not args.quiet,
+        max_steps=args.max_steps,
+        dataset=args.data,
+        cache=args.maps,
+        backend=args.backend,
+        address=args.address,
+    )
 
 
 def add_parser(sub, default_out: str = "out"):
@@ -479,7 +290,12 @@ def add_parser(sub, default_out: str = "out"):
     s.add_argument("--episodes-per-seed", type=positive, default=2)
     s.add_argument("--policy", choices=POLICIES, default="servo")
     s.add_argument("--max-steps", type=positive, default=600, help="episode time limit (steps)")
-    s.add_argument("--jobs", type=positive, default=None, help="envs per batch (default: cores)")
+    s.add_argument("--jobs", type=positive, default=None, help="workers (default: the cores)")
+    s.add_argument("--backend", choices=BACKENDS, default="local",
+                   help="local: processes on this machine; ray: Ray actors (pip install ray)")
+    s.add_argument("--address", default=None,
+                   help="an existing Ray cluster's address (host:port or ray://host:port); "
+                        "default: start a local Ray instance")  # fmt: skip
     s.add_argument("--data", default=f"{default_out}/dataset", help="dataset the maps come from")
     s.add_argument("--maps", default=f"{default_out}/servo-maps", help="servo map cache")
     s.add_argument("--out", default=f"{default_out}/sweep", help="where the table is written")

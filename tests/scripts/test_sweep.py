@@ -1,14 +1,17 @@
-"""Evaluation sweeps (``scripts.sweep``): one table row per (world, setting), the same episodes
-whatever the number of vector-env workers, scored as ``servo.evaluate`` scores them, and clear
-errors for bad input. Cheap: the random policy, a few 12-step episodes."""
+"""Evaluation sweeps (``scripts.sweep``) on the local backend: one table row per (world,
+setting), the same episodes whatever the number of workers, scored as ``servo.evaluate`` scores
+them, and clear errors for bad input (Ray missing included). Cheap: the random policy, a few
+12-step episodes. The Ray backend: ``test_sweep_ray.py``."""
 
 import csv
 import json
+import os
+import sys
 
 import numpy as np
 import pytest
 
-from scripts.sweep import SETTINGS, parse_seeds, run_sweep, sweep_meta, write_table
+from scripts.sweep import SETTINGS, TIME_KEYS, parse_seeds, run_sweep, sweep_meta, write_table
 from servo.evaluate import episode_seeds
 
 MAX_STEPS = 12
@@ -53,11 +56,16 @@ def test_one_row_per_world_and_setting(rows, tmp_path):
     ]
     for r in rows:
         assert r["episodes"] == len(SEEDS) * EPISODES and r["num_envs"] == 2
+        assert r["backend"] == "local" and r["episodes_per_min"] > 0
         detail = r["episodes_detail"]
         assert [(d["seed"], d["episode"]) for d in detail] == [(0, 0), (0, 1), (1, 0), (1, 1)]
         assert all(1 <= d["steps"] <= MAX_STEPS for d in detail)
-        assert 0 <= r["success_rate"] <= 1 and 0 <= r["spl"] <= 1 and r["wall_s"] > 0
+        assert 0 <= r["success_rate"] <= 1 and 0 <= r["spl"] <= 1 and r["worker_s"] > 0
         assert r["mean_steps"] == pytest.approx(np.mean([d["steps"] for d in detail]))
+        assert r["worker_s"] == pytest.approx(sum(d["wall_s"] for d in detail))
+    # whole episodes ran in the workers, not in this process
+    pids = {d["pid"] for r in rows for d in r["episodes_detail"]}
+    assert len(pids) <= 2 and os.getpid() not in pids
     # the same starts and targets in every setting: settings are compared on the same tasks
     a, b = (r["episodes_detail"] for r in rows)
     assert [d["target_view"] for d in a] == [d["target_view"] for d in b]
@@ -71,7 +79,8 @@ def test_one_row_per_world_and_setting(rows, tmp_path):
     ]
     assert int(table[0]["episodes"]) == 4
     md = paths["md"].read_text()
-    assert md.count("\n| hallway |") == 2 and "cores, num_envs 2" in md
+    assert md.count("\n| hallway |") == 2 and "backend local, num_envs 2" in md
+    assert "episodes/min on 2 workers" in md
     saved = json.loads(paths["json"].read_text())
     assert saved["meta"]["cores"] >= 1 and saved["meta"]["settings"] == ["default", "randomized"]
     assert len(saved["rows"]) == 2
@@ -83,7 +92,7 @@ def test_episodes_do_not_depend_on_num_envs(rows, hallway_map, cache):
     assert one["num_envs"] == 1
 
     def strip(r):
-        return [{k: v for k, v in d.items() if k != "act_ms"} for d in r["episodes_detail"]]
+        return [{k: v for k, v in d.items() if k not in TIME_KEYS} for d in r["episodes_detail"]]
 
     assert strip(one) == strip(rows[1])
 
@@ -119,6 +128,10 @@ def test_scored_as_servo_evaluate(rows, hallway_map):
         ({"seeds": [0.5]}, "seeds must be"),
         ({"episodes_per_seed": 0}, "episodes_per_seed must be"),
         ({"num_envs": 0}, "num_envs must be"),
+        ({"backend": "dask"}, "backend must be one of"),
+        ({"address": "127.0.0.1:6379"}, "address is for the ray backend only"),
+        ({"backend": "ray", "address": "  "}, "address must be"),
+        ({"backend": "ray", "address": "localhost:port"}, "address must look like"),
     ],
 )
 def test_bad_input_raises(kwargs, match):
@@ -156,3 +169,15 @@ def test_cli_writes_the_table(hallway_map, servo_dataset, cache, tmp_path, capsy
     assert "| hallway | no-odometry-noise | oracle | 1 |" in printed and "num_envs 1" in printed
     assert (out / "sweep.md").read_text() in printed
     assert {p.name for p in out.iterdir()} == {"sweep.md", "sweep.csv", "sweep.json"}
+
+
+def test_ray_backend_without_ray_says_how_to_install(monkeypatch, capsys):
+    """``--backend ray`` where Ray is not installed: an error saying what to install, from the
+    library and from the command line; ``import scripts.sweep`` itself needs no Ray."""
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray now raises ImportError
+    with pytest.raises(ImportError, match=r"pip install 'ray>=2.9'"):
+        run_sweep(["hallway"], [0], policy="random", backend="ray", progress=False)
+    from scripts.cli import main
+
+    assert main(["sweep", "--world", "hallway", "--backend", "ray", "--quiet"]) == 2
+    assert "needs Ray: pip install" in capsys.readouterr().err
