@@ -13,8 +13,6 @@ Run as ``topomap sweep`` (see ``docs/sweeps.md``).
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import os
 import sys
@@ -23,22 +21,24 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import atomic_write_bytes
 from common.validation import check_int
 from scripts.sweep_backends import BACKENDS, check_backend, default_workers, open_backend
 from scripts.sweep_episode import SETTINGS, sweep_tasks
+from scripts.tables import Column, Table, plain
 
-COLUMNS = (  # (key, header, format)
-    ("world", "world", "{}"),
-    ("setting", "setting", "{}"),
-    ("policy", "policy", "{}"),
-    ("episodes", "episodes", "{}"),
-    ("success_rate", "success", "{:.2f}"),
-    ("spl", "SPL", "{:.2f}"),
-    ("mean_final_distance", "final dist. (m)", "{:.2f}"),
-    ("mean_final_heading_error_deg", "final heading (deg)", "{:.1f}"),
-    ("mean_steps", "steps", "{:.1f}"),
-    ("collisions", "collisions/episode", "{:.1f}"),
-    ("worker_s", "worker time (s)", "{:.1f}"),
+COLUMNS = (  # the table's columns (scripts.tables): one list for markdown, CSV and JSON
+    Column("world", "world"),
+    Column("setting", "setting"),
+    Column("policy", "policy"),
+    Column("episodes", "episodes", "d"),
+    Column("success_rate", "success", ".2f"),
+    Column("spl", "SPL", ".2f"),
+    Column("mean_final_distance", "final dist. (m)", ".2f"),
+    Column("mean_final_heading_error_deg", "final heading (deg)", ".1f"),
+    Column("mean_steps", "steps", ".1f"),
+    Column("collisions", "collisions/episode", ".1f"),
+    Column("worker_s", "worker time (s)", ".1f"),
 )
 SWEEP_KEYS = ("backend", "num_envs", "startup_s", "run_s", "episodes_per_min")  # whole-sweep facts
 TIME_KEYS = ("worker_s", "act_ms", "wall_s", "pid")  # differ run to run; the rest may not
@@ -172,49 +172,26 @@ def run_sweep(
     return rows
 
 
-def _cell(fmt: str, value) -> str:
-    return "-" if value is None else fmt.format(value)
-
-
-def to_markdown(rows: list[dict], meta: dict) -> str:
-    head = "| " + " | ".join(h for _, h, _ in COLUMNS) + " |"
-    rule = "|" + "|".join("---" for _ in COLUMNS) + "|"
-    body = ["| " + " | ".join(_cell(f, r[k]) for k, _, f in COLUMNS) + " |" for r in rows]
+def sweep_table(rows: list[dict], meta: dict) -> Table:
+    """The sweep's rows under :data:`COLUMNS`, with what was swept and how fast as a note."""
     footer = (
-        f"\n{meta['cores']} cores, backend {meta['backend']}, num_envs {meta['num_envs']} "
+        f"{meta['cores']} cores, backend {meta['backend']}, num_envs {meta['num_envs']} "
         f"(starting the workers: {meta['startup_s']:.1f} s), seeds {meta['seeds']}, "
         f"{meta['episodes_per_seed']} episodes per seed, max_steps {meta['max_steps']}, "
         f"total wall {meta['wall_s']:.1f} s, throughput {meta['episodes_per_min']:.1f} "
         f"episodes/min on {meta['num_envs']} workers (episodes only: {meta['run_s']:.1f} s)"
     )
-    return "\n".join([head, rule, *body]) + "\n" + footer + "\n"
-
-
-def to_csv(rows: list[dict]) -> str:
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow([k for k, _, _ in COLUMNS])
-    for r in rows:
-        w.writerow([r[k] for k, _, _ in COLUMNS])
-    return buf.getvalue()
+    return Table.of(COLUMNS, rows, notes=[footer])
 
 
 def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[str, Path]:
-    """``sweep.md``, ``sweep.csv`` and ``sweep.json`` (rows, episodes and ``meta``) in ``out``,
-    each written atomically."""
-    from scenes.fileio import atomic_write_bytes
-
+    """``sweep.md`` and ``sweep.csv`` (:func:`sweep_table`) and ``sweep.json`` (every row with
+    its episodes, and ``meta``) in ``out``, each written atomically."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    texts = {
-        "md": to_markdown(rows, meta),
-        "csv": to_csv(rows),
-        "json": json.dumps({"meta": meta, "rows": rows}, indent=2) + "\n",
-    }
-    paths = {}
-    for ext, text in texts.items():
-        paths[ext] = out / f"sweep.{ext}"
-        atomic_write_bytes(paths[ext], text.encode())
+    paths = sweep_table(rows, meta).write(out / "sweep", kinds=("md", "csv"))
+    paths["json"] = out / "sweep.json"
+    atomic_write_bytes(paths["json"], (json.dumps(plain({"meta": meta, "rows": rows}),
+                                                  indent=2) + "\n").encode())  # fmt: skip
     return paths
 
 
