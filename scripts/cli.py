@@ -182,24 +182,17 @@ def cmd_servo_eval(args) -> int:
     if args.json:
         print(json.dumps(results if len(results) > 1 else results[0], indent=2))
         return 0
+    from scripts.servo_tables import pair_table, summary_table
+
+    print(summary_table(results).to_markdown())
     for r in results:
-        lo, hi = r["success_ci95"]
         sig = r["signal"]
-        print(
-            f"{r['world']:8s} {r['policy']:7s} {r['tier']}/{r['split']}"
-            f"{'/randomize' if r['randomize'] else ''}  episodes {r['episodes']:3d}  success "
-            f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]  SPL {r['spl']:.2f}  final distance "
-            f"{r['final_distance']:.2f} m  heading {r['final_heading_error_deg']:.1f} deg  "
-            f"collisions {r['collisions']:.1f}  act {r['act_ms']:.2f} ms  reasons {r['reasons']}"
-        )
         if sig["pairs"]:
-            print(f"    F toward the target rises as the true distance falls in "
-                  f"{sig['rises']:.2f} of {sig['pairs']} step pairs ({sig['flat_zero']:.2f}: "
-                  f"F = 0 at both ends)")  # fmt: skip
-        for pair, s in r["per_pair"].items():
-            lo, hi = s["success_ci95"]
-            print(f"    {pair:36s} n={s['episodes']:3d}  success {s['success_rate']:.2f} "
-                  f"[{lo:.2f}, {hi:.2f}]  SPL {s['spl']:.2f}")  # fmt: skip
+            print(f"{r['world']} {r['policy']}: F toward the target rises as the true "
+                  f"distance falls in {sig['rises']:.2f} of {sig['pairs']} step pairs "
+                  f"({sig['flat_zero']:.2f}: F = 0 at both ends)")  # fmt: skip
+    print()
+    print(pair_table(results).to_markdown())
     return 0
 
 

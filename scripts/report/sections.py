@@ -187,65 +187,9 @@ def _no_labels_note(result: dict) -> str:
 def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
     """``results``: ``servo.evaluate.evaluate`` dicts (with ``plot`` relative to the root);
     ``videos``: per "world/policy", video paths relative to the root."""
-    summary = table(
-        "Closed-loop servoing per world and policy (final distance and heading error: median)",
-        (
-            "world",
-            "policy",
-            "episodes",
-            "success rate",
-            "SPL",
-            "final distance (m)",
-            "heading error (deg)",
-            "steps (successes)",
-            "collisions",
-            "act (ms)",
-            "end reasons",
-        ),
-        (
-            [
-                r["world"],
-                r["policy"],
-                r["episodes"],
-                r["success_rate"],
-                r["spl"],
-                r["final_distance"],
-                r["final_heading_error_deg"],
-                r["steps"],
-                r["collisions"],
-                r["act_ms"],
-                ", ".join(f"{k}: {v}" for k, v in r.get("reasons", {}).items()),
-            ]
-            for r in results
-        ),
-    )
-    pairs = table(
-        "Per manifold pair (start -> target)",
-        (
-            "world",
-            "policy",
-            "start -> target",
-            "episodes",
-            "success rate",
-            "SPL",
-            "final distance (m)",
-            "collisions",
-        ),
-        (
-            [
-                r["world"],
-                r["policy"],
-                pair,
-                s["episodes"],
-                s["success_rate"],
-                s["spl"],
-                s["final_distance"],
-                s["collisions"],
-            ]
-            for r in results
-            for pair, s in r["per_pair"].items()
-        ),
-    )
+    from scripts.servo_tables import pair_table, summary_table
+
+    summary, pairs = summary_table(results).to_html(), pair_table(results).to_html()
     parts = [
         "<p>Each episode starts the robot somewhere on the map and gives it a stored view to "
         "reach; success is ending near that view's pose. SPL weighs success by the shortest "

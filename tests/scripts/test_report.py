@@ -72,7 +72,10 @@ MANIFOLD = {
     "figures": ["manifold/real_labels.png"],
     "timings": {"synthetic": 1.0},
 }
-_PAIR = {"episodes": 2, "success_rate": 0.5, "spl": 0.4, "final_distance": 0.3, "collisions": 0.0}
+_PAIR = {
+    "episodes": 2, "success_rate": 0.5, "success_ci95": [0.09, 0.91], "spl": 0.4,
+    "final_distance": 0.3, "collisions": 0.0,
+}  # fmt: skip
 SERVO = {
     "world": "hallway",
     "policy": "servo",

@@ -1,0 +1,69 @@
+"""The closed-loop servo results' tables, defined once: ``topomap servo-eval`` prints them as
+markdown and the HTML report renders the same tables (``servo.evaluate.summarise`` results,
+one per world and policy; protocol results add the tier and split)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from scripts.tables import Column, Table
+
+__all__ = ["pair_table", "summary_table"]
+
+
+def _interval(ci) -> str:
+    return f"[{ci[0]:.2f}, {ci[1]:.2f}]"
+
+
+def _reasons(reasons: dict) -> str:
+    return ", ".join(f"{k}: {v}" for k, v in reasons.items())
+
+
+SUMMARY_COLUMNS = (
+    Column("world", "world"),
+    Column("policy", "policy"),
+    Column("condition", "starts / split"),
+    Column("episodes", "episodes", "d"),
+    Column("success_rate", "success rate", ".2f"),
+    Column("success_ci95", "Wilson 95%", _interval),
+    Column("spl", "SPL", ".2f"),
+    Column("final_distance", "final distance (m, median)", ".2f"),
+    Column("final_heading_error_deg", "heading error (deg, median)", ".1f"),
+    Column("steps", "steps (successes)", ".1f"),
+    Column("collisions", "collisions", ".1f"),
+    Column("act_ms", "act (ms)", ".2f"),
+    Column("reasons", "end reasons", _reasons),
+)
+PAIR_COLUMNS = (
+    Column("world", "world"),
+    Column("policy", "policy"),
+    Column("pair", "start -> target"),
+    Column("episodes", "episodes", "d"),
+    Column("success_rate", "success rate", ".2f"),
+    Column("success_ci95", "Wilson 95%", _interval),
+    Column("spl", "SPL", ".2f"),
+    Column("final_distance", "final distance (m, median)", ".2f"),
+    Column("collisions", "collisions", ".1f"),
+)
+
+
+def _condition(r: dict) -> str | None:
+    if "tier" not in r:
+        return None
+    return f"{r['tier']}/{r['split']}" + ("/randomize" if r.get("randomize") else "")
+
+
+def summary_table(results: Sequence[dict]) -> Table:
+    """One row per result (world and policy)."""
+    rows = [{**r, "condition": _condition(r)} for r in results]
+    return Table.of(SUMMARY_COLUMNS, rows, "Closed-loop servoing per world and policy")
+
+
+def pair_table(results: Sequence[dict]) -> Table:
+    """One row per (result, start manifold -> target manifold)."""
+    rows = [
+        {**s, "world": r["world"], "policy": r["policy"], "pair": pair}
+        for r in results
+        for pair, s in r["per_pair"].items()
+    ]
+    return Table.of(PAIR_COLUMNS, rows, "Per manifold pair (start -> target)")
