@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -75,58 +76,72 @@ def episode_seeds(seed: int, episodes: int) -> list[int]:
 
 
 def run_episode(env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None):
-    """One episode; returns its record (and appends video frames to ``frames`` if given)."""
+    """One episode; returns its record (:func:`score_episode`; and appends video frames to
+    ``frames`` if given)."""
     obs, info = env.reset(seed=seed, options=options)
-    start = info["pose"].copy()
     field = GeodesicField(env.base.world, info["target_pose"])
-    shortest = field.distance(start[:2])
+    shortest = field.distance(info["pose"][:2])
     if not np.isfinite(shortest):
-        raise ValueError(f"episode {seed}: the target is unreachable from the start {start}")
+        raise ValueError(f"episode {seed}: the target is unreachable from the start {info['pose']}")
     policy.reset(info["target_view"], info)
-    trail, collisions, act_time = [start], 0, []
-    f_target, f_waypoint, true_dist = [info["signal"]], [], [shortest]
+    # poses copied: an env may update its info's arrays in place
+    infos = [{**info, "pose": np.array(info["pose"])}]
+    act_time, f_waypoint, true_dist = [], [], [shortest]
     while True:
         t0 = time.perf_counter()
         action = policy.act(obs, info)
         act_time.append(time.perf_counter() - t0)
         waypoint = getattr(policy, "waypoint_", None)
         obs, _, terminated, truncated, info = env.step(action)
-        trail.append(info["pose"].copy())
-        f_target.append(float(info["signal"]))
+        infos.append({**info, "pose": np.array(info["pose"])})
         true_dist.append(field.distance(info["pose"][:2]))
         f_waypoint.append(
             np.nan if waypoint is None else signal_toward(env.map, obs["image"], waypoint)
         )
-        collisions += int(info["collision"])
         if frames is not None:
             frames.append(np.concatenate([obs["image"], _fit(env.render(), obs["image"])], axis=1))
         if terminated or truncated:
             break
-    p = info["path_length"]
-    success = bool(info["success"])
+    return score_episode(seed, infos, shortest, true_dist, act_time, f_waypoint)
+
+
+def score_episode(
+    seed: int, infos: Sequence[dict], shortest: float, true_distance: Sequence[float],
+    act_s: Sequence[float], signal_waypoint: Sequence[float],
+) -> dict:  # fmt: skip
+    """An episode's record from what it produced, with no env or policy: ``infos`` (the
+    reset's info, then every step's), the shortest free-space path from the start, the true
+    (geodesic) distance to the target at every info, the policy's seconds per act, and F^j(k)
+    toward the policy's waypoint view after every step (NaN: none)."""
+    if len(infos) < 2:
+        raise ValueError(f"infos must hold the reset's and at least one step's, got {len(infos)}")
+    last = infos[-1]
+    p = last["path_length"]
+    success = bool(last["success"])
+    trail = np.array([np.asarray(i["pose"], dtype=float) for i in infos])
     return {
         "seed": int(seed),
-        "start_manifold": info["start_manifold"],
-        "target_manifold": info["target_manifold"],
-        "target_view": int(info["target_view"]),
+        "start_manifold": last["start_manifold"],
+        "target_manifold": last["target_manifold"],
+        "target_view": int(last["target_view"]),
         "success": success,
-        "reason": info["reason"],
+        "reason": last["reason"],
         "spl": float(success * shortest / max(p, shortest, 1e-9)),
         "shortest_path": float(shortest),
         "path_length": float(p),
-        "final_distance": float(info["distance"]),
-        "final_heading_error_deg": float(np.rad2deg(info["heading_error"])),
-        "steps": len(trail) - 1,
-        "collisions": collisions,
-        "act_ms": float(1e3 * np.mean(act_time)),
-        "trail": np.asarray(trail),
-        "target_pose": np.asarray(info["target_pose"]),
-        "start_pose": start,
+        "final_distance": float(last["distance"]),
+        "final_heading_error_deg": float(np.rad2deg(last["heading_error"])),
+        "steps": len(infos) - 1,
+        "collisions": sum(int(i["collision"]) for i in infos[1:]),
+        "act_ms": float(1e3 * np.mean(act_s)),
+        "trail": trail,
+        "target_pose": np.asarray(last["target_pose"]),
+        "start_pose": trail[0].copy(),
         # F along the trajectory (item 5): toward the target and the policy's waypoint view
         # (NaN: the policy has none), and the true geodesic distance to the target per step.
-        "signal_target": np.asarray(f_target),
-        "signal_waypoint": np.asarray(f_waypoint),
-        "true_distance": np.asarray(true_dist),
+        "signal_target": np.array([float(i["signal"]) for i in infos]),
+        "signal_waypoint": np.asarray(signal_waypoint, dtype=float),
+        "true_distance": np.asarray(true_distance, dtype=float),
     }
 
 

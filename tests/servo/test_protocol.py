@@ -185,3 +185,27 @@ def test_signal_servo_localises_by_turning(hallway_env):
         assert ctl.route_[-1] == info["target_view"] and ctl.waypoint_ is not None
         near += np.hypot(*(env.map.true_poses[ctl.route_[0], :2] - info["pose"][:2])) < 1.5
     assert near >= 2
+
+
+def test_score_episode_is_a_function_of_the_infos_alone():
+    from servo.evaluate import score_episode
+
+    def info(x, **over):
+        base = {"pose": np.array([x, 0.0, 0.0]), "signal": x / 4, "collision": False,
+                "path_length": x, "success": False, "reason": None, "distance": 4 - x,
+                "heading_error": 0.0, "start_manifold": "a", "target_manifold": "b",
+                "target_view": 7, "target_pose": np.array([4.0, 0.0, 0.0])}  # fmt: skip
+        return {**base, **over}
+
+    infos = [info(0.0), info(1.0, collision=True), info(2.0),
+             info(5.0, success=True, reason="success", distance=0.1, heading_error=np.pi / 18)]
+    record = score_episode(3, infos, 4.0, [4, 3, 2, 0.1], [0.001, 0.003, 0.002], [np.nan] * 3)
+    assert record["steps"] == 3 and record["collisions"] == 1 and record["success"]
+    assert record["spl"] == pytest.approx(4.0 / 5.0)
+    assert record["final_heading_error_deg"] == pytest.approx(10.0)
+    assert record["act_ms"] == pytest.approx(2.0)
+    np.testing.assert_array_equal(record["trail"][:, 0], [0, 1, 2, 5])
+    np.testing.assert_array_equal(record["signal_target"], [0, 0.25, 0.5, 1.25])
+    np.testing.assert_array_equal(record["start_pose"], [0, 0, 0])
+    with pytest.raises(ValueError, match="infos must hold"):
+        score_episode(3, infos[:1], 4.0, [4], [], [])
