@@ -19,7 +19,7 @@ import sys
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
 
 import sim  # noqa: E402, F401  (headless GL before mujoco)
+from scripts.tables import Column, Table  # noqa: E402
 
 DEFAULT_OUT = ROOT / "bench" / "results.md"
 
@@ -249,6 +250,15 @@ GROUPS: dict[str, Callable[[bool], list[Row]]] = {
 }
 
 
+COLUMNS = (  # the results table (scripts.tables): the same renderer as every other table
+    Column("area", "area"),
+    Column("measure", "measure"),
+    Column("value", "value"),
+    Column("target", "target"),
+    Column("met", "met"),
+)
+
+
 def to_markdown(rows: list[Row], info: dict[str, str], seconds: float, quick: bool) -> str:
     lines = ["# Benchmarks", ""]
     lines += [f"- {k}: {v}" for k, v in info.items()]
@@ -256,13 +266,10 @@ def to_markdown(rows: list[Row], info: dict[str, str], seconds: float, quick: bo
         f"- mode: {'quick' if quick else 'full'}; total {seconds:.0f} s",
         "- command: `.venv/bin/python bench/run_all.py" + (" --quick`" if quick else "`"),
         "",
-        "| area | measure | value | target | met |",
-        "|---|---|---|---|---|",
     ]
-    for r in rows:
-        met = "" if r.met is None else ("yes" if r.met else "**no**")
-        lines.append(f"| {r.area} | {r.measure} | {r.value} | {r.target} | {met} |")
-    return "\n".join(lines) + "\n"
+    met = {None: "", True: "yes", False: "**no**"}  # no target: an empty cell
+    table = Table.of(COLUMNS, [{**asdict(r), "met": met[r.met]} for r in rows])
+    return "\n".join(lines) + "\n" + table.to_markdown()
 
 
 def main(argv: list[str] | None = None) -> int:
