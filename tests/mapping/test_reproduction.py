@@ -1,7 +1,6 @@
 """The paper reproductions of docs/manifold-clustering.md, pinned: the synthetic table and the
 8-manifold image result, on the real default dataset (collected once per session)."""
 
-import json
 
 import numpy as np
 import pytest
@@ -78,7 +77,6 @@ def test_label_plot_and_tables(tmp_path):
     }
     text = markdown_tables(result)
     assert "| a | ours | 0.000 | x |" in text and "| f | ours | 1.0% | 2.0% | 2.9% |" in text
-    json.dumps(result)
 
 
 def test_paper_numbers_only_beside_raw_pixels(default_dataset):
