@@ -18,6 +18,11 @@ from mapping._manifold_kernel import SpectralBasis, outlier_vector, unit_outlier
 from mapping._manifold_lowrank import LowRankBasis
 from mapping.baselines import squared_distances
 
+# Candidates per point beyond k taken from the float32 product and re-ranked in float64.
+_KNN_SPARE = 8
+# Elements of one block of the k-NN distance matrix (~32 MB of float32 and its argpartition).
+_KNN_ELEMENTS = 4_000_000
+
 
 def sigma_bounds(sq_dist: np.ndarray) -> tuple[float, float]:
     """Search bounds for sigma on one node: half the 10th-percentile nearest-neighbour distance
@@ -77,15 +82,37 @@ class DenseGeometry:
 def knn_edges(X: np.ndarray, n_neighbors: int) -> sp.csr_matrix:
     """Symmetrised k-nearest-neighbour graph of the rows of X as a CSR matrix of squared
     distances (an edge where either point is among the other's k nearest; duplicates are
-    explicit zeros). ``n_neighbors`` above ``n - 1`` is cut to ``n - 1``: the complete graph."""
-    from sklearn.neighbors import NearestNeighbors
+    explicit zeros). ``n_neighbors`` above ``n - 1`` is cut to ``n - 1``: the complete graph.
 
+    Brute force in blocks of rows: candidates from a float32 product (half the time of float64
+    at image-sized d), ``_KNN_SPARE`` more than needed, then their distances again in float64
+    so that the kept distances are exact; memory O(block n + n k).
+    """
     n = X.shape[0]
     k = min(int(n_neighbors), n - 1)
-    dist, ind = NearestNeighbors(n_neighbors=k).fit(X).kneighbors()
+    c = min(k + _KNN_SPARE, n - 1)
+    Xc = X - X.mean(axis=0, dtype=np.float64)
+    X32 = np.asarray(Xc, dtype=np.float32)
+    sq32 = np.einsum("ij,ij->i", X32, X32)
+    cand = np.empty((n, c), dtype=np.intp)
+    step = max(1, _KNN_ELEMENTS // n)
+    for start in range(0, n, step):
+        rows = np.arange(start, min(start + step, n))
+        D = sq32[rows, None] + sq32[None, :] - 2.0 * (X32[rows] @ X32.T)
+        D[np.arange(rows.shape[0]), rows] = np.inf
+        cand[rows] = np.argpartition(D, c - 1, axis=1)[:, :c]
+    exact = np.empty((n, c))
+    step = max(1, _KNN_ELEMENTS // (c * X.shape[1]))
+    for start in range(0, n, step):
+        rows = slice(start, start + step)
+        diff = Xc[rows, None, :] - Xc[cand[rows]]  # (rows, c, d) in float64
+        exact[rows] = np.einsum("rcd,rcd->rc", diff, diff)
+    best = np.argsort(exact, axis=1, kind="stable")[:, :k]
+    ind = np.take_along_axis(cand, best, axis=1)
+    dist = np.take_along_axis(exact, best, axis=1)
     rows = np.repeat(np.arange(n), k)
     # +1 keeps zero distances (duplicates) as stored entries through ``maximum``.
-    A = sp.csr_matrix((dist.ravel() ** 2 + 1.0, (rows, ind.ravel())), shape=(n, n))
+    A = sp.csr_matrix((dist.ravel() + 1.0, (rows, ind.ravel())), shape=(n, n))
     A = A.maximum(A.T).tocsr()
     A.data -= 1.0
     np.maximum(A.data, 0.0, out=A.data)
