@@ -7,6 +7,9 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
   calls; ``--one-view`` prints only these and the fits they need);
 * fit time for n = 300, 600, 1200, 2400 (d = 2000) beside sklearn's SpectralClustering.
 
+``--scale [N ...]`` prints fit time against n (300 ... 10,000 by default) beside sklearn's
+SpectralClustering as a ratio, with both clustering errors (issue 15 item 1).
+
 ``--experiments`` instead prints the tables behind docs/manifold-clustering.md: clustering
 error of each reading of the paper's ambiguous steps on the four synthetic sets (clean and
 noisy) and on 8 branching sequences, with best-sigma NCut and self-tuning baselines.
@@ -99,6 +102,36 @@ def timings(quick: bool, one_view: bool = False) -> None:
         print(f"| {n} | {ours:.2f} s | {theirs:.2f} s |")
 
 
+def scaling(sizes: list[int], dense_up_to: int) -> None:
+    """Fit time against n (d = 2000, K = 8, Q = min(35, n / 16)) beside scikit-learn's
+    SpectralClustering on the same data, with the clustering error of each against the true
+    sequences; ``kernel="auto"`` (dense up to 1000 points, the k-NN graph above), and the exact
+    dense path as well up to ``dense_up_to`` points."""
+    from sklearn.cluster import SpectralClustering
+
+    print(f"os.cpu_count() = {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
+    print(
+        "\n| n | kernel | ours fit | err | sklearn fit | err | ratio ours / sklearn |"
+        "\n|---|---|---|---|---|---|---|"
+    )
+    for n in sizes:
+        X, y = branching_sequences(n // 8, 2000, np.random.default_rng(1))
+        q = min(35, n // 16)
+        sk = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
+        theirs = _time(lambda X=X, sk=sk: sk.fit(X))
+        err_sk = clustering_error(y, sk.labels_)
+        kernels = ["auto"] + (["dense"] if n <= dense_up_to and n > 1000 else [])
+        kernels += ["sparse"] if n <= 1000 else []
+        for kernel in kernels:
+            model = ManifoldClustering(8, q, kernel=kernel)
+            ours = _time(lambda X=X, model=model: model.fit(X))
+            print(
+                f"| {n} | {kernel} | {ours:.2f} s | {clustering_error(y, model.labels_):.3f} | "
+                f"{theirs:.2f} s | {err_sk:.3f} | {ours / theirs:.1f} |",
+                flush=True,
+            )
+
+
 def experiments() -> None:
     from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
     from mapping.synthetic import make_all
@@ -159,8 +192,18 @@ def main() -> None:
     parser.add_argument(
         "--one-view", action="store_true", help="fit and one-view signal/predict rows only"
     )
+    parser.add_argument(
+        "--scale", type=int, nargs="*", metavar="N",
+        help="fit time against n beside sklearn instead (default sizes 300 ... 10000)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--dense-up-to", type=int, default=1200, help="with --scale: also time kernel='dense'"
+    )
     args = parser.parse_args()
-    experiments() if args.experiments else timings(args.quick, args.one_view)
+    if args.scale is not None:
+        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to)
+    else:
+        experiments() if args.experiments else timings(args.quick, args.one_view)
 
 
 if __name__ == "__main__":

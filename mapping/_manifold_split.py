@@ -33,6 +33,8 @@ OMEGA_SIGNS = ("corrected", "printed")
 # Second-seed rule of eq. 12: "weighted" = argmax (1 - O_d) * D_M[:, l1] (the text);
 # "printed" = argmin O_d * D_M[:, l1] over points other than l1 (the formula, l1 excluded).
 SEED_RULES = ("weighted", "printed")
+# Eigenbases a node's search keeps (by sigma, oldest dropped first).
+_CACHED_BASES = 4
 
 
 @dataclass(frozen=True)
@@ -154,6 +156,11 @@ class _NodeSearch:
 
     def basis(self, sigma: float):
         if sigma not in self._bases:
+            # Keep the few most recent: the grid visits each sigma once and the refinement
+            # comes back only to its latest ones; all of them would be ~30 bases per node
+            # (30 m^2 floats on the dense path, 30 m r on the sparse one).
+            if len(self._bases) >= _CACHED_BASES:
+                del self._bases[next(iter(self._bases))]
             self._bases[sigma] = self.geometry.basis(sigma)
         return self._bases[sigma]
 
