@@ -18,6 +18,11 @@ from mapping._manifold_kernel import SpectralBasis, outlier_vector, unit_outlier
 from mapping._manifold_lowrank import LowRankBasis
 from mapping.baselines import squared_distances
 
+# Values of ManifoldClustering's ``kernel``; "auto" takes the k-NN graph above this many
+# samples, so every fit of up to 1000 points (the paper's sizes, all earlier tables and tests)
+# stays on the exact dense path.
+KERNELS = ("auto", "dense", "sparse")
+AUTO_SPARSE_ABOVE = 1000
 # Candidates per point beyond k taken from the float32 product and re-ranked in float64.
 _KNN_SPARE = 8
 # Elements of one block of the k-NN distance matrix (~32 MB of float32 and its argpartition).
@@ -182,6 +187,27 @@ class GraphGeometry:
             nearest = E.indices[start:stop][np.argsort(E.data[start:stop], kind="stable")[:k]]
             out[i, : nearest.shape[0]] = nearest
         return out
+
+
+def training_geometry(
+    X: np.ndarray, kernel: str, n_neighbors: int, n_components: int
+) -> DenseGeometry | GraphGeometry:
+    """The geometry of all training points for ``ManifoldClustering(kernel=...)``.
+
+    Dense: squared distances once, in float64 after centring (a float32 Gram matrix loses
+    near-duplicate images entirely); every node and every sigma reuses blocks of it. Sparse:
+    the k-NN graph, and nodes of at most ``4 n_components`` points dense.
+    """
+    n = X.shape[0]
+    if kernel == "sparse" or (kernel == "auto" and n > AUTO_SPARSE_ABOVE):
+        if not np.ptp(X, axis=0).max() > 0:
+            raise ValueError("X: all samples are identical; there is nothing to cluster")
+        rank = int(n_components)
+        return GraphGeometry(X, knn_edges(X, n_neighbors), np.arange(n), rank, 4 * rank)
+    D2 = squared_distances(X)
+    if not D2.max() > 0:
+        raise ValueError("X: all samples are identical; there is nothing to cluster")
+    return DenseGeometry(D2)
 
 
 def as_geometry(x) -> DenseGeometry | GraphGeometry:

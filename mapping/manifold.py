@@ -19,7 +19,12 @@ from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from mapping._manifold_geometry import DenseGeometry, GraphGeometry, knn_edges
+from mapping._manifold_geometry import (
+    KERNELS,
+    DenseGeometry,
+    GraphGeometry,
+    training_geometry,
+)
 from mapping._manifold_predict import ClusterModel, Stack
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import (
@@ -33,16 +38,11 @@ from mapping._manifold_tree import (
     separability_merge,
 )
 from mapping._validation import is_plain_query, single_threaded_blas
-from mapping.baselines import squared_distances
 
 __all__ = ["EXPECTED_FAILED_CHECKS", "ManifoldClustering"]
 
 _NORMALIZATIONS = ("column", "none")
 _DTYPES = ("float32", "float64")
-_KERNELS = ("auto", "dense", "sparse")
-# kernel="auto" takes the k-NN graph path above this many samples: every fit of up to 1000
-# points (all the tables and tests of the paper's sizes) stays on the exact dense path.
-_AUTO_SPARSE_ABOVE = 1000
 
 # scikit-learn estimator checks that cannot apply to ManifoldClustering, with the reason; passed
 # as ``expected_failed_checks`` to ``parametrize_with_checks`` (tests/mapping/test_sklearn_checks).
@@ -101,17 +101,13 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         small value such as 1e-4 drops the weakest directions (mostly noise) and makes a call
         on image-sized vectors several times faster (``mapping._manifold_predict``).
     kernel : {"auto", "dense", "sparse"}, default "auto"
-        How the kernel of eq. 1-12 is evaluated during ``fit``. "dense": the exact n x n path
-        (O(n^2) memory, about O(n^3) time). "sparse": affinities only on a symmetrised
-        ``n_neighbors``-nearest-neighbour graph and, per node of more than
-        ``4 * n_components`` points, the top eigenpairs of S with the rest of the spectrum
-        replaced by its mean (``mapping._manifold_lowrank``); smaller nodes are exact.
-        "auto": "dense" up to 1000 samples, "sparse" above.
+        "dense": the exact n x n kernel. "sparse": affinities on a symmetrised k-NN graph and,
+        per node above ``4 * n_components`` points, the top eigenpairs of S with the rest of
+        the spectrum at its mean (``mapping._manifold_lowrank``). "auto": dense up to 1000.
     n_neighbors : int, default 10
-        k of the k-NN graph of the sparse path; values of n or more mean the complete graph.
+        k of the sparse path's graph; n or more means the complete graph.
     n_components : int, default 64
-        Eigenpairs of S kept per (node, sigma) on the sparse path (up to twice as many where
-        the graph falls apart into components that are then decomposed in full).
+        Eigenpairs of S kept per (node, sigma) on the sparse path.
 
     Attributes
     ----------
@@ -160,7 +156,7 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         "combine": [StrOptions(set(COMBINE_RULES))],
         "store_dtype": [StrOptions(set(_DTYPES))],
         "projection_tol": [Interval(Real, 0, 1, closed="left")],
-        "kernel": [StrOptions(set(_KERNELS))],
+        "kernel": [StrOptions(set(KERNELS))],
         "n_neighbors": [Interval(Integral, 1, None, closed="left")],
         "n_components": [Interval(Integral, 1, None, closed="left")],
     }
@@ -251,24 +247,10 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         n = X.shape[0]
         space = self._search_space(n)
         K, Q = int(self.n_clusters), int(self.min_cluster_size)
-        if self.kernel == "sparse" or (self.kernel == "auto" and n > _AUTO_SPARSE_ABOVE):
-            if not np.ptp(X, axis=0).max() > 0:
-                raise ValueError("X: all samples are identical; there is nothing to cluster")
-            rank = int(self.n_components)
-            with single_threaded_blas():
-                geometry = GraphGeometry(
-                    X, knn_edges(X, self.n_neighbors), np.arange(n), rank, 4 * rank
-                )
-                self._fit_from_distances(X, geometry, K, Q, space)
-            return self
-        # Squared distances once, in float64 after centring (a float32 Gram matrix loses
-        # near-duplicate images entirely); every node and every sigma reuses blocks of it.
-        D2 = squared_distances(X)
-        if not D2.max() > 0:
-            raise ValueError("X: all samples are identical; there is nothing to cluster")
-
+        # The big distance products (n x n, or the k-NN search) keep every BLAS thread.
+        geometry = training_geometry(X, self.kernel, self.n_neighbors, self.n_components)
         with single_threaded_blas():
-            self._fit_from_distances(X, DenseGeometry(D2), K, Q, space)
+            self._fit_from_distances(X, geometry, K, Q, space)
         return self
 
     def _fit_from_distances(
@@ -325,16 +307,10 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         self.omegas_ = combo.omegas[order]
         self.tree_: SplitNode = tree
         self.leaf_labels_ = leaf_labels
-        self.outlier_scores_ = self._root_outliers(D2, tree)
+        # eq. 10 on all points, in the kernel of the root split (ensure_leaves split the root)
+        self.outlier_scores_ = D2.outliers(tree.sigma, tree.alpha)
         self.cluster_outlier_scores_ = inside
         self._models = models
-
-    @staticmethod
-    def _root_outliers(D2: DenseGeometry | GraphGeometry, tree: SplitNode) -> np.ndarray:
-        """eq. 10 on all points, in the kernel of the root split (or a mid-range one)."""
-        if tree.children is None:  # pragma: no cover - ensure_leaves always splits the root
-            raise RuntimeError("the root was not split")
-        return D2.outliers(tree.sigma, tree.alpha)
 
     def _check_query(self, X: ArrayLike) -> np.ndarray:
         """New points: fitted, then finite 2-D float with the feature count of ``fit``."""
