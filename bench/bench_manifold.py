@@ -7,6 +7,12 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
   calls; ``--one-view`` prints only these and the fits they need);
 * fit time for n = 300, 600, 1200, 2400 (d = 2000) beside sklearn's SpectralClustering.
 
+``--scale [N ...]`` prints fit time against n (300 ... 10,000 by default) beside sklearn's
+SpectralClustering as a ratio, with both clustering errors (issue 15 item 1).
+
+``--sparse-accuracy [DATASET]`` prints the errors of kernel="sparse" against the dense path on
+the synthetic sets and, given a dataset directory, on the 8-manifold images.
+
 ``--experiments`` instead prints the tables behind docs/manifold-clustering.md: clustering
 error of each reading of the paper's ambiguous steps on the four synthetic sets (clean and
 noisy) and on 8 branching sequences, with best-sigma NCut and self-tuning baselines.
@@ -99,6 +105,76 @@ def timings(quick: bool, one_view: bool = False) -> None:
         print(f"| {n} | {ours:.2f} s | {theirs:.2f} s |")
 
 
+def scaling(sizes: list[int], dense_up_to: int) -> None:
+    """Fit time against n (d = 2000, K = 8, Q = min(35, n / 16)) beside scikit-learn's
+    SpectralClustering on the same data, with the clustering error of each against the true
+    sequences; ``kernel="auto"`` (dense up to 1000 points, the k-NN graph above), and the exact
+    dense path as well up to ``dense_up_to`` points."""
+    from sklearn.cluster import SpectralClustering
+
+    print(f"os.cpu_count() = {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
+    print(
+        "\n| n | kernel | ours fit | err | sklearn fit | err | ratio ours / sklearn |"
+        "\n|---|---|---|---|---|---|---|"
+    )
+    for n in sizes:
+        X, y = branching_sequences(n // 8, 2000, np.random.default_rng(1))
+        q = min(35, n // 16)
+        sk = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
+        theirs = _time(lambda X=X, sk=sk: sk.fit(X))
+        err_sk = clustering_error(y, sk.labels_)
+        kernels = ["auto"] + (["dense"] if n <= dense_up_to and n > 1000 else [])
+        kernels += ["sparse"] if n <= 1000 else []
+        for kernel in kernels:
+            model = ManifoldClustering(8, q, kernel=kernel)
+            ours = _time(lambda X=X, model=model: model.fit(X))
+            print(
+                f"| {n} | {kernel} | {ours:.2f} s | {clustering_error(y, model.labels_):.3f} | "
+                f"{theirs:.2f} s | {err_sk:.3f} | {ours / theirs:.1f} |",
+                flush=True,
+            )
+
+
+def sparse_accuracy(dataset: str | None) -> None:
+    """Clustering error of kernel="sparse" against the dense reference: the paper's synthetic
+    sets (K = 3, Q = 20) and, given a dataset directory (``topomap collect --world all``), the
+    8-manifold images as HSV histograms (K = 8, Q = 35, paper split; train / test error)."""
+    from mapping.synthetic import SYNTHETIC_SETS
+
+    settings = [{"kernel": "dense"}] + [
+        {"kernel": "sparse", "n_components": r} for r in (64, 32, 16, 8)
+    ]
+    print("| kernel | " + " | ".join(SYNTHETIC_SETS) + " |")
+    print("|---" * (len(SYNTHETIC_SETS) + 1) + "|")
+    for kw in settings:
+        errs = [
+            clustering_error(y, ManifoldClustering(3, 20, **kw).fit(X).labels_)
+            for X, y in (make() for make in SYNTHETIC_SETS.values())
+        ]
+        print(f"| {kw} | " + " | ".join(f"{e:.3f}" for e in errs) + " |", flush=True)
+    if dataset is None:
+        return
+    from mapping import ColorHistogramFeatures
+    from sim.dataset import load_dataset
+
+    data = load_dataset(dataset)
+    train, test = data.paper_split()
+    y, images = data.concat("labels"), data.concat("images")
+    features = ColorHistogramFeatures()
+    X_train, X_test = features.fit_transform(images[train]), features.transform(images[test])
+    print("\n| kernel | train error | test error |\n|---|---|---|")
+    for kw in [{"kernel": "dense"}] + [
+        {"kernel": "sparse", "n_neighbors": k, "n_components": r}
+        for k, r in ((10, 64), (10, 32), (10, 16), (30, 64), (60, 64), (150, 64), (1000, 64))
+    ]:
+        model = ManifoldClustering(8, 35, **kw).fit(X_train)
+        print(
+            f"| {kw} | {clustering_error(y[train], model.labels_):.3f} | "
+            f"{clustering_error(y[test], model.predict(X_test)):.3f} |",
+            flush=True,
+        )
+
+
 def experiments() -> None:
     from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
     from mapping.synthetic import make_all
@@ -159,8 +235,24 @@ def main() -> None:
     parser.add_argument(
         "--one-view", action="store_true", help="fit and one-view signal/predict rows only"
     )
+    parser.add_argument(
+        "--scale", type=int, nargs="*", metavar="N",
+        help="fit time against n beside sklearn instead (default sizes 300 ... 10000)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--dense-up-to", type=int, default=1200, help="with --scale: also time kernel='dense'"
+    )
+    parser.add_argument(
+        "--sparse-accuracy", nargs="?", const="", metavar="DATASET",
+        help="kernel='sparse' against 'dense' on the synthetic sets (and a dataset's images)",
+    )  # fmt: skip
     args = parser.parse_args()
-    experiments() if args.experiments else timings(args.quick, args.one_view)
+    if args.sparse_accuracy is not None:
+        sparse_accuracy(args.sparse_accuracy or None)
+    elif args.scale is not None:
+        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to)
+    else:
+        experiments() if args.experiments else timings(args.quick, args.one_view)
 
 
 if __name__ == "__main__":

@@ -144,6 +144,15 @@ class SpectralBasis:
         """``U^T U w`` from ``coords = Q^T w``: ``Q (g^2 * coords)``."""
         return self.vectors @ (g * g * coords)
 
+    def quadratic(self, g: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
+        """``w1^T U^T U w2`` per alpha from ``c1 = Q^T w1``, ``c2 = Q^T w2``."""
+        return np.einsum("ka,ka->a", g * g, c1 * c2)
+
+    def group_gram(self, g: np.ndarray, a: int, member: np.ndarray, inv_nu: np.ndarray):
+        """C x C matrix of ``(U w_b) . (U w_c)`` for ``w_b = member[:, b] / |u|`` at alpha a."""
+        coords = self.project(member * inv_nu[:, None])
+        return coords.T @ (coords * (g[:, a : a + 1] ** 2))
+
     def dense_kernel(self, alpha: float) -> np.ndarray:
         """``U = beta (I - alpha S)^-1`` with ``beta = 1 - alpha`` (eq. 3), for tests."""
         g = self.gains(alpha)[:, 0]
@@ -152,6 +161,19 @@ class SpectralBasis:
     def dense_distances(self, alpha: float) -> np.ndarray:
         """``D_M`` of eq. 6 at this alpha, via the basis (O(m^3); for tests and centres)."""
         return manifold_distances(self.dense_kernel(alpha))
+
+
+def unit_outliers(basis, g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """eq. 10 without forming D_M: ``O_d[i] = mean_j (1 - v_i . v_j) = 1 - v_i . (sum_j v_j) / m``.
+
+    ``basis`` is a :class:`SpectralBasis` or a ``mapping._manifold_lowrank.LowRankBasis`` and g
+    its gains at a batch of alphas. Returns ``1 / |u_i|`` (m, A), the coordinates of
+    ``w = 1 / |u|`` (for sums of unit columns) and O_d (m, A).
+    """
+    inv_nu = 1.0 / basis.column_norms(g)
+    coords_all = basis.project(inv_nu)
+    outlier = 1.0 - basis.unproject_gram(g, coords_all) * inv_nu / basis.size
+    return inv_nu, coords_all, outlier
 
 
 def outlier_vector(D_M: np.ndarray) -> np.ndarray:

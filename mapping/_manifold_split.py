@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from mapping._manifold_kernel import SpectralBasis, alpha_from_t
+from mapping._manifold_geometry import DenseGeometry, GraphGeometry, as_geometry
+from mapping._manifold_kernel import SpectralBasis, alpha_from_t, unit_outliers
 
 # Sign of eq. 9 (see docs/manifold-clustering.md): "corrected" scores E[D^12] - E[D^11]
 # (between-cluster spread minus within-cluster-1 spread); "printed" is the formula as typeset.
@@ -32,6 +33,8 @@ OMEGA_SIGNS = ("corrected", "printed")
 # Second-seed rule of eq. 12: "weighted" = argmax (1 - O_d) * D_M[:, l1] (the text);
 # "printed" = argmin O_d * D_M[:, l1] over points other than l1 (the formula, l1 excluded).
 SEED_RULES = ("weighted", "printed")
+# Eigenbases a node's search keeps (by sigma, oldest dropped first).
+_CACHED_BASES = 4
 
 
 @dataclass(frozen=True)
@@ -74,23 +77,6 @@ class Split:
     in_first: np.ndarray
 
 
-def sigma_bounds(sq_dist: np.ndarray) -> tuple[float, float]:
-    """Search bounds for sigma on one node: half the 10th-percentile nearest-neighbour distance
-    up to the node's diameter.
-
-    Below the lower bound most points have no neighbour left (S is almost 0, every split scores
-    about 1/|p1|); above the diameter every affinity exceeds exp(-1/2) and D_M flattens. The
-    percentile instead of the minimum keeps near-duplicate pairs from stretching the range.
-    """
-    masked = sq_dist + np.diag(np.full(sq_dist.shape[0], np.inf))
-    nn = np.sqrt(masked.min(axis=1))
-    diameter = float(np.sqrt(sq_dist.max()))
-    positive = nn[nn > 0]
-    lo = 0.5 * float(np.percentile(positive, 10)) if positive.size else 0.0
-    lo = lo if 0.0 < lo < diameter else 1e-3 * diameter
-    return lo, diameter
-
-
 def split_scores(
     basis: SpectralBasis, alphas: np.ndarray, min_size: int, space: SearchSpace
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -121,12 +107,7 @@ def split_scores(
     A = alphas.shape[0]
     cols = np.arange(A)
     g = basis.gains(alphas)
-    gg = g * g
-    nu = basis.column_norms(g)
-    inv_nu = 1.0 / nu
-    # eq. 10: O_d[i] = mean_j (1 - v_i . v_j) = 1 - v_i . (sum_j v_j) / m
-    coords_all = basis.project(inv_nu)
-    outlier = 1.0 - basis.unproject_gram(g, coords_all) * inv_nu / m
+    inv_nu, coords_all, outlier = unit_outliers(basis, g)  # eq. 10
     l1 = np.argmin(outlier, axis=0)
     # Column l1 of D_M, eq. 5
     dm_l1 = 1.0 - basis.gram_columns(g, l1) * inv_nu * inv_nu[l1, cols]
@@ -157,8 +138,8 @@ def split_scores(
     # eq. 9 from sums of unit columns: E[D^11], E[D^12]
     coords_1 = basis.project(in_first * inv_nu)
     coords_2 = coords_all - coords_1
-    within = 1.0 - np.einsum("ka,ka->a", gg, coords_1 * coords_1) / (n1 * n1)
-    between = 1.0 - np.einsum("ka,ka->a", gg, coords_1 * coords_2) / (n1 * n2)
+    within = 1.0 - basis.quadratic(g, coords_1, coords_1) / (n1 * n1)
+    between = 1.0 - basis.quadratic(g, coords_1, coords_2) / (n1 * n2)
     spread = between - within if space.omega_sign == "corrected" else within - between
     omega = np.minimum(n1, n2) / m * spread
     return omega, in_first, np.stack([l1, l2])
@@ -167,15 +148,20 @@ def split_scores(
 class _NodeSearch:
     """The (sigma, alpha) search of one node, with the eigenbases cached per sigma."""
 
-    def __init__(self, sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> None:
-        self.sq_dist = sq_dist
+    def __init__(self, geometry, min_size: int, space: SearchSpace) -> None:
+        self.geometry = geometry
         self.min_size = min_size
         self.space = space
-        self._bases: dict[float, SpectralBasis] = {}
+        self._bases: dict[float, object] = {}
 
-    def basis(self, sigma: float) -> SpectralBasis:
+    def basis(self, sigma: float):
         if sigma not in self._bases:
-            self._bases[sigma] = SpectralBasis.from_sq_distances(self.sq_dist, sigma)
+            # Keep the few most recent: the grid visits each sigma once and the refinement
+            # comes back only to its latest ones; all of them would be ~30 bases per node
+            # (30 m^2 floats on the dense path, 30 m r on the sparse one).
+            if len(self._bases) >= _CACHED_BASES:
+                del self._bases[next(iter(self._bases))]
+            self._bases[sigma] = self.geometry.basis(sigma)
         return self._bases[sigma]
 
     def scores(self, sigma: float, ts: np.ndarray):
@@ -196,7 +182,7 @@ class _NodeSearch:
 
     def run(self) -> Split:
         space = self.space
-        lo, hi = sigma_bounds(self.sq_dist)
+        lo, hi = self.geometry.sigma_bounds()
         log_sigmas = np.linspace(np.log(lo), np.log(hi), space.n_sigmas)
         ts = space.t_grid()
         grid = np.array([self.scores(float(np.exp(ls)), ts)[0] for ls in log_sigmas])
@@ -242,13 +228,16 @@ class _NodeSearch:
         return best[1], best[2], best[0]
 
 
-def best_split(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> Split:
+def best_split(
+    sq_dist: np.ndarray | DenseGeometry | GraphGeometry, min_size: int, space: SearchSpace
+) -> Split:
     """Maximise Omega(2) (eq. 9) over (sigma, alpha) for one node.
 
     Parameters
     ----------
-    sq_dist : ndarray of shape (m, m)
-        Squared distances between the node's points.
+    sq_dist : ndarray of shape (m, m), or a geometry of ``mapping._manifold_geometry``
+        Squared distances between the node's points (the exact path), or the node as a
+        geometry (dense, or a k-NN graph with the low-rank kernel).
     min_size : int
         Q; both sides of the split get at least Q points (needs m >= 2 Q).
     space : SearchSpace
@@ -259,4 +248,4 @@ def best_split(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> Split:
     Split
         Omega, sigma, alpha, the seeds (node-local) and the membership of p1.
     """
-    return _NodeSearch(sq_dist, min_size, space).run()
+    return _NodeSearch(as_geometry(sq_dist), min_size, space).run()

@@ -22,8 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mapping._manifold_kernel import SpectralBasis, alpha_from_t
-from mapping._manifold_split import SearchSpace, best_split, sigma_bounds
+from mapping._manifold_geometry import as_geometry
+from mapping._manifold_kernel import alpha_from_t
+from mapping._manifold_split import SearchSpace, best_split
 from mapping.split_tree import SplitNode
 
 # Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "separability" (the
@@ -58,9 +59,13 @@ class ManifoldNode(SplitNode):
     seeds: tuple[int, int] | None = None
 
 
-def build_tree(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> ManifoldNode:
-    """Bisect recursively until every leaf is smaller than ``2 * min_size`` (Section II-C)."""
-    root = ManifoldNode(np.arange(sq_dist.shape[0]))
+def build_tree(sq_dist, min_size: int, space: SearchSpace) -> ManifoldNode:
+    """Bisect recursively until every leaf is smaller than ``2 * min_size`` (Section II-C).
+
+    ``sq_dist``: the (n, n) squared distances or a geometry (``mapping._manifold_geometry``).
+    """
+    sq_dist = as_geometry(sq_dist)
+    root = ManifoldNode(np.arange(sq_dist.size))
     stack = [root]
     while stack:
         node = stack.pop()
@@ -71,20 +76,21 @@ def build_tree(sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> Manifo
     return root
 
 
-def _split(node: ManifoldNode, sq_dist: np.ndarray, min_size: int, space: SearchSpace) -> None:
+def _split(node: ManifoldNode, geometry, min_size: int, space: SearchSpace) -> None:
     idx = node.indices
-    split = best_split(sq_dist[np.ix_(idx, idx)], min_size, space)
+    split = best_split(geometry.sub(idx), min_size, space)
     node.omega, node.sigma, node.alpha = split.omega, split.sigma, split.alpha
     node.seeds = (int(idx[split.seeds[0]]), int(idx[split.seeds[1]]))
     node.children = (ManifoldNode(idx[split.in_first]), ManifoldNode(idx[~split.in_first]))
 
 
-def ensure_leaves(root: ManifoldNode, sq_dist: np.ndarray, n_clusters: int, space: SearchSpace):
+def ensure_leaves(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpace):
     """Split the largest leaves until there are at least ``n_clusters`` of them.
 
     Only needed when n is close to ``K * Q``: leaves hold between Q and 2 Q - 1 points, so C
     can fall below K. The extra splits relax Q to half the leaf, the most any split can keep.
     """
+    sq_dist = as_geometry(sq_dist)
     leaves = root.leaves()
     while len(leaves) < n_clusters:
         node = max(leaves, key=lambda leaf: (leaf.indices.shape[0], -leaf.indices[0]))
@@ -109,9 +115,9 @@ class _GroupScores:
     (sigma_s, alpha_a), built from the eigenbasis of the full S at each grid sigma.
     """
 
-    def __init__(self, sq_dist: np.ndarray, leaves: list[np.ndarray], space: SearchSpace):
-        n = sq_dist.shape[0]
-        lo, hi = sigma_bounds(sq_dist)
+    def __init__(self, geometry, leaves: list[np.ndarray], space: SearchSpace):
+        n = geometry.size
+        lo, hi = geometry.sigma_bounds()
         self.sigmas = np.geomspace(lo, hi, space.n_sigmas)
         ts = space.t_grid()
         self.alphas = alpha_from_t(ts)
@@ -120,13 +126,10 @@ class _GroupScores:
             member[idx, c] = 1.0
         mats = []
         for sigma in self.sigmas:
-            basis = SpectralBasis.from_sq_distances(sq_dist, float(sigma))
+            basis = geometry.basis(float(sigma))
             g = basis.gains(self.alphas)
             inv_nu = 1.0 / basis.column_norms(g)
-            per_alpha = []
-            for a in range(len(ts)):
-                coords = basis.project(member * inv_nu[:, a : a + 1])
-                per_alpha.append(coords.T @ (coords * (g[:, a : a + 1] ** 2)))
+            per_alpha = [basis.group_gram(g, a, member, inv_nu[:, a]) for a in range(len(ts))]
             mats.append(per_alpha)
         self.M = np.array(mats)  # (S, A, C, C)
         self.sizes = member.sum(axis=0)
@@ -141,7 +144,7 @@ class _GroupScores:
 
 
 def combine_leaves(
-    sq_dist: np.ndarray,
+    sq_dist,
     leaves: list[np.ndarray],
     n_clusters: int,
     space: SearchSpace,
@@ -151,8 +154,8 @@ def combine_leaves(
 
     Parameters
     ----------
-    sq_dist : ndarray of shape (n, n)
-        Squared distances of all training points.
+    sq_dist : ndarray of shape (n, n) or geometry
+        Squared distances of all training points, or their ``mapping._manifold_geometry``.
     leaves : list of ndarray
         Training indices of each leaf (a partition of 0..n-1).
     n_clusters : int
@@ -167,7 +170,7 @@ def combine_leaves(
     -------
     Combination
     """
-    scores = _GroupScores(sq_dist, leaves, space)
+    scores = _GroupScores(as_geometry(sq_dist), leaves, space)
     if groups is None:
         groups = _merge(scores, n_clusters)
     # Block sums of each final group: indicator^T M indicator.
@@ -232,7 +235,7 @@ def cut_tree(root: ManifoldNode, n_clusters: int) -> list[list[ManifoldNode]]:
     return [node.leaves() for node in frontier]
 
 
-def _pair_separability(sq_dist: np.ndarray, a: np.ndarray, b: np.ndarray, space: SearchSpace):
+def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpace):
     """max over (sigma, alpha) of ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` on the union of a, b.
 
     eq. 9's spread with the labels fixed, symmetric in a and b and without the balance factor
@@ -241,19 +244,12 @@ def _pair_separability(sq_dist: np.ndarray, a: np.ndarray, b: np.ndarray, space:
     """
     idx = np.concatenate([a, b])
     na, nb = a.shape[0], b.shape[0]
-    scores = _GroupScores(sq_dist[np.ix_(idx, idx)], [np.arange(na), np.arange(na, na + nb)], space)
+    scores = _GroupScores(geometry.sub(idx), [np.arange(na), np.arange(na, na + nb)], space)
     M = scores.M
     e_ab = 1.0 - M[..., 0, 1] / (na * nb)
     e_aa = 1.0 - M[..., 0, 0] / (na * na)
     e_bb = 1.0 - M[..., 1, 1] / (nb * nb)
     return float((e_ab - 0.5 * (e_aa + e_bb)).max())
-
-
-def _nearest_neighbours(sq_dist: np.ndarray) -> np.ndarray:
-    """Indices of each point's k nearest other points, (n, k)."""
-    k = min(_ADJACENCY_NEIGHBOURS, sq_dist.shape[0] - 1)
-    masked = sq_dist + np.diag(np.full(sq_dist.shape[0], np.inf))
-    return np.argpartition(masked, k - 1, axis=1)[:, :k]
 
 
 def _adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
@@ -266,7 +262,7 @@ def _adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, i
 
 
 def separability_merge(
-    sq_dist: np.ndarray, leaves: list[np.ndarray], n_clusters: int, space: SearchSpace
+    sq_dist, leaves: list[np.ndarray], n_clusters: int, space: SearchSpace
 ) -> list[list[int]]:
     """Merge C leaves into K groups, always joining the least separable adjacent pair.
 
@@ -274,14 +270,15 @@ def separability_merge(
     their points are neighbours); if none is left, every pair is a candidate. Each pair's
     separability is cached and recomputed only for pairs involving the newly merged group.
     """
+    sq_dist = as_geometry(sq_dist)
     groups = [[c] for c in range(len(leaves))]
     members = [np.asarray(leaf) for leaf in leaves]
-    labels = np.empty(sq_dist.shape[0], dtype=np.intp)
+    labels = np.empty(sq_dist.size, dtype=np.intp)
     for c, idx in enumerate(leaves):
         labels[idx] = c
     # A group is named by its leaves, so a score stays valid until either group changes.
     cache: dict[tuple[tuple[int, ...], tuple[int, ...]], float] = {}
-    nearest = _nearest_neighbours(sq_dist)
+    nearest = sq_dist.neighbours(_ADJACENCY_NEIGHBOURS)
     while len(groups) > n_clusters:
         pairs = _adjacent_pairs(nearest, labels) or {
             (i, j) for i in range(len(groups)) for j in range(i + 1, len(groups))

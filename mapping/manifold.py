@@ -19,7 +19,12 @@ from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from mapping._manifold_kernel import SpectralBasis, outlier_vector
+from mapping._manifold_geometry import (
+    KERNELS,
+    DenseGeometry,
+    GraphGeometry,
+    training_geometry,
+)
 from mapping._manifold_predict import ClusterModel, Stack
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import (
@@ -32,7 +37,6 @@ from mapping._manifold_tree import (
     separability_merge,
 )
 from mapping._validation import is_plain_query, single_threaded_blas
-from mapping.distances import squared_distances
 from mapping.split_tree import SplitNode
 
 __all__ = ["EXPECTED_FAILED_CHECKS", "ManifoldClustering"]
@@ -96,6 +100,14 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         ``predict`` and ``signal`` agree with the direct distances to float32 round-off; a
         small value such as 1e-4 drops the weakest directions (mostly noise) and makes a call
         on image-sized vectors several times faster (``mapping._manifold_predict``).
+    kernel : {"auto", "dense", "sparse"}, default "auto"
+        "dense": the exact n x n kernel. "sparse": affinities on a symmetrised k-NN graph and,
+        per node above ``4 * n_components`` points, the top eigenpairs of S with the rest of
+        the spectrum at its mean (``mapping._manifold_lowrank``). "auto": dense up to 1000.
+    n_neighbors : int, default 10
+        k of the sparse path's graph; n or more means the complete graph.
+    n_components : int, default 64
+        Eigenpairs of S kept per (node, sigma) on the sparse path.
 
     Attributes
     ----------
@@ -144,6 +156,9 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         "combine": [StrOptions(set(COMBINE_RULES))],
         "store_dtype": [StrOptions(set(_DTYPES))],
         "projection_tol": [Interval(Real, 0, 1, closed="left")],
+        "kernel": [StrOptions(set(KERNELS))],
+        "n_neighbors": [Interval(Integral, 1, None, closed="left")],
+        "n_components": [Interval(Integral, 1, None, closed="left")],
     }
 
     def __init__(
@@ -162,6 +177,9 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         combine: str = "separability",
         store_dtype: str = "float32",
         projection_tol: float = 0.0,
+        kernel: str = "auto",
+        n_neighbors: int = 10,
+        n_components: int = 64,
     ) -> None:
         self.n_clusters = n_clusters
         self.min_cluster_size = min_cluster_size
@@ -176,6 +194,9 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         self.combine = combine
         self.store_dtype = store_dtype
         self.projection_tol = projection_tol
+        self.kernel = kernel
+        self.n_neighbors = n_neighbors
+        self.n_components = n_components
 
     # ------------------------------------------------------------------ validation
     def _search_space(self, n_samples: int) -> SearchSpace:
@@ -223,20 +244,17 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
             self, fitted.
         """
         X = validate_data(self, X, dtype=[np.float64, np.float32], order="C", ensure_min_samples=2)
-        space = self._search_space(X.shape[0])
-        # Squared distances once, in float64 after centring (a float32 Gram matrix loses
-        # near-duplicate images entirely); every node and every sigma reuses blocks of it.
-        D2 = squared_distances(X)
-        if not D2.max() > 0:
-            raise ValueError("X: all samples are identical; there is nothing to cluster")
+        n = X.shape[0]
+        space = self._search_space(n)
         K, Q = int(self.n_clusters), int(self.min_cluster_size)
-
+        # The big distance products (n x n, or the k-NN search) keep every BLAS thread.
+        geometry = training_geometry(X, self.kernel, self.n_neighbors, self.n_components)
         with single_threaded_blas():
-            self._fit_from_distances(X, D2, K, Q, space)
+            self._fit_from_distances(X, geometry, K, Q, space)
         return self
 
     def _fit_from_distances(
-        self, X: np.ndarray, D2: np.ndarray, K: int, Q: int, space: SearchSpace
+        self, X: np.ndarray, D2: DenseGeometry | GraphGeometry, K: int, Q: int, space: SearchSpace
     ) -> None:
         tree = build_tree(D2, Q, space)
         # At least two leaves: the root split's kernel gives outlier_scores_ (and K = 1's).
@@ -269,11 +287,9 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         dtype = np.dtype(self.store_dtype)
         for j, idx in enumerate(members):
             labels[idx] = j
-            block = D2[np.ix_(idx, idx)]
+            block = D2.block(idx)
             # eq. 11 in the cluster's own kernel: the centre is the point "most inside".
-            o_j = outlier_vector(
-                SpectralBasis.from_sq_distances(block, sigmas[j]).dense_distances(alphas[j])
-            )
+            o_j = D2.sub(idx).outliers(sigmas[j], alphas[j])
             inside[idx] = o_j
             centre = int(np.argmin(o_j))
             centres.append(int(idx[centre]))
@@ -291,17 +307,10 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         self.omegas_ = combo.omegas[order]
         self.tree_: SplitNode = tree
         self.leaf_labels_ = leaf_labels
-        self.outlier_scores_ = self._root_outliers(D2, tree)
+        # eq. 10 on all points, in the kernel of the root split (ensure_leaves split the root)
+        self.outlier_scores_ = D2.outliers(tree.sigma, tree.alpha)
         self.cluster_outlier_scores_ = inside
         self._models = models
-
-    @staticmethod
-    def _root_outliers(D2: np.ndarray, tree: SplitNode) -> np.ndarray:
-        """eq. 10 on all points, in the kernel of the root split (or a mid-range one)."""
-        if tree.children is None:  # pragma: no cover - ensure_leaves always splits the root
-            raise RuntimeError("the root was not split")
-        basis = SpectralBasis.from_sq_distances(D2, tree.sigma)
-        return outlier_vector(basis.dense_distances(tree.alpha))
 
     def _check_query(self, X: ArrayLike) -> np.ndarray:
         """New points: fitted, then finite 2-D float with the feature count of ``fit``."""

@@ -58,6 +58,12 @@ def _jsonable(value):
     return out
 
 
+# Parameters added after files of a class were first saved (name -> those parameters).
+_ADDED_LATER: dict[str, set[str]] = {
+    "ManifoldClustering": {"kernel", "n_neighbors", "n_components"},  # issue 15 item 1
+}
+
+
 def _params(cls) -> list[str]:
     return [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
 
@@ -185,8 +191,10 @@ def load(cls, meta: dict, arrays: dict[str, np.ndarray], prefix: str):
     )
     params = meta["params"]
     expected = set(_params(cls))
+    # a file saved before a parameter existed lacks it; it then takes its default
+    optional = _ADDED_LATER.get(cls.__name__, set())
     _require(
-        isinstance(params, dict) and set(params) == expected,
+        isinstance(params, dict) and expected - optional <= set(params) <= expected,
         f"{prefix}.params must have exactly the keys {sorted(expected)}",
     )
     try:

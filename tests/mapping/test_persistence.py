@@ -56,6 +56,18 @@ def test_only_known_classes_are_saved_or_loaded(fitted):
         persistence.load(dict, meta, arrays, "est")
 
 
+def test_a_file_from_before_the_kernel_parameters_loads_with_their_defaults(fitted):
+    est, X = fitted
+    meta, arrays = persistence.dump(est.set_params(n_neighbors=7), "est")
+    meta = json.loads(json.dumps(meta))
+    for name in ("kernel", "n_neighbors", "n_components"):
+        meta["params"].pop(name)
+    loaded = persistence.load(ManifoldClustering, meta, arrays, "est")
+    assert loaded.n_neighbors == ManifoldClustering().n_neighbors != 7
+    np.testing.assert_array_equal(loaded.predict(X), est.predict(X))
+    est.set_params(n_neighbors=10)
+
+
 @pytest.mark.parametrize(
     ("change", "match"),
     [

@@ -25,6 +25,10 @@ from mapping.manifold import ManifoldClustering
 
 ESTIMATORS = [
     ManifoldClustering(n_clusters=2, min_cluster_size=3, n_sigmas=4, n_alphas=3, refine=False),
+    # the k-NN graph path, truncated above 16 points (issue 15 item 1)
+    ManifoldClustering(
+        n_clusters=2, min_cluster_size=3, n_sigmas=4, n_alphas=3, kernel="sparse", n_components=4
+    ),
     NormalizedCutClustering(n_clusters=2, sigma=1.0, n_init=2),
     SelfTuningSpectralClustering(n_clusters=2, n_neighbors=5, n_init=2),
     ScanFeatures(),

@@ -1,0 +1,215 @@
+"""What the bisection and the combination need to know about a set of points, two ways.
+
+:class:`DenseGeometry` holds the node's full squared-distance matrix and gives the exact
+eigenbasis of S (:class:`~mapping._manifold_kernel.SpectralBasis`): the reference path, and the
+one used for every node of a small fit. :class:`GraphGeometry` holds the training points and a
+symmetrised k-nearest-neighbour graph of them and gives the low-rank basis of
+:mod:`mapping._manifold_lowrank`; nothing in it is m x m. A node of it with at most
+``dense_below`` points turns into a :class:`DenseGeometry` of its own distances (computed then,
+O(m^2 d) for small m), so the deep, small nodes of a large fit are exact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from mapping._manifold_kernel import SpectralBasis, outlier_vector, unit_outliers
+from mapping._manifold_lowrank import LowRankBasis
+from mapping.distances import squared_distances
+
+# Values of ManifoldClustering's ``kernel``; "auto" takes the k-NN graph above this many
+# samples, so every fit of up to 1000 points (the paper's sizes, all earlier tables and tests)
+# stays on the exact dense path.
+KERNELS = ("auto", "dense", "sparse")
+AUTO_SPARSE_ABOVE = 1000
+# Candidates per point beyond k taken from the float32 product and re-ranked in float64.
+_KNN_SPARE = 8
+# Elements of one block of the k-NN distance matrix (~32 MB of float32 and its argpartition).
+_KNN_ELEMENTS = 4_000_000
+
+
+def sigma_bounds(sq_dist: np.ndarray) -> tuple[float, float]:
+    """Search bounds for sigma on one node: half the 10th-percentile nearest-neighbour distance
+    up to the node's diameter.
+
+    Below the lower bound most points have no neighbour left (S is almost 0, every split scores
+    about 1/|p1|); above the diameter every affinity exceeds exp(-1/2) and D_M flattens. The
+    percentile instead of the minimum keeps near-duplicate pairs from stretching the range.
+    """
+    masked = sq_dist + np.diag(np.full(sq_dist.shape[0], np.inf))
+    nn = np.sqrt(masked.min(axis=1))
+    diameter = float(np.sqrt(sq_dist.max()))
+    return _bounds(nn, diameter)
+
+
+def _bounds(nn: np.ndarray, diameter: float) -> tuple[float, float]:
+    positive = nn[np.isfinite(nn) & (nn > 0)]
+    lo = 0.5 * float(np.percentile(positive, 10)) if positive.size else 0.0
+    lo = lo if 0.0 < lo < diameter else 1e-3 * diameter
+    return lo, diameter
+
+
+class DenseGeometry:
+    """A node given by its squared distances (m, m): the exact path."""
+
+    def __init__(self, sq_dist: np.ndarray) -> None:
+        self.sq_dist = sq_dist
+
+    @property
+    def size(self) -> int:
+        return self.sq_dist.shape[0]
+
+    def sub(self, idx: np.ndarray) -> DenseGeometry:
+        return DenseGeometry(self.sq_dist[np.ix_(idx, idx)])
+
+    def basis(self, sigma: float) -> SpectralBasis:
+        return SpectralBasis.from_sq_distances(self.sq_dist, sigma)
+
+    def sigma_bounds(self) -> tuple[float, float]:
+        return sigma_bounds(self.sq_dist)
+
+    def block(self, idx: np.ndarray) -> np.ndarray:
+        """Squared distances among the points ``idx`` (for eq. 13's cluster models)."""
+        return self.sq_dist[np.ix_(idx, idx)]
+
+    def outliers(self, sigma: float, alpha: float) -> np.ndarray:
+        """O_d of eq. 10 on this node at (sigma, alpha)."""
+        return outlier_vector(self.basis(sigma).dense_distances(alpha))
+
+    def neighbours(self, k: int) -> np.ndarray:
+        """Indices (m, k) of each point's k nearest other points."""
+        k = min(k, self.size - 1)
+        masked = self.sq_dist + np.diag(np.full(self.size, np.inf))
+        return np.argpartition(masked, k - 1, axis=1)[:, :k]
+
+
+def knn_edges(X: np.ndarray, n_neighbors: int) -> sp.csr_matrix:
+    """Symmetrised k-nearest-neighbour graph of the rows of X as a CSR matrix of squared
+    distances (an edge where either point is among the other's k nearest; duplicates are
+    explicit zeros). ``n_neighbors`` above ``n - 1`` is cut to ``n - 1``: the complete graph.
+
+    Brute force in blocks of rows: candidates from a float32 product (half the time of float64
+    at image-sized d), ``_KNN_SPARE`` more than needed, then their distances again in float64
+    so that the kept distances are exact; memory O(block n + n k).
+    """
+    n = X.shape[0]
+    k = min(int(n_neighbors), n - 1)
+    c = min(k + _KNN_SPARE, n - 1)
+    Xc = X - X.mean(axis=0, dtype=np.float64)
+    X32 = np.asarray(Xc, dtype=np.float32)
+    sq32 = np.einsum("ij,ij->i", X32, X32)
+    cand = np.empty((n, c), dtype=np.intp)
+    step = max(1, _KNN_ELEMENTS // n)
+    for start in range(0, n, step):
+        rows = np.arange(start, min(start + step, n))
+        D = sq32[rows, None] + sq32[None, :] - 2.0 * (X32[rows] @ X32.T)
+        D[np.arange(rows.shape[0]), rows] = np.inf
+        cand[rows] = np.argpartition(D, c - 1, axis=1)[:, :c]
+    exact = np.empty((n, c))
+    step = max(1, _KNN_ELEMENTS // (c * X.shape[1]))
+    for start in range(0, n, step):
+        rows = slice(start, start + step)
+        diff = Xc[rows, None, :] - Xc[cand[rows]]  # (rows, c, d) in float64
+        exact[rows] = np.einsum("rcd,rcd->rc", diff, diff)
+    best = np.argsort(exact, axis=1, kind="stable")[:, :k]
+    ind = np.take_along_axis(cand, best, axis=1)
+    dist = np.take_along_axis(exact, best, axis=1)
+    rows = np.repeat(np.arange(n), k)
+    # +1 keeps zero distances (duplicates) as stored entries through ``maximum``.
+    A = sp.csr_matrix((dist.ravel() + 1.0, (rows, ind.ravel())), shape=(n, n))
+    A = A.maximum(A.T).tocsr()
+    A.data -= 1.0
+    np.maximum(A.data, 0.0, out=A.data)
+    return A
+
+
+class GraphGeometry:
+    """A node given by the training points and the k-NN graph restricted to the node.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, d)
+        All training points.
+    edges : scipy.sparse.csr_matrix of shape (m, m)
+        :func:`knn_edges` restricted to the node's points.
+    indices : ndarray of shape (m,)
+        Training indices of the node's points.
+    rank : int
+        Eigenpairs of S kept per sigma (:meth:`LowRankBasis.from_edges`).
+    dense_below : int
+        Sub-nodes of at most this many points use the exact dense path.
+    """
+
+    def __init__(self, X, edges, indices, rank: int, dense_below: int) -> None:
+        self.X, self.edges, self.indices = X, edges, indices
+        self.rank, self.dense_below = rank, dense_below
+
+    @property
+    def size(self) -> int:
+        return self.indices.shape[0]
+
+    def sub(self, idx: np.ndarray) -> DenseGeometry | GraphGeometry:
+        idx = np.asarray(idx)
+        if idx.shape[0] <= self.dense_below:
+            return DenseGeometry(self.block(idx))
+        edges = self.edges[idx][:, idx].tocsr()
+        return GraphGeometry(self.X, edges, self.indices[idx], self.rank, self.dense_below)
+
+    def basis(self, sigma: float) -> LowRankBasis:
+        return LowRankBasis.from_edges(self.edges, sigma, self.rank)
+
+    def sigma_bounds(self) -> tuple[float, float]:
+        """As :func:`sigma_bounds`, with the nearest neighbour and the diameter taken on the
+        graph's edges: beyond the longest edge the affinities only approach 1 (a kernel wider
+        than the graph has no meaning), so that is the upper bound."""
+        nn = np.full(self.size, np.inf)
+        lengths = np.sqrt(self.edges.data)
+        has = np.diff(self.edges.indptr) > 0
+        nn[has] = np.minimum.reduceat(lengths, self.edges.indptr[:-1][has])
+        if not lengths.size or not lengths.max() > 0:
+            return _bounds(nn, float(np.sqrt(self.block(np.arange(self.size)).max())))
+        return _bounds(nn, float(lengths.max()))
+
+    def block(self, idx: np.ndarray) -> np.ndarray:
+        return squared_distances(self.X[self.indices[idx]])
+
+    def outliers(self, sigma: float, alpha: float) -> np.ndarray:
+        basis = self.basis(sigma)
+        return unit_outliers(basis, basis.gains(np.array([alpha])))[2][:, 0]
+
+    def neighbours(self, k: int) -> np.ndarray:
+        """Up to k graph neighbours per point (a point's own index pads a short row)."""
+        out = np.repeat(np.arange(self.size)[:, None], k, axis=1)
+        E = self.edges
+        for i in range(self.size):
+            start, stop = E.indptr[i], E.indptr[i + 1]
+            nearest = E.indices[start:stop][np.argsort(E.data[start:stop], kind="stable")[:k]]
+            out[i, : nearest.shape[0]] = nearest
+        return out
+
+
+def training_geometry(
+    X: np.ndarray, kernel: str, n_neighbors: int, n_components: int
+) -> DenseGeometry | GraphGeometry:
+    """The geometry of all training points for ``ManifoldClustering(kernel=...)``.
+
+    Dense: squared distances once, in float64 after centring (a float32 Gram matrix loses
+    near-duplicate images entirely); every node and every sigma reuses blocks of it. Sparse:
+    the k-NN graph, and nodes of at most ``4 n_components`` points dense.
+    """
+    n = X.shape[0]
+    if kernel == "sparse" or (kernel == "auto" and n > AUTO_SPARSE_ABOVE):
+        if not np.ptp(X, axis=0).max() > 0:
+            raise ValueError("X: all samples are identical; there is nothing to cluster")
+        rank = int(n_components)
+        return GraphGeometry(X, knn_edges(X, n_neighbors), np.arange(n), rank, 4 * rank)
+    D2 = squared_distances(X)
+    if not D2.max() > 0:
+        raise ValueError("X: all samples are identical; there is nothing to cluster")
+    return DenseGeometry(D2)
+
+
+def as_geometry(x) -> DenseGeometry | GraphGeometry:
+    """A geometry as is; a square array of squared distances as a :class:`DenseGeometry`."""
+    return x if isinstance(x, DenseGeometry | GraphGeometry) else DenseGeometry(np.asarray(x))
