@@ -18,7 +18,7 @@ _EXPORTS = {
     "EigengapNCutClustering": "mapping.label_free",
     "KNNSpectralClustering": "mapping.label_free",
     "icp": "mapping.icp",
-    "refine_poses": "mapping.icp",
+    "refine_poses": "mapping.scan_matching",
     "ManifoldClustering": "mapping.manifold",
     "adjusted_rand_index": "mapping.metrics",
     "clustering_error": "mapping.metrics",

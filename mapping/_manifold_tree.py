@@ -297,3 +297,19 @@ def separability_merge(
         for g, idx in enumerate(members):
             labels[idx] = g
     return groups
+
+
+def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpace, rule: str):
+    """The leaves of ``root`` combined into ``n_clusters`` groups by ``rule`` (one of
+    :data:`COMBINE_RULES`; ambiguity 4), with each group's (sigma, alpha, omega)."""
+    leaves = [leaf.indices for leaf in root.leaves()]
+    if n_clusters == 1:
+        one = (np.array([root.sigma]), np.array([root.alpha]), np.array([root.omega]))
+        return Combination([list(range(len(leaves)))], *one)
+    groups = None
+    if rule == "separability":
+        groups = separability_merge(sq_dist, leaves, n_clusters, space)
+    elif rule == "cut":
+        position = {id(leaf): c for c, leaf in enumerate(root.leaves())}
+        groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(root, n_clusters)]
+    return combine_leaves(sq_dist, leaves, n_clusters, space, groups=groups)

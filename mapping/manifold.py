@@ -27,15 +27,7 @@ from mapping._manifold_geometry import (
 )
 from mapping._manifold_predict import ClusterModel, Stack
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
-from mapping._manifold_tree import (
-    COMBINE_RULES,
-    Combination,
-    build_tree,
-    combine_leaves,
-    cut_tree,
-    ensure_leaves,
-    separability_merge,
-)
+from mapping._manifold_tree import COMBINE_RULES, build_tree, combine_tree, ensure_leaves
 from mapping._validation import is_plain_query, single_threaded_blas
 from mapping.split_tree import SplitNode
 
@@ -260,17 +252,7 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         # At least two leaves: the root split's kernel gives outlier_scores_ (and K = 1's).
         ensure_leaves(tree, D2, max(K, 2), space)
         leaves = [leaf.indices for leaf in tree.leaves()]
-        groups = None
-        if K == 1:
-            one = (np.array([tree.sigma]), np.array([tree.alpha]), np.array([tree.omega]))
-            combo = Combination([list(range(len(leaves)))], *one)
-        else:
-            if self.combine == "separability":
-                groups = separability_merge(D2, leaves, K, space)
-            elif self.combine == "cut":
-                position = {id(leaf): c for c, leaf in enumerate(tree.leaves())}
-                groups = [[position[id(leaf)] for leaf in part] for part in cut_tree(tree, K)]
-            combo = combine_leaves(D2, leaves, K, space, groups=groups)
+        combo = combine_tree(tree, D2, K, space, self.combine)
 
         members = [np.sort(np.concatenate([leaves[c] for c in g])) for g in combo.groups]
         # Number clusters by first appearance so labels do not depend on the merge order.

@@ -10,7 +10,6 @@ work, parameters are checked against ``_parameter_constraints``, and with
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 from numbers import Integral, Real
 
@@ -21,7 +20,6 @@ from sklearn.base import BaseEstimator, ClusterMixin
 from sklearn.utils._param_validation import Interval, StrOptions
 
 from common.geometry import se2_compose, se2_relative
-from mapping.icp import refine_poses
 from mapping.incremental import VoxelOverlapIndex, add_scans
 from mapping.ncut import (
     ASSOC,
@@ -32,10 +30,12 @@ from mapping.ncut import (
     recursive_ncut_partition,
 )
 from mapping.overlap import check_scans_and_poses, sensed_space_overlap
+from mapping.scan_matching import refine_poses
 from mapping.topology import (
     TopologicalMap,
     build_local_maps,
     build_topology,
+    fill_from_nearest,
     group_frames,
     run_starts_from_groups,
 )
@@ -76,8 +76,9 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     min_size : int, default 1
         Smallest group a bisection may create.
     scan_matching : bool, default True
-        Refine consecutive poses by ICP (``mapping.icp.refine_poses``) before the overlap; on by
-        default because raw odometry splits the default sequences (docs/observation-grouping.md).
+        Refine consecutive poses by ICP (``mapping.scan_matching.refine_poses``) before the
+        overlap; on by default because raw odometry splits the default sequences
+        (docs/observation-grouping.md).
     icp_max_distance : float, default 0.5
         Correspondence gate of the ICP in metres.
     icp_decimation : int, default 3
@@ -226,7 +227,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         else:
             tree = NcutNode(np.arange(0))
         if self.empty_scans == "nearest":
-            labels = _fill_from_nearest(labels, starts)
+            labels = fill_from_nearest(labels, starts)
         self.poses_ = poses
         self.affinity_matrix_ = W
         self.split_tree_ = tree
@@ -308,7 +309,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
             raw=raw,
         )
         n = raw.size
-        labels = _fill_from_nearest(raw) if self.empty_scans == "nearest" else raw
+        labels = fill_from_nearest(raw) if self.empty_scans == "nearest" else raw
         self.labels_ = labels
         self.n_groups_ = int(labels.max()) + 1
         self.poses_ = state["poses"]
@@ -389,28 +390,3 @@ def _reindex(tree: NcutNode, kept: np.ndarray) -> None:
     """Map the tree's indices from the partitioned subset back to all scans."""
     for node in tree.walk():
         node.indices = kept[node.indices]
-
-
-def _fill_from_nearest(labels: np.ndarray, starts: np.ndarray | None = None) -> np.ndarray:
-    """Give each ``-1`` the label of the nearest labelled index (the earlier one on a tie).
-
-    With ``starts`` (a mask of run starts) the search stays inside each run; a run without any
-    labelled index falls back to the search over all runs.
-    """
-    if starts is not None and starts[1:].any():
-        out = labels.copy()
-        bounds = np.append(np.flatnonzero(starts), labels.size)
-        for lo, hi in itertools.pairwise(bounds):
-            if (labels[lo:hi] >= 0).any():
-                out[lo:hi] = _fill_from_nearest(labels[lo:hi])
-        return _fill_from_nearest(out) if (out < 0).any() else out
-    known = np.flatnonzero(labels >= 0)
-    if known.size == 0:
-        return np.zeros_like(labels)
-    pos = np.searchsorted(known, np.arange(labels.size))
-    before = known[np.clip(pos - 1, 0, known.size - 1)]
-    after = known[np.clip(pos, 0, known.size - 1)]
-    gap_before = np.where(pos > 0, np.arange(labels.size) - before, np.iinfo(np.intp).max)
-    gap_after = np.where(pos < known.size, after - np.arange(labels.size), np.iinfo(np.intp).max)
-    nearest = np.where(gap_before <= gap_after, before, after)
-    return labels[nearest]

@@ -1,8 +1,8 @@
 """Loop closure for the grouping's poses: a 2-D pose graph optimised with GTSAM.
 
 The grouping assumes globally consistent poses (Blanco et al., Section IV-A: poses from a map
-builder). Sequential scan matching (``mapping.icp.refine_poses``) only slows drift; a route that
-comes back to a place needs loop closure. ``close_loops`` builds the standard pose graph:
+builder). Sequential scan matching (``mapping.scan_matching.refine_poses``) only slows drift; a
+route that comes back to a place needs loop closure. ``close_loops`` builds the standard pose graph:
 
 * one ``gtsam.BetweenFactorPose2`` per consecutive pair of scans of a run: the ICP alignment
   of the two scans seeded with the odometry increment, or the odometry increment itself where

@@ -11,6 +11,7 @@ Poses are ``(x, y, yaw)`` rows; their algebra (``se2_compose``, ``se2_relative``
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -30,6 +31,7 @@ __all__ = [
     "TopologyArc",
     "build_local_maps",
     "build_topology",
+    "fill_from_nearest",
     "group_frames",
     "run_starts_from_groups",
 ]
@@ -272,3 +274,28 @@ def build_topology(
         for k, key in enumerate(keys)
     ]
     return TopologicalMap(reference, frames, arcs)
+
+
+def fill_from_nearest(labels: np.ndarray, starts: np.ndarray | None = None) -> np.ndarray:
+    """Give each ``-1`` the label of the nearest labelled index (the earlier one on a tie).
+
+    With ``starts`` (a mask of run starts) the search stays inside each run; a run without any
+    labelled index falls back to the search over all runs.
+    """
+    if starts is not None and starts[1:].any():
+        out = labels.copy()
+        bounds = np.append(np.flatnonzero(starts), labels.size)
+        for lo, hi in itertools.pairwise(bounds):
+            if (labels[lo:hi] >= 0).any():
+                out[lo:hi] = fill_from_nearest(labels[lo:hi])
+        return fill_from_nearest(out) if (out < 0).any() else out
+    known = np.flatnonzero(labels >= 0)
+    if known.size == 0:
+        return np.zeros_like(labels)
+    pos = np.searchsorted(known, np.arange(labels.size))
+    before = known[np.clip(pos - 1, 0, known.size - 1)]
+    after = known[np.clip(pos, 0, known.size - 1)]
+    gap_before = np.where(pos > 0, np.arange(labels.size) - before, np.iinfo(np.intp).max)
+    gap_after = np.where(pos < known.size, after - np.arange(labels.size), np.iinfo(np.intp).max)
+    nearest = np.where(gap_before <= gap_after, before, after)
+    return labels[nearest]

@@ -19,7 +19,7 @@ within 0.1 m and 2 degrees, Wilson 95 % interval) are measured.
 Poses: ``true`` (worlds: the simulator's; logs: the log's corrected SLAM poses, taken as
 truth) and ``odometry+icp`` (worlds: the dataset's noisy odometry; logs: odometry simulated
 from the corrected poses with ``sim.odometry``'s default noise, seed 0), chained by sequential
-ICP (``mapping.icp.refine_poses``), as the partitioner does by default.
+ICP (``mapping.scan_matching.refine_poses``), as the partitioner does by default.
 """
 
 from __future__ import annotations
@@ -32,9 +32,10 @@ import numpy as np
 from scipy import stats
 
 from common.geometry import transform_points
-from mapping.icp import densify_scan, refine_poses
+from mapping.icp import densify_scan
 from mapping.local_maps import align_groups, localise_held_out, map_residuals, submap_labels
 from mapping.partition import ObservationGraphPartitioner
+from mapping.scan_matching import refine_poses
 from mapping.topology import run_starts_from_groups
 from sim.odometry import Odometry, OdometryConfig
 

@@ -33,8 +33,9 @@ import numpy as np
 import mapping
 from common.geometry import scan_to_points, se2_relative
 from mapping.features import ImageFeatures
-from mapping.icp import densify_scan, icp, refine_poses
+from mapping.icp import densify_scan, icp
 from mapping.manifold import ManifoldClustering
+from mapping.scan_matching import refine_poses
 from scenes import WORLDS
 from servo.map_file import FORMAT_VERSION, load_map, map_paths, save_map
 from servo.map_types import MapError, MapSettings, ServoMap

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
-from mapping.icp import refine_poses
 from mapping.pose_graph import absolute_trajectory_error, close_loops
+from mapping.scan_matching import refine_poses
 
 
 @pytest.fixture(scope="module")
