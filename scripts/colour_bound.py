@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from mapping import ColorHistogramFeatures
-from scripts.manifold_methods import bootstrap_mean
+from scripts.manifold_methods import seed_error_row, seed_error_table
 from scripts.manifold_protocol import DEV_SEED, dataset_dir, load_for
+from scripts.tables import Column
 
 __all__ = ["JSON_FILE", "MODES", "draw_modes", "evaluate", "format_report", "main"]
 
@@ -64,31 +65,16 @@ def evaluate(root: Path, seeds, modes=tuple(MODES), seed: int = 0, grid=(2, 2)) 
         for name, clf in _classifiers(seed).items():
             clf.fit(X_dev, y_dev)
             errors = [float(np.mean(clf.predict(X) != y)) for X, y in tests]
-            result["rows"].append(
-                {
-                    "appearance": mode,
-                    "method": name,
-                    "errors": errors,
-                    "summary": bootstrap_mean(errors, rng),
-                }
-            )
+            result["rows"].append(seed_error_row(errors, rng, appearance=mode, method=name))
     return result
 
 
 def format_report(result: dict) -> str:
-    lines = [
-        "| appearance | classifier (trained on the dev seed) | error: mean [95% CI] | "
-        "per fresh seed (%) |",
-        "|---|---|---|---|",
-    ]
-    for r in result["rows"]:
-        s = r["summary"]
-        per = ", ".join(f"{100 * e:.1f}" for e in r["errors"])
-        lines.append(
-            f"| {r['appearance']} | {r['method']} | {100 * s['mean']:.1f}% "
-            f"[{100 * s['lo']:.1f}, {100 * s['hi']:.1f}] | {per} |"
-        )
-    return "\n".join(lines)
+    group = Column("appearance", "appearance")
+    table = seed_error_table(
+        result["rows"], group, "classifier (trained on the dev seed)", "per fresh seed (%)"
+    )
+    return table.to_markdown().rstrip("\n")
 
 
 def draw_modes(root: Path, path: Path, seed: int = DEV_SEED) -> Path:

@@ -29,7 +29,8 @@ import numpy as np
 
 from mapping import ManifoldClustering, ScanFeatures, clustering_error
 from mapping.label_free import KNNSpectralClustering
-from scripts.manifold_methods import bootstrap_mean
+from scripts.manifold_methods import seed_error_row, seed_error_table
+from scripts.tables import Column
 
 __all__ = ["JSON_FILE", "REPRESENTATIONS", "evaluate", "format_report", "main"]
 
@@ -95,30 +96,14 @@ def evaluate(
                 labels = model.fit(F).labels_
                 per_method.setdefault(name, []).append(clustering_error(y[train], labels))
         for name, errors in per_method.items():
-            result["rows"].append(
-                {
-                    "representation": rep,
-                    "method": name,
-                    "errors": errors,
-                    "summary": bootstrap_mean(errors, rng),
-                }
-            )
+            result["rows"].append(seed_error_row(errors, rng, representation=rep, method=name))
     return result
 
 
 def format_report(result: dict) -> str:
-    lines = [
-        "| scan features | method | error: mean [95% CI] | per test seed |",
-        "|---|---|---|---|",
-    ]
-    for r in result["rows"]:
-        s = r["summary"]
-        per = ", ".join(f"{100 * e:.1f}" for e in r["errors"])
-        lines.append(
-            f"| {r['representation']} | {r['method']} | {100 * s['mean']:.1f}% "
-            f"[{100 * s['lo']:.1f}, {100 * s['hi']:.1f}] | {per} |"
-        )
-    return "\n".join(lines)
+    group = Column("representation", "scan features")
+    table = seed_error_table(result["rows"], group, "method", "per test seed")
+    return table.to_markdown().rstrip("\n")
 
 
 def main(argv: list[str] | None = None) -> int:

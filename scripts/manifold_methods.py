@@ -17,6 +17,7 @@ import numpy as np
 from mapping import ManifoldClustering, clustering_error
 from mapping.baselines import best_sigma_ncut
 from mapping.label_free import EigengapNCutClustering, KNNSpectralClustering
+from scripts.tables import Column, Table
 
 OURS = "ours"
 SKLEARN_DEFAULT = "scikit-learn kNN (k=10)"
@@ -83,6 +84,30 @@ def score_methods(
             }
         )
     return rows
+
+
+def seed_error_row(errors, rng: np.random.Generator, **labels) -> dict:
+    """A row of per-seed error rates: ``labels``, the ``errors`` and their bootstrap mean."""
+    return {**labels, "errors": list(errors), "summary": bootstrap_mean(errors, rng)}
+
+
+def seed_error_table(rows, group: Column, method_header: str, per_seed_header: str) -> Table:
+    """:func:`seed_error_row` rows as a table: the group, the method, the mean with its
+    interval and the error of every seed (percent)."""
+
+    def interval(s: dict) -> str:
+        return f"{100 * s['mean']:.1f}% [{100 * s['lo']:.1f}, {100 * s['hi']:.1f}]"
+
+    def percentages(errors) -> str:
+        return ", ".join(f"{100 * e:.1f}" for e in errors)
+
+    columns = (
+        group,
+        Column("method", method_header),
+        Column("summary", "error: mean [95% CI]", interval),
+        Column("errors", per_seed_header, percentages),
+    )
+    return Table.of(columns, rows)
 
 
 def bootstrap_mean(values, rng: np.random.Generator, n_resamples: int = 4000) -> dict:
