@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator
@@ -49,26 +50,32 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
         raise
 
 
-def jsonable(obj):
+def jsonable(obj, finite: bool = False):
     """``obj`` with what ``json`` cannot write converted, recursively.
 
     numpy scalars become Python numbers, numpy arrays nested lists, tuples lists, paths POSIX
     strings; dict keys that are numpy scalars become Python scalars and other non-scalar keys
-    their ``str``. Anything else that JSON has no form for raises ``TypeError`` naming its type.
+    their ``str``. With ``finite``, NaN and infinities become None (strict JSON's null).
+    Anything else that JSON has no form for raises ``TypeError`` naming its type.
     """
     if isinstance(obj, dict):
-        return {_key(k): jsonable(v) for k, v in obj.items()}
+        return {_key(k): jsonable(v, finite) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [jsonable(v) for v in obj]
+        return [jsonable(v, finite) for v in obj]
     if isinstance(obj, np.ndarray):
-        return obj.tolist()
+        return jsonable(obj.tolist(), finite) if finite else obj.tolist()
     if isinstance(obj, np.generic):
-        return obj.item()
+        obj = obj.item()
+        return None if finite and _non_finite(obj) else obj
     if isinstance(obj, Path):
         return obj.as_posix()
     if isinstance(obj, _JSON_SCALARS):
-        return obj
+        return None if finite and _non_finite(obj) else obj
     raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
+def _non_finite(value) -> bool:
+    return isinstance(value, float) and not math.isfinite(value)
 
 
 def _key(key):
@@ -76,9 +83,9 @@ def _key(key):
     return key if isinstance(key, _JSON_SCALARS) else str(key)
 
 
-def write_json(path: str | os.PathLike, obj, indent: int = 2) -> None:
-    """Write ``jsonable(obj)`` as indented JSON with a final newline, atomically."""
-    text = json.dumps(jsonable(obj), indent=indent) + "\n"
+def write_json(path: str | os.PathLike, obj, indent: int = 2, finite: bool = False) -> None:
+    """Write ``jsonable(obj, finite)`` as indented JSON with a final newline, atomically."""
+    text = json.dumps(jsonable(obj, finite), indent=indent) + "\n"
     atomic_write_bytes(path, text.encode())
 
 

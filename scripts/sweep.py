@@ -13,7 +13,6 @@ Run as ``topomap sweep`` (see ``docs/sweeps.md``).
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
@@ -21,11 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from common.fileio import atomic_write_bytes
+from common.fileio import write_json
 from common.validation import check_int
 from scripts.sweep_backends import BACKENDS, check_backend, default_workers, open_backend
 from scripts.sweep_episode import SETTINGS, sweep_tasks
-from scripts.tables import Column, Table, plain
+from scripts.tables import Column, Table
 
 COLUMNS = (  # the table's columns (scripts.tables): one list for markdown, CSV and JSON
     Column("world", "world"),
@@ -190,8 +189,7 @@ def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[st
     out = Path(out)
     paths = sweep_table(rows, meta).write(out / "sweep", kinds=("md", "csv"))
     paths["json"] = out / "sweep.json"
-    atomic_write_bytes(paths["json"], (json.dumps(plain({"meta": meta, "rows": rows}),
-                                                  indent=2) + "\n").encode())  # fmt: skip
+    write_json(paths["json"], {"meta": meta, "rows": rows}, finite=True)
     return paths
 
 

@@ -20,27 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
-from common.fileio import atomic_write_bytes
+from common.fileio import atomic_write_bytes, jsonable
 
-__all__ = ["FORMATS", "Column", "Table", "plain"]
+__all__ = ["FORMATS", "Column", "Table"]
 
 # what a missing value (None, NaN) reads as in each text format
 _MISSING = {"md": "--", "html": "&ndash;", "csv": ""}
 FORMATS = ("md", "html", "csv", "json")
-
-
-def plain(value):
-    """``value`` as JSON can hold it: numpy scalars and arrays to Python numbers and lists,
-    tuples to lists, NaN and infinities to None, mapping keys to strings, recursively."""
-    if isinstance(value, Mapping):
-        return {str(k): plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | np.ndarray):
-        return [plain(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 @dataclass(frozen=True)
@@ -135,7 +121,8 @@ class Table:
         writer = csv.writer(buf, lineterminator="\n")
         writer.writerow([c.key for c in self.columns])
         for row in self.rows:
-            writer.writerow(["" if (v := plain(row[c.key])) is None else v for c in self.columns])
+            cells = (jsonable(row[c.key], finite=True) for c in self.columns)
+            writer.writerow(["" if v is None else v for v in cells])
         return buf.getvalue()
 
     def to_json(self) -> dict:
@@ -143,7 +130,10 @@ class Table:
         return {
             "caption": self.caption,
             "columns": [{"key": c.key, "header": c.header} for c in self.columns],
-            "rows": [{c.key: plain(row[c.key]) for c in self.columns} for row in self.rows],
+            "rows": [
+                {c.key: jsonable(row[c.key], finite=True) for c in self.columns}
+                for row in self.rows
+            ],
             "notes": list(self.notes),
         }
 

@@ -22,6 +22,14 @@ def test_jsonable_converts_numpy_and_paths_recursively():
     json.dumps(out)  # nothing numpy is left
 
 
+def test_jsonable_finite_writes_non_finite_numbers_as_null(tmp_path):
+    value = {1: np.array([1.5, np.inf]), "t": (np.int32(2), np.float64("nan"), float("-inf"))}
+    assert jsonable(value, finite=True) == {1: [1.5, None], "t": [2, None, None]}
+    assert jsonable(np.array([np.nan]))[0] != jsonable(np.array([np.nan]))[0]  # default: kept
+    write_json(tmp_path / "x.json", value, finite=True)
+    assert json.loads((tmp_path / "x.json").read_text()) == {"1": [1.5, None], "t": [2, None, None]}
+
+
 def test_jsonable_refuses_what_json_cannot_hold():
     with pytest.raises(TypeError, match="set is not JSON serialisable"):
         jsonable({"x": {1, 2}})

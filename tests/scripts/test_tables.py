@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from scripts.tables import Column, Table, plain
+from scripts.tables import Column, Table
 
 COLUMNS = (
     Column("world", "world"),
@@ -56,10 +56,6 @@ def test_csv_and_json_keep_raw_values_under_the_keys():
                                "met": True, "n": 20}  # fmt: skip
     assert data["rows"][1]["delta"] is None  # NaN is not JSON
     assert [c["header"] for c in data["columns"]][1] == "success"
-
-
-def test_plain_converts_numpy_and_non_finite_values():
-    assert plain({1: np.array([1.5, np.inf]), "t": (np.int32(2),)}) == {"1": [1.5, None], "t": [2]}
 
 
 def test_bad_tables_and_kinds_are_refused(tmp_path):
