@@ -210,10 +210,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         scans, poses = check_scans_and_poses(X, poses)
         starts = run_starts_from_groups(groups, len(scans))
         if self.scan_matching:
-            poses = refine_poses(
-                scans, poses, max_correspondence_distance=self.icp_max_distance, groups=groups,
-                decimation=self.icp_decimation,
-            )
+            poses = self._refine(scans, poses, groups)
         W = sensed_space_overlap(
             scans, poses, self.match_distance, sparse=True, voxel_size=self._voxel_size()
         )
@@ -324,17 +321,17 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         if not self.scan_matching:
             return given
         if not state["scans"]:
-            return refine_poses(
-                scans, given, max_correspondence_distance=self.icp_max_distance,
-                decimation=self.icp_decimation,
-            )
-        ext = refine_poses(
-            [state["scans"][-1], *scans],
-            np.concatenate([state["given"][-1:], given]),
-            max_correspondence_distance=self.icp_max_distance,
-            decimation=self.icp_decimation,
-        )
+            return self._refine(scans, given)
+        previous = [state["scans"][-1], *scans]
+        ext = self._refine(previous, np.concatenate([state["given"][-1:], given]))
         return se2_compose(state["poses"][-1], se2_relative(ext[0], ext[1:]))
+
+    def _refine(self, scans, poses, groups=None) -> np.ndarray:
+        """``refine_poses`` with this estimator's ICP settings."""
+        return refine_poses(
+            scans, poses, max_correspondence_distance=self.icp_max_distance, groups=groups,
+            decimation=self.icp_decimation,
+        )  # fmt: skip
 
     def __getattr__(self, name: str):
         # local maps and topology after partial_fit, built on first read

@@ -8,7 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
+from scripts.grouping_tables import comparison_table, grouping_table
 from scripts.report.html import esc, figure, fmt, section, table
+from scripts.servo_tables import pair_table, summary_table
 
 __all__ = [
     "PAPER",
@@ -153,8 +155,6 @@ def section_protocol(result: dict) -> str:
 def section_grouping(result: dict, prefix: str = "") -> str:
     """``result`` of ``scripts.eval_grouping.evaluate_grouping``; figures under ``prefix``.
     The tables are ``scripts.grouping_tables``', the ones the command line prints."""
-    from scripts.grouping_tables import comparison_table, grouping_table
-
     targets = result.get("settings", {}).get("targets", {})
     purity_min, max_groups = targets.get("purity_min"), targets.get("max_groups_per_manifold")
     parts = [
@@ -187,8 +187,6 @@ def _no_labels_note(result: dict) -> str:
 def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
     """``results``: ``servo.evaluate.evaluate`` dicts (with ``plot`` relative to the root);
     ``videos``: per "world/policy", video paths relative to the root."""
-    from scripts.servo_tables import pair_table, summary_table
-
     summary, pairs = summary_table(results).to_html(), pair_table(results).to_html()
     parts = [
         "<p>Each episode starts the robot somewhere on the map and gives it a stored view to "
