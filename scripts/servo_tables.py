@@ -54,9 +54,13 @@ def _condition(r: dict) -> str | None:
 
 
 def summary_table(results: Sequence[dict]) -> Table:
-    """One row per result (world and policy)."""
+    """One row per result (world and policy); the starts / split column only for protocol
+    results (``servo.protocol``), which have them."""
     rows = [{**r, "condition": _condition(r)} for r in results]
-    return Table.of(SUMMARY_COLUMNS, rows, "Closed-loop servoing per world and policy")
+    columns = SUMMARY_COLUMNS
+    if all(r["condition"] is None for r in rows):
+        columns = tuple(c for c in columns if c.key != "condition")
+    return Table.of(columns, rows, "Closed-loop servoing per world and policy")
 
 
 def pair_table(results: Sequence[dict]) -> Table:

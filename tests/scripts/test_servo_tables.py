@@ -21,4 +21,7 @@ def test_the_cli_and_the_report_show_one_servo_table():
 
 def test_results_without_a_protocol_have_no_condition():
     plain = {k: v for k, v in RESULT.items() if k not in ("tier", "split", "randomize")}
-    assert summary_table([plain]).rows[0]["condition"] is None
+    table = summary_table([plain])
+    assert table.rows[0]["condition"] is None
+    assert "starts / split" not in table.to_markdown()  # a column no row fills is left out
+    assert "starts / split" in summary_table([plain, RESULT]).to_markdown()
