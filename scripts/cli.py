@@ -273,14 +273,17 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--jobs", type=positive_int, default=None, help="collection processes")
     r.add_argument(
-        "--episodes", type=positive_int, default=4, help="servo episodes per world and policy"
+        "--episodes",
+        type=positive_int,
+        default=20,
+        help="servo episodes per world, start tier and policy (the benchmark's test split)",
     )
     r.add_argument(
         "--baselines",
         type=policies,
-        default=("oracle", "random"),
-        help="comma-separated servo baselines beside the servo policy: oracle, random, greedy "
-        "(greedy probing is slow: about 10x a servo episode)",
+        default=("signal", "oracle"),
+        help="comma-separated policies beside the servo policy: signal (servo by F, camera "
+        "only), oracle, random, greedy (greedy probing is slow: about 10x a servo episode)",
     )
     r.add_argument("--videos", type=int, default=1, help="servo episode videos per world")
     r.add_argument("--grouping-loop", action="store_true", help="also group a loop per world")
