@@ -311,7 +311,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
     e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
-    e.add_argument("--episodes", type=positive_int, default=20, help="per world")
+    e.add_argument(
+        "--episodes", type=positive_int, default=100, help="per world (the headline tables: 100)"
+    )
     e.add_argument("--tier", default="view", help="start tier: view or anywhere")
     e.add_argument("--split", default="dev", help="episode split: dev (tuning) or test")
     e.add_argument("--policy", choices=POLICIES, default="servo")
