@@ -25,7 +25,8 @@ from mapping._manifold_geometry import (
     GraphGeometry,
     training_geometry,
 )
-from mapping._manifold_predict import ClusterModel, Stack
+from mapping._manifold_graph_model import GraphClusterModel, cluster_model, model_scores
+from mapping._manifold_predict import Stack
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import COMBINE_RULES, build_tree, combine_tree, ensure_leaves
 from mapping._validation import is_plain_query, single_threaded_blas
@@ -269,18 +270,14 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         dtype = np.dtype(self.store_dtype)
         for j, idx in enumerate(members):
             labels[idx] = j
-            block = D2.block(idx)
             # eq. 11 in the cluster's own kernel: the centre is the point "most inside".
-            o_j = D2.sub(idx).outliers(sigmas[j], alphas[j])
-            inside[idx] = o_j
-            centre = int(np.argmin(o_j))
-            centres.append(int(idx[centre]))
             alpha_p = alphas[j] if self.predict_alpha is None else float(self.predict_alpha)
-            models.append(
-                ClusterModel.build(
-                    X, idx, block, sigmas[j], alpha_p, centre, dtype, float(self.projection_tol)
-                )
+            model, o_j = cluster_model(
+                X, D2, idx, sigmas[j], alphas[j], alpha_p, dtype, float(self.projection_tol)
             )
+            inside[idx] = o_j
+            centres.append(int(idx[model.centre]))
+            models.append(model)
 
         self.labels_ = labels
         self.centers_ = np.array(centres, dtype=np.intp)
@@ -304,7 +301,10 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     # ------------------------------------------------------------------ predict
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
-        return Stack.of(self._models).scores(X, self.normalize == "column")
+        normalize = self.normalize == "column"
+        if any(isinstance(m, GraphClusterModel) for m in self._models):
+            return model_scores(self._models, X, normalize)
+        return Stack.of(self._models).scores(X, normalize)
 
     def predict(self, X: ArrayLike) -> np.ndarray:
         """Assign new points by eq. 13: ``y = argmax_j F^j(k)``.
