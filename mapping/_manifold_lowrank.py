@@ -195,10 +195,14 @@ class LowRankBasis:
         """C x C matrix of ``(U w_b) . (U w_c)`` for ``w_b = member[:, b] / |u|`` at alpha a.
 
         Many groups (the leaves of a large fit) go through a sparse membership matrix, O(m r)
-        for one group per point instead of O(m r C)."""
-        weights = member * inv_nu[:, None]
-        rest_w = weights * (g.point_rest[:, a] ** 2)[:, None]
-        if member.shape[1] > _FEW_GROUPS:
+        for one group per point instead of O(m r C); ``member`` may be given sparse."""
+        if sp.issparse(member):
+            weights = sp.csr_matrix(member.multiply(inv_nu[:, None]))
+            rest_w = sp.csr_matrix(weights.multiply((g.point_rest[:, a] ** 2)[:, None]))
+        else:
+            weights = member * inv_nu[:, None]
+            rest_w = weights * (g.point_rest[:, a] ** 2)[:, None]
+        if not sp.issparse(member) and member.shape[1] > _FEW_GROUPS:
             weights, rest_w = sp.csr_matrix(weights), sp.csr_matrix(rest_w)
         top = np.asarray((weights.T @ self.vectors).T)  # (r, C)
         rest = weights.T @ rest_w

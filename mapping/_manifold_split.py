@@ -162,7 +162,9 @@ class _NodeSearch:
             # Keep the few most recent: the grid visits each sigma once and the refinement
             # comes back only to its latest ones; all of them would be ~30 bases per node
             # (30 m^2 floats on the dense path, 30 m r on the sparse one).
-            if len(self._bases) >= _CACHED_BASES:
+            # The coarse search (no sigma refinement) keeps its whole grid: it is small.
+            keep = _CACHED_BASES if self.space.refine_sigma else self.space.n_sigmas + 1
+            if len(self._bases) >= keep:
                 del self._bases[next(iter(self._bases))]
             self._bases[sigma] = self.geometry.basis(sigma)
         return self._bases[sigma]

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from mapping._manifold_geometry import GraphGeometry, as_geometry
 from mapping._manifold_kernel import alpha_from_t
@@ -124,6 +125,9 @@ class _GroupScores:
         member = np.zeros((n, len(leaves)))
         for c, idx in enumerate(leaves):
             member[idx, c] = 1.0
+        self.sizes = member.sum(axis=0)
+        if isinstance(geometry, GraphGeometry):
+            member = sp.csr_matrix(member)  # one leaf per point: O(n), not O(n C), per alpha
         mats = []
         for sigma in self.sigmas:
             basis = geometry.basis(float(sigma))
@@ -132,7 +136,6 @@ class _GroupScores:
             per_alpha = [basis.group_gram(g, a, member, inv_nu[:, a]) for a in range(len(ts))]
             mats.append(per_alpha)
         self.M = np.array(mats)  # (S, A, C, C)
-        self.sizes = member.sum(axis=0)
         self.n = n
 
     def omega(self, within: np.ndarray, total: np.ndarray, size: np.ndarray) -> np.ndarray:
