@@ -175,6 +175,12 @@ class GraphGeometry:
         idx = np.asarray(idx)
         if idx.shape[0] <= self.dense_below:
             return DenseGeometry(self.block(idx), coarse=True)
+        return self.node(idx)
+
+    def node(self, idx: np.ndarray) -> GraphGeometry:
+        """The graph restricted to the points ``idx``, at any size (eq. 13's cluster models
+        use the graph kernel their sigma_j was chosen on, also for small clusters)."""
+        idx = np.asarray(idx)
         edges = self.edges[idx][:, idx].tocsr()
         return GraphGeometry(
             self.X, edges, self.indices[idx], self.rank, self.dense_below, self.n_neighbors

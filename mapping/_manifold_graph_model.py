@@ -117,15 +117,25 @@ class GraphClusterModel:
             out[start : start + step] = q[:, None] + self.sq_norms[None, :] - 2.0 * cross
         return np.maximum(out, 0.0, out=out)
 
-    def signal(self, sq_dist: np.ndarray, target: int) -> np.ndarray:
+    def signal(
+        self, sq_dist: np.ndarray, target: int, reach: np.ndarray | None = None
+    ) -> np.ndarray:
         """F^j(k) of eq. 13 for each row of ``sq_dist`` (k, m) toward local index ``target``,
-        with ``beta = 1 - alpha``; 0 where x reaches no cluster point at sigma_j."""
+        with ``beta = 1 - alpha``; 0 where x reaches no cluster point at sigma_j.
+
+        x is joined to its ``n_neighbors`` nearest cluster points; ``reach`` (k,), if given,
+        further keeps only those within that squared distance (``predict``: x's k nearest
+        training points of all clusters, the edges the fit's graph would give it).
+        """
         k, m = sq_dist.shape
         s = min(self.n_neighbors, m)
         near = np.argpartition(sq_dist, s - 1, axis=1)[:, :s]  # the query's graph edges
-        w = np.exp(np.take_along_axis(sq_dist, near, axis=1) * (-0.5 / self.sigma**2))
+        near_d2 = np.take_along_axis(sq_dist, near, axis=1)
+        w = np.exp(near_d2 * (-0.5 / self.sigma**2))
         deg = self.degrees[near]
         w[deg <= TINY] = 0.0
+        if reach is not None:
+            w[near_d2 > reach[:, None]] = 0.0
         total = w.sum(axis=1)
         out = np.zeros(k)
         rows = np.flatnonzero(total > TINY)
@@ -159,19 +169,19 @@ class GraphClusterModel:
 def cluster_model(X, geometry, idx, sigma, alpha, predict_alpha, dtype, tol):
     """The eq. 13 model of one cluster and its points' O_d^j (eq. 11) in its own kernel.
 
-    A cluster that is a graph node (large, on the scalable path) gets a
-    :class:`GraphClusterModel` built from the same eigenbasis as its O_d^j; any other the
-    exact :class:`~mapping._manifold_predict.ClusterModel` of its dense distances.
-    Returns ``(model, o_j)``.
+    Every cluster of a graph fit gets a :class:`GraphClusterModel` on the graph restricted to
+    it (its sigma_j was chosen on the graph kernel), built from the same eigenbasis as its
+    O_d^j; a dense fit's clusters the exact :class:`~mapping._manifold_predict.ClusterModel`
+    of their distances. Returns ``(model, o_j)``.
     """
-    sub = geometry.sub(idx)
-    if isinstance(sub, GraphGeometry):
+    if isinstance(geometry, GraphGeometry):
+        sub = geometry.node(idx)
         basis = sub.basis(sigma)
         o_j = unit_outliers(basis, basis.gains(np.array([alpha])))[2][:, 0]
         centre = int(np.argmin(o_j))
         model = GraphClusterModel.build(X, sub, basis, sigma, predict_alpha, centre, dtype)
         return model, o_j
-    o_j = sub.outliers(sigma, alpha)
+    o_j = geometry.sub(idx).outliers(sigma, alpha)
     centre = int(np.argmin(o_j))
     block = geometry.block(idx)
     return ClusterModel.build(X, idx, block, sigma, predict_alpha, centre, dtype, tol), o_j
@@ -179,14 +189,28 @@ def cluster_model(X, geometry, idx, sigma, alpha, predict_alpha, dtype, tol):
 
 def model_scores(models, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np.ndarray]:
     """F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``, and
-    ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K): ``Stack.scores`` one cluster at a time, for
-    fits with graph models (the stack pads every cluster to m x m)."""
-    f = np.empty((X.shape[0], len(models)))
+    ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K): ``Stack.scores`` for a graph fit.
+
+    A query is joined, as a training point is in the fit's graph, to its ``n_neighbors``
+    nearest training points over all clusters; a cluster none of them lies in has F = 0.
+    Without this a cluster whose sigma_j sits high on the plateau of Omega (on a k-NN graph
+    every sigma well above the edge lengths gives nearly the same kernel) would reach queries
+    from other manifolds. Rows go in blocks: O(block n) memory, not O(k n).
+    """
+    k = X.shape[0]
+    f = np.empty((k, len(models)))
     nearest = np.empty_like(f)
-    for j, model in enumerate(models):
-        d2 = model.sq_distances(X)
-        f[:, j] = model.signal(d2, model.centre)
-        if normalize:
-            f[:, j] /= model.scale
-        nearest[:, j] = d2.min(axis=1) * (0.5 / model.sigma**2)
+    n = sum(m.indices.shape[0] for m in models)
+    step = max(1, _ROW_ELEMENTS // max(n, 1))
+    for start in range(0, k, step):
+        rows = slice(start, start + step)
+        d2 = [model.sq_distances(X[rows]) for model in models]
+        together = np.hstack(d2)
+        s = min(models[0].n_neighbors, n) - 1
+        reach = np.partition(together, s, axis=1)[:, s]
+        for j, model in enumerate(models):
+            f[rows, j] = model.signal(d2[j], model.centre, reach)
+            nearest[rows, j] = d2[j].min(axis=1) * (0.5 / model.sigma**2)
+    if normalize:
+        f /= np.array([model.scale for model in models])[None, :]
     return f, nearest
