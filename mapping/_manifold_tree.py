@@ -109,7 +109,7 @@ class Combination:
     omegas: np.ndarray
 
 
-class _GroupScores:
+class GroupScores:
     """Omega(2) of "group vs rest" for every (sigma, alpha) of a grid, from leaf-level sums.
 
     ``M[s, a]`` is the C x C matrix of ``(sum_{p_b} v) . (sum_{p_c} v)`` for leaves b, c at
@@ -152,7 +152,7 @@ def combine_leaves(
     n_clusters: int,
     space: SearchSpace,
     groups: list[list[int]] | None = None,
-    scores: _GroupScores | None = None,
+    scores: GroupScores | None = None,
 ) -> Combination:
     """Merge C leaves into K groups greedily, maximising the sum of their Omega(2).
 
@@ -169,7 +169,7 @@ def combine_leaves(
     groups : list of list of int, optional
         A grouping of the leaves decided elsewhere (e.g. :func:`cut_tree`); then only the
         (sigma, alpha) of each group are chosen.
-    scores : _GroupScores, optional
+    scores : GroupScores, optional
         The leaves' block sums, if already computed (the merge on a graph computes them).
 
     Returns
@@ -177,7 +177,7 @@ def combine_leaves(
     Combination
     """
     if scores is None:
-        scores = _GroupScores(as_geometry(sq_dist), leaves, space)
+        scores = GroupScores(as_geometry(sq_dist), leaves, space)
     if groups is None:
         groups = _merge(scores, n_clusters)
     # Block sums of each final group: indicator^T M indicator.
@@ -199,7 +199,7 @@ def combine_leaves(
     )
 
 
-def _merge(scores: _GroupScores, n_clusters: int) -> list[list[int]]:
+def _merge(scores: GroupScores, n_clusters: int) -> list[list[int]]:
     """Greedy agglomeration: merge the pair of groups that most raises the sum of Omega(2)."""
     groups = [[c] for c in range(len(scores.sizes))]
     # Group-level state: block sums per (sigma, alpha) and sizes; merging adds rows/columns.
@@ -251,7 +251,7 @@ def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpac
     """
     idx = np.concatenate([a, b])
     na, nb = a.shape[0], b.shape[0]
-    scores = _GroupScores(geometry.sub(idx), [np.arange(na), np.arange(na, na + nb)], space)
+    scores = GroupScores(geometry.sub(idx), [np.arange(na), np.arange(na, na + nb)], space)
     M = scores.M
     e_ab = 1.0 - M[..., 0, 1] / (na * nb)
     e_aa = 1.0 - M[..., 0, 0] / (na * na)
@@ -307,7 +307,7 @@ def separability_merge(
 
 
 def shared_kernel_merge(
-    geometry, leaves: list[np.ndarray], n_clusters: int, scores: _GroupScores
+    geometry, leaves: list[np.ndarray], n_clusters: int, scores: GroupScores
 ) -> list[list[int]]:
     """:func:`separability_merge` with every pair scored in the kernel of all the points.
 
@@ -357,7 +357,7 @@ def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpac
     groups = None
     geometry = as_geometry(sq_dist)
     if rule == "separability" and isinstance(geometry, GraphGeometry):
-        scores = _GroupScores(geometry, leaves, space)
+        scores = GroupScores(geometry, leaves, space)
         groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)
         return combine_leaves(geometry, leaves, n_clusters, space, groups=groups, scores=scores)
     if rule == "separability":
