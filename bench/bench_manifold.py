@@ -10,6 +10,8 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
 ``--scale [N ...]`` prints fit time against n (300 ... 10,000 by default) beside sklearn's
 SpectralClustering as a ratio, with both clustering errors (issue 15 item 1).
 
+``--memory N [N ...]`` prints the peak of numpy's allocations during one such fit.
+
 ``--sparse-accuracy [DATASET]`` prints the errors of kernel="sparse" against the dense path on
 the synthetic sets and, given a dataset directory, on the 8-manifold images.
 
@@ -135,6 +137,21 @@ def scaling(sizes: list[int], dense_up_to: int) -> None:
             )
 
 
+def peak_memory(sizes: list[int]) -> None:
+    """Peak of numpy's allocations during one fit (``tracemalloc``, which numpy reports to),
+    beside the data itself, for the ``--scale`` data (issue 15: O(n k + n m), not O(n^2))."""
+    import tracemalloc
+
+    print("\n| n | data X | fit peak (beyond X) |\n|---|---|---|")
+    for n in sizes:
+        X, _ = branching_sequences(n // 8, 2000, np.random.default_rng(1))
+        tracemalloc.start()
+        ManifoldClustering(8, min(35, n // 16)).fit(X)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        print(f"| {n} | {X.nbytes / 2**20:.0f} MiB | {peak / 2**20:.0f} MiB |", flush=True)
+
+
 def sparse_accuracy(dataset: str | None) -> None:
     """Clustering error of kernel="sparse" against the dense reference: the paper's synthetic
     sets (K = 3, Q = 20) and, given a dataset directory (``topomap collect --world all``), the
@@ -240,6 +257,9 @@ def main() -> None:
         help="fit time against n beside sklearn instead (default sizes 300 ... 10000)",
     )  # fmt: skip
     parser.add_argument(
+        "--memory", type=int, nargs="+", metavar="N", help="peak memory of a fit of N points"
+    )
+    parser.add_argument(
         "--dense-up-to", type=int, default=1200, help="with --scale: also time kernel='dense'"
     )
     parser.add_argument(
@@ -247,7 +267,9 @@ def main() -> None:
         help="kernel='sparse' against 'dense' on the synthetic sets (and a dataset's images)",
     )  # fmt: skip
     args = parser.parse_args()
-    if args.sparse_accuracy is not None:
+    if args.memory:
+        peak_memory(args.memory)
+    elif args.sparse_accuracy is not None:
         sparse_accuracy(args.sparse_accuracy or None)
     elif args.scale is not None:
         scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to)
