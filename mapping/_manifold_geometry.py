@@ -166,6 +166,7 @@ class GraphGeometry:
     def __init__(self, X, edges, indices, rank: int, dense_below: int, n_neighbors: int = 10):
         self.X, self.edges, self.indices = X, edges, indices
         self.rank, self.dense_below, self.n_neighbors = rank, dense_below, n_neighbors
+        self._bases: dict[float, LowRankBasis] = {}
 
     @property
     def size(self) -> int:
@@ -181,13 +182,21 @@ class GraphGeometry:
         """The graph restricted to the points ``idx``, at any size (eq. 13's cluster models
         use the graph kernel their sigma_j was chosen on, also for small clusters)."""
         idx = np.asarray(idx)
+        if idx.shape[0] == self.size and np.array_equal(idx, np.arange(self.size)):
+            return self  # the root: its bases serve the split, the combination and eq. 10
         edges = self.edges[idx][:, idx].tocsr()
         return GraphGeometry(
             self.X, edges, self.indices[idx], self.rank, self.dense_below, self.n_neighbors
         )
 
     def basis(self, sigma: float) -> LowRankBasis:
-        return LowRankBasis.from_edges(self.edges, sigma, self.rank)
+        """The low-rank basis of S at sigma, kept for the node's grid (O(COARSE_SIGMAS m r)):
+        the root's are asked for by its split, the combination (same grid) and eq. 10."""
+        if sigma not in self._bases:
+            if len(self._bases) > COARSE_SIGMAS:
+                del self._bases[next(iter(self._bases))]
+            self._bases[sigma] = LowRankBasis.from_edges(self.edges, sigma, self.rank)
+        return self._bases[sigma]
 
     def search_space(self, space):
         """The (sigma, alpha) search of a graph node: :func:`coarse_space`."""

@@ -119,7 +119,13 @@ class GroupScores:
     def __init__(self, geometry, leaves: list[np.ndarray], space: SearchSpace):
         n = geometry.size
         lo, hi = geometry.sigma_bounds()
-        self.sigmas = np.geomspace(lo, hi, geometry.search_space(space).n_sigmas)
+        n_sigmas = geometry.search_space(space).n_sigmas
+        if isinstance(geometry, GraphGeometry):
+            # the split search's grid to the last bit, so the root's bases are reused here
+            logs = np.linspace(np.log(lo), np.log(hi), n_sigmas)
+            self.sigmas = np.array([float(np.exp(ls)) for ls in logs])
+        else:
+            self.sigmas = np.geomspace(lo, hi, n_sigmas)
         ts = space.t_grid()
         self.alphas = alpha_from_t(ts)
         member = np.zeros((n, len(leaves)))

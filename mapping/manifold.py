@@ -96,9 +96,12 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     kernel : {"auto", "dense", "sparse"}, default "auto"
         "dense": the exact n x n kernel. "sparse": affinities on a symmetrised k-NN graph and,
         per node above ``4 * n_components`` points, the top eigenpairs of S with the rest of
-        the spectrum at its mean (``mapping._manifold_lowrank``). "auto": dense up to 1000.
+        the spectrum at its mean (``mapping._manifold_lowrank``), a 6-sigma search per split,
+        and eq. 13 on each cluster's graph (``mapping._manifold_graph_model``). "auto": dense
+        up to 1000 samples (docs/manifold-clustering.md, "Scaling").
     n_neighbors : int, default 10
-        k of the sparse path's graph; n or more means the complete graph.
+        k of the sparse path's graph, also the training points a new point is joined to;
+        n or more means the complete graph.
     n_components : int, default 64
         Eigenpairs of S kept per (node, sigma) on the sparse path.
 
