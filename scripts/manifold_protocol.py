@@ -25,6 +25,12 @@ Usage::
         --randomized 1 2 --hard 1 2 --features hsv raw \
         --conditions interleaved held-out randomized hard
 
+Features (``--features``): ``hsv`` and ``raw`` from the camera images; ``scan-range``,
+``scan-inverse``, ``scan-polar`` (``mapping.ScanFeatures``) and ``scan-stats``
+(``mapping.ScanStatistics``: sector and ring statistics) from the laser scans of the same
+frames (issue 13, item 6). ``--methods`` computes a subset of the methods; a later call with
+more methods adds them to the cached cells.
+
 Each dataset's ``meta.json`` must say it was collected for its condition (randomised or not,
 its appearance mode), so that a dataset in the wrong folder is refused, not scored.
 
