@@ -15,6 +15,7 @@ _EXPORTS = {
     "ColorHistogramFeatures": "mapping.image_features",
     "ImageFeatures": "mapping.image_features",
     "ScanFeatures": "mapping.features",
+    "ScanStatistics": "mapping.scan_statistics",
     "EigengapNCutClustering": "mapping.label_free",
     "KNNSpectralClustering": "mapping.label_free",
     "icp": "mapping.icp",

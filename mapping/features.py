@@ -7,8 +7,9 @@ Laser scans: float32 range arrays of shape (n_beams,) or (n, n_beams), where ``+
 "no return within max range" and NaN an invalid reading. :func:`scan_ranges` makes them finite
 (both become ``max_range``), :func:`scan_vectors` turns them into a range, inverse-range or
 polar occupancy-grid vector, and :class:`ScanFeatures` wraps that
-(:func:`common.geometry.scan_to_points` gives the returns as points instead). Everything is
-vectorised over scans and beams.
+(:func:`common.geometry.scan_to_points` gives the returns as points instead;
+:class:`mapping.scan_statistics.ScanStatistics` summarises a scan by sector and ring
+statistics). Everything is vectorised over scans and beams.
 """
 
 from __future__ import annotations

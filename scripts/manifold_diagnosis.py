@@ -82,6 +82,34 @@ def knn_leaf_merge(X: np.ndarray, leaves: np.ndarray, n_clusters: int, k: int = 
     return groups[np.unique(leaves, return_inverse=True)[1]]
 
 
+def embedding_leaf_merge(
+    X: np.ndarray, leaves: np.ndarray, n_clusters: int, k: int = 10, seed: int = 0
+) -> np.ndarray:
+    """A second candidate combine rule, measured here only: the leaves as must-link groups in
+    scikit-learn's kNN spectral embedding.
+
+    The symmetrised k-NN connectivity graph of all points (as ``SpectralClustering(affinity=
+    "nearest_neighbors")`` builds it) is embedded in ``n_clusters`` dimensions
+    (``sklearn.manifold.spectral_embedding``); each leaf is the mean of its points' embedding,
+    and k-means weighted by leaf size groups the leaves. Returns each point's group; the
+    points of one leaf always share it.
+    """
+    from sklearn.cluster import KMeans
+    from sklearn.manifold import spectral_embedding
+    from sklearn.neighbors import kneighbors_graph
+
+    A = kneighbors_graph(X, k, include_self=False)
+    A = 0.5 * (A + A.T)
+    E = spectral_embedding(A, n_components=n_clusters, drop_first=False, random_state=seed)
+    ids, inverse = np.unique(leaves, return_inverse=True)
+    sizes = np.bincount(inverse).astype(np.float64)
+    means = np.zeros((ids.size, n_clusters))
+    np.add.at(means, inverse, E)
+    means /= sizes[:, None]
+    km = KMeans(n_clusters, n_init=10, random_state=seed)
+    return km.fit_predict(means, sample_weight=sizes)[inverse]
+
+
 def variant_rows(X: np.ndarray, y: np.ndarray, variants=VARIANTS) -> list[dict]:
     """Error, leaf count, leaf purity and majority-merge bound of each variant on (X, y)."""
     rows = []

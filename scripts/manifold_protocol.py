@@ -25,6 +25,12 @@ Usage::
         --randomized 1 2 --hard 1 2 --features hsv raw \
         --conditions interleaved held-out randomized hard
 
+Features (``--features``): ``hsv`` and ``raw`` from the camera images; ``scan-range``,
+``scan-inverse``, ``scan-polar`` (``mapping.ScanFeatures``) and ``scan-stats``
+(``mapping.ScanStatistics``: sector and ring statistics) from the laser scans of the same
+frames (issue 13, item 6). ``--methods`` computes a subset of the methods; a later call with
+more methods adds them to the cached cells.
+
 Each dataset's ``meta.json`` must say it was collected for its condition (randomised or not,
 its appearance mode), so that a dataset in the wrong folder is refused, not scored.
 
@@ -41,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from common.fileio import atomic_write_bytes
-from mapping import ColorHistogramFeatures, ImageFeatures
+from mapping import ColorHistogramFeatures, ImageFeatures, ScanFeatures, ScanStatistics
 from scripts.manifold_methods import METHODS, bootstrap_mean, score_methods
 
 K, Q = 8, 35  # the paper's Section III-B
@@ -58,6 +64,14 @@ FEATURES = {
     "hsv": ("HSV histograms 8x4x4, 2x2 cells", ColorHistogramFeatures),
     "raw": ("raw pixels 320x240 RGB (paper)", ImageFeatures),
 }
+# laser scans (issue 13 item 6): name -> (description, the transformer for a sensor's max range)
+SCAN_FEATURES = {
+    "scan-range": ("laser ranges / max range, 361 beams", lambda m: ScanFeatures(m, "range")),
+    "scan-inverse": ("inverse laser ranges", lambda m: ScanFeatures(m, "inverse")),
+    "scan-polar": ("polar grid, 16 sectors x 8 ranges", lambda m: ScanFeatures(m, "polar_grid")),
+    "scan-stats": ("sector and ring statistics (mapping.ScanStatistics)", ScanStatistics),
+}
+ALL_FEATURES = (*FEATURES, *SCAN_FEATURES)
 
 
 def _check_condition(condition: str) -> str:
@@ -94,26 +108,36 @@ def load_for(path: Path, condition: str):
     return data
 
 
-def cell(root: Path, condition: str, features: str, seed: int) -> dict:
-    """Errors of every method in one (condition, features, seed) cell of the protocol."""
+def cell(
+    root: Path, condition: str, features: str, seed: int, methods: tuple[str, ...] = METHODS
+) -> dict:
+    """Errors of ``methods`` (default: every method) in one (condition, features, seed) cell of
+    the protocol."""
     _check_condition(condition)
-    if features not in FEATURES:
-        raise ValueError(f"features must be one of {tuple(FEATURES)}, got {features!r}")
+    if features not in ALL_FEATURES:
+        raise ValueError(f"features must be one of {ALL_FEATURES}, got {features!r}")
     train_data = load_for(dataset_dir(root, seed, condition), condition)
     test_data = train_data
     if condition == "held-out":
         test_data = load_for(dataset_dir(root, seed + 1, condition), condition)
     train, _ = train_data.paper_split()
     _, test = test_data.paper_split()
-    images_train = train_data.concat("images")[train]
-    images_test = test_data.concat("images")[test]
-    transformer = FEATURES[features][1]().fit(images_train)
-    X_train = transformer.transform(images_train)
-    X_test = transformer.transform(images_test)
-    del images_train, images_test
+    if features in SCAN_FEATURES:
+        # the training dataset's sensor limit; both drives use the same laser
+        transformer = SCAN_FEATURES[features][1](train_data.max_range)
+        sensor = "scans"
+    else:
+        transformer = FEATURES[features][1]()
+        sensor = "images"
+    readings_train = train_data.concat(sensor)[train]
+    readings_test = test_data.concat(sensor)[test]
+    transformer.fit(readings_train)
+    X_train = transformer.transform(readings_train)
+    X_test = transformer.transform(readings_test)
+    del readings_train, readings_test
     y_train = train_data.concat("labels")[train]
     y_test = test_data.concat("labels")[test]
-    rows = score_methods(X_train, y_train, K, Q, X_test, y_test)
+    rows = score_methods(X_train, y_train, K, Q, X_test, y_test, methods=tuple(methods))
     return {
         "condition": condition,
         "features": features,
@@ -129,9 +153,16 @@ def _cell_path(out: Path, condition: str, features: str, seed: int) -> Path:
     return out / "cells" / f"{condition}-{features}-{seed}.json"
 
 
-def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=True) -> None:
-    """Compute the cells of ``plan`` not cached yet; a dataset not collected (or not completely)
-    is skipped with a message."""
+def run_cells(
+    root: Path,
+    out: Path,
+    plan: list[tuple[str, str, int]],
+    progress=True,
+    methods: tuple[str, ...] = METHODS,
+) -> None:
+    """Compute the cells of ``plan`` not cached yet, for ``methods``; a cached cell that lacks
+    some of them gets only those added. A dataset not collected (or not completely) is skipped
+    with a message."""
     from tqdm.auto import tqdm
 
     from sim.dataset import DatasetError
@@ -139,7 +170,10 @@ def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=
     (out / "cells").mkdir(parents=True, exist_ok=True)
     for condition, features, seed in tqdm(plan, disable=not progress, desc="protocol cells"):
         path = _cell_path(out, condition, features, seed)
-        if path.exists():
+        cached = json.loads(path.read_text()) if path.exists() else None
+        done = {r["method"] for r in cached["rows"]} if cached else set()
+        missing = tuple(m for m in methods if m not in done)
+        if not missing:
             continue
         needed = [dataset_dir(root, seed, condition)]
         if condition == "held-out":
@@ -148,10 +182,13 @@ def run_cells(root: Path, out: Path, plan: list[tuple[str, str, int]], progress=
             print(f"skipped {condition}/{features}/seed {seed}: dataset not collected yet")
             continue
         try:
-            result = cell(root, condition, features, seed)
+            result = cell(root, condition, features, seed, missing)
         except DatasetError as err:  # e.g. a collection that stopped half-way
             print(f"skipped {condition}/{features}/seed {seed}: {err}")
             continue
+        if cached:  # keep the methods computed before, in the tables' order
+            rows = cached["rows"] + result["rows"]
+            result["rows"] = sorted(rows, key=lambda r: _order(r["method"]))
         atomic_write_bytes(path, (json.dumps(result, indent=2) + "\n").encode())
 
 
@@ -260,9 +297,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, nargs="*", default=[], help="fresh seeds")
     parser.add_argument("--randomized", type=int, nargs="*", default=[], help="randomised seeds")
     parser.add_argument("--hard", type=int, nargs="*", default=[], help="hard-appearance seeds")
-    parser.add_argument("--features", nargs="+", choices=tuple(FEATURES), default=["hsv"])
+    parser.add_argument("--features", nargs="+", choices=ALL_FEATURES, default=["hsv"])
     parser.add_argument(
         "--conditions", nargs="+", choices=CONDITIONS, default=["interleaved", "held-out"]
+    )
+    parser.add_argument(
+        "--methods", nargs="+", choices=METHODS, default=list(METHODS), help="default: all"
     )
     parser.add_argument("--table", action="store_true", help="print the summary table")
     args = parser.parse_args(argv)
@@ -277,7 +317,7 @@ def main(argv: list[str] | None = None) -> int:
         if condition in args.conditions:
             for seed in [DEV_SEED, *seeds]:
                 plan += [(condition, f, seed) for f in args.features]
-    run_cells(args.root, args.out, plan)
+    run_cells(args.root, args.out, plan, methods=tuple(args.methods))
     summary = summarize(load_cells(args.out))
     atomic_write_bytes(args.out / "summary.json", (json.dumps(summary, indent=2) + "\n").encode())
     if args.table:

@@ -22,6 +22,7 @@ from mapping.baselines import NormalizedCutClustering, SelfTuningSpectralCluster
 from mapping.features import ScanFeatures
 from mapping.image_features import ColorHistogramFeatures, ImageFeatures
 from mapping.manifold import ManifoldClustering
+from mapping.scan_statistics import ScanStatistics
 
 ESTIMATORS = [
     ManifoldClustering(n_clusters=2, min_cluster_size=3, n_sigmas=4, n_alphas=3, refine=False),
@@ -33,6 +34,8 @@ ESTIMATORS = [
     SelfTuningSpectralClustering(n_clusters=2, n_neighbors=5, n_init=2),
     ScanFeatures(),
     ScanFeatures(max_range=4.0, representation="polar_grid", n_range_bins=3),
+    # one sector: the suite's data has as few as one feature (beam)
+    ScanStatistics(n_sectors=1, n_rings=3),
 ]
 
 

@@ -51,3 +51,23 @@ def test_a_dataset_without_labels_is_refused(two_seeds, monkeypatch):
     monkeypatch.setattr(ds.Dataset, "has_ground_truth", property(lambda self: False))
     with pytest.raises(ValueError, match="needs the true manifold labels"):
         lb.evaluate(two_seeds[0], [two_seeds[1]], n_clusters=4, min_size=3)
+
+
+def test_bound_only_skips_the_label_free_fits(two_seeds):
+    dev, test = two_seeds
+    result = lb.evaluate(dev, [test], representations=("sector_rings",), clustering=False)
+    assert {r["method"] for r in result["rows"]} == {
+        "5-NN (supervised)",
+        "random forest (supervised)",
+    }
+    assert all(r["representation"] == "sector_rings" for r in result["rows"])
+
+
+def test_scan_transformer_names():
+    from mapping import ScanFeatures, ScanStatistics
+
+    assert isinstance(lb.scan_transformer("sector_rings", 20.0), ScanStatistics)
+    polar = lb.scan_transformer("polar_grid", 20.0)
+    assert isinstance(polar, ScanFeatures) and polar.representation == "polar_grid"
+    with pytest.raises(ValueError, match="representation must be one of"):
+        lb.scan_transformer("sonar", 20.0)

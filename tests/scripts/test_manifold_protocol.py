@@ -105,3 +105,40 @@ def test_a_dataset_made_for_another_condition_is_refused(tmp_path):
     assert dataset_dir(tmp_path, 0, "randomized").name == "m-data-r0"
     with pytest.raises(ValueError, match="condition must be one of"):
         dataset_dir(tmp_path, 0, "sunny")
+
+
+def test_scan_features_run_as_cells_and_later_methods_are_added(tmp_path, monkeypatch):
+    """A scan-feature cell on a tiny lawn dataset: the features come from the scans, a second
+    call with one more method computes only that method and keeps the first one's row."""
+    from scripts import manifold_protocol as mp
+    from sim.camera import CameraConfig
+    from sim.collect import CollectionSettings, collect_dataset
+
+    settings = CollectionSettings(worlds=("lawn",), frames=16, camera=CameraConfig(32, 24))
+    collect_dataset(mp.dataset_dir(tmp_path, 0), settings, jobs=1, progress=False)
+    monkeypatch.setattr(mp, "K", 3)  # 24 map frames cannot hold the paper's K = 8, Q = 35
+    monkeypatch.setattr(mp, "Q", 3)
+    out = tmp_path / "out"
+    plan = [("interleaved", "scan-stats", 0)]
+    mp.run_cells(tmp_path, out, plan, progress=False, methods=(OURS,))
+    (first,) = mp.load_cells(out)
+    assert [r["method"] for r in first["rows"]] == [OURS]
+    assert first["n_train"] == 24 and first["n_test"] == 24
+
+    asked = []
+    real_score = mp.score_methods
+
+    def spy(*args, methods, **kwargs):
+        asked.append(methods)
+        return real_score(*args, methods=methods, **kwargs)
+
+    monkeypatch.setattr(mp, "score_methods", spy)
+    mp.run_cells(tmp_path, out, plan, progress=False, methods=(OURS,))  # nothing to add
+    assert asked == []
+    mp.run_cells(tmp_path, out, plan, progress=False, methods=(NCUT_ORACLE, OURS))
+    assert asked == [(NCUT_ORACLE,)]
+    (both,) = mp.load_cells(out)
+    assert [r["method"] for r in both["rows"]] == [OURS, NCUT_ORACLE]  # the tables' order
+    assert both["rows"][0] == first["rows"][0]
+    with pytest.raises(ValueError, match="features must be one of"):
+        mp.cell(tmp_path, "interleaved", "sonar", 0)

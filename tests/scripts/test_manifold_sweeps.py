@@ -5,6 +5,7 @@ import pytest
 
 from mapping.synthetic import branching_sequences
 from scripts.manifold_diagnosis import (
+    embedding_leaf_merge,
     knn_leaf_merge,
     majority_merge_error,
     neighbour_distances,
@@ -68,6 +69,20 @@ def test_knn_leaf_merge_joins_the_leaves_of_each_line():
     groups = knn_leaf_merge(X, leaves, 2, k=5)
     assert np.array_equal(groups[:40], np.full(40, groups[0]))
     assert np.array_equal(groups[40:], np.full(40, groups[40])) and groups[0] != groups[40]
+
+
+def test_embedding_leaf_merge_keeps_leaves_whole_and_joins_each_line():
+    x = np.linspace(0, 1, 40)
+    X = np.concatenate([np.column_stack([x, 0 * x]), np.column_stack([x, 0 * x + 0.3])])
+    leaves = np.repeat([0, 1, 2, 3], 20)  # two leaves per line
+    groups = embedding_leaf_merge(X, leaves, 2, k=5)
+    assert len(set(groups[:40])) == 1 and len(set(groups[40:])) == 1
+    assert groups[0] != groups[40]
+    # a leaf that mixes both lines stays whole: the leaves are must-link groups
+    mixed = leaves.copy()
+    mixed[[0, 40]] = 4
+    groups = embedding_leaf_merge(X, mixed, 2, k=5)
+    assert groups[0] == groups[40]
 
 
 @pytest.mark.parametrize("name", ["hallway", "lawn"])
