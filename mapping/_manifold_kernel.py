@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import eigh
+from scipy.linalg import LinAlgError, eigh
 
 from mapping.distances import TINY as _TINY
 
@@ -111,7 +111,13 @@ class SpectralBasis:
     @classmethod
     def from_sq_distances(cls, sq_dist: np.ndarray, sigma: float) -> SpectralBasis:
         """Build S at ``sigma`` from a square block of squared distances and decompose it."""
-        lam, Q = eigh(normalized_affinity(sq_dist, sigma), driver="evd")
+        S = normalized_affinity(sq_dist, sigma)
+        try:
+            lam, Q = eigh(S, driver="evd")
+        except LinAlgError:
+            # LAPACK's divide and conquer can fail to converge on near-degenerate spectra
+            # (seen on inverse-range scan features); the relatively robust driver does not.
+            lam, Q = eigh(S, driver="evr")
         # |lam| <= 1 in exact arithmetic; clipping keeps 1 - alpha lam > 0 for alpha < 1.
         return cls(Q, np.clip(lam, -1.0, 1.0), Q * Q)
 

@@ -187,3 +187,28 @@ def test_distances_of_all_clusters_match_each_cluster_alone(dtype, monkeypatch):
     rtol = 1e-9 if dtype == np.float64 else 1e-3
     for model, both in zip(models, sq_distances_all(models, queries), strict=True):
         np.testing.assert_allclose(both, model.sq_distances(queries), rtol=rtol, atol=rtol)
+
+
+def test_spectral_basis_falls_back_when_divide_and_conquer_fails(monkeypatch):
+    """LAPACK's divide-and-conquer eigensolver can fail to converge (seen on inverse-range scan
+    features); the basis is then computed by the relatively robust driver instead."""
+    import scipy.linalg
+
+    from mapping import _manifold_kernel as mk
+
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(30, 3))
+    d = ((x[:, None] - x[None]) ** 2).sum(-1)
+    expected = mk.SpectralBasis.from_sq_distances(d, 1.0)
+
+    def failing(a, driver=None, **kw):
+        if driver == "evd":
+            raise scipy.linalg.LinAlgError("did not converge")
+        return scipy.linalg.eigh(a, driver=driver, **kw)
+
+    monkeypatch.setattr(mk, "eigh", failing)
+    got = mk.SpectralBasis.from_sq_distances(d, 1.0)
+    np.testing.assert_allclose(got.values, expected.values, atol=1e-10)
+    # eigenvectors up to sign: the projector onto the top one is the same
+    np.testing.assert_allclose(np.abs(got.vectors[:, -1]), np.abs(expected.vectors[:, -1]),
+                               atol=1e-8)  # fmt: skip
