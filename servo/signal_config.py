@@ -32,6 +32,7 @@ class SignalServoConfig:
     arrive_min : F toward a view (0..1) that counts as a signal (peak, overtaking).
     arrive_confirm : F toward the target (0..1) whose peak counts as having passed the view.
     overshoot : m beyond the target view the robot drives while looking for the F peak.
+    sweeps : legs of the sweep along the target view's sight before the best F is taken.
     relocalise_after / max_relocalise : steps facing route views without an image fix after
         which the robot observes and localises again, at most ``max_relocalise`` times.
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
@@ -44,7 +45,7 @@ class SignalServoConfig:
     turn_rate: float = 1.2
     observe_every: int = 2
     fix_clusters: int = 2
-    image_trust: float = 0.6
+    image_trust: float = 0.9
     heading_gain: float = 0.5
     along_gain: float = 0.2
     behind: float = 1.5
@@ -56,8 +57,9 @@ class SignalServoConfig:
     arrive_min: float = 0.05
     arrive_confirm: float = 0.3
     overshoot: float = 1.0
+    sweeps: int = 3
     relocalise_after: int = 60
-    max_relocalise: int = 1
+    max_relocalise: int = 0
     stuck_steps: int = 10
     backup_steps: int = 8
 

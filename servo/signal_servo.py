@@ -87,6 +87,16 @@ class WaypointTracker:
             self.driven = 0.0
 
 
+def line_drive(goal: np.ndarray) -> np.ndarray:
+    """(v, omega) toward ``goal`` (x, y, yaw in the robot frame) forward or backward along
+    the robot's heading, never turning away from the goal's heading (the camera keeps
+    facing the way the target view looks)."""
+    v = float(np.clip(1.2 * goal[0], -0.45, 0.6))
+    v = np.sign(goal[0]) * max(abs(v), 0.2)
+    omega = np.clip(2.0 * goal[2] + 1.0 * goal[1] * np.sign(v), -1.0, 1.0)
+    return np.array([v, omega])
+
+
 class SignalServo:
     """Servo to a stored view by F^j(k) with the camera and odometry (see the module doc).
 
@@ -127,6 +137,7 @@ class SignalServo:
         self.route_: list[int] = []
         self.manifold_ = -1
         self.relocalised_ = 0
+        self.bumps_ = 0
         self._odo = None
         self._steps = 0
         self._moves: deque = deque(maxlen=self.config.stuck_steps)
@@ -180,14 +191,23 @@ class SignalServo:
             self._backup -= 1
             return np.array([-0.4 * self._last_direction, 0.0], np.float32)
         action = self._follow(x, step)
-        self._moves.append((abs(action[0]), float(np.hypot(*step[:2]))))
+        # net odometry displacement over the window: pushing a wall, the robot jitters in
+        # place, and per-step distances summed look like motion
+        self._moves.append((abs(action[0]), odo[0], odo[1]))
         if len(self._moves) == self._moves.maxlen:
-            cmd, got = np.array(self._moves).sum(axis=0)
-            if cmd > 0.2 * len(self._moves) and got < 0.2 * cmd * CONTROL_DT:
-                self._moves.clear()
+            m = np.array(self._moves)
+            cmd = m[:, 0].sum() * CONTROL_DT
+            got = float(np.hypot(*(m[-1, 1:3] - m[0, 1:3])))
+            if cmd > 0.02 * len(m) and got < 0.25 * cmd:
+                self._bumped()
                 self._last_direction = int(np.sign(action[0])) or 1
-                self._backup = self.config.backup_steps
         return action.astype(np.float32)
+
+    def _bumped(self) -> None:
+        """Commanded motion odometry did not see: a wall. Back off the way it came."""
+        self._moves.clear()
+        self._backup = self.config.backup_steps
+        self.bumps_ += 1
 
     # -- phases -----------------------------------------------------------------------------
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
@@ -217,7 +237,8 @@ class SignalServo:
         self.belief_ = RouteBelief(path, [0.0, 0.0, wrap_angle(odo[2] - heading)], c.window)
         self._arrival = Arrival()
         self._lost = 0
-        self._f_peak, self._peak_pose, self._peak_used = 0.0, None, 0
+        self._settled, self._f_peak, self._peak_along = False, 0.0, 0.0
+        self._leg, self._legs = 1, 0  # sweep direction along the target's sight, legs done
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
 
@@ -244,8 +265,7 @@ class SignalServo:
         while not t.last and b.s >= arc[t.index] - 0.05:
             t.advance()
         if not t.last and t.directions[t.index] > 0:
-            f_cur = self.localiser.signal(x, t.current)
-            f_next = self.localiser.signal(x, t.next)
+            f_cur, f_next = self.localiser.signals(x, [t.current, t.next])
             if f_cur > self.config.arrive_min and t.update(f_cur, f_next, 1.0, 1.0, 0.0):
                 b.shift_along(max(0.0, arc[t.index - 1] - b.s))
         self.waypoint_ = t.current
@@ -258,39 +278,43 @@ class SignalServo:
             self._observe_start()
             return np.zeros(2)
         self._advance(x)
-        if b.path.length - b.s > c.arrive_distance:
-            self.phase_ = "follow"
+        if self.phase_ == "follow" and b.path.length - b.s > c.arrive_distance:
             return pursue(b.goal(b.s + c.lookahead), c.speed)
-        self.phase_ = "arrive"
+        self.phase_ = "arrive" if self.phase_ == "follow" else self.phase_  # latched
         return self._arrive(x)
 
     def _arrive(self, x: np.ndarray) -> np.ndarray:
         """Arrive at the F peak (Section II-G: F toward the target is largest at the view).
-        Facing the way the target view looks, the robot drives through the view's place
-        (the goal is ``overshoot`` m beyond it) until F toward the target has peaked and
-        fallen by ``arrive_drop``; the belief is then moved so that the peak is the view's
-        place and the arrival law brings the robot back to it. Facing away (a recording
-        driven backwards), the arrival law on the belief turns the robot to the view's
-        heading first, after which the image fixes and the F peak take over."""
+
+        Facing the way the target view looks, the robot sweeps along the view's line of
+        sight (forward ``overshoot`` m past it, then back and forth, each leg longer) until
+        F toward the target has peaked above ``arrive_confirm`` and fallen by
+        ``arrive_drop``; the belief is then moved so that the peak is the view's place and
+        the arrival law brings the robot back to it. Facing away (a recording driven
+        backwards) the arrival law on the belief turns the robot to the view's heading first.
+        """
         c, b = self.config, self.belief_
         target = b.path.frames[-1]
+        facing = abs(wrap_angle(target[2] - b.pose[2])) < c.facing
+        if self._settled or not facing:
+            action = self._arrival(se2_relative(b.pose, target))
+            self.done_ = self._settled and bool(self._arrival.done)
+            self.phase_ = "done" if self.done_ else "arrive"
+            return action
+        u = np.array([np.cos(target[2]), np.sin(target[2])])
+        along = float(u @ (b.pose[:2] - target[:2]))  # m past the view, by the belief
+        f = self.localiser.signal(x, self.target)
+        if f > self._f_peak:
+            self._f_peak, self._peak_along = f, along
+        end = self._leg * c.overshoot * (1.0 + 0.5 * self._legs)
+        at_end = (along - end) * self._leg > -0.1
+        peaked = self._f_peak >= c.arrive_confirm and f < c.arrive_drop * self._f_peak
+        if peaked or (at_end and self._legs >= c.sweeps - 1 and self._f_peak >= c.arrive_min):
+            b.pose[:2] -= u * self._peak_along  # the peak was at the view
+            self._settled, self._arrival = True, Arrival()
+            return self._arrival(se2_relative(b.pose, target))
+        if at_end:
+            self._leg, self._legs = -self._leg, (self._legs + 1) % c.sweeps
         goal = target.copy()
-        if abs(wrap_angle(target[2] - b.pose[2])) < c.facing and self._peak_used == 0:
-            f = self.localiser.signal(x, self.target)
-            if f > self._f_peak:
-                self._f_peak, self._peak_pose = f, b.pose.copy()
-            u = np.array([np.cos(target[2]), np.sin(target[2])])
-            past = float(u @ (b.pose[:2] - target[:2]))  # m beyond the view, by the belief
-            peaked = self._f_peak >= c.arrive_confirm and f < c.arrive_drop * self._f_peak
-            if peaked or (past > c.overshoot - 0.3 and self._f_peak >= c.arrive_min):
-                # the robot passed the view at the peak: the peak is the view's place
-                b.pose[:2] += u * float(u @ (target[:2] - self._peak_pose[:2]))
-                self._peak_used = 1
-                self._arrival = Arrival()
-            else:
-                goal[:2] += c.overshoot * u
-        action = self._arrival(se2_relative(b.pose, goal))
-        self.done_ = bool(self._arrival.done) and self._peak_used > 0
-        if self.done_:
-            self.phase_ = "done"
-        return action
+        goal[:2] += u * end
+        return line_drive(se2_relative(b.pose, goal))
