@@ -10,6 +10,8 @@ import numpy as np
 from common.validation import check_int
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
+_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds")  # integers that may be 0 (off)
+
 
 @dataclass(frozen=True)
 class SignalServoConfig:
@@ -33,6 +35,8 @@ class SignalServoConfig:
     arrive_confirm : F toward the target (0..1) whose peak counts as having passed the view.
     overshoot : m beyond the target view the robot drives while looking for the F peak.
     sweeps : legs of the sweep along the target view's sight before the best F is taken.
+    lateral / lateral_rounds : m to either side where F is probed once settled, and how many
+        times a better side moves the sweep there (:class:`~servo.signal_arrival.PeakArrival`).
     relocalise_after / max_relocalise : steps facing route views without an image fix after
         which the robot observes and localises again, at most ``max_relocalise`` times.
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
@@ -58,6 +62,8 @@ class SignalServoConfig:
     arrive_confirm: float = 0.3
     overshoot: float = 1.0
     sweeps: int = 3
+    lateral: float = 0.6
+    lateral_rounds: int = 2
     relocalise_after: int = 60
     max_relocalise: int = 0
     stuck_steps: int = 10
@@ -67,7 +73,7 @@ class SignalServoConfig:
         for f in fields(self):
             v = getattr(self, f.name)
             if f.type == "int":
-                check_int(v, f.name, minimum=0 if f.name == "max_relocalise" else 1)
+                check_int(v, f.name, minimum=0 if f.name in _MAY_BE_ZERO else 1)
             elif not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{f.name} must be a finite number > 0, got {v!r}")
         if not self.speed <= V_LIMITS[1]:

@@ -34,8 +34,9 @@ from servo.localise import ImageLocaliser
 from servo.map_types import ServoMap
 from servo.route import RouteGraph, RoutePath
 from servo.route_belief import RouteBelief
+from servo.signal_arrival import PeakArrival
 from servo.signal_config import SignalServoConfig
-from servo.steering import Arrival, pursue
+from servo.steering import pursue
 from sim.simulator import CONTROL_DT
 
 __all__ = ["SignalServo", "SignalServoConfig", "WaypointTracker"]
@@ -85,16 +86,6 @@ class WaypointTracker:
         if not self.last:
             self.index += 1
             self.driven = 0.0
-
-
-def line_drive(goal: np.ndarray) -> np.ndarray:
-    """(v, omega) toward ``goal`` (x, y, yaw in the robot frame) forward or backward along
-    the robot's heading, never turning away from the goal's heading (the camera keeps
-    facing the way the target view looks)."""
-    v = float(np.clip(1.2 * goal[0], -0.45, 0.6))
-    v = np.sign(goal[0]) * max(abs(v), 0.2)
-    omega = np.clip(2.0 * goal[2] + 1.0 * goal[1] * np.sign(v), -1.0, 1.0)
-    return np.array([v, omega])
 
 
 class SignalServo:
@@ -235,10 +226,8 @@ class SignalServo:
         # The robot in the route's frame: at the fix's view, turned from its heading by what
         # odometry measured since; odometry carries it, images correct it.
         self.belief_ = RouteBelief(path, [0.0, 0.0, wrap_angle(odo[2] - heading)], c.window)
-        self._arrival = Arrival()
+        self._arrival = PeakArrival(c)
         self._lost = 0
-        self._settled, self._f_peak, self._peak_along = False, 0.0, 0.0
-        self._leg, self._legs = 1, 0  # sweep direction along the target's sight, legs done
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
 
@@ -284,37 +273,10 @@ class SignalServo:
         return self._arrive(x)
 
     def _arrive(self, x: np.ndarray) -> np.ndarray:
-        """Arrive at the F peak (Section II-G: F toward the target is largest at the view).
-
-        Facing the way the target view looks, the robot sweeps along the view's line of
-        sight (forward ``overshoot`` m past it, then back and forth, each leg longer) until
-        F toward the target has peaked above ``arrive_confirm`` and fallen by
-        ``arrive_drop``; the belief is then moved so that the peak is the view's place and
-        the arrival law brings the robot back to it. Facing away (a recording driven
-        backwards) the arrival law on the belief turns the robot to the view's heading first.
-        """
-        c, b = self.config, self.belief_
-        target = b.path.frames[-1]
-        facing = abs(wrap_angle(target[2] - b.pose[2])) < c.facing
-        if self._settled or not facing:
-            action = self._arrival(se2_relative(b.pose, target))
-            self.done_ = self._settled and bool(self._arrival.done)
-            self.phase_ = "done" if self.done_ else "arrive"
-            return action
-        u = np.array([np.cos(target[2]), np.sin(target[2])])
-        along = float(u @ (b.pose[:2] - target[:2]))  # m past the view, by the belief
-        f = self.localiser.signal(x, self.target)
-        if f > self._f_peak:
-            self._f_peak, self._peak_along = f, along
-        end = self._leg * c.overshoot * (1.0 + 0.5 * self._legs)
-        at_end = (along - end) * self._leg > -0.1
-        peaked = self._f_peak >= c.arrive_confirm and f < c.arrive_drop * self._f_peak
-        if peaked or (at_end and self._legs >= c.sweeps - 1 and self._f_peak >= c.arrive_min):
-            b.pose[:2] -= u * self._peak_along  # the peak was at the view
-            self._settled, self._arrival = True, Arrival()
-            return self._arrival(se2_relative(b.pose, target))
-        if at_end:
-            self._leg, self._legs = -self._leg, (self._legs + 1) % c.sweeps
-        goal = target.copy()
-        goal[:2] += u * end
-        return line_drive(se2_relative(b.pose, goal))
+        """At the target: :class:`~servo.signal_arrival.PeakArrival` (the F peak)."""
+        b = self.belief_
+        action = self._arrival.step(b, b.path.frames[-1],
+                                    lambda: self.localiser.signal(x, self.target))  # fmt: skip
+        self.done_ = self._arrival.done
+        self.phase_ = "done" if self.done_ else "arrive"
+        return action
