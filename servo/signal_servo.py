@@ -133,6 +133,8 @@ class SignalServo:
         self._steps = 0
         self._moves: deque = deque(maxlen=self.config.stuck_steps)
         self._backup = 0
+        self._reversing = False
+        self._careful = 0  # steps left of turning on the spot before driving (after a bump)
         self._last_direction = 1
         self._observe_start()
 
@@ -182,6 +184,7 @@ class SignalServo:
             self._backup -= 1
             return np.array([-0.4 * self._last_direction, 0.0], np.float32)
         action = self._follow(x, step)
+        self._reversing = bool(action[0] < 0)
         # net odometry displacement over the window: pushing a wall, the robot jitters in
         # place, and per-step distances summed look like motion
         self._moves.append((abs(action[0]), odo[0], odo[1]))
@@ -198,6 +201,7 @@ class SignalServo:
         """Commanded motion odometry did not see: a wall. Back off the way it came."""
         self._moves.clear()
         self._backup = self.config.backup_steps
+        self._careful = 3 * self.config.backup_steps
         self.bumps_ += 1
 
     # -- phases -----------------------------------------------------------------------------
@@ -233,15 +237,22 @@ class SignalServo:
 
     def _image_fix(self, x: np.ndarray) -> None:
         """Correct the belief by the route view the image matches best among those about the
-        current progress that look the way the robot faces (none: odometry alone)."""
+        current progress that look the way the robot faces (none: odometry alone).
+
+        Not while reversing: the image's shift mixes the heading with the offset across the
+        route (a robot right of a view must turn left to line up with it), which steers a
+        robot driving forward back onto the route but one reversing away from it. At the
+        target only the heading is fixed: the route ends there, so beyond it the best view
+        is always the last, and the F peak places the robot along the view's sight."""
         c, b = self.config, self.belief_
         near = b.facing(b.path.within(b.s, c.behind, c.ahead), c.facing)
-        if len(near) == 0:
+        if len(near) == 0 or self._reversing:
             return
         d, yaw = self.localiser.align(x, [self.route_[i] for i in near])
         k = int(np.argmin(d))
         if d[k] <= c.image_trust:
-            b.fix(int(near[k]), float(yaw[k]), c.heading_gain, c.along_gain)
+            along = c.along_gain if self.phase_ == "follow" else 0.0
+            b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
             self._lost = 0
         else:
             self._lost += 1
@@ -268,7 +279,16 @@ class SignalServo:
             return np.zeros(2)
         self._advance(x)
         if self.phase_ == "follow" and b.path.length - b.s > c.arrive_distance:
-            return pursue(b.goal(b.s + c.lookahead), c.speed)
+            goal = b.goal(b.s + c.lookahead)
+            if self._careful > 0:
+                # Backed off a wall: a wall stops a turn as well as a drive, so face the
+                # route first, then drive slowly (pursuit would drive into it turning).
+                self._careful -= 1
+                bearing = float(np.arctan2(goal[1], goal[0]))
+                if abs(bearing) > 0.3:
+                    return np.array([0.0, np.sign(bearing) * c.turn_rate])
+                return pursue(goal, 0.5 * c.speed)
+            return pursue(goal, c.speed)
         self.phase_ = "arrive" if self.phase_ == "follow" else self.phase_  # latched
         return self._arrive(x)
 
