@@ -64,8 +64,8 @@ class SignalServoConfig:
     sweeps: int = 3
     lateral: float = 0.6
     lateral_rounds: int = 2
-    relocalise_after: int = 60
-    max_relocalise: int = 0
+    relocalise_after: int = 40
+    max_relocalise: int = 1
     stuck_steps: int = 10
     backup_steps: int = 8
 

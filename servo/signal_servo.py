@@ -273,7 +273,8 @@ class SignalServo:
     def _follow(self, x: np.ndarray, step: np.ndarray) -> np.ndarray:
         c, b = self.config, self.belief_
         self._image_fix(x)
-        if self._lost > c.relocalise_after and self.relocalised_ < c.max_relocalise:
+        if (self.phase_ == "follow" and self._lost > c.relocalise_after
+                and self.relocalised_ < c.max_relocalise):  # fmt: skip
             self.relocalised_ += 1
             self._observe_start()
             return np.zeros(2)
