@@ -95,14 +95,15 @@ def test_signals_equal_the_clustering_signal(servo_maps):
     assert f[0] == pytest.approx(1.0) and loc.signal(x, 41) == f[1]
 
 
-def _observe(ctl, image, steps):
-    """Feed a constant image while odometry turns at the observing rate."""
+def _observe(ctl, image, steps) -> float:
+    """Feed a constant image while odometry turns at the observing rate; the last yaw fed."""
     yaw = 0.0
     for _ in range(steps):
         ctl.act({"image": image, "odometry": np.array([0.0, 0.0, yaw])})
-        yaw += ctl.config.turn_rate * 0.1
         if ctl.phase_ != "observe":
-            return
+            return yaw
+        yaw += ctl.config.turn_rate * 0.1
+    return yaw
 
 
 def test_fix_route_and_bump(servo_maps):
@@ -110,12 +111,17 @@ def test_fix_route_and_bump(servo_maps):
     never sees (a wall) makes the robot back off."""
     m = servo_maps["hallway"]
     ctl = SignalServo(m, world="hallway")
-    start, target = 30, int(np.flatnonzero(m.clusters != m.clusters[30])[-1])
+    start = 30
+    # a target ahead on the same recording, on another manifold: the route starts forward
+    ahead = (m.sequence == m.sequence[start]) & (m.frame > m.frame[start])
+    target = int(np.flatnonzero(ahead & (m.clusters != m.clusters[start]))[0])
     ctl.reset(target)
-    _observe(ctl, m.images[start], 200)
+    yaw = _observe(ctl, m.images[start], 200)
     assert ctl.phase_ == "follow" and ctl.route_[0] == start and ctl.route_[-1] == target
     assert ctl.waypoint_ in ctl.route_ and ctl.belief_ is not None
-    odo = np.array([0.0, 0.0, 0.0])
+    assert np.hypot(*ctl.belief_.pose[:2]) == 0.0  # at the fix's view, the route's origin
+    # odometry that faces the way the fix's view looks (the route's first direction)
+    odo = np.array([0.0, 0.0, yaw - ctl.belief_.pose[2]])
     actions = [ctl.act({"image": m.images[start], "odometry": odo}) for _ in range(25)]
     assert ctl.bumps_ >= 1 and any(a[0] < 0 for a in actions)
 
