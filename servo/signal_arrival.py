@@ -81,7 +81,11 @@ class PeakArrival:
             self._peak, self._peak_along = f, along
         end = self._leg * c.overshoot * (1.0 + 0.5 * self._legs)
         at_end = (along - end) * self._leg > -0.1
-        peaked = self._peak >= c.arrive_confirm and f < c.arrive_drop * self._peak
+        # F toward a view is not monotonic along its sight (a door or a tree can give a
+        # secondary peak a metre out): a peak counts once F has fallen well below it and
+        # the robot has gone on a good way past it
+        beyond = (along - self._peak_along) * self._leg > c.arrive_past
+        peaked = self._peak >= c.arrive_confirm and f < c.arrive_drop * self._peak and beyond
         if peaked or (at_end and self._legs >= c.sweeps - 1 and self._peak >= c.arrive_min):
             b.pose[:2] -= u * self._peak_along  # the peak was at the view
             self.stage, self._arrival, self._probe = "settle", Arrival(), []

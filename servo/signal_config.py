@@ -33,6 +33,7 @@ class SignalServoConfig:
     arrive_drop : F toward the target below this share of its peak means past the peak.
     arrive_min : F toward a view (0..1) that counts as a signal (peak, overtaking).
     arrive_confirm : F toward the target (0..1) whose peak counts as having passed the view.
+    arrive_past : m the robot must have gone past an F peak before it counts.
     overshoot : m beyond the target view the robot drives while looking for the F peak.
     sweeps : legs of the sweep along the target view's sight before the best F is taken.
     lateral / lateral_rounds : m to either side where F is probed once settled, and how many
@@ -57,9 +58,10 @@ class SignalServoConfig:
     facing: float = 0.6
     window: float = 2.0
     arrive_distance: float = 1.0
-    arrive_drop: float = 0.6
+    arrive_drop: float = 0.5
     arrive_min: float = 0.05
-    arrive_confirm: float = 0.3
+    arrive_confirm: float = 0.5
+    arrive_past: float = 0.4
     overshoot: float = 1.0
     sweeps: int = 3
     lateral: float = 0.6
