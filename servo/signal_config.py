@@ -89,4 +89,3 @@ class SignalServoConfig:
             raise ValueError(f"image_trust must be in (0, 4), got {self.image_trust}")
         if not self.facing < np.pi:
             raise ValueError(f"facing must be in (0, pi) rad, got {self.facing}")
-
