@@ -11,6 +11,8 @@ O(m^2 d) for small m), so the deep, small nodes of a large fit are exact.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -27,6 +29,16 @@ AUTO_SPARSE_ABOVE = 1000
 _KNN_SPARE = 8
 # Elements of one block of the k-NN distance matrix (~32 MB of float32 and its argpartition).
 _KNN_ELEMENTS = 4_000_000
+# Sigma grid points of a node's search on the scalable path (the graph and the dense sub-nodes
+# of a graph fit). Each sigma costs one eigensolve, alpha none (eigenpairs are reused across
+# alpha), so the search there is coarse in sigma and refined in alpha only (docs: "Scaling").
+COARSE_SIGMAS = 6
+
+
+def coarse_space(space):
+    """The search space of the scalable path: at most :data:`COARSE_SIGMAS` sigmas, no Brent
+    refinement of sigma (alpha keeps its grid and refinement)."""
+    return replace(space, n_sigmas=min(space.n_sigmas, COARSE_SIGMAS), refine_sigma=False)
 
 
 def sigma_bounds(sq_dist: np.ndarray) -> tuple[float, float]:
@@ -51,17 +63,25 @@ def _bounds(nn: np.ndarray, diameter: float) -> tuple[float, float]:
 
 
 class DenseGeometry:
-    """A node given by its squared distances (m, m): the exact path."""
+    """A node given by its squared distances (m, m): the exact path.
 
-    def __init__(self, sq_dist: np.ndarray) -> None:
+    ``coarse``: a sub-node of a graph fit, searched with :func:`coarse_space`.
+    """
+
+    def __init__(self, sq_dist: np.ndarray, coarse: bool = False) -> None:
         self.sq_dist = sq_dist
+        self.coarse = coarse
+
+    def search_space(self, space):
+        """The (sigma, alpha) search of this node: ``space`` itself on the exact path."""
+        return coarse_space(space) if self.coarse else space
 
     @property
     def size(self) -> int:
         return self.sq_dist.shape[0]
 
     def sub(self, idx: np.ndarray) -> DenseGeometry:
-        return DenseGeometry(self.sq_dist[np.ix_(idx, idx)])
+        return DenseGeometry(self.sq_dist[np.ix_(idx, idx)], self.coarse)
 
     def basis(self, sigma: float) -> SpectralBasis:
         return SpectralBasis.from_sq_distances(self.sq_dist, sigma)
@@ -139,11 +159,14 @@ class GraphGeometry:
         Eigenpairs of S kept per sigma (:meth:`LowRankBasis.from_edges`).
     dense_below : int
         Sub-nodes of at most this many points use the exact dense path.
+    n_neighbors : int
+        k of the graph (the neighbours a new point is joined to by eq. 13's graph models).
     """
 
-    def __init__(self, X, edges, indices, rank: int, dense_below: int) -> None:
+    def __init__(self, X, edges, indices, rank: int, dense_below: int, n_neighbors: int = 10):
         self.X, self.edges, self.indices = X, edges, indices
-        self.rank, self.dense_below = rank, dense_below
+        self.rank, self.dense_below, self.n_neighbors = rank, dense_below, n_neighbors
+        self._bases: dict[float, LowRankBasis] = {}
 
     @property
     def size(self) -> int:
@@ -152,12 +175,32 @@ class GraphGeometry:
     def sub(self, idx: np.ndarray) -> DenseGeometry | GraphGeometry:
         idx = np.asarray(idx)
         if idx.shape[0] <= self.dense_below:
-            return DenseGeometry(self.block(idx))
+            return DenseGeometry(self.block(idx), coarse=True)
+        return self.node(idx)
+
+    def node(self, idx: np.ndarray) -> GraphGeometry:
+        """The graph restricted to the points ``idx``, at any size (eq. 13's cluster models
+        use the graph kernel their sigma_j was chosen on, also for small clusters)."""
+        idx = np.asarray(idx)
+        if idx.shape[0] == self.size and np.array_equal(idx, np.arange(self.size)):
+            return self  # the root: its bases serve the split, the combination and eq. 10
         edges = self.edges[idx][:, idx].tocsr()
-        return GraphGeometry(self.X, edges, self.indices[idx], self.rank, self.dense_below)
+        return GraphGeometry(
+            self.X, edges, self.indices[idx], self.rank, self.dense_below, self.n_neighbors
+        )
 
     def basis(self, sigma: float) -> LowRankBasis:
-        return LowRankBasis.from_edges(self.edges, sigma, self.rank)
+        """The low-rank basis of S at sigma, kept for the node's grid (O(COARSE_SIGMAS m r)):
+        the root's are asked for by its split, the combination (same grid) and eq. 10."""
+        if sigma not in self._bases:
+            if len(self._bases) > COARSE_SIGMAS:
+                del self._bases[next(iter(self._bases))]
+            self._bases[sigma] = LowRankBasis.from_edges(self.edges, sigma, self.rank)
+        return self._bases[sigma]
+
+    def search_space(self, space):
+        """The (sigma, alpha) search of a graph node: :func:`coarse_space`."""
+        return coarse_space(space)
 
     def sigma_bounds(self) -> tuple[float, float]:
         """As :func:`sigma_bounds`, with the nearest neighbour and the diameter taken on the
@@ -203,7 +246,8 @@ def training_geometry(
         if not np.ptp(X, axis=0).max() > 0:
             raise ValueError("X: all samples are identical; there is nothing to cluster")
         rank = int(n_components)
-        return GraphGeometry(X, knn_edges(X, n_neighbors), np.arange(n), rank, 4 * rank)
+        k = min(int(n_neighbors), n - 1)
+        return GraphGeometry(X, knn_edges(X, k), np.arange(n), rank, 4 * rank, k)
     D2 = squared_distances(X)
     if not D2.max() > 0:
         raise ValueError("X: all samples are identical; there is nothing to cluster")

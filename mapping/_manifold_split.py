@@ -51,6 +51,8 @@ class SearchSpace:
         Grid points over t.
     refine : bool
         Run the bounded Brent refinement after the grid.
+    refine_sigma : bool
+        With ``refine``, refine sigma too (False: alpha only, at the grid's best sigma).
     omega_sign, seed_rule : str
         Readings of eq. 9 and eq. 12 (see :data:`OMEGA_SIGNS`, :data:`SEED_RULES`).
     """
@@ -59,6 +61,7 @@ class SearchSpace:
     t_bounds: tuple[float, float] = (0.3, 4.0)
     n_alphas: int = 12
     refine: bool = True
+    refine_sigma: bool = True
     omega_sign: str = "corrected"
     seed_rule: str = "weighted"
 
@@ -151,7 +154,7 @@ class _NodeSearch:
     def __init__(self, geometry, min_size: int, space: SearchSpace) -> None:
         self.geometry = geometry
         self.min_size = min_size
-        self.space = space
+        self.space = geometry.search_space(space)
         self._bases: dict[float, object] = {}
 
     def basis(self, sigma: float):
@@ -159,7 +162,9 @@ class _NodeSearch:
             # Keep the few most recent: the grid visits each sigma once and the refinement
             # comes back only to its latest ones; all of them would be ~30 bases per node
             # (30 m^2 floats on the dense path, 30 m r on the sparse one).
-            if len(self._bases) >= _CACHED_BASES:
+            # The coarse search (no sigma refinement) keeps its whole grid: it is small.
+            keep = _CACHED_BASES if self.space.refine_sigma else self.space.n_sigmas + 1
+            if len(self._bases) >= keep:
                 del self._bases[next(iter(self._bases))]
             self._bases[sigma] = self.geometry.basis(sigma)
         return self._bases[sigma]
@@ -220,6 +225,8 @@ class _NodeSearch:
         # Alpha first at the grid sigma (cheap: no new eigendecomposition), then sigma.
         om, t = self.best_alpha(float(np.exp(log_sigmas[i])), t_lo, t_hi, float(ts[j]))
         best = max(best, (om, float(log_sigmas[i]), t))
+        if not self.space.refine_sigma:
+            return best[1], best[2], best[0]
         res = minimize_scalar(
             negative, bounds=(s_lo, s_hi), method="bounded", options={"xatol": 0.02, "maxiter": 12}
         )

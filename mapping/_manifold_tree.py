@@ -21,8 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
-from mapping._manifold_geometry import as_geometry
+from mapping._manifold_geometry import GraphGeometry, as_geometry
 from mapping._manifold_kernel import alpha_from_t
 from mapping._manifold_split import SearchSpace, best_split
 from mapping.split_tree import SplitNode
@@ -108,7 +109,7 @@ class Combination:
     omegas: np.ndarray
 
 
-class _GroupScores:
+class GroupScores:
     """Omega(2) of "group vs rest" for every (sigma, alpha) of a grid, from leaf-level sums.
 
     ``M[s, a]`` is the C x C matrix of ``(sum_{p_b} v) . (sum_{p_c} v)`` for leaves b, c at
@@ -118,12 +119,21 @@ class _GroupScores:
     def __init__(self, geometry, leaves: list[np.ndarray], space: SearchSpace):
         n = geometry.size
         lo, hi = geometry.sigma_bounds()
-        self.sigmas = np.geomspace(lo, hi, space.n_sigmas)
+        n_sigmas = geometry.search_space(space).n_sigmas
+        if isinstance(geometry, GraphGeometry):
+            # the split search's grid to the last bit, so the root's bases are reused here
+            logs = np.linspace(np.log(lo), np.log(hi), n_sigmas)
+            self.sigmas = np.array([float(np.exp(ls)) for ls in logs])
+        else:
+            self.sigmas = np.geomspace(lo, hi, n_sigmas)
         ts = space.t_grid()
         self.alphas = alpha_from_t(ts)
         member = np.zeros((n, len(leaves)))
         for c, idx in enumerate(leaves):
             member[idx, c] = 1.0
+        self.sizes = member.sum(axis=0)
+        if isinstance(geometry, GraphGeometry):
+            member = sp.csr_matrix(member)  # one leaf per point: O(n), not O(n C), per alpha
         mats = []
         for sigma in self.sigmas:
             basis = geometry.basis(float(sigma))
@@ -132,7 +142,6 @@ class _GroupScores:
             per_alpha = [basis.group_gram(g, a, member, inv_nu[:, a]) for a in range(len(ts))]
             mats.append(per_alpha)
         self.M = np.array(mats)  # (S, A, C, C)
-        self.sizes = member.sum(axis=0)
         self.n = n
 
     def omega(self, within: np.ndarray, total: np.ndarray, size: np.ndarray) -> np.ndarray:
@@ -149,6 +158,7 @@ def combine_leaves(
     n_clusters: int,
     space: SearchSpace,
     groups: list[list[int]] | None = None,
+    scores: GroupScores | None = None,
 ) -> Combination:
     """Merge C leaves into K groups greedily, maximising the sum of their Omega(2).
 
@@ -165,12 +175,15 @@ def combine_leaves(
     groups : list of list of int, optional
         A grouping of the leaves decided elsewhere (e.g. :func:`cut_tree`); then only the
         (sigma, alpha) of each group are chosen.
+    scores : GroupScores, optional
+        The leaves' block sums, if already computed (the merge on a graph computes them).
 
     Returns
     -------
     Combination
     """
-    scores = _GroupScores(as_geometry(sq_dist), leaves, space)
+    if scores is None:
+        scores = GroupScores(as_geometry(sq_dist), leaves, space)
     if groups is None:
         groups = _merge(scores, n_clusters)
     # Block sums of each final group: indicator^T M indicator.
@@ -192,7 +205,7 @@ def combine_leaves(
     )
 
 
-def _merge(scores: _GroupScores, n_clusters: int) -> list[list[int]]:
+def _merge(scores: GroupScores, n_clusters: int) -> list[list[int]]:
     """Greedy agglomeration: merge the pair of groups that most raises the sum of Omega(2)."""
     groups = [[c] for c in range(len(scores.sizes))]
     # Group-level state: block sums per (sigma, alpha) and sizes; merging adds rows/columns.
@@ -244,7 +257,7 @@ def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpac
     """
     idx = np.concatenate([a, b])
     na, nb = a.shape[0], b.shape[0]
-    scores = _GroupScores(geometry.sub(idx), [np.arange(na), np.arange(na, na + nb)], space)
+    scores = GroupScores(geometry.sub(idx), [np.arange(na), np.arange(na, na + nb)], space)
     M = scores.M
     e_ab = 1.0 - M[..., 0, 1] / (na * nb)
     e_aa = 1.0 - M[..., 0, 0] / (na * na)
@@ -299,6 +312,47 @@ def separability_merge(
     return groups
 
 
+def shared_kernel_merge(
+    geometry, leaves: list[np.ndarray], n_clusters: int, scores: GroupScores
+) -> list[list[int]]:
+    """:func:`separability_merge` with every pair scored in the kernel of all the points.
+
+    The scalable path's form: a pair's spread ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` is read
+    from the C x C block sums of ``scores`` (one eigensolve per sigma for the whole fit, the
+    ones the combination needs anyway), instead of one search with its own eigensolves per
+    candidate pair. Merging two groups adds their rows and columns, as in :func:`_merge`.
+    """
+    groups = [[c] for c in range(len(leaves))]
+    Mg = scores.M.copy()
+    sizes = scores.sizes.copy()
+    labels = np.empty(geometry.size, dtype=np.intp)
+    for c, idx in enumerate(leaves):
+        labels[idx] = c
+    nearest = geometry.neighbours(_ADJACENCY_NEIGHBOURS)
+    while len(groups) > n_clusters:
+        pairs = _adjacent_pairs(nearest, labels) or {
+            (i, j) for i in range(len(groups)) for j in range(i + 1, len(groups))
+        }
+        a, b = np.array(sorted(pairs)).T
+        diag = np.einsum("saii->sai", Mg)
+        e_ab = 1.0 - Mg[..., a, b] / (sizes[a] * sizes[b])
+        e_aa = 1.0 - diag[..., a] / (sizes[a] * sizes[a])
+        e_bb = 1.0 - diag[..., b] / (sizes[b] * sizes[b])
+        spread = (e_ab - 0.5 * (e_aa + e_bb)).reshape(-1, a.shape[0]).max(axis=0)
+        k = int(np.argmin(spread))
+        i, j = int(a[k]), int(b[k])
+        Mg[..., i, :] += Mg[..., j, :]
+        Mg[..., :, i] += Mg[..., :, j]
+        Mg = np.delete(np.delete(Mg, j, axis=2), j, axis=3)
+        sizes[i] += sizes[j]
+        sizes = np.delete(sizes, j)
+        groups[i] = sorted(groups[i] + groups[j])
+        del groups[j]
+        labels[labels == j] = i
+        labels[labels > j] -= 1
+    return groups
+
+
 def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpace, rule: str):
     """The leaves of ``root`` combined into ``n_clusters`` groups by ``rule`` (one of
     :data:`COMBINE_RULES`; ambiguity 4), with each group's (sigma, alpha, omega)."""
@@ -307,6 +361,11 @@ def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpac
         one = (np.array([root.sigma]), np.array([root.alpha]), np.array([root.omega]))
         return Combination([list(range(len(leaves)))], *one)
     groups = None
+    geometry = as_geometry(sq_dist)
+    if rule == "separability" and isinstance(geometry, GraphGeometry):
+        scores = GroupScores(geometry, leaves, space)
+        groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)
+        return combine_leaves(geometry, leaves, n_clusters, space, groups=groups, scores=scores)
     if rule == "separability":
         groups = separability_merge(sq_dist, leaves, n_clusters, space)
     elif rule == "cut":

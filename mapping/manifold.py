@@ -25,7 +25,8 @@ from mapping._manifold_geometry import (
     GraphGeometry,
     training_geometry,
 )
-from mapping._manifold_predict import ClusterModel, Stack
+from mapping._manifold_graph_model import GraphClusterModel, cluster_model, model_scores
+from mapping._manifold_predict import Stack
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import COMBINE_RULES, build_tree, combine_tree, ensure_leaves
 from mapping._validation import is_plain_query, single_threaded_blas
@@ -95,9 +96,12 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     kernel : {"auto", "dense", "sparse"}, default "auto"
         "dense": the exact n x n kernel. "sparse": affinities on a symmetrised k-NN graph and,
         per node above ``4 * n_components`` points, the top eigenpairs of S with the rest of
-        the spectrum at its mean (``mapping._manifold_lowrank``). "auto": dense up to 1000.
+        the spectrum at its mean (``mapping._manifold_lowrank``), a 6-sigma search per split,
+        and eq. 13 on each cluster's graph (``mapping._manifold_graph_model``). "auto": dense
+        up to 1000 samples (docs/manifold-clustering.md, "Scaling").
     n_neighbors : int, default 10
-        k of the sparse path's graph; n or more means the complete graph.
+        k of the sparse path's graph, also the training points a new point is joined to;
+        n or more means the complete graph.
     n_components : int, default 64
         Eigenpairs of S kept per (node, sigma) on the sparse path.
 
@@ -269,18 +273,14 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         dtype = np.dtype(self.store_dtype)
         for j, idx in enumerate(members):
             labels[idx] = j
-            block = D2.block(idx)
             # eq. 11 in the cluster's own kernel: the centre is the point "most inside".
-            o_j = D2.sub(idx).outliers(sigmas[j], alphas[j])
-            inside[idx] = o_j
-            centre = int(np.argmin(o_j))
-            centres.append(int(idx[centre]))
             alpha_p = alphas[j] if self.predict_alpha is None else float(self.predict_alpha)
-            models.append(
-                ClusterModel.build(
-                    X, idx, block, sigmas[j], alpha_p, centre, dtype, float(self.projection_tol)
-                )
+            model, o_j = cluster_model(
+                X, D2, idx, sigmas[j], alphas[j], alpha_p, dtype, float(self.projection_tol)
             )
+            inside[idx] = o_j
+            centres.append(int(idx[model.centre]))
+            models.append(model)
 
         self.labels_ = labels
         self.centers_ = np.array(centres, dtype=np.intp)
@@ -304,7 +304,10 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
     # ------------------------------------------------------------------ predict
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
-        return Stack.of(self._models).scores(X, self.normalize == "column")
+        normalize = self.normalize == "column"
+        if any(isinstance(m, GraphClusterModel) for m in self._models):
+            return model_scores(self._models, X, normalize)
+        return Stack.of(self._models).scores(X, normalize)
 
     def predict(self, X: ArrayLike) -> np.ndarray:
         """Assign new points by eq. 13: ``y = argmax_j F^j(k)``.

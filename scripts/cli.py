@@ -273,14 +273,17 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--jobs", type=positive_int, default=None, help="collection processes")
     r.add_argument(
-        "--episodes", type=positive_int, default=4, help="servo episodes per world and policy"
+        "--episodes",
+        type=positive_int,
+        default=20,
+        help="servo episodes per world, start tier and policy (the benchmark's test split)",
     )
     r.add_argument(
         "--baselines",
         type=policies,
-        default=("oracle", "random"),
-        help="comma-separated servo baselines beside the servo policy: oracle, random, greedy "
-        "(greedy probing is slow: about 10x a servo episode)",
+        default=("signal", "oracle"),
+        help="comma-separated policies beside the servo policy: signal (servo by F, camera "
+        "only), oracle, random, greedy (greedy probing is slow: about 10x a servo episode)",
     )
     r.add_argument("--videos", type=int, default=1, help="servo episode videos per world")
     r.add_argument("--grouping-loop", action="store_true", help="also group a loop per world")
@@ -308,7 +311,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
     e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
-    e.add_argument("--episodes", type=positive_int, default=20, help="per world")
+    e.add_argument(
+        "--episodes", type=positive_int, default=100, help="per world (the headline tables: 100)"
+    )
     e.add_argument("--tier", default="view", help="start tier: view or anywhere")
     e.add_argument("--split", default="dev", help="episode split: dev (tuning) or test")
     e.add_argument("--policy", choices=POLICIES, default="servo")

@@ -211,11 +211,12 @@ def summarise(records: list[dict]) -> dict:
     return out
 
 
-def plot_trajectories(env: ServoEnv, records: list[dict], path: Path, limit: int = 24) -> Path:
-    """Trails over the top-down map: green succeeded, red failed; targets as outlines."""
+def plot_trajectories(world, records: list[dict], path: Path, limit: int = 24) -> Path:
+    """Trails over the top-down map of ``world`` (a ``scenes.World``): green succeeded, red
+    failed; targets as outlines."""
     from sim.topdown import TopDownView
 
-    view = TopDownView(env.base.world, max_size=720)
+    view = TopDownView(world, max_size=720)
     img = view.draw()
     for r in records[:limit]:
         colour = (30, 150, 40) if r["success"] else (210, 30, 30)
@@ -293,7 +294,9 @@ def evaluate(
         result = summarise(records)
         if out is not None:
             result["plot"] = str(
-                plot_trajectories(env, records, Path(out) / f"{world}-{policy}-trajectories.png")
+                plot_trajectories(
+                    env.base.world, records, Path(out) / f"{world}-{policy}-trajectories.png"
+                )
             )
     finally:
         env.close()

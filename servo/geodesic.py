@@ -11,6 +11,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from scenes import World
+from scenes.regions import OccupancyGrid
 from scenes.robot import RADIUS
 
 RESOLUTION = 0.1  # m per cell
@@ -20,12 +21,18 @@ MARGIN = 0.25  # m beyond the robot's radius: pure pursuit cuts corners
 _GRAPHS: dict = {}
 
 
-def _grid_graph(world: World, resolution: float):
-    """The free cells' 8-connected graph, built once per world (it does not depend on goals)."""
-    key = (id(world), resolution)
+def _grid_graph(space: World | OccupancyGrid, resolution: float):
+    """The free cells' 8-connected graph, built once per world or grid (it does not depend on
+    goals). A world's free space is its ground truth grown by the robot's radius and a margin;
+    a grid (a map's sensed free space) is taken as it is."""
+    key = (id(space), resolution)
     if key not in _GRAPHS:
-        _GRAPHS[key] = _build_graph(world.free_space(resolution, inflation=RADIUS + MARGIN))
-    return _GRAPHS[key]
+        if isinstance(space, OccupancyGrid):
+            grid = space
+        else:
+            grid = space.free_space(resolution, inflation=RADIUS + MARGIN)
+        _GRAPHS[key] = (space, *_build_graph(grid))  # holding space keeps its id unique
+    return _GRAPHS[key][1:]
 
 
 def _build_graph(grid):
@@ -50,9 +57,13 @@ def _build_graph(grid):
 
 
 class GeodesicField:
-    """Distance (m) from every free cell to ``goal`` (x, y) through free space."""
+    """Distance (m) from every free cell to ``goal`` (x, y) through free space: a world's
+    (ground truth, for the oracle and SPL) or an ``OccupancyGrid`` (a map's sensed free
+    space, for a controller; ``resolution`` is then the grid's)."""
 
-    def __init__(self, world: World, goal, resolution: float = RESOLUTION):
+    def __init__(self, world: World | OccupancyGrid, goal, resolution: float = RESOLUTION):
+        if isinstance(world, OccupancyGrid):
+            resolution = world.resolution
         self.grid, graph = _grid_graph(world, float(resolution))
         h, w = self.grid.free.shape
         self.goal = np.asarray(goal, np.float64)[:2]
@@ -61,6 +72,9 @@ class GeodesicField:
 
     def _nearest_free(self, xy) -> tuple[int, int]:
         i, j = self.grid.cell_of(np.asarray(xy))
+        h, w = self.grid.free.shape
+        if 0 <= i < h and 0 <= j < w and self.grid.free[i, j]:
+            return int(i), int(j)
         free = np.argwhere(self.grid.free)
         k = np.argmin((free[:, 0] - i) ** 2 + (free[:, 1] - j) ** 2)
         return int(free[k, 0]), int(free[k, 1])

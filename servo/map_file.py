@@ -27,7 +27,7 @@ from servo.map_types import MapError, MapSettings, ServoMap
 from sim.dataset import read_npz, write_sequence
 
 FORMAT = "topomap-servo-map"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3  # 3: sequences aligned by sensing only (each odometry from its own origin)
 PROBE_VIEWS = 8  # stored views re-checked through the loaded estimators
 _ARRAYS = {  # name: (dtype kinds allowed, shape pattern); n = views, B = beams, E = edges
     "images": ("u", ("n", "H", "W", 3)),

@@ -29,9 +29,18 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
 
 import mapping
-from common.geometry import scan_to_points, se2_relative
+from common.geometry import (
+    scan_to_points,
+    se2_compose,
+    se2_inverse,
+    se2_mean,
+    se2_relative,
+    transform_points,
+    wrap_angle,
+)
 from mapping.features import ImageFeatures
 from mapping.icp import densify_scan, icp
 from mapping.manifold import ManifoldClustering
@@ -39,6 +48,7 @@ from mapping.scan_matching import refine_poses
 from scenes import WORLDS
 from servo.map_file import FORMAT_VERSION, load_map, map_paths, save_map
 from servo.map_types import MapError, MapSettings, ServoMap
+from servo.scan_profile import clip_ranges, profile_distances
 from sim import datahome
 from sim.dataset import Dataset, load_dataset, read_meta
 
@@ -47,6 +57,9 @@ __all__ = ["MapError", "MapSettings", "ServoMap", "build_map", "load_map", "load
 
 # Everything whose code decides a map's content or file: a change to any of them is a new key.
 _KEY_PACKAGES = ("numpy", "scipy", "scikit-learn", "opencv-python-headless")
+LINK_CANDIDATES = 3  # views of the other sequence, nearest in image features, tried by ICP
+CONSENSUS = (0.5, 0.1)  # m, rad: verified pairs agreeing on two sequences' alignment
+MIN_LINKS = 3  # agreeing links needed to join two sequences
 
 
 def _key_sources() -> list[Path]:
@@ -56,6 +69,7 @@ def _key_sources() -> list[Path]:
         servo_dir / "map_store.py",
         servo_dir / "map_types.py",
         servo_dir / "map_file.py",
+        servo_dir / "scan_profile.py",
         sim_dir / "dataset.py",
     ]
 
@@ -92,32 +106,129 @@ def map_key(meta: dict, world: str, settings: MapSettings) -> str:
     return h.hexdigest()[:16]
 
 
+def _verified(res, n_points: int, s: MapSettings) -> bool:
+    """An ICP of two views' scans that says they see the same place."""
+    return bool(res.converged and res.rmse < s.link_rmse and res.n_matches >= 0.7 * n_points)
+
+
+def _sequence_alignment(
+    feats: np.ndarray, poses: np.ndarray, ia: np.ndarray, ib: np.ndarray, ranges: np.ndarray,
+    points: list, dense: list, beam_step: float, s: MapSettings,
+) -> np.ndarray | None:
+    """The rigid transform from sequence b's odometry frame to sequence a's, from what the
+    robot sensed only (each recording's odometry has its own origin): every view of a is
+    paired with the ``LINK_CANDIDATES`` views of b nearest in image features, each pair
+    verified by ICP of the scans (seeded with the heading of the best laser-profile shift).
+    A verified pair implies a transform between the two frames; the answer is the mean of
+    those agreeing with the one most others agree with (within ``CONSENSUS``), so a look-alike
+    place elsewhere (a mirrored branch, a uniform stretch of corridor where ICP slides) is
+    outvoted. None when fewer than ``MIN_LINKS`` agree: the sequences are not joined."""
+    between = []
+    for i in ia[::2]:  # plenty of pairs to vote
+        d = np.sum((feats[ib] - feats[i]) ** 2, axis=1)
+        near = ib[np.argsort(d)[:LINK_CANDIDATES]]
+        _, yaw = profile_distances(ranges[near], ranges[i], beam_step)
+        for j, heading in zip(near, yaw, strict=True):
+            res = icp(points[j], dense[i], init=(0.0, 0.0, -heading))
+            if _verified(res, len(points[j]), s):
+                between.append(se2_compose(se2_compose(poses[i], res.transform),
+                                           se2_inverse(poses[j])))  # fmt: skip
+    if not between:
+        return None
+    between = np.array(between)
+    dxy = np.hypot(*(between[:, None, :2] - between[None, :, :2]).transpose(2, 0, 1))
+    dyaw = np.abs(wrap_angle(between[:, None, 2] - between[None, :, 2]))
+    agree = (dxy < CONSENSUS[0]) & (dyaw < CONSENSUS[1])
+    mode = int(np.argmax(agree.sum(axis=1)))
+    if agree[mode].sum() < MIN_LINKS:
+        return None
+    # One pair of views can slide along a uniform corridor (its scans hold only the side
+    # walls); the two recordings' whole clouds hold the junctions and the furniture that pin
+    # it. ICP of the clouds still slides (its cost is flat along the corridor), so the most
+    # overlapping offset is searched for on a grid around the consensus.
+    cloud_a = _sequence_cloud(poses[ia], [dense[k] for k in ia])
+    cloud_b = _sequence_cloud(poses[ib], [points[k] for k in ib])
+    coarse = _overlap_search(cloud_a, cloud_b, se2_mean(between[agree[mode]]))
+    return _overlap_search(cloud_a, cloud_b, coarse, reach=0.1, step=0.025, yaw_reach=0.02,
+                           yaw_step=0.01)  # fmt: skip
+
+
+def _overlap_search(
+    cloud_a: np.ndarray, cloud_b: np.ndarray, init: np.ndarray, reach: float = 1.0,
+    step: float = 0.1, yaw_reach: float = 0.06, yaw_step: float = 0.02, tol: float = 0.05,
+) -> np.ndarray:
+    """The pose (within ``reach`` m / ``yaw_reach`` rad of ``init``, on a grid) that puts
+    the most of ``cloud_b`` within ``tol`` of ``cloud_a`` (a distance-transform lookup)."""
+    res = tol / 2
+    lo = cloud_a.min(axis=0) - 1.0
+    cells = np.floor((cloud_a - lo) / res).astype(np.int64)
+    shape = tuple(cells.max(axis=0)[::-1] + 2)
+    occupied = np.zeros(shape, bool)
+    occupied[cells[:, 1], cells[:, 0]] = True
+    near = ndimage.distance_transform_edt(~occupied) * res <= tol
+    b = cloud_b[:: max(1, len(cloud_b) // 1500)]
+    offsets = np.arange(-reach, reach + step / 2, step)
+    grid = np.stack(np.meshgrid(offsets, offsets, indexing="ij"), -1).reshape(-1, 2)
+    best = (-1, init)
+    for dyaw in np.arange(-yaw_reach, yaw_reach + yaw_step / 2, yaw_step):
+        pose = np.array([init[0], init[1], init[2] + dyaw])
+        moved = transform_points(pose, b)[None, :, :] + grid[:, None, :]
+        j = np.floor((moved[..., 0] - lo[0]) / res).astype(np.int64)
+        i = np.floor((moved[..., 1] - lo[1]) / res).astype(np.int64)
+        inside = (i >= 0) & (i < shape[0]) & (j >= 0) & (j < shape[1])
+        hit = np.zeros(i.shape, bool)
+        hit[inside] = near[i[inside], j[inside]]
+        score = hit.sum(axis=1)
+        k = int(np.argmax(score))
+        if score[k] > best[0]:
+            best = (int(score[k]), np.array([pose[0] + grid[k, 0], pose[1] + grid[k, 1], pose[2]]))
+    return best[1]
+
+
+def _sequence_cloud(poses: np.ndarray, scans: list, spacing: float = 0.05) -> np.ndarray:
+    """One recording's scans placed by its odometry and thinned to a ``spacing`` grid."""
+    pts = np.concatenate([transform_points(p, q) for p, q in zip(poses, scans, strict=True)])
+    cells = np.unique(np.floor(pts / spacing).astype(np.int64), axis=0)
+    return (cells + 0.5) * spacing
+
+
 def _link_sequences(
-    feats: np.ndarray, poses: np.ndarray, seq: np.ndarray, points: list, dense: list, s: MapSettings
+    feats: np.ndarray, poses: np.ndarray, seq: np.ndarray, ranges: np.ndarray, points: list,
+    dense: list, beam_step: float, s: MapSettings,
 ) -> tuple[list, list]:
-    """Edges between views of different sequences that see the same place: the nearest view of
-    the other sequence in image features (within ``link_radius`` by odometry), kept when ICP
-    of the two scans converges with a small residual. One link per metre is plenty."""
+    """Edges between views of different sequences that see the same place. The sequences are
+    first aligned by sensing (:func:`_sequence_alignment`); then each view is linked to the
+    view of the other sequence nearest in image features among those within ``link_radius``
+    under that alignment, kept when ICP of the two scans (seeded by the alignment, so it
+    cannot slide along a uniform corridor) converges with a small residual."""
     edges, transforms = [], []
     seqs = np.unique(seq)
     for a in seqs:
         for b in seqs[seqs > a]:
             ia, ib = np.flatnonzero(seq == a), np.flatnonzero(seq == b)
+            align = _sequence_alignment(feats, poses, ia, ib, ranges, points, dense, beam_step, s)
+            if align is None:
+                continue
+            placed = se2_compose(align, poses[ib])  # b's views in a's frame
             for i in ia:
-                near = ib[np.hypot(*(poses[ib, :2] - poses[i, :2]).T) < s.link_radius]
+                near = ib[np.hypot(*(placed[:, :2] - poses[i, :2]).T) < s.link_radius]
                 if len(near) == 0:
                     continue
                 d = np.sum((feats[near] - feats[i]) ** 2, axis=1)
                 j = int(near[np.argmin(d)])
-                res = icp(points[j], dense[i], init=se2_relative(poses[i], poses[j]))
-                if (
-                    res.converged
-                    and res.rmse < s.link_rmse
-                    and res.n_matches >= 0.7 * len(points[j])
-                ):
+                init = se2_relative(poses[i], placed[ib == j][0])
+                res = icp(points[j], dense[i], init=init)
+                if _verified(res, len(points[j]), s):
                     edges.append((int(i), j))
                     transforms.append(res.transform)
     return edges, transforms
+
+
+def sequence_origin(odometry: np.ndarray) -> np.ndarray:
+    """Odometry re-expressed from its own first pose: a recording knows where it went, not
+    where it started (the dataset's simulated odometry starts at the true pose)."""
+    odometry = np.asarray(odometry, np.float64)
+    return se2_relative(odometry[0], odometry)
 
 
 def build_map(
@@ -140,7 +251,7 @@ def build_map(
         pts = [scan_to_points(r, s.angles, max_range) for r in s.scans]
         # Scan-matched odometry: the increments between stored views are what the controller
         # chains along a route, so make them as good as the recording allows.
-        refined = refine_poses(pts, s.odometry)
+        refined = refine_poses(pts, sequence_origin(s.odometry))
         cols["images"].append(s.images[keep])
         cols["scans"].append(s.scans[keep])
         cols["poses"].append(refined[keep])
@@ -168,7 +279,9 @@ def build_map(
         if seq[i] == seq[i + 1]:
             edges.append((i, i + 1))
             transforms.append(se2_relative(poses[i], poses[i + 1]))
-    links, link_t = _link_sequences(feats, poses, seq, points, dense, settings)
+    ranges = clip_ranges(scans, max_range)
+    beam_step = float(np.median(np.diff(first.angles)))
+    links, link_t = _link_sequences(feats, poses, seq, ranges, points, dense, beam_step, settings)
     return ServoMap(
         world=world,
         key=map_key(dataset.meta, world, settings),

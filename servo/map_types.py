@@ -31,7 +31,8 @@ class MapSettings:
     image_size : (width, height) of the image features (``ImageFeatures``, unit-normalised so
         brightness changes cancel).
     min_cluster_size : Q of ``ManifoldClustering``.
-    link_radius : m, odometry distance within which views of two sequences may be linked.
+    link_radius : m, distance (the two sequences aligned by sensing) within which views of two
+        sequences may be linked.
     link_rmse : m, largest ICP residual accepted for a link.
     """
 

@@ -137,6 +137,7 @@ def run_protocol(
     workers: int | None = None,
     policy_options: dict | None = None,
     progress: bool = True,
+    plot: str | os.PathLike | None = None,
 ) -> dict:
     """Run the first ``episodes`` episodes of ``protocol`` and summarise them
     (``servo.evaluate.summarise``: success with its Wilson 95% interval, SPL, final errors,
@@ -144,7 +145,8 @@ def run_protocol(
 
     ``servo_map``: a ``ServoMap`` or the path of a saved one (workers load it by path).
     ``workers``: processes (spawned, each with its own env and policy); default: the cores
-    this process may use; 1 runs in this process.
+    this process may use; 1 runs in this process. ``plot``: write the trails over the world's
+    top-down map there (``servo.evaluate.plot_trajectories``; the result's ``plot``).
     """
     from tqdm.auto import tqdm
 
@@ -195,4 +197,9 @@ def run_protocol(
         bar.close()
     result = summarise(records)
     result.update(asdict(protocol), policy=policy, workers=workers)
+    if plot is not None:
+        from scenes import build_world
+        from servo.evaluate import plot_trajectories
+
+        result["plot"] = str(plot_trajectories(build_world(protocol.world), records, Path(plot)))
     return result

@@ -1,8 +1,8 @@
 """Scan matching of the current laser scan against a servo map's stored views.
 
-:class:`ViewMatcher` runs ICP (``mapping.icp``) of the current scan on one stored view's scan,
-or on a local map of several route views' scans (:func:`route_local_map`), and scores a match
-by its overlap both ways, which is what tells places along a uniform corridor apart.
+:class:`ViewMatcher` runs ICP (``mapping.icp``) of the current scan on one stored view's scan
+(or on a given ``(tree, points)`` map) and scores a match by its overlap both ways, which is
+what tells places along a uniform corridor apart: ``ManifoldServo``'s arrival check.
 """
 
 from __future__ import annotations
@@ -10,34 +10,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from common.geometry import se2_relative, transform_points
+from common.geometry import transform_points
 from mapping.icp import densify_scan, icp
 from servo.map_types import ServoMap
 
-__all__ = ["SUBMAP_AHEAD", "SUBMAP_BEHIND", "SUBMAP_SPACING", "ViewMatcher", "route_local_map"]
-
-SUBMAP_BEHIND = 2.0  # m of route behind the anchor whose views' scans join its local map
-SUBMAP_AHEAD = 6.0  # m of route ahead of it (the junction the robot is driving toward)
-SUBMAP_SPACING = 0.05  # m between the local map's points
-
-
-def route_local_map(
-    servo_map: ServoMap, route: list[int], frames: np.ndarray, arc: np.ndarray, k: int
-) -> tuple[cKDTree, np.ndarray]:
-    """The local map around route view ``k``, in its frame: the scans of the route views
-    from ``SUBMAP_BEHIND`` behind to ``SUBMAP_AHEAD`` ahead (``arc``: metres along the route),
-    placed by the chained route ``frames``. Unlike one stored view's scan, it holds what views
-    elsewhere saw (the junction ahead, the end walls), whichever way the robot faces."""
-    near = np.flatnonzero((arc >= arc[k] - SUBMAP_BEHIND) & (arc <= arc[k] + SUBMAP_AHEAD))
-    parts = []
-    for j in near:
-        pts = densify_scan(servo_map.scan_points(route[j]), SUBMAP_SPACING)
-        parts.append(transform_points(se2_relative(frames[k], frames[j]), pts))
-    pts = np.concatenate(parts)
-    # thin to a grid: overlapping scans would otherwise weigh well-seen walls more
-    cells = np.unique(np.floor(pts / SUBMAP_SPACING).astype(np.int64), axis=0)
-    pts = (cells + 0.5) * SUBMAP_SPACING
-    return cKDTree(pts), pts
+__all__ = ["ViewMatcher"]
 
 
 class ViewMatcher:

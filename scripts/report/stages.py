@@ -98,28 +98,31 @@ def stage_servo(
     maps_dir: Path,
     progress: bool,
 ) -> dict:
+    """The servo benchmark's test split (``servo.protocol``): every policy from every start
+    tier, ``settings.episodes`` episodes each, in parallel over the cores; videos of the first
+    policy's own episodes (``servo.evaluate.evaluate``)."""
     from servo.evaluate import evaluate
+    from servo.map_file import map_paths
     from servo.map_store import load_or_build
+    from servo.protocol import Protocol, run_protocol
 
     results, videos = [], {}
     for world in worlds:
         servo_map = load_or_build(world, dataset=data_dir, cache=maps_dir)
+        path, _ = map_paths(maps_dir, world, servo_map.key)
         for policy in settings.policies:
-            n_videos = settings.videos if policy == settings.policies[0] else 0
-            r = evaluate(
-                world,
-                settings.episodes,
-                settings.seed,
-                policy=policy,
-                servo_map=servo_map,
-                out=out_dir,
-                videos=n_videos,
-                progress=progress,
-            )
-            if r.get("plot"):
+            for tier in settings.tiers:
+                plot = out_dir / f"{world}-{policy}-{tier}-trajectories.png"
+                r = run_protocol(Protocol(world, tier, "test"), path, settings.episodes, policy,
+                                 progress=progress, plot=plot)  # fmt: skip
                 r["plot"] = _rel(r["plot"], root)
-            results.append(r)
-            found = sorted(out_dir.glob(f"{world}-{policy}-episode*.mp4"))[:n_videos]
+                r.pop("episodes_detail", None)  # report.json keeps the tables, not every step
+                results.append(r)
+        if settings.videos:
+            policy = settings.policies[0]
+            evaluate(world, settings.videos, settings.seed, policy=policy, servo_map=servo_map,
+                     out=out_dir, videos=settings.videos, progress=progress)  # fmt: skip
+            found = sorted(out_dir.glob(f"{world}-{policy}-episode*.mp4"))[: settings.videos]
             if found:
                 videos[f"{world}/{policy}"] = [_rel(p, root) for p in found]
     return {"results": results, "videos": videos}

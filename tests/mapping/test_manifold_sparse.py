@@ -1,14 +1,21 @@
 """The k-NN graph / low-rank path of ManifoldClustering against the exact dense path."""
 
+import json
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 from sklearn.neighbors import NearestNeighbors
 
+from mapping import persistence
 from mapping._manifold_geometry import GraphGeometry, knn_edges
+from mapping._manifold_graph_model import GraphClusterModel
 from mapping._manifold_kernel import SpectralBasis, unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
+from mapping._manifold_predict import ClusterModel
 from mapping._manifold_split import SearchSpace, split_scores
+from mapping._manifold_tree import GroupScores, shared_kernel_merge
 from mapping.distances import squared_distances
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import clustering_error
@@ -152,3 +159,69 @@ def test_sparse_path_accepts_n_neighbors_beyond_n_and_rejects_zero():
         ManifoldClustering(3, 10, kernel="sparse", n_neighbors=0).fit(X)
     with pytest.raises(ValueError, match="kernel"):
         ManifoldClustering(3, 10, kernel="lowrank").fit(X)
+
+
+def test_graph_cluster_model_is_eq13_when_nothing_is_cut():
+    # Complete graph, every eigenpair kept, the query joined to every point: the low-rank
+    # Woodbury form must be the exact eq. 13 of the dense model (and the same column scale).
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 1, 40)
+    X = np.c_[t, np.sin(3 * t)] + rng.normal(0, 0.01, (40, 2))
+    geo = GraphGeometry(X, knn_edges(X, 40), np.arange(40), rank=40, dense_below=0, n_neighbors=40)
+    basis = LowRankBasis.from_edges(geo.edges, 0.1, rank=40)
+    graph = GraphClusterModel.build(X, geo, basis, 0.1, 0.99, 5, np.dtype(np.float64))
+    dense = ClusterModel.build(X, np.arange(40), squared_distances(X), 0.1, 0.99, 5, np.float64)
+    Q = np.c_[t[::3] + 0.01, np.sin(3 * t[::3]) + 0.02]
+    f_graph = graph.signal(graph.sq_distances(Q), 5)
+    f_dense = dense.signal(dense.sq_distances(Q), 5)
+    np.testing.assert_allclose(f_graph, f_dense, rtol=1e-9)
+    assert graph.scale == pytest.approx(dense.scale, rel=1e-9)
+    # A query farther than every training point's reach gets exactly 0.
+    assert graph.signal(graph.sq_distances(np.array([[1e3, 1e3]])), 5)[0] == 0.0
+
+
+@pytest.mark.parametrize("name", ["parallel_lines", "lines_variable_spacing"])
+def test_graph_fit_predicts_its_own_training_labels(name):
+    # predict joins a point to its k nearest training points of all clusters (the fit's graph):
+    # the training points themselves must get their own clusters back.
+    X, y = SYNTHETIC_SETS[name]()
+    model = ManifoldClustering(3, 20, kernel="sparse").fit(X)
+    assert all(isinstance(m, GraphClusterModel) for m in model._models)
+    assert clustering_error(y, model.labels_) == 0.0
+    np.testing.assert_array_equal(model.predict(X), model.labels_)
+    proba = model.predict_proba(X[::9])
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+
+
+def test_graph_fit_with_a_disconnected_graph():
+    # Three lines 1 apart with 5 neighbours: the graph has three components (no edge between
+    # lines). Each split, the merge and every cluster's kernel work per component.
+    X, y = SYNTHETIC_SETS["parallel_lines"](n_per_line=60)
+    X = X * np.array([1.0, 10.0])
+    E = knn_edges(X, 5)
+    assert connected_components(E, directed=False)[0] == 3
+    model = ManifoldClustering(3, 10, kernel="sparse", n_neighbors=5, n_components=8).fit(X)
+    assert clustering_error(y, model.labels_) == 0.0
+    np.testing.assert_array_equal(model.predict(X), model.labels_)
+
+
+def test_shared_kernel_merge_joins_the_pieces_of_each_line():
+    # The scalable merge reads every pair's spread from one set of block sums: 3 lines cut
+    # into 12 leaves become the 3 lines.
+    X, y = SYNTHETIC_SETS["parallel_lines"](noise=0.002, rng=np.random.default_rng(0))
+    geo = GraphGeometry(X, knn_edges(X, 10), np.arange(X.shape[0]), rank=32, dense_below=64)
+    leaves = [np.flatnonzero((y == c) & (np.arange(len(y)) % 100 // 25 == q))
+              for c in range(3) for q in range(4)]  # fmt: skip
+    space = geo.search_space(SearchSpace())
+    groups = shared_kernel_merge(geo, leaves, 3, GroupScores(geo, leaves, space))
+    assert sorted(map(sorted, groups)) == [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
+
+
+def test_graph_fit_round_trips_through_persistence():
+    X, _ = SYNTHETIC_SETS["parallel_lines"](n_per_line=40)
+    model = ManifoldClustering(3, 10, kernel="sparse", n_components=8).fit(X)
+    meta, arrays = persistence.dump(model, "m")
+    loaded = persistence.load(ManifoldClustering, json.loads(json.dumps(meta)), arrays, "m")
+    assert meta["records"]["_models"]["class"] == "GraphClusterModel"
+    np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
+    np.testing.assert_array_equal(loaded.signal(X, 1), model.signal(X, 1))

@@ -4,6 +4,7 @@
 import json
 import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -412,8 +413,8 @@ def test_run_arguments_default_and_custom():
     assert (args.out, args.seed, args.episodes, args.baselines) == (
         "out",
         0,
-        4,
-        ("oracle", "random"),
+        20,
+        ("signal", "oracle"),
     )
     args = build_parser().parse_args(
         ["run", "--out", "x", "--seed", "7", "--episodes", "2", "--baselines", "greedy,random"]
@@ -491,8 +492,16 @@ def _stub_internals(monkeypatch):
 
     monkeypatch.setattr("scripts.reproduce_manifold.reproduce", reproduce)
     monkeypatch.setattr("scripts.eval_grouping.evaluate_grouping", evaluate_grouping)
+    def run_protocol(protocol, servo_map, episodes, policy="servo", *, plot=None, **kw):
+        Path(plot).write_bytes(PNG)
+        return {**SERVO, "world": protocol.world, "policy": policy, "tier": protocol.tier,
+                "split": protocol.split, "plot": str(plot)}  # fmt: skip
+
     monkeypatch.setattr("servo.evaluate.evaluate", evaluate)
-    monkeypatch.setattr("servo.map_store.load_or_build", lambda *a, **k: None)
+    monkeypatch.setattr("servo.protocol.run_protocol", run_protocol)
+    monkeypatch.setattr(
+        "servo.map_store.load_or_build", lambda *a, **k: SimpleNamespace(key="0123456789abcdef")
+    )
 
 
 def test_run_with_the_default_relative_out_links_every_file(tmp_path, monkeypatch, capsys):

@@ -11,6 +11,7 @@ from servo.baselines import GreedyFProbing, OraclePolicy, RandomPolicy
 from servo.controller import ManifoldServo
 from servo.env import ServoEnv
 from servo.evaluate import episode_seeds, run_episode
+from servo.protocol import Protocol, episode_specs, reset_options
 
 EPISODES = 6  # per world and policy
 # Least successes of EPISODES asserted. Measured on the test split's first 6 seeds: servo 6/6
@@ -45,6 +46,22 @@ def test_success_rate_over_seeded_tasks(envs, world, policy):
     summary = [(r["start_manifold"], r["target_manifold"], r["reason"]) for r in records]
     assert successes >= MIN_SUCCESSES[policy], summary
     assert np.mean([r["spl"] for r in records if r["success"]]) > 0.5
+
+
+@pytest.mark.parametrize("world", ["hallway", "lawn"])
+def test_servo_from_anywhere(envs, world):
+    """The protocol's ``anywhere`` tier (uniform in the start manifold's free space, any
+    heading), its test split's first episodes: measured 6/6 in both worlds (docs/servo.md)."""
+    env = envs[world]
+    env.max_steps = 600
+    pol = ManifoldServo(env.map, world=world)
+    specs = episode_specs(Protocol(world, "anywhere", "test"), env.map.true_labels, EPISODES)
+    try:
+        records = [run_episode(env, pol, s.seed, reset_options(env, s, "anywhere")) for s in specs]
+    finally:
+        env.max_steps = 500
+    summary = [(r["start_manifold"], r["target_manifold"], r["reason"]) for r in records]
+    assert sum(r["success"] for r in records) >= MIN_SUCCESSES["servo"], summary
 
 
 def test_controller_is_deterministic(envs):
@@ -91,6 +108,22 @@ def test_controller_bad_inputs(servo_maps):
         ctl.act({**obs, "scan": np.ones(180, np.float32)})
     with pytest.raises(ValueError, match="odometry"):
         ctl.act({k: v for k, v in obs.items() if k != "odometry"})
+    with pytest.raises(ValueError, match=r"observation\['scan'\] must not hold NaN"):
+        ctl.act({**obs, "scan": np.full(361, np.nan, np.float32)})
+    with pytest.raises(ValueError, match="odometry"):
+        ctl.act({**obs, "odometry": np.array([0.0, np.nan, 0.0])})
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [("speed", 2.0, "speed"), ("turn_rate", 0.0, "turn_rate"), ("lost_fit", 1.5, "lost_fit"),
+     ("lost_steps", 0, "lost_steps"), ("max_drift", -1.0, "max_drift")],
+)
+def test_servo_config_refuses_bad_values(field, value, match):
+    from servo.controller import ServoConfig
+
+    with pytest.raises(ValueError, match=match):
+        ServoConfig(**{field: value})
 
 
 def test_baselines_run(envs):

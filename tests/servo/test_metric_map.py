@@ -1,0 +1,73 @@
+"""The map's views in one frame (pose graph over sensed edges), its point map, distance field
+and sensed free space; global localisation and tracking on it."""
+
+import numpy as np
+import pytest
+
+from common.geometry import se2_compose, se2_relative, transform_points
+from servo.laser_localise import GlobalLocaliser, ScanTracker
+from servo.localise import ImageLocaliser
+from servo.metric_map import MetricMap
+
+
+@pytest.fixture(scope="module")
+def metric_maps(servo_maps):
+    return {w: MetricMap(m) for w, m in servo_maps.items()}
+
+
+def _in_world(m, pose):
+    """A map-frame pose in the world frame (view 0's true pose anchors the map frame)."""
+    return se2_compose(m.true_poses[0], pose)
+
+
+def test_views_in_one_frame_agree_with_the_truth(servo_maps, metric_maps):
+    for w, m in servo_maps.items():
+        placed = _in_world(m, metric_maps[w].poses)
+        err = np.hypot(*(placed[:, :2] - m.true_poses[:, :2]).T)
+        assert np.median(err) < 0.15 and err.max() < 0.5, (w, np.median(err), err.max())
+
+
+def test_free_space_holds_the_recorded_paths_and_no_wall(servo_maps, metric_maps, worlds):
+    for w, m in servo_maps.items():
+        mm = metric_maps[w]
+        assert mm.grid.is_free(mm.poses[:, :2]).mean() > 0.9
+        # sensed free cells lie in the world's free space (in the world frame)
+        centers = mm.grid.cell_centers()[mm.grid.free]
+        world_xy = transform_points(m.true_poses[0], centers)
+        truth = worlds[w].free_space(0.05)
+        assert truth.is_free(world_xy).mean() > 0.98
+
+
+def test_distance_field_is_zero_on_the_points_and_grows_off_them(metric_maps):
+    mm = metric_maps["hallway"]
+    assert mm.distance(mm.points).max() <= 0.05
+    far = mm.points.min(axis=0) - 50.0
+    assert mm.distance(far[None])[0] == 10.0
+
+
+def test_global_localisation_from_a_stored_view_all_round(servo_maps, metric_maps):
+    """Two stored views' scans back to back make an all-round scan; it is placed where the
+    views were, and the images of the views pick the right one among look-alikes."""
+    m = servo_maps["lawn"]
+    mm = metric_maps["lawn"]
+    loc = GlobalLocaliser(mm, ImageLocaliser(m))
+    hits = 0
+    for view in range(10, len(m), 37):
+        cloud = mm.points[np.hypot(*(mm.points - mm.poses[view, :2]).T) < 8.0]
+        cloud = transform_points(se2_relative(mm.poses[view], np.zeros(3)), cloud)
+        fix = loc.localise(cloud, [(m.features[view], 0.0)])
+        hits += np.hypot(*(fix.pose[:2] - mm.poses[view, :2])) < 0.3
+    assert hits >= 4
+
+
+def test_tracker_corrects_a_small_error_and_refuses_a_large_one(servo_maps, metric_maps):
+    m, mm = servo_maps["hallway"], metric_maps["hallway"]
+    tracker = ScanTracker(mm)
+    view = 40
+    pts = m.scan_points(view)[::4]
+    start = se2_compose(mm.poses[view], [0.1, -0.2, 0.08])
+    _, fit, ok = tracker.correct(pts, start)
+    before = mm.fit(pts, start, 0.1)[0]
+    assert ok and fit > 0.85 and fit > before + 0.3, (fit, before)
+    _, fit, ok = tracker.correct(pts, se2_compose(mm.poses[view], [0.0, 0.0, 2.5]))
+    assert not ok and fit < 0.5
