@@ -11,6 +11,7 @@ import numpy as np
 
 from common.geometry import se2_relative
 from common.validation import check_int
+from mapping._validation import single_threaded_blas
 from scenes import World
 from servo.geodesic import GeodesicField
 from servo.localise import ImageLocaliser
@@ -92,6 +93,10 @@ class GreedyFProbing:
         self.waypoint_ = self.tracker.current
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
+        with single_threaded_blas():  # small products: BLAS threads only spin (SignalServo)
+            return self._act(observation)
+
+    def _act(self, observation) -> np.ndarray:
         x = self.localiser.features(observation["image"])
         if self.waypoints and self.tracker is None:
             self._start(x)

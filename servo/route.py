@@ -82,3 +82,49 @@ class RouteGraph:
         """The clusters the route crosses, in order (the manifold graph's path)."""
         c = self.map.clusters[route]
         return [int(v) for v in c[np.r_[True, c[1:] != c[:-1]]]]
+
+
+class RoutePath:
+    """A route's views as a polyline in the route frame (the first view's), by arc length.
+
+    ``frames`` (n, 3): each route view's pose there (:meth:`RouteGraph.frames`); the robot's
+    progress along the route is the arc length of the nearest point of the polyline.
+    """
+
+    def __init__(self, frames: np.ndarray):
+        frames = np.asarray(frames, np.float64)
+        if frames.ndim != 2 or frames.shape[1] != 3 or len(frames) == 0:
+            raise ValueError(f"frames must be (n, 3) poses, n >= 1, got shape {frames.shape}")
+        if not np.all(np.isfinite(frames)):
+            raise ValueError("frames must be finite")
+        self.frames = frames
+        self.arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(frames[:, :2], axis=0).T))]
+
+    @property
+    def length(self) -> float:
+        return float(self.arc[-1])
+
+    def point(self, s: float) -> np.ndarray:
+        """The (x, y) at arc length ``s`` (clipped to the route)."""
+        s = float(np.clip(s, 0.0, self.length))
+        return np.array([np.interp(s, self.arc, self.frames[:, k]) for k in (0, 1)])
+
+    def project(self, xy, near: float, window: float) -> float:
+        """Arc length of the point of the polyline nearest ``xy`` among the segments within
+        ``window`` m of arc ``near``: a window, so that where the route passes a place twice
+        (a junction driven out and back) progress does not jump to the other pass."""
+        xy = np.asarray(xy, np.float64)
+        if len(self.frames) == 1:
+            return 0.0
+        a, b = self.frames[:-1, :2], self.frames[1:, :2]
+        ab = b - a
+        t = np.clip(np.einsum("ij,ij->i", xy - a, ab) / np.maximum((ab * ab).sum(1), 1e-12), 0, 1)
+        d = np.hypot(*(a + t[:, None] * ab - xy).T)
+        s = self.arc[:-1] + t * np.diff(self.arc)
+        d[np.abs(s - near) > window] = np.inf
+        k = int(np.argmin(d))
+        return float(s[k]) if np.isfinite(d[k]) else float(np.clip(near, 0.0, self.length))
+
+    def within(self, s: float, behind: float, ahead: float) -> np.ndarray:
+        """Indices of the route views whose arc length lies in [s - behind, s + ahead]."""
+        return np.flatnonzero((self.arc >= s - behind) & (self.arc <= s + ahead))

@@ -1,17 +1,23 @@
 """``SignalServo``: servo between manifolds by F^j(k) (Section II-G), camera and odometry only.
 
-1. *Observe and localise.* Turn in place once around; at every few degrees compare the image
-   with the stored views (:class:`~servo.localise.ImageLocaliser`: the clusters eq. 13 ranks
-   first, then the best horizontally-aligned view). The best match over the turn is the global
-   fix: a stored view and the odometry heading that faces the way it looks.
+1. *Observe and localise.* Turn in place once around; every few degrees compare the image
+   with the stored views (:meth:`~servo.localise.ImageLocaliser.localise`: the clusters eq. 13
+   ranks first, then the best horizontally-aligned view). The best match over the turn is the
+   global fix: a stored view, and the odometry heading that faces the way it looks.
 2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
-   view to the target, cut into waypoint views about ``spacing`` apart.
-3. *Servo.* Toward the current waypoint: heading from image alignment (the best horizontal
-   shift against the waypoint image; odometry carries the heading across the turns between
-   waypoints, where the images share nothing), forward or in reverse as the recording is
-   driven (:func:`steer`). :class:`WaypointTracker` moves on when F toward the next waypoint
-   overtakes F toward the current one (view-sequence navigation).
-4. *Arrive.* On the target, drive while F toward it rises and stop past its peak.
+   view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
+   into waypoint views about ``spacing`` apart.
+3. *Servo.* Toward the waypoints along the route: the pose in the route frame is carried by
+   odometry and fixed by the images (:class:`~servo.route_belief.RouteBelief`): the heading
+   from the best horizontal shift against the route views the camera faces, the position
+   along the route from which of them matches best. :class:`WaypointTracker` moves on when F
+   toward the next waypoint overtakes F toward the current one (view-sequence navigation),
+   which also tells the robot it is past the current one. Where the recording is driven
+   backwards (the stored images face away) odometry carries the pose alone.
+4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
+   take the peak as the view's place (the robot went past it) and come back.
+5. *Recover.* Commanded motion that odometry does not see is a wall: back off. Facing route
+   views that no image matches for long means the fix was wrong: observe and localise again.
 
 The controller never reads the simulator's truth; ``info`` is ignored.
 """
@@ -19,75 +25,21 @@ The controller never reads the simulator's truth; ``info`` is ignored.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 
-from common.geometry import se2_compose, se2_relative, wrap_angle
-from common.validation import check_int
+from common.geometry import se2_relative, wrap_angle
+from mapping._validation import single_threaded_blas
 from servo.localise import ImageLocaliser
 from servo.map_types import ServoMap
-from servo.route import RouteGraph
-from servo.steering import Arrival, pursue
+from servo.route import RouteGraph, RoutePath
+from servo.route_belief import RouteBelief
+from servo.signal_arrival import PeakArrival
+from servo.signal_config import SignalServoConfig
+from servo.steering import pursue
 from sim.simulator import CONTROL_DT
 
-
-@dataclass(frozen=True)
-class SignalServoConfig:
-    """Everything that tunes :class:`SignalServo` (tuned on the ``dev`` split only).
-
-    speed / reverse_speed : m/s forward and backward (a recording driven backwards).
-    spacing : m between waypoint views.
-    turn_rate : rad/s of the observing turn and of turns toward an odometry heading.
-    observe_every : steps between localisations during the observing turn.
-    heading_gain : omega per rad of heading error.
-    image_trust : largest aligned image distance (0..4) at which the image's heading is used.
-    odometry_turn : rad of heading error beyond which the robot turns on the spot.
-    overrun : a waypoint is given up after driving ``overrun`` times its distance plus 0.5 m.
-    arrive_drop : stop once F toward the target falls below this share of its peak.
-    arrive_min : F toward the target (0..1) the peak must reach first.
-    reach : m from a waypoint (by odometry) that counts as reaching it when its recording is
-        driven backwards (its images face away).
-    stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
-        does not see means a wall: drive the other way for ``backup_steps`` steps.
-    """
-
-    speed: float = 0.8
-    reverse_speed: float = 0.45
-    spacing: float = 0.8
-    turn_rate: float = 1.2
-    observe_every: int = 2
-    heading_gain: float = 2.0
-    image_trust: float = 0.6
-    odometry_turn: float = 0.3
-    overrun: float = 2.0
-    arrive_drop: float = 0.6
-    arrive_min: float = 0.05
-    stuck_steps: int = 10
-    reach: float = 0.4
-    backup_steps: int = 8
-
-    def __post_init__(self):
-        for name in ("speed", "reverse_speed", "spacing", "turn_rate", "heading_gain",
-                     "image_trust", "odometry_turn", "overrun"):  # fmt: skip
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not 0 < self.speed <= 1.5 or not 0 < self.reverse_speed <= 0.5:
-            raise ValueError("speed must be in (0, 1.5] and reverse_speed in (0, 0.5] m/s")
-        check_int(self.observe_every, "observe_every")
-        if not 0 < self.arrive_drop < 1:
-            raise ValueError(f"arrive_drop must be in (0, 1), got {self.arrive_drop}")
-
-
-def steer(heading_error: float, direction: int, config: SignalServoConfig) -> np.ndarray:
-    """(v, omega) toward a waypoint whose heading is ``heading_error`` rad to the left:
-    turn on the spot when far off, else drive (``direction`` +1 forward, -1 reverse) and
-    slow down as the error grows."""
-    omega = float(np.clip(config.heading_gain * heading_error, -1.2, 1.2))
-    if abs(heading_error) > config.odometry_turn:
-        return np.array([0.0, omega])
-    v = config.speed if direction > 0 else -config.reverse_speed
-    return np.array([v * (1.0 - 0.7 * abs(heading_error) / config.odometry_turn), omega])
+__all__ = ["SignalServo", "SignalServoConfig", "WaypointTracker"]
 
 
 class WaypointTracker:
@@ -148,8 +100,10 @@ class SignalServo:
     Attributes (after ``act``)
     ----------
     phase_ : "observe", "follow", "arrive" or "done".
-    route_ : stored views of the route; ``waypoint_``: the current waypoint view.
-    manifold_ : cluster of the current image by eq. 13 (``predict``).
+    route_ : stored views of the route; ``waypoint_``: the current waypoint view (None while
+        observing).
+    manifold_ : cluster of the current image by eq. 13 (``predict``), at the global fix.
+    belief_ : :class:`~servo.route_belief.RouteBelief` (None while observing).
     done_ : bool
     """
 
@@ -160,9 +114,9 @@ class SignalServo:
         if world is not None:
             servo_map.check_world(world)
         self.map = servo_map
-        self.config = config or SignalServoConfig()
+        self.config = SignalServoConfig() if config is None else config
         if not isinstance(self.config, SignalServoConfig):
-            raise TypeError("config must be a SignalServoConfig")
+            raise TypeError(f"config must be a SignalServoConfig, got {type(config).__name__}")
         self.localiser = ImageLocaliser(servo_map)
         self.routes = RouteGraph(servo_map)
         self.target = None
@@ -170,19 +124,26 @@ class SignalServo:
     def reset(self, target: int, info: dict | None = None) -> None:
         """Start an episode toward stored view ``target`` (``info`` is ignored)."""
         self.target = self.map.check_view(target, "target")
-        self.phase_ = "observe"
         self.done_ = False
         self.route_: list[int] = []
-        self.waypoint_: int | None = None
         self.manifold_ = -1
+        self.relocalised_ = 0
+        self.bumps_ = 0
         self._odo = None
-        self._turned = 0.0
         self._steps = 0
-        self._best = (np.inf, None, 0.0)  # aligned distance, view, odometry heading facing it
-        self._f_peak = 0.0
         self._moves: deque = deque(maxlen=self.config.stuck_steps)
         self._backup = 0
+        self._reversing = False
+        self._careful = 0  # steps left of turning on the spot before driving (after a bump)
         self._last_direction = 1
+        self._observe_start()
+
+    def _observe_start(self) -> None:
+        self.phase_ = "observe"
+        self.waypoint_: int | None = None
+        self.belief_: RouteBelief | None = None
+        self._turned = 0.0
+        self._best = (np.inf, None, 0.0)  # aligned distance, view, odometry heading facing it
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
         if not isinstance(observation, dict):
@@ -200,96 +161,143 @@ class SignalServo:
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
         """The command (v, omega) for this observation (``info`` is ignored)."""
+        # One BLAS thread: the products here are small (an image against a few views, one
+        # projection per cluster) and on a busy machine spinning BLAS threads made a step
+        # 15x slower (sq. distances to a cluster: 0.4 ms -> 16 ms).
+        with single_threaded_blas():
+            return self._act(observation)
+
+    def _act(self, observation) -> np.ndarray:
         if self.target is None:
             raise RuntimeError("call reset(target) before act(observation)")
         x, odo = self._check(observation)
-        moved = 0.0 if self._odo is None else float(np.hypot(*(odo[:2] - self._odo[:2])))
-        self._prev_odo = odo if self._odo is None else self._odo
-        if self._odo is not None:
-            self._turned += abs(wrap_angle(odo[2] - self._odo[2]))
+        prev = odo if self._odo is None else self._odo
+        step = se2_relative(prev, odo)
+        self._turned += abs(float(step[2]))
         self._odo = odo
         self._steps += 1
+        if self.belief_ is not None:
+            self.belief_.predict(step)
         if self.phase_ == "observe":
             return self._observe(x, odo).astype(np.float32)
-        if self.phase_ == "done":
-            return np.zeros(2, np.float32)
         if self._backup > 0:
             self._backup -= 1
             return np.array([-0.4 * self._last_direction, 0.0], np.float32)
-        action = self._follow(x, odo, se2_relative(self._prev_odo, odo))
-        self._moves.append((abs(action[0]), moved))
+        action = self._follow(x, step)
+        self._reversing = bool(action[0] < 0)
+        # net odometry displacement over the window: pushing a wall, the robot jitters in
+        # place, and per-step distances summed look like motion
+        self._moves.append((abs(action[0]), odo[0], odo[1]))
         if len(self._moves) == self._moves.maxlen:
-            cmd, got = np.array(self._moves).sum(axis=0)
-            if cmd > 0.2 * len(self._moves) and got < 0.2 * cmd * CONTROL_DT:
-                self._moves.clear()
-                self._last_direction = int(np.sign(action[0]))
-                self._backup = self.config.backup_steps
+            m = np.array(self._moves)
+            cmd = m[:, 0].sum() * CONTROL_DT
+            got = float(np.hypot(*(m[-1, 1:3] - m[0, 1:3])))
+            if cmd > 0.02 * len(m) and got < 0.25 * cmd:
+                self._bumped()
+                self._last_direction = int(np.sign(action[0])) or 1
         return action.astype(np.float32)
+
+    def _bumped(self) -> None:
+        """Commanded motion odometry did not see: a wall. Back off the way it came."""
+        self._moves.clear()
+        self._backup = self.config.backup_steps
+        self._careful = 3 * self.config.backup_steps
+        self.bumps_ += 1
 
     # -- phases -----------------------------------------------------------------------------
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
         c = self.config
-        if self._steps % c.observe_every == 1 or c.observe_every == 1:
-            view, yaw, d = self.localiser.localise(x)
+        if self._steps % c.observe_every == 0 or c.observe_every == 1:
+            view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
             if d < self._best[0]:
                 self._best = (d, view, float(odo[2] + yaw))
-        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT:
+        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT or self._best[1] is None:
             return np.array([0.0, c.turn_rate])
+        self._plan(odo)
+        return np.zeros(2)
+
+    def _plan(self, odo: np.ndarray) -> None:
+        """Route from the global fix's view to the target and start following it."""
+        c = self.config
         _, view, heading = self._best
         self.manifold_ = int(self.map.clusters[view])
         self.route_ = self.routes.route(view, self.target)
-        self._frames = self.routes.frames(self.route_)
-        waypoints, directions = self.routes.waypoints(self.route_, self.config.spacing)
-        self._index = {w: self.route_.index(w) for w in waypoints}
-        pos = self._frames[[0, *self._index.values()], :2]
-        gaps = np.hypot(*np.diff(pos, axis=0).T)
-        self.tracker = WaypointTracker(waypoints, directions, gaps, c.overrun)
+        path = RoutePath(self.routes.frames(self.route_))
+        waypoints, directions = self.routes.waypoints(self.route_, c.spacing)
+        self._wp_index = np.array([self.route_.index(w) for w in waypoints])
+        gaps = np.diff(np.r_[0.0, path.arc[self._wp_index]])
+        self.tracker = WaypointTracker(waypoints, directions, gaps, np.inf)
         # The robot in the route's frame: at the fix's view, turned from its heading by what
-        # odometry measured since; odometry carries it, waypoint images reset it.
-        self._pose = np.array([0.0, 0.0, wrap_angle(odo[2] - heading)])
-        self._arrival = Arrival()
+        # odometry measured since; odometry carries it, images correct it.
+        self.belief_ = RouteBelief(path, [0.0, 0.0, wrap_angle(odo[2] - heading)], c.window)
+        self._arrival = PeakArrival(c)
+        self._lost = 0
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
-        return np.zeros(2)
 
-    def _follow(self, x: np.ndarray, odo: np.ndarray, odo_step: np.ndarray) -> np.ndarray:
-        c, t = self.config, self.tracker
-        self._pose = se2_compose(self._pose, odo_step)
-        frame = self._frames[self._index[t.current]]
-        goal = se2_relative(self._pose, frame)  # the waypoint view's pose in the robot frame
-        if t.directions[t.index] < 0:
-            # The recording is driven backwards: its images face away from the way to go and
-            # tell nothing ahead, so drive facing the way by odometry from the last image fix.
-            if t.last:
-                action = self._arrival(goal)
-                if self._arrival.done:
-                    self.phase_, self.done_ = "done", True
-                return action
-            if np.hypot(*goal[:2]) < c.reach:
-                t.advance()
-                self.waypoint_ = t.current
-            return pursue(goal[:2], c.speed)
-        nxt = t.next if t.next is not None else t.current
-        d, yaw = self.localiser.align(x, [t.current, nxt])
-        seen = d[0] <= c.image_trust and abs(wrap_angle(frame[2] - yaw[0] - self._pose[2])) < 0.5
-        if seen:
-            # the image fixes the heading relative to the view: robot yaw = view yaw - error
-            self._pose[2] = wrap_angle(frame[2] - yaw[0])
-            goal = se2_relative(self._pose, frame)
-        if abs(goal[2]) > c.odometry_turn:
-            return steer(float(goal[2]), 1, c)  # turn to face the view (odometry) first
-        error = float(yaw[0]) if seen else float(goal[2])
-        f_cur = self.localiser.signal(x, t.current)
-        if not t.last:
-            f_next = self.localiser.signal(x, nxt)
-            if t.update(f_cur, f_next, d[0], d[1], float(np.hypot(*odo_step[:2]))):
-                # F has peaked on the waypoint just left: the robot is about there
-                self._pose[:2] = frame[:2]
-                self.waypoint_ = t.current
+    def _image_fix(self, x: np.ndarray) -> None:
+        """Correct the belief by the route view the image matches best among those about the
+        current progress that look the way the robot faces (none: odometry alone).
+
+        Not while reversing: the image's shift mixes the heading with the offset across the
+        route (a robot right of a view must turn left to line up with it), which steers a
+        robot driving forward back onto the route but one reversing away from it. At the
+        target only the heading is fixed: the route ends there, so beyond it the best view
+        is always the last, and the F peak places the robot along the view's sight."""
+        c, b = self.config, self.belief_
+        near = b.facing(b.path.within(b.s, c.behind, c.ahead), c.facing)
+        if len(near) == 0 or self._reversing:
+            return
+        d, yaw = self.localiser.align(x, [self.route_[i] for i in near])
+        k = int(np.argmin(d))
+        if d[k] <= c.image_trust:
+            along = c.along_gain if self.phase_ == "follow" else 0.0
+            b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
+            self._lost = 0
         else:
-            self.phase_ = "arrive"
-            self._f_peak = max(self._f_peak, f_cur)
-            if self._f_peak >= c.arrive_min and f_cur < c.arrive_drop * self._f_peak:
-                self.phase_, self.done_ = "done", True
-                return np.zeros(2)
-        return steer(error, 1, c)
+            self._lost += 1
+
+    def _advance(self, x: np.ndarray) -> None:
+        """Next waypoint when F toward it overtakes F toward the current one (then the robot
+        is past the current one), or when the belief has passed the current one."""
+        t, b = self.tracker, self.belief_
+        arc = b.path.arc[self._wp_index]
+        while not t.last and b.s >= arc[t.index] - 0.05:
+            t.advance()
+        if not t.last and t.directions[t.index] > 0:
+            f_cur, f_next = self.localiser.signals(x, [t.current, t.next])
+            if f_cur > self.config.arrive_min and t.update(f_cur, f_next, 1.0, 1.0, 0.0):
+                b.shift_along(max(0.0, arc[t.index - 1] - b.s))
+        self.waypoint_ = t.current
+
+    def _follow(self, x: np.ndarray, step: np.ndarray) -> np.ndarray:
+        c, b = self.config, self.belief_
+        self._image_fix(x)
+        if (self.phase_ == "follow" and self._lost > c.relocalise_after
+                and self.relocalised_ < c.max_relocalise):  # fmt: skip
+            self.relocalised_ += 1
+            self._observe_start()
+            return np.zeros(2)
+        self._advance(x)
+        if self.phase_ == "follow" and b.path.length - b.s > c.arrive_distance:
+            goal = b.goal(b.s + c.lookahead)
+            if self._careful > 0:
+                # Backed off a wall: a wall stops a turn as well as a drive, so face the
+                # route first, then drive slowly (pursuit would drive into it turning).
+                self._careful -= 1
+                bearing = float(np.arctan2(goal[1], goal[0]))
+                if abs(bearing) > 0.3:
+                    return np.array([0.0, np.sign(bearing) * c.turn_rate])
+                return pursue(goal, 0.5 * c.speed)
+            return pursue(goal, c.speed)
+        self.phase_ = "arrive" if self.phase_ == "follow" else self.phase_  # latched
+        return self._arrive(x)
+
+    def _arrive(self, x: np.ndarray) -> np.ndarray:
+        """At the target: :class:`~servo.signal_arrival.PeakArrival` (the F peak)."""
+        b = self.belief_
+        action = self._arrival.step(b, b.path.frames[-1],
+                                    lambda: self.localiser.signal(x, self.target))  # fmt: skip
+        self.done_ = self._arrival.done
+        self.phase_ = "done" if self.done_ else "arrive"
+        return action

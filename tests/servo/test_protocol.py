@@ -10,7 +10,7 @@ from servo.evaluate import signal_agreement, summarise
 from servo.localise import ImageLocaliser
 from servo.protocol import Protocol, episode_specs, reset_options
 from servo.route import RouteGraph
-from servo.signal_servo import SignalServo, SignalServoConfig, WaypointTracker, steer
+from servo.signal_servo import SignalServo, WaypointTracker
 from servo.stats import wilson_interval
 
 
@@ -140,16 +140,6 @@ def test_waypoint_tracker_advances_when_f_overtakes():
     assert t.current == 4 and t.last
     with pytest.raises(ValueError, match="equally long"):
         WaypointTracker([3], np.array([1, 1]), np.array([1.0]), 2.0)
-
-
-def test_steer():
-    cfg = SignalServoConfig()
-    assert steer(0.0, 1, cfg)[0] == pytest.approx(cfg.speed)
-    assert steer(0.0, -1, cfg)[0] == pytest.approx(-cfg.reverse_speed)
-    v, w = steer(1.0, 1, cfg)
-    assert v == 0.0 and w > 0  # far off: turn left on the spot
-    with pytest.raises(ValueError, match="reverse_speed"):
-        SignalServoConfig(reverse_speed=0.9)
 
 
 def test_signal_servo_bad_inputs(servo_maps):

@@ -1,0 +1,82 @@
+"""Where the robot is on its route, from odometry and images only (no laser, no truth).
+
+:class:`RouteBelief` holds the robot's pose in the route's frame (the first route view's,
+chained through the view graph's sensed transforms, :meth:`servo.route.RouteGraph.frames`):
+odometry carries it (:meth:`RouteBelief.predict`) and an image fix against one route view
+corrects it (:meth:`RouteBelief.fix`): the best horizontal shift of the image against the
+view gives the heading (the view's heading minus the shift's angle), and that the image
+matches the view best among its neighbours puts the robot about at the view along its line
+of sight. Nothing here depends on a global frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common.geometry import se2_compose, se2_relative, wrap_angle
+from servo.route import RoutePath
+
+
+class RouteBelief:
+    """The robot's pose in the route frame and its progress (arc length) along the route.
+
+    Parameters
+    ----------
+    path : RoutePath
+    pose : (x, y, yaw) in the route frame at the start.
+    window : m of arc either side of the current progress within which progress may move
+        at one step (where the route passes a place twice it stays on the right pass).
+    """
+
+    def __init__(self, path: RoutePath, pose, window: float = 2.0):
+        if not isinstance(path, RoutePath):
+            raise TypeError(f"path must be a RoutePath, got {type(path).__name__}")
+        pose = np.asarray(pose, np.float64)
+        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+            raise ValueError(f"pose must be a finite (x, y, yaw), got {pose!r}")
+        if not window > 0:
+            raise ValueError(f"window must be > 0 m, got {window}")
+        self.path, self.window = path, float(window)
+        self.pose = pose.copy()
+        self.s = path.project(pose[:2], 0.0, np.inf)
+
+    def predict(self, odometry_step) -> None:
+        """Carry the pose by an odometry increment (x, y, yaw in the robot frame)."""
+        self.pose = se2_compose(self.pose, np.asarray(odometry_step, np.float64))
+        self.s = self.path.project(self.pose[:2], self.s, self.window)
+
+    def facing(self, views: np.ndarray, tolerance: float) -> np.ndarray:
+        """Those of the route views ``views`` (indices into the route) that look within
+        ``tolerance`` rad of the robot's heading: only their images can match the camera's."""
+        views = np.asarray(views, np.intp)
+        off = wrap_angle(self.path.frames[views, 2] - self.pose[2])
+        return views[np.abs(off) < tolerance]
+
+    def fix(self, view: int, yaw: float, heading_gain: float, along_gain: float) -> float:
+        """Correct the pose by an image fix against route view ``view`` (index into the
+        route) whose best shift says turning ``yaw`` rad lines the image up with it: the
+        heading toward ``frame yaw - yaw``, the position along the view's line of sight
+        toward the view. Returns the along-sight offset (m) the fix found before correcting."""
+        frame = self.path.frames[int(view)]
+        err = wrap_angle(frame[2] - yaw - self.pose[2])
+        self.pose[2] = wrap_angle(self.pose[2] + heading_gain * err)
+        ahead = float(se2_relative(frame, self.pose)[0])  # robot ahead of the view (m)
+        u = np.array([np.cos(frame[2]), np.sin(frame[2])])
+        self.pose[:2] -= along_gain * ahead * u
+        self.s = self.path.project(self.pose[:2], self.s, self.window)
+        return ahead
+
+    def shift_along(self, metres: float) -> None:
+        """Move the belief ``metres`` along the route's direction at the current progress
+        (an F peak passed says how far past a view the robot is)."""
+        a = self.path.point(self.s)
+        b = self.path.point(self.s + 0.5)
+        if self.s + 0.5 > self.path.length:
+            a, b = self.path.point(self.s - 0.5), self.path.point(self.s)
+        u = (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
+        self.pose[:2] += metres * u
+        self.s = self.path.project(self.pose[:2], self.s, self.window)
+
+    def goal(self, s: float) -> np.ndarray:
+        """The route's point at arc ``s`` in the robot frame (x ahead, y left)."""
+        return se2_relative(self.pose, np.r_[self.path.point(s), 0.0])[:2]

@@ -1,0 +1,91 @@
+"""``SignalServoConfig``: every setting of :class:`~servo.signal_servo.SignalServo`, in one
+frozen dataclass validated on construction."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from common.validation import check_int
+from sim.simulator import OMEGA_LIMIT, V_LIMITS
+
+_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds")  # integers that may be 0 (off)
+
+
+@dataclass(frozen=True)
+class SignalServoConfig:
+    """Everything that tunes :class:`~servo.signal_servo.SignalServo` (tuned on the ``dev``
+    split only).
+
+    speed : m/s along the route (pure pursuit).
+    lookahead : m ahead along the route of the pursued point.
+    spacing : m between waypoint views.
+    turn_rate : rad/s of the observing turn.
+    observe_every : steps between localisations during the observing turn.
+    fix_clusters : clusters (by eq. 13) whose views the global fix compares.
+    image_trust : largest aligned image distance (0..4) that counts as an image fix.
+    heading_gain / along_gain : share of an image fix's heading / along-sight error corrected.
+    behind / ahead : m of route about the progress whose views an image fix compares.
+    facing : rad: only route views within this of the robot's heading are compared.
+    window : m of progress the belief may move in one step (:class:`RouteBelief`).
+    arrive_distance : m of route left at which the arrival law takes over.
+    arrive_drop : F toward the target below this share of its peak means past the peak.
+    arrive_min : F toward a view (0..1) that counts as a signal (peak, overtaking).
+    arrive_confirm : F toward the target (0..1) whose peak counts as having passed the view.
+    arrive_past : m the robot must have gone past an F peak before it counts.
+    overshoot : m beyond the target view the robot drives while looking for the F peak.
+    sweeps : legs of the sweep along the target view's sight before the best F is taken.
+    lateral / lateral_rounds : m to either side where F is probed once settled, and how many
+        times a better side moves the sweep there (:class:`~servo.signal_arrival.PeakArrival`).
+    relocalise_after / max_relocalise : steps facing route views without an image fix after
+        which the robot observes and localises again, at most ``max_relocalise`` times.
+    stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
+        does not see means a wall: drive the other way for ``backup_steps`` steps.
+    """
+
+    speed: float = 1.0
+    lookahead: float = 1.0
+    spacing: float = 0.8
+    turn_rate: float = 1.2
+    observe_every: int = 2
+    fix_clusters: int = 2
+    image_trust: float = 0.9
+    heading_gain: float = 0.5
+    along_gain: float = 0.2
+    behind: float = 1.5
+    ahead: float = 2.5
+    facing: float = 0.6
+    window: float = 2.0
+    arrive_distance: float = 1.0
+    arrive_drop: float = 0.5
+    arrive_min: float = 0.05
+    arrive_confirm: float = 0.5
+    arrive_past: float = 0.4
+    overshoot: float = 1.0
+    sweeps: int = 3
+    lateral: float = 0.6
+    lateral_rounds: int = 2
+    relocalise_after: int = 40
+    max_relocalise: int = 1
+    stuck_steps: int = 10
+    backup_steps: int = 8
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.type == "int":
+                check_int(v, f.name, minimum=0 if f.name in _MAY_BE_ZERO else 1)
+            elif not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+                raise ValueError(f"{f.name} must be a finite number > 0, got {v!r}")
+        if not self.speed <= V_LIMITS[1]:
+            raise ValueError(f"speed must be in (0, {V_LIMITS[1]}] m/s, got {self.speed}")
+        if not self.turn_rate <= OMEGA_LIMIT:
+            raise ValueError(f"turn_rate must be in (0, {OMEGA_LIMIT}] rad/s, got {self.turn_rate}")
+        for name in ("heading_gain", "along_gain", "arrive_drop", "arrive_min", "arrive_confirm"):
+            if not getattr(self, name) <= 1:
+                raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")
+        if not self.image_trust < 4:
+            raise ValueError(f"image_trust must be in (0, 4), got {self.image_trust}")
+        if not self.facing < np.pi:
+            raise ValueError(f"facing must be in (0, pi) rad, got {self.facing}")

@@ -1,0 +1,151 @@
+"""The camera-only controller's units (issue 12, item 2): the route path and the belief on it,
+the configuration, the line drive of the arrival sweep, F toward several views at once, the
+bump detector, and the controller's refusal of bad input."""
+
+import numpy as np
+import pytest
+
+from common.geometry import se2_compose
+from servo.localise import ImageLocaliser
+from servo.map_types import MapError
+from servo.route import RoutePath
+from servo.route_belief import RouteBelief
+from servo.signal_arrival import line_drive
+from servo.signal_servo import SignalServo, SignalServoConfig
+
+# An L-shaped route: 4 m along +x, then 3 m along +y (views face the way of travel).
+L_FRAMES = np.array(
+    [[x, 0.0, 0.0] for x in range(5)] + [[4.0, y, np.pi / 2] for y in range(1, 4)], float
+)
+
+
+def test_route_path_arc_point_and_projection():
+    p = RoutePath(L_FRAMES)
+    assert p.length == pytest.approx(7.0)
+    np.testing.assert_allclose(p.point(5.5), [4.0, 1.5])
+    np.testing.assert_allclose(p.point(-3.0), [0.0, 0.0])  # clipped to the route
+    assert p.project([2.3, 0.4], near=0.0, window=np.inf) == pytest.approx(2.3)
+    # (3.9, 1.0) is nearest the second leg; a window about the start keeps it on the first
+    assert p.project([3.9, 1.0], near=5.0, window=2.0) == pytest.approx(5.0)
+    assert p.project([3.9, 1.0], near=1.0, window=2.0) == pytest.approx(3.0)
+    np.testing.assert_array_equal(p.within(4.0, 1.0, 1.5), [3, 4, 5])
+    with pytest.raises(ValueError, match="frames"):
+        RoutePath(np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="finite"):
+        RoutePath(np.full((2, 3), np.nan))
+
+
+def test_route_belief_predict_fix_and_facing():
+    b = RouteBelief(RoutePath(L_FRAMES), [1.0, 0.2, 0.1], window=2.0)
+    assert b.s == pytest.approx(1.0)
+    b.predict([1.0, 0.0, 0.0])
+    np.testing.assert_allclose(b.pose, se2_compose([1.0, 0.2, 0.1], [1.0, 0.0, 0.0]))
+    # the image says turning 0.05 rad left lines it up with view 2 (heading 0): yaw = -0.05
+    ahead = b.fix(2, 0.05, heading_gain=1.0, along_gain=1.0)
+    assert b.pose[2] == pytest.approx(-0.05)
+    assert ahead == pytest.approx(se2_compose([1.0, 0.2, 0.1], [1.0, 0.0, 0.0])[0] - 2.0)
+    assert b.pose[0] == pytest.approx(2.0)  # moved to the view along its line of sight
+    np.testing.assert_array_equal(b.facing(np.arange(8), 0.6), [0, 1, 2, 3, 4])
+    b.shift_along(0.5)
+    assert b.s == pytest.approx(2.5)
+    with pytest.raises(ValueError, match="pose"):
+        RouteBelief(RoutePath(L_FRAMES), [0.0, np.nan, 0.0])
+    with pytest.raises(ValueError, match="window"):
+        RouteBelief(RoutePath(L_FRAMES), [0.0, 0.0, 0.0], window=0.0)
+    with pytest.raises(TypeError, match="RoutePath"):
+        RouteBelief(L_FRAMES, [0.0, 0.0, 0.0])
+
+
+def test_config_validation():
+    assert SignalServoConfig(max_relocalise=0).max_relocalise == 0
+    for bad, match in [
+        ({"speed": -1.0}, "speed"),
+        ({"speed": 3.0}, "speed"),
+        ({"turn_rate": 2.0}, "turn_rate"),
+        ({"heading_gain": 1.5}, "heading_gain"),
+        ({"observe_every": 1.5}, "observe_every"),
+        ({"max_relocalise": -1}, "max_relocalise"),
+        ({"image_trust": 5.0}, "image_trust"),
+        ({"facing": np.nan}, "facing"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            SignalServoConfig(**bad)
+
+
+def test_line_drive_keeps_facing_the_goal_heading():
+    v, w = line_drive(np.array([1.0, 0.0, 0.0]))
+    assert v > 0 and w == 0
+    v, w = line_drive(np.array([-1.0, 0.0, 0.0]))
+    assert v < 0 and w == 0  # behind: reverse, never turn round
+    assert line_drive(np.array([1.0, 0.3, 0.0]))[1] > 0  # goal to the left, forward: turn left
+    assert line_drive(np.array([-1.0, 0.3, 0.0]))[1] < 0  # reversing: the other way
+    assert line_drive(np.array([0.0, 0.0, 0.2]))[1] > 0
+
+
+def test_signals_equal_the_clustering_signal(servo_maps):
+    m = servo_maps["hallway"]
+    loc = ImageLocaliser(m)
+    x = m.features[40]
+    views = [40, 41, int(np.flatnonzero(m.clusters != m.clusters[40])[0])]
+    f = loc.signals(x, views)
+    for view, got in zip(views, f, strict=True):
+        c = int(m.clusters[view])
+        own = m.clustering.signal(m.features[view][None], c, view)[0]
+        assert got == m.clustering.signal(x[None], c, view)[0] / max(own, 1e-12)
+    assert f[0] == pytest.approx(1.0) and loc.signal(x, 41) == f[1]
+
+
+def _observe(ctl, image, steps) -> float:
+    """Feed a constant image while odometry turns at the observing rate; the last yaw fed."""
+    yaw = 0.0
+    for _ in range(steps):
+        ctl.act({"image": image, "odometry": np.array([0.0, 0.0, yaw])})
+        if ctl.phase_ != "observe":
+            return yaw
+        yaw += ctl.config.turn_rate * 0.1
+    return yaw
+
+
+def test_fix_route_and_bump(servo_maps):
+    """A stored view's image is fixed on that view; then commanded motion that odometry
+    never sees (a wall) makes the robot back off."""
+    m = servo_maps["hallway"]
+    ctl = SignalServo(m, world="hallway")
+    start = 30
+    # a target ahead on the same recording, on another manifold: the route starts forward
+    ahead = (m.sequence == m.sequence[start]) & (m.frame > m.frame[start])
+    target = int(np.flatnonzero(ahead & (m.clusters != m.clusters[start]))[0])
+    ctl.reset(target)
+    yaw = _observe(ctl, m.images[start], 200)
+    assert ctl.phase_ == "follow" and ctl.route_[0] == start and ctl.route_[-1] == target
+    assert ctl.waypoint_ in ctl.route_ and ctl.belief_ is not None
+    assert np.hypot(*ctl.belief_.pose[:2]) == 0.0  # at the fix's view, the route's origin
+    # odometry that faces the way the fix's view looks (the route's first direction)
+    odo = np.array([0.0, 0.0, yaw - ctl.belief_.pose[2]])
+    actions = [ctl.act({"image": m.images[start], "odometry": odo}) for _ in range(25)]
+    assert ctl.bumps_ >= 1 and any(a[0] < 0 for a in actions)
+
+
+def test_signal_servo_refuses_bad_input(servo_maps):
+    m = servo_maps["hallway"]
+    with pytest.raises(TypeError, match="config"):
+        SignalServo(m, config={"speed": 1.0})
+    with pytest.raises(TypeError, match="servo_map"):
+        SignalServo("hallway")
+    ctl = SignalServo(m)
+    with pytest.raises(MapError, match="target"):
+        ctl.reset(-1)
+    with pytest.raises(MapError, match="target"):
+        ctl.reset(1.5)
+    ctl.reset(0)
+    obs = {"image": m.images[0], "odometry": np.zeros(3)}
+    with pytest.raises(ValueError, match="must be a dict"):
+        ctl.act([obs["image"], obs["odometry"]])
+    with pytest.raises(ValueError, match="missing 'image'"):
+        ctl.act({"odometry": np.zeros(3)})
+    bad = m.images[0].astype(float)
+    bad[0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match=r"observation\['image'\] must be finite"):
+        ctl.act({**obs, "image": bad})
+    with pytest.raises(ValueError, match=r"observation\['odometry'\]"):
+        ctl.act({**obs, "odometry": np.zeros(2)})
