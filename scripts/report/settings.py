@@ -22,7 +22,10 @@ class RunSettings:
         ``test`` split (``servo.protocol``; the issue asks for at least 20 in the run and 100
         in the headline tables of ``topomap servo-eval``).
     policies : servo policies evaluated (``servo`` first; see ``servo.evaluate.POLICIES``).
-    tiers : the protocol's start tiers evaluated (``view``, ``anywhere``).
+    tiers : the protocol's start tiers the two controllers (``servo``, ``signal``) run on.
+    baseline_tiers : the tiers the other policies (oracle, random, greedy) run on: the
+        ``anywhere`` tier only by default, where they differ most, to keep the run within
+        its 10 minutes.
     videos : episode videos per world, of the ``servo`` policy.
     grouping_loop : also drive and group a loop through each world (``eval_grouping``).
     jobs : worker processes for the collection (None: one per core).
@@ -36,6 +39,7 @@ class RunSettings:
     episodes: int = 20
     policies: tuple[str, ...] = ("servo", "signal", "oracle")
     tiers: tuple[str, ...] = ("view", "anywhere")
+    baseline_tiers: tuple[str, ...] = ("anywhere",)
     videos: int = 1
     grouping_loop: bool = False
     jobs: int | None = None
@@ -54,8 +58,10 @@ class RunSettings:
             raise ValueError("policies is empty")
         from servo.protocol import TIERS
 
-        if not self.tiers or not set(self.tiers) <= set(TIERS):
-            raise ValueError(f"tiers must be some of {TIERS}, got {self.tiers!r}")
+        for name in ("tiers", "baseline_tiers"):
+            value = getattr(self, name)
+            if not value or not set(value) <= set(TIERS):
+                raise ValueError(f"{name} must be some of {TIERS}, got {value!r}")
 
 
 class StageError(RuntimeError):

@@ -111,7 +111,8 @@ def stage_servo(
         servo_map = load_or_build(world, dataset=data_dir, cache=maps_dir)
         path, _ = map_paths(maps_dir, world, servo_map.key)
         for policy in settings.policies:
-            for tier in settings.tiers:
+            controller = policy in ("servo", "signal")
+            for tier in settings.tiers if controller else settings.baseline_tiers:
                 plot = out_dir / f"{world}-{policy}-{tier}-trajectories.png"
                 r = run_protocol(Protocol(world, tier, "test"), path, settings.episodes, policy,
                                  progress=progress, plot=plot)  # fmt: skip
