@@ -141,6 +141,19 @@ def scan_vectors(
     return min_range / np.maximum(r, min_range) - min_range / max_range
 
 
+def fitted_max_range(ranges: np.ndarray, max_range: float | None) -> float:
+    """The laser's range limit: ``max_range`` when given, else the largest finite positive
+    reading of the training scans (a scan transformer's ``max_range_``)."""
+    if max_range is not None:
+        return float(max_range)
+    seen = ranges[np.isfinite(ranges) & (ranges > 0)]
+    if seen.size == 0:
+        raise ValueError(
+            "ranges has no finite positive reading to take max_range from; pass max_range"
+        )
+    return float(seen.max())
+
+
 class ScanFeatures(TransformerMixin, BaseEstimator):
     """Laser scans -> feature vectors (a fit/transform wrapper of :func:`scan_vectors`).
 
@@ -206,15 +219,7 @@ class ScanFeatures(TransformerMixin, BaseEstimator):
             Ignored.
         """
         r = self._check_ranges(ranges, reset=True)
-        if self.max_range is not None:
-            self.max_range_ = float(self.max_range)
-        else:
-            seen = r[np.isfinite(r) & (r > 0)]
-            if seen.size == 0:
-                raise ValueError(
-                    "ranges has no finite positive reading to take max_range from; pass max_range"
-                )
-            self.max_range_ = float(seen.max())
+        self.max_range_ = fitted_max_range(r, self.max_range)
         self._vectors(r)  # data-dependent checks (n_sectors, min_range) at fit time
         return self
 

@@ -29,7 +29,7 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from mapping.features import scan_ranges
+from mapping.features import fitted_max_range, scan_ranges
 
 __all__ = ["SCAN_STATISTICS", "ScanStatistics", "scan_statistics"]
 
@@ -214,15 +214,7 @@ class ScanStatistics(TransformerMixin, BaseEstimator):
             Ignored.
         """
         r = self._check_ranges(ranges, reset=True)
-        if self.max_range is not None:
-            self.max_range_ = float(self.max_range)
-        else:
-            seen = r[np.isfinite(r) & (r > 0)]
-            if seen.size == 0:
-                raise ValueError(
-                    "ranges has no finite positive reading to take max_range from; pass max_range"
-                )
-            self.max_range_ = float(seen.max())
+        self.max_range_ = fitted_max_range(r, self.max_range)
         blocks = self._blocks(r)
         scales = np.ones(len(blocks))
         if self.block_scaling:
