@@ -281,7 +281,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--baselines",
         type=policies,
-        default=("signal", "oracle"),
+        default=("signal",),
         help="comma-separated policies beside the servo policy: signal (servo by F, camera "
         "only), oracle, random, greedy (greedy probing is slow: about 10x a servo episode)",
     )

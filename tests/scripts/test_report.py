@@ -414,7 +414,7 @@ def test_run_arguments_default_and_custom():
         "out",
         0,
         20,
-        ("signal", "oracle"),
+        ("signal",),
     )
     args = build_parser().parse_args(
         ["run", "--out", "x", "--seed", "7", "--episodes", "2", "--baselines", "greedy,random"]
