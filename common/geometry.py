@@ -18,6 +18,7 @@ __all__ = [
     "se2_inverse",
     "se2_mean",
     "se2_relative",
+    "thin_to_grid",
     "transform_points",
     "wrap_angle",
 ]
@@ -71,6 +72,14 @@ def se2_mean(poses: ArrayLike) -> np.ndarray:
     """Average of ``(K, 3)`` poses: arithmetic mean translation, circular mean heading."""
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
     return np.array([poses[:, 0].mean(), poses[:, 1].mean(), circular_mean(poses[:, 2])])
+
+
+def thin_to_grid(points: ArrayLike, spacing: float) -> np.ndarray:
+    """One point per occupied ``spacing`` cell (the cell's centre): a point cloud gathered from
+    overlapping scans, thinned so well-seen walls do not weigh more than others."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    cells = np.unique(np.floor(points / spacing).astype(np.int64), axis=0)
+    return (cells + 0.5) * spacing
 
 
 def scan_to_points(

@@ -38,6 +38,7 @@ from common.geometry import (
     se2_inverse,
     se2_mean,
     se2_relative,
+    thin_to_grid,
     transform_points,
     wrap_angle,
 )
@@ -188,8 +189,7 @@ def _overlap_search(
 def _sequence_cloud(poses: np.ndarray, scans: list, spacing: float = 0.05) -> np.ndarray:
     """One recording's scans placed by its odometry and thinned to a ``spacing`` grid."""
     pts = np.concatenate([transform_points(p, q) for p, q in zip(poses, scans, strict=True)])
-    cells = np.unique(np.floor(pts / spacing).astype(np.int64), axis=0)
-    return (cells + 0.5) * spacing
+    return thin_to_grid(pts, spacing)
 
 
 def _link_sequences(

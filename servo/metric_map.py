@@ -20,7 +20,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from common.geometry import se2_compose, se2_inverse, transform_points
+from common.geometry import se2_compose, se2_inverse, thin_to_grid, transform_points
 from mapping.icp import densify_scan
 from scenes.regions import OccupancyGrid
 from scenes.robot import RADIUS
@@ -97,9 +97,7 @@ class MetricMap:
         scans = [servo_map.scan_points(k) for k in range(len(servo_map))]
         placed = [transform_points(p, densify_scan(s, POINT_SPACING))
                   for p, s in zip(self.poses, scans, strict=True) if len(s)]  # fmt: skip
-        pts = np.concatenate(placed)
-        cells = np.unique(np.floor(pts / POINT_SPACING).astype(np.int64), axis=0)
-        self.points = (cells + 0.5) * POINT_SPACING
+        self.points = thin_to_grid(np.concatenate(placed), POINT_SPACING)
         self.tree = cKDTree(self.points)
         self.origin = self.points.min(axis=0) - 2.0
         top = self.points.max(axis=0) + 2.0

@@ -64,3 +64,11 @@ def test_scan_to_points_sensor_frame_and_drops_no_returns():
         scan_to_points(ranges, angles[:3])
     # a beam with a NaN angle has no direction: dropped like a missing return
     assert scan_to_points([1.0, 2.0], [0.0, np.nan]).shape == (1, 2)
+
+
+def test_thin_to_grid_keeps_one_point_per_cell():
+    from common.geometry import thin_to_grid
+
+    pts = np.array([[0.01, 0.01], [0.04, 0.02], [0.12, 0.01], [-0.01, 0.0]])
+    out = thin_to_grid(pts, 0.05)
+    np.testing.assert_allclose(out, [[-0.025, 0.025], [0.025, 0.025], [0.125, 0.025]])
