@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import validate_data
 
 from mapping._manifold_geometry import (
     KERNELS,
@@ -25,11 +25,11 @@ from mapping._manifold_geometry import (
     GraphGeometry,
     training_geometry,
 )
-from mapping._manifold_graph_model import GraphClusterModel, cluster_model, model_scores
-from mapping._manifold_predict import Stack
+from mapping._manifold_graph_model import cluster_model
+from mapping._manifold_queries import ManifoldQueries
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import COMBINE_RULES, build_tree, combine_tree, ensure_leaves
-from mapping._validation import is_plain_query, single_threaded_blas
+from mapping._validation import single_threaded_blas
 from mapping.split_tree import SplitNode
 
 __all__ = ["EXPECTED_FAILED_CHECKS", "ManifoldClustering"]
@@ -43,7 +43,7 @@ _DTYPES = ("float32", "float64")
 EXPECTED_FAILED_CHECKS: dict[str, str] = {}
 
 
-class ManifoldClustering(ClusterMixin, BaseEstimator):
+class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
     """Clustering along manifolds with per-cluster kernel parameters (Grudic & Mulligan).
 
     Bisects the data recursively; each split chooses its own Gaussian width sigma and
@@ -293,104 +293,3 @@ class ManifoldClustering(ClusterMixin, BaseEstimator):
         self.outlier_scores_ = D2.outliers(tree.sigma, tree.alpha)
         self.cluster_outlier_scores_ = inside
         self._models = models
-
-    def _check_query(self, X: ArrayLike) -> np.ndarray:
-        """New points: fitted, then finite 2-D float with the feature count of ``fit``."""
-        check_is_fitted(self, "labels_")
-        if is_plain_query(self, X):
-            return X
-        return validate_data(self, X, dtype=[np.float64, np.float32], order="C", reset=False)
-
-    # ------------------------------------------------------------------ predict
-    def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
-        normalize = self.normalize == "column"
-        if any(isinstance(m, GraphClusterModel) for m in self._models):
-            return model_scores(self._models, X, normalize)
-        return Stack.of(self._models).scores(X, normalize)
-
-    def predict(self, X: ArrayLike) -> np.ndarray:
-        """Assign new points by eq. 13: ``y = argmax_j F^j(k)``.
-
-        A point too far from every cluster for any affinity to be representable (all F^j are
-        exactly 0) goes to the cluster with the smallest ``min_i |x - x_i|^2 / (2 sigma_j^2)``,
-        the exponent that underflowed.
-
-        Parameters
-        ----------
-        X : array-like of shape (k, d)
-
-        Returns
-        -------
-        ndarray of shape (k,)
-        """
-        scores, nearest = self._scores(self._check_query(X))
-        labels = np.argmax(scores, axis=1)
-        lost = ~(scores.max(axis=1) > 0)
-        labels[lost] = np.argmin(nearest[lost], axis=1)
-        return labels
-
-    def predict_proba(self, X: ArrayLike) -> np.ndarray:
-        """Probability that each point lies on each cluster's manifold.
-
-        The normalised F^j(k) of :meth:`predict` divided by their sum over clusters, so rows sum
-        to 1 and the argmax is ``predict``. Rows where every F^j is 0 are one-hot on the
-        fallback cluster of :meth:`predict`.
-
-        Parameters
-        ----------
-        X : array-like of shape (k, d)
-
-        Returns
-        -------
-        ndarray of shape (k, K)
-        """
-        scores, nearest = self._scores(self._check_query(X))
-        total = scores.sum(axis=1, keepdims=True)
-        proba = np.zeros_like(scores)
-        found = total[:, 0] > 0
-        proba[found] = scores[found] / total[found]
-        lost = np.flatnonzero(~found)
-        proba[lost, np.argmin(nearest[lost], axis=1)] = 1.0
-        return proba
-
-    def signal(self, X: ArrayLike, cluster: int, target: int | None = None) -> np.ndarray:
-        """The servo signal F^j(k) of eq. 13 / Section II-G toward a training point.
-
-        Parameters
-        ----------
-        X : array-like of shape (k, d) or (d,)
-            Current views (one per row).
-        cluster : int
-            j, the cluster whose manifold the signal is computed on.
-        target : int, optional
-            Training index (row of the X given to ``fit``) of the desired position; it must
-            belong to ``cluster``. Defaults to the cluster's centre ``centers_[cluster]``.
-
-        Returns
-        -------
-        ndarray of shape (k,)
-            ``F^j(k) = beta [(I - alpha S^j)^-1 Y^j]_k`` with ``beta = 1 - alpha``; larger is
-            closer to the target along the manifold, 0 when x is unreachable at sigma_j.
-        """
-        X = np.asarray(X)
-        X = self._check_query(X[None, :] if X.ndim == 1 else X)
-        n_models = len(self._models)
-        if (
-            isinstance(cluster, bool)
-            or not isinstance(cluster, int | np.integer)
-            or not 0 <= cluster < n_models
-        ):
-            raise ValueError(f"cluster must be an integer in [0, {n_models}), got {cluster!r}")
-        model = self._models[cluster]
-        if target is None:
-            local = model.centre
-        else:
-            hits = np.flatnonzero(model.indices == target)
-            if isinstance(target, bool) or hits.size != 1:
-                raise ValueError(
-                    f"target must be the training index of a point of cluster {cluster}, "
-                    f"got {target!r}"
-                )
-            local = int(hits[0])
-        return model.signal(model.sq_distances(X), local)

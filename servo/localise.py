@@ -93,21 +93,13 @@ class ImageLocaliser:
         cluster's points (the costly part: a projection of the whole image) computed once per
         cluster rather than once per view. Same numbers as ``clustering.signal``."""
         views = [int(v) for v in np.atleast_1d(views)]
-        X = self.map.clustering._check_query(np.asarray(x, np.float32)[None])
-        # eq. 13 per cluster model: ManifoldClustering.signal does exactly this for one view
-        models = self.map.clustering._models
-        out, sq = np.empty(len(views)), {}
-        for i, view in enumerate(views):
-            c = int(self.map.clusters[view])
-            model = models[c]
-            if c not in sq:
-                sq[c] = model.sq_distances(X)
-            local = int(np.flatnonzero(model.indices == view)[0])
+        clustering = self.map.clustering
+        for view in views:
             if view not in self._f_cache:
-                own = model.signal(model.sq_distances(self.map.features[view][None]), local)
-                self._f_cache[view] = max(float(own[0]), 1e-12)
-            out[i] = float(model.signal(sq[c], local)[0]) / self._f_cache[view]
-        return out
+                own = clustering.signals(self.map.features[view], [view])[0, 0]
+                self._f_cache[view] = max(float(own), 1e-12)
+        f = clustering.signals(np.asarray(x, np.float32), views)[0]
+        return f / np.array([self._f_cache[v] for v in views])
 
     def localise(self, x: np.ndarray, top: int = 2) -> tuple[int, float, float]:
         """Global fix from one image: among the views of the ``top`` clusters by eq. 13, the

@@ -214,6 +214,33 @@ def test_signal_bad_cluster_and_target(fitted_lines):
         model.signal(X[:1], 0, target=other)
 
 
+@pytest.mark.parametrize("kernel", ["dense", "sparse"])
+def test_signals_toward_several_views_equal_signal_toward_each(fitted_lines, kernel):
+    X, _, model = fitted_lines
+    if kernel == "sparse":
+        model = ManifoldClustering(3, 10, kernel="sparse", n_components=8).fit(X)
+    targets = [int(np.flatnonzero(model.labels_ == j)[3]) for j in (2, 0, 1)] + [7]
+    f = model.signals(X[::9], targets)
+    assert f.shape == (len(X[::9]), len(targets))
+    for i, t in enumerate(targets):
+        np.testing.assert_array_equal(f[:, i], model.signal(X[::9], int(model.labels_[t]), t))
+    assert model.signals(X[0], targets).shape == (1, len(targets))
+
+
+@pytest.mark.parametrize("targets", [[-1], [10_000], [1.5], [[0, 1]], ["a"]])
+def test_signals_names_bad_targets(fitted_lines, targets):
+    X, _, model = fitted_lines
+    with pytest.raises(ValueError, match="targets must be training indices"):
+        model.signals(X[:1], targets)
+
+
+def test_signal_before_fit_is_not_fitted_error():
+    from sklearn.exceptions import NotFittedError
+
+    with pytest.raises(NotFittedError):
+        ManifoldClustering().signal(np.zeros((1, 2)), 0)
+
+
 # --- bad input ----------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     ("params", "match"),
