@@ -6,6 +6,8 @@ by the robot's radius plus a margin), computed once per goal with Dijkstra.
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
@@ -18,7 +20,10 @@ RESOLUTION = 0.1  # m per cell
 MARGIN = 0.25  # m beyond the robot's radius: pure pursuit cuts corners
 
 
-_GRAPHS: dict = {}
+# Recently used grid graphs, newest last. Bounded: every controller's metric map brings its own
+# grid, and a worker running hundreds of episodes would otherwise keep every one of them.
+_GRAPHS: OrderedDict = OrderedDict()
+_MAX_GRAPHS = 8
 
 
 def _grid_graph(space: World | OccupancyGrid, resolution: float):
@@ -32,6 +37,9 @@ def _grid_graph(space: World | OccupancyGrid, resolution: float):
         else:
             grid = space.free_space(resolution, inflation=RADIUS + MARGIN)
         _GRAPHS[key] = (space, *_build_graph(grid))  # holding space keeps its id unique
+        while len(_GRAPHS) > _MAX_GRAPHS:
+            _GRAPHS.popitem(last=False)
+    _GRAPHS.move_to_end(key)
     return _GRAPHS[key][1:]
 
 
