@@ -4,9 +4,11 @@ The tree: every node of at least ``2 Q`` points is split by :func:`best_split` (
 smaller than that are leaves, so every leaf has at least Q points.
 
 The combination ("the C clusters are finally combined to give the best K clusters that each
-have maximal values of Omega(2)"), by default :func:`separability_merge`: repeatedly merge the
-two adjacent groups that are least separable as two manifolds, where separability is eq. 9's
-spread ``E[D^12] - (E[D^11] + E[D^22]) / 2`` maximised over (sigma, alpha) on the pair's own
+have maximal values of Omega(2)"), by default the spectral cut of the leaves' kernel affinity
+(``mapping._manifold_spectral_combine``). The pairwise rule :func:`separability_merge`:
+repeatedly merge the two adjacent groups that are least separable as two manifolds, where
+separability is eq. 9's spread ``E[D^12] - (E[D^11] + E[D^22]) / 2`` maximised over (sigma,
+alpha) on the pair's own
 points. The alternative "merge" rule is a greedy agglomeration of leaves. A group G of leaves is
 scored by eq. 9 with p1 = G and p2 = the rest of the data, maximised over a (sigma, alpha) grid
 on the full data; each step merges the pair of groups that raises the sum of these scores most
@@ -25,14 +27,16 @@ import scipy.sparse as sp
 
 from mapping._manifold_geometry import GraphGeometry, as_geometry
 from mapping._manifold_kernel import alpha_from_t
+from mapping._manifold_spectral_combine import spectral_merge
 from mapping._manifold_split import SearchSpace, best_split
 from mapping.split_tree import SplitNode
 
-# Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "separability" (the
-# default: merge the neighbouring pair least separable as two manifolds), "merge" (greedy
+# Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "spectral" (the
+# default: a normalised cut of the leaves' kernel affinity, mapping._manifold_spectral_combine),
+# "separability" (merge the neighbouring pair least separable as two manifolds), "merge" (greedy
 # agglomeration maximising the sum of group-vs-rest Omega(2)) or "cut" (cut the tree into K
 # subtrees by Omega).
-COMBINE_RULES = ("separability", "merge", "cut")
+COMBINE_RULES = ("spectral", "separability", "merge", "cut")
 # Neighbours per point that make two groups "adjacent" candidates for the separability merge.
 _ADJACENCY_NEIGHBOURS = 10
 
@@ -362,6 +366,12 @@ def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpac
         return Combination([list(range(len(leaves)))], *one)
     groups = None
     geometry = as_geometry(sq_dist)
+    if rule == "spectral":
+        scores = GroupScores(geometry, leaves, space)
+        groups = spectral_merge(scores, n_clusters)
+        if groups is None:  # no sigma gave K non-empty groups: the pairwise rule decides
+            groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)
+        return combine_leaves(geometry, leaves, n_clusters, space, groups=groups, scores=scores)
     if rule == "separability" and isinstance(geometry, GraphGeometry):
         scores = GroupScores(geometry, leaves, space)
         groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)
