@@ -53,12 +53,18 @@ def spectral_groups(affinity: np.ndarray, sizes: np.ndarray, n_clusters: int) ->
     return km.labels_
 
 
-def spectral_merge(scores, n_clusters: int) -> list[list[int]] | None:
+def spectral_merge(
+    scores, n_clusters: int, adjacent: np.ndarray | None = None
+) -> list[list[int]] | None:
     """K groups of leaves: the spectral cut of the kernel's leaf affinity at the top alpha and
     the sigma whose groups have the largest total group-vs-rest Omega(2) (eq. 9).
 
     ``scores`` is a ``mapping._manifold_tree.GroupScores`` (block sums for every grid sigma and
-    alpha). Returns None if no sigma gives K non-empty groups (the caller falls back).
+    alpha). ``adjacent`` (P, 2): pairs of leaves joined by a k-nearest-neighbour edge; a sigma
+    at which the kernel gives such a pair no affinity at all is skipped (a graph kernel that
+    kept only the mean eigenvalue of a component, or a Gaussian that underflowed, sees its
+    leaves as unrelated and the cut would split them apart). Returns None if no sigma is left
+    with K non-empty groups (the caller falls back to a pairwise rule).
     """
     n_leaves = scores.sizes.shape[0]
     if n_leaves <= n_clusters:
@@ -67,6 +73,12 @@ def spectral_merge(scores, n_clusters: int) -> list[list[int]] | None:
     best_total, best = -np.inf, None
     for s in range(scores.M.shape[0]):
         M = scores.M[s, top]
+        if (
+            adjacent is not None
+            and adjacent.size
+            and np.any(M[adjacent[:, 0], adjacent[:, 1]] <= 0)
+        ):
+            continue
         labels = spectral_groups(M, scores.sizes, n_clusters)
         member = np.zeros((n_leaves, n_clusters))
         member[np.arange(n_leaves), labels] = 1.0

@@ -269,6 +269,14 @@ def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpac
     return float((e_ab - 0.5 * (e_aa + e_bb)).max())
 
 
+def _leaf_labels(n: int, leaves: list[np.ndarray]) -> np.ndarray:
+    """Each of the n points' leaf (the leaves partition 0..n-1)."""
+    labels = np.empty(n, dtype=np.intp)
+    for c, idx in enumerate(leaves):
+        labels[idx] = c
+    return labels
+
+
 def _adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
     """Pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point."""
     a = np.repeat(labels, nearest.shape[1])
@@ -290,9 +298,7 @@ def separability_merge(
     sq_dist = as_geometry(sq_dist)
     groups = [[c] for c in range(len(leaves))]
     members = [np.asarray(leaf) for leaf in leaves]
-    labels = np.empty(sq_dist.size, dtype=np.intp)
-    for c, idx in enumerate(leaves):
-        labels[idx] = c
+    labels = _leaf_labels(sq_dist.size, leaves)
     # A group is named by its leaves, so a score stays valid until either group changes.
     cache: dict[tuple[tuple[int, ...], tuple[int, ...]], float] = {}
     nearest = sq_dist.neighbours(_ADJACENCY_NEIGHBOURS)
@@ -329,9 +335,7 @@ def shared_kernel_merge(
     groups = [[c] for c in range(len(leaves))]
     Mg = scores.M.copy()
     sizes = scores.sizes.copy()
-    labels = np.empty(geometry.size, dtype=np.intp)
-    for c, idx in enumerate(leaves):
-        labels[idx] = c
+    labels = _leaf_labels(geometry.size, leaves)
     nearest = geometry.neighbours(_ADJACENCY_NEIGHBOURS)
     while len(groups) > n_clusters:
         pairs = _adjacent_pairs(nearest, labels) or {
@@ -368,7 +372,11 @@ def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpac
     geometry = as_geometry(sq_dist)
     if rule == "spectral":
         scores = GroupScores(geometry, leaves, space)
-        groups = spectral_merge(scores, n_clusters)
+        labels = _leaf_labels(geometry.size, leaves)
+        adjacent = np.array(
+            sorted(_adjacent_pairs(geometry.neighbours(_ADJACENCY_NEIGHBOURS), labels))
+        )
+        groups = spectral_merge(scores, n_clusters, adjacent.reshape(-1, 2))
         if groups is None:  # no sigma gave K non-empty groups: the pairwise rule decides
             groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)
         return combine_leaves(geometry, leaves, n_clusters, space, groups=groups, scores=scores)
