@@ -4,9 +4,11 @@ The tree: every node of at least ``2 Q`` points is split by :func:`best_split` (
 smaller than that are leaves, so every leaf has at least Q points.
 
 The combination ("the C clusters are finally combined to give the best K clusters that each
-have maximal values of Omega(2)"), by default :func:`separability_merge`: repeatedly merge the
-two adjacent groups that are least separable as two manifolds, where separability is eq. 9's
-spread ``E[D^12] - (E[D^11] + E[D^22]) / 2`` maximised over (sigma, alpha) on the pair's own
+have maximal values of Omega(2)"), by default the spectral cut of the leaves' kernel affinity
+(``mapping._manifold_spectral_combine``). The pairwise rule :func:`separability_merge`:
+repeatedly merge the two adjacent groups that are least separable as two manifolds, where
+separability is eq. 9's spread ``E[D^12] - (E[D^11] + E[D^22]) / 2`` maximised over (sigma,
+alpha) on the pair's own
 points. The alternative "merge" rule is a greedy agglomeration of leaves. A group G of leaves is
 scored by eq. 9 with p1 = G and p2 = the rest of the data, maximised over a (sigma, alpha) grid
 on the full data; each step merges the pair of groups that raises the sum of these scores most
@@ -25,14 +27,16 @@ import scipy.sparse as sp
 
 from mapping._manifold_geometry import GraphGeometry, as_geometry
 from mapping._manifold_kernel import alpha_from_t
+from mapping._manifold_spectral_combine import spectral_merge
 from mapping._manifold_split import SearchSpace, best_split
 from mapping.split_tree import SplitNode
 
-# Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "separability" (the
-# default: merge the neighbouring pair least separable as two manifolds), "merge" (greedy
+# Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "spectral" (the
+# default: a normalised cut of the leaves' kernel affinity, mapping._manifold_spectral_combine),
+# "separability" (merge the neighbouring pair least separable as two manifolds), "merge" (greedy
 # agglomeration maximising the sum of group-vs-rest Omega(2)) or "cut" (cut the tree into K
 # subtrees by Omega).
-COMBINE_RULES = ("separability", "merge", "cut")
+COMBINE_RULES = ("spectral", "separability", "merge", "cut")
 # Neighbours per point that make two groups "adjacent" candidates for the separability merge.
 _ADJACENCY_NEIGHBOURS = 10
 
@@ -265,6 +269,14 @@ def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpac
     return float((e_ab - 0.5 * (e_aa + e_bb)).max())
 
 
+def _leaf_labels(n: int, leaves: list[np.ndarray]) -> np.ndarray:
+    """Each of the n points' leaf (the leaves partition 0..n-1)."""
+    labels = np.empty(n, dtype=np.intp)
+    for c, idx in enumerate(leaves):
+        labels[idx] = c
+    return labels
+
+
 def _adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
     """Pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point."""
     a = np.repeat(labels, nearest.shape[1])
@@ -286,9 +298,7 @@ def separability_merge(
     sq_dist = as_geometry(sq_dist)
     groups = [[c] for c in range(len(leaves))]
     members = [np.asarray(leaf) for leaf in leaves]
-    labels = np.empty(sq_dist.size, dtype=np.intp)
-    for c, idx in enumerate(leaves):
-        labels[idx] = c
+    labels = _leaf_labels(sq_dist.size, leaves)
     # A group is named by its leaves, so a score stays valid until either group changes.
     cache: dict[tuple[tuple[int, ...], tuple[int, ...]], float] = {}
     nearest = sq_dist.neighbours(_ADJACENCY_NEIGHBOURS)
@@ -325,9 +335,7 @@ def shared_kernel_merge(
     groups = [[c] for c in range(len(leaves))]
     Mg = scores.M.copy()
     sizes = scores.sizes.copy()
-    labels = np.empty(geometry.size, dtype=np.intp)
-    for c, idx in enumerate(leaves):
-        labels[idx] = c
+    labels = _leaf_labels(geometry.size, leaves)
     nearest = geometry.neighbours(_ADJACENCY_NEIGHBOURS)
     while len(groups) > n_clusters:
         pairs = _adjacent_pairs(nearest, labels) or {
@@ -362,6 +370,16 @@ def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpac
         return Combination([list(range(len(leaves)))], *one)
     groups = None
     geometry = as_geometry(sq_dist)
+    if rule == "spectral":
+        scores = GroupScores(geometry, leaves, space)
+        labels = _leaf_labels(geometry.size, leaves)
+        adjacent = np.array(
+            sorted(_adjacent_pairs(geometry.neighbours(_ADJACENCY_NEIGHBOURS), labels))
+        )
+        groups = spectral_merge(scores, n_clusters, adjacent.reshape(-1, 2))
+        if groups is None:  # no sigma gave K non-empty groups: the pairwise rule decides
+            groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)
+        return combine_leaves(geometry, leaves, n_clusters, space, groups=groups, scores=scores)
     if rule == "separability" and isinstance(geometry, GraphGeometry):
         scores = GroupScores(geometry, leaves, space)
         groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)

@@ -80,10 +80,12 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
         Reading of eq. 9; "printed" rewards spread within cluster 1 (kept for comparison).
     seed_rule : {"weighted", "printed"}, default "weighted"
         Reading of eq. 12 for the second seed (see ``mapping._manifold_kernel.seed_pair``).
-    combine : {"separability", "merge", "cut"}, default "separability"
-        How the C leaves become K clusters: repeatedly join the adjacent pair of groups least
-        separable as two manifolds (eq. 9's spread on the pair, maximised over sigma and
-        alpha); greedy merging by the sum of group-vs-rest Omega(2); or cutting the tree.
+    combine : {"spectral", "separability", "merge", "cut"}, default "spectral"
+        How the C leaves become K clusters: a normalised cut of the leaves' affinity in the
+        manifold kernel (leaves kept whole; the sigma whose K groups have the largest total
+        Omega(2), eq. 9); repeatedly join the adjacent pair of groups least separable as two
+        manifolds (eq. 9's spread on the pair, maximised over sigma and alpha); greedy merging
+        by the sum of group-vs-rest Omega(2); or cutting the tree.
     store_dtype : {"float32", "float64"}, default "float32"
         dtype of the centred training points kept for ``predict`` and ``signal``; float32
         halves memory and the time of a ``signal`` call on image-sized vectors.
@@ -170,7 +172,7 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
         normalize: str = "column",
         omega_sign: str = "corrected",
         seed_rule: str = "weighted",
-        combine: str = "separability",
+        combine: str = "spectral",
         store_dtype: str = "float32",
         projection_tol: float = 0.0,
         kernel: str = "auto",

@@ -39,7 +39,8 @@ from scripts.manifold_protocol import FEATURES, K, Q
 
 #: name -> ManifoldClustering settings of each variant (the default first)
 VARIANTS = {
-    "default (separability merge)": {},
+    "default (spectral combination)": {},
+    "combine=separability": {"combine": "separability"},
     "combine=merge": {"combine": "merge"},
     "combine=cut": {"combine": "cut"},
     "eq. 9 as printed": {"omega_sign": "printed"},
