@@ -15,6 +15,10 @@ SpectralClustering as a ratio, with both clustering errors (issue 15 item 1).
 ``--sparse-accuracy [DATASET]`` prints the errors of kernel="sparse" against the dense path on
 the synthetic sets and, given a dataset directory, on the 8-manifold images.
 
+``--graph-vs-dense ROOT`` prints, per protocol dataset ``ROOT/m-data-S`` (seeds 1-12, as
+``python -m scripts.manifold_protocol`` collects them), both paths' errors on the images and
+the paired difference of the test errors with its bootstrap 95% interval (issue 15 item 1).
+
 ``--experiments`` instead prints the tables behind docs/manifold-clustering.md: clustering
 error of each reading of the paper's ambiguous steps on the four synthetic sets (clean and
 noisy) and on 8 branching sequences, with best-sigma NCut and self-tuning baselines.
@@ -162,6 +166,43 @@ def peak_memory(sizes: list[int]) -> None:
         print(f"| {n} | {X.nbytes / 2**20:.0f} MiB | {peak / 2**20:.0f} MiB |", flush=True)
 
 
+def _image_split(dataset) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """HSV histograms of a dataset's paper split: X_train, y_train, X_test, y_test."""
+    from mapping import ColorHistogramFeatures
+    from sim.dataset import load_dataset
+
+    data = load_dataset(dataset)
+    train, test = data.paper_split()
+    y, images = data.concat("labels"), data.concat("images")
+    features = ColorHistogramFeatures()
+    X_train, X_test = features.fit_transform(images[train]), features.transform(images[test])
+    return X_train, y[train], X_test, y[test]
+
+
+def graph_vs_dense(root: str, seeds=range(1, 13)) -> None:
+    """The graph path (``kernel="sparse"``) against the dense path on the 8-manifold images of
+    fresh dataset seeds (K = 8, Q = 35, default settings otherwise): per-seed train / test
+    errors and the paired test-error difference with its bootstrap 95% interval."""
+    from scripts.manifold_methods import bootstrap_mean
+
+    print("| seed | dense train / test | graph train / test |\n|---|---|---|")
+    diffs = []
+    for seed in seeds:
+        X_train, y_train, X_test, y_test = _image_split(Path(root) / f"m-data-{seed}")
+        errs = {}
+        for kernel in ("dense", "sparse"):
+            model = ManifoldClustering(8, 35, kernel=kernel).fit(X_train)
+            errs[kernel] = (
+                clustering_error(y_train, model.labels_),
+                clustering_error(y_test, model.predict(X_test)),
+            )
+        diffs.append(errs["sparse"][1] - errs["dense"][1])
+        cells = " | ".join(f"{a:.3f} / {b:.3f}" for a, b in errs.values())
+        print(f"| {seed} | {cells} |", flush=True)
+    d = bootstrap_mean(diffs, np.random.default_rng(0))
+    print(f"\ngraph - dense, test error: {d['mean']:+.3f} [{d['lo']:+.3f}, {d['hi']:+.3f}]")
+
+
 def sparse_accuracy(dataset: str | None) -> None:
     """Clustering error of kernel="sparse" against the dense reference: the paper's synthetic
     sets (K = 3, Q = 20) and, given a dataset directory (``topomap collect --world all``), the
@@ -179,21 +220,14 @@ def sparse_accuracy(dataset: str | None) -> None:
         print(f"| {kw} | " + " | ".join(f"{e:.3f}" for e in errs) + " |", flush=True)
     if dataset is None:
         return
-    from mapping import ColorHistogramFeatures
-    from sim.dataset import load_dataset
-
-    data = load_dataset(dataset)
-    train, test = data.paper_split()
-    y, images = data.concat("labels"), data.concat("images")
-    features = ColorHistogramFeatures()
-    X_train, X_test = features.fit_transform(images[train]), features.transform(images[test])
+    X_train, y_train, X_test, y_test = _image_split(dataset)
     print("\n| kernel | train error | test error |\n|---|---|---|")
     graphs = [{"kernel": "sparse", "n_neighbors": k} for k in (10, 30, 60)]
     for kw in [{"kernel": "dense"}, *graphs]:
         model = ManifoldClustering(8, 35, **kw).fit(X_train)
         print(
-            f"| {kw} | {clustering_error(y[train], model.labels_):.3f} | "
-            f"{clustering_error(y[test], model.predict(X_test)):.3f} |",
+            f"| {kw} | {clustering_error(y_train, model.labels_):.3f} | "
+            f"{clustering_error(y_test, model.predict(X_test)):.3f} |",
             flush=True,
         )
 
@@ -272,9 +306,14 @@ def main() -> None:
         "--sparse-accuracy", nargs="?", const="", metavar="DATASET",
         help="kernel='sparse' against 'dense' on the synthetic sets (and a dataset's images)",
     )  # fmt: skip
+    parser.add_argument(
+        "--graph-vs-dense", metavar="ROOT", help="both paths on the protocol's fresh image seeds"
+    )
     args = parser.parse_args()
     if args.memory:
         peak_memory(args.memory)
+    elif args.graph_vs_dense:
+        graph_vs_dense(args.graph_vs_dense)
     elif args.sparse_accuracy is not None:
         sparse_accuracy(args.sparse_accuracy or None)
     elif args.scale is not None:
