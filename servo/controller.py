@@ -60,8 +60,6 @@ class ServoConfig:
         (beyond what odometry said) within ``drift_window`` steps is inconsistent tracking
         (good odometry drifts centimetres there): localise again.
     arrive_distance : m of path left at which the arrival law takes over.
-    view_snap : on the last metre the target view's own scan places the target, when it
-        matches (``verify_score``) within this many m of the map's estimate.
     verify_score : the scan's two-way overlap with the target view's (0..2) that confirms
         arrival.  max_relocalisations : after this many, arrival is accepted unverified.
     stuck_steps / backup_steps : commanded motion without odometry motion for ``stuck_steps``
@@ -78,7 +76,6 @@ class ServoConfig:
     drift_window: int = 20
     max_drift: float = 0.6
     arrive_distance: float = 1.0
-    view_snap: float = 0.6
     verify_score: float = 1.4
     max_relocalisations: int = 3
     stuck_steps: int = 12
@@ -89,7 +86,7 @@ class ServoConfig:
             raise ValueError(f"speed must be in (0, 1.5] m/s, got {self.speed}")
         if not 0 < self.turn_rate <= 1.5:
             raise ValueError(f"turn_rate must be in (0, 1.5] rad/s, got {self.turn_rate}")
-        for name in ("lookahead", "arrive_distance", "image_weight", "max_drift", "view_snap"):
+        for name in ("lookahead", "arrive_distance", "image_weight", "max_drift"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not 0 <= self.lost_fit <= 1:
@@ -241,7 +238,7 @@ class ManifoldServo:
         remaining = self._field.distance(self.pose_[:2])
         straight = float(np.hypot(*(goal_pose[:2] - self.pose_[:2])))
         if min(remaining, straight + 0.3) < c.arrive_distance:
-            goal = self._target_goal(points, se2_relative(self.pose_, goal_pose))
+            goal = se2_relative(self.pose_, goal_pose)
             action = self._arrival(goal)
             self.waypoint_ = self.target
             if self._arrival.done:
@@ -263,19 +260,6 @@ class ManifoldServo:
                 self._backup = c.backup_steps
                 return np.array([-0.4, 0.0])
         return action
-
-    def _target_goal(self, points: np.ndarray, goal: np.ndarray) -> np.ndarray:
-        """The target view's pose in the robot frame on the last metre: where the target
-        view's own scan puts it when the scan matches it (two-way overlap >= ``verify_score``
-        and within ``view_snap`` m of the map's estimate), else the map's estimate ``goal``.
-        The map places a view where the pose graph puts its recording, up to ~0.5 m from
-        where the view's own scan says."""
-        c = self.config
-        score, moved = self._matcher.score(points, self.target, se2_relative(goal, np.zeros(3)))
-        view_goal = se2_relative(moved, np.zeros(3))
-        if score >= c.verify_score and np.hypot(*(view_goal[:2] - goal[:2])) < c.view_snap:
-            return view_goal
-        return goal
 
     def _verified(self, points: np.ndarray, goal: np.ndarray) -> bool:
         """On arrival the current scan must match the target view's closely."""

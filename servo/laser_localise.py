@@ -51,7 +51,11 @@ COARSE_POINTS = 80  # scan points scored per candidate
 NO_VIEW = 1.5  # aligned image distance charged to a candidate no stored view can vouch for
 N_REFINE = 32  # distinct coarse candidates refined by ICP
 REFINE_SPACING = 0.1  # m: the all-round cloud thinned to one point per cell for ICP
-REFINE_ITERATIONS = 20  # ICP iterations per candidate
+SCREEN_POINTS = 250  # ... and subsampled to at most this many for a first, short ICP
+SCREEN_ITERATIONS = 8  # ... of every candidate,
+N_FINAL = 16  # then the best this many by fit refined on the thinned cloud
+REFINE_POINTS = 800  # (at most this many points)
+REFINE_ITERATIONS = 15
 VIEW_RADIUS = 4.0  # m: stored views this near a candidate are compared with the images
 FAR_VIEW_RADIUS = 6.0  # m: ... or this near, for a candidate with no view within VIEW_RADIUS
 VIEW_HEADING = np.deg2rad(40.0)  # ... when they look within this of the image's heading
@@ -87,7 +91,9 @@ class CoarseField:
         mask[self.pad : self.pad + h, self.pad : self.pad + w] = near
         self._mask, self._width = mask.ravel(), mask.shape[1]
         ij = np.floor((positions - metric_map.origin) / FIELD_RESOLUTION).astype(np.int64)
-        self._base = (ij[:, 1] + self.pad) * self._width + ij[:, 0] + self.pad
+        base = (ij[:, 1] + self.pad) * self._width + ij[:, 0] + self.pad
+        index = np.int32 if mask.size < 2**31 else np.int64
+        self._base = base.astype(index)
 
     def scores(self, points: np.ndarray, yaws: np.ndarray) -> np.ndarray:
         """(len(yaws), positions): share of ``points`` (robot frame) near the map."""
@@ -96,8 +102,8 @@ class CoarseField:
         for k, yaw in enumerate(yaws):
             c, s = np.cos(yaw), np.sin(yaw)
             off = np.rint(inside @ np.array([[c, s], [-s, c]]) / FIELD_RESOLUTION).astype(np.int64)
-            flat = off[:, 1] * self._width + off[:, 0]
-            out[k] = self._mask[self._base[:, None] + flat[None, :]].sum(axis=1)
+            flat = (off[:, 1] * self._width + off[:, 0]).astype(self._base.dtype)
+            out[k] = np.take(self._mask, self._base[:, None] + flat[None, :]).sum(axis=1)
         return out / max(len(points), 1)
 
 
@@ -170,14 +176,14 @@ class GlobalLocaliser:
             return self._localise(cloud, thin, views)
 
     def _localise(self, cloud: np.ndarray, thin: np.ndarray, views: list) -> Fix:
-        fits, poses = [], []
-        for init in self.candidates(cloud):
-            res = icp(thin, self.metric.points, init=init, target_tree=self.metric.tree,
-                      max_iterations=REFINE_ITERATIONS)  # fmt: skip
-            pose = res.transform if np.isfinite(res.rmse) else init
-            poses.append(pose)
-            fits.append(float(self.metric.fit(thin, pose, FIT_TOL)[0]))
-        fits, poses = np.array(fits), np.array(poses)
+        # a short ICP of a subsample for every candidate, the full one for the best few
+        screen = thin[:: max(1, -(-len(thin) // SCREEN_POINTS))]
+        poses = np.array([self._icp(screen, init, SCREEN_ITERATIONS)
+                          for init in self.candidates(cloud)])  # fmt: skip
+        best = np.argsort(-self.metric.fit(screen, poses, FIT_TOL), kind="stable")[:N_FINAL]
+        refine = thin[:: max(1, -(-len(thin) // REFINE_POINTS))]
+        poses = np.array([self._icp(refine, poses[k], REFINE_ITERATIONS) for k in best])
+        fits = self.metric.fit(refine, poses, FIT_TOL)
         images = np.full(len(poses), np.nan)
         # The laser decides unless it cannot: candidates close to the best fit are the
         # look-alikes (mirrored arms, uniform corridor), and the images decide among them.
@@ -192,6 +198,11 @@ class GlobalLocaliser:
         runner = combined[order[1]] if len(order) > 1 else -np.inf
         return Fix(poses[best], float(fits[best]), float(images[best]),
                    float(combined[best] - runner))  # fmt: skip
+
+    def _icp(self, points: np.ndarray, init: np.ndarray, iterations: int) -> np.ndarray:
+        res = icp(points, self.metric.points, init=init, target_tree=self.metric.tree,
+                  max_iterations=iterations)  # fmt: skip
+        return res.transform if np.isfinite(res.rmse) else np.asarray(init, np.float64)
 
 
 class ScanTracker:

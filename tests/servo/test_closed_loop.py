@@ -135,3 +135,4 @@ def test_baselines_run(envs):
             a = policy.act(obs, info)
             assert env.action_space.contains(np.asarray(a, np.float32))
             obs, _, _, _, info = env.step(a)
+
