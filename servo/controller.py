@@ -60,6 +60,9 @@ class ServoConfig:
         (beyond what odometry said) within ``drift_window`` steps is inconsistent tracking
         (good odometry drifts centimetres there): localise again.
     arrive_distance : m of path left at which the arrival law takes over.
+    arrive_radius : m from the target view's pose (as the map places it) at which the arrival
+        law stops driving and turns to the view's heading (the map may place a view ~0.3 m
+        off; success needs 0.5 m).
     verify_score : the scan's two-way overlap with the target view's (0..2) that confirms
         arrival.  max_relocalisations : after this many, arrival is accepted unverified.
     stuck_steps / backup_steps : commanded motion without odometry motion for ``stuck_steps``
@@ -76,6 +79,7 @@ class ServoConfig:
     drift_window: int = 20
     max_drift: float = 0.6
     arrive_distance: float = 1.0
+    arrive_radius: float = 0.1
     verify_score: float = 1.4
     max_relocalisations: int = 3
     stuck_steps: int = 12
@@ -89,6 +93,8 @@ class ServoConfig:
         for name in ("lookahead", "arrive_distance", "image_weight", "max_drift"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not 0 < self.arrive_radius < 0.35:
+            raise ValueError(f"arrive_radius must be in (0, 0.35) m, got {self.arrive_radius}")
         if not 0 <= self.lost_fit <= 1:
             raise ValueError(f"lost_fit must be in [0, 1], got {self.lost_fit}")
         for name in ("image_every", "lost_steps", "drift_window", "max_relocalisations",
@@ -184,7 +190,7 @@ class ManifoldServo:
         self._views: list[tuple[np.ndarray, np.ndarray]] = []
         self._bad = 0
         self._corrections: deque = deque(maxlen=self.config.drift_window)
-        self._arrival = Arrival()
+        self._arrival = Arrival(self.config.arrive_radius)
 
     def _turn(self, image: np.ndarray, points: np.ndarray, odo: np.ndarray) -> bool:
         """One step of the observing turn; True while it goes on, else localise."""

@@ -17,11 +17,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from common.geometry import wrap_angle
+from common.geometry import thin_to_grid, wrap_angle
+from mapping._validation import single_threaded_blas
 from mapping.icp import icp
 from servo.localise import ImageLocaliser
-from servo.metric_map import MetricMap
+from servo.metric_map import FIELD_RESOLUTION, MetricMap
 
 __all__ = ["Fix", "GlobalLocaliser", "ScanTracker"]
 
@@ -42,12 +44,67 @@ class Fix:
 FIT_TOL = 0.1  # m: a scan point this close to the map fits
 COARSE_TOL = 0.3  # m: the same on the coarse search grid
 COARSE_STEP = 0.4  # m between candidate positions
+BEYOND_SEEN = 1.5  # m: candidate positions reach this far past the sensed free space ...
+CANDIDATE_CLEARANCE = 0.35  # m: ... where no map point is this close
 COARSE_YAWS = 72  # headings tried per position
 COARSE_POINTS = 80  # scan points scored per candidate
 NO_VIEW = 1.5  # aligned image distance charged to a candidate no stored view can vouch for
-N_REFINE = 16  # distinct coarse candidates refined by ICP
+N_REFINE = 32  # distinct coarse candidates refined by ICP
+REFINE_SPACING = 0.1  # m: the all-round cloud thinned to one point per cell for ICP
+SCREEN_POINTS = 250  # ... and subsampled to at most this many for a first, short ICP
+SCREEN_ITERATIONS = 8  # ... of every candidate,
+N_FINAL = 16  # then the best this many by fit refined on the thinned cloud
+REFINE_POINTS = 800  # (at most this many points)
+REFINE_ITERATIONS = 15
 VIEW_RADIUS = 4.0  # m: stored views this near a candidate are compared with the images
+FAR_VIEW_RADIUS = 6.0  # m: ... or this near, for a candidate with no view within VIEW_RADIUS
 VIEW_HEADING = np.deg2rad(40.0)  # ... when they look within this of the image's heading
+
+
+def candidate_positions(metric_map: MetricMap) -> np.ndarray:
+    """(k, 2) places the robot may be at, on a ``COARSE_STEP`` lattice: the map's sensed free
+    space and up to ``BEYOND_SEEN`` beyond it (a start may lie where no recorded beam went,
+    e.g. behind where a recording began, facing away from it), clear of map points."""
+    grid = metric_map.grid
+    beyond = ndimage.distance_transform_edt(~grid.free) * grid.resolution <= BEYOND_SEEN
+    centers = grid.cell_centers()
+    ok = beyond & (metric_map.distance(centers) > CANDIDATE_CLEARANCE)
+    every = max(1, round(COARSE_STEP / grid.resolution))
+    i, j = np.nonzero(ok)
+    keep = (i % every == 0) & (j % every == 0)
+    return centers[i[keep], j[keep]]
+
+
+class CoarseField:
+    """The map's distance field as a padded 0/1 mask (within ``COARSE_TOL`` of a map point),
+    for scoring every candidate position under many headings by lookups alone: a rotated scan
+    point's offset is rounded to whole cells, so a candidate's score is a sum over the mask
+    at its own cell plus those offsets (within half a cell, 2.5 cm, of the exact lookup).
+    Points farther than ``reach`` (m) from the robot count as misses."""
+
+    def __init__(self, metric_map: MetricMap, positions: np.ndarray, reach: float):
+        near = metric_map.field <= COARSE_TOL
+        self.pad = int(np.ceil(reach / FIELD_RESOLUTION)) + 1
+        self.reach = float(reach)
+        h, w = near.shape
+        mask = np.zeros((h + 2 * self.pad, w + 2 * self.pad), np.uint8)
+        mask[self.pad : self.pad + h, self.pad : self.pad + w] = near
+        self._mask, self._width = mask.ravel(), mask.shape[1]
+        ij = np.floor((positions - metric_map.origin) / FIELD_RESOLUTION).astype(np.int64)
+        base = (ij[:, 1] + self.pad) * self._width + ij[:, 0] + self.pad
+        index = np.int32 if mask.size < 2**31 else np.int64
+        self._base = base.astype(index)
+
+    def scores(self, points: np.ndarray, yaws: np.ndarray) -> np.ndarray:
+        """(len(yaws), positions): share of ``points`` (robot frame) near the map."""
+        inside = points[np.hypot(points[:, 0], points[:, 1]) < self.reach]
+        out = np.empty((len(yaws), len(self._base)), np.float32)
+        for k, yaw in enumerate(yaws):
+            c, s = np.cos(yaw), np.sin(yaw)
+            off = np.rint(inside @ np.array([[c, s], [-s, c]]) / FIELD_RESOLUTION).astype(np.int64)
+            flat = (off[:, 1] * self._width + off[:, 0]).astype(self._base.dtype)
+            out[k] = np.take(self._mask, self._base[:, None] + flat[None, :]).sum(axis=1)
+        return out / max(len(points), 1)
 
 
 class GlobalLocaliser:
@@ -60,22 +117,14 @@ class GlobalLocaliser:
         self.metric = metric_map
         self.images = images
         self.image_weight = float(image_weight)
-        grid = metric_map.grid
-        every = max(1, round(COARSE_STEP / grid.resolution))
-        i, j = np.nonzero(grid.free)
-        keep = (i % every == 0) & (j % every == 0)
-        self.positions = grid.cell_centers()[i[keep], j[keep]]
+        self.positions = candidate_positions(metric_map)
+        self._coarse = CoarseField(metric_map, self.positions, metric_map.map.max_range + 1.0)
 
     def candidates(self, cloud: np.ndarray) -> np.ndarray:
         """(k, 3) distinct poses whose coarse fit of ``cloud`` (robot frame) is best."""
         pts = cloud[:: max(1, len(cloud) // COARSE_POINTS)]
         yaws = np.linspace(-np.pi, np.pi, COARSE_YAWS, endpoint=False)
-        scores = np.empty((len(yaws), len(self.positions)), np.float32)
-        for k, yaw in enumerate(yaws):
-            c, s = np.cos(yaw), np.sin(yaw)
-            rotated = pts @ np.array([[c, s], [-s, c]])
-            d = self.metric.distance(self.positions[:, None, :] + rotated[None, :, :])
-            scores[k] = (d <= COARSE_TOL).mean(axis=1)
+        scores = self._coarse.scores(pts, yaws)
         order = np.argsort(scores, axis=None)[::-1]
         chosen: list[np.ndarray] = []
         for flat in order[: 50 * N_REFINE]:
@@ -89,36 +138,58 @@ class GlobalLocaliser:
                     break
         return np.array(chosen)
 
-    def image_distance(self, pose: np.ndarray, views: list[tuple[np.ndarray, float]]) -> float:
-        """Mean over the turn's images (features, heading offset from ``pose``) of the aligned
-        distance to the best stored view near ``pose`` looking the image's way (NaN: none)."""
-        near = np.hypot(*(self.metric.poses[:, :2] - pose[:2]).T) < VIEW_RADIUS
-        out = []
+    def image_distances(self, poses: np.ndarray, views: list) -> np.ndarray:
+        """For each of ``poses`` (k, 3): the mean over the turn's images (features, heading
+        offset from the pose) of the aligned distance to the best stored view near the pose
+        (``VIEW_RADIUS``, or ``FAR_VIEW_RADIUS`` when none is that near) looking the image's
+        way (NaN: none). Each image is aligned once, against the stored
+        views any of the poses needs."""
+        poses = np.atleast_2d(poses)
+        stored = self.metric.poses
+        gap = stored[None, :, :2] - poses[:, None, :2]
+        dist = np.hypot(gap[..., 0], gap[..., 1])
+        near = dist < VIEW_RADIUS  # (k, views)
+        off = ~near.any(axis=1)  # off the recorded paths (wide lawns): look farther
+        near[off] = dist[off] < FAR_VIEW_RADIUS
+        total, count = np.zeros(len(poses)), np.zeros(len(poses))
         for x, offset in views:
-            heading = pose[2] + offset
-            look = near & (np.abs(wrap_angle(self.metric.poses[:, 2] - heading)) < VIEW_HEADING)
-            if look.any():
-                d, _ = self.images.align(x, np.flatnonzero(look))
-                out.append(float(d.min()))
-        return float(np.mean(out)) if out else float("nan")
+            heading = poses[:, 2, None] + offset
+            look = near & (np.abs(wrap_angle(stored[None, :, 2] - heading)) < VIEW_HEADING)
+            need = np.flatnonzero(look.any(axis=0))
+            if len(need) == 0:
+                continue
+            d = np.full(len(stored), np.inf)
+            d[need] = self.images.align(x, need)[0]
+            best = np.where(look, d[None, :], np.inf).min(axis=1)
+            seen = np.isfinite(best)
+            total[seen] += best[seen]
+            count[seen] += 1
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
     def localise(self, cloud: np.ndarray, views: list[tuple[np.ndarray, float]]) -> Fix:
         """The best pose for an all-round ``cloud`` (robot frame, now) and the turn's images
-        ``views`` (features, heading of the image relative to the robot now)."""
-        fits, poses = [], []
-        for init in self.candidates(cloud):
-            res = icp(cloud, self.metric.points, init=init, target_tree=self.metric.tree,
-                      max_iterations=30)  # fmt: skip
-            pose = res.transform if np.isfinite(res.rmse) else init
-            poses.append(pose)
-            fits.append(float(self.metric.fit(cloud, pose, FIT_TOL)[0]))
-        fits = np.array(fits)
+        ``views`` (features, heading of the image relative to the robot now). The cloud is
+        thinned to one point per ``REFINE_SPACING`` cell before ICP (a turn's ~45 scans
+        overlap: the thinned cloud holds the same walls in a fifth of the points)."""
+        thin = thin_to_grid(cloud, REFINE_SPACING)
+        with single_threaded_blas():  # small products; spinning BLAS threads only cost
+            return self._localise(cloud, thin, views)
+
+    def _localise(self, cloud: np.ndarray, thin: np.ndarray, views: list) -> Fix:
+        # a short ICP of a subsample for every candidate, the full one for the best few
+        screen = thin[:: max(1, -(-len(thin) // SCREEN_POINTS))]
+        poses = np.array([self._icp(screen, init, SCREEN_ITERATIONS)
+                          for init in self.candidates(cloud)])  # fmt: skip
+        best = np.argsort(-self.metric.fit(screen, poses, FIT_TOL), kind="stable")[:N_FINAL]
+        refine = thin[:: max(1, -(-len(thin) // REFINE_POINTS))]
+        poses = np.array([self._icp(refine, poses[k], REFINE_ITERATIONS) for k in best])
+        fits = self.metric.fit(refine, poses, FIT_TOL)
         images = np.full(len(poses), np.nan)
         # The laser decides unless it cannot: candidates close to the best fit are the
         # look-alikes (mirrored arms, uniform corridor), and the images decide among them.
         close = np.flatnonzero(fits >= fits.max() - 0.15)
-        for k in close:
-            images[k] = self.image_distance(poses[k], views)
+        if len(close) > 1:
+            images[close] = self.image_distances(poses[close], views)
         # no stored view near looks the way any image did: as bad as unrelated images
         combined = fits - self.image_weight * np.where(np.isfinite(images), images, NO_VIEW)
         combined[np.setdiff1d(np.arange(len(poses)), close)] = -np.inf
@@ -127,6 +198,11 @@ class GlobalLocaliser:
         runner = combined[order[1]] if len(order) > 1 else -np.inf
         return Fix(poses[best], float(fits[best]), float(images[best]),
                    float(combined[best] - runner))  # fmt: skip
+
+    def _icp(self, points: np.ndarray, init: np.ndarray, iterations: int) -> np.ndarray:
+        res = icp(points, self.metric.points, init=init, target_tree=self.metric.tree,
+                  max_iterations=iterations)  # fmt: skip
+        return res.transform if np.isfinite(res.rmse) else np.asarray(init, np.float64)
 
 
 class ScanTracker:

@@ -32,20 +32,24 @@ def pursue(point: np.ndarray, speed: float) -> np.ndarray:
 
 
 class Arrival:
-    """Drive to a pose, then turn to its heading; ``done`` once within tolerance.
+    """Drive to a pose, then turn to its heading; ``done`` once within tolerance (``radius``
+    m, default ``ARRIVE_RADIUS``).
 
     A two-stage law with hysteresis: position first (slowing with distance), then the heading
     on the spot, resuming the drive only if the position error grows past ``RESUME_RADIUS``.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, radius: float = ARRIVE_RADIUS) -> None:
+        if not 0 < radius < RESUME_RADIUS:
+            raise ValueError(f"radius must be in (0, {RESUME_RADIUS}) m, got {radius}")
+        self.radius = float(radius)
         self.turning = False
         self.done = False
 
     def __call__(self, goal: np.ndarray) -> np.ndarray:
         """``goal``: the target pose (x, y, yaw) in the robot frame."""
         d = float(np.hypot(goal[0], goal[1]))
-        if d > (RESUME_RADIUS if self.turning else ARRIVE_RADIUS):
+        if d > (RESUME_RADIUS if self.turning else self.radius):
             self.turning = self.done = False
             bearing = np.arctan2(goal[1], goal[0])
             if d < 0.6 and abs(bearing) > np.pi / 2:  # just past it: back up, do not circle

@@ -117,7 +117,8 @@ def test_controller_bad_inputs(servo_maps):
 @pytest.mark.parametrize(
     ("field", "value", "match"),
     [("speed", 2.0, "speed"), ("turn_rate", 0.0, "turn_rate"), ("lost_fit", 1.5, "lost_fit"),
-     ("lost_steps", 0, "lost_steps"), ("max_drift", -1.0, "max_drift")],
+     ("lost_steps", 0, "lost_steps"), ("max_drift", -1.0, "max_drift"),
+     ("arrive_radius", 0.4, "arrive_radius")],
 )
 def test_servo_config_refuses_bad_values(field, value, match):
     from servo.controller import ServoConfig
@@ -135,3 +136,15 @@ def test_baselines_run(envs):
             a = policy.act(obs, info)
             assert env.action_space.contains(np.asarray(a, np.float32))
             obs, _, _, _, info = env.step(a)
+
+
+
+def test_arrival_radius():
+    """The arrival law stops driving within its radius (the controller's ``arrive_radius``)."""
+    from servo.steering import Arrival
+
+    near = np.array([0.15, 0.0, 0.0])
+    assert Arrival(0.2)(near)[0] == 0.0  # within 0.2 m: turns (already facing: done)
+    assert Arrival(0.1)(near)[0] > 0.0  # not within 0.1 m: drives on
+    with pytest.raises(ValueError, match="radius"):
+        Arrival(0.5)

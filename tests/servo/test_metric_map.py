@@ -71,3 +71,45 @@ def test_tracker_corrects_a_small_error_and_refuses_a_large_one(servo_maps, metr
     assert ok and fit > 0.85 and fit > before + 0.3, (fit, before)
     _, fit, ok = tracker.correct(pts, se2_compose(mm.poses[view], [0.0, 0.0, 2.5]))
     assert not ok and fit < 0.5
+
+
+def test_coarse_scores_agree_with_the_distance_field(metric_maps):
+    """The coarse search's cell lookups score a scan as the distance field does (offsets
+    rounded to whole cells: within a few points of the exact share)."""
+    from servo.laser_localise import COARSE_TOL, CoarseField
+
+    mm = metric_maps["hallway"]
+    rng = np.random.default_rng(0)
+    positions = mm.poses[::20, :2] + rng.normal(0.0, 0.2, (len(mm.poses[::20]), 2))
+    pts = rng.uniform(-6.0, 6.0, (60, 2))
+    yaws = np.array([-2.0, 0.0, 0.7])
+    scores = CoarseField(mm, positions, reach=9.0).scores(pts, yaws)
+    for k, yaw in enumerate(yaws):
+        poses = np.c_[positions, np.full(len(positions), yaw)]
+        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        x = poses[:, None, 0] + c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1]
+        y = poses[:, None, 1] + s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1]
+        exact = (mm.distance(np.stack([x, y], -1)) <= COARSE_TOL).mean(axis=1)
+        assert np.abs(scores[k] - exact).max() <= 0.1, np.abs(scores[k] - exact).max()
+
+
+def test_candidate_positions_reach_past_the_sensed_free_space(metric_maps):
+    from servo.laser_localise import CANDIDATE_CLEARANCE, candidate_positions
+
+    mm = metric_maps["hallway"]
+    pos = candidate_positions(mm)
+    assert mm.distance(pos).min() > CANDIDATE_CLEARANCE
+    seen = mm.grid.is_free(pos)
+    assert seen.mean() > 0.3 and (~seen).sum() > 0  # the free space and a margin beyond it
+
+
+def test_image_distances_of_many_poses_equal_one_at_a_time(servo_maps, metric_maps):
+    m, mm = servo_maps["hallway"], metric_maps["hallway"]
+    loc = GlobalLocaliser(mm, ImageLocaliser(m))
+    views = [(m.features[30], 0.0), (m.features[31], 1.5), (m.features[100], -2.0)]
+    poses = mm.poses[[30, 80, 150, 200]] + [0.3, -0.2, 0.1]
+    many = loc.image_distances(poses, views)
+    one = np.array([loc.image_distances(p[None], views)[0] for p in poses])
+    np.testing.assert_allclose(many, one)
+    # a view's own image, from its own pose, matches it exactly
+    assert loc.image_distances(mm.poses[30][None], views[:1])[0] < 1e-4
