@@ -37,6 +37,7 @@ __all__ = [
     "ColorHistogramFeatures",
     "ImageFeatures",
     "ScanFeatures",
+    "ScanRangesInput",
     "color_histograms",
     "images_to_vectors",
     "normalize_rows",
@@ -154,7 +155,21 @@ def fitted_max_range(ranges: np.ndarray, max_range: float | None) -> float:
     return float(seen.max())
 
 
-class ScanFeatures(TransformerMixin, BaseEstimator):
+class ScanRangesInput:
+    """Input handling shared by the scan transformers: rows of ranges (n, n_beams) in which inf
+    (no return) and NaN (invalid beam) are readings, not missing data (see :func:`scan_ranges`),
+    so scikit-learn's finiteness check is off and its ``allow_nan`` tag on."""
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.allow_nan = True  # NaN (and inf) are readings: see scan_ranges
+        return tags
+
+    def _check_ranges(self, ranges: ArrayLike, reset: bool) -> np.ndarray:
+        return validate_data(self, ranges, dtype=np.float64, ensure_all_finite=False, reset=reset)
+
+
+class ScanFeatures(ScanRangesInput, TransformerMixin, BaseEstimator):
     """Laser scans -> feature vectors (a fit/transform wrapper of :func:`scan_vectors`).
 
     Parameters
@@ -198,14 +213,6 @@ class ScanFeatures(TransformerMixin, BaseEstimator):
         self.n_sectors = n_sectors
         self.min_range = min_range
         self.n_range_bins = n_range_bins
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.input_tags.allow_nan = True  # NaN (and inf) are readings: see scan_ranges
-        return tags
-
-    def _check_ranges(self, ranges: ArrayLike, reset: bool) -> np.ndarray:
-        return validate_data(self, ranges, dtype=np.float64, ensure_all_finite=False, reset=reset)
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, ranges: ArrayLike, y: None = None) -> ScanFeatures:

@@ -27,9 +27,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import check_is_fitted
 
-from mapping.features import fitted_max_range, scan_ranges
+from mapping.features import ScanRangesInput, fitted_max_range, scan_ranges
 
 __all__ = ["SCAN_STATISTICS", "ScanStatistics", "scan_statistics"]
 
@@ -129,7 +129,7 @@ def scan_statistics(
     return [blocks[name] for name in stats]
 
 
-class ScanStatistics(TransformerMixin, BaseEstimator):
+class ScanStatistics(ScanRangesInput, TransformerMixin, BaseEstimator):
     """Laser scans -> sector and ring statistics, each block scaled to unit total spread.
 
     Parameters
@@ -183,14 +183,6 @@ class ScanStatistics(TransformerMixin, BaseEstimator):
         self.n_rings = n_rings
         self.min_range = min_range
         self.block_scaling = block_scaling
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.input_tags.allow_nan = True  # NaN (and inf) are readings: see scan_ranges
-        return tags
-
-    def _check_ranges(self, ranges: ArrayLike, reset: bool) -> np.ndarray:
-        return validate_data(self, ranges, dtype=np.float64, ensure_all_finite=False, reset=reset)
 
     def _blocks(self, r: np.ndarray) -> list[np.ndarray]:
         return scan_statistics(
