@@ -89,6 +89,16 @@ def cmd_worlds(args) -> int:
     return 0
 
 
+def _protocol_folder(value: str | None) -> str | None:
+    """``--protocol``: "committed" (the default) is the repository's
+    ``docs/results/manifold-protocol`` when present, "none" shows no spread, else a folder."""
+    from scripts.report.settings import COMMITTED_PROTOCOL
+
+    if value == "committed":
+        return str(COMMITTED_PROTOCOL) if (COMMITTED_PROTOCOL / "cells").is_dir() else None
+    return None if value in (None, "none") else value
+
+
 def cmd_run(args) -> int:
     """The main job, end to end on the default worlds: collect the default dataset (reused when
     present), evaluate both mapping methods and the servo, and write ``<out>/report/``."""
@@ -101,7 +111,7 @@ def cmd_run(args) -> int:
         videos=args.videos,
         grouping_loop=args.grouping_loop,
         jobs=args.jobs,
-        protocol=args.protocol,
+        protocol=_protocol_folder(args.protocol),
     )
     rest = [
         f"--seed {args.seed}",
@@ -110,7 +120,7 @@ def cmd_run(args) -> int:
         f"--videos {args.videos}",
     ]
     rest += ["--grouping-loop"] * args.grouping_loop
-    rest += [f"--protocol {args.protocol}"] * (args.protocol is not None)
+    rest += [f"--protocol {args.protocol}"] * (args.protocol not in (None, "committed"))
     start = time.perf_counter()
     try:
         index = run_pipeline(
@@ -289,10 +299,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--grouping-loop", action="store_true", help="also group a loop per world")
     r.add_argument(
         "--protocol",
-        default=None,
+        default="committed",
         metavar="DIR",
         help="a folder written by python -m scripts.manifold_protocol --out DIR: the report "
-        "shows its per-seed manifold-clustering errors (the run does not compute them)",
+        "shows its per-seed manifold-clustering errors (the run does not compute them); "
+        "default: the cells committed in docs/results/manifold-protocol; 'none': no table",
     )
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.set_defaults(func=cmd_run)

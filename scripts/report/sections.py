@@ -147,7 +147,8 @@ def section_protocol(result: dict) -> str:
         "Manifold clustering: the spread over dataset seeds",
         intro,
         f"<p>From <code>{esc(result['source'])}</code> ({result.get('cells', '?')} cells), "
-        "written by <code>scripts.manifold_protocol</code>, not recomputed by this run.</p>",
+        "written by <code>scripts.manifold_protocol</code>, not recomputed by this run.</p>"
+        + "".join(f"<p>{esc(k)}: {esc(v)}</p>" for k, v in result.get("made", {}).items()),
         *tables,
     )
 

@@ -4,6 +4,8 @@ the report and returns a plain dict for its section (paths relative to the repor
 
 from __future__ import annotations
 
+import json
+
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -69,7 +71,8 @@ def stage_manifold(dataset_dir: Path, out_dir: Path, root: Path, progress: bool)
 def stage_protocol(folder: str | Path | None) -> dict:
     """The frozen protocol's per-seed errors from ``folder`` (``scripts.manifold_protocol``'s
     ``--out``), summarised per condition, features and method; ``{"source": None}`` without one.
-    The cells are files from disk: ``load_cells`` checks their form."""
+    The cells are files from disk: ``load_cells`` checks their form. An optional
+    ``meta.json`` of strings (how and at which commit the cells were made) is shown beside."""
     if folder is None:
         return {"source": None, "rows": []}
     from scripts.manifold_protocol import load_cells, summarize
@@ -80,7 +83,25 @@ def stage_protocol(folder: str | Path | None) -> dict:
             f"protocol: {folder} holds no cells/*.json; run python -m scripts.manifold_protocol "
             f"--out {folder} first"
         )
-    return {"source": str(folder), "cells": len(cells), "rows": summarize(cells)}
+    source = Path(folder).resolve()
+    repo = Path(__file__).resolve().parents[2]
+    shown = str(source.relative_to(repo)) if source.is_relative_to(repo) else str(folder)
+    return {"source": shown, "cells": len(cells), "rows": summarize(cells),
+            "made": _protocol_meta(Path(folder) / "meta.json")}  # fmt: skip
+
+
+def _protocol_meta(path: Path) -> dict:
+    """``meta.json`` beside the cells: a JSON object of short strings, else refused."""
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ValueError(f"{path}: not JSON ({err})") from err
+    if not (isinstance(data, dict) and all(
+            isinstance(k, str) and isinstance(v, str) and len(v) < 2000 for k, v in data.items())):  # fmt: skip
+        raise ValueError(f"{path}: must be a JSON object of strings (under 2000 characters)")
+    return data
 
 
 def stage_grouping(dataset, out_dir: Path, settings: RunSettings, progress: bool) -> dict:

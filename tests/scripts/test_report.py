@@ -546,3 +546,28 @@ def test_check_report_finds_missing_and_outside_links(tmp_path, capsys):
     (tmp_path / "b.png").write_bytes(PNG)
     index.write_text(page.replace("../x.png", "a.png"))
     assert main([str(index)]) == 0
+
+
+def test_protocol_provenance_is_shown_and_checked(tmp_path):
+    folder = _protocol_folder(tmp_path / "proto", {"ours": {0: 0.03, 1: 0.2}})
+    (folder / "meta.json").write_text(json.dumps({"command": "python -m x <b>", "commit": "abc"}))
+    result = report.stage_protocol(folder)
+    assert result["made"] == {"command": "python -m x <b>", "commit": "abc"}
+    page = report.section_protocol(result)
+    assert "command: python -m x &lt;b&gt;" in page and "commit: abc" in page
+    (folder / "meta.json").write_text(json.dumps({"command": ["not", "a", "string"]}))
+    with pytest.raises(ValueError, match="meta.json: must be a JSON object of strings"):
+        report.stage_protocol(folder)
+
+
+def test_run_shows_the_committed_protocol_cells_unless_told_not_to():
+    from scripts.cli import _protocol_folder as chosen
+    from scripts.report.settings import COMMITTED_PROTOCOL
+
+    committed = chosen("committed")
+    assert committed == (str(COMMITTED_PROTOCOL) if (COMMITTED_PROTOCOL / "cells").is_dir()
+                         else None)  # fmt: skip
+    assert chosen("none") is None and chosen("some/dir") == "some/dir"
+    if committed is not None:  # the repository's own cells pass the report's checks
+        result = report.stage_protocol(committed)
+        assert result["source"] == "docs/results/manifold-protocol" and result["rows"]
