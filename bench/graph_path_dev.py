@@ -48,17 +48,36 @@ def _coarse_combination(lo, hi, n_sigmas):
     return np.array([float(np.exp(v)) for v in logs])
 
 
-# name -> (ManifoldClustering settings, patches as (module, attribute, value))
+def _capped_bounds(self):
+    """sigma's upper bound on a graph node: the median over points of their longest edge."""
+    lo, hi = _GRAPH_BOUNDS(self)
+    E = self.edges
+    has = np.diff(E.indptr) > 0
+    longest = np.maximum.reduceat(np.sqrt(E.data), E.indptr[:-1][has])
+    return lo, min(hi, float(np.median(longest)))
+
+
+_GRAPH_BOUNDS = geometry.GraphGeometry.sigma_bounds
+_BEFORE = [(tree, "combination_sigmas", _coarse_combination)]  # the 6-sigma combination
+_SPARSE = {"kernel": "sparse"}
+# name -> (ManifoldClustering settings, patches as (object, attribute, value))
 SETTINGS = {
     "dense": ({"kernel": "dense"}, []),
-    "graph, 6-sigma combination (before)": (
-        {"kernel": "sparse"}, [(tree, "combination_sigmas", _coarse_combination)]),
-    "graph (adopted)": ({"kernel": "sparse"}, []),
-    "graph, 16 sigmas in every split": ({"kernel": "sparse"}, [(geometry, "COARSE_SIGMAS", 16)]),
-    "graph, full search on dense sub-nodes": (
-        {"kernel": "sparse"}, [(geometry.GraphGeometry, "sub", _full_sub)]),
-    "graph, n_neighbors = Q = 35": ({"kernel": "sparse", "n_neighbors": 35}, []),
-    "graph, n_components = 32": ({"kernel": "sparse", "n_components": 32}, []),
+    "graph, before (6-sigma combination)": (_SPARSE, _BEFORE),
+    "graph, combination over 16 sigmas (adopted)": (_SPARSE, []),
+    "graph, 16 sigmas in every split too": (_SPARSE, [(geometry, "COARSE_SIGMAS", 16)]),
+    "graph, dense sub-nodes searched fully, 6-sigma combination": (
+        _SPARSE, [*_BEFORE, (geometry.GraphGeometry, "sub", _full_sub)]),
+    "graph, dense sub-nodes searched fully": (
+        _SPARSE, [(geometry.GraphGeometry, "sub", _full_sub)]),
+    "graph, n_neighbors = Q = 35, 6-sigma combination": (
+        {**_SPARSE, "n_neighbors": 35}, _BEFORE),
+    "graph, n_neighbors = 35, sub-nodes searched fully, 6-sigma combination": (
+        {**_SPARSE, "n_neighbors": 35}, [*_BEFORE, (geometry.GraphGeometry, "sub", _full_sub)]),
+    "graph, sigma capped at the median longest edge, 6-sigma combination": (
+        _SPARSE, [*_BEFORE, (geometry.GraphGeometry, "sigma_bounds", _capped_bounds)]),
+    "graph, n_components = 32, 6-sigma combination": (
+        {**_SPARSE, "n_components": 32}, _BEFORE),
 }  # fmt: skip
 
 
