@@ -15,9 +15,14 @@ SpectralClustering as a ratio, with both clustering errors (issue 15 item 1).
 ``--sparse-accuracy [DATASET]`` prints the errors of kernel="sparse" against the dense path on
 the synthetic sets and, given a dataset directory, on the 8-manifold images.
 
-``--graph-vs-dense ROOT`` prints, per protocol dataset ``ROOT/m-data-S`` (seeds 1-12, as
-``python -m scripts.manifold_protocol`` collects them), both paths' errors on the images and
-the paired difference of the test errors with its bootstrap 95% interval (issue 15 item 1).
+``--graph-vs-dense ROOT [--seeds S ...]`` prints, per protocol dataset ``ROOT/m-data-S``
+(seeds 1-12 unless given, as ``python -m scripts.manifold_protocol`` collects them), both
+paths' errors on the images, their means and the paired difference of the test errors with
+bootstrap 95% intervals (issue 15 item 1).
+
+``--pooled ROOT --seeds S ... [--pool 3]`` pools the training frames of each group of
+``--pool`` seeds (n = 450 per seed) and compares the dense path with ``kernel="auto"`` (the
+graph above 1000 points): what a user gets by default on a larger image set.
 
 ``--experiments`` instead prints the tables behind docs/manifold-clustering.md: clustering
 error of each reading of the paper's ambiguous steps on the four synthetic sets (clean and
@@ -179,14 +184,33 @@ def _image_split(dataset) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
     return X_train, y[train], X_test, y[test]
 
 
+def _paired_summary(errs: dict[str, list[float]], names: tuple[str, str]) -> None:
+    """Mean test error of each path with its bootstrap 95% interval, and the paired difference
+    (second minus first) with its interval and the count of worse / better / tied."""
+    from scripts.manifold_methods import bootstrap_mean
+
+    for name in names:
+        b = bootstrap_mean(errs[name], np.random.default_rng(0))
+        print(f"{name}, test error: {b['mean']:.3f} [{b['lo']:.3f}, {b['hi']:.3f}] (n={b['n']})")
+    diffs = np.subtract(errs[names[1]], errs[names[0]])
+    d = bootstrap_mean(diffs, np.random.default_rng(0))
+    print(
+        f"{names[1]} - {names[0]}, test error: {d['mean']:+.3f} [{d['lo']:+.3f}, {d['hi']:+.3f}];"
+        f" worse on {int(np.sum(diffs > 0))}, better on {int(np.sum(diffs < 0))}, "
+        f"tied on {int(np.sum(diffs == 0))} of {diffs.size}"
+    )
+
+
 def graph_vs_dense(root: str, seeds=range(1, 13)) -> None:
     """The graph path (``kernel="sparse"``) against the dense path on the 8-manifold images of
     fresh dataset seeds (K = 8, Q = 35, default settings otherwise): per-seed train / test
-    errors and the paired test-error difference with its bootstrap 95% interval."""
-    from scripts.manifold_methods import bootstrap_mean
+    errors, each path's mean test error and the paired difference with bootstrap 95% intervals."""
+    print(f"load average {os.getloadavg()[0]:.1f}")
+    from scripts.manifold_diagnosis import majority_merge_error
 
-    print("| seed | dense train / test | graph train / test |\n|---|---|---|")
-    diffs = []
+    print("| seed | dense train / test (tree's bound) | graph train / test (tree's bound) |")
+    print("|---|---|---|")
+    tests: dict[str, list[float]] = {"dense": [], "sparse": []}
     for seed in seeds:
         X_train, y_train, X_test, y_test = _image_split(Path(root) / f"m-data-{seed}")
         errs = {}
@@ -195,12 +219,38 @@ def graph_vs_dense(root: str, seeds=range(1, 13)) -> None:
             errs[kernel] = (
                 clustering_error(y_train, model.labels_),
                 clustering_error(y_test, model.predict(X_test)),
+                majority_merge_error(y_train, model.leaf_labels_),
             )
-        diffs.append(errs["sparse"][1] - errs["dense"][1])
-        cells = " | ".join(f"{a:.3f} / {b:.3f}" for a, b in errs.values())
+            tests[kernel].append(errs[kernel][1])
+        cells = " | ".join(f"{a:.3f} / {b:.3f} ({c:.3f})" for a, b, c in errs.values())
         print(f"| {seed} | {cells} |", flush=True)
-    d = bootstrap_mean(diffs, np.random.default_rng(0))
-    print(f"\ngraph - dense, test error: {d['mean']:+.3f} [{d['lo']:+.3f}, {d['hi']:+.3f}]")
+    print(f"\nload average {os.getloadavg()[0]:.1f}")
+    _paired_summary(tests, ("dense", "sparse"))
+
+
+def pooled(root: str, pools: list[list[int]]) -> None:
+    """What ``kernel="auto"`` gives above 1000 frames: the training frames of several dataset
+    seeds pooled (n = 450 per seed), fitted by the dense path and by "auto" (the graph path
+    above 1000), K = 8, Q = 35; test frames: those seeds' odd frames. Per pool the train / test
+    errors and fit times, then both paths' means and the paired difference."""
+    print(f"load average {os.getloadavg()[0]:.1f}")
+    print("| seeds | n | dense train / test (fit) | auto train / test (fit) |\n|---|---|---|---|")
+    tests: dict[str, list[float]] = {"dense": [], "auto": []}
+    for pool in pools:
+        parts = [_image_split(Path(root) / f"m-data-{seed}") for seed in pool]
+        X_train, y_train, X_test, y_test = (np.concatenate(p) for p in zip(*parts, strict=True))
+        cells = []
+        for kernel in ("dense", "auto"):
+            model = ManifoldClustering(8, 35, kernel=kernel)
+            wall, _ = _wall_and_cpu(lambda model=model, X=X_train: model.fit(X))
+            err = clustering_error(y_test, model.predict(X_test))
+            tests[kernel].append(err)
+            train = clustering_error(y_train, model.labels_)
+            cells.append(f"{train:.3f} / {err:.3f} ({wall:.1f} s)")
+        seeds = ",".join(map(str, pool))
+        print(f"| {seeds} | {X_train.shape[0]} | {cells[0]} | {cells[1]} |", flush=True)
+    print(f"\nload average {os.getloadavg()[0]:.1f}")
+    _paired_summary(tests, ("dense", "auto"))
 
 
 def sparse_accuracy(dataset: str | None) -> None:
@@ -309,11 +359,23 @@ def main() -> None:
     parser.add_argument(
         "--graph-vs-dense", metavar="ROOT", help="both paths on the protocol's fresh image seeds"
     )
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", default=list(range(1, 13)),
+        help="with --graph-vs-dense: the dataset seeds (default 1-12); with --pooled: the "
+        "seeds, pooled in consecutive groups of --pool",
+    )  # fmt: skip
+    parser.add_argument(
+        "--pooled", metavar="ROOT", help="dense against 'auto' on several seeds' frames pooled"
+    )
+    parser.add_argument("--pool", type=int, default=3, help="with --pooled: seeds per pool")
     args = parser.parse_args()
     if args.memory:
         peak_memory(args.memory)
     elif args.graph_vs_dense:
-        graph_vs_dense(args.graph_vs_dense)
+        graph_vs_dense(args.graph_vs_dense, args.seeds)
+    elif args.pooled:
+        seeds = args.seeds
+        pooled(args.pooled, [seeds[i : i + args.pool] for i in range(0, len(seeds), args.pool)])
     elif args.sparse_accuracy is not None:
         sparse_accuracy(args.sparse_accuracy or None)
     elif args.scale is not None:

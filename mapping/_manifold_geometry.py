@@ -41,6 +41,22 @@ def coarse_space(space):
     return replace(space, n_sigmas=min(space.n_sigmas, COARSE_SIGMAS), refine_sigma=False)
 
 
+def combination_sigmas(lo: float, hi: float, n_sigmas: int) -> np.ndarray:
+    """The sigma grid of the combination of the leaves on the graph path.
+
+    As many log-spaced sigmas between the bounds as the dense path's combination uses
+    (``n_sigmas``), not :data:`COARSE_SIGMAS`: each costs one eigensolve of the whole fit, not
+    one per node, and on the dev data the coarse grid cost the combination 3 points of error
+    (docs: "Scaling"). The split search's coarse grid is among them to the last bit, so the
+    root's bases serve both.
+    """
+    coarse = np.linspace(np.log(lo), np.log(hi), min(n_sigmas, COARSE_SIGMAS))
+    fine = np.linspace(np.log(lo), np.log(hi), n_sigmas)
+    near = np.abs(fine[:, None] - coarse[None, :]).min(axis=1) <= 1e-9 * (1.0 + np.abs(fine))
+    logs = np.sort(np.concatenate([coarse, fine[~near]]))
+    return np.array([float(np.exp(ls)) for ls in logs])
+
+
 def sigma_bounds(sq_dist: np.ndarray) -> tuple[float, float]:
     """Search bounds for sigma on one node: half the 10th-percentile nearest-neighbour distance
     up to the node's diameter.
@@ -83,7 +99,8 @@ class DenseGeometry:
     def sub(self, idx: np.ndarray) -> DenseGeometry:
         return DenseGeometry(self.sq_dist[np.ix_(idx, idx)], self.coarse)
 
-    def basis(self, sigma: float) -> SpectralBasis:
+    def basis(self, sigma: float, keep: bool = True) -> SpectralBasis:
+        """The exact eigenbasis of S at sigma (``keep``: as for the graph; nothing is kept)."""
         return SpectralBasis.from_sq_distances(self.sq_dist, sigma)
 
     def sigma_bounds(self) -> tuple[float, float]:
@@ -189,14 +206,18 @@ class GraphGeometry:
             self.X, edges, self.indices[idx], self.rank, self.dense_below, self.n_neighbors
         )
 
-    def basis(self, sigma: float) -> LowRankBasis:
+    def basis(self, sigma: float, keep: bool = True) -> LowRankBasis:
         """The low-rank basis of S at sigma, kept for the node's grid (O(COARSE_SIGMAS m r)):
-        the root's are asked for by its split, the combination (same grid) and eq. 10."""
-        if sigma not in self._bases:
+        the root's are asked for by its split, the combination (whose grid holds the split's)
+        and eq. 10. ``keep=False``: computed, not kept (the combination's other sigmas)."""
+        if sigma in self._bases:
+            return self._bases[sigma]
+        basis = LowRankBasis.from_edges(self.edges, sigma, self.rank)
+        if keep:
             if len(self._bases) > COARSE_SIGMAS:
                 del self._bases[next(iter(self._bases))]
-            self._bases[sigma] = LowRankBasis.from_edges(self.edges, sigma, self.rank)
-        return self._bases[sigma]
+            self._bases[sigma] = basis
+        return basis
 
     def search_space(self, space):
         """The (sigma, alpha) search of a graph node: :func:`coarse_space`."""

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from mapping._manifold_geometry import GraphGeometry, as_geometry
+from mapping._manifold_geometry import GraphGeometry, as_geometry, combination_sigmas
 from mapping._manifold_kernel import alpha_from_t
 from mapping._manifold_spectral_combine import spectral_merge
 from mapping._manifold_split import SearchSpace, best_split
@@ -123,13 +123,16 @@ class GroupScores:
     def __init__(self, geometry, leaves: list[np.ndarray], space: SearchSpace):
         n = geometry.size
         lo, hi = geometry.sigma_bounds()
-        n_sigmas = geometry.search_space(space).n_sigmas
+        split_grid: set[float] = set()
         if isinstance(geometry, GraphGeometry):
-            # the split search's grid to the last bit, so the root's bases are reused here
-            logs = np.linspace(np.log(lo), np.log(hi), n_sigmas)
-            self.sigmas = np.array([float(np.exp(ls)) for ls in logs])
+            # the dense path's count of sigmas, holding the split search's to the last bit,
+            # so the root's bases are reused here and only the others are computed
+            self.sigmas = combination_sigmas(lo, hi, space.n_sigmas)
+            n_split = geometry.search_space(space).n_sigmas
+            logs = np.linspace(np.log(lo), np.log(hi), n_split)
+            split_grid = {float(np.exp(ls)) for ls in logs}
         else:
-            self.sigmas = np.geomspace(lo, hi, n_sigmas)
+            self.sigmas = np.geomspace(lo, hi, geometry.search_space(space).n_sigmas)
         ts = space.t_grid()
         self.alphas = alpha_from_t(ts)
         member = np.zeros((n, len(leaves)))
@@ -140,7 +143,7 @@ class GroupScores:
             member = sp.csr_matrix(member)  # one leaf per point: O(n), not O(n C), per alpha
         mats = []
         for sigma in self.sigmas:
-            basis = geometry.basis(float(sigma))
+            basis = geometry.basis(float(sigma), keep=float(sigma) in split_grid)
             g = basis.gains(self.alphas)
             inv_nu = 1.0 / basis.column_norms(g)
             per_alpha = [basis.group_gram(g, a, member, inv_nu[:, a]) for a in range(len(ts))]

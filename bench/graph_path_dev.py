@@ -1,0 +1,128 @@
+"""The dev-seed sweep behind "The graph path on the images" (docs/manifold-clustering.md).
+
+Graph path (``kernel="sparse"``) settings against the dense path on the 8-manifold images of
+the dev dataset seeds (HSV histograms, K = 8, Q = 35, the paper's split). The trees are chaotic
+on these images (last-bit noise changes them), so every setting is fitted on each seed's
+features as they are and on ``--draws - 1`` copies multiplied by ``1 + 1e-12 N(0, 1)``, and
+the mean train / test error and the tree's majority-merge bound are printed.
+
+Settings that are not options of ``ManifoldClustering`` are made here by patching module
+constants and functions for the duration of one setting (diagnosis only)::
+
+    python bench/graph_path_dev.py ROOT --seeds 0 100 101 102 103 --draws 3
+
+ROOT holds ``m-data-S`` (``topomap collect --world all --seed S --out ROOT/m-data-S``).
+Use dev seeds only: fresh seeds are for the frozen rule (``bench_manifold.py --graph-vs-dense``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import mapping._manifold_geometry as geometry
+import mapping._manifold_tree as tree
+from bench.bench_manifold import _image_split
+from mapping.manifold import ManifoldClustering
+from mapping.metrics import clustering_error
+from scripts.manifold_diagnosis import majority_merge_error
+
+
+def _full_sub(self, idx):
+    """Dense sub-nodes of a graph fit searched as on the dense path (16 sigmas + Brent)."""
+    idx = np.asarray(idx)
+    if idx.shape[0] <= self.dense_below:
+        return geometry.DenseGeometry(self.block(idx), coarse=False)
+    return self.node(idx)
+
+
+def _coarse_combination(lo, hi, n_sigmas):
+    """The combination's grid before issue 15's second round: the split's coarse grid."""
+    logs = np.linspace(np.log(lo), np.log(hi), min(n_sigmas, geometry.COARSE_SIGMAS))
+    return np.array([float(np.exp(v)) for v in logs])
+
+
+def _capped_bounds(self):
+    """sigma's upper bound on a graph node: the median over points of their longest edge."""
+    lo, hi = _GRAPH_BOUNDS(self)
+    E = self.edges
+    has = np.diff(E.indptr) > 0
+    longest = np.maximum.reduceat(np.sqrt(E.data), E.indptr[:-1][has])
+    return lo, min(hi, float(np.median(longest)))
+
+
+_GRAPH_BOUNDS = geometry.GraphGeometry.sigma_bounds
+_BEFORE = [(tree, "combination_sigmas", _coarse_combination)]  # the 6-sigma combination
+_SPARSE = {"kernel": "sparse"}
+# name -> (ManifoldClustering settings, patches as (object, attribute, value))
+SETTINGS = {
+    "dense": ({"kernel": "dense"}, []),
+    "graph, before (6-sigma combination)": (_SPARSE, _BEFORE),
+    "graph, combination over 16 sigmas (adopted)": (_SPARSE, []),
+    "graph, 16 sigmas in every split too": (_SPARSE, [(geometry, "COARSE_SIGMAS", 16)]),
+    "graph, dense sub-nodes searched fully, 6-sigma combination": (
+        _SPARSE, [*_BEFORE, (geometry.GraphGeometry, "sub", _full_sub)]),
+    "graph, dense sub-nodes searched fully": (
+        _SPARSE, [(geometry.GraphGeometry, "sub", _full_sub)]),
+    "graph, n_neighbors = Q = 35, 6-sigma combination": (
+        {**_SPARSE, "n_neighbors": 35}, _BEFORE),
+    "graph, n_neighbors = 35, sub-nodes searched fully, 6-sigma combination": (
+        {**_SPARSE, "n_neighbors": 35}, [*_BEFORE, (geometry.GraphGeometry, "sub", _full_sub)]),
+    "graph, sigma capped at the median longest edge, 6-sigma combination": (
+        _SPARSE, [*_BEFORE, (geometry.GraphGeometry, "sigma_bounds", _capped_bounds)]),
+    "graph, n_components = 32, 6-sigma combination": (
+        {**_SPARSE, "n_components": 32}, _BEFORE),
+}  # fmt: skip
+
+
+@contextlib.contextmanager
+def _patched(patches):
+    saved = [(obj, name, getattr(obj, name)) for obj, name, _ in patches]
+    try:
+        for obj, name, value in patches:
+            setattr(obj, name, value)
+        yield
+    finally:
+        for obj, name, value in saved:
+            setattr(obj, name, value)
+
+
+def sweep(root: Path, seeds: list[int], draws: int, names: list[str]) -> None:
+    data = {s: _image_split(root / f"m-data-{s}") for s in seeds}
+    print("| setting | train | test | tree's bound |\n|---|---|---|---|")
+    for name in names:
+        kwargs, patches = SETTINGS[name]
+        rows = []
+        with _patched(patches):
+            for X_train, y_train, X_test, y_test in data.values():
+                for draw in range(draws):
+                    noise = np.random.default_rng(draw).standard_normal(X_train.shape)
+                    X = X_train if draw == 0 else X_train * (1.0 + 1e-12 * noise)
+                    model = ManifoldClustering(8, 35, **kwargs).fit(X)
+                    rows.append((
+                        clustering_error(y_train, model.labels_),
+                        clustering_error(y_test, model.predict(X_test)),
+                        majority_merge_error(y_train, model.leaf_labels_),
+                    ))  # fmt: skip
+        train, test, bound = np.mean(rows, axis=0)
+        print(f"| {name} | {train:.3f} | {test:.3f} | {bound:.3f} |", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("root", type=Path)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 100, 101, 102, 103])
+    parser.add_argument("--draws", type=int, default=3)
+    parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
+    args = parser.parse_args()
+    sweep(args.root, args.seeds, args.draws, args.settings)
+
+
+if __name__ == "__main__":
+    main()
