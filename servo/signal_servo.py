@@ -3,7 +3,9 @@
 1. *Observe and localise.* Turn in place once around; every few degrees compare the image
    with the stored views (:meth:`~servo.localise.ImageLocaliser.localise`: the clusters eq. 13
    ranks first, then the best horizontally-aligned view). The best match over the turn is the
-   global fix: a stored view, and the odometry heading that faces the way it looks.
+   global fix: a stored view, and the odometry heading that faces the way it looks (or, with
+   ``consistent_fix``, the match best supported by the turn's other images,
+   :func:`~servo.turn_fix.consistent_fix`).
 2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
    view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
    into waypoint views about ``spacing`` apart.
@@ -12,8 +14,10 @@
    from the best horizontal shift against the route views the camera faces, the position
    along the route from which of them matches best. :class:`WaypointTracker` moves on when F
    toward the next waypoint overtakes F toward the current one (view-sequence navigation),
-   which also tells the robot it is past the current one. Where the recording is driven
-   backwards (the stored images face away) odometry carries the pose alone.
+   which also tells the robot it is past the current one. Where the route drives its
+   recording backwards (out of a branch) the robot reverses, the camera facing the way the
+   stored views look, and takes the reverse-stable fix
+   (:meth:`~servo.route_belief.RouteBelief.fix_reversing`).
 4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
    take the peak as the view's place (the robot went past it) and come back.
 5. *Recover.* Commanded motion that odometry does not see is a wall: back off. Facing route
