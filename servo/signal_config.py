@@ -40,6 +40,14 @@ class SignalServoConfig:
         times a better side moves the sweep there (:class:`~servo.signal_arrival.PeakArrival`).
     relocalise_after / max_relocalise : steps facing route views without an image fix after
         which the robot observes and localises again, at most ``max_relocalise`` times.
+    consistent_fix : take the observing turn's fix best supported by the turn's other images
+        (:func:`~servo.turn_fix.consistent_fix`) rather than its best single match.
+    reverse : drive the route segments that run a recording backwards in reverse (camera
+        facing the way the stored views look) rather than turned round.
+    reverse_speed : m/s reversing (the action space allows down to -0.5).
+    reverse_heading_gain : per metre reversed, the share of the reversing fix's innovation
+        taken off the heading; the cross gain is chosen for critical damping with it and the
+        map's parallax (:meth:`~servo.route_belief.RouteBelief.reverse_gains`).
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
         does not see means a wall: drive the other way for ``backup_steps`` steps.
     """
@@ -68,18 +76,29 @@ class SignalServoConfig:
     lateral_rounds: int = 2
     relocalise_after: int = 40
     max_relocalise: int = 1
+    consistent_fix: bool = False
+    reverse: bool = True
+    reverse_speed: float = 0.5
+    reverse_heading_gain: float = 1.0
     stuck_steps: int = 10
     backup_steps: int = 8
 
     def __post_init__(self):
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.type == "int":
+            if f.type == "bool":
+                if not isinstance(v, bool):
+                    raise ValueError(f"{f.name} must be a bool, got {v!r}")
+            elif f.type == "int":
                 check_int(v, f.name, minimum=0 if f.name in _MAY_BE_ZERO else 1)
             elif not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
                 raise ValueError(f"{f.name} must be a finite number > 0, got {v!r}")
         if not self.speed <= V_LIMITS[1]:
             raise ValueError(f"speed must be in (0, {V_LIMITS[1]}] m/s, got {self.speed}")
+        if not self.reverse_speed <= -V_LIMITS[0]:
+            raise ValueError(
+                f"reverse_speed must be in (0, {-V_LIMITS[0]}] m/s, got {self.reverse_speed}"
+            )
         if not self.turn_rate <= OMEGA_LIMIT:
             raise ValueError(f"turn_rate must be in (0, {OMEGA_LIMIT}] rad/s, got {self.turn_rate}")
         for name in ("heading_gain", "along_gain", "arrive_drop", "arrive_min", "arrive_confirm"):

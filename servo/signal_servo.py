@@ -3,7 +3,9 @@
 1. *Observe and localise.* Turn in place once around; every few degrees compare the image
    with the stored views (:meth:`~servo.localise.ImageLocaliser.localise`: the clusters eq. 13
    ranks first, then the best horizontally-aligned view). The best match over the turn is the
-   global fix: a stored view, and the odometry heading that faces the way it looks.
+   global fix: a stored view, and the odometry heading that faces the way it looks (or, with
+   ``consistent_fix``, the match best supported by the turn's other images,
+   :func:`~servo.turn_fix.consistent_fix`).
 2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
    view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
    into waypoint views about ``spacing`` apart.
@@ -12,8 +14,10 @@
    from the best horizontal shift against the route views the camera faces, the position
    along the route from which of them matches best. :class:`WaypointTracker` moves on when F
    toward the next waypoint overtakes F toward the current one (view-sequence navigation),
-   which also tells the robot it is past the current one. Where the recording is driven
-   backwards (the stored images face away) odometry carries the pose alone.
+   which also tells the robot it is past the current one. Where the route drives its
+   recording backwards (out of a branch) the robot reverses, the camera facing the way the
+   stored views look, and takes the reverse-stable fix
+   (:meth:`~servo.route_belief.RouteBelief.fix_reversing`).
 4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
    take the peak as the view's place (the robot went past it) and come back.
 5. *Recover.* Commanded motion that odometry does not see is a wall: back off. Facing route
@@ -37,9 +41,12 @@ from servo.route_belief import RouteBelief
 from servo.signal_arrival import PeakArrival
 from servo.signal_config import SignalServoConfig
 from servo.steering import pursue
+from servo.turn_fix import consistent_fix
 from sim.simulator import CONTROL_DT
 
 __all__ = ["SignalServo", "SignalServoConfig", "WaypointTracker"]
+
+MIN_PARALLAX = 0.02  # rad/m: a floor (the reversing fix's cross gain grows as 1 / parallax)
 
 
 class WaypointTracker:
@@ -119,6 +126,9 @@ class SignalServo:
             raise TypeError(f"config must be a SignalServoConfig, got {type(config).__name__}")
         self.localiser = ImageLocaliser(servo_map)
         self.routes = RouteGraph(servo_map)
+        # the image shift per m across a view's sight, from the map's linked views: the
+        # reversing fix's model (hallway ~0.15, lawn ~0.05: the scene's depth differs)
+        self.parallax = max(self.localiser.parallax(), MIN_PARALLAX)
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
@@ -143,7 +153,8 @@ class SignalServo:
         self.waypoint_: int | None = None
         self.belief_: RouteBelief | None = None
         self._turned = 0.0
-        self._best = (np.inf, None, 0.0)  # aligned distance, view, odometry heading facing it
+        # the turn's localisations: aligned distance, view, odometry heading facing it
+        self._samples: list[tuple[float, int, float]] = []
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
         if not isinstance(observation, dict):
@@ -209,9 +220,8 @@ class SignalServo:
         c = self.config
         if self._steps % c.observe_every == 0 or c.observe_every == 1:
             view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
-            if d < self._best[0]:
-                self._best = (d, view, float(odo[2] + yaw))
-        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT or self._best[1] is None:
+            self._samples.append((d, view, float(odo[2] + yaw)))
+        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT or not self._samples:
             return np.array([0.0, c.turn_rate])
         self._plan(odo)
         return np.zeros(2)
@@ -219,7 +229,10 @@ class SignalServo:
     def _plan(self, odo: np.ndarray) -> None:
         """Route from the global fix's view to the target and start following it."""
         c = self.config
-        _, view, heading = self._best
+        if c.consistent_fix:
+            view, heading = consistent_fix(self._samples, self.routes)
+        else:
+            _, view, heading = min(self._samples)
         self.manifold_ = int(self.map.clusters[view])
         self.route_ = self.routes.route(view, self.target)
         path = RoutePath(self.routes.frames(self.route_))
@@ -239,20 +252,38 @@ class SignalServo:
         """Correct the belief by the route view the image matches best among those about the
         current progress that look the way the robot faces (none: odometry alone).
 
-        Not while reversing: the image's shift mixes the heading with the offset across the
-        route (a robot right of a view must turn left to line up with it), which steers a
-        robot driving forward back onto the route but one reversing away from it. At the
-        target only the heading is fixed: the route ends there, so beyond it the best view
-        is always the last, and the F peak places the robot along the view's sight."""
+        The image's shift mixes the heading with the offset across the route (a robot right
+        of a view must turn left to line up with it). Driving forward, correcting the heading
+        by it steers the robot back onto the route (a funnel); reversing, the same correction
+        would push it away, so a reversing robot takes the reverse-stable fix
+        (:meth:`~servo.route_belief.RouteBelief.fix_reversing`), and none in the arrival's
+        sweep. At the target only the heading is fixed: the route ends there, so beyond it
+        the best view is always the last, and the F peak places the robot along the view's
+        sight."""
         c, b = self.config, self.belief_
         near = b.facing(b.path.within(b.s, c.behind, c.ahead), c.facing)
-        if len(near) == 0 or self._reversing:
+        reversing = self._reversing and self.phase_ == "follow"
+        if len(near) == 0 or (self._reversing and not reversing):
             return
         d, yaw = self.localiser.align(x, [self.route_[i] for i in near])
         k = int(np.argmin(d))
         if d[k] <= c.image_trust:
-            along = c.along_gain if self.phase_ == "follow" else 0.0
-            b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
+            # "Best among its neighbours" places the robot at the view only if there are
+            # neighbours on both sides: past the last view that faces its way (a junction
+            # where the route turns) the end view stays the best and would pin the belief
+            # there while the robot drives on.
+            interior = 0 < k < len(near) - 1
+            along = c.along_gain if self.phase_ == "follow" and interior else 0.0
+            if reversing:
+                metres = c.reverse_speed * CONTROL_DT  # the gains are per metre reversed
+                # No fix along the route: reversing, the robot moves away from the views it
+                # sees, and at a junction the nearest of them (the best match) stays behind
+                # it; odometry's distance is good over a route's length.
+                g1, g2 = b.reverse_gains(c.reverse_heading_gain, self.parallax)
+                b.fix_reversing(int(near[k]), float(yaw[k]), self.parallax, g1 * metres,
+                                g2 * metres, 0.0)  # fmt: skip
+            else:
+                b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
             self._lost = 0
         else:
             self._lost += 1
@@ -280,18 +311,30 @@ class SignalServo:
             return np.zeros(2)
         self._advance(x)
         if self.phase_ == "follow" and b.path.length - b.s > c.arrive_distance:
-            goal = b.goal(b.s + c.lookahead)
-            if self._careful > 0:
-                # Backed off a wall: a wall stops a turn as well as a drive, so face the
-                # route first, then drive slowly (pursuit would drive into it turning).
-                self._careful -= 1
-                bearing = float(np.arctan2(goal[1], goal[0]))
-                if abs(bearing) > 0.3:
-                    return np.array([0.0, np.sign(bearing) * c.turn_rate])
-                return pursue(goal, 0.5 * c.speed)
-            return pursue(goal, c.speed)
+            return self._drive(b.goal(b.s + c.lookahead))
         self.phase_ = "arrive" if self.phase_ == "follow" else self.phase_  # latched
         return self._arrive(x)
+
+    def _drive(self, goal: np.ndarray) -> np.ndarray:
+        """Pure pursuit toward ``goal`` (robot frame): forward, or in reverse where the route
+        drives its recording backwards (``WaypointTracker.directions`` < 0), so the camera
+        keeps facing the way the stored views look and image fixes stay available. Reversing
+        is pursuit of the goal mirrored through the robot (the robot turned round) with the
+        speed's sign flipped; the turn rate is the same."""
+        c, t = self.config, self.tracker
+        sign = 1.0 if not c.reverse or t.directions[t.index] > 0 else -1.0
+        goal = sign * np.asarray(goal, np.float64)
+        speed = c.speed if sign > 0 else c.reverse_speed
+        if self._careful > 0:
+            # Backed off a wall: a wall stops a turn as well as a drive, so face the route
+            # first, then drive slowly (pursuit would drive into it turning).
+            self._careful -= 1
+            bearing = float(np.arctan2(goal[1], goal[0]))
+            if abs(bearing) > 0.3:
+                return np.array([0.0, np.sign(bearing) * c.turn_rate])
+            speed *= 0.5
+        v, omega = pursue(goal, speed)
+        return np.array([sign * v, omega])
 
     def _arrive(self, x: np.ndarray) -> np.ndarray:
         """At the target: :class:`~servo.signal_arrival.PeakArrival` (the F peak)."""

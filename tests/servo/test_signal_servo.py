@@ -56,6 +56,58 @@ def test_route_belief_predict_fix_and_facing():
         RouteBelief(L_FRAMES, [0.0, 0.0, 0.0])
 
 
+def _reverse_along(fix, steps=400, c=0.17):
+    """A robot reversing 0.05 m a step along a straight route whose views face the other
+    way (+x) while it drives toward -x, its controller keeping the belief's heading at
+    +1 rad/m of the belief's offset (what pulls a reversing robot onto the line: dy/ds =
+    -theta). The image gives z = theta + c y (heading plus parallax of the offset across);
+    ``fix(belief, view, yaw)`` corrects the belief. Returns the true and believed offsets."""
+    frames = np.array([[-0.5 * i, 0.0, 0.0] for i in range(50)])
+    b = RouteBelief(RoutePath(frames), [0.0, 0.0, 0.0], window=2.0)
+    x, y, th = 0.0, 0.3, 0.1  # truth: 0.3 m left, 0.1 rad off; the belief thinks 0, 0
+    for _ in range(steps):
+        dth = 0.5 * (1.0 * b.pose[1] - b.pose[2])
+        th += dth
+        x, y = x - 0.05 * np.cos(th), y - 0.05 * np.sin(th)
+        b.predict([-0.05, 0.0, dth])
+        view = int(np.clip(round(-x / 0.5), 0, 49))
+        fix(b, view, -(th + c * y))
+    return y, b.pose[1]
+
+
+def test_reversing_fix_is_stable_where_the_forward_fix_is_not():
+    """The reversing fix pulls the robot onto the route and the belief onto the truth; the
+    forward fix (heading toward the shift) lets the offset run away while reversing."""
+    g1, g2 = RouteBelief.reverse_gains(1.0, 0.17)
+    assert g2 * 0.17 - g1 == pytest.approx(2.0 * np.sqrt(g1 * 0.17))  # critical damping
+    y, y_hat = _reverse_along(
+        lambda b, v, yaw: b.fix_reversing(v, yaw, 0.17, 0.05 * g1, 0.05 * g2, 0.0)
+    )
+    assert abs(y) < 0.1 and abs(y - y_hat) < 0.1
+    y, y_hat = _reverse_along(lambda b, v, yaw: b.fix(v, yaw, 0.5, 0.0))
+    assert abs(y) > 0.5
+
+
+def test_route_out_of_a_recording_is_reversed(servo_maps):
+    """A target behind the fix's view on its recording: the route drives the recording
+    backwards, so the robot reverses, facing the way the views look."""
+    m = servo_maps["hallway"]
+    start = 60
+    behind = (m.sequence == m.sequence[start]) & (m.frame < m.frame[start] - 10)
+    ctl = SignalServo(m, world="hallway")
+    assert 0.05 < ctl.parallax < 0.3  # ~0.05 rad per 0.3 m across, measured in the hallway
+    ctl.reset(int(np.flatnonzero(behind)[0]))
+    yaw = _observe(ctl, m.images[start], 200)
+    assert ctl.phase_ == "follow" and ctl.tracker.directions[0] < 0
+    odo = np.array([0.0, 0.0, yaw - ctl.belief_.pose[2]])
+    v = [ctl.act({"image": m.images[start], "odometry": odo})[0] for _ in range(6)]
+    assert all(a <= 0 for a in v) and min(v) < -0.2
+    forward = SignalServo(m, config=SignalServoConfig(reverse=False), world="hallway")
+    forward.reset(ctl.target)
+    _observe(forward, m.images[start], 200)
+    assert forward.act({"image": m.images[start], "odometry": odo})[0] >= 0
+
+
 def test_config_validation():
     assert SignalServoConfig(max_relocalise=0).max_relocalise == 0
     for bad, match in [
@@ -67,6 +119,9 @@ def test_config_validation():
         ({"max_relocalise": -1}, "max_relocalise"),
         ({"image_trust": 5.0}, "image_trust"),
         ({"facing": np.nan}, "facing"),
+        ({"reverse": 1}, "reverse"),
+        ({"reverse_speed": 0.8}, "reverse_speed"),
+        ({"reverse_heading_gain": 0.0}, "reverse_heading_gain"),
     ]:
         with pytest.raises(ValueError, match=match):
             SignalServoConfig(**bad)
@@ -149,3 +204,33 @@ def test_signal_servo_refuses_bad_input(servo_maps):
         ctl.act({**obs, "image": bad})
     with pytest.raises(ValueError, match=r"observation\['odometry'\]"):
         ctl.act({**obs, "odometry": np.zeros(2)})
+
+
+def test_consistent_fix_prefers_the_supported_place(servo_maps):
+    """A lone best match is overruled by a place that the turn's other images confirm (their
+    views near it, matched at the headings the map puts them at); a view matched whichever
+    way the camera looks neither stands nor supports; agreement keeps the best match."""
+    from servo.route import RouteGraph
+    from servo.turn_fix import consistent_fix, neighbourhood
+
+    m = servo_maps["hallway"]
+    routes = RouteGraph(m)
+    place = 40
+    near = neighbourhood(routes, place, 4.0)
+    assert near[place].tolist() == [0.0, 0.0, 0.0] and len(near) > 3
+    far = int(np.flatnonzero(m.sequence != m.sequence[place])[-1])
+    assert far not in near
+    others = [v for v in near if v != place][:3]
+    # robot heading 1.0 faces the way `place` looks; its neighbours at their map headings
+    support = [(0.3, v, 1.0 + float(near[v][2])) for v in others]
+    samples = [(0.1, far, 2.5), (0.25, place, 1.0), *support]
+    view, heading = consistent_fix(samples, routes)  # the place or a supporting neighbour
+    assert view in near and heading == pytest.approx(1.0 + near[view][2])
+    # the far view matched over a wide range of headings is generic: ignored
+    generic = [(0.1, far, 2.5), (0.12, far, 0.5), (0.3, place, 1.0)]
+    assert consistent_fix(generic, routes) == (place, 1.0)
+    # with support for the best match as well, it stands
+    both = [(0.1, place, 1.0), (0.2, far, 2.5), *support]
+    assert consistent_fix(both, routes) == (place, 1.0)
+    with pytest.raises(ValueError, match="no localisation"):
+        consistent_fix([], routes)
