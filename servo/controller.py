@@ -52,6 +52,8 @@ class ServoConfig:
     """Everything that tunes :class:`ManifoldServo` (chosen on the ``dev`` split only).
 
     speed : m/s cruise.  lookahead : m of pure pursuit along the path.
+    keep_off : m of clearance (beyond the planning grid's own margin) below which the path
+        costs more (``GeodesicField``'s ``keep_off``): paths swing wide round corners.
     turn_rate : rad/s of the observing turn.  image_every : steps between the turn's images.
     image_weight : the images' weight against the laser fit in global localisation.
     lost_fit / lost_steps : the scan fitting the map this badly (share of points within
@@ -71,6 +73,7 @@ class ServoConfig:
 
     speed: float = 1.0
     lookahead: float = 1.0
+    keep_off: float = 0.4
     turn_rate: float = 1.4
     image_every: int = 3
     image_weight: float = 0.3
@@ -93,6 +96,8 @@ class ServoConfig:
         for name in ("lookahead", "arrive_distance", "image_weight", "max_drift"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not (np.isfinite(self.keep_off) and self.keep_off >= 0):
+            raise ValueError(f"keep_off must be finite and >= 0 (m), got {self.keep_off}")
         if not 0 < self.arrive_radius < 0.35:
             raise ValueError(f"arrive_radius must be in (0, 0.35) m, got {self.arrive_radius}")
         if not 0 <= self.lost_fit <= 1:
@@ -147,7 +152,9 @@ class ManifoldServo:
         controller never reads the simulator's truth)."""
         self.target = self.map.check_view(target, "target")
         if self.target not in self._fields:
-            self._fields[self.target] = GeodesicField(self.metric.grid, self.metric.poses[target])
+            self._fields[self.target] = GeodesicField(
+                self.metric.grid, self.metric.poses[target], keep_off=self.config.keep_off
+            )
         self._field = self._fields[self.target]
         self.done_ = False
         self.relocalisations_ = 0

@@ -18,6 +18,7 @@ from scenes.robot import RADIUS
 
 RESOLUTION = 0.1  # m per cell
 MARGIN = 0.25  # m beyond the robot's radius: pure pursuit cuts corners
+KEEP_OFF_WEIGHT = 4.0  # extra cost per metre driven at no clearance (``keep_off``)
 
 
 # Recently used grid graphs, newest last. Bounded: every controller's metric map brings its own
@@ -26,25 +27,31 @@ _GRAPHS: OrderedDict = OrderedDict()
 _MAX_GRAPHS = 8
 
 
-def _grid_graph(space: World | OccupancyGrid, resolution: float):
+def _grid_graph(space: World | OccupancyGrid, resolution: float, keep_off: float = 0.0):
     """The free cells' 8-connected graph, built once per world or grid (it does not depend on
     goals). A world's free space is its ground truth grown by the robot's radius and a margin;
-    a grid (a map's sensed free space) is taken as it is."""
-    key = (id(space), resolution)
+    a grid (a map's sensed free space) is taken as it is. ``keep_off`` (m): see
+    :class:`GeodesicField`."""
+    key = (id(space), resolution, keep_off)
     if key not in _GRAPHS:
         if isinstance(space, OccupancyGrid):
             grid = space
         else:
             grid = space.free_space(resolution, inflation=RADIUS + MARGIN)
-        _GRAPHS[key] = (space, *_build_graph(grid))  # holding space keeps its id unique
+        _GRAPHS[key] = (space, *_build_graph(grid, keep_off))  # holding space keeps its id unique
         while len(_GRAPHS) > _MAX_GRAPHS:
             _GRAPHS.popitem(last=False)
     _GRAPHS.move_to_end(key)
     return _GRAPHS[key][1:]
 
 
-def _build_graph(grid):
+def _build_graph(grid, keep_off: float = 0.0):
     free = grid.free
+    # Edge length times (1 + KEEP_OFF_WEIGHT * shortfall), the shortfall of the cells' clearance
+    # below keep_off as a fraction of it: 1 wherever there is room.
+    cost = np.ones(free.shape)
+    if keep_off > 0:
+        cost += KEEP_OFF_WEIGHT * np.clip(1.0 - grid.clearance / keep_off, 0.0, 1.0)
     h, w = free.shape
     ids = np.arange(h * w).reshape(h, w)
     rows, cols, wts = [], [], []
@@ -56,7 +63,9 @@ def _build_graph(grid):
         ib = ids[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w][ok]
         rows += [ia, ib]
         cols += [ib, ia]
-        wt = np.full(len(ia), grid.resolution * np.hypot(di, dj))
+        ca = cost[max(0, -di) : h - max(0, di), max(0, -dj) : w - max(0, dj)][ok]
+        cb = cost[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w][ok]
+        wt = grid.resolution * np.hypot(di, dj) * 0.5 * (ca + cb)
         wts += [wt, wt]
     graph = sparse.csr_matrix(
         (np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(h * w,) * 2
@@ -67,12 +76,22 @@ def _build_graph(grid):
 class GeodesicField:
     """Distance (m) from every free cell to ``goal`` (x, y) through free space: a world's
     (ground truth, for the oracle and SPL) or an ``OccupancyGrid`` (a map's sensed free
-    space, for a controller; ``resolution`` is then the grid's)."""
+    space, for a controller; ``resolution`` is then the grid's).
 
-    def __init__(self, world: World | OccupancyGrid, goal, resolution: float = RESOLUTION):
+    ``keep_off`` (m, grids only): cells nearer than this to the grid's edge cost up to
+    ``1 + KEEP_OFF_WEIGHT`` times their length, so paths keep to the middle of a passage and
+    swing wide round corners (a shortest path hugs a corner, and pure pursuit, which cuts
+    inside its path, then scrapes it); distances are then such costs, >= metres."""
+
+    def __init__(self, world: World | OccupancyGrid, goal, resolution: float = RESOLUTION,
+                 keep_off: float = 0.0):  # fmt: skip
         if isinstance(world, OccupancyGrid):
             resolution = world.resolution
-        self.grid, graph = _grid_graph(world, float(resolution))
+        elif keep_off:
+            raise ValueError("keep_off applies to an OccupancyGrid (a sensed map), not a world")
+        if not (np.isfinite(keep_off) and keep_off >= 0):
+            raise ValueError(f"keep_off must be a finite number of metres >= 0, got {keep_off!r}")
+        self.grid, graph = _grid_graph(world, float(resolution), float(keep_off))
         h, w = self.grid.free.shape
         self.goal = np.asarray(goal, np.float64)[:2]
         g = self._nearest_free(self.goal)

@@ -34,3 +34,18 @@ def test_grid_graph_cache_is_bounded_and_reuses_recent_grids():
     assert len(geodesic._GRAPHS) <= geodesic._MAX_GRAPHS
     last = geodesic._grid_graph(grids[-1], 0.1)
     assert geodesic._grid_graph(grids[-1], 0.1)[1] is last[1]  # the same graph, not rebuilt
+
+
+def test_keep_off_swings_the_path_wide_of_the_wall_and_is_checked():
+    grid = _room_with_wall()
+    clear = grid.clearance
+    tight = GeodesicField(grid, goal=(1.55, 0.05)).path((0.55, 0.05))
+    wide = GeodesicField(grid, goal=(1.55, 0.05), keep_off=0.5).path((0.55, 0.05))
+    i, j = grid.cell_of(tight[:-1])
+    k, m = grid.cell_of(wide[:-1])
+    assert clear[k, m].mean() > clear[i, j].mean() + 0.05  # away from the wall's faces
+    assert np.all(grid.is_free(wide[:-1]))
+    longer = GeodesicField(grid, goal=(1.55, 0.05), keep_off=0.5).distance((0.55, 0.05))
+    assert longer > GeodesicField(grid, goal=(1.55, 0.05)).distance((0.55, 0.05))
+    with pytest.raises(ValueError, match="keep_off must be a finite number"):
+        GeodesicField(grid, goal=(0.05, 0.05), keep_off=-1.0)
