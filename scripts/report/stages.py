@@ -5,7 +5,6 @@ the report and returns a plain dict for its section (paths relative to the repor
 from __future__ import annotations
 
 import json
-
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -98,8 +97,10 @@ def _protocol_meta(path: Path) -> dict:
         data = json.loads(path.read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
         raise ValueError(f"{path}: not JSON ({err})") from err
-    if not (isinstance(data, dict) and all(
-            isinstance(k, str) and isinstance(v, str) and len(v) < 2000 for k, v in data.items())):  # fmt: skip
+    strings = isinstance(data, dict) and all(
+        isinstance(k, str) and isinstance(v, str) and len(v) < 2000 for k, v in data.items()
+    )
+    if not strings:
         raise ValueError(f"{path}: must be a JSON object of strings (under 2000 characters)")
     return data
 
