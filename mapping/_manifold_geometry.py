@@ -41,6 +41,15 @@ def coarse_space(space):
     return replace(space, n_sigmas=min(space.n_sigmas, COARSE_SIGMAS), refine_sigma=False)
 
 
+def sigma_grid(lo: float, hi: float, n_sigmas: int) -> tuple[np.ndarray, list[float]]:
+    """The split search's sigmas: ``n_sigmas`` log-spaced from ``lo`` to ``hi``, as their logs
+    and as floats. One function for every caller: the graph path's cached eigenbases are keyed
+    by these floats, so the split, the combination and eq. 10 must build them bit for bit
+    alike."""
+    logs = np.linspace(np.log(lo), np.log(hi), n_sigmas)
+    return logs, [float(np.exp(ls)) for ls in logs]
+
+
 def combination_sigmas(lo: float, hi: float, n_sigmas: int) -> np.ndarray:
     """The sigma grid of the combination of the leaves on the graph path.
 
@@ -50,8 +59,8 @@ def combination_sigmas(lo: float, hi: float, n_sigmas: int) -> np.ndarray:
     (docs: "Scaling"). The split search's coarse grid is among them to the last bit, so the
     root's bases serve both.
     """
-    coarse = np.linspace(np.log(lo), np.log(hi), min(n_sigmas, COARSE_SIGMAS))
-    fine = np.linspace(np.log(lo), np.log(hi), n_sigmas)
+    coarse = sigma_grid(lo, hi, min(n_sigmas, COARSE_SIGMAS))[0]
+    fine = sigma_grid(lo, hi, n_sigmas)[0]
     near = np.abs(fine[:, None] - coarse[None, :]).min(axis=1) <= 1e-9 * (1.0 + np.abs(fine))
     logs = np.sort(np.concatenate([coarse, fine[~near]]))
     return np.array([float(np.exp(ls)) for ls in logs])

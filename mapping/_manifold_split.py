@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from mapping._manifold_geometry import DenseGeometry, GraphGeometry, as_geometry
+from mapping._manifold_geometry import DenseGeometry, GraphGeometry, as_geometry, sigma_grid
 from mapping._manifold_kernel import SpectralBasis, alpha_from_t, unit_outliers
 
 # Sign of eq. 9 (see docs/manifold-clustering.md): "corrected" scores E[D^12] - E[D^11]
@@ -188,9 +188,9 @@ class _NodeSearch:
     def run(self) -> Split:
         space = self.space
         lo, hi = self.geometry.sigma_bounds()
-        log_sigmas = np.linspace(np.log(lo), np.log(hi), space.n_sigmas)
+        log_sigmas, sigmas = sigma_grid(lo, hi, space.n_sigmas)
         ts = space.t_grid()
-        grid = np.array([self.scores(float(np.exp(ls)), ts)[0] for ls in log_sigmas])
+        grid = np.array([self.scores(sigma, ts)[0] for sigma in sigmas])
         i, j = np.unravel_index(np.argmax(grid), grid.shape)
         log_sigma, t, omega = float(log_sigmas[i]), float(ts[j]), float(grid[i, j])
         if space.refine:

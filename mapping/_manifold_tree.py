@@ -25,7 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from mapping._manifold_geometry import GraphGeometry, as_geometry, combination_sigmas
+from mapping._manifold_geometry import (
+    GraphGeometry,
+    as_geometry,
+    combination_sigmas,
+    sigma_grid,
+)
 from mapping._manifold_kernel import alpha_from_t
 from mapping._manifold_spectral_combine import spectral_merge
 from mapping._manifold_split import SearchSpace, best_split
@@ -128,9 +133,7 @@ class GroupScores:
             # the dense path's count of sigmas, holding the split search's to the last bit,
             # so the root's bases are reused here and only the others are computed
             self.sigmas = combination_sigmas(lo, hi, space.n_sigmas)
-            n_split = geometry.search_space(space).n_sigmas
-            logs = np.linspace(np.log(lo), np.log(hi), n_split)
-            split_grid = {float(np.exp(ls)) for ls in logs}
+            split_grid = set(sigma_grid(lo, hi, geometry.search_space(space).n_sigmas)[1])
         else:
             self.sigmas = np.geomspace(lo, hi, geometry.search_space(space).n_sigmas)
         ts = space.t_grid()
