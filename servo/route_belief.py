@@ -67,7 +67,7 @@ class RouteBelief:
         return ahead
 
     def fix_reversing(self, view: int, yaw: float, parallax: float, heading_gain: float,
-                      cross_gain: float, along_gain: float) -> float:  # fmt: skip
+                      cross_gain: float) -> float:  # fmt: skip
         """The image fix of a robot *reversing* along the route while facing the way route
         view ``view`` looks; returns the innovation (rad).
 
@@ -80,14 +80,14 @@ class RouteBelief:
         corrected with it (g2 > |g1| / c) the determinant |g1| c and the trace -(g2 c - |g1|)
         make it stable: the offset becomes observable through the motion. Here
         ``heading_gain`` is |g1| and ``cross_gain`` g2 per step (per metre times the step's
-        length); the position along the sight is fixed as in :meth:`fix`."""
+        length). Nothing is fixed along the route: reversing, the robot moves away from the
+        views it sees, and at a junction the nearest of them stays behind it."""
         frame = self.path.frames[int(view)]
         rel = se2_relative(frame, self.pose)  # belief in the view's frame
         r = wrap_angle(frame[2] - yaw - self.pose[2]) - parallax * float(rel[1])
         self.pose[2] = wrap_angle(self.pose[2] - heading_gain * r)
-        u = np.array([np.cos(frame[2]), np.sin(frame[2])])
-        left = np.array([-u[1], u[0]])
-        self.pose[:2] += cross_gain * r * left - along_gain * float(rel[0]) * u
+        left = np.array([-np.sin(frame[2]), np.cos(frame[2])])  # across the view's sight
+        self.pose[:2] += cross_gain * r * left
         self.s = self.path.project(self.pose[:2], self.s, self.window)
         return float(r)
 

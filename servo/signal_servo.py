@@ -276,12 +276,11 @@ class SignalServo:
             along = c.along_gain if self.phase_ == "follow" and interior else 0.0
             if reversing:
                 metres = c.reverse_speed * CONTROL_DT  # the gains are per metre reversed
-                # No fix along the route: reversing, the robot moves away from the views it
-                # sees, and at a junction the nearest of them (the best match) stays behind
-                # it; odometry's distance is good over a route's length.
+                # no fix along the route (see fix_reversing); odometry's distance is good
+                # over a route's length
                 g1, g2 = b.reverse_gains(c.reverse_heading_gain, self.parallax)
                 b.fix_reversing(int(near[k]), float(yaw[k]), self.parallax, g1 * metres,
-                                g2 * metres, 0.0)  # fmt: skip
+                                g2 * metres)  # fmt: skip
             else:
                 b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
             self._lost = 0

@@ -81,7 +81,7 @@ def test_reversing_fix_is_stable_where_the_forward_fix_is_not():
     g1, g2 = RouteBelief.reverse_gains(1.0, 0.17)
     assert g2 * 0.17 - g1 == pytest.approx(2.0 * np.sqrt(g1 * 0.17))  # critical damping
     y, y_hat = _reverse_along(
-        lambda b, v, yaw: b.fix_reversing(v, yaw, 0.17, 0.05 * g1, 0.05 * g2, 0.0)
+        lambda b, v, yaw: b.fix_reversing(v, yaw, 0.17, 0.05 * g1, 0.05 * g2)
     )
     assert abs(y) < 0.1 and abs(y - y_hat) < 0.1
     y, y_hat = _reverse_along(lambda b, v, yaw: b.fix(v, yaw, 0.5, 0.0))
