@@ -56,16 +56,14 @@ def _build_graph(grid, keep_off: float = 0.0):
     ids = np.arange(h * w).reshape(h, w)
     rows, cols, wts = [], [], []
     for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        a = free[max(0, -di) : h - max(0, di), max(0, -dj) : w - max(0, dj)]
-        b = free[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w]
-        ok = a & b
-        ia = ids[max(0, -di) : h - max(0, di), max(0, -dj) : w - max(0, dj)][ok]
-        ib = ids[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w][ok]
+        # cell (i, j) in slice a, its neighbour (i + di, j + dj) in slice b
+        sa = np.s_[max(0, -di) : h - max(0, di), max(0, -dj) : w - max(0, dj)]
+        sb = np.s_[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w]
+        ok = free[sa] & free[sb]
+        ia, ib = ids[sa][ok], ids[sb][ok]
         rows += [ia, ib]
         cols += [ib, ia]
-        ca = cost[max(0, -di) : h - max(0, di), max(0, -dj) : w - max(0, dj)][ok]
-        cb = cost[max(0, di) : h + min(0, di) or h, max(0, dj) : w + min(0, dj) or w][ok]
-        wt = grid.resolution * np.hypot(di, dj) * 0.5 * (ca + cb)
+        wt = grid.resolution * np.hypot(di, dj) * 0.5 * (cost[sa][ok] + cost[sb][ok])
         wts += [wt, wt]
     graph = sparse.csr_matrix(
         (np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(h * w,) * 2
