@@ -163,6 +163,19 @@ def cmd_reproduce(args) -> int:
     return run(args)
 
 
+def servo_eval_name(args) -> str:
+    """The results file of ``servo-eval --out``: every setting that changes the episodes is in
+    the name, so runs of other worlds or settings into one folder do not overwrite each other."""
+    extras = "-randomize" * bool(args.randomize) + "-no-odometry-noise" * bool(
+        args.no_odometry_noise
+    )
+    steps = "" if args.max_steps == 600 else f"-{args.max_steps}steps"
+    return (
+        f"servo-eval-{args.world}-{args.tier}-{args.split}-{args.policy}"
+        f"-{args.episodes}ep{extras}{steps}.json"
+    )
+
+
 def cmd_servo_eval(args) -> int:
     """Closed-loop servo evaluation by the benchmark protocol (``servo.protocol``): one start
     tier and split, in one world or both, episodes in parallel over the cores."""
@@ -186,9 +199,10 @@ def cmd_servo_eval(args) -> int:
     if args.out:
         from common.fileio import atomic_write_bytes
 
-        name = f"servo-eval-{args.tier}-{args.split}-{args.policy}.json"
         Path(args.out).mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(Path(args.out) / name, json.dumps(results, indent=2).encode())
+        atomic_write_bytes(
+            Path(args.out) / servo_eval_name(args), json.dumps(results, indent=2).encode()
+        )
     if args.json:
         print(json.dumps(results if len(results) > 1 else results[0], indent=2))
         return 0
