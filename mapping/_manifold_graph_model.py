@@ -29,7 +29,7 @@ from mapping._manifold_geometry import GraphGeometry
 from mapping._manifold_kernel import unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
 from mapping._manifold_predict import ClusterModel
-from mapping._manifold_stack import Projection, projection_threads
+from mapping._manifold_stack import DerivedCache, Projection, projection_threads
 from mapping.distances import TINY
 
 # Query rows centred at once (~32 MB of float64).
@@ -37,7 +37,7 @@ _ROW_ELEMENTS = 4_000_000
 
 
 @dataclass(frozen=True)
-class GraphClusterModel:
+class GraphClusterModel(DerivedCache):
     """What eq. 13 needs of one cluster of a k-NN graph fit, in low-rank form.
 
     Attributes

@@ -54,7 +54,7 @@ import numpy as np
 
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import affinity
-from mapping._manifold_stack import projection_threads
+from mapping._manifold_stack import DerivedCache, projection_threads
 from mapping._validation import single_threaded_blas
 from mapping.distances import TINY as _TINY
 
@@ -67,7 +67,7 @@ _RANK_FLOOR = 1e-10
 
 
 @dataclass(frozen=True)
-class ClusterModel:
+class ClusterModel(DerivedCache):
     """What eq. 13 needs of one cluster, precomputed at fit time.
 
     Attributes

@@ -37,8 +37,8 @@ Memory: when the projection is built the models' rows become row blocks (views, 
 values) of ``matrix``, so it adds only the K shifts (K d float64), mu (d float64) and R
 float64 offsets to what the models hold; the stack adds the padded coordinates
 (K r n) and inverses (K n^2) of the solves. Both are derived, never saved
-(:mod:`mapping.persistence` saves the models' fields); a loaded model builds them again on
-its first ``predict``.
+(:mod:`mapping.persistence` saves the models' fields) nor pickled or deep-copied
+(:class:`DerivedCache`); a loaded or copied model builds them again on its first ``predict``.
 """
 
 from __future__ import annotations
@@ -209,6 +209,21 @@ def sq_distances_all(models: list, X: np.ndarray) -> list[np.ndarray]:
     stack = Stack.of(list(models))
     d2 = stack.sq_distances(X)
     return [d2[j, :, :size] for j, size in enumerate(stack.sizes)]
+
+
+class DerivedCache:
+    """Base of the frozen per-cluster records: their ``_stacks`` dict (set on construction)
+    keeps the :class:`Stack` / :class:`Projection` built from them on the first ``predict``.
+    Pickles and deep copies leave it out (a copy builds its own), as saved files do."""
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_stacks", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.__dict__["_stacks"] = {}
 
 
 def projection_threads(rows: int):

@@ -7,7 +7,9 @@ float32 product either way, and the per-cluster path is itself ~1e-6 off a float
 projection), and F^j (eq. 13) to 1e-3 of the largest F of the cluster.
 """
 
+import copy
 import json
+import pickle
 
 import numpy as np
 import pytest
@@ -120,6 +122,17 @@ def test_loaded_model_rebuilds_the_stack_and_predicts_alike(curves):
     assert loaded._models[0]._stacks == {}
     np.testing.assert_array_equal(loaded.predict_proba(test), expected)
     _check_against_each_cluster(loaded._models, test)
+
+
+def test_pickles_and_copies_leave_the_stack_out(curves):
+    train, test = curves
+    model = _fit(train, "float32", 0.0)
+    expected = model.predict_proba(test)
+    assert model._models[0]._stacks  # built
+    for other in (pickle.loads(pickle.dumps(model)), copy.deepcopy(model)):
+        assert all(m._stacks == {} for m in other._models)
+        np.testing.assert_array_equal(other.predict_proba(test), expected)
+        assert other._models[0]._stacks and model._models[0].basis.base is not None
 
 
 def test_graph_fit_projects_once_for_all_clusters():
