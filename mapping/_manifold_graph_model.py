@@ -121,7 +121,7 @@ class GraphClusterModel(DerivedCache):
         for start in range(0, k, step):
             Xc = X[start : start + step] - self.mean
             q = np.einsum("ij,ij->i", Xc, Xc)
-            with projection_threads(Xc.shape[0]):
+            with projection_threads(Xc.shape[0], self.points):
                 cross = np.asarray(Xc, dtype=self.points.dtype) @ self.points.T
             out[start : start + step] = q[:, None] + self.sq_norms[None, :] - 2.0 * cross
         return np.maximum(out, 0.0, out=out)

@@ -54,8 +54,11 @@ from mapping._validation import single_threaded_blas
 _CENTRE_ELEMENTS = 4_000_000
 # Blocks of at most this many rows are projected on one BLAS thread: a GEMV (or a product of a
 # few rows) is memory-bound, and on a busy 2-core machine a second OpenBLAS thread only spins
-# (a 40 x 230400 float32 GEMV: ~1.7 ms on one thread, ~12 ms on two at load 4-5).
+# (a 40 x 230400 float32 GEMV: ~1.7 ms on one thread, ~12 ms on two at load 4-5). Below
+# _SMALL_MATRIX elements (d=2000: a cluster's 66 x 2000 basis) the switch costs more than it
+# saves (~20 us of a 0.2 ms signal) and the default threads stay.
 _FEW_ROWS = 8
+_SMALL_MATRIX = 1 << 20
 # Columns of a float32 basis widened to float64 at once for ``B_j delta_j``.
 _OFFSET_COLUMNS = 65_536
 
@@ -114,7 +117,7 @@ class Projection:
             rows = slice(start, start + step)
             Xc = X[rows] - self.mu
             norms = np.einsum("ij,ij->i", Xc, Xc)
-            with projection_threads(Xc.shape[0]):
+            with projection_threads(Xc.shape[0], self.matrix):
                 p[rows] = np.asarray(Xc, dtype=self.matrix.dtype) @ self.matrix.T
                 along = Xc @ self.shifts.T
             # |x - mean_j|^2 = |x - mu|^2 - 2 (x - mu) . delta_j + |delta_j|^2
@@ -226,10 +229,13 @@ class DerivedCache:
         self.__dict__["_stacks"] = {}
 
 
-def projection_threads(rows: int):
-    """BLAS threads for projecting ``rows`` queries: one for a few rows (see ``_FEW_ROWS``),
-    the default otherwise (a product of many rows is compute-bound, as in ``fit``)."""
-    return single_threaded_blas() if rows <= _FEW_ROWS else nullcontext()
+def projection_threads(rows: int, matrix: np.ndarray):
+    """BLAS threads for projecting ``rows`` queries on ``matrix``: one for a few rows and a
+    large matrix (a memory-bound GEMV; ``_FEW_ROWS``), the default otherwise (a product of many
+    rows is compute-bound, as in ``fit``; a small one is not worth the switch)."""
+    if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX:
+        return single_threaded_blas()
+    return nullcontext()
 
 
 def _cached(cls, models: list, *args):
