@@ -29,6 +29,7 @@ from mapping._manifold_geometry import GraphGeometry
 from mapping._manifold_kernel import unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
 from mapping._manifold_predict import ClusterModel
+from mapping._manifold_stack import DerivedCache, Projection, projection_threads
 from mapping.distances import TINY
 
 # Query rows centred at once (~32 MB of float64).
@@ -36,7 +37,7 @@ _ROW_ELEMENTS = 4_000_000
 
 
 @dataclass(frozen=True)
-class GraphClusterModel:
+class GraphClusterModel(DerivedCache):
     """What eq. 13 needs of one cluster of a k-NN graph fit, in low-rank form.
 
     Attributes
@@ -62,6 +63,9 @@ class GraphClusterModel:
         Degrees of the cluster's graph at sigma_j.
     scale : float
         ``|beta H e_centre|``, eq. 4's column norm, the divisor of ``predict``'s F.
+
+    Once ``predict`` has projected a query, ``points`` is a row block (a view, the same values)
+    of the :class:`~mapping._manifold_stack.Projection` of all the clusters' points.
     """
 
     indices: np.ndarray
@@ -78,6 +82,10 @@ class GraphClusterModel:
     point_rest: np.ndarray
     degrees: np.ndarray
     scale: float
+
+    def __post_init__(self) -> None:
+        # not a field: the derived projection of ``model_scores``, never saved
+        object.__setattr__(self, "_stacks", {})
 
     @classmethod
     def build(cls, X, geometry: GraphGeometry, basis: LowRankBasis, sigma, alpha, centre, dtype):
@@ -113,7 +121,8 @@ class GraphClusterModel:
         for start in range(0, k, step):
             Xc = X[start : start + step] - self.mean
             q = np.einsum("ij,ij->i", Xc, Xc)
-            cross = np.asarray(Xc, dtype=self.points.dtype) @ self.points.T
+            with projection_threads(Xc.shape[0], self.points):
+                cross = np.asarray(Xc, dtype=self.points.dtype) @ self.points.T
             out[start : start + step] = q[:, None] + self.sq_norms[None, :] - 2.0 * cross
         return np.maximum(out, 0.0, out=out)
 
@@ -195,17 +204,27 @@ def model_scores(models, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np
     nearest training points over all clusters; a cluster none of them lies in has F = 0.
     Without this a cluster whose sigma_j sits high on the plateau of Omega (on a k-NN graph
     every sigma well above the edge lengths gives nearly the same kernel) would reach queries
-    from other manifolds. Rows go in blocks: O(block n) memory, not O(k n).
+    from other manifolds. Rows go in blocks: O(block n) memory, not O(k n). Each block is
+    centred, cast and projected once for all clusters (one GEMV over the stacked points of
+    :class:`~mapping._manifold_stack.Projection`), not once per cluster.
     """
     k = X.shape[0]
     f = np.empty((k, len(models)))
     nearest = np.empty_like(f)
     n = sum(m.indices.shape[0] for m in models)
     step = max(1, _ROW_ELEMENTS // max(n, 1))
+    projection = Projection.of(models, "points")
+    starts = projection.starts
     for start in range(0, k, step):
         rows = slice(start, start + step)
-        d2 = [model.sq_distances(X[rows]) for model in models]
-        together = np.hstack(d2)
+        # (x - mean_j) . p_i for every cluster's points, and |x - mean_j|^2
+        cross, q = projection(X[rows])
+        together = cross
+        together *= -2.0
+        for j, model in enumerate(models):
+            together[:, starts[j] : starts[j + 1]] += q[:, j : j + 1] + model.sq_norms
+        np.maximum(together, 0.0, out=together)
+        d2 = [together[:, starts[j] : starts[j + 1]] for j in range(len(models))]
         s = min(models[0].n_neighbors, n) - 1
         reach = np.partition(together, s, axis=1)[:, s]
         for j, model in enumerate(models):

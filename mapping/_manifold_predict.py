@@ -41,8 +41,9 @@ singular value below 1e-10 of the largest are dropped, so the omission is at the
 float32 round-off); with ``tol > 0`` the weakest directions holding at most a fraction ``tol``
 of the cluster's energy are dropped too (image noise, mostly), and the omitted term is bounded
 by ``2 |x_perp| |r_i|`` (Cauchy-Schwarz) and near 0 for noise independent of the training
-points'. ``predict`` goes through :class:`Stack`: every cluster's arrays padded to one size,
-so one view costs one projection per cluster and a few batched numpy calls, not K of each.
+points'. ``predict`` goes through :class:`mapping._manifold_stack.Stack`: every cluster's
+arrays padded to one size and all bases stacked, so one view is centred, cast and projected
+once (one GEMV) for all K clusters and solved in a few batched numpy calls, not K of each.
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ import numpy as np
 
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import affinity
+from mapping._manifold_stack import DerivedCache, projection_threads
 from mapping._validation import single_threaded_blas
 from mapping.distances import TINY as _TINY
 
@@ -62,12 +64,10 @@ _CENTRE_ELEMENTS = 4_000_000
 # largest are numerically zero: kept in the residual norms, not in the basis (dividing by their
 # singular value would amplify round-off into the basis).
 _RANK_FLOOR = 1e-10
-# Queries at most this many elements (rows x d) take the stacked path of ``Stack.scores``.
-_STACK_ELEMENTS = 1_000_000
 
 
 @dataclass(frozen=True)
-class ClusterModel:
+class ClusterModel(DerivedCache):
     """What eq. 13 needs of one cluster, precomputed at fit time.
 
     Attributes
@@ -85,7 +85,9 @@ class ClusterModel:
         distances keep their precision (also in float32).
     basis : ndarray of shape (r, d)
         Orthonormal rows spanning the centred points (r <= m), in the storage dtype (float32
-        halves the memory traffic that dominates a call for image-sized d).
+        halves the memory traffic that dominates a call for image-sized d). Once ``predict``
+        has stacked the models it is a row block (a view, the same values) of the stack's
+        matrix, not a second copy.
     coords : ndarray of shape (m, r), float64
         The centred points in that basis.
     sq_norms : ndarray of shape (m,), float64
@@ -182,7 +184,8 @@ class ClusterModel:
         for start in range(0, k, step):
             Xc = X[start : start + step] - self.mean
             q[start : start + step] = np.einsum("ij,ij->i", Xc, Xc)
-            c[start : start + step] = np.asarray(Xc, dtype=self.basis.dtype) @ self.basis.T
+            with projection_threads(Xc.shape[0], self.basis):  # one thread: a few rows
+                c[start : start + step] = np.asarray(Xc, dtype=self.basis.dtype) @ self.basis.T
         # |c - c_i|^2 + |x_perp|^2 + |r_i|^2 = |x|^2 + |x_i|^2 - 2 c . c_i (orthonormal basis)
         d2 = q[:, None] + self.sq_norms[None, :] - 2.0 * (c @ self.coords.T)
         return np.maximum(d2, 0.0)
@@ -202,136 +205,6 @@ class ClusterModel:
                 self.inverse[None], self.degrees[None], w, np.zeros(k, dtype=np.intp),
                 np.full(k, target), np.full(k, self.alpha),
             )  # fmt: skip
-
-
-class Stack:
-    """Every cluster's arrays padded to the largest cluster, for ``predict`` of a few views.
-
-    Padding: zero basis coordinates and an infinite squared norm (a padded point is at
-    infinite distance, affinity exactly 0), H = 0 and degree 1 (never in a support).
-    """
-
-    def __init__(self, models: tuple[ClusterModel, ...]) -> None:
-        self.models = models
-        K = len(models)
-        sizes = [m.indices.shape[0] for m in models]
-        n, r = max(sizes), max(m.basis.shape[0] for m in models)
-        self.sizes = np.array(sizes)
-        self.ranks = [m.basis.shape[0] for m in models]
-        self.coords_t = np.zeros((K, r, n))
-        self.sq_norms = np.full((K, n), np.inf)
-        self.inverse = np.zeros((K, n, n))
-        self.degrees = np.ones((K, n))
-        for j, m in enumerate(models):
-            size, rank = sizes[j], self.ranks[j]
-            self.coords_t[j, :rank, :size] = m.coords.T
-            self.sq_norms[j, :size] = m.sq_norms
-            if m.inverse is not None:  # else H = 0, d = 1: harmless until dense_signal's turn
-                self.inverse[j, :size, :size] = m.inverse
-                self.degrees[j, :size] = m.degrees
-        self.dense = [j for j, m in enumerate(models) if m.inverse is None]
-        self.centres = np.array([m.centre for m in models], dtype=np.intp)
-        self.alphas = np.array([m.alpha for m in models])
-        self.scales = np.array([m.scale for m in models])
-        self.gain = np.array([-0.5 / (m.sigma * m.sigma) for m in models])
-
-    @classmethod
-    def of(cls, models: list[ClusterModel]) -> Stack:
-        """The stack of these models, built once and kept by the first of them."""
-        cache = models[0]._stacks
-        key = tuple(map(id, models))
-        hit = cache.get(key)
-        # the stack holds the models, so while cached their ids cannot be reused
-        if hit is None or any(a is not b for a, b in zip(hit.models, models, strict=True)):
-            hit = cache[key] = cls(tuple(models))
-        return hit
-
-    def sq_distances(self, X: np.ndarray) -> np.ndarray:
-        """``ClusterModel.sq_distances`` of every cluster, (K, k, n), padding at infinity.
-
-        Each cluster's projection is the same float32/float64 product as the cluster's own
-        (bit for bit); only the float64 coordinates product is batched.
-        """
-        k, d = X.shape
-        K, r = self.coords_t.shape[:2]
-        if k * d > _STACK_ELEMENTS:
-            d2 = np.full((K, k, self.sq_norms.shape[1]), np.inf)
-            for j, part in enumerate(sq_distances_all(list(self.models), X)):
-                d2[j, :, : self.sizes[j]] = part
-            return d2
-        centred = np.empty((k, d))
-        q = np.empty((K, k, 1))
-        c = np.zeros((K, k, r))
-        for j, m in enumerate(self.models):
-            np.subtract(X, m.mean, out=centred)
-            q[j, :, 0] = np.einsum("ij,ij->i", centred, centred)
-            c[j, :, : self.ranks[j]] = np.asarray(centred, dtype=m.basis.dtype) @ m.basis.T
-        d2 = c @ self.coords_t
-        d2 *= -2.0
-        d2 += q
-        d2 += self.sq_norms[:, None, :]
-        return np.maximum(d2, 0.0, out=d2)
-
-    def scores(self, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np.ndarray]:
-        """F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``,
-        and ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K) for the rows where every F is 0."""
-        d2 = self.sq_distances(X)
-        K, k = d2.shape[:2]
-        w = np.exp(d2 * self.gain[:, None, None])
-        entry = np.repeat(np.arange(K), k)
-        # Distances above keep all BLAS threads (a big product at image size, as in ``fit``);
-        # the small solves run on one: a second thread only spins there.
-        with single_threaded_blas():
-            f = sparse_signal(
-                self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
-                self.alphas[entry],
-            ).reshape(K, k)  # fmt: skip
-            for j in self.dense:
-                m = self.models[j]
-                w_j = w[j, :, : self.sizes[j]]
-                f[j] = dense_signal(m.weights, m.degrees, m.alpha, w_j, m.centre)
-        if normalize:
-            f /= self.scales[:, None]
-        return f.T, (d2.min(axis=2) * -self.gain[:, None]).T
-
-
-def sq_distances_all(models: list[ClusterModel], X: np.ndarray) -> list[np.ndarray]:
-    """``model.sq_distances(X)`` for every cluster, each query centred and cast only once.
-
-    Rows are centred on the size-weighted mean of the cluster means (the training mean) and
-    each cluster's projection is shifted by ``B_j (mu_j - mu)`` and its squared norm by
-    ``-2 x.(mu_j - mu) + |mu_j - mu|^2`` (float64), so a batch of image-sized queries is read
-    once per block of rows instead of once per cluster. In float32 storage the projection's
-    round-off is then relative to the spread of all the data rather than of one cluster.
-    """
-    k, d = X.shape
-    step = max(1, _CENTRE_ELEMENTS // max(d, 1))
-    if k <= step:
-        # One block of rows: centring it once per cluster costs less than the K x d set-up
-        # below (for one image-sized view, 1 ms against ~50 ms), and each basis is read once.
-        return [m.sq_distances(X) for m in models]
-    sizes = np.array([m.indices.shape[0] for m in models], dtype=np.float64)
-    mu = np.einsum("j,jd->d", sizes / sizes.sum(), np.stack([m.mean for m in models]))
-    shifts = np.stack([m.mean - mu for m in models])  # (K, d)
-    offsets = [
-        m.basis @ np.asarray(delta, dtype=m.basis.dtype)
-        for m, delta in zip(models, shifts, strict=True)
-    ]
-    q = np.empty((k, len(models)))
-    cs = [np.empty((k, m.basis.shape[0])) for m in models]
-    for start in range(0, k, step):
-        rows = slice(start, start + step)
-        Xc = X[rows] - mu
-        q[rows] = np.einsum("ij,ij->i", Xc, Xc)[:, None] - 2.0 * (Xc @ shifts.T)
-        Xs = np.asarray(Xc, dtype=models[0].basis.dtype)
-        for c, m in zip(cs, models, strict=True):
-            c[rows] = Xs @ m.basis.T
-    q += np.einsum("jd,jd->j", shifts, shifts)[None, :]
-    out = []
-    for j, m in enumerate(models):
-        c = cs[j] - offsets[j][None, :]
-        out.append(np.maximum(q[:, j : j + 1] + m.sq_norms[None, :] - 2.0 * (c @ m.coords.T), 0.0))
-    return out
 
 
 def _span(centred: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

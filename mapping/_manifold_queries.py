@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from mapping._manifold_graph_model import GraphClusterModel, model_scores
-from mapping._manifold_predict import Stack
+from mapping._manifold_stack import Stack
 from mapping._validation import is_plain_query
 
 
@@ -119,8 +119,7 @@ class ManifoldQueries:
             or self.labels_[target] != cluster
         ):
             raise ValueError(
-                f"target must be the training index of a point of cluster {cluster}, "
-                f"got {target!r}"
+                f"target must be the training index of a point of cluster {cluster}, got {target!r}"
             )
         return self.signals(X, [target])[:, 0]
 

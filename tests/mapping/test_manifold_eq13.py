@@ -10,7 +10,8 @@ import pytest
 
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import affinity, normalized_affinity
-from mapping._manifold_predict import ClusterModel, Stack
+from mapping._manifold_predict import ClusterModel
+from mapping._manifold_stack import Stack
 from mapping.distances import squared_distances
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mapping import _manifold_predict
+from mapping import _manifold_stack
 from mapping._manifold_kernel import (
     SpectralBasis,
     manifold_distances,
@@ -12,8 +12,9 @@ from mapping._manifold_kernel import (
     outlier_vector,
     seed_pair,
 )
-from mapping._manifold_predict import ClusterModel, sq_distances_all
+from mapping._manifold_predict import ClusterModel
 from mapping._manifold_split import SearchSpace, split_scores
+from mapping._manifold_stack import sq_distances_all
 from mapping.distances import squared_distances
 
 
@@ -174,7 +175,7 @@ def test_projection_tol_drops_noise_directions_within_the_stated_bound():
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_distances_of_all_clusters_match_each_cluster_alone(dtype, monkeypatch):
     # blocks of 2 rows: the batch takes the path that centres each block once for all clusters
-    monkeypatch.setattr(_manifold_predict, "_CENTRE_ELEMENTS", 600)
+    monkeypatch.setattr(_manifold_stack, "_CENTRE_ELEMENTS", 600)
     rng = np.random.default_rng(5)
     X = np.vstack([_curve_in_subspace(rng, noise=1e-3), _curve_in_subspace(rng, noise=1e-3) + 3])
     D2 = squared_distances(X)
