@@ -38,6 +38,15 @@ def test_diagnose_one_small_draw(tmp_path):
     assert len(row["branch-start ratios"]) == 6  # three branches per world
 
 
+def test_share_at_the_bound_counts_only_the_cells_redone(monkeypatch):
+    # with a bound every cut reaches, every cell redone (the top alpha's 16) is at the bound
+    import scripts.branching_diagnosis as diagnosis
+
+    monkeypatch.setattr(diagnosis, "majority_merge_error", lambda y, leaves: 1.0)
+    row = diagnosis.diagnose(160, 0, Q=5, every_alpha=False)
+    assert row["grid cells at the bound"] == 1.0
+
+
 def test_too_few_points_are_refused():
     with pytest.raises(SystemExit):
         main(["--n", "100", "--Q", "35"])
