@@ -54,12 +54,10 @@ import numpy as np
 
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import affinity
-from mapping._manifold_stack import DerivedCache, projection_threads
+from mapping._manifold_stack import _CENTRE_ELEMENTS, DerivedCache, projection_threads
 from mapping._validation import single_threaded_blas
 from mapping.distances import TINY as _TINY
 
-# Query elements centred at once (~32 MB of float64).
-_CENTRE_ELEMENTS = 4_000_000
 # Directions of a cluster's span with a squared singular value below this fraction of the
 # largest are numerically zero: kept in the residual norms, not in the basis (dividing by their
 # singular value would amplify round-off into the basis).

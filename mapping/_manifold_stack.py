@@ -206,14 +206,6 @@ class Stack:
         return f.T, (d2.min(axis=2) * -self.gain[:, None]).T
 
 
-def sq_distances_all(models: list, X: np.ndarray) -> list[np.ndarray]:
-    """``model.sq_distances(X)`` for every cluster (each (k, m_j)), through :class:`Stack`:
-    each query centred, cast and projected only once."""
-    stack = Stack.of(list(models))
-    d2 = stack.sq_distances(X)
-    return [d2[j, :, :size] for j, size in enumerate(stack.sizes)]
-
-
 class DerivedCache:
     """Base of the frozen per-cluster records: their ``_stacks`` dict (set on construction)
     keeps the :class:`Stack` / :class:`Projection` built from them on the first ``predict``.

@@ -7,13 +7,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from common.validation import check_int
+from scripts.report.provenance import REPO_ROOT
 
 __all__ = ["COMMITTED_PROTOCOL", "REPORT_DIR", "OutputError", "RunSettings", "StageError"]
 
 REPORT_DIR = "report"
 # The frozen protocol's cells as committed with the code (issue 13 item 7): ``topomap run``
 # shows them unless told otherwise, so every report carries the spread over dataset seeds.
-COMMITTED_PROTOCOL = Path(__file__).resolve().parents[2] / "docs" / "results" / "manifold-protocol"
+COMMITTED_PROTOCOL = REPO_ROOT / "docs" / "results" / "manifold-protocol"
 
 
 @dataclass(frozen=True)

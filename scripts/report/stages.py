@@ -12,6 +12,7 @@ import numpy as np
 
 from common.fileio import write_png
 from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet
+from scripts.report.provenance import REPO_ROOT
 from scripts.report.settings import RunSettings
 
 __all__ = ["stage_grouping", "stage_manifold", "stage_protocol", "stage_servo", "stage_worlds"]
@@ -83,8 +84,7 @@ def stage_protocol(folder: str | Path | None) -> dict:
             f"--out {folder} first"
         )
     source = Path(folder).resolve()
-    repo = Path(__file__).resolve().parents[2]
-    shown = str(source.relative_to(repo)) if source.is_relative_to(repo) else str(folder)
+    shown = str(source.relative_to(REPO_ROOT)) if source.is_relative_to(REPO_ROOT) else str(folder)
     return {"source": shown, "cells": len(cells), "rows": summarize(cells),
             "made": _protocol_meta(Path(folder) / "meta.json")}  # fmt: skip
 
