@@ -54,7 +54,7 @@ import numpy as np
 
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import affinity
-from mapping._manifold_stack import _CENTRE_ELEMENTS, DerivedCache, projection_threads
+from mapping._manifold_stack import CENTRE_ELEMENTS, DerivedCache, projection_threads
 from mapping._validation import single_threaded_blas
 from mapping.distances import TINY as _TINY
 
@@ -178,7 +178,7 @@ class ClusterModel(DerivedCache):
         c = np.empty((k, self.basis.shape[0]))
         # Centre a bounded block of rows at a time: a batch of image-sized queries would
         # otherwise allocate two k x d temporaries per cluster.
-        step = max(1, _CENTRE_ELEMENTS // max(d, 1))
+        step = max(1, CENTRE_ELEMENTS // max(d, 1))
         for start in range(0, k, step):
             Xc = X[start : start + step] - self.mean
             q[start : start + step] = np.einsum("ij,ij->i", Xc, Xc)

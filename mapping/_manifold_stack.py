@@ -51,7 +51,7 @@ from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._validation import single_threaded_blas
 
 # Query elements centred at once (~32 MB of float64).
-_CENTRE_ELEMENTS = 4_000_000
+CENTRE_ELEMENTS = 4_000_000
 # Blocks of at most this many rows are projected on one BLAS thread: a GEMV (or a product of a
 # few rows) is memory-bound, and on a busy 2-core machine a second OpenBLAS thread only spins
 # (a 40 x 230400 float32 GEMV: ~1.7 ms on one thread, ~12 ms on two at load 4-5). Below
@@ -112,7 +112,7 @@ class Projection:
         k, d = X.shape
         p = np.empty((k, self.matrix.shape[0]))
         q = np.empty((k, self.shifts.shape[0]))
-        step = max(1, _CENTRE_ELEMENTS // max(d, 1))
+        step = max(1, CENTRE_ELEMENTS // max(d, 1))
         for start in range(0, k, step):
             rows = slice(start, start + step)
             Xc = X[rows] - self.mu

@@ -175,7 +175,7 @@ def test_projection_tol_drops_noise_directions_within_the_stated_bound():
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_distances_of_all_clusters_match_each_cluster_alone(dtype, monkeypatch):
     # blocks of 2 rows: the batch takes the path that centres each block once for all clusters
-    monkeypatch.setattr(_manifold_stack, "_CENTRE_ELEMENTS", 600)
+    monkeypatch.setattr(_manifold_stack, "CENTRE_ELEMENTS", 600)
     rng = np.random.default_rng(5)
     X = np.vstack([_curve_in_subspace(rng, noise=1e-3), _curve_in_subspace(rng, noise=1e-3) + 3])
     D2 = squared_distances(X)

@@ -81,7 +81,7 @@ def test_blocks_of_rows_match_each_cluster_alone(curves, monkeypatch):
     train, test = curves
     model = _fit(train, "float32", 1e-4)
     _check_against_each_cluster(model._models, test)
-    monkeypatch.setattr(_manifold_stack, "_CENTRE_ELEMENTS", 2 * train.shape[1])
+    monkeypatch.setattr(_manifold_stack, "CENTRE_ELEMENTS", 2 * train.shape[1])
     _check_against_each_cluster(model._models, test)
 
 
