@@ -29,6 +29,18 @@ query near cluster j, and a float32 ``y . delta_j`` made it 1 % wrong on the tes
 (3000-d curves 20x their spread apart), ~1e-3 of F. tests/mapping/test_manifold_stack.py
 bounds the difference.
 
+Two things cut what a view reads further (issue 15 item 2: <= 2 ms at 320x240x3):
+
+* **Unreachable clusters are skipped.** ``q`` comes first (K rows of d); a cluster whose
+  nearest possible point, ``(sqrt(q_j) - radius_j)^2``, lies beyond exp's underflow at its
+  sigma (:meth:`Stack.reachable`) has every affinity exactly 0 and F^j exactly 0, so its
+  rows of ``matrix`` are not read. Exact: the same F, the same labels. On the benchmark's
+  held-out views a view reaches 2-3 of the 8 clusters. ``predict``'s fallback (every F 0)
+  needs every cluster's nearest point, and recomputes those rows unpruned.
+* **The columns are split over the cores** (:func:`mapping._column_split.map_columns`),
+  each chunk on single-threaded BLAS: two cores stream twice the bytes of one, and a core
+  the scheduler holds back takes no chunk instead of stalling the call.
+
 :class:`Stack` (``predict`` of a dense fit) pads every ``ClusterModel``'s arrays to one size,
 so that the K eq. 13 solves of a batch are a few batched numpy calls; ``model_scores`` of a
 graph fit uses the :class:`Projection` of its models' points.
@@ -47,6 +59,7 @@ from contextlib import nullcontext
 
 import numpy as np
 
+from mapping._column_split import cores, map_columns
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._validation import single_threaded_blas
 
@@ -59,6 +72,9 @@ CENTRE_ELEMENTS = 4_000_000
 # saves (~20 us of a 0.2 ms signal) and the default threads stay.
 _FEW_ROWS = 8
 _SMALL_MATRIX = 1 << 20
+# A cluster whose nearest possible point lies further than this many (2 sigma_j^2) from a
+# query has affinities exp(-UNDERFLOW) = 0 in float64 (exp underflows below -745).
+UNDERFLOW = 800.0
 # Columns of a float32 basis widened to float64 at once for ``B_j delta_j``.
 _OFFSET_COLUMNS = 65_536
 
@@ -102,12 +118,15 @@ class Projection:
         """The projection of these models, built once and kept by the first of them."""
         return _cached(cls, models, field)
 
-    def __call__(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, X: np.ndarray, needed=None) -> tuple[np.ndarray, np.ndarray]:
         """``(p, q)`` for the rows of X: ``p`` (k, R) the rows of every model times
         ``x - mean_j`` (model j's columns ``starts[j]:starts[j + 1]``), ``q`` (k, K)
         ``|x - mean_j|^2``, both float64.
 
         Each block of rows is centred on ``mu``, cast and projected once for all clusters.
+        ``needed``, if given, maps a block's ``q`` to a (rows, K) bool mask of the models whose
+        coordinates are wanted; the columns of a model no row of the block needs are not
+        computed (left NaN): ``q`` costs K rows of d, the coordinates R.
         """
         k, d = X.shape
         p = np.empty((k, self.matrix.shape[0]))
@@ -115,15 +134,54 @@ class Projection:
         step = max(1, CENTRE_ELEMENTS // max(d, 1))
         for start in range(0, k, step):
             rows = slice(start, start + step)
-            Xc = X[rows] - self.mu
-            norms = np.einsum("ij,ij->i", Xc, Xc)
-            with projection_threads(Xc.shape[0], self.matrix):
-                p[rows] = np.asarray(Xc, dtype=self.matrix.dtype) @ self.matrix.T
-                along = Xc @ self.shifts.T
-            # |x - mean_j|^2 = |x - mu|^2 - 2 (x - mu) . delta_j + |delta_j|^2
-            q[rows] = norms[:, None] - 2.0 * along + self.shift_sq
+            self._project(X[rows], p[rows], q[rows], needed)
         p -= self.offsets  # V_j (x - mean_j) = V_j (x - mu) - V_j delta_j
         return p, q
+
+    def _project(self, X: np.ndarray, p: np.ndarray, q: np.ndarray, needed) -> None:
+        """One block of rows into ``p`` and ``q`` (see ``__call__``), the columns split over
+        the cores for a few rows and a large matrix (:func:`projection_chunks`)."""
+        k, d = X.shape
+        chunks = projection_chunks(k, self.matrix)
+        Xc32 = np.empty((k, d), dtype=self.matrix.dtype)
+
+        def centre(cols: slice) -> tuple[np.ndarray, np.ndarray]:
+            Xc = X[:, cols] - self.mu[cols]
+            Xc32[:, cols] = Xc
+            return np.einsum("ij,ij->i", Xc, Xc), Xc @ self.shifts[:, cols].T
+
+        with projection_threads(k, self.matrix):
+            parts = map_columns(centre, d, chunks)
+            norms = np.sum([part[0] for part in parts], axis=0)
+            along = np.sum([part[1] for part in parts], axis=0)
+            # |x - mean_j|^2 = |x - mu|^2 - 2 (x - mu) . delta_j + |delta_j|^2
+            q[:] = norms[:, None] - 2.0 * along + self.shift_sq
+            wanted = None if needed is None else needed(q).any(axis=0)
+            runs = self._runs(wanted)
+            parts = map_columns(
+                lambda cols: [Xc32[:, cols] @ self.matrix[a:b, cols].T for a, b in runs],
+                d, chunks,
+            )  # fmt: skip
+        for r, (a, b) in enumerate(runs):
+            p[:, a:b] = parts[0][r]
+            for part in parts[1:]:
+                p[:, a:b] += part[r]
+        if wanted is not None:
+            for j in np.flatnonzero(~wanted):
+                p[:, self.starts[j] : self.starts[j + 1]] = np.nan
+
+    def _runs(self, wanted: np.ndarray | None) -> list[tuple[int, int]]:
+        """Row ranges of ``matrix`` of the wanted models, consecutive models in one range."""
+        if wanted is None:
+            return [(0, int(self.matrix.shape[0]))]
+        runs: list[tuple[int, int]] = []
+        for j in np.flatnonzero(wanted):
+            a, b = int(self.starts[j]), int(self.starts[j + 1])
+            if runs and runs[-1][1] == a:
+                runs[-1] = (runs[-1][0], b)
+            else:
+                runs.append((a, b))
+        return runs
 
 
 class Stack:
@@ -156,6 +214,9 @@ class Stack:
         self.alphas = np.array([m.alpha for m in models])
         self.scales = np.array([m.scale for m in models])
         self.gain = np.array([-0.5 / (m.sigma * m.sigma) for m in models])
+        # the largest |x_i - mean_j| (the part outside the basis included): the bound of
+        # ``reachable``
+        self.radius = np.array([np.sqrt(m.sq_norms.max(initial=0.0)) for m in models])
         self.projection = Projection(models, "basis")
         # c of cluster j is the projection's columns starts[j]:starts[j + 1]; the padding
         # gathers column R, a zero appended to each projection
@@ -169,25 +230,52 @@ class Stack:
         """The stack of these models, built once and kept by the first of them."""
         return _cached(cls, models)
 
-    def sq_distances(self, X: np.ndarray) -> np.ndarray:
+    def reachable(self, q: np.ndarray) -> np.ndarray:
+        """(k, K) bool: whether a query with ``q = |x - mean_j|^2`` (k, K) can have an
+        affinity above 0 to a point of cluster j.
+
+        The distance as computed, ``q + |x_i - mean_j|^2 - 2 c . c_i`` (c = B_j (x - mean_j),
+        ``|c|^2 <= q``, ``|c_i|^2 <= |x_i - mean_j|^2 <= radius_j^2``), is at least
+        ``(sqrt(q) - radius_j)^2`` (Cauchy-Schwarz), so where that bound times
+        ``1 / (2 sigma_j^2)`` exceeds ``UNDERFLOW`` every affinity ``exp(-d^2 / 2 sigma_j^2)``
+        is exactly 0 in float64 (below exp(-745)), with margin for round-off, and the
+        cluster's F^j is exactly 0 without its coordinates."""
+        gap = np.maximum(np.sqrt(np.maximum(q, 0.0)) - self.radius, 0.0)
+        return gap * gap * -self.gain < UNDERFLOW
+
+    def sq_distances(self, X: np.ndarray, prune: bool = False) -> np.ndarray:
         """``ClusterModel.sq_distances`` of every cluster, (K, k, n), padding at infinity.
 
         The query is projected once for all clusters (:class:`Projection`); the same
-        distances as each cluster's own up to the round-off of the projection.
+        distances as each cluster's own up to the round-off of the projection. With
+        ``prune``, a cluster the query cannot reach (:meth:`reachable`) is not projected on
+        and its distances are infinite (every affinity 0, as computed they underflow to 0).
         """
-        p, q = self.projection(X)
+        p, q = self.projection(X, self.reachable if prune else None)
         p = np.concatenate([p, np.zeros((p.shape[0], 1))], axis=1)
         c = p[:, self.gather].transpose(1, 0, 2)  # (K, k, r)
         d2 = np.matmul(c, self.coords_t)
         d2 *= -2.0
         d2 += q.T[:, :, None]
         d2 += self.sq_norms[:, None, :]
+        if prune:
+            d2[~self.reachable(q).T] = np.inf
         return np.maximum(d2, 0.0, out=d2)
 
     def scores(self, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np.ndarray]:
         """F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``,
-        and ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K) for the rows where every F is 0."""
-        d2 = self.sq_distances(X)
+        and ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K) for the rows where every F is 0
+        (other rows: infinite for the clusters they cannot reach, which were not projected
+        on: :meth:`reachable`; a query near one or two of the clusters reads their bases
+        only, a third of the bytes on the benchmark's images)."""
+        f, nearest = self._scores(X, normalize, prune=True)
+        lost = np.flatnonzero(~(f.max(axis=1) > 0))
+        if len(lost):  # the fallback needs every cluster's nearest point
+            nearest[lost] = self._scores(X[lost], normalize, prune=False)[1]
+        return f, nearest
+
+    def _scores(self, X: np.ndarray, normalize: bool, prune: bool):
+        d2 = self.sq_distances(X, prune)
         K, k = d2.shape[:2]
         w = np.exp(d2 * self.gain[:, None, None])
         entry = np.repeat(np.arange(K), k)
@@ -219,6 +307,16 @@ class DerivedCache:
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self.__dict__["_stacks"] = {}
+
+
+def projection_chunks(rows: int, matrix: np.ndarray) -> int:
+    """Column chunks :class:`Projection` splits a block of ``rows`` queries into: a few rows
+    against a large matrix is a memory-bound GEMV that two cores stream twice as fast
+    (:func:`mapping._column_split.map_columns`, two chunks per core so that a core the
+    scheduler holds back leaves little to wait for); otherwise one."""
+    if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX and cores() > 1:
+        return 2 * cores()
+    return 1
 
 
 def projection_threads(rows: int, matrix: np.ndarray):

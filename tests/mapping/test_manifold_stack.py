@@ -52,7 +52,13 @@ def _check_against_each_cluster(models, queries):
         np.testing.assert_allclose(scores[:, j], f, rtol=0, atol=atol)
         want = own.min(axis=1) / (2 * m.sigma**2)
         slack = 1e-3 * want + rtol * scale.max(axis=1) / (2 * m.sigma**2)
-        assert (np.abs(nearest[:, j] - want) <= slack).all()
+        # a cluster a query cannot reach (Stack.reachable) is not projected on: infinite,
+        # and only where its nearest point is far beyond exp's underflow (F exactly 0)
+        pruned = np.isinf(nearest[:, j])
+        assert (want[pruned] > 745).all() and (f[pruned] == 0).all()
+        assert (np.abs(nearest[~pruned, j] - want[~pruned]) <= slack[~pruned]).all()
+    lost = ~(scores.max(axis=1) > 0)  # every F 0: the fallback reads every cluster's nearest
+    assert np.isfinite(nearest[lost]).all()
 
 
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
@@ -151,3 +157,22 @@ def test_graph_fit_projects_once_for_all_clusters():
         scale = q[:, j : j + 1] + m.sq_norms[None, :]
         assert (np.abs(d2 - own[j]) <= 2e-5 * scale).all()
     np.testing.assert_array_equal(model.predict(X), model.labels_)
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_pruned_clusters_are_beyond_underflow(curves, dtype):
+    """``sq_distances(prune=True)`` skips exactly the clusters whose every affinity underflows:
+    infinite there, the unpruned distances elsewhere; on the curves most (query, cluster)
+    pairs are pruned, so the bound is doing work."""
+    train, test = curves
+    stack = Stack.of(_fit(train, dtype, 1e-4)._models)
+    queries = np.vstack([test, test[:3] + 50.0])
+    full = stack.sq_distances(queries)
+    pruned = stack.sq_distances(queries, prune=True)
+    skipped = np.isinf(pruned).all(axis=2)  # (K, k)
+    assert 0.5 < skipped.mean() < 1.0
+    exponent = full.min(axis=2) * -stack.gain[:, None]
+    assert (exponent[skipped] > 745).all()
+    kept = ~skipped
+    np.testing.assert_allclose(pruned[kept], full[kept], rtol=1e-12)
+    assert (stack.reachable(stack.projection(queries)[1]).T == kept).all()
