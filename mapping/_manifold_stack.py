@@ -59,7 +59,7 @@ from contextlib import nullcontext
 
 import numpy as np
 
-from mapping._column_split import cores, map_columns
+from mapping._column_split import map_columns
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._validation import single_threaded_blas
 
@@ -71,6 +71,7 @@ CENTRE_ELEMENTS = 4_000_000
 # _SMALL_MATRIX elements (d=2000: a cluster's 66 x 2000 basis) the switch costs more than it
 # saves (~20 us of a 0.2 ms signal) and the default threads stay.
 _FEW_ROWS = 8
+_CHUNKS = 4
 _SMALL_MATRIX = 1 << 20
 # A cluster whose nearest possible point lies further than this many (2 sigma_j^2) from a
 # query has affinities exp(-UNDERFLOW) = 0 in float64 (exp underflows below -745).
@@ -312,10 +313,11 @@ class DerivedCache:
 def projection_chunks(rows: int, matrix: np.ndarray) -> int:
     """Column chunks :class:`Projection` splits a block of ``rows`` queries into: a few rows
     against a large matrix is a memory-bound GEMV that two cores stream twice as fast
-    (:func:`mapping._column_split.map_columns`, two chunks per core so that a core the
-    scheduler holds back leaves little to wait for); otherwise one."""
-    if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX and cores() > 1:
-        return 2 * cores()
+    (:func:`mapping._column_split.map_columns`; ``_CHUNKS``, two per core on 2 cores, so a
+    core the scheduler holds back leaves little to wait for); otherwise one. The count does
+    not depend on the machine's cores, so neither does the round-off of the partial sums."""
+    if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX:
+        return _CHUNKS
     return 1
 
 
