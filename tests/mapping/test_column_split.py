@@ -2,12 +2,19 @@
 
 import itertools
 import threading
+import time
 
 import numpy as np
 import pytest
 
 from mapping import _column_split
 from mapping._column_split import map_columns
+
+
+@pytest.fixture(autouse=True)
+def idle(monkeypatch):
+    """The tests run on a shared machine: split as if it were idle."""
+    monkeypatch.setattr(_column_split, "busy", lambda: False)
 
 
 @pytest.mark.parametrize("cores", [1, 2, 4])
@@ -32,16 +39,44 @@ def test_pool_threads_take_chunks(monkeypatch):
     monkeypatch.setattr(_column_split, "cores", lambda: 2)
     caller = threading.get_ident()
     started = threading.Event()
+    ran = set()
 
     def fn(cols):
+        ran.add(threading.get_ident())
         if cols.start == 0:
             started.wait(timeout=5.0)
         else:
             started.set()
-        return threading.get_ident()
+        return cols.start
 
-    threads = map_columns(fn, 100, 4)
-    assert caller in threads and len(set(threads)) == 2
+    assert map_columns(fn, 100, 4) == [0, 25, 50, 75]
+    assert caller in ran and len(ran) == 2
+
+
+def test_a_stalled_pool_thread_does_not_hold_up_the_call(monkeypatch):
+    """A chunk claimed by a pool thread that stalls (descheduled) is computed by the caller."""
+    monkeypatch.setattr(_column_split, "cores", lambda: 2)
+    caller = threading.get_ident()
+    release = threading.Event()
+
+    def fn(cols):
+        if threading.get_ident() != caller:
+            release.wait(timeout=10.0)
+        else:
+            time.sleep(0.01)  # the caller's own chunks take 10 ms: its patience is 5 ms
+        return cols.start
+
+    start = time.perf_counter()
+    assert map_columns(fn, 100, 4) == [0, 25, 50, 75]
+    assert time.perf_counter() - start < 2.0
+    release.set()
+
+
+def test_a_busy_machine_runs_on_the_caller(monkeypatch):
+    monkeypatch.setattr(_column_split, "cores", lambda: 2)
+    monkeypatch.setattr(_column_split, "busy", lambda: True)
+    caller = threading.get_ident()
+    assert set(map_columns(lambda cols: threading.get_ident(), 100, 4)) == {caller}
 
 
 def test_an_error_in_a_chunk_is_raised(monkeypatch):
