@@ -4,7 +4,7 @@ images as the controller sees them) and score candidate fix methods by the dista
 true start to the fix view's true position. Truth is used here for scoring only.
 
     python -m scripts.fix_offline record --world lawn --episodes 24 --data D --maps M --out F.npz
-    python -m scripts.fix_offline score F.npz [F2.npz ...]
+    python -m scripts.fix_offline score F.npz [F2.npz ...] --data D --maps M
 """
 
 from __future__ import annotations
@@ -14,7 +14,9 @@ import argparse
 import numpy as np
 
 
-def record(world: str, episodes: int, data: str, maps: str, out: str) -> None:
+def record(world: str, episodes: int, data, maps, out: str) -> None:
+    """Step the env through the observing turn at each dev ``anywhere`` start; save the
+    feature vectors, odometry and true poses of every step to ``out`` (.npz)."""
     import sim  # noqa: F401  (GL backend first)
     from servo.env import ServoEnv
     from servo.localise import ImageLocaliser
@@ -60,11 +62,11 @@ def _samples(loc, feats, odo, every=2, top=2):
     return out
 
 
-def m_single(loc, routes, feats, odo, cfg=None):
+def m_single(loc, routes, feats, odo):
     return min(_samples(loc, feats, odo))[1]
 
 
-def m_consistent(loc, routes, feats, odo, cfg=None):
+def m_consistent(loc, routes, feats, odo):
     from servo.turn_fix import consistent_fix
 
     return consistent_fix(_samples(loc, feats, odo), routes)[0]
@@ -84,7 +86,8 @@ def methods():
     return {"single": m_single, "consistent": m_consistent, "contrast": m_contrast}
 
 
-def score(paths: list[str], only: list[str] | None = None, cfgs: dict | None = None) -> None:
+def score(paths: list[str], data, maps, only: list[str] | None = None) -> None:
+    """Print each method's fix error (m, fix view's true position to the true start)."""
     from servo.localise import ImageLocaliser
     from servo.map_store import load_or_build
     from servo.route import RouteGraph
@@ -92,13 +95,12 @@ def score(paths: list[str], only: list[str] | None = None, cfgs: dict | None = N
     for path in paths:
         z = np.load(path)
         world = str(z["world"])
-        m = load_or_build(world, ARGS.data, ARGS.maps, progress=False)
+        m = load_or_build(world, data, maps, progress=False)
         loc, routes = ImageLocaliser(m), RouteGraph(m)
         start = z["start"]
         near = np.array([np.hypot(*(m.true_poses[:, :2] - s[:2]).T).min() for s in start])
         table = {"nearest view": near}
-        ms = {**methods(), **(cfgs or {})}
-        for name, fn in ms.items():
+        for name, fn in methods().items():
             if only and name not in only:
                 continue
             err = []
@@ -112,20 +114,18 @@ def score(paths: list[str], only: list[str] | None = None, cfgs: dict | None = N
                   f"  | {' '.join(f'{x:.0f}' for x in e)}")  # fmt: skip
 
 
-ARGS = None
-
 if __name__ == "__main__":
     p = argparse.ArgumentParser()
     p.add_argument("cmd", choices=["record", "score"])
     p.add_argument("paths", nargs="*")
     p.add_argument("--world", default="lawn")
     p.add_argument("--episodes", type=int, default=24)
-    p.add_argument("--data", default="/work/eval4/dataset")
-    p.add_argument("--maps", default="/work/wt-globalfix-maps")
+    p.add_argument("--data", help="dataset folder (default: the data home's)")
+    p.add_argument("--maps", help="servo map cache (default: the data home's)")
     p.add_argument("--out")
     p.add_argument("--only", nargs="*")
-    ARGS = p.parse_args()
-    if ARGS.cmd == "record":
-        record(ARGS.world, ARGS.episodes, ARGS.data, ARGS.maps, ARGS.out)
+    args = p.parse_args()
+    if args.cmd == "record":
+        record(args.world, args.episodes, args.data, args.maps, args.out)
     else:
-        score(ARGS.paths, ARGS.only)
+        score(args.paths, args.data, args.maps, args.only)
