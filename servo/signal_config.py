@@ -42,6 +42,11 @@ class SignalServoConfig:
         which the robot observes and localises again, at most ``max_relocalise`` times.
     consistent_fix : take the observing turn's fix best supported by the turn's other images
         (:func:`~servo.turn_fix.consistent_fix`) rather than its best single match.
+    contrast_fix / fix_far : take the view whose best match over the turn stands out most
+        against its matches from headings ``fix_far`` rad or more away
+        (:func:`~servo.turn_fix.contrast_fix`; overrides ``consistent_fix``).
+    exclude_fix : a relocalisation (``contrast_fix``) skips the views within 3 m of the last
+        fix's, once the robot has driven more than 3 m from where it fixed.
     reverse : drive the route segments that run a recording backwards in reverse (camera
         facing the way the stored views look) rather than turned round.
     reverse_speed : m/s reversing (the action space allows down to -0.5).
@@ -77,6 +82,9 @@ class SignalServoConfig:
     relocalise_after: int = 40
     max_relocalise: int = 1
     consistent_fix: bool = False
+    contrast_fix: bool = True
+    fix_far: float = 0.6
+    exclude_fix: bool = False
     reverse: bool = True
     reverse_speed: float = 0.5
     reverse_heading_gain: float = 1.0

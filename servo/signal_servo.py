@@ -2,10 +2,12 @@
 
 1. *Observe and localise.* Turn in place once around; every few degrees compare the image
    with the stored views (:meth:`~servo.localise.ImageLocaliser.localise`: the clusters eq. 13
-   ranks first, then the best horizontally-aligned view). The best match over the turn is the
-   global fix: a stored view, and the odometry heading that faces the way it looks (or, with
-   ``consistent_fix``, the match best supported by the turn's other images,
-   :func:`~servo.turn_fix.consistent_fix`).
+   ranks first, then the best horizontally-aligned view). The global fix is a stored view and
+   the odometry heading that faces the way it looks: with ``contrast_fix`` (default) the view
+   whose best match over the turn stands out most against the turn's other headings
+   (:func:`~servo.turn_fix.contrast_fix`; every sample is aligned with all views), else the
+   best match over the turn (or, with ``consistent_fix``, the match best supported by the
+   turn's other images, :func:`~servo.turn_fix.consistent_fix`).
 2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
    view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
    into waypoint views about ``spacing`` apart.
@@ -41,12 +43,13 @@ from servo.route_belief import RouteBelief
 from servo.signal_arrival import PeakArrival
 from servo.signal_config import SignalServoConfig
 from servo.steering import pursue
-from servo.turn_fix import consistent_fix
+from servo.turn_fix import consistent_fix, contrast_fix, neighbourhood
 from sim.simulator import CONTROL_DT
 
 __all__ = ["SignalServo", "SignalServoConfig", "WaypointTracker"]
 
 MIN_PARALLAX = 0.02  # rad/m: a floor (the reversing fix's cross gain grows as 1 / parallax)
+EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalisation skips
 
 
 class WaypointTracker:
@@ -146,6 +149,8 @@ class SignalServo:
         self._reversing = False
         self._careful = 0  # steps left of turning on the spot before driving (after a bump)
         self._last_direction = 1
+        self._exclude: list[int] = []  # views a relocalisation may not fix on
+        self._fix_view, self._fix_odo = -1, np.zeros(3)
         self._observe_start()
 
     def _observe_start(self) -> None:
@@ -155,6 +160,8 @@ class SignalServo:
         self._turned = 0.0
         # the turn's localisations: aligned distance, view, odometry heading facing it
         self._samples: list[tuple[float, int, float]] = []
+        # with ``contrast_fix``: each sample's aligned distances and yaws to every view
+        self._rows: list[tuple[np.ndarray, np.ndarray, float]] = []
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
         if not isinstance(observation, dict):
@@ -219,8 +226,14 @@ class SignalServo:
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
         c = self.config
         if self._steps % c.observe_every == 0 or c.observe_every == 1:
-            view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
-            self._samples.append((d, view, float(odo[2] + yaw)))
+            if c.contrast_fix:
+                d_all, yaw_all = self.localiser.align(x)
+                self._rows.append((d_all, yaw_all, float(odo[2])))
+                k = int(np.argmin(d_all))
+                self._samples.append((float(d_all[k]), k, float(odo[2] + yaw_all[k])))
+            else:
+                view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
+                self._samples.append((d, view, float(odo[2] + yaw)))
         if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT or not self._samples:
             return np.array([0.0, c.turn_rate])
         self._plan(odo)
@@ -229,10 +242,14 @@ class SignalServo:
     def _plan(self, odo: np.ndarray) -> None:
         """Route from the global fix's view to the target and start following it."""
         c = self.config
-        if c.consistent_fix:
+        if c.contrast_fix:
+            d, yaw, h = (np.array(a) for a in zip(*self._rows, strict=True))
+            view, heading = contrast_fix(d, yaw, h, far=c.fix_far, exclude=self._exclude)
+        elif c.consistent_fix:
             view, heading = consistent_fix(self._samples, self.routes)
         else:
             _, view, heading = min(self._samples)
+        self._fix_view, self._fix_odo = view, odo.copy()
         self.manifold_ = int(self.map.clusters[view])
         self.route_ = self.routes.route(view, self.target)
         path = RoutePath(self.routes.frames(self.route_))
@@ -247,6 +264,17 @@ class SignalServo:
         self._lost = 0
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
+
+    def _exclude_fix(self) -> None:
+        """Lost on the route: with ``exclude_fix``, the relocalisation may not fix on the views
+        near the last fix's (a look-alike that won once wins again from nearby). Only once
+        the robot has driven farther from where it fixed than that neighbourhood's radius:
+        then the robot is not there even if the fix was right."""
+        c = self.config
+        moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
+        if c.exclude_fix and self._fix_view >= 0 and moved > EXCLUDE_RADIUS:
+            near = neighbourhood(self.routes, self._fix_view, EXCLUDE_RADIUS)
+            self._exclude = sorted(set(self._exclude) | set(near))
 
     def _image_fix(self, x: np.ndarray) -> None:
         """Correct the belief by the route view the image matches best among those about the
@@ -306,6 +334,7 @@ class SignalServo:
         if (self.phase_ == "follow" and self._lost > c.relocalise_after
                 and self.relocalised_ < c.max_relocalise):  # fmt: skip
             self.relocalised_ += 1
+            self._exclude_fix()
             self._observe_start()
             return np.zeros(2)
         self._advance(x)

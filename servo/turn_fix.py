@@ -9,6 +9,11 @@ place explains the *other* images of the turn too: their matched views lie near 
 headings at which they matched differ by what odometry turned between them, as the map's
 relative headings of those views say. :func:`consistent_fix` scores each of the best few
 candidates by that support and keeps the best supported (ties: the best match).
+
+:func:`contrast_fix` (the default since round 5) uses the whole turn differently: every
+sample is aligned with every stored view, and a view counts by how sharply its distance
+profile over the turn dips (a real place is seen only facing one way; a look-alike that
+matches at every heading is not).
 """
 
 from __future__ import annotations
@@ -80,3 +85,41 @@ def _generic(samples, view: int, tolerance: float) -> bool:
         return False
     spread = np.abs(wrap_angle(h[:, None] - h[None, :])).max()
     return bool(spread > 2.0 * tolerance)
+
+
+def contrast_fix(distances, yaws, headings, *, far: float = 0.6,
+                 exclude=()) -> tuple[int, float]:  # fmt: skip
+    """The global fix from the whole observing turn: the stored view whose best match over
+    the turn stands out most against its matches from headings ``far`` rad or more away.
+
+    ``distances`` / ``yaws`` (S, N): every sample's aligned distance to every stored view and
+    the heading error of the best shift (:meth:`~servo.localise.ImageLocaliser.align`);
+    ``headings`` (S,): each sample's odometry heading. A view of a real place matches only
+    the images taken facing the way it looks (the camera sees ~1 rad; the alignment shifts
+    ~0.25 rad either way), so its distance profile over the turn has one sharp dip. A view
+    that matches whichever way the camera looks (a close-up of a fence or a wall, open grass
+    and sky: the lawn's look-alikes 12-46 m off) has a flat profile. The score is the best
+    distance divided by the best from the far headings (smaller: sharper); the fix is the
+    view with the smallest, and the odometry heading that faces the way it looks; views in
+    ``exclude`` (a fix found wrong) only if every view is excluded. Returns (view, heading)."""
+    d = np.asarray(distances, np.float64)
+    y = np.asarray(yaws, np.float64)
+    h = np.asarray(headings, np.float64)
+    if d.ndim != 2 or d.shape != y.shape or h.shape != d.shape[:1] or d.size == 0:
+        raise ValueError(
+            f"distances and yaws must be (S, N) and headings (S,), not empty; got "
+            f"{d.shape}, {y.shape}, {h.shape}"
+        )
+    cols = np.arange(d.shape[1])
+    best = np.argmin(d, axis=0)  # each view's best sample
+    d_best = d[best, cols]
+    apart = np.abs(wrap_angle(h[:, None] - h[best][None, :])) > far
+    d_far = np.where(apart, d, np.inf).min(axis=0)
+    # no sample far enough (a short turn): fall back on the distance alone
+    score = np.where(np.isfinite(d_far), d_best / np.maximum(d_far, 1e-9), d_best)
+    out = np.zeros(len(score), bool)
+    out[np.asarray(list(exclude), int)] = True
+    if not out.all():
+        score[out] = np.inf
+    k = int(np.argmin(score))
+    return k, float(h[best[k]] + y[best[k], k])

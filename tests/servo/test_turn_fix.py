@@ -1,0 +1,55 @@
+"""contrast_fix: the observing turn's view whose match stands out against the far headings."""
+
+import numpy as np
+import pytest
+
+from servo.turn_fix import contrast_fix
+
+
+def _turn(n=24):
+    return np.linspace(-np.pi, np.pi, n, endpoint=False)
+
+
+def test_a_sharp_dip_beats_a_lower_flat_profile():
+    h = _turn()
+    d = np.full((len(h), 3), 1.0)
+    d[5, 0] = 0.05  # view 0: a sharp dip at sample 5 (a real place)
+    d[:, 1] = 0.04  # view 1: low whichever way the camera looks (a close-up of a wall)
+    d[9, 2] = 0.3  # view 2: a weaker dip
+    y = np.zeros_like(d)
+    y[5, 0] = 0.1
+    view, heading = contrast_fix(d, y, h)
+    assert view == 0
+    assert heading == pytest.approx(h[5] + 0.1)
+
+
+def test_nearby_samples_do_not_flatten_the_dip():
+    # the neighbouring samples (within ``far``) also match a real view fairly well
+    h = _turn()
+    d = np.full((len(h), 2), 1.0)
+    d[4:7, 0] = [0.2, 0.05, 0.2]
+    d[:, 1] = 0.5
+    d[12, 1] = 0.04  # better best match, but the far samples match it at 0.5
+    assert contrast_fix(d, np.zeros_like(d), h, far=0.6)[0] == 0
+
+
+def test_no_far_sample_falls_back_on_the_distance():
+    h = np.array([0.0, 0.1])
+    d = np.array([[0.5, 0.2], [0.4, 0.3]])
+    assert contrast_fix(d, np.zeros_like(d), h)[0] == 1
+
+
+def test_refuses_mismatched_shapes():
+    with pytest.raises(ValueError):
+        contrast_fix(np.ones((3, 2)), np.ones((3, 3)), np.zeros(3))
+    with pytest.raises(ValueError):
+        contrast_fix(np.ones((3, 2)), np.ones((3, 2)), np.zeros(2))
+
+
+def test_excluded_views_are_skipped_unless_all_are():
+    h = _turn()
+    d = np.full((len(h), 2), 1.0)
+    d[5, 0], d[9, 1] = 0.05, 0.1
+    y = np.zeros_like(d)
+    assert contrast_fix(d, y, h, exclude=[0])[0] == 1
+    assert contrast_fix(d, y, h, exclude=[0, 1])[0] == 0
