@@ -182,7 +182,7 @@ class ClusterModel(DerivedCache):
         for start in range(0, k, step):
             Xc = X[start : start + step] - self.mean
             q[start : start + step] = np.einsum("ij,ij->i", Xc, Xc)
-            with projection_threads(Xc.shape[0], self.basis):  # one thread: a few rows
+            with projection_threads(Xc.shape[0], self.basis):  # one thread if busy: a few rows
                 c[start : start + step] = np.asarray(Xc, dtype=self.basis.dtype) @ self.basis.T
         # |c - c_i|^2 + |x_perp|^2 + |r_i|^2 = |x|^2 + |x_i|^2 - 2 c . c_i (orthonormal basis)
         d2 = q[:, None] + self.sq_norms[None, :] - 2.0 * (c @ self.coords.T)

@@ -37,9 +37,9 @@ Two things cut what a view reads further (issue 15 item 2: <= 2 ms at 320x240x3)
   rows of ``matrix`` are not read. Exact: the same F, the same labels. On the benchmark's
   held-out views a view reaches 2-3 of the 8 clusters. ``predict``'s fallback (every F 0)
   needs every cluster's nearest point, and recomputes those rows unpruned.
-* **The columns are split over the cores** (:func:`mapping._column_split.map_columns`),
-  each chunk on single-threaded BLAS: two cores stream twice the bytes of one, and a core
-  the scheduler holds back takes no chunk instead of stalling the call.
+* **Two BLAS threads where a core is free** (:func:`projection_threads`): two cores stream
+  twice the bytes of one, but OpenBLAS's threads spin-wait for a descheduled partner, so a
+  busy machine (:func:`mapping._validation.busy`) keeps one.
 
 :class:`Stack` (``predict`` of a dense fit) pads every ``ClusterModel``'s arrays to one size,
 so that the K eq. 13 solves of a batch are a few batched numpy calls; ``model_scores`` of a
@@ -59,19 +59,17 @@ from contextlib import nullcontext
 
 import numpy as np
 
-from mapping._column_split import map_columns
 from mapping._manifold_eq13 import dense_signal, sparse_signal
-from mapping._validation import single_threaded_blas
+from mapping._validation import busy, single_threaded_blas
 
 # Query elements centred at once (~32 MB of float64).
 CENTRE_ELEMENTS = 4_000_000
-# Blocks of at most this many rows are projected on one BLAS thread: a GEMV (or a product of a
-# few rows) is memory-bound, and on a busy 2-core machine a second OpenBLAS thread only spins
+# Blocks of at most this many rows are projected on one BLAS thread on a busy machine: a GEMV
+# (or a product of a few rows) is memory-bound, and there a second OpenBLAS thread only spins
 # (a 40 x 230400 float32 GEMV: ~1.7 ms on one thread, ~12 ms on two at load 4-5). Below
 # _SMALL_MATRIX elements (d=2000: a cluster's 66 x 2000 basis) the switch costs more than it
 # saves (~20 us of a 0.2 ms signal) and the default threads stay.
 _FEW_ROWS = 8
-_CHUNKS = 4
 _SMALL_MATRIX = 1 << 20
 # A cluster whose nearest possible point lies further than this many (2 sigma_j^2) from a
 # query has affinities exp(-UNDERFLOW) = 0 in float64 (exp underflows below -745).
@@ -140,33 +138,17 @@ class Projection:
         return p, q
 
     def _project(self, X: np.ndarray, p: np.ndarray, q: np.ndarray, needed) -> None:
-        """One block of rows into ``p`` and ``q`` (see ``__call__``), the columns split over
-        the cores for a few rows and a large matrix (:func:`projection_chunks`)."""
-        k, d = X.shape
-        chunks = projection_chunks(k, self.matrix)
-        Xc32 = np.empty((k, d), dtype=self.matrix.dtype)
-
-        def centre(cols: slice) -> tuple[np.ndarray, np.ndarray]:
-            Xc = X[:, cols] - self.mu[cols]
-            Xc32[:, cols] = Xc
-            return np.einsum("ij,ij->i", Xc, Xc), Xc @ self.shifts[:, cols].T
-
-        with projection_threads(k, self.matrix):
-            parts = map_columns(centre, d, chunks)
-            norms = np.sum([part[0] for part in parts], axis=0)
-            along = np.sum([part[1] for part in parts], axis=0)
+        """One block of rows into ``p`` and ``q`` (see ``__call__``)."""
+        Xc = X - self.mu
+        norms = np.einsum("ij,ij->i", Xc, Xc)
+        with projection_threads(Xc.shape[0], self.matrix):
+            along = Xc @ self.shifts.T
             # |x - mean_j|^2 = |x - mu|^2 - 2 (x - mu) . delta_j + |delta_j|^2
             q[:] = norms[:, None] - 2.0 * along + self.shift_sq
             wanted = None if needed is None else needed(q).any(axis=0)
-            runs = self._runs(wanted)
-            parts = map_columns(
-                lambda cols: [Xc32[:, cols] @ self.matrix[a:b, cols].T for a, b in runs],
-                d, chunks,
-            )  # fmt: skip
-        for r, (a, b) in enumerate(runs):
-            p[:, a:b] = parts[0][r]
-            for part in parts[1:]:
-                p[:, a:b] += part[r]
+            Xc = np.asarray(Xc, dtype=self.matrix.dtype)
+            for a, b in self._runs(wanted):
+                p[:, a:b] = Xc @ self.matrix[a:b].T
         if wanted is not None:
             for j in np.flatnonzero(~wanted):
                 p[:, self.starts[j] : self.starts[j + 1]] = np.nan
@@ -310,22 +292,13 @@ class DerivedCache:
         self.__dict__["_stacks"] = {}
 
 
-def projection_chunks(rows: int, matrix: np.ndarray) -> int:
-    """Column chunks :class:`Projection` splits a block of ``rows`` queries into: a few rows
-    against a large matrix is a memory-bound GEMV that two cores stream twice as fast
-    (:func:`mapping._column_split.map_columns`; ``_CHUNKS``, two per core on 2 cores, so a
-    core the scheduler holds back leaves little to wait for); otherwise one. The count does
-    not depend on the machine's cores, so neither does the round-off of the partial sums."""
-    if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX:
-        return _CHUNKS
-    return 1
-
-
 def projection_threads(rows: int, matrix: np.ndarray):
-    """BLAS threads for projecting ``rows`` queries on ``matrix``: one for a few rows and a
-    large matrix (a memory-bound GEMV; ``_FEW_ROWS``), the default otherwise (a product of many
-    rows is compute-bound, as in ``fit``; a small one is not worth the switch)."""
-    if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX:
+    """BLAS threads for projecting ``rows`` queries on ``matrix``: for a few rows and a large
+    matrix (a memory-bound GEMV; ``_FEW_ROWS``) one on a :func:`~mapping._validation.busy`
+    machine, where a second would spin, and the default where a core is free (idle, 2 cores:
+    ``predict`` of one 320x240x3 view 3.6 -> 2.6 ms); the default otherwise (a product of
+    many rows is compute-bound, as in ``fit``; a small one is not worth the switch)."""
+    if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX and busy():
         return single_threaded_blas()
     return nullcontext()
 

@@ -176,3 +176,20 @@ def test_pruned_clusters_are_beyond_underflow(curves, dtype):
     kept = ~skipped
     np.testing.assert_allclose(pruned[kept], full[kept], rtol=1e-12)
     assert (stack.reachable(stack.projection(queries)[1]).T == kept).all()
+
+
+@pytest.mark.parametrize("load, one_thread", [(0.2, False), (1.4, False), (1.5, True), (6.0, True)])
+def test_a_view_is_projected_on_one_blas_thread_only_on_a_busy_machine(monkeypatch, load,
+                                                                        one_thread):  # fmt: skip
+    """Two cores: a second BLAS thread streams twice the bytes where a core is free, and
+    spins where none is (load average >= cores - 0.5)."""
+    from contextlib import nullcontext
+
+    from mapping import _validation
+
+    monkeypatch.setattr(_validation, "cores", lambda: 2)
+    monkeypatch.setattr(_validation.os, "getloadavg", lambda: (load, load, load))
+    big = np.zeros((8, 1 << 18), np.float32)
+    ctx = _manifold_stack.projection_threads(1, big)
+    assert isinstance(ctx, nullcontext) != one_thread
+    assert isinstance(_manifold_stack.projection_threads(100, big), nullcontext)  # many rows
