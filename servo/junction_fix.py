@@ -6,17 +6,24 @@ image's best shift against a view is z = theta + c y: heading and offset mixed, 
 parallax, :meth:`~servo.localise.ImageLocaliser.parallax`), so it arrives at the junction
 with its position up to ~1 m off, and turning on the spot there it would enter the wrong
 opening or a wall. At a junction, though, stored views look along *different* corridors (the
-one it came from, the one it turns into, the main one), and the shifts against views of two
-headings fix both components of the position: each match of an image taken at belief heading
-h against a view k at (x_k, y_k, phi_k) says
+one it came from, the one it turns into, the main one), and the shifts against views of
+several headings tell the position: each match of an image taken at belief heading h against
+a view k at (x_k, y_k, phi_k) says
 
     phi_k - yaw = h + delta + c * lat_k(x, y),   lat_k = -sin(phi_k)(x - x_k) + cos(phi_k)(y - y_k)
 
 (the robot's offset left of view k's line of sight), which is linear in the heading offset
 delta and the position (x, y). :func:`pose_from_turn` solves the matches of the turn toward
-the new heading for them by least squares, with a prior at the belief (views of one heading
-alone leave the position along their sight to the prior). Views' poses come from the view
-graph's sensed transforms (:func:`~servo.turn_fix.neighbourhood`); no ground truth.
+the new heading for them by least squares, with a prior at the belief. Views of one heading
+leave the position along their sight to the prior; with two, a heading offset trades against a
+diagonal shift, so the heading's prior decides it; three fix all three. Views' poses come from
+the view graph's sensed transforms (:func:`~servo.turn_fix.neighbourhood`); no ground truth.
+
+Dev result (session 10, docs/servo.md): the position fix moved the belief the wrong way as
+often as the right way (the parallax near a junction is 2-4x the map's; views on a curve
+leave the along-sight position ill-conditioned), and the turn alone did not help either; both
+are off in :class:`~servo.signal_config.SignalServoConfig` (``junction_fix``,
+``junction_position``).
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from common.geometry import se2_compose, wrap_angle
+from servo.turn_fix import neighbourhood
 
 __all__ = ["JunctionTurn", "pose_from_turn", "views_near"]
 
@@ -75,8 +83,6 @@ def views_near(routes, path, route: list[int], index: int, centre, radius: float
     with their poses in the route frame: the view graph's sensed transforms chained from
     route view ``route[index]`` (:func:`~servo.turn_fix.neighbourhood`). Returns (views (m,),
     poses (m, 3))."""
-    from servo.turn_fix import neighbourhood
-
     near = neighbourhood(routes, route[index], radius + 2.0)
     views = np.array(sorted(near), np.intp)
     poses = np.array([se2_compose(path.frames[index], near[int(v)]) for v in views])
