@@ -10,7 +10,8 @@ import numpy as np
 from common.validation import check_int
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
-_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds")  # integers that may be 0 (off)
+# integers that may be 0 (off)
+_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps")
 
 
 @dataclass(frozen=True)
@@ -53,6 +54,17 @@ class SignalServoConfig:
     reverse_heading_gain : per metre reversed, the share of the reversing fix's innovation
         taken off the heading; the cross gain is chosen for critical damping with it and the
         map's parallax (:meth:`~servo.route_belief.RouteBelief.reverse_gains`).
+    junction_fix : where the route turns from reversing to driving forward, turn on the spot
+        to the forward heading before driving on (:class:`~servo.junction_fix.JunctionTurn`).
+    junction_position / junction_radius / junction_parallax : and there fix the position by
+        the shifts against the stored views within ``junction_radius`` m, assuming
+        ``junction_parallax`` times the map's parallax (off: on dev traces it moved the belief
+        the wrong way as often as the right; the parallax near a junction is 2-4x the map's).
+    relocalise_arrive : also observe and localise again when lost in the arrival phase (a
+        wrong global fix often only shows there: dev hallway episode 8).
+    relocalise_bumps : bumps since the last fix after which the robot observes and localises
+        again (counts toward ``max_relocalise``; 0: never): pushing a wall over and over at one
+        place means the belief is off across the route (dev hallway episode 10).
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
         does not see means a wall: drive the other way for ``backup_steps`` steps.
     """
@@ -80,7 +92,7 @@ class SignalServoConfig:
     lateral: float = 0.6
     lateral_rounds: int = 2
     relocalise_after: int = 40
-    max_relocalise: int = 1
+    max_relocalise: int = 2
     consistent_fix: bool = False
     contrast_fix: bool = True
     fix_far: float = 0.6
@@ -88,6 +100,12 @@ class SignalServoConfig:
     reverse: bool = True
     reverse_speed: float = 0.5
     reverse_heading_gain: float = 1.0
+    relocalise_arrive: bool = True
+    junction_fix: bool = False
+    junction_position: bool = False
+    junction_radius: float = 3.5
+    junction_parallax: float = 1.0
+    relocalise_bumps: int = 3
     stuck_steps: int = 10
     backup_steps: int = 8
 

@@ -23,7 +23,8 @@
 4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
    take the peak as the view's place (the robot went past it) and come back.
 5. *Recover.* Commanded motion that odometry does not see is a wall: back off. Facing route
-   views that no image matches for long means the fix was wrong: observe and localise again.
+   views that no image matches for long (following or arriving), or pushing a wall again
+   and again, means the fix or the belief is wrong: observe and localise again.
 
 The controller never reads the simulator's truth; ``info`` is ignored.
 """
@@ -36,6 +37,7 @@ import numpy as np
 
 from common.geometry import se2_relative, wrap_angle
 from mapping._validation import single_threaded_blas
+from servo.junction_fix import JunctionTurn, views_near
 from servo.localise import ImageLocaliser
 from servo.map_types import ServoMap
 from servo.route import RouteGraph, RoutePath
@@ -151,6 +153,8 @@ class SignalServo:
         self._last_direction = 1
         self._exclude: list[int] = []  # views a relocalisation may not fix on
         self._fix_view, self._fix_odo = -1, np.zeros(3)
+        self.junction_shifts_: list[float | None] = []  # m each junction fix moved the belief
+        self.junction_last_: JunctionTurn | None = None
         self._observe_start()
 
     def _observe_start(self) -> None:
@@ -262,6 +266,8 @@ class SignalServo:
         self.belief_ = RouteBelief(path, [0.0, 0.0, wrap_angle(odo[2] - heading)], c.window)
         self._arrival = PeakArrival(c)
         self._lost = 0
+        self._junction: JunctionTurn | None = None
+        self._plan_bumps = self.bumps_
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
 
@@ -320,18 +326,44 @@ class SignalServo:
         is past the current one), or when the belief has passed the current one."""
         t, b = self.tracker, self.belief_
         arc = b.path.arc[self._wp_index]
+        before = t.directions[t.index]
         while not t.last and b.s >= arc[t.index] - 0.05:
             t.advance()
+        if self.config.junction_fix and before < 0 < t.directions[t.index]:
+            self._junction_start(int(self._wp_index[t.index]))
         if not t.last and t.directions[t.index] > 0:
             f_cur, f_next = self.localiser.signals(x, [t.current, t.next])
             if f_cur > self.config.arrive_min and t.update(f_cur, f_next, 1.0, 1.0, 0.0):
                 b.shift_along(max(0.0, arc[t.index - 1] - b.s))
         self.waypoint_ = t.current
 
+    def _junction_start(self, j: int) -> None:
+        """Reversing gave way to driving forward (a junction): turn on the spot to the heading
+        of route view ``j`` and fix the position there
+        (:class:`~servo.junction_fix.JunctionTurn`)."""
+        c, b = self.config, self.belief_
+        views, poses = views_near(self.routes, b.path, self.route_, j, b.pose[:2],
+                                  c.junction_radius)  # fmt: skip
+        self._junction = JunctionTurn(views, poses, float(b.path.frames[j, 2]),
+                                      c.junction_parallax * self.parallax,
+                                      trust=c.image_trust, facing=c.facing,
+                                      turn_rate=c.turn_rate,
+                                      fix=c.junction_position)  # fmt: skip
+
     def _follow(self, x: np.ndarray, step: np.ndarray) -> np.ndarray:
         c, b = self.config, self.belief_
+        if self._junction is not None:
+            action = self._junction.step(b, x, self.localiser, CONTROL_DT)
+            if action is not None:
+                return action
+            self.junction_shifts_.append(self._junction.shift_)
+            self.junction_last_ = self._junction
+            self._junction = None
         self._image_fix(x)
-        if (self.phase_ == "follow" and self._lost > c.relocalise_after
+        # pushing a wall again and again at one place: the belief is off across the route
+        walled = c.relocalise_bumps > 0 and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
+        if (self.phase_ in (("follow", "arrive") if c.relocalise_arrive else ("follow",))
+                and (self._lost > c.relocalise_after or walled)
                 and self.relocalised_ < c.max_relocalise):  # fmt: skip
             self.relocalised_ += 1
             self._exclude_fix()

@@ -110,6 +110,7 @@ def test_route_out_of_a_recording_is_reversed(servo_maps):
 
 def test_config_validation():
     assert SignalServoConfig(max_relocalise=0).max_relocalise == 0
+    assert SignalServoConfig(relocalise_bumps=0).relocalise_bumps == 0
     for bad, match in [
         ({"speed": -1.0}, "speed"),
         ({"speed": 3.0}, "speed"),
@@ -122,6 +123,9 @@ def test_config_validation():
         ({"reverse": 1}, "reverse"),
         ({"reverse_speed": 0.8}, "reverse_speed"),
         ({"reverse_heading_gain": 0.0}, "reverse_heading_gain"),
+        ({"relocalise_bumps": -1}, "relocalise_bumps"),
+        ({"relocalise_arrive": 1}, "relocalise_arrive"),
+        ({"junction_radius": 0.0}, "junction_radius"),
     ]:
         with pytest.raises(ValueError, match=match):
             SignalServoConfig(**bad)
@@ -179,6 +183,16 @@ def test_fix_route_and_bump(servo_maps):
     odo = np.array([0.0, 0.0, yaw - ctl.belief_.pose[2]])
     actions = [ctl.act({"image": m.images[start], "odometry": odo}) for _ in range(25)]
     assert ctl.bumps_ >= 1 and any(a[0] < 0 for a in actions)
+    # with relocalise_bumps, pushing the wall makes it observe and localise again
+    ctl = SignalServo(m, config=SignalServoConfig(relocalise_bumps=1), world="hallway")
+    ctl.reset(target)
+    yaw = _observe(ctl, m.images[start], 200)
+    odo = np.array([0.0, 0.0, yaw - ctl.belief_.pose[2]])
+    for _ in range(40):
+        ctl.act({"image": m.images[start], "odometry": odo})
+        if ctl.phase_ == "observe":
+            break
+    assert ctl.phase_ == "observe" and ctl.relocalised_ == 1
 
 
 def test_signal_servo_refuses_bad_input(servo_maps):
