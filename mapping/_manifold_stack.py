@@ -17,17 +17,18 @@ With ``y = x - mu`` and ``x - mean_j = y - delta_j``, what each cluster's own
 
 and ``|x - x_i|^2 = |x - mean_j|^2 + |x_i - mean_j|^2 - 2 c_j . c_i`` (c_j = B_j (x - mean_j))
 or ``- 2 (x - mean_j) . p_i`` as before; eq. 13 then reads its affinities from these. So a
-view costs one subtraction, one norm, one cast, one GEMV over the stacked matrix and one
-over the K shifts (memory-bound: they read R rows of d in the storage dtype and K in float64
-once, on one BLAS thread), instead of K centrings, casts and GEMVs; no K x d or n x d
-temporary is formed. The maths is exact. The round-off differs from the per-cluster path
-only in float32 storage, where the query is rounded after centring on mu instead of on
-mean_j; the coordinates' error stays of the order of the per-cluster path's (the rounding
-error of y is projected on unit rows; measured the same to a factor of 2). ``s`` is float64
-on purpose: |x - mean_j|^2 is a small difference of the large |y|^2 and |delta_j|^2 for a
-query near cluster j, and a float32 ``y . delta_j`` made it 1 % wrong on the tests' data
-(3000-d curves 20x their spread apart), ~1e-3 of F. tests/mapping/test_manifold_stack.py
-bounds the difference.
+view costs one norm, one GEMV over the K shifts and mu in float64 (``|y|^2`` and ``s`` from
+``x . x``, ``x . mu`` and ``x . delta_j``), one subtraction rounded straight into the
+storage dtype and one GEMV over the stacked matrix (memory-bound: they read R rows of d in
+the storage dtype and K + 1 in float64 once), instead of K centrings, casts and GEMVs; no K
+x d or n x d temporary is formed, nor a float64 copy of the query. The maths is exact. The
+round-off differs from the per-cluster path only in float32 storage, where the query is
+rounded after centring on mu instead of on mean_j; the coordinates' error stays of the order
+of the per-cluster path's (the rounding error of y is projected on unit rows; measured the
+same to a factor of 2). ``s`` is float64 on purpose: |x - mean_j|^2 is a small difference of
+the large |y|^2 and |delta_j|^2 for a query near cluster j, and a float32 ``y . delta_j``
+made it 1 % wrong on the tests' data (3000-d curves 20x their spread apart), ~1e-3 of F.
+tests/mapping/test_manifold_stack.py bounds the difference.
 
 Two things cut what a view reads further (issue 15 item 2: <= 2 ms at 320x240x3):
 
@@ -99,7 +100,12 @@ class Projection:
         self.starts = self.starts.astype(np.intp)
         R = int(self.starts[-1])
         self.matrix = np.empty((R, self.mu.shape[0]), dtype=blocks[0].dtype)
-        self.shifts = np.empty((K, self.mu.shape[0]))
+        # the K shifts and mu as one (K + 1, d) matrix: one float64 GEMV gives x . delta_j
+        # and x . mu, so the query is never centred in float64 (only into the float32 cast)
+        self.anchors = np.empty((K + 1, self.mu.shape[0]))
+        self.anchors[K] = self.mu
+        self.mu = self.anchors[K]
+        self.shifts = self.anchors[:K]
         self.offsets = np.empty(R)
         self.shift_sq = np.empty(K)
         for j, (m, rows) in enumerate(zip(models, blocks, strict=True)):
@@ -111,6 +117,8 @@ class Projection:
             self.offsets[a:b] = _widened_product(rows, delta)
             # the model reads the same values from here on: no second copy of its rows
             object.__setattr__(m, field, self.matrix[a:b])
+        self.mu_shift = self.shifts @ self.mu  # mu . delta_j
+        self.mu_sq = float(self.mu @ self.mu)
 
     @classmethod
     def of(cls, models: list, field: str) -> Projection:
@@ -138,15 +146,25 @@ class Projection:
         return p, q
 
     def _project(self, X: np.ndarray, p: np.ndarray, q: np.ndarray, needed) -> None:
-        """One block of rows into ``p`` and ``q`` (see ``__call__``)."""
-        Xc = X - self.mu
-        norms = np.einsum("ij,ij->i", Xc, Xc)
-        with projection_threads(Xc.shape[0], self.matrix):
-            along = Xc @ self.shifts.T
+        """One block of rows into ``p`` and ``q`` (see ``__call__``).
+
+        In float64, from ``x . x`` and ``x . [delta_j, mu]``: ``y = x - mu`` has
+        ``|y|^2 = |x|^2 - 2 x . mu + |mu|^2`` and ``y . delta_j = x . delta_j - mu . delta_j``
+        (float64 keeps these differences to ~1e-16 of |x|^2, far below the float32
+        projection's round-off); y itself is only formed rounded to the storage dtype."""
+        k = X.shape[0]
+        K = self.shifts.shape[0]
+        norms = np.einsum("ij,ij->i", X, X, dtype=np.float64)  # float32 queries too
+        with projection_threads(k, self.matrix):
+            g = X @ self.anchors.T
+            y_sq = norms - 2.0 * g[:, K] + self.mu_sq
+            along = g[:, :K] - self.mu_shift
             # |x - mean_j|^2 = |x - mu|^2 - 2 (x - mu) . delta_j + |delta_j|^2
-            q[:] = norms[:, None] - 2.0 * along + self.shift_sq
+            q[:] = y_sq[:, None] - 2.0 * along + self.shift_sq
             wanted = None if needed is None else needed(q).any(axis=0)
-            Xc = np.asarray(Xc, dtype=self.matrix.dtype)
+            # centred in float64 element by element, rounded once (no float64 copy of X)
+            Xc = np.subtract(X, self.mu, out=np.empty(X.shape, self.matrix.dtype),
+                             casting="same_kind")  # fmt: skip
             for a, b in self._runs(wanted):
                 p[:, a:b] = Xc @ self.matrix[a:b].T
         if wanted is not None:

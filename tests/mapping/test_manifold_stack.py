@@ -193,3 +193,15 @@ def test_a_view_is_projected_on_one_blas_thread_only_on_a_busy_machine(monkeypat
     ctx = _manifold_stack.projection_threads(1, big)
     assert isinstance(ctx, nullcontext) != one_thread
     assert isinstance(_manifold_stack.projection_threads(100, big), nullcontext)  # many rows
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_float32_queries_are_projected_in_float64(curves, dtype):
+    """A float32 query gives the distances of the same values in float64 (its norm and its
+    products with the shifts are accumulated in float64, not float32)."""
+    train, test = curves
+    stack = Stack.of(_fit(train, dtype, 0.0)._models)
+    q32 = test.astype(np.float32)
+    np.testing.assert_allclose(
+        stack.sq_distances(q32), stack.sq_distances(q32.astype(np.float64)), rtol=1e-9
+    )
