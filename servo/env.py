@@ -10,6 +10,7 @@ from gymnasium import spaces
 
 from common.geometry import se2_relative, wrap_angle
 from common.validation import check_finite, check_int
+from mapping._validation import single_threaded_blas
 from scenes import MANIFOLDS
 from servo.map_store import MapError, ServoMap, load_map, load_or_build
 from servo.registration import MAX_EPISODE_STEPS
@@ -194,7 +195,10 @@ class ServoEnv(gym.Env):
         """F^j(k) of eq. 13 toward the target view, in the target's cluster."""
         m = self.map
         x = m.image_features.transform(image[None]).astype(np.float32)
-        return float(m.clustering.signal(x, int(m.clusters[self._target]), self._target)[0])
+        # one BLAS thread whatever the machine's load: two (mapping._validation.busy) would
+        # change the reward's last bits, and an episode must be the same for the same seed
+        with single_threaded_blas():
+            return float(m.clustering.signal(x, int(m.clusters[self._target]), self._target)[0])
 
     # -- gymnasium API ----------------------------------------------------------------------
     def _obs(self, base_obs: dict, odometry: np.ndarray) -> dict:

@@ -18,6 +18,7 @@ import numpy as np
 
 from common.fileio import write_png
 from common.validation import check_int
+from mapping._validation import single_threaded_blas
 from scenes import WORLDS
 from servo.baselines import GreedyFProbing, OraclePolicy, RandomPolicy
 from servo.controller import ManifoldServo
@@ -62,11 +63,14 @@ def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
     itself (1 at the view, 0 where the cluster gives no signal)."""
     c = int(m.clusters[view])
     key = (m.key, int(view))
-    if key not in _F_AT_VIEW:
-        f = m.clustering.signal(m.features[view][None], c, int(view))[0]
-        _F_AT_VIEW[key] = max(float(f), 1e-12)
-    x = m.image_features.transform(np.asarray(image)[None]).astype(np.float32)
-    return float(m.clustering.signal(x, c, int(view))[0]) / _F_AT_VIEW[key]
+    # one BLAS thread whatever the load (as ServoEnv's reward): the episode's record of F
+    # must not change in its last bits with mapping._validation.busy
+    with single_threaded_blas():
+        if key not in _F_AT_VIEW:
+            f = m.clustering.signal(m.features[view][None], c, int(view))[0]
+            _F_AT_VIEW[key] = max(float(f), 1e-12)
+        x = m.image_features.transform(np.asarray(image)[None]).astype(np.float32)
+        return float(m.clustering.signal(x, c, int(view))[0]) / _F_AT_VIEW[key]
 
 
 def episode_seeds(seed: int, episodes: int) -> list[int]:
