@@ -13,6 +13,10 @@ import argparse
 
 import numpy as np
 
+from common.fileio import atomic_path
+
+_KEYS = ("world", "features", "odometry", "truth", "start", "target")
+
 
 def record(world: str, episodes: int, data, maps, out: str) -> None:
     """Step the env through the observing turn at each dev ``anywhere`` start; save the
@@ -47,9 +51,38 @@ def record(world: str, episodes: int, data, maps, out: str) -> None:
         targets.append(info["target_view"])
         print(spec.index, np.round(t[0], 2), flush=True)
     env.close()
-    np.savez_compressed(out, world=world, features=np.array(feats, np.float32),
-                        odometry=np.array(odos), truth=np.array(truth),
-                        start=np.array(starts), target=np.array(targets))  # fmt: skip
+    with atomic_path(out) as tmp, open(tmp, "wb") as f:  # nothing half-written on disk
+        np.savez_compressed(f, world=world, features=np.array(feats, np.float32),
+                            odometry=np.array(odos), truth=np.array(truth),
+                            start=np.array(starts), target=np.array(targets))  # fmt: skip
+
+
+def load_recording(path) -> dict:
+    """A file written by :func:`record`, read as untrusted input: the known arrays only (no
+    pickles), a known world, and one turn (T, d) features and (T, 3) odometry per start."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            rec = {k: z[k] for k in _KEYS}
+    except (OSError, ValueError, KeyError) as err:
+        raise ValueError(f"path {str(path)!r} is not a recording of fix_offline record "
+                         f"(an .npz with {', '.join(_KEYS)}): {err}") from err  # fmt: skip
+    import sim  # noqa: F401  (GL backend first)
+    from scenes import WORLDS
+
+    world = str(rec["world"])
+    if world not in WORLDS:
+        raise ValueError(f"recording {str(path)!r}: world must be one of {sorted(WORLDS)}, "
+                         f"got {world!r}")  # fmt: skip
+    n = len(rec["start"])
+    feats, odo = rec["features"], rec["odometry"]
+    if not (feats.ndim == 3 and odo.ndim == 3 and odo.shape[2] == 3 and len(feats) == len(odo)
+            == n and feats.shape[1] == odo.shape[1] and rec["start"].shape[1:] == (3,)
+            and np.isfinite(odo).all() and np.isfinite(rec["start"]).all()):  # fmt: skip
+        raise ValueError(f"recording {str(path)!r}: expected features (S, T, d), odometry "
+                         f"(S, T, 3) and start (S, 3), finite; got {feats.shape}, "
+                         f"{odo.shape}, {rec['start'].shape}")  # fmt: skip
+    rec["world"] = world
+    return rec
 
 
 # -- methods: each takes (localiser, routes, features (T, d), odometry (T, 3)) -> view -------
@@ -93,8 +126,8 @@ def score(paths: list[str], data, maps, only: list[str] | None = None) -> None:
     from servo.route import RouteGraph
 
     for path in paths:
-        z = np.load(path)
-        world = str(z["world"])
+        z = load_recording(path)
+        world = z["world"]
         m = load_or_build(world, data, maps, progress=False)
         loc, routes = ImageLocaliser(m), RouteGraph(m)
         start = z["start"]
