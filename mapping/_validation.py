@@ -11,6 +11,8 @@ import os
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
+from common.cores import available_cores
+
 _CONTROLLER: ThreadpoolController | None = None
 
 
@@ -29,21 +31,13 @@ def single_threaded_blas():
     return _CONTROLLER.limit(limits=1, user_api="blas")
 
 
-def cores() -> int:
-    """Cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
 def busy() -> bool:
     """Whether the machine has no core to spare: the 1-minute load average at least the cores
     less half a core. A second OpenBLAS thread then spin-waits for a descheduled partner (a
     40 x 230400 float32 GEMV: ~1.7 ms on one thread, ~12 ms on two at load 4-5 on 2 cores);
     with a core free it halves a memory-bound product (52 against 26 GB/s here)."""
     try:
-        return os.getloadavg()[0] >= cores() - 0.5
+        return os.getloadavg()[0] >= available_cores() - 0.5
     except OSError:  # no load average on this platform
         return False
 

@@ -16,6 +16,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from multiprocessing import get_context
 
+from common.cores import available_cores
 from common.validation import check_int
 from scripts.sweep_episode import ONE_THREAD, EpisodeRunner, EpisodeTask
 from scripts.sweep_ray import RayBackend, parse_address  # imports Ray only when used
@@ -103,4 +104,4 @@ def open_backend(backend: str, workers: int, address: str | None = None):
 
 def default_workers() -> int:
     """The cores this process may use."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return available_cores()

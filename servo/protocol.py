@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.cores import available_cores
 from common.validation import check_int
 from scenes import MANIFOLDS, WORLDS
 
@@ -158,7 +159,7 @@ def run_protocol(
         raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
     if policy not in POLICIES:
         raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
-    workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
+    workers = available_cores() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     with tempfile.TemporaryDirectory(prefix="servo-protocol-") as tmp:

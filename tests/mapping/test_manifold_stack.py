@@ -187,7 +187,7 @@ def test_a_view_is_projected_on_one_blas_thread_only_on_a_busy_machine(monkeypat
 
     from mapping import _validation
 
-    monkeypatch.setattr(_validation, "cores", lambda: 2)
+    monkeypatch.setattr(_validation, "available_cores", lambda: 2)
     monkeypatch.setattr(_validation.os, "getloadavg", lambda: (load, load, load))
     big = np.zeros((8, 1 << 18), np.float32)
     ctx = _manifold_stack.projection_threads(1, big)
