@@ -11,6 +11,13 @@ constants and functions for the duration of one setting (diagnosis only)::
 
     python bench/graph_path_dev.py ROOT --seeds 0 100 101 102 103 --draws 3
 
+``--where`` instead prints where the two paths part on the same fits (session 11): whether
+the root splits put the points on the same sides, and each tree's leaves combined in each
+path's kernel (the combination's kernel swapped); ``--sensitivity SEED`` searches one
+sub-node of the dense tree twice, on its block of the full distance matrix and on its
+distances recomputed from its points (equal to ~1e-14), both on one BLAS thread as in
+``fit``.
+
 ROOT holds ``m-data-S`` (``topomap collect --world all --seed S --out ROOT/m-data-S``).
 Use dev seeds only: fresh seeds are for the frozen rule (``bench_manifold.py --graph-vs-dense``).
 """
@@ -29,6 +36,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import mapping._manifold_geometry as geometry
 import mapping._manifold_tree as tree
 from bench.bench_manifold import _image_split
+from mapping._manifold_geometry import DenseGeometry, training_geometry
+from mapping._manifold_split import best_split
+from mapping._manifold_tree import combine_tree
+from mapping._validation import single_threaded_blas
+from mapping.distances import squared_distances
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import clustering_error
 from scripts.manifold_diagnosis import majority_merge_error
@@ -114,14 +126,92 @@ def sweep(root: Path, seeds: list[int], draws: int, names: list[str]) -> None:
         print(f"| {name} | {train:.3f} | {test:.3f} | {bound:.3f} |", flush=True)
 
 
+def _draws(root: Path, seeds: list[int], draws: int):
+    for seed in seeds:
+        X_train, y_train, _, _ = _image_split(root / f"m-data-{seed}")
+        for draw in range(draws):
+            noise = np.random.default_rng(draw).standard_normal(X_train.shape)
+            yield seed, draw, (X_train if draw == 0 else X_train * (1.0 + 1e-12 * noise)), y_train
+
+
+def where(root: Path, seeds: list[int], draws: int) -> None:
+    """Root partitions compared, and each tree combined in each path's kernel."""
+    print(
+        "| seed | draw | points on other sides of the root | dense tree: dense / graph "
+        "combination | graph tree: dense / graph combination |\n|---|---|---|---|---|"
+    )
+    errs = []
+    for seed, draw, X, y in _draws(root, seeds, draws):
+        fits = {k: ManifoldClustering(8, 35, kernel=k).fit(X) for k in ("dense", "sparse")}
+        sides = [set(fits[k].tree_.children[0].indices.tolist()) for k in ("dense", "sparse")]
+        moved = min(len(sides[0] ^ sides[1]), X.shape[0] - len(sides[0] ^ sides[1]))
+        space = fits["dense"]._search_space(X.shape[0])
+        row = []
+        for tree_of in ("dense", "sparse"):
+            leaves = [leaf.indices for leaf in fits[tree_of].tree_.leaves()]
+            for kernel in ("dense", "sparse"):
+                geometry = training_geometry(X, kernel, 10, 64)
+                with single_threaded_blas():
+                    combo = combine_tree(fits[tree_of].tree_, geometry, 8, space, "spectral")
+                labels = np.empty(X.shape[0], dtype=np.intp)
+                for j, group in enumerate(combo.groups):
+                    for c in group:
+                        labels[leaves[c]] = j
+                row.append(clustering_error(y, labels))
+        errs.append(row)
+        print(
+            f"| {seed} | {draw} | {moved} | {row[0]:.3f} / {row[1]:.3f} | "
+            f"{row[2]:.3f} / {row[3]:.3f} |",
+            flush=True,
+        )
+    m = np.mean(errs, axis=0)
+    print(f"| mean | | | {m[0]:.3f} / {m[1]:.3f} | {m[2]:.3f} / {m[3]:.3f} |")
+
+
+def sensitivity(root: Path, seed: int) -> None:
+    """Every split node of the dense tree searched on two copies of its distances that differ
+    by ~1e-14: its block of the full matrix (as in ``fit``) and its distances recomputed from
+    its points (as a graph fit's dense sub-node has them)."""
+    X, y, _, _ = _image_split(root / f"m-data-{seed}")
+    model = ManifoldClustering(8, 35, kernel="dense").fit(X)
+    space = model._search_space(X.shape[0])
+    D = squared_distances(X)
+    nodes = [model.tree_]
+    while nodes:
+        node = nodes.pop(0)
+        if not node.children:
+            continue
+        nodes.extend(node.children)
+        idx = node.indices
+        block, recomputed = D[np.ix_(idx, idx)], squared_distances(X[idx])
+        gap = np.abs(block - recomputed).max()
+        with single_threaded_blas():
+            splits = [best_split(DenseGeometry(sq), 35, space) for sq in (block, recomputed)]
+        same = np.array_equal(splits[0].in_first, splits[1].in_first)
+        same = same or np.array_equal(splits[0].in_first, ~splits[1].in_first)
+        print(f"node of {idx.shape[0]} points (copies differ by <= {gap:.1e}): "
+              + ("same split" if same else "DIFFERENT split"))  # fmt: skip
+        for name, split in zip(("block", "recomputed"), splits, strict=True):
+            sides = np.bincount(y[idx][split.in_first], minlength=8).tolist()
+            print(f"  {name}: sigma {split.sigma:.4f}, alpha {split.alpha:.5f}, "
+                  f"Omega {split.omega:.4f}; p1 per manifold {sides}")  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("root", type=Path)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 100, 101, 102, 103])
     parser.add_argument("--draws", type=int, default=3)
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
+    parser.add_argument("--where", action="store_true", help="where the two paths part")
+    parser.add_argument("--sensitivity", type=int, metavar="SEED", help="one node searched twice")
     args = parser.parse_args()
-    sweep(args.root, args.seeds, args.draws, args.settings)
+    if args.where:
+        where(args.root, args.seeds, args.draws)
+    elif args.sensitivity is not None:
+        sensitivity(args.root, args.sensitivity)
+    else:
+        sweep(args.root, args.seeds, args.draws, args.settings)
 
 
 if __name__ == "__main__":
