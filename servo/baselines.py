@@ -17,8 +17,8 @@ from servo.geodesic import GeodesicField
 from servo.localise import ImageLocaliser
 from servo.map_store import ServoMap
 from servo.route import RouteGraph
-from servo.signal_servo import WaypointTracker
 from servo.steering import Arrival, pursue
+from servo.waypoint_tracker import WaypointTracker
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 

@@ -19,7 +19,8 @@
    which also tells the robot it is past the current one. Where the route drives its
    recording backwards (out of a branch) the robot reverses, the camera facing the way the
    stored views look, and takes the reverse-stable fix
-   (:meth:`~servo.route_belief.RouteBelief.fix_reversing`).
+   (:meth:`~servo.route_belief.RouteBelief.fix_reversing`), on a map with the parallax that
+   fix needs (``reverse_parallax``); on others it turns round and drives on odometry.
 4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
    take the peak as the view's place (the robot went past it) and come back.
 5. *Recover.* Commanded motion that odometry does not see is a wall: back off. Facing route
@@ -46,58 +47,13 @@ from servo.signal_arrival import PeakArrival
 from servo.signal_config import SignalServoConfig
 from servo.steering import pursue
 from servo.turn_fix import consistent_fix, contrast_fix, neighbourhood
+from servo.waypoint_tracker import WaypointTracker
 from sim.simulator import CONTROL_DT
 
 __all__ = ["SignalServo", "SignalServoConfig", "WaypointTracker"]
 
 MIN_PARALLAX = 0.02  # rad/m: a floor (the reversing fix's cross gain grows as 1 / parallax)
 EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalisation skips
-
-
-class WaypointTracker:
-    """Which waypoint view the robot is servoing to: the current one until F toward the next
-    overtakes it (or, where both are 0, the next one aligns better), or until the robot has
-    driven well past the distance the map puts between them."""
-
-    def __init__(self, waypoints: list[int], directions: np.ndarray, gaps: np.ndarray,
-                 overrun: float):  # fmt: skip
-        if not len(waypoints) == len(directions) == len(gaps) or not waypoints:
-            raise ValueError("waypoints, directions and gaps must be equally long, not empty")
-        self.waypoints, self.directions, self.gaps = list(waypoints), directions, gaps
-        self.overrun = float(overrun)
-        self.index = 0
-        self.driven = 0.0  # m since the current waypoint became current
-
-    @property
-    def current(self) -> int:
-        return self.waypoints[self.index]
-
-    @property
-    def next(self) -> int | None:
-        return self.waypoints[self.index + 1] if self.index + 1 < len(self.waypoints) else None
-
-    @property
-    def last(self) -> bool:
-        return self.index == len(self.waypoints) - 1
-
-    def update(self, f_current: float, f_next: float, d_current: float, d_next: float,
-               moved: float) -> bool:  # fmt: skip
-        """Advance if the next waypoint has overtaken the current one; True if it did."""
-        self.driven += moved
-        if self.last:
-            return False
-        overtaken = f_next > f_current if max(f_next, f_current) > 0 else d_next < d_current
-        overrun = self.driven > self.overrun * self.gaps[self.index] + 0.5
-        if overtaken or overrun:
-            self.advance()
-            return True
-        return False
-
-    def advance(self) -> None:
-        """Move on to the next waypoint (reached by other means than F)."""
-        if not self.last:
-            self.index += 1
-            self.driven = 0.0
 
 
 class SignalServo:
@@ -116,6 +72,7 @@ class SignalServo:
         observing).
     manifold_ : cluster of the current image by eq. 13 (``predict``), at the global fix.
     belief_ : :class:`~servo.route_belief.RouteBelief` (None while observing).
+    reverses : bool: drives the routes' backward segments in reverse (set up from the map).
     done_ : bool
     """
 
@@ -134,6 +91,8 @@ class SignalServo:
         # the image shift per m across a view's sight, from the map's linked views: the
         # reversing fix's model (hallway ~0.15, lawn ~0.05: the scene's depth differs)
         self.parallax = max(self.localiser.parallax(), MIN_PARALLAX)
+        # reversing keeps image fixes only where the map's parallax makes them stable
+        self.reverses = self.config.reverse and self.parallax >= self.config.reverse_parallax
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
@@ -382,7 +341,7 @@ class SignalServo:
         is pursuit of the goal mirrored through the robot (the robot turned round) with the
         speed's sign flipped; the turn rate is the same."""
         c, t = self.config, self.tracker
-        sign = 1.0 if not c.reverse or t.directions[t.index] > 0 else -1.0
+        sign = 1.0 if not self.reverses or t.directions[t.index] > 0 else -1.0
         goal = sign * np.asarray(goal, np.float64)
         speed = c.speed if sign > 0 else c.reverse_speed
         if self._careful > 0:

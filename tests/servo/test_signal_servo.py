@@ -102,10 +102,15 @@ def test_route_out_of_a_recording_is_reversed(servo_maps):
     odo = np.array([0.0, 0.0, yaw - ctl.belief_.pose[2]])
     v = [ctl.act({"image": m.images[start], "odometry": odo})[0] for _ in range(6)]
     assert all(a <= 0 for a in v) and min(v) < -0.2
-    forward = SignalServo(m, config=SignalServoConfig(reverse=False), world="hallway")
-    forward.reset(ctl.target)
-    _observe(forward, m.images[start], 200)
-    assert forward.act({"image": m.images[start], "odometry": odo})[0] >= 0
+    assert ctl.reverses
+    # turned round instead: reversing off, or a map with less parallax than reversing needs
+    for config in (SignalServoConfig(reverse=False),
+                   SignalServoConfig(reverse_parallax=ctl.parallax + 0.01)):  # fmt: skip
+        forward = SignalServo(m, config=config, world="hallway")
+        assert not forward.reverses
+        forward.reset(ctl.target)
+        _observe(forward, m.images[start], 200)
+        assert forward.act({"image": m.images[start], "odometry": odo})[0] >= 0
 
 
 def test_config_validation():
@@ -122,6 +127,7 @@ def test_config_validation():
         ({"facing": np.nan}, "facing"),
         ({"reverse": 1}, "reverse"),
         ({"reverse_speed": 0.8}, "reverse_speed"),
+        ({"reverse_parallax": 0.0}, "reverse_parallax"),
         ({"reverse_heading_gain": 0.0}, "reverse_heading_gain"),
         ({"relocalise_bumps": -1}, "relocalise_bumps"),
         ({"relocalise_arrive": 1}, "relocalise_arrive"),
