@@ -13,6 +13,16 @@ largest at the view), for :class:`~servo.signal_servo.SignalServo`.
 3. *Probe across.* Settled, F is read there and ``lateral`` m to either side (the arrival law
    to each); where a side gives more F, the view lies that way: the belief is moved across and
    the sweep starts again (at most ``lateral_rounds`` times). Otherwise the robot is done.
+
+With ``arrive_lanes`` (round 6) steps 2 and 3 search lanes instead: F toward a view is sharp
+(measured by rendering along stored views' sight in the hallway: 1 at the view, 0.6-0.9 at
+0.2 m, ~0 at 0.4 m, with secondary peaks near 1 m where the corridor repeats), so F read at
+a point 0.6 m to the side says nothing, and a sweep on a line 0.6 m beside the view never
+sees its peak. The sweep runs on the view's line of sight and then on lines ``lateral`` m to
+either side, keeping the best F and where (along and across) it was; once a peak is
+confirmed, or all lanes are swept, the belief is moved to put the view at the best F and the
+robot drives there. Settled, F is read again: at least ``arrive_drop`` of the peak means it
+is there (done); less, and the lanes are searched again (at most ``lateral_rounds`` times).
 """
 
 from __future__ import annotations
@@ -50,7 +60,9 @@ class PeakArrival:
         self.stage = "face"
         self._arrival = Arrival()
         self._leg, self._legs = 1, 0  # sweep direction along the view's sight, legs done
-        self._peak, self._peak_along = 0.0, 0.0
+        self._peak, self._peak_along, self._peak_across = 0.0, 0.0, 0.0
+        self._lane = 0  # with ``arrive_lanes``: index into ``lanes``
+        self.lanes = (0.0, config.lateral, -config.lateral) if config.arrive_lanes else (0.0,)
         self._probe: list[float] = []  # F at the centre, then at each side probed
         self._rounds = 0
 
@@ -69,16 +81,20 @@ class PeakArrival:
             if not facing:
                 return self._arrival(se2_relative(b.pose, target))
         if self.stage == "sweep":
-            return self._sweep(b, target, u, signal())
+            return self._sweep(b, target, u, left, signal())
+        if self.stage == "settle" and self.config.arrive_lanes:
+            return self._settle_lanes(b, target, signal)
         if self.stage in ("settle", "probe"):
             return self._settle(b, target, left, signal)
         return self._arrival(se2_relative(b.pose, target))  # done: hold (or correct) the pose
 
-    def _sweep(self, b: RouteBelief, target: np.ndarray, u: np.ndarray, f: float) -> np.ndarray:
+    def _sweep(self, b: RouteBelief, target: np.ndarray, u: np.ndarray, left: np.ndarray,
+               f: float) -> np.ndarray:  # fmt: skip
         c = self.config
         along = float(u @ (b.pose[:2] - target[:2]))  # m past the view, by the belief
         if f > self._peak:
-            self._peak, self._peak_along = f, along
+            across = float(left @ (b.pose[:2] - target[:2]))
+            self._peak, self._peak_along, self._peak_across = f, along, across
         end = self._leg * c.overshoot * (1.0 + 0.5 * self._legs)
         at_end = (along - end) * self._leg > -0.1
         # F toward a view is not monotonic along its sight (a door or a tree can give a
@@ -86,15 +102,39 @@ class PeakArrival:
         # the robot has gone on a good way past it
         beyond = (along - self._peak_along) * self._leg > c.arrive_past
         peaked = self._peak >= c.arrive_confirm and f < c.arrive_drop * self._peak and beyond
-        if peaked or (at_end and self._legs >= c.sweeps - 1 and self._peak >= c.arrive_min):
-            b.pose[:2] -= u * self._peak_along  # the peak was at the view
+        swept = at_end and self._legs >= c.sweeps - 1  # this lane's last leg is done
+        if swept and self._lane + 1 < len(self.lanes) and not peaked:
+            self._lane += 1  # the next lane beside the view's sight (``arrive_lanes``)
+            swept = False
+        if peaked or (swept and self._peak >= c.arrive_min):
+            # the peak was at the view (across only where lanes were searched)
+            b.pose[:2] -= u * self._peak_along + (left * self._peak_across if c.arrive_lanes else 0)
             self.stage, self._arrival, self._probe = "settle", Arrival(), []
             return self._arrival(se2_relative(b.pose, target))
+        if swept:
+            self._lane = 0
         if at_end:
             self._leg, self._legs = -self._leg, (self._legs + 1) % c.sweeps
         goal = target.copy()
-        goal[:2] += u * end
+        goal[:2] += u * end + left * self.lanes[self._lane]
         return line_drive(se2_relative(b.pose, goal))
+
+    def _settle_lanes(self, b: RouteBelief, target: np.ndarray,
+                      signal: Callable[[], float]) -> np.ndarray:  # fmt: skip
+        """``arrive_lanes``: drive to where the view is now believed to be; there F must be
+        back near its peak, or the lanes are searched again."""
+        c = self.config
+        action = self._arrival(se2_relative(b.pose, target))
+        if not self._arrival.done:
+            return action
+        if signal() >= c.arrive_drop * self._peak or self._rounds >= c.lateral_rounds:
+            self.stage = "done"
+            return action
+        self._rounds += 1
+        self.stage, self._arrival, self._lane = "sweep", Arrival(), 0
+        self._leg, self._legs, self._peak = 1, 0, 0.0
+        self._peak_along = self._peak_across = 0.0
+        return action
 
     def _settle(self, b: RouteBelief, target: np.ndarray, left: np.ndarray,
                 signal: Callable[[], float]) -> np.ndarray:  # fmt: skip

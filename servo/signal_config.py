@@ -39,6 +39,9 @@ class SignalServoConfig:
     sweeps : legs of the sweep along the target view's sight before the best F is taken.
     lateral / lateral_rounds : m to either side where F is probed once settled, and how many
         times a better side moves the sweep there (:class:`~servo.signal_arrival.PeakArrival`).
+    arrive_lanes : search the F peak on the view's line of sight and on lines ``lateral`` m to
+        either side, then check F where the peak was
+        (:class:`~servo.signal_arrival.PeakArrival`); else probe F at points to the sides.
     relocalise_after / max_relocalise : steps facing route views without an image fix after
         which the robot observes and localises again, at most ``max_relocalise`` times.
     consistent_fix : take the observing turn's fix best supported by the turn's other images
@@ -96,6 +99,7 @@ class SignalServoConfig:
     sweeps: int = 3
     lateral: float = 0.6
     lateral_rounds: int = 2
+    arrive_lanes: bool = False
     relocalise_after: int = 40
     max_relocalise: int = 2
     consistent_fix: bool = False
