@@ -151,6 +151,13 @@ class PeakArrival:
             return action
         self.stage = "probe"
         self._probe.append(signal())
+        low = self._probe[0] < c.arrive_drop * self._peak
+        if c.arrive_recheck and len(self._probe) == 1 and low:
+            # F here is far below the peak the sweep found: the peak was elsewhere (a
+            # repeat of the view a metre off); sweep again from here
+            self._rounds += 1
+            self._restart()
+            return action
         if len(self._probe) < len(offsets):
             self._arrival = Arrival()
             return action
@@ -161,6 +168,10 @@ class PeakArrival:
             return action
         # the view lies toward the side that gave more F: sweep again there
         b.pose[:2] -= offsets[k] * left
+        self._restart()
+        return action
+
+    def _restart(self) -> None:
+        """Sweep the view's line of sight again (a new round)."""
         self.stage, self._arrival = "sweep", Arrival()
         self._leg, self._legs, self._peak, self._peak_along = 1, 0, 0.0, 0.0
-        return action
