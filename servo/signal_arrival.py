@@ -151,13 +151,6 @@ class PeakArrival:
             return action
         self.stage = "probe"
         self._probe.append(signal())
-        low = self._probe[0] < c.arrive_drop * self._peak
-        if c.arrive_recheck and len(self._probe) == 1 and low:
-            # F here is far below the peak the sweep found: the peak was elsewhere (a
-            # repeat of the view a metre off); sweep again from here
-            self._rounds += 1
-            self._restart()
-            return action
         if len(self._probe) < len(offsets):
             self._arrival = Arrival()
             return action

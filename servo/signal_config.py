@@ -39,8 +39,6 @@ class SignalServoConfig:
     sweeps : legs of the sweep along the target view's sight before the best F is taken.
     lateral / lateral_rounds : m to either side where F is probed once settled, and how many
         times a better side moves the sweep there (:class:`~servo.signal_arrival.PeakArrival`).
-    arrive_recheck : settled and probed, F at the view's believed place below ``arrive_drop``
-        of the sweep's peak means the peak was elsewhere: sweep again (counts as a round).
     arrive_lanes : search the F peak on the view's line of sight and on lines ``lateral`` m to
         either side, then check F where the peak was
         (:class:`~servo.signal_arrival.PeakArrival`); else probe F at points to the sides.
@@ -102,7 +100,6 @@ class SignalServoConfig:
     lateral: float = 0.6
     lateral_rounds: int = 2
     arrive_lanes: bool = False
-    arrive_recheck: bool = False
     relocalise_after: int = 40
     max_relocalise: int = 2
     consistent_fix: bool = False
