@@ -131,9 +131,7 @@ class PeakArrival:
             self.stage = "done"
             return action
         self._rounds += 1
-        self.stage, self._arrival, self._lane = "sweep", Arrival(), 0
-        self._leg, self._legs, self._peak = 1, 0, 0.0
-        self._peak_along = self._peak_across = 0.0
+        self._restart()
         return action
 
     def _settle(self, b: RouteBelief, target: np.ndarray, left: np.ndarray,
@@ -165,6 +163,7 @@ class PeakArrival:
         return action
 
     def _restart(self) -> None:
-        """Sweep the view's line of sight again (a new round)."""
-        self.stage, self._arrival = "sweep", Arrival()
-        self._leg, self._legs, self._peak, self._peak_along = 1, 0, 0.0, 0.0
+        """Sweep the view's line of sight again (a new round), from the first lane."""
+        self.stage, self._arrival, self._lane = "sweep", Arrival(), 0
+        self._leg, self._legs, self._peak = 1, 0, 0.0
+        self._peak_along = self._peak_across = 0.0
