@@ -5,4 +5,6 @@ cd "$(dirname "$0")/.."
 bash scripts/bootstrap.sh
 export MUJOCO_GL=${MUJOCO_GL:-egl}
 .venv/bin/ruff check .
-exec .venv/bin/python -m pytest -q "$@"
+# the suite's files spread over the cores (at most 4 processes; one file's tests stay
+# together, so its module fixtures are built once)
+exec .venv/bin/python -m pytest -q -n auto --maxprocesses 4 --dist loadfile "$@"
