@@ -101,6 +101,25 @@ class RouteBelief:
             raise ValueError(f"gain and parallax must be > 0, got {heading_gain}, {parallax}")
         return heading_gain, (heading_gain + 2.0 * np.sqrt(heading_gain * parallax)) / parallax
 
+    def bumped(self, direction: int, metres: float) -> None:
+        """A wall stopped the robot driving ``direction`` (+1 forward, -1 reversing): the
+        robot is nearer that wall than believed. Where it was moving across the route (its
+        direction of travel more than ~3 deg off the route's), the wall lies on that side,
+        so the belief moves ``metres`` that way across the route; the pursuit then steers
+        away from it. Head-on (along the route) nothing is learnt across."""
+        a = self.path.point(max(self.s - 0.25, 0.0))
+        b = self.path.point(min(self.s + 0.25, self.path.length))
+        if float(np.hypot(*(b - a))) < 1e-6:
+            return
+        route = float(np.arctan2(b[1] - a[1], b[0] - a[0]))
+        travel = self.pose[2] + (0.0 if direction > 0 else np.pi)
+        across = float(np.sin(wrap_angle(travel - route)))
+        if abs(across) < 0.05:
+            return
+        left = np.array([-np.sin(route), np.cos(route)])
+        self.pose[:2] += np.sign(across) * metres * left
+        self.s = self.path.project(self.pose[:2], self.s, self.window)
+
     def shift_along(self, metres: float) -> None:
         """Move the belief ``metres`` along the route's direction at the current progress
         (an F peak passed says how far past a view the robot is)."""

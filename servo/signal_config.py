@@ -10,8 +10,8 @@ import numpy as np
 from common.validation import check_int
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
-# integers that may be 0 (off)
-_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps")
+# settings that may be 0 (off)
+_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift")
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,13 @@ class SignalServoConfig:
     relocalise_bumps : bumps since the last fix after which the robot observes and localises
         again (counts toward ``max_relocalise``; 0: never): pushing a wall over and over at one
         place means the belief is off across the route (dev hallway episode 10).
+    bumps_arriving : count bumps toward ``relocalise_bumps`` in the arrival phase too (off
+        since round 7: the arrival's back-and-forth by the target looks like a wall to the
+        stuck detector, and the relocalisation it started cost the approach's last minute).
+    bump_shift : m the belief moves across the route at a bump while reversing, toward the
+        side the robot was backing to (:meth:`~servo.route_belief.RouteBelief.bumped`); 0:
+        off. Round 7, dev: hallway `anywhere` 0-59 40 -> 45 of 60 (shifting at forward bumps
+        too: 45, but the lawn 26 -> 25 and hallway `view` 19 -> 18 of 24).
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
         does not see means a wall: drive the other way for ``backup_steps`` steps.
     """
@@ -116,7 +123,9 @@ class SignalServoConfig:
     junction_radius: float = 3.5
     junction_parallax: float = 1.0
     relocalise_bumps: int = 3
+    bumps_arriving: bool = False
     stuck_steps: int = 10
+    bump_shift: float = 0.5
     backup_steps: int = 8
 
     def __post_init__(self):
@@ -127,8 +136,10 @@ class SignalServoConfig:
                     raise ValueError(f"{f.name} must be a bool, got {v!r}")
             elif f.type == "int":
                 check_int(v, f.name, minimum=0 if f.name in _MAY_BE_ZERO else 1)
-            elif not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
-                raise ValueError(f"{f.name} must be a finite number > 0, got {v!r}")
+            elif not (isinstance(v, int | float) and np.isfinite(v)
+                      and (v > 0 or (v == 0 and f.name in _MAY_BE_ZERO))):  # fmt: skip
+                bound = ">= 0" if f.name in _MAY_BE_ZERO else "> 0"
+                raise ValueError(f"{f.name} must be a finite number {bound}, got {v!r}")
         if not self.speed <= V_LIMITS[1]:
             raise ValueError(f"speed must be in (0, {V_LIMITS[1]}] m/s, got {self.speed}")
         if not self.reverse_speed <= -V_LIMITS[0]:

@@ -174,16 +174,25 @@ class SignalServo:
             cmd = m[:, 0].sum() * CONTROL_DT
             got = float(np.hypot(*(m[-1, 1:3] - m[0, 1:3])))
             if cmd > 0.02 * len(m) and got < 0.25 * cmd:
-                self._bumped()
                 self._last_direction = int(np.sign(action[0])) or 1
+                self._bumped(self._last_direction)
         return action.astype(np.float32)
 
-    def _bumped(self) -> None:
-        """Commanded motion odometry did not see: a wall. Back off the way it came."""
+    def _bumped(self, direction: int) -> None:
+        """Commanded motion odometry did not see: a wall. Back off the way it came.
+
+        Reversing, the belief also moves ``bump_shift`` across the route toward the side the
+        robot was backing to (:meth:`~servo.route_belief.RouteBelief.bumped`): out of a
+        branch the reversing fix leaves the belief ~0.7 m off, and without it every back-off
+        and retry drives the same line into the same wall (dev traces: 10-12 bumps at one
+        place). Forward, the image fix's funnel corrects the offset, and shifting did not
+        help (round 7)."""
         self._moves.clear()
         self._backup = self.config.backup_steps
         self._careful = 3 * self.config.backup_steps
         self.bumps_ += 1
+        if direction < 0 and self.config.bump_shift > 0 and self.belief_ is not None:
+            self.belief_.bumped(direction, self.config.bump_shift)
 
     # -- phases -----------------------------------------------------------------------------
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
@@ -320,7 +329,8 @@ class SignalServo:
             self._junction = None
         self._image_fix(x)
         # pushing a wall again and again at one place: the belief is off across the route
-        walled = c.relocalise_bumps > 0 and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
+        walled = (c.relocalise_bumps > 0 and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
+                  and (self.phase_ == "follow" or c.bumps_arriving))  # fmt: skip
         if (self.phase_ in (("follow", "arrive") if c.relocalise_arrive else ("follow",))
                 and (self._lost > c.relocalise_after or walled)
                 and self.relocalised_ < c.max_relocalise):  # fmt: skip

@@ -57,6 +57,18 @@ def test_route_belief_predict_fix_and_facing():
         RouteBelief(L_FRAMES, [0.0, 0.0, 0.0])
 
 
+def test_a_bump_moves_the_belief_toward_the_side_it_was_driving_to():
+    """On the route's first leg (+x): a robot heading 0.3 rad left that bumps driving forward
+    is nearer the left wall than believed; reversing with that heading it moves right."""
+    for direction, side in ((1, 1.0), (-1, -1.0)):
+        b = RouteBelief(RoutePath(L_FRAMES), [2.0, 0.0, 0.3], window=2.0)
+        b.bumped(direction, 0.3)
+        np.testing.assert_allclose(b.pose, [2.0, side * 0.3, 0.3], atol=1e-12)
+    b = RouteBelief(RoutePath(L_FRAMES), [2.0, 0.1, 0.0], window=2.0)
+    b.bumped(1, 0.3)  # head-on: nothing is learnt across the route
+    np.testing.assert_allclose(b.pose, [2.0, 0.1, 0.0])
+
+
 def _reverse_along(fix, steps=400, c=0.17):
     """A robot reversing 0.05 m a step along a straight route whose views face the other
     way (+x) while it drives toward -x, its controller keeping the belief's heading at
@@ -117,7 +129,10 @@ def test_route_out_of_a_recording_is_reversed(servo_maps):
 def test_config_validation():
     assert SignalServoConfig(max_relocalise=0).max_relocalise == 0
     assert SignalServoConfig(relocalise_bumps=0).relocalise_bumps == 0
+    assert SignalServoConfig(bump_shift=0.0).bump_shift == 0.0
     for bad, match in [
+        ({"bump_shift": -0.1}, "bump_shift must be a finite number >= 0"),
+        ({"lateral": 0.0}, "lateral must be a finite number > 0"),
         ({"speed": -1.0}, "speed"),
         ({"speed": 3.0}, "speed"),
         ({"turn_rate": 2.0}, "turn_rate"),
@@ -200,6 +215,31 @@ def test_fix_route_and_bump(servo_maps):
         if ctl.phase_ == "observe":
             break
     assert ctl.phase_ == "observe" and ctl.relocalised_ == 1
+
+
+def test_bumps_by_the_target_do_not_relocalise_unless_asked(servo_maps):
+    """The arrival's back-and-forth by the target looks like a wall to the stuck detector;
+    by default those bumps do not start a relocalisation (``bumps_arriving``)."""
+    m = servo_maps["hallway"]
+    start = 30
+    near = (m.sequence == m.sequence[start]) & (m.frame > m.frame[start])
+    target = int(np.flatnonzero(near)[0])  # the next view: the route is all arrival
+    phases = {}
+    for arriving in (False, True):
+        config = SignalServoConfig(relocalise_bumps=1, bumps_arriving=arriving)
+        ctl = SignalServo(m, config=config, world="hallway")
+        ctl.reset(target)
+        yaw = _observe(ctl, m.images[start], 200)
+        odo = np.array([0.0, 0.0, yaw])  # odometry never moves: every command is a bump
+        seen = set()
+        for _ in range(120):
+            ctl.act({"image": m.images[start], "odometry": odo})
+            seen.add(ctl.phase_)
+            if ctl.phase_ == "observe":
+                break
+        assert ctl.bumps_ >= 1 and "arrive" in seen, (arriving, ctl.bumps_, seen)
+        phases[arriving] = ctl.phase_
+    assert phases[False] != "observe" and phases[True] == "observe"
 
 
 def test_signal_servo_refuses_bad_input(servo_maps):
