@@ -23,9 +23,11 @@
    fix needs (``reverse_parallax``); on others it turns round and drives on odometry.
 4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
    take the peak as the view's place (the robot went past it) and come back.
-5. *Recover.* Commanded motion that odometry does not see is a wall: back off. Facing route
+5. *Recover.* Commanded motion that odometry does not see is a wall: back off (reversing,
+   also move the belief across toward the side the robot was backing to). Facing route
    views that no image matches for long (following or arriving), or pushing a wall again
-   and again, means the fix or the belief is wrong: observe and localise again.
+   and again while following, means the fix or the belief is wrong: observe and localise
+   again.
 
 The controller never reads the simulator's truth; ``info`` is ignored.
 """
