@@ -79,7 +79,8 @@ class SignalServoConfig:
     bump_shift : m the belief moves across the route at a bump while reversing, toward the
         side the robot was backing to (:meth:`~servo.route_belief.RouteBelief.bumped`); 0:
         off. Round 7, dev: hallway `anywhere` 0-59 40 -> 45 of 60 (shifting at forward bumps
-        too: 45, but the lawn 26 -> 25 and hallway `view` 19 -> 18 of 24).
+        too: 45, but the lawn 26 -> 25 and hallway `view` 19 -> 18 of 24); on the test split
+        round 7 as a whole gained nothing (docs/servo.md).
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
         does not see means a wall: drive the other way for ``backup_steps`` steps.
     """
