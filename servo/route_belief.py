@@ -91,6 +91,19 @@ class RouteBelief:
         self.s = self.path.project(self.pose[:2], self.s, self.window)
         return float(r)
 
+    def fix_across(self, view: int, offset: float, gain: float, gate: float) -> float:
+        """Correct the offset across route view ``view``'s line of sight toward ``offset``
+        (m, left positive: :meth:`servo.localise.ImageLocaliser.cross_offset`) by the share
+        ``gain``; a measurement more than ``gate`` m from the belief is taken for a mismatch
+        and ignored. Returns the innovation (m; NaN if ignored)."""
+        frame = self.path.frames[int(view)]
+        innovation = float(offset) - float(se2_relative(frame, self.pose)[1])
+        if not abs(innovation) <= gate:
+            return float("nan")
+        self.pose[:2] += gain * innovation * np.array([-np.sin(frame[2]), np.cos(frame[2])])
+        self.s = self.path.project(self.pose[:2], self.s, self.window)
+        return innovation
+
     @staticmethod
     def reverse_gains(heading_gain: float, parallax: float) -> tuple[float, float]:
         """The reversing fix's gains per metre: |g1| = ``heading_gain`` and the cross gain g2

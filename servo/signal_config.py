@@ -11,7 +11,8 @@ from common.validation import check_int
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 # settings that may be 0 (off)
-_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift")
+_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift",
+                "cross_gain")
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,18 @@ class SignalServoConfig:
         off. Round 7, dev: hallway `anywhere` 0-59 40 -> 45 of 60 (shifting at forward bumps
         too: 45, but the lawn 26 -> 25 and hallway `view` 19 -> 18 of 24); on the test split
         round 7 as a whole gained nothing (docs/servo.md).
+    cross_gain : share of the offset across the matched route view's line of sight that the
+        two-band measurement (:meth:`~servo.localise.ImageLocaliser.cross_offset`) corrects
+        per step (0: off); round 8.
+    cross_gate : m; a two-band offset farther than this from the belief is ignored.
+    cross_min_parallax : pixels per m; the two-band measurement is used only on a map whose
+        :meth:`~servo.localise.ImageLocaliser.cross_parallax` reaches this (below, one pixel
+        is more than 0.2 m and the regression on the map's few side-by-side views is weak).
+    fix_contrast : on a map whose parallax is below ``reverse_parallax`` (a far scene), an
+        image fix needs its best aligned distance at most this share of the median over the
+        shifts (1: any; round 8): a flat alignment (grass and sky) gives no heading
+        (:meth:`~servo.localise.ImageLocaliser.align_contrast`). Dev: lawn `anywhere` 0-59
+        26 -> 30 of 60; in the hallway (where it is not used) 45 -> 42.
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
         does not see means a wall: drive the other way for ``backup_steps`` steps.
     """
@@ -127,6 +140,10 @@ class SignalServoConfig:
     bumps_arriving: bool = False
     stuck_steps: int = 10
     bump_shift: float = 0.5
+    cross_gain: float = 0.1
+    fix_contrast: float = 0.5
+    cross_gate: float = 1.0
+    cross_min_parallax: float = 5.0
     backup_steps: int = 8
 
     def __post_init__(self):
@@ -149,7 +166,9 @@ class SignalServoConfig:
             )
         if not self.turn_rate <= OMEGA_LIMIT:
             raise ValueError(f"turn_rate must be in (0, {OMEGA_LIMIT}] rad/s, got {self.turn_rate}")
-        for name in ("heading_gain", "along_gain", "arrive_drop", "arrive_min", "arrive_confirm"):
+        gains = ("heading_gain", "along_gain", "cross_gain", "arrive_drop", "arrive_min",
+                 "arrive_confirm", "fix_contrast")
+        for name in gains:
             if not getattr(self, name) <= 1:
                 raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")
         if not self.image_trust < 4:

@@ -95,6 +95,13 @@ class SignalServo:
         self.parallax = max(self.localiser.parallax(), MIN_PARALLAX)
         # reversing keeps image fixes only where the map's parallax makes them stable
         self.reverses = self.config.reverse and self.parallax >= self.config.reverse_parallax
+        # a far scene (grass, sky, trees: little parallax) where bland images match at any
+        # shift, so image fixes need a sharp alignment (``fix_contrast``, round 8)
+        self.far_scene = self.parallax < self.config.reverse_parallax
+        # the near ground's extra shift per m across (two bands): measures the offset across
+        # the route apart from the heading, where the map says it is resolved (round 8)
+        k = self.localiser.cross_parallax()
+        self.cross_parallax = k if k >= self.config.cross_min_parallax else 0.0
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
@@ -269,7 +276,12 @@ class SignalServo:
         reversing = self._reversing and self.phase_ == "follow"
         if len(near) == 0 or (self._reversing and not reversing):
             return
-        d, yaw = self.localiser.align(x, [self.route_[i] for i in near])
+        d, yaw, contrast = self.localiser.align_contrast(x, [self.route_[i] for i in near])
+        if self.far_scene:
+            # grass and sky match a view turned 0.7 rad away almost equally at every shift
+            # (a dev trace: after the arrival's turn on the spot such fixes turned the
+            # belief's heading 0.45 rad the wrong way); only a sharp minimum gives a heading
+            d = np.where(contrast <= c.fix_contrast, d, np.inf)
         k = int(np.argmin(d))
         if d[k] <= c.image_trust:
             # "Best among its neighbours" places the robot at the view only if there are
@@ -287,6 +299,10 @@ class SignalServo:
                                 g2 * metres)  # fmt: skip
             else:
                 b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
+            if self.cross_parallax > 0 and c.cross_gain > 0:
+                across = self.localiser.cross_offset(x, self.route_[near[k]], self.cross_parallax)
+                if np.isfinite(across):
+                    b.fix_across(int(near[k]), across, c.cross_gain, c.cross_gate)
             self._lost = 0
         else:
             self._lost += 1

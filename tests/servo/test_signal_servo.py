@@ -69,6 +69,58 @@ def test_a_bump_moves_the_belief_toward_the_side_it_was_driving_to():
     np.testing.assert_allclose(b.pose, [2.0, 0.1, 0.0])
 
 
+def test_fix_across_moves_the_belief_across_the_view_and_ignores_outliers():
+    b = RouteBelief(RoutePath(L_FRAMES), [2.3, 0.4, 0.1], window=2.0)
+    # route view 2 sits at (2, 0) looking along +x: left of its sight is +y
+    assert b.fix_across(2, 0.0, gain=0.5, gate=1.0) == pytest.approx(-0.4)
+    np.testing.assert_allclose(b.pose, [2.3, 0.2, 0.1])
+    assert np.isnan(b.fix_across(2, 1.5, gain=0.5, gate=1.0))  # 1.3 m off the belief
+    np.testing.assert_allclose(b.pose, [2.3, 0.2, 0.1])
+    b = RouteBelief(RoutePath(L_FRAMES), [4.3, 2.0, np.pi / 2], window=2.0)
+    b.fix_across(6, 0.1, gain=1.0, gate=1.0)  # view 6 looks along +y: its left is -x
+    np.testing.assert_allclose(b.pose, [3.9, 2.0, np.pi / 2], atol=1e-12)
+
+
+def test_cross_offset_sees_the_near_band_move_not_a_turn(servo_maps):
+    """The two-band offset: a turn moves the whole image (no offset), an offset across moves
+    the near ground more than the far scene; too far for the near band to match: NaN."""
+    m = servo_maps["lawn"]
+    loc = ImageLocaliser(m)
+    k = loc.cross_parallax()
+    assert k >= SignalServoConfig().cross_min_parallax  # the lawn's ground resolves it
+    view = 60
+    w, h = m.settings.image_size
+    image = m.features[view].reshape(h, w, -1)
+    assert loc.cross_offset(m.features[view], view, k) == 0.0
+    turned = np.roll(image, 3, axis=1)
+    assert loc.cross_offset(turned.ravel(), view, k) == pytest.approx(0.0)
+    beside = image.copy()
+    beside[2 * h // 3 :] = np.roll(image[2 * h // 3 :], 4, axis=1)
+    assert loc.cross_offset(beside.ravel(), view, k) == pytest.approx(4 / k)
+    beside[2 * h // 3 :] = np.roll(image[2 * h // 3 :], loc.max_shift + 4, axis=1)
+    assert np.isnan(loc.cross_offset(beside.ravel(), view, k))
+    assert np.isnan(loc.cross_offset(m.features[view], view, 0.0))
+    # the map decides where it is used: the lawn's ground resolves it, the hallway's not
+    lawn, hallway = SignalServo(m), SignalServo(servo_maps["hallway"])
+    assert lawn.cross_parallax == k and lawn.far_scene
+    assert hallway.cross_parallax == 0.0 and not hallway.far_scene
+
+
+def test_align_contrast_tells_a_sharp_match_from_a_flat_one(servo_maps):
+    m = servo_maps["lawn"]
+    loc = ImageLocaliser(m)
+    view = 60
+    w, h = m.settings.image_size
+    image = m.features[view].reshape(h, w, -1)
+    best, yaw, contrast = loc.align_contrast(np.roll(image, 4, axis=1).ravel(), [view])
+    assert best[0] == pytest.approx(0.0, abs=1e-5) and contrast[0] < 0.05
+    assert yaw[0] == pytest.approx(-4 * loc.radians_per_pixel)  # content moved right: turn right
+    d, y = loc.align(np.roll(image, 4, axis=1).ravel(), [view])
+    assert d[0] == best[0] and y[0] == yaw[0]
+    flat = np.tile(image.mean(axis=1, keepdims=True), (1, w, 1))  # no structure across
+    assert loc.align_contrast(flat.ravel(), [view])[2][0] > 0.9
+
+
 def _reverse_along(fix, steps=400, c=0.17):
     """A robot reversing 0.05 m a step along a straight route whose views face the other
     way (+x) while it drives toward -x, its controller keeping the belief's heading at
@@ -130,7 +182,13 @@ def test_config_validation():
     assert SignalServoConfig(max_relocalise=0).max_relocalise == 0
     assert SignalServoConfig(relocalise_bumps=0).relocalise_bumps == 0
     assert SignalServoConfig(bump_shift=0.0).bump_shift == 0.0
+    assert SignalServoConfig(cross_gain=0.0).cross_gain == 0.0
     for bad, match in [
+        ({"cross_gain": 1.5}, "cross_gain must be in"),
+        ({"fix_contrast": 0.0}, "fix_contrast must be a finite number > 0"),
+        ({"fix_contrast": 1.2}, "fix_contrast must be in"),
+        ({"cross_gate": np.inf}, "cross_gate"),
+        ({"cross_min_parallax": -1.0}, "cross_min_parallax"),
         ({"bump_shift": -0.1}, "bump_shift must be a finite number >= 0"),
         ({"lateral": 0.0}, "lateral must be a finite number > 0"),
         ({"speed": -1.0}, "speed"),
