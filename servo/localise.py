@@ -64,20 +64,29 @@ class ImageLocaliser:
         h = self._wh[1]
         return {"far": slice(0, h // 2), "near": slice(2 * h // 3, h)}
 
+    def _shifted_crops(self, band: np.ndarray) -> np.ndarray:
+        """(2 max_shift + 1, D): :meth:`_crops` of one image's ``band`` (rows, w, channels)
+        at every shift from -max_shift to max_shift, built at once from a sliding window."""
+        s = self.max_shift
+        w = band.shape[1] - 2 * s
+        windows = np.lib.stride_tricks.sliding_window_view(band, w, axis=1)  # (r, 2s+1, c, w)
+        c = windows.transpose(1, 0, 3, 2).reshape(2 * s + 1, -1)
+        c = c - c.mean(axis=1, keepdims=True)
+        return c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-12)
+
     def band_shifts(self, x: np.ndarray, views) -> tuple[np.ndarray, np.ndarray]:
         """Best horizontal shift (feature-image pixels; crop offset, as :meth:`align` before
         its sign and scale) and its squared distance (0..4) of the far and the near band of
         ``x`` against each stored view in ``views``: arrays (len(views), 2), columns far, near."""
         views = np.atleast_1d(np.asarray(views, np.intp))
-        cur = self._images(np.asarray(x)[None])
+        cur = self._images(np.asarray(x)[None])[0]
         shifts = np.zeros((len(views), 2))
-        dists = np.full((len(views), 2), np.inf)
+        dists = np.zeros((len(views), 2))
         for col, (band, rows) in enumerate(self._band_rows().items()):
-            ref = self._bands[band][views]
-            for s in range(-self.max_shift, self.max_shift + 1):
-                d = 2.0 - 2.0 * ref @ self._crops(cur[:, rows], s)[0]
-                better = d < dists[:, col]
-                dists[better, col], shifts[better, col] = d[better], s
+            d = 2.0 - 2.0 * self._bands[band][views] @ self._shifted_crops(cur[rows]).T
+            k = np.argmin(d, axis=1)  # the first of equal minima: the most negative shift
+            shifts[:, col] = k - self.max_shift
+            dists[:, col] = d[np.arange(len(views)), k]
         return shifts, dists
 
     # -- API --------------------------------------------------------------------------------
