@@ -155,6 +155,16 @@ class ImageLocaliser:
         k = int(np.argmin(d))
         return int(views[k]), float(yaw[k]), float(d[k])
 
+    def _side_by_side(self, min_offset: float):
+        """(a, b, pose of view b in view a's frame) for each direction of every view-graph
+        edge whose sensed transform puts one view ``min_offset`` m or more beside the other,
+        nearly parallel (within 0.3 rad) and within 1 m along: the map's own evidence of
+        what an offset across a view's sight does to the image."""
+        for (i, j), t in zip(self.map.edges, self.map.edge_transforms, strict=True):
+            for a, b, rel in ((i, j, t), (j, i, se2_relative(t, np.zeros(3)))):
+                if abs(rel[1]) >= min_offset and abs(rel[0]) <= 1.0 and abs(rel[2]) <= 0.3:
+                    yield a, b, rel
+
     def cross_parallax(self, min_offset: float = 0.15, trust: float = 0.5,
                        min_edges: int = 10) -> float:  # fmt: skip
         """Pixels of near-band minus far-band shift (:meth:`band_shifts`) per m of offset
@@ -165,14 +175,11 @@ class ImageLocaliser:
         scene, so the difference is the offset alone. 0 where fewer than ``min_edges`` edges
         qualify or the slope is not positive (then :meth:`cross_offset` is never used)."""
         ys, ds = [], []
-        for (i, j), t in zip(self.map.edges, self.map.edge_transforms, strict=True):
-            for a, b, rel in ((i, j, t), (j, i, se2_relative(t, np.zeros(3)))):
-                if abs(rel[1]) < min_offset or abs(rel[0]) > 1.0 or abs(rel[2]) > 0.3:
-                    continue
-                shift, dist = self.band_shifts(self.map.features[b], [a])
-                if dist.max() < trust and abs(shift[0, 1]) < self.max_shift:
-                    ys.append(rel[1])
-                    ds.append(shift[0, 1] - shift[0, 0])
+        for a, b, rel in self._side_by_side(min_offset):
+            shift, dist = self.band_shifts(self.map.features[b], [a])
+            if dist.max() < trust and abs(shift[0, 1]) < self.max_shift:
+                ys.append(rel[1])
+                ds.append(shift[0, 1] - shift[0, 0])
         if len(ys) < min_edges:
             return 0.0
         y = np.asarray(ys)
@@ -200,14 +207,11 @@ class ImageLocaliser:
         way a right turn would): c ~ 1 / the scene's depth, about 0.15 in the hallway and 0.05
         on the lawn. Needs no ground truth (edges are scan-matched); 0 if no edge qualifies."""
         ys, zs = [], []
-        for (i, j), t in zip(self.map.edges, self.map.edge_transforms, strict=True):
-            for a, b, rel in ((i, j, t), (j, i, se2_relative(t, np.zeros(3)))):
-                if abs(rel[1]) < min_offset or abs(rel[0]) > 1.0 or abs(rel[2]) > 0.3:
-                    continue
-                d, yaw = self.align(self.map.features[b], [a])
-                if d[0] <= trust:
-                    ys.append(rel[1])
-                    zs.append(-yaw[0] - rel[2])
+        for a, b, rel in self._side_by_side(min_offset):
+            d, yaw = self.align(self.map.features[b], [a])
+            if d[0] <= trust:
+                ys.append(rel[1])
+                zs.append(-yaw[0] - rel[2])
         if not ys:
             return 0.0
         y = np.asarray(ys)
