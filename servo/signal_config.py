@@ -96,6 +96,11 @@ class SignalServoConfig:
         26 -> 30 of 60; in the hallway (where it is not used) 45 -> 42.
     stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
         does not see means a wall: drive the other way for ``backup_steps`` steps.
+    refine_shift : image alignments place the best shift between the tried ones (2 pixels,
+        0.025 rad apart) by a parabola (:func:`~servo.localise.refined_shift`); round 9.
+    bump_turn : where the robot reverses, a bump's shift across also turns the belief's
+        heading by -parallax times the shift, so the image's theta + c y is unchanged and the
+        reversing fix keeps the shift (:meth:`~servo.route_belief.RouteBelief.bumped`); round 9.
     """
 
     speed: float = 1.5
@@ -145,6 +150,8 @@ class SignalServoConfig:
     cross_gate: float = 1.0
     cross_min_parallax: float = 5.0
     backup_steps: int = 8
+    refine_shift: bool = False
+    bump_turn: bool = False
 
     def __post_init__(self):
         for f in fields(self):

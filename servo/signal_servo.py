@@ -88,7 +88,7 @@ class SignalServo:
         self.config = SignalServoConfig() if config is None else config
         if not isinstance(self.config, SignalServoConfig):
             raise TypeError(f"config must be a SignalServoConfig, got {type(config).__name__}")
-        self.localiser = ImageLocaliser(servo_map)
+        self.localiser = ImageLocaliser(servo_map, refine_shift=self.config.refine_shift)
         self.routes = RouteGraph(servo_map)
         # the image shift per m across a view's sight, from the map's linked views: the
         # reversing fix's model (hallway ~0.15, lawn ~0.05: the scene's depth differs)
@@ -201,7 +201,8 @@ class SignalServo:
         self._careful = 3 * self.config.backup_steps
         self.bumps_ += 1
         if direction < 0 and self.config.bump_shift > 0 and self.belief_ is not None:
-            self.belief_.bumped(direction, self.config.bump_shift)
+            turn = self.parallax if self.config.bump_turn and self.reverses else 0.0
+            self.belief_.bumped(direction, self.config.bump_shift, turn)
 
     # -- phases -----------------------------------------------------------------------------
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:

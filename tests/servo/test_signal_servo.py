@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from common.geometry import se2_compose
-from servo.localise import ImageLocaliser
+from servo.localise import ImageLocaliser, refined_shift
 from servo.map_types import MapError
 from servo.route import RoutePath
 from servo.route_belief import RouteBelief
@@ -69,6 +69,20 @@ def test_a_bump_moves_the_belief_toward_the_side_it_was_driving_to():
     np.testing.assert_allclose(b.pose, [2.0, 0.1, 0.0])
 
 
+def test_a_bump_with_parallax_keeps_what_the_image_measures():
+    """Reversing with heading 0.3 the robot backs to the right: shifted 0.5 m right, the
+    heading turns by +c 0.5, so theta + c y (the image's shift) is unchanged and the
+    reversing fix's innovation with it."""
+    c = 0.15
+    b = RouteBelief(RoutePath(L_FRAMES), [2.0, 0.0, 0.3], window=2.0)
+    before = b.pose[2] + c * b.pose[1]
+    r0 = RouteBelief(RoutePath(L_FRAMES), b.pose.copy(), 2.0).fix_reversing(2, -0.2, c, 0, 0)
+    b.bumped(-1, 0.5, c)
+    np.testing.assert_allclose(b.pose, [2.0, -0.5, 0.3 + c * 0.5], atol=1e-12)
+    assert b.pose[2] + c * b.pose[1] == pytest.approx(before)
+    assert b.fix_reversing(2, -0.2, c, 0.0, 0.0) == pytest.approx(r0)
+
+
 def test_fix_across_moves_the_belief_across_the_view_and_ignores_outliers():
     b = RouteBelief(RoutePath(L_FRAMES), [2.3, 0.4, 0.1], window=2.0)
     # route view 2 sits at (2, 0) looking along +x: left of its sight is +y
@@ -119,6 +133,34 @@ def test_align_contrast_tells_a_sharp_match_from_a_flat_one(servo_maps):
     assert d[0] == best[0] and y[0] == yaw[0]
     flat = np.tile(image.mean(axis=1, keepdims=True), (1, w, 1))  # no structure across
     assert loc.align_contrast(flat.ravel(), [view])[2][0] > 0.9
+
+
+def test_refined_shift_finds_the_vertex_between_the_tried_shifts():
+    steps = np.arange(-3.0, 4.0)
+    d = np.stack([(steps - 0.3) ** 2 + 1.0, np.abs(steps + 0.2), (steps - 3.0) ** 2, 0 * steps])
+    k = np.argmin(d, axis=1)
+    got = refined_shift(d, k)
+    assert got[0] == pytest.approx(0.3)  # a parabola: its vertex exactly
+    assert -0.5 < got[1] < 0 and got[1] == pytest.approx(-0.5 * (1.2 - 0.8) / (1.2 - 0.4 + 0.8))
+    assert got[2] == 0.0 and got[3] == 0.0  # the end of the search; no bend
+
+
+def test_refine_shift_resolves_an_odd_pixel_roll(servo_maps):
+    m = servo_maps["hallway"]
+    view = 30
+    w, h = m.settings.image_size
+    image = m.features[view].reshape(h, w, -1)
+    coarse, fine = ImageLocaliser(m), ImageLocaliser(m, refine_shift=True)
+    for roll in (3, -5, 4):
+        x = np.roll(image, roll, axis=1).ravel()
+        d0, yaw0, _ = coarse.align_contrast(x, [view])
+        d1, yaw1, _ = fine.align_contrast(x, [view])
+        assert d1[0] == d0[0]  # the distance (the trust tests) is the best tried shift's
+        assert abs(yaw0[0] + roll * fine.radians_per_pixel) <= fine.radians_per_pixel + 1e-9
+        # within a third of a pixel of the roll (coarse: a whole pixel off for odd rolls)
+        assert abs(yaw1[0] + roll * fine.radians_per_pixel) < fine.radians_per_pixel / 3
+    assert SignalServo(m, config=SignalServoConfig(refine_shift=True)).localiser.refine_shift
+    assert not SignalServo(m).localiser.refine_shift
 
 
 def _reverse_along(fix, steps=400, c=0.17):
