@@ -220,6 +220,28 @@ def cmd_servo_eval(args) -> int:
     return 0
 
 
+def cmd_servo_compare(args) -> int:
+    """Two ``servo-eval --out`` files compared episode by episode (``servo.compare``)."""
+    import json
+    from dataclasses import asdict
+
+    from servo.compare import compare, load_results, markdown
+
+    a, b = load_results(args.a, "A"), load_results(args.b, "B")
+    rows = compare(a, b)
+    if not rows:
+        raise ValueError("A and B share no world and setting (world, tier, split, randomize, "
+                         "odometry noise, max steps)")  # fmt: skip
+    if args.json:
+        print(json.dumps([asdict(r) for r in rows], indent=2))
+        return 0
+    for name, path, results in (("A", args.a, a), ("B", args.b, b)):
+        print(f"{name}: {path} (policy {results[0].get('policy', 'not recorded')})")
+    print()
+    print(markdown(rows))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from scenes import WORLDS
     from scenes.appearance import APPEARANCE_MODES
@@ -351,6 +373,12 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--out", default=None, help="write the results' JSON here")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.set_defaults(func=cmd_servo_eval)
+
+    sc = sub.add_parser("servo-compare", help="two servo-eval results, episode by episode")
+    sc.add_argument("a", help="results JSON of servo-eval --out (the reference)")
+    sc.add_argument("b", help="results JSON of servo-eval --out (compared with A)")
+    sc.add_argument("--json", action="store_true", help="print the comparison as JSON")
+    sc.set_defaults(func=cmd_servo_compare)
 
     from scripts.sweep import add_parser as add_sweep_parser
 

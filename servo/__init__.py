@@ -3,8 +3,9 @@
 ``servo.ServoEnv`` is the task (registered as ``topomap/HallwayServo-v0`` and
 ``topomap/LawnServo-v0`` on import), ``servo.ManifoldServo`` the laser+image controller,
 ``servo.SignalServo`` the camera-only one that servoes by F^j(k), ``servo.protocol`` the
-benchmark protocol, ``servo.baselines`` its comparisons and ``servo.evaluate`` the
-closed-loop evaluation. Heavy modules load lazily.
+benchmark protocol, ``servo.baselines`` its comparisons, ``servo.compare`` two evaluations
+paired episode by episode and ``servo.evaluate`` the closed-loop evaluation. Heavy modules
+load lazily.
 """
 
 from importlib import import_module
