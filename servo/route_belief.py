@@ -86,7 +86,7 @@ class RouteBelief:
         rel = se2_relative(frame, self.pose)  # belief in the view's frame
         r = wrap_angle(frame[2] - yaw - self.pose[2]) - parallax * float(rel[1])
         self.pose[2] = wrap_angle(self.pose[2] - heading_gain * r)
-        left = np.array([-np.sin(frame[2]), np.cos(frame[2])])  # across the view's sight
+        left = left_of(frame[2])  # across the view's sight
         self.pose[:2] += cross_gain * r * left
         self.s = self.path.project(self.pose[:2], self.s, self.window)
         return float(r)
@@ -100,7 +100,7 @@ class RouteBelief:
         innovation = float(offset) - float(se2_relative(frame, self.pose)[1])
         if not abs(innovation) <= gate:
             return float("nan")
-        self.pose[:2] += gain * innovation * np.array([-np.sin(frame[2]), np.cos(frame[2])])
+        self.pose[:2] += gain * innovation * left_of(frame[2])
         self.s = self.path.project(self.pose[:2], self.s, self.window)
         return innovation
 
@@ -134,7 +134,7 @@ class RouteBelief:
         across = float(np.sin(wrap_angle(travel - route)))
         if abs(across) < 0.05:
             return
-        left = np.array([-np.sin(route), np.cos(route)])
+        left = left_of(route)
         shift = float(np.sign(across)) * metres
         self.pose[:2] += shift * left
         if parallax:
@@ -155,3 +155,8 @@ class RouteBelief:
     def goal(self, s: float) -> np.ndarray:
         """The route's point at arc ``s`` in the robot frame (x ahead, y left)."""
         return se2_relative(self.pose, np.r_[self.path.point(s), 0.0])[:2]
+
+
+def left_of(heading: float) -> np.ndarray:
+    """The unit vector 90 deg to the left of ``heading`` (rad): positive offsets across."""
+    return np.array([-np.sin(heading), np.cos(heading)])
