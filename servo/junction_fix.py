@@ -114,6 +114,19 @@ class JunctionTurn:
         self.steps = 0
         self.shift_ = None  # m the fix moved the belief (None: not applied)
 
+    @classmethod
+    def on_route(cls, routes, belief, route: list[int], index: int, config,
+                 parallax: float) -> JunctionTurn:  # fmt: skip
+        """The turn at route view ``route[index]`` toward its heading, the candidates near
+        the ``belief`` (:func:`views_near`), with ``config``'s junction settings
+        (:class:`~servo.signal_config.SignalServoConfig`) and the map's ``parallax``."""
+        c = config
+        views, poses = views_near(routes, belief.path, route, index, belief.pose[:2],
+                                  c.junction_radius)  # fmt: skip
+        return cls(views, poses, float(belief.path.frames[index, 2]),
+                   c.junction_parallax * parallax, trust=c.image_trust, facing=c.facing,
+                   turn_rate=c.turn_rate, fix=c.junction_position)  # fmt: skip
+
     def step(self, belief, x, localiser, dt: float) -> np.ndarray | None:
         """The turn's command for this image, or None once done (the belief fixed)."""
         self.steps += 1

@@ -104,6 +104,26 @@ class RouteBelief:
         self.s = self.path.project(self.pose[:2], self.s, self.window)
         return innovation
 
+    def measured(self, view: int, pose) -> np.ndarray:
+        """A pose measured in route view ``view``'s frame (x ahead along its sight, y left,
+        yaw: :meth:`servo.view_pose.ViewPose.pose`) in the route frame."""
+        return se2_compose(self.path.frames[int(view)], np.asarray(pose, np.float64))
+
+    def fix_pose(self, measured, gain: float, gate: float) -> float:
+        """Correct the pose toward a ``measured`` pose in the route frame (:meth:`measured`)
+        by the share ``gain``, position and heading alike; a measurement more than ``gate`` m
+        from the belief is taken for a mismatch and ignored. Returns the innovation's length
+        (m; NaN if ignored)."""
+        measured = np.asarray(measured, np.float64)
+        innovation = measured[:2] - self.pose[:2]
+        distance = float(np.hypot(*innovation))
+        if not distance <= gate:
+            return float("nan")
+        self.pose[:2] += gain * innovation
+        self.pose[2] = wrap_angle(self.pose[2] + gain * wrap_angle(measured[2] - self.pose[2]))
+        self.s = self.path.project(self.pose[:2], self.s, self.window)
+        return distance
+
     @staticmethod
     def reverse_gains(heading_gain: float, parallax: float) -> tuple[float, float]:
         """The reversing fix's gains per metre: |g1| = ``heading_gain`` and the cross gain g2

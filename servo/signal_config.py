@@ -12,7 +12,7 @@ from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 # settings that may be 0 (off)
 _MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift",
-                "cross_gain")
+                "cross_gain", "pose_every", "pose_agree")
 
 
 @dataclass(frozen=True)
@@ -101,6 +101,16 @@ class SignalServoConfig:
     bump_turn : where the robot reverses, a bump's shift across also turns the belief's
         heading by -parallax times the shift, so the image's theta + c y is unchanged and the
         reversing fix keeps the shift (:meth:`~servo.route_belief.RouteBelief.bumped`); round 9.
+    pose_every : steps between metric pose fixes against the best-matching route view
+        (:meth:`~servo.view_pose.ViewPose.pose`: keypoints at the view's map-time depths,
+        PnP), forward and reversing, following and arriving; 0: off. Round 10.
+    pose_gain / pose_gate : share of a pose fix's error corrected (position and heading);
+        a pose more than ``pose_gate`` m from the belief is ignored.
+    pose_start : with ``pose_every``, the belief starts where the observing turn's images
+        that matched the global fix's view best pose the robot against it (two agreeing),
+        not at the view.
+    pose_agree : m; a pose is used only where the one before it, carried by odometry,
+        agrees within this (:class:`~servo.view_pose.PoseAgreement`); 0: every pose.
     """
 
     speed: float = 1.5
@@ -152,6 +162,11 @@ class SignalServoConfig:
     backup_steps: int = 8
     refine_shift: bool = False
     bump_turn: bool = False
+    pose_every: int = 3
+    pose_gain: float = 0.5
+    pose_gate: float = 6.0
+    pose_agree: float = 0.3
+    pose_start: bool = True
 
     def __post_init__(self):
         for f in fields(self):
@@ -174,7 +189,7 @@ class SignalServoConfig:
         if not self.turn_rate <= OMEGA_LIMIT:
             raise ValueError(f"turn_rate must be in (0, {OMEGA_LIMIT}] rad/s, got {self.turn_rate}")
         gains = ("heading_gain", "along_gain", "cross_gain", "arrive_drop", "arrive_min",
-                 "arrive_confirm", "fix_contrast")
+                 "arrive_confirm", "fix_contrast", "pose_gain")
         for name in gains:
             if not getattr(self, name) <= 1:
                 raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")

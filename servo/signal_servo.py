@@ -34,21 +34,21 @@ The controller never reads the simulator's truth; ``info`` is ignored.
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 
 from common.geometry import se2_relative, wrap_angle
 from mapping._validation import single_threaded_blas
-from servo.junction_fix import JunctionTurn, views_near
+from servo.junction_fix import JunctionTurn
 from servo.localise import ImageLocaliser
 from servo.map_types import ServoMap
+from servo.pose_fix import PoseFixes
 from servo.route import RouteGraph, RoutePath
 from servo.route_belief import RouteBelief
 from servo.signal_arrival import PeakArrival
 from servo.signal_config import SignalServoConfig
-from servo.steering import pursue
+from servo.steering import StallWindow, pursue
 from servo.turn_fix import consistent_fix, contrast_fix, neighbourhood
+from servo.view_pose import ViewPose
 from servo.waypoint_tracker import WaypointTracker
 from sim.simulator import CONTROL_DT
 
@@ -102,6 +102,10 @@ class SignalServo:
         # the route apart from the heading, where the map says it is resolved (round 8)
         k = self.localiser.cross_parallax()
         self.cross_parallax = k if k >= self.config.cross_min_parallax else 0.0
+        # metric poses against route views from keypoints at the views' map-time depths
+        # (round 10): the offset across apart from the heading, in both worlds
+        self.poses = (PoseFixes(ViewPose(servo_map), self.config) if self.config.pose_every
+                      else None)  # fmt: skip
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
@@ -114,7 +118,7 @@ class SignalServo:
         self.bumps_ = 0
         self._odo = None
         self._steps = 0
-        self._moves: deque = deque(maxlen=self.config.stuck_steps)
+        self._stall = StallWindow(self.config.stuck_steps)
         self._backup = 0
         self._reversing = False
         self._careful = 0  # steps left of turning on the spot before driving (after a bump)
@@ -161,6 +165,7 @@ class SignalServo:
         if self.target is None:
             raise RuntimeError("call reset(target) before act(observation)")
         x, odo = self._check(observation)
+        self._image = observation["image"]
         prev = odo if self._odo is None else self._odo
         step = se2_relative(prev, odo)
         self._turned += abs(float(step[2]))
@@ -175,16 +180,9 @@ class SignalServo:
             return np.array([-0.4 * self._last_direction, 0.0], np.float32)
         action = self._follow(x, step)
         self._reversing = bool(action[0] < 0)
-        # net odometry displacement over the window: pushing a wall, the robot jitters in
-        # place, and per-step distances summed look like motion
-        self._moves.append((abs(action[0]), odo[0], odo[1]))
-        if len(self._moves) == self._moves.maxlen:
-            m = np.array(self._moves)
-            cmd = m[:, 0].sum() * CONTROL_DT
-            got = float(np.hypot(*(m[-1, 1:3] - m[0, 1:3])))
-            if cmd > 0.02 * len(m) and got < 0.25 * cmd:
-                self._last_direction = int(np.sign(action[0])) or 1
-                self._bumped(self._last_direction)
+        if self._stall.stalled(action[0], odo):
+            self._last_direction = int(np.sign(action[0])) or 1
+            self._bumped(self._last_direction)
         return action.astype(np.float32)
 
     def _bumped(self, direction: int) -> None:
@@ -196,7 +194,7 @@ class SignalServo:
         and retry drives the same line into the same wall (dev traces: 10-12 bumps at one
         place). Forward, the image fix's funnel corrects the offset, and shifting did not
         help (round 7)."""
-        self._moves.clear()
+        self._stall.clear()
         self._backup = self.config.backup_steps
         self._careful = 3 * self.config.backup_steps
         self.bumps_ += 1
@@ -211,6 +209,8 @@ class SignalServo:
             if c.contrast_fix:
                 d_all, yaw_all = self.localiser.align(x)
                 self._rows.append((d_all, yaw_all, float(odo[2])))
+                if self.poses is not None:
+                    self.poses.observe(self._image, odo)
                 k = int(np.argmin(d_all))
                 self._samples.append((float(d_all[k]), k, float(odo[2] + yaw_all[k])))
             else:
@@ -240,8 +240,14 @@ class SignalServo:
         gaps = np.diff(np.r_[0.0, path.arc[self._wp_index]])
         self.tracker = WaypointTracker(waypoints, directions, gaps, np.inf)
         # The robot in the route's frame: at the fix's view, turned from its heading by what
-        # odometry measured since; odometry carries it, images correct it.
-        self.belief_ = RouteBelief(path, [0.0, 0.0, wrap_angle(odo[2] - heading)], c.window)
+        # odometry measured since (or where the turn's images pose it against the view);
+        # odometry carries it, images correct it.
+        start = None
+        if self.poses is not None:
+            start = self.poses.start(view, np.array([r[0][view] for r in self._rows]), path, odo)
+        if start is None:
+            start = [0.0, 0.0, wrap_angle(odo[2] - heading)]
+        self.belief_ = RouteBelief(path, start, c.window)
         self._arrival = PeakArrival(c)
         self._lost = 0
         self._junction: JunctionTurn | None = None
@@ -275,7 +281,10 @@ class SignalServo:
         c, b = self.config, self.belief_
         near = b.facing(b.path.within(b.s, c.behind, c.ahead), c.facing)
         reversing = self._reversing and self.phase_ == "follow"
-        if len(near) == 0 or (self._reversing and not reversing):
+        if len(near) == 0:
+            return
+        if self._reversing and not reversing:
+            self._pose_fix(x, near)
             return
         d, yaw, contrast = self.localiser.align_contrast(x, [self.route_[i] for i in near])
         if self.far_scene:
@@ -284,7 +293,9 @@ class SignalServo:
             # belief's heading 0.45 rad the wrong way); only a sharp minimum gives a heading
             d = np.where(contrast <= c.fix_contrast, d, np.inf)
         k = int(np.argmin(d))
-        if d[k] <= c.image_trust:
+        if d[k] <= c.image_trust and self._pose_fix(x, near[k:k + 1]):
+            self._lost = 0
+        elif d[k] <= c.image_trust:
             # "Best among its neighbours" places the robot at the view only if there are
             # neighbours on both sides: past the last view that faces its way (a junction
             # where the route turns) the end view stays the best and would pin the belief
@@ -308,6 +319,17 @@ class SignalServo:
         else:
             self._lost += 1
 
+    def _pose_fix(self, x: np.ndarray, near: np.ndarray) -> bool:
+        """Every ``pose_every`` steps, the metric pose against the best-aligned of the route
+        views ``near`` (:class:`~servo.pose_fix.PoseFixes`). Whether it moved the belief."""
+        if self.poses is None or self._steps % self.config.pose_every or len(near) == 0:
+            return False
+        if len(near) > 1:
+            d = self.localiser.align(x, [self.route_[i] for i in near])[0]
+            near = near[[int(np.argmin(d))]]
+        k = int(near[0])
+        return self.poses.fix(self.belief_, self.route_[k], k, self._image, self._odo)
+
     def _advance(self, x: np.ndarray) -> None:
         """Next waypoint when F toward it overtakes F toward the current one (then the robot
         is past the current one), or when the belief has passed the current one."""
@@ -317,25 +339,15 @@ class SignalServo:
         while not t.last and b.s >= arc[t.index] - 0.05:
             t.advance()
         if self.config.junction_fix and before < 0 < t.directions[t.index]:
-            self._junction_start(int(self._wp_index[t.index]))
+            # reversing gave way to driving forward (a junction): turn on the spot there
+            self._junction = JunctionTurn.on_route(self.routes, b, self.route_,
+                                                   int(self._wp_index[t.index]), self.config,
+                                                   self.parallax)  # fmt: skip
         if not t.last and t.directions[t.index] > 0:
             f_cur, f_next = self.localiser.signals(x, [t.current, t.next])
             if f_cur > self.config.arrive_min and t.update(f_cur, f_next, 1.0, 1.0, 0.0):
                 b.shift_along(max(0.0, arc[t.index - 1] - b.s))
         self.waypoint_ = t.current
-
-    def _junction_start(self, j: int) -> None:
-        """Reversing gave way to driving forward (a junction): turn on the spot to the heading
-        of route view ``j`` and fix the position there
-        (:class:`~servo.junction_fix.JunctionTurn`)."""
-        c, b = self.config, self.belief_
-        views, poses = views_near(self.routes, b.path, self.route_, j, b.pose[:2],
-                                  c.junction_radius)  # fmt: skip
-        self._junction = JunctionTurn(views, poses, float(b.path.frames[j, 2]),
-                                      c.junction_parallax * self.parallax,
-                                      trust=c.image_trust, facing=c.facing,
-                                      turn_rate=c.turn_rate,
-                                      fix=c.junction_position)  # fmt: skip
 
     def _follow(self, x: np.ndarray, step: np.ndarray) -> np.ndarray:
         c, b = self.config, self.belief_

@@ -7,9 +7,11 @@ differ only in what they know.
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 
-from sim.simulator import OMEGA_LIMIT, V_LIMITS
+from sim.simulator import CONTROL_DT, OMEGA_LIMIT, V_LIMITS
 
 TURN_IN_PLACE = 0.8  # rad: a bearing beyond this is turned on the spot before driving
 ARRIVE_RADIUS = 0.2  # m: position tolerance before the final turn (success needs 0.5 m)
@@ -62,3 +64,26 @@ class Arrival:
             return np.zeros(2)
         self.done = False
         return np.array([0.0, np.sign(e) * np.clip(1.5 * abs(e), 0.25, 1.0)])
+
+
+class StallWindow:
+    """Commanded motion that odometry does not see: over the last ``steps`` steps the net
+    odometry displacement is below a quarter of the commanded distance (a robot pushing a
+    wall jitters in place, and its per-step distances summed would look like motion)."""
+
+    def __init__(self, steps: int):
+        self._moves: deque = deque(maxlen=int(steps))
+
+    def clear(self) -> None:
+        self._moves.clear()
+
+    def stalled(self, speed: float, odometry) -> bool:
+        """Add a step (commanded ``speed`` m/s, ``odometry`` x, y, yaw after it); whether the
+        window is full and shows a stall."""
+        self._moves.append((abs(float(speed)), float(odometry[0]), float(odometry[1])))
+        if len(self._moves) < self._moves.maxlen:
+            return False
+        m = np.array(self._moves)
+        commanded = m[:, 0].sum() * CONTROL_DT
+        moved = float(np.hypot(*(m[-1, 1:3] - m[0, 1:3])))
+        return bool(commanded > 0.02 * len(m) and moved < 0.25 * commanded)

@@ -1,0 +1,76 @@
+"""The metric pose fixes of :class:`~servo.signal_servo.SignalServo` (round 10).
+
+The whole image's shift against a route view measures the heading plus the parallax times the
+offset across the view's sight (z = theta + c y) and cannot tell the two apart; only motion
+does, slowly, and a robot held by a wall does not move. A metric pose against the view
+(:class:`~servo.view_pose.ViewPose`: keypoints at the view's map-time depths, PnP) measures
+both at once. :class:`PoseFixes` takes such a pose every few steps against the route view the
+image aligns with best, where the one before it agrees (:class:`~servo.view_pose.
+PoseAgreement`), and moves the belief toward it; at the start it can place the belief where the
+observing turn's images pose the robot against the global fix's view, instead of at the view.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common.geometry import se2_compose, se2_relative
+from servo.route import RoutePath
+from servo.route_belief import RouteBelief
+from servo.signal_config import SignalServoConfig
+from servo.view_pose import PoseAgreement, ViewPose
+
+
+class PoseFixes:
+    """Pose fixes for one controller (``config.pose_every`` > 0).
+
+    Parameters
+    ----------
+    view_pose : ViewPose
+    config : SignalServoConfig
+    """
+
+    def __init__(self, view_pose: ViewPose, config: SignalServoConfig):
+        self.view_pose, self.config = view_pose, config
+        self.turn_images: list[tuple[np.ndarray, np.ndarray]] = []
+        self._agreement: PoseAgreement | None = None
+
+    def observe(self, image: np.ndarray, odometry: np.ndarray) -> None:
+        """Keep an image of the observing turn (with ``pose_start``) and its odometry."""
+        if self.config.pose_start:
+            self.turn_images.append((np.array(image), np.array(odometry, np.float64)))
+
+    def start(self, view: int, distances: np.ndarray, path: RoutePath,
+              odometry: np.ndarray) -> np.ndarray | None:  # fmt: skip
+        """The robot's pose in the route frame of ``path`` (which starts at the global fix's
+        ``view``) from the metric poses of the two turn images that matched ``view`` best
+        (``distances``: each kept image's aligned distance to it), each carried by odometry
+        to now, where they agree; else None. Starts a new route's agreement."""
+        self._agreement = PoseAgreement(self.config.pose_agree) if self.config.pose_agree else None
+        images, self.turn_images = self.turn_images, []
+        if len(images) != len(distances) or len(images) < 2:
+            return None
+        agreement = PoseAgreement(self.config.pose_agree or 0.3)
+        for i in sorted(np.argsort(distances, kind="stable")[:2]):
+            image, odo = images[i]
+            rel = self.view_pose.pose(image, view)
+            if rel is None:
+                return None
+            measured = se2_compose(path.frames[0], rel.pose)
+            if agreement.agrees(measured, odo):
+                return se2_compose(measured, se2_relative(odo, odometry))
+        return None
+
+    def fix(self, belief: RouteBelief, route_view: int, index: int, image: np.ndarray,
+            odometry: np.ndarray) -> bool:  # fmt: skip
+        """The metric pose of ``image`` against stored view ``route_view`` (route index
+        ``index``) moves ``belief`` (:meth:`~servo.route_belief.RouteBelief.fix_pose`),
+        where the pose before it agrees (``pose_agree``). Whether it did."""
+        rel = self.view_pose.pose(image, route_view)
+        if rel is None:
+            return False
+        measured = belief.measured(index, rel.pose)
+        if self._agreement is not None and not self._agreement.agrees(measured, odometry):
+            return False
+        c = self.config
+        return bool(np.isfinite(belief.fix_pose(measured, c.pose_gain, c.pose_gate)))
