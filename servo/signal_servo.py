@@ -14,7 +14,9 @@
 3. *Servo.* Toward the waypoints along the route: the pose in the route frame is carried by
    odometry and fixed by the images (:class:`~servo.route_belief.RouteBelief`): the heading
    from the best horizontal shift against the route views the camera faces, the position
-   along the route from which of them matches best. :class:`WaypointTracker` moves on when F
+   along the route from which of them matches best; every few steps a metric pose against
+   the best of them (:class:`~servo.pose_fix.PoseFixes`: keypoints at the view's map-time
+   depths) corrects position and heading at once. :class:`WaypointTracker` moves on when F
    toward the next waypoint overtakes F toward the current one (view-sequence navigation),
    which also tells the robot it is past the current one. Where the route drives its
    recording backwards (out of a branch) the robot reverses, the camera facing the way the

@@ -148,3 +148,17 @@ def test_arrival_radius():
     assert Arrival(0.1)(near)[0] > 0.0  # not within 0.1 m: drives on
     with pytest.raises(ValueError, match="radius"):
         Arrival(0.5)
+
+
+def test_the_stall_window_sees_commanded_motion_that_odometry_does_not():
+    from servo.steering import StallWindow
+    from sim.simulator import CONTROL_DT
+
+    w = StallWindow(10)
+    moving = [(0.5 * CONTROL_DT * i, 0.0, 0.0) for i in range(10)]
+    assert not any(w.stalled(0.5, odo) for odo in moving)  # moved as commanded
+    w.clear()
+    jitter = [(0.001 * (i % 2), 0.0, 0.0) for i in range(10)]
+    assert [w.stalled(0.5, odo) for odo in jitter] == [False] * 9 + [True]
+    w.clear()
+    assert not any(w.stalled(0.0, odo) for odo in jitter)  # nothing commanded

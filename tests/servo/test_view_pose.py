@@ -177,3 +177,4 @@ def test_the_start_pose_comes_from_two_agreeing_turn_images(servo_maps):
     off = PoseFixes(ViewPose(m), SignalServoConfig(pose_start=False))
     off.observe(m.images[10], odo_turn)
     assert off.turn_images == [] and off.start(10, np.array([0.1]), path, now) is None
+
