@@ -5,9 +5,10 @@ offset across the view's sight (z = theta + c y) and cannot tell the two apart; 
 does, slowly, and a robot held by a wall does not move. A metric pose against the view
 (:class:`~servo.view_pose.ViewPose`: keypoints at the view's map-time depths, PnP) measures
 both at once. :class:`PoseFixes` takes such a pose every few steps against the route view the
-image aligns with best, where the one before it agrees (:class:`~servo.view_pose.
-PoseAgreement`), and moves the belief toward it; at the start it can place the belief where the
-observing turn's images pose the robot against the global fix's view, instead of at the view.
+image aligns with best, where the one before it agrees
+(:class:`~servo.view_pose.PoseAgreement`), and moves the belief toward it; at the start it can
+place the belief where the observing turn's images pose the robot against the global fix's
+view, instead of at the view.
 """
 
 from __future__ import annotations

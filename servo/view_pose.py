@@ -234,7 +234,8 @@ class PoseAgreement:
 
     Parameters
     ----------
-    distance : m; rad / m for the heading (``distance`` / 3 rad)
+    distance : m within which the two positions must agree; the headings must agree within
+        ``distance`` / 3 rad.
     """
 
     def __init__(self, distance: float = 0.3):
