@@ -92,6 +92,7 @@ class ViewPose:
         self._orb = cv2.ORB_create(int(n_features), fastThreshold=5, edgeThreshold=15,
                                    patchSize=15)  # fmt: skip
         self._matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
+        self._stored: dict[int, tuple] = {}  # view -> its image's ORB keypoints, descriptors
         self._views: dict[tuple[int, bool], _ViewPoints] = {}
         self._models: dict[int, str | None] = {}
 
@@ -101,9 +102,16 @@ class ViewPose:
             raise ValueError(f"image must be (H, W, 3) uint8, got {image.shape} {image.dtype}")
         return self._orb.detectAndCompute(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY), None)
 
+    def _stored_keypoints(self, view: int):
+        """ORB keypoints of stored view ``view``'s image, computed once: both depth models
+        of the view and the map check of its linked views use them."""
+        if view not in self._stored:
+            self._stored[view] = self._keypoints(self.map.images[view])
+        return self._stored[view]
+
     def _view(self, view: int, upper: bool) -> _ViewPoints:
         if (view, upper) not in self._views:
-            keypoints, descriptors = self._keypoints(self.map.images[view])
+            keypoints, descriptors = self._stored_keypoints(view)
             uv = np.array([k.pt for k in keypoints], np.float64).reshape(-1, 2)
             points = self.depth_points(view, uv, upper)
             self._views[view, upper] = _ViewPoints(points, descriptors)
@@ -154,8 +162,12 @@ class ViewPose:
         view's keypoints above the horizon used only with ``upper``), or None where too few
         keypoints match or agree (fewer than ``min_inliers``)."""
         view = self.map.check_view(view, "view")
-        stored = self._view(view, bool(upper))
-        keypoints, descriptors = self._keypoints(image)
+        return self._posed(self._keypoints(image), view, bool(upper))
+
+    def _posed(self, image_keypoints, view: int, upper: bool) -> RelativePose | None:
+        """:meth:`relative` from the image's ORB ``(keypoints, descriptors)``."""
+        stored = self._view(view, upper)
+        keypoints, descriptors = image_keypoints
         if stored.descriptors is None or descriptors is None or len(keypoints) < 8:
             return None
         pairs = self._matcher.knnMatch(stored.descriptors, descriptors, k=2)
@@ -209,7 +221,7 @@ class ViewPose:
     def _agrees(self, view: int, upper: bool, tolerance: float) -> bool:
         found = 0
         for other, pose in self._linked(view):
-            rel = self.relative(self.map.images[other], view, upper)
+            rel = self._posed(self._stored_keypoints(other), view, upper)
             if rel is None:
                 continue
             found += 1
