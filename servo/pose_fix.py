@@ -34,12 +34,42 @@ class PoseFixes:
     def __init__(self, view_pose: ViewPose, config: SignalServoConfig):
         self.view_pose, self.config = view_pose, config
         self.turn_images: list[tuple[np.ndarray, np.ndarray]] = []
+        self._turn_keypoints: dict[int, tuple] = {}  # turn image -> its ORB keypoints
         self._agreement: PoseAgreement | None = None
 
     def observe(self, image: np.ndarray, odometry: np.ndarray) -> None:
         """Keep an image of the observing turn (with ``pose_start``) and its odometry."""
         if self.config.pose_start:
             self.turn_images.append((np.array(image), np.array(odometry, np.float64)))
+
+    def _two_poses(self, view: int, distances: np.ndarray):
+        """The metric poses in ``view``'s frame, with their odometry, of the two turn images
+        that matched ``view`` best (``distances``: each kept image's aligned distance to it),
+        in the order taken; None where either gives none. Each image's keypoints are
+        detected once per turn (:meth:`supports` poses them against several views)."""
+        images = self.turn_images
+        if len(images) != len(distances) or len(images) < 2:
+            return None
+        out = []
+        for i in sorted(np.argsort(distances, kind="stable")[:2]):
+            image, odo = images[i]
+            if i not in self._turn_keypoints:
+                self._turn_keypoints[i] = self.view_pose.keypoints(image)
+            rel = self.view_pose.pose(image, view, self._turn_keypoints[i])
+            if rel is None:
+                return None
+            out.append((rel.pose, odo))
+        return out
+
+    def supports(self, view: int, distances: np.ndarray) -> bool:
+        """Whether the two turn images that matched ``view`` best both pose against it and
+        agree (``pose_agree``, carried by odometry from one to the other): the observing
+        turn's metric support for a global fix on ``view`` (round 11)."""
+        poses = self._two_poses(view, distances)
+        if poses is None:
+            return False
+        agreement = PoseAgreement(self.config.pose_agree or 0.3)
+        return [agreement.agrees(pose, odo) for pose, odo in poses][-1]
 
     def start(self, view: int, distances: np.ndarray, path: RoutePath,
               odometry: np.ndarray) -> np.ndarray | None:  # fmt: skip
@@ -48,16 +78,13 @@ class PoseFixes:
         (``distances``: each kept image's aligned distance to it), each carried by odometry
         to now, where they agree; else None. Starts a new route's agreement."""
         self._agreement = PoseAgreement(self.config.pose_agree) if self.config.pose_agree else None
-        images, self.turn_images = self.turn_images, []
-        if len(images) != len(distances) or len(images) < 2:
+        poses = self._two_poses(view, distances)
+        self.turn_images, self._turn_keypoints = [], {}
+        if poses is None:
             return None
         agreement = PoseAgreement(self.config.pose_agree or 0.3)
-        for i in sorted(np.argsort(distances, kind="stable")[:2]):
-            image, odo = images[i]
-            rel = self.view_pose.pose(image, view)
-            if rel is None:
-                return None
-            measured = se2_compose(path.frames[0], rel.pose)
+        for pose, odo in poses:
+            measured = se2_compose(path.frames[0], pose)
             if agreement.agrees(measured, odo):
                 return se2_compose(measured, se2_relative(odo, odometry))
         return None

@@ -12,7 +12,7 @@ from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 # settings that may be 0 (off)
 _MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift",
-                "cross_gain", "pose_every", "pose_agree")
+                "cross_gain", "pose_every", "pose_agree", "fix_check")
 
 
 @dataclass(frozen=True)
@@ -111,6 +111,10 @@ class SignalServoConfig:
         not at the view.
     pose_agree : m; a pose is used only where the one before it, carried by odometry,
         agrees within this (:class:`~servo.view_pose.PoseAgreement`); 0: every pose.
+    fix_check : with ``contrast_fix``, ``pose_every`` and ``pose_start``: where the two turn
+        images that match the fix's view best do not both pose against it and agree
+        (:meth:`~servo.pose_fix.PoseFixes.supports`), the first of the next ``fix_check``
+        views by contrast score that they do support is the fix; 0: off. Round 11.
     """
 
     speed: float = 1.5
@@ -167,6 +171,7 @@ class SignalServoConfig:
     pose_gate: float = 6.0
     pose_agree: float = 0.3
     pose_start: bool = True
+    fix_check: int = 8
 
     def __post_init__(self):
         for f in fields(self):

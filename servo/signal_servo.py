@@ -5,9 +5,10 @@
    ranks first, then the best horizontally-aligned view). The global fix is a stored view and
    the odometry heading that faces the way it looks: with ``contrast_fix`` (default) the view
    whose best match over the turn stands out most against the turn's other headings
-   (:func:`~servo.turn_fix.contrast_fix`; every sample is aligned with all views), else the
-   best match over the turn (or, with ``consistent_fix``, the match best supported by the
-   turn's other images, :func:`~servo.turn_fix.consistent_fix`).
+   (:func:`~servo.turn_fix.contrast_fix`; every sample is aligned with all views; one the
+   turn's images cannot pose the robot against gives way to the next candidate they can,
+   ``fix_check``), else the best match over the turn (or, with ``consistent_fix``, the
+   match best supported by the turn's other images, :func:`~servo.turn_fix.consistent_fix`).
 2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
    view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
    into waypoint views about ``spacing`` apart.
@@ -228,7 +229,9 @@ class SignalServo:
         c = self.config
         if c.contrast_fix:
             d, yaw, h = (np.array(a) for a in zip(*self._rows, strict=True))
-            view, heading = contrast_fix(d, yaw, h, far=c.fix_far, exclude=self._exclude)
+            verify = None if self.poses is None else (lambda v: self.poses.supports(v, d[:, v]))
+            view, heading = contrast_fix(d, yaw, h, far=c.fix_far, exclude=self._exclude,
+                                         verify=verify, candidates=c.fix_check)  # fmt: skip
         elif c.consistent_fix:
             view, heading = consistent_fix(self._samples, self.routes)
         else:

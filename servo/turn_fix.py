@@ -87,8 +87,8 @@ def _generic(samples, view: int, tolerance: float) -> bool:
     return bool(spread > 2.0 * tolerance)
 
 
-def contrast_fix(distances, yaws, headings, *, far: float = 0.6,
-                 exclude=()) -> tuple[int, float]:  # fmt: skip
+def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), verify=None,
+                 candidates: int = 0) -> tuple[int, float]:  # fmt: skip
     """The global fix from the whole observing turn: the stored view whose best match over
     the turn stands out most against its matches from headings ``far`` rad or more away.
 
@@ -101,7 +101,12 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6,
     and sky: the lawn's look-alikes 12-46 m off) has a flat profile. The score is the best
     distance divided by the best from the far headings (smaller: sharper); the fix is the
     view with the smallest, and the odometry heading that faces the way it looks; views in
-    ``exclude`` (a fix found wrong) only if every view is excluded. Returns (view, heading)."""
+    ``exclude`` (a fix found wrong) only if every view is excluded. With ``verify`` (view ->
+    bool: the turn's metric support for a fix there, :meth:`~servo.pose_fix.PoseFixes.supports`)
+    a fix it does not support gives way to the first of the next ``candidates`` views by
+    score that it supports (a look-alike down a symmetric corridor matches as well as the
+    place, but keypoints at known depths pose the robot only against the place; round 11).
+    Returns (view, heading)."""
     d = np.asarray(distances, np.float64)
     y = np.asarray(yaws, np.float64)
     h = np.asarray(headings, np.float64)
@@ -122,4 +127,7 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6,
     if not out.all():
         score[out] = np.inf
     k = int(np.argmin(score))
+    if verify is not None and candidates > 0 and not verify(k):
+        order = np.argsort(score, kind="stable")[1 : candidates + 1]
+        k = next((int(j) for j in order if np.isfinite(score[j]) and verify(int(j))), k)
     return k, float(h[best[k]] + y[best[k], k])

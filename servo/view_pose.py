@@ -96,7 +96,9 @@ class ViewPose:
         self._views: dict[tuple[int, bool], _ViewPoints] = {}
         self._models: dict[int, str | None] = {}
 
-    def _keypoints(self, image: np.ndarray):
+    def keypoints(self, image: np.ndarray):
+        """The ORB keypoints and descriptors of a camera image (H, W, 3) uint8: pass them to
+        :meth:`pose` to pose one image against several views with one detection."""
         image = np.asarray(image)
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
             raise ValueError(f"image must be (H, W, 3) uint8, got {image.shape} {image.dtype}")
@@ -106,7 +108,7 @@ class ViewPose:
         """ORB keypoints of stored view ``view``'s image, computed once: both depth models
         of the view and the map check of its linked views use them."""
         if view not in self._stored:
-            self._stored[view] = self._keypoints(self.map.images[view])
+            self._stored[view] = self.keypoints(self.map.images[view])
         return self._stored[view]
 
     def _view(self, view: int, upper: bool) -> _ViewPoints:
@@ -150,19 +152,22 @@ class ViewPose:
             z = np.where(below > 0.5, z, np.nan)
         return np.stack([(uv[:, 0] - cx) / f * z, below / f * z, z], axis=1)
 
-    def pose(self, image: np.ndarray, view: int) -> RelativePose | None:
+    def pose(self, image: np.ndarray, view: int, keypoints=None) -> RelativePose | None:
         """The robot's pose in stored view ``view``'s frame from the camera ``image`` with the
         view's verified depth model (:meth:`depth_model`); None where the view has none or
-        too few keypoints match or agree."""
+        too few keypoints match or agree. ``keypoints``: the image's :meth:`keypoints`, if
+        already detected."""
         model = self.depth_model(view)
-        return None if model is None else self.relative(image, view, model == "full")
+        return None if model is None else self.relative(image, view, model == "full", keypoints)
 
-    def relative(self, image: np.ndarray, view: int, upper: bool = True) -> RelativePose | None:
+    def relative(self, image: np.ndarray, view: int, upper: bool = True,
+                 keypoints=None) -> RelativePose | None:  # fmt: skip
         """The robot's pose in stored view ``view``'s frame from the camera ``image`` (the
         view's keypoints above the horizon used only with ``upper``), or None where too few
         keypoints match or agree (fewer than ``min_inliers``)."""
         view = self.map.check_view(view, "view")
-        return self._posed(self._keypoints(image), view, bool(upper))
+        keypoints = self.keypoints(image) if keypoints is None else keypoints
+        return self._posed(keypoints, view, bool(upper))
 
     def _posed(self, image_keypoints, view: int, upper: bool) -> RelativePose | None:
         """:meth:`relative` from the image's ORB ``(keypoints, descriptors)``."""

@@ -53,3 +53,31 @@ def test_excluded_views_are_skipped_unless_all_are():
     y = np.zeros_like(d)
     assert contrast_fix(d, y, h, exclude=[0])[0] == 1
     assert contrast_fix(d, y, h, exclude=[0, 1])[0] == 0
+
+
+def test_a_fix_without_metric_support_gives_way_to_the_next_supported_view():
+    """``verify`` (the turn's poses against a view, ``PoseFixes.supports``): the best-scored
+    view stands where it is supported or no other of the ``candidates`` next views is; else
+    the first supported one by score takes its place, with its own heading."""
+    h = _turn()
+    d = np.full((len(h), 4), 1.0)
+    d[5, 0], d[9, 1], d[14, 2], d[20, 3] = 0.05, 0.1, 0.15, 0.2  # scores in this order
+    y = np.full_like(d, 0.02)
+    asked = []
+
+    def verify(supported):
+        def check(view):
+            asked.append(view)
+            return view in supported
+        return check
+
+    view, heading = contrast_fix(d, y, h, verify=verify({2, 3}), candidates=3)
+    assert view == 2 and heading == pytest.approx(h[14] + 0.02)
+    assert asked == [0, 1, 2]  # in score order, and no further than needed
+    assert contrast_fix(d, y, h, verify=verify({0, 2}), candidates=3)[0] == 0
+    assert contrast_fix(d, y, h, verify=verify({3}), candidates=2)[0] == 0  # beyond the next 2
+    assert contrast_fix(d, y, h, verify=verify(set()), candidates=3)[0] == 0
+    asked.clear()
+    assert contrast_fix(d, y, h, verify=verify({3}), candidates=0)[0] == 0 and asked == []
+    # an excluded view is never a candidate
+    assert contrast_fix(d, y, h, exclude=[1], verify=verify({1, 3}), candidates=3)[0] == 3

@@ -132,8 +132,9 @@ def test_fix_pose_moves_position_and_heading_and_ignores_outliers():
 def test_pose_fixes_are_on_by_default_and_validated(servo_maps):
     assert isinstance(SignalServo(servo_maps["hallway"]).poses.view_pose, ViewPose)
     assert SignalServo(servo_maps["hallway"], config=SignalServoConfig(pose_every=0)).poses is None
+    assert SignalServoConfig().fix_check == 8 and SignalServoConfig(fix_check=0).fix_check == 0
     for bad in ({"pose_every": -1}, {"pose_gain": 1.5}, {"pose_gate": 0.0},
-                {"pose_agree": -0.1}):
+                {"pose_agree": -0.1}, {"fix_check": -1}, {"fix_check": 2.5}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             SignalServoConfig(**bad)
 
@@ -178,3 +179,27 @@ def test_the_start_pose_comes_from_two_agreeing_turn_images(servo_maps):
     off.observe(m.images[10], odo_turn)
     assert off.turn_images == [] and off.start(10, np.array([0.1]), path, now) is None
 
+
+
+def test_the_turn_supports_a_fix_where_its_two_best_images_pose_and_agree(servo_maps):
+    """``PoseFixes.supports`` (``fix_check``): the two turn images that matched a view best
+    pose against it and agree, carried by odometry; not where they disagree, where one does
+    not pose (another place's image) or where no images were kept. It leaves the turn's
+    images for ``start``."""
+    from servo.pose_fix import PoseFixes
+
+    m = servo_maps["hallway"]
+    fixes = PoseFixes(ViewPose(m), SignalServoConfig(pose_every=3, pose_start=True))
+    odo = [0.0, 0.0, 0.3]
+    for image in (m.images[40], m.images[10], m.images[10]):
+        fixes.observe(image, odo)
+    assert fixes.supports(10, np.array([0.9, 0.1, 0.2]))
+    assert not fixes.supports(10, np.array([0.1, 0.9, 0.2]))  # image 40 is not at view 10
+    assert len(fixes.turn_images) == 3
+    fixes.turn_images[2] = (fixes.turn_images[2][0], np.array([0.0, 0.0, 0.8]))
+    assert not fixes.supports(10, np.array([0.9, 0.1, 0.2]))  # 0.5 rad apart by odometry
+    assert not fixes.supports(10, np.array([0.1]))  # not one distance per kept image
+    off = PoseFixes(ViewPose(m), SignalServoConfig(pose_start=False))
+    off.observe(m.images[10], odo)
+    off.observe(m.images[10], odo)
+    assert not off.supports(10, np.array([0.1, 0.2]))
