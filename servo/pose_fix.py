@@ -35,6 +35,7 @@ class PoseFixes:
         self.view_pose, self.config = view_pose, config
         self.turn_images: list[tuple[np.ndarray, np.ndarray]] = []
         self._turn_keypoints: dict[int, tuple] = {}  # turn image -> its ORB keypoints
+        self._turn_poses: dict[tuple, list | None] = {}  # (view, image, image) -> their poses
         self._agreement: PoseAgreement | None = None
 
     def observe(self, image: np.ndarray, odometry: np.ndarray) -> None:
@@ -45,21 +46,33 @@ class PoseFixes:
     def _two_poses(self, view: int, distances: np.ndarray):
         """The metric poses in ``view``'s frame, with their odometry, of the two turn images
         that matched ``view`` best (``distances``: each kept image's aligned distance to it),
-        in the order taken; None where either gives none. Each image's keypoints are
-        detected once per turn (:meth:`supports` poses them against several views)."""
+        in the order taken; None where either gives none. Computed once per turn, view and
+        pair of images (:meth:`supports` checks the fix's view, then :meth:`start` poses
+        against it), each image's keypoints detected once (the check poses them against
+        several views)."""
         images = self.turn_images
         if len(images) != len(distances) or len(images) < 2:
             return None
-        out = []
-        for i in sorted(np.argsort(distances, kind="stable")[:2]):
-            image, odo = images[i]
+        pair = tuple(int(i) for i in sorted(np.argsort(distances, kind="stable")[:2]))
+        if (view, *pair) not in self._turn_poses:
+            self._turn_poses[view, *pair] = self._posed_pair(view, pair)
+        poses = self._turn_poses[view, *pair]
+        if poses is None:
+            return None
+        return [(pose, images[i][1]) for pose, i in zip(poses, pair, strict=True)]
+
+    def _posed_pair(self, view: int, pair: tuple[int, int]) -> list | None:
+        """The metric poses of turn images ``pair`` against ``view`` (None: either gives none)."""
+        poses = []
+        for i in pair:
+            image = self.turn_images[i][0]
             if i not in self._turn_keypoints:
                 self._turn_keypoints[i] = self.view_pose.keypoints(image)
             rel = self.view_pose.pose(image, view, self._turn_keypoints[i])
             if rel is None:
                 return None
-            out.append((rel.pose, odo))
-        return out
+            poses.append(rel.pose)
+        return poses
 
     def supports(self, view: int, distances: np.ndarray) -> bool:
         """Whether the two turn images that matched ``view`` best both pose against it and
@@ -68,8 +81,10 @@ class PoseFixes:
         poses = self._two_poses(view, distances)
         if poses is None:
             return False
+        (first, first_odo), (second, second_odo) = poses
         agreement = PoseAgreement(self.config.pose_agree or 0.3)
-        return [agreement.agrees(pose, odo) for pose, odo in poses][-1]
+        agreement.agrees(first, first_odo)  # sets what the second is compared with
+        return agreement.agrees(second, second_odo)
 
     def start(self, view: int, distances: np.ndarray, path: RoutePath,
               odometry: np.ndarray) -> np.ndarray | None:  # fmt: skip
@@ -79,7 +94,7 @@ class PoseFixes:
         to now, where they agree; else None. Starts a new route's agreement."""
         self._agreement = PoseAgreement(self.config.pose_agree) if self.config.pose_agree else None
         poses = self._two_poses(view, distances)
-        self.turn_images, self._turn_keypoints = [], {}
+        self.turn_images, self._turn_keypoints, self._turn_poses = [], {}, {}
         if poses is None:
             return None
         agreement = PoseAgreement(self.config.pose_agree or 0.3)

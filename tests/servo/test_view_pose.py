@@ -180,7 +180,6 @@ def test_the_start_pose_comes_from_two_agreeing_turn_images(servo_maps):
     assert off.turn_images == [] and off.start(10, np.array([0.1]), path, now) is None
 
 
-
 def test_the_turn_supports_a_fix_where_its_two_best_images_pose_and_agree(servo_maps):
     """``PoseFixes.supports`` (``fix_check``): the two turn images that matched a view best
     pose against it and agree, carried by odometry; not where they disagree, where one does
