@@ -33,6 +33,11 @@ OMEGA_SIGNS = ("corrected", "printed")
 # Second-seed rule of eq. 12: "weighted" = argmax (1 - O_d) * D_M[:, l1] (the text);
 # "printed" = argmin O_d * D_M[:, l1] over points other than l1 (the formula, l1 excluded).
 SEED_RULES = ("weighted", "printed")
+# Values of eq. 8-12 closer than this are ties, broken by the lower index. On the fast path
+# they carry ~1e-13 of round-off: points of a component that the kernel barely links (small
+# sigma) have equal O_d and a zero margin up to it, and a choice among them by the last bits
+# made the tree depend on them (docs: "Where the two paths part on the images").
+TIE = 1e-9
 # Eigenbases a node's search keeps (by sigma, oldest dropped first).
 _CACHED_BASES = 4
 
@@ -111,22 +116,24 @@ def split_scores(
     cols = np.arange(A)
     g = basis.gains(alphas)
     inv_nu, coords_all, outlier = unit_outliers(basis, g)  # eq. 10
-    l1 = np.argmin(outlier, axis=0)
+    l1 = _first_best(-outlier)
     # Column l1 of D_M, eq. 5
     dm_l1 = 1.0 - basis.gram_columns(g, l1) * inv_nu * inv_nu[l1, cols]
     np.clip(dm_l1, 0.0, 1.0, out=dm_l1)
     if space.seed_rule == "weighted":
-        l2 = np.argmax((1.0 - outlier) * dm_l1, axis=0)
+        l2 = _first_best((1.0 - outlier) * dm_l1)
     else:
         weighted = outlier * dm_l1
         weighted[l1, cols] = np.inf
-        l2 = np.argmin(weighted, axis=0)
+        l2 = _first_best(-weighted)
     # eq. 7-8: y_i = argmax_j V[i, l_j], V[i, l] = U[i, l] / |u_l|. A tie (both 0: a component
     # reached by neither seed) goes to p2, the side that "need not be on a single manifold".
     margin = (
         basis.kernel_columns(g, l1) * inv_nu[l1, cols]
         - basis.kernel_columns(g, l2) * inv_nu[l2, cols]
     )
+    # Below TIE the margin is the fast path's round-off (a component neither seed reaches).
+    margin[np.abs(margin) <= TIE] = 0.0
     in_first = margin > 0
     n1 = in_first.sum(axis=0)
     bad = (n1 < min_size) | (n1 > m - min_size)
@@ -233,6 +240,12 @@ class _NodeSearch:
         om, t = found[float(res.x)] if float(res.x) in found else (-np.inf, 0.0)
         best = max(best, (om, float(res.x), t))
         return best[1], best[2], best[0]
+
+
+def _first_best(values: np.ndarray) -> np.ndarray:
+    """Per column, the lowest row index whose value is within :data:`TIE` of the column's
+    maximum (``argmax`` with near-ties broken by index, not by round-off)."""
+    return np.argmax(values >= values.max(axis=0) - TIE, axis=0)
 
 
 def best_split(

@@ -31,7 +31,7 @@ def fitted_lines():
 EXPECTED_MAX_ERROR = {
     "parallel_lines": 0.0,
     "lines_variable_spacing": 0.0,
-    "converging_paths": 0.10,  # 0.072 (the tree's majority-merge bound); NCut's oracle is 0.312
+    "converging_paths": 0.10,  # 0.047 (0.072 before near-ties were broken by index); NCut 0.312
     "spirals_3d": 0.0,
 }
 
@@ -53,9 +53,12 @@ def test_combinations_that_beat_ncut_on_converging_paths(combine):
 
 def test_greedy_merge_is_kept_but_loses_on_converging_paths():
     # The documented reason "merge" is no longer the default (docs/manifold-clustering.md).
+    # Measured 0.156 against the default's 0.047 since near-ties are broken by index (0.341
+    # against 0.072 before).
     X, y = SYNTHETIC_SETS["converging_paths"]()
-    model = ManifoldClustering(3, 20, combine="merge").fit(X)
-    assert clustering_error(y, model.labels_) > 0.312
+    merge = ManifoldClustering(3, 20, combine="merge").fit(X)
+    default = ManifoldClustering(3, 20).fit(X)
+    assert clustering_error(y, merge.labels_) > clustering_error(y, default.labels_) + 0.08
 
 
 def test_separability_merge_joins_only_adjacent_groups():
