@@ -45,6 +45,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+import mapping._manifold_split as split_module
 from mapping._manifold_stack import Stack
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import clustering_error
@@ -395,7 +396,13 @@ def main() -> None:
         "--pooled", metavar="ROOT", help="dense against 'auto' on several seeds' frames pooled"
     )
     parser.add_argument("--pool", type=int, default=3, help="with --pooled: seeds per pool")
+    parser.add_argument(
+        "--tie", type=float, default=split_module.TIE,
+        help="near-tie tolerance of the split's choices (0: ties decided by round-off, the "
+        "code before session 18)",
+    )  # fmt: skip
     args = parser.parse_args()
+    split_module.TIE = args.tie
     if args.memory:
         peak_memory(args.memory)
     elif args.graph_vs_dense:
