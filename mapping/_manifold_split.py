@@ -36,7 +36,7 @@ SEED_RULES = ("weighted", "printed")
 # Values of eq. 8-12 closer than this are ties, broken by the lower index. On the fast path
 # they carry ~1e-13 of round-off: points of a component that the kernel barely links (small
 # sigma) have equal O_d and a zero margin up to it, and a choice among them by the last bits
-# made the tree depend on them (docs: "Where the two paths part on the images").
+# made the tree depend on them (docs/manifold-clustering.md: "Ties broken by index").
 TIE = 1e-9
 # Eigenbases a node's search keeps (by sigma, oldest dropped first).
 _CACHED_BASES = 4
