@@ -363,6 +363,16 @@ def experiments() -> None:
     )
 
 
+def add_tie_option(parser: argparse.ArgumentParser) -> None:
+    """``--tie``: the near-tie tolerance of the split's choices, to set as
+    ``mapping._manifold_split.TIE`` (0: ties decided by round-off, the code before session 18)."""
+    parser.add_argument(
+        "--tie", type=float, default=split_module.TIE,
+        help="near-tie tolerance of the split's choices (0: ties decided by round-off, the "
+        "code before session 18)",
+    )  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes only")
@@ -396,11 +406,7 @@ def main() -> None:
         "--pooled", metavar="ROOT", help="dense against 'auto' on several seeds' frames pooled"
     )
     parser.add_argument("--pool", type=int, default=3, help="with --pooled: seeds per pool")
-    parser.add_argument(
-        "--tie", type=float, default=split_module.TIE,
-        help="near-tie tolerance of the split's choices (0: ties decided by round-off, the "
-        "code before session 18)",
-    )  # fmt: skip
+    add_tie_option(parser)
     args = parser.parse_args()
     split_module.TIE = args.tie
     if args.memory:

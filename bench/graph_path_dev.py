@@ -38,7 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import mapping._manifold_geometry as geometry
 import mapping._manifold_split as split_module
 import mapping._manifold_tree as tree
-from bench.bench_manifold import _image_split
+from bench.bench_manifold import _image_split, add_tie_option
 from mapping._manifold_geometry import DenseGeometry, training_geometry
 from mapping._manifold_split import best_split
 from mapping._manifold_tree import combine_tree
@@ -127,10 +127,10 @@ def sweep(root: Path, seeds: list[int], draws: int, names: list[str]) -> None:
                         majority_merge_error(y_train, model.leaf_labels_),
                     ))  # fmt: skip
         train, test, bound = np.mean(rows, axis=0)
-        per_seed = np.reshape(rows, (len(seeds), draws, 3))
+        per_seed = np.reshape(rows, (len(data), draws, 3))
         moved = int(np.sum(np.ptp(per_seed, axis=1).max(axis=1) > 0))
         print(
-            f"| {name} | {train:.3f} | {test:.3f} | {bound:.3f} | {moved} of {len(seeds)} |",
+            f"| {name} | {train:.3f} | {test:.3f} | {bound:.3f} | {moved} of {len(data)} |",
             flush=True,
         )
 
@@ -214,13 +214,7 @@ def main() -> None:
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
     parser.add_argument("--where", action="store_true", help="where the two paths part")
     parser.add_argument("--sensitivity", type=int, metavar="SEED", help="one node searched twice")
-    parser.add_argument(
-        "--tie",
-        type=float,
-        default=split_module.TIE,
-        help="near-tie tolerance of the split's choices (0: ties decided by round-off, as "
-        "before session 18)",
-    )
+    add_tie_option(parser)
     args = parser.parse_args()
     split_module.TIE = args.tie
     if args.where:
