@@ -99,6 +99,7 @@ class Projection:
         self.starts = np.concatenate([[0], np.cumsum([b.shape[0] for b in blocks])])
         self.starts = self.starts.astype(np.intp)
         R = int(self.starts[-1])
+        self.owner = np.repeat(np.arange(K), np.diff(self.starts))  # the model of each row
         self.matrix = np.empty((R, self.mu.shape[0]), dtype=blocks[0].dtype)
         # the K shifts and mu as one (K + 1, d) matrix: one float64 GEMV gives x . delta_j
         # and x . mu, so the query is never centred in float64 (only into the float32 cast)
@@ -168,20 +169,19 @@ class Projection:
             for a, b in self._runs(wanted):
                 p[:, a:b] = Xc @ self.matrix[a:b].T
         if wanted is not None:
-            for j in np.flatnonzero(~wanted):
-                p[:, self.starts[j] : self.starts[j + 1]] = np.nan
+            p[:, ~wanted[self.owner]] = np.nan
 
     def _runs(self, wanted: np.ndarray | None) -> list[tuple[int, int]]:
         """Row ranges of ``matrix`` of the wanted models, consecutive models in one range."""
         if wanted is None:
             return [(0, int(self.matrix.shape[0]))]
+        starts = self.starts.tolist()  # K + 1 Python ints: a plain loop beats numpy's calls here
         runs: list[tuple[int, int]] = []
-        for j in np.flatnonzero(wanted):
-            a, b = int(self.starts[j]), int(self.starts[j + 1])
-            if runs and runs[-1][1] == a:
-                runs[-1] = (runs[-1][0], b)
-            else:
-                runs.append((a, b))
+        for j, on in enumerate(wanted.tolist()):
+            if on and runs and runs[-1][1] == starts[j]:
+                runs[-1] = (runs[-1][0], starts[j + 1])
+            elif on:
+                runs.append((starts[j], starts[j + 1]))
         return runs
 
 
@@ -217,7 +217,10 @@ class Stack:
         self.gain = np.array([-0.5 / (m.sigma * m.sigma) for m in models])
         # the largest |x_i - mean_j| (the part outside the basis included): the bound of
         # ``reachable``
-        self.radius = np.array([np.sqrt(m.sq_norms.max(initial=0.0)) for m in models])
+        radius = np.array([np.sqrt(m.sq_norms.max(initial=0.0)) for m in models])
+        # ``reachable``'s bound as one comparison: gap^2 / (2 sigma^2) < UNDERFLOW, with
+        # gap = max(sqrt(q) - radius, 0), holds exactly where sqrt(q) < radius + reach
+        self.reach_sq = (radius + np.sqrt(UNDERFLOW / -self.gain)) ** 2
         self.projection = Projection(models, "basis")
         # c of cluster j is the projection's columns starts[j]:starts[j + 1]; the padding
         # gathers column R, a zero appended to each projection
@@ -241,8 +244,7 @@ class Stack:
         ``1 / (2 sigma_j^2)`` exceeds ``UNDERFLOW`` every affinity ``exp(-d^2 / 2 sigma_j^2)``
         is exactly 0 in float64 (below exp(-745)), with margin for round-off, and the
         cluster's F^j is exactly 0 without its coordinates."""
-        gap = np.maximum(np.sqrt(np.maximum(q, 0.0)) - self.radius, 0.0)
-        return gap * gap * -self.gain < UNDERFLOW
+        return q < self.reach_sq
 
     def sq_distances(self, X: np.ndarray, prune: bool = False) -> np.ndarray:
         """``ClusterModel.sq_distances`` of every cluster, (K, k, n), padding at infinity.
@@ -280,8 +282,10 @@ class Stack:
         K, k = d2.shape[:2]
         w = np.exp(d2 * self.gain[:, None, None])
         entry = np.repeat(np.arange(K), k)
-        # the small solves run on one BLAS thread: a second thread only spins there
-        with single_threaded_blas():
+        # the small solves of a batch run on one BLAS thread: a second thread only spins there
+        # (a few views: each solve limits its threads itself where it is large enough to
+        # matter, eq13._THREADED_SOLVE)
+        with single_threaded_blas() if k > _FEW_ROWS else nullcontext():
             f = sparse_signal(
                 self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
                 self.alphas[entry],

@@ -9,14 +9,39 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from threadpoolctl import ThreadpoolController
+import threadpoolctl
 
 from common.cores import available_cores
 
-_CONTROLLER: ThreadpoolController | None = None
+_BLAS: list | None = None  # threadpoolctl's controllers of the loaded BLAS libraries
+# threadpoolctl >= 3.8 lets one Python thread at a time set OpenBLAS's threads and counts the
+# limits a thread holds (it gives the control up at 0); hold one, as ``limit`` does
+_OWNERSHIP = getattr(threadpoolctl, "CONTROLLING_THREAD_OWNERSHIP", None)
 
 
-def single_threaded_blas():
+class _OneBlasThread:
+    """Limit every BLAS library to one thread on entry; give each its own count back on exit."""
+
+    __slots__ = ("_saved",)
+
+    def __enter__(self) -> _OneBlasThread:
+        if _OWNERSHIP is not None:
+            _OWNERSHIP.increment()
+        self._saved = [(lib, lib.get_num_threads()) for lib in _BLAS]
+        for lib, threads in self._saved:
+            if threads != 1:
+                lib.set_num_threads(1)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for lib, threads in self._saved:
+            if threads != 1:
+                lib.set_num_threads(threads)
+        if _OWNERSHIP is not None:
+            _OWNERSHIP.decrement()
+
+
+def single_threaded_blas() -> _OneBlasThread:
     """Context running BLAS on one thread.
 
     The manifold search does hundreds of eigendecompositions of matrices of a few hundred rows
@@ -24,11 +49,15 @@ def single_threaded_blas():
     and, on a busy 2-core machine, its spinning threads made a 600-point fit 6x slower
     (3 s -> 20 s) and ``predict`` of 450 views 8x slower (0.3 s -> 2.3 s). Big Gram products
     run outside this context and keep all threads.
+
+    The libraries' own thread setters (threadpoolctl's controllers, found once), not
+    ``ThreadpoolController.limit``: that one reads every library's full ``info`` on entry,
+    ~0.1 ms, a sixth of ``predict`` for one view at d = 2000 (issue 15 item 2).
     """
-    global _CONTROLLER
-    if _CONTROLLER is None:  # scanning the loaded libraries costs ~2 ms; do it once
-        _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=1, user_api="blas")
+    global _BLAS
+    if _BLAS is None:  # scanning the loaded libraries costs ~2 ms; do it once
+        _BLAS = threadpoolctl.ThreadpoolController().select(user_api="blas").lib_controllers
+    return _OneBlasThread()
 
 
 def busy() -> bool:

@@ -205,3 +205,48 @@ def test_float32_queries_are_projected_in_float64(curves, dtype):
     np.testing.assert_allclose(
         stack.sq_distances(q32), stack.sq_distances(q32.astype(np.float64)), rtol=1e-9
     )
+
+
+WANTED = [[1, 0, 1, 1, 0, 0, 1, 0], [0] * 8, [1] * 8, [0, 0, 0, 0, 0, 0, 0, 1]]
+
+
+@pytest.mark.parametrize("wanted", WANTED)
+def test_only_the_wanted_models_rows_are_projected(curves, wanted):
+    """``needed``: the wanted models' columns equal the full projection's (consecutive wanted
+    models in one product), the others are left NaN."""
+    train, test = curves
+    projection = Stack.of(_fit(train, "float64", 0.0)._models).projection
+    wanted = np.array(wanted, dtype=bool)
+    full, q_full = projection(test)
+    part, q = projection(test, lambda q: np.broadcast_to(wanted, q.shape))
+    np.testing.assert_array_equal(q, q_full)
+    columns = wanted[projection.owner]
+    np.testing.assert_array_equal(part[:, columns], full[:, columns])
+    assert np.isnan(part[:, ~columns]).all()
+    runs = projection._runs(wanted)
+    assert sum(b - a for a, b in runs) == columns.sum()
+    assert all(columns[a:b].all() for a, b in runs)
+
+
+def test_one_blas_thread_inside_and_each_librarys_own_count_back_after():
+    """``single_threaded_blas`` (the libraries' own setters, not ``ThreadpoolController.limit``):
+    one thread inside, nested too, and every library's previous count after, also on error."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from mapping._validation import single_threaded_blas
+
+    def counts():
+        return [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = counts()
+        assert before  # numpy's OpenBLAS at least
+        with single_threaded_blas():
+            assert set(counts()) == {1}
+            with single_threaded_blas():
+                assert set(counts()) == {1}
+            assert set(counts()) == {1}
+        assert counts() == before
+        with pytest.raises(RuntimeError), single_threaded_blas():
+            raise RuntimeError
+        assert counts() == before
