@@ -12,7 +12,7 @@ from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 # settings that may be 0 (off)
 _MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift",
-                "cross_gain", "pose_every", "pose_agree", "fix_check")
+                "cross_gain", "pose_every", "pose_agree", "fix_check", "look_back")
 
 
 @dataclass(frozen=True)
@@ -52,6 +52,10 @@ class SignalServoConfig:
         (:func:`~servo.turn_fix.contrast_fix`; overrides ``consistent_fix``).
     exclude_fix : a relocalisation (``contrast_fix``) skips the views within 3 m of the last
         fix's, once the robot has driven more than 3 m from where it fixed.
+    look_back / look_steps : m; on a map where the robot turns round rather than reverse
+        (``reverse_parallax``), every ``look_back`` m driven along a recording backwards turn
+        to face the way its views look, take ``look_steps`` steps of image and pose fixes,
+        and turn back (:class:`~servo.look_back.LookBack`); 0: never (session 19).
     reverse : drive the route segments that run a recording backwards in reverse (camera
         facing the way the stored views look) rather than turned round.
     reverse_parallax : rad/m: reverse only on a map whose parallax (image shift per m across
@@ -172,6 +176,8 @@ class SignalServoConfig:
     pose_agree: float = 0.3
     pose_start: bool = True
     fix_check: int = 8
+    look_back: float = 10.0
+    look_steps: int = 6
 
     def __post_init__(self):
         for f in fields(self):

@@ -43,13 +43,14 @@ from common.geometry import se2_relative, wrap_angle
 from mapping._validation import single_threaded_blas
 from servo.junction_fix import JunctionTurn
 from servo.localise import ImageLocaliser
+from servo.look_back import LookBack
 from servo.map_types import ServoMap
 from servo.pose_fix import PoseFixes
 from servo.route import RouteGraph, RoutePath
 from servo.route_belief import RouteBelief
 from servo.signal_arrival import PeakArrival
 from servo.signal_config import SignalServoConfig
-from servo.steering import StallWindow, pursue
+from servo.steering import StallWindow, pursue_route
 from servo.turn_fix import consistent_fix, contrast_fix, neighbourhood
 from servo.view_pose import ViewPose
 from servo.waypoint_tracker import WaypointTracker
@@ -137,6 +138,8 @@ class SignalServo:
         self.waypoint_: int | None = None
         self.belief_: RouteBelief | None = None
         self._turned = 0.0
+        self._travel = 0.0  # m driven since the last look back (``look_back``)
+        self._look: LookBack | None = None
         # the turn's localisations: aligned distance, view, odometry heading facing it
         self._samples: list[tuple[float, int, float]] = []
         # with ``contrast_fix``: each sample's aligned distances and yaws to every view
@@ -172,6 +175,7 @@ class SignalServo:
         prev = odo if self._odo is None else self._odo
         step = se2_relative(prev, odo)
         self._turned += abs(float(step[2]))
+        self._travel += float(np.hypot(step[0], step[1]))
         self._odo = odo
         self._steps += 1
         if self.belief_ is not None:
@@ -363,6 +367,13 @@ class SignalServo:
             self.junction_shifts_.append(self._junction.shift_)
             self.junction_last_ = self._junction
             self._junction = None
+        if self._look is not None:
+            action = self._look.step(b, CONTROL_DT)
+            if self._look.fixing:
+                self._image_fix(x)
+            if action is not None:
+                return action
+            self._look, self._travel = None, 0.0
         self._image_fix(x)
         # pushing a wall again and again at one place: the belief is off across the route
         walled = (c.relocalise_bumps > 0 and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
@@ -375,6 +386,12 @@ class SignalServo:
             self._observe_start()
             return np.zeros(2)
         self._advance(x)
+        t = self.tracker
+        if (c.look_back > 0 and self.phase_ == "follow" and not self.reverses
+                and t.directions[t.index] < 0 and self._travel >= c.look_back):  # fmt: skip
+            # turned round on a recording driven backwards: no view faces this way
+            self._look = LookBack(float(b.pose[2]), c.look_steps, c.turn_rate)
+            return self._look.step(b, CONTROL_DT)
         if self.phase_ == "follow" and b.path.length - b.s > c.arrive_distance:
             return self._drive(b.goal(b.s + c.lookahead))
         self.phase_ = "arrive" if self.phase_ == "follow" else self.phase_  # latched
@@ -382,24 +399,15 @@ class SignalServo:
 
     def _drive(self, goal: np.ndarray) -> np.ndarray:
         """Pure pursuit toward ``goal`` (robot frame): forward, or in reverse where the route
-        drives its recording backwards (``WaypointTracker.directions`` < 0), so the camera
-        keeps facing the way the stored views look and image fixes stay available. Reversing
-        is pursuit of the goal mirrored through the robot (the robot turned round) with the
-        speed's sign flipped; the turn rate is the same."""
+        drives its recording backwards (``WaypointTracker.directions`` < 0) on a map that
+        reverses, so the camera keeps facing the way the stored views look and image fixes
+        stay available (:func:`~servo.steering.pursue_route`)."""
         c, t = self.config, self.tracker
-        sign = 1.0 if not self.reverses or t.directions[t.index] > 0 else -1.0
-        goal = sign * np.asarray(goal, np.float64)
-        speed = c.speed if sign > 0 else c.reverse_speed
-        if self._careful > 0:
-            # Backed off a wall: a wall stops a turn as well as a drive, so face the route
-            # first, then drive slowly (pursuit would drive into it turning).
-            self._careful -= 1
-            bearing = float(np.arctan2(goal[1], goal[0]))
-            if abs(bearing) > 0.3:
-                return np.array([0.0, np.sign(bearing) * c.turn_rate])
-            speed *= 0.5
-        v, omega = pursue(goal, speed)
-        return np.array([sign * v, omega])
+        reverse = self.reverses and not t.directions[t.index] > 0
+        careful = self._careful > 0
+        self._careful -= int(careful)
+        speed = c.reverse_speed if reverse else c.speed
+        return pursue_route(goal, reverse, speed, careful, c.turn_rate)
 
     def _arrive(self, x: np.ndarray) -> np.ndarray:
         """At the target: :class:`~servo.signal_arrival.PeakArrival` (the F peak)."""

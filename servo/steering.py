@@ -33,6 +33,26 @@ def pursue(point: np.ndarray, speed: float) -> np.ndarray:
     return np.array([v, np.clip(curvature * v, -OMEGA_LIMIT, OMEGA_LIMIT)])
 
 
+def pursue_route(goal: np.ndarray, reverse: bool, speed: float, careful: bool,
+                 turn_rate: float) -> np.ndarray:  # fmt: skip
+    """(v, omega) of :func:`pursue` toward ``goal`` (robot frame), forward or in reverse.
+
+    Reversing is pursuit of the goal mirrored through the robot (the robot turned round) with
+    the speed's sign flipped; the turn rate is the same. ``careful`` (just backed off a wall,
+    which stops a turn as well as a drive, so pursuit would drive into it turning): face the
+    goal on the spot first, at ``turn_rate``, then drive at half speed.
+    """
+    sign = -1.0 if reverse else 1.0
+    goal = sign * np.asarray(goal, np.float64)
+    if careful:
+        bearing = float(np.arctan2(goal[1], goal[0]))
+        if abs(bearing) > 0.3:
+            return np.array([0.0, np.sign(bearing) * turn_rate])
+        speed *= 0.5
+    v, omega = pursue(goal, speed)
+    return np.array([sign * v, omega])
+
+
 class Arrival:
     """Drive to a pose, then turn to its heading; ``done`` once within tolerance (``radius``
     m, default ``ARRIVE_RADIUS``).

@@ -220,6 +220,69 @@ def test_route_out_of_a_recording_is_reversed(servo_maps):
         assert forward.act({"image": m.images[start], "odometry": odo})[0] >= 0
 
 
+def test_turned_round_robot_looks_back_every_look_back_metres(servo_maps):
+    """Turned round on a recording driven backwards (no view faces the way it drives), the
+    robot stops every ``look_back`` m, turns on the spot to face the way the views look,
+    stands ``look_steps`` steps taking image fixes there, turns back and drives on."""
+    m = servo_maps["hallway"]
+    start = 60
+    behind = (m.sequence == m.sequence[start]) & (m.frame < m.frame[start] - 10)
+    probe = SignalServo(m, world="hallway")
+    config = SignalServoConfig(reverse_parallax=probe.parallax + 0.01, look_back=1.0,
+                               look_steps=4)  # fmt: skip
+    ctl = SignalServo(m, config=config, world="hallway")
+    assert not ctl.reverses
+    ctl.reset(int(np.flatnonzero(behind)[0]))
+    yaw = _observe(ctl, m.images[start], 200)
+    assert ctl.phase_ == "follow" and ctl.tracker.directions[0] < 0
+    odo = np.array([0.0, 0.0, yaw - ctl.belief_.pose[2]])
+    actions, stages = [], []
+    blank = np.full_like(m.images[start], 128)  # matches no view: odometry alone moves the belief
+    for _ in range(120):
+        a = ctl.act({"image": blank, "odometry": odo.copy()})
+        actions.append(a)
+        stages.append(None if ctl._look is None else ctl._look.stage)
+        # odometry follows the command exactly
+        odo[:2] += a[0] * CONTROL_DT * np.array([np.cos(odo[2]), np.sin(odo[2])])
+        odo[2] += a[1] * CONTROL_DT
+        if stages[-3:] == [None, None, None] and "back" in stages:
+            break
+    actions = np.array(actions)
+    first = stages.index("turn")
+    driven = np.sum(actions[:first, 0]) * CONTROL_DT
+    assert 1.0 <= driven < 1.0 + 2 * config.speed * CONTROL_DT  # looks after look_back m
+    stand = [i for i, st in enumerate(stages) if st == "stand"]
+    assert len(stand) == config.look_steps
+    looking = actions[first : stand[-1] + 1]
+    assert (looking[:, 0] == 0).all()  # on the spot throughout
+    turned = np.sum(actions[first : stand[0], 1]) * CONTROL_DT
+    assert abs(abs(turned) - np.pi) < 0.2  # half a turn to face the views' way
+    back = [i for i, st in enumerate(stages) if st == "back"]
+    turned_back = np.sum(actions[back[0] : back[-1] + 1, 1]) * CONTROL_DT
+    assert abs(abs(turned + turned_back)) < 0.5  # and back to the way it was driving
+    assert actions[-1, 0] > 0  # then drives on
+
+
+def test_look_back_stands_only_after_facing_the_views():
+    from servo.look_back import LookBack
+
+    class _Belief:
+        pose = np.array([0.0, 0.0, 0.3])
+
+    b, look = _Belief(), LookBack(0.3, steps=3, turn_rate=1.2)
+    seen = []
+    for _ in range(200):
+        a = look.step(b, 0.1)
+        if a is None:
+            break
+        seen.append((look.stage, look.fixing))
+        b.pose = b.pose + [0.0, 0.0, a[1] * 0.1]
+    assert a is None and abs(b.pose[2] - 0.3) < 0.05
+    assert [f for _, f in seen].count(True) == 3
+    i = next(k for k, (st, _) in enumerate(seen) if st == "stand")
+    assert all(st == "turn" for st, _ in seen[:i])
+
+
 def test_config_validation():
     assert SignalServoConfig(max_relocalise=0).max_relocalise == 0
     assert SignalServoConfig(relocalise_bumps=0).relocalise_bumps == 0
@@ -248,6 +311,8 @@ def test_config_validation():
         ({"relocalise_bumps": -1}, "relocalise_bumps"),
         ({"relocalise_arrive": 1}, "relocalise_arrive"),
         ({"junction_radius": 0.0}, "junction_radius"),
+        ({"look_back": -1.0}, "look_back must be a finite number >= 0"),
+        ({"look_steps": 0}, "look_steps"),
     ]:
         with pytest.raises(ValueError, match=match):
             SignalServoConfig(**bad)
