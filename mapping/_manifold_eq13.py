@@ -20,9 +20,9 @@ from mapping.distances import TINY as _TINY
 _BATCH_ELEMENTS = 4_000_000
 # Systems of at least this many rows are solved on one BLAS thread. OpenBLAS threads an LU
 # only from 100 rows on (its dgesv, interface/lapack/gesv.c: one thread while m^2 < 10,000,
-# whatever the setting), and
-# on a busy machine a second thread only spins; below the bound, setting the threads and
-# back costs more than the solve (~0.06 ms of a 0.5 ms ``predict`` of one view).
+# whatever the setting), and on a busy machine a second thread only spins; below the bound,
+# setting the threads and back costs more than the solve (~0.06 ms of a 0.5 ms ``predict``
+# of one view).
 _THREADED_SOLVE = 64
 
 
