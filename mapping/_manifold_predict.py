@@ -196,13 +196,13 @@ class ClusterModel(DerivedCache):
         """
         w = affinity(sq_dist, self.sigma)
         k = w.shape[0]
-        with single_threaded_blas():
-            if self.inverse is None:
-                return dense_signal(self.weights, self.degrees, self.alpha, w, target)
-            return sparse_signal(
-                self.inverse[None], self.degrees[None], w, np.zeros(k, dtype=np.intp),
-                np.full(k, target), np.full(k, self.alpha),
-            )  # fmt: skip
+        # the solvers limit the BLAS threads themselves where it matters (eq13._THREADED_SOLVE)
+        if self.inverse is None:
+            return dense_signal(self.weights, self.degrees, self.alpha, w, target)
+        return sparse_signal(
+            self.inverse[None], self.degrees[None], w, np.zeros(k, dtype=np.intp),
+            np.full(k, target), np.full(k, self.alpha),
+        )  # fmt: skip
 
 
 def _span(centred: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

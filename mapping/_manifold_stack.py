@@ -282,18 +282,16 @@ class Stack:
         K, k = d2.shape[:2]
         w = np.exp(d2 * self.gain[:, None, None])
         entry = np.repeat(np.arange(K), k)
-        # the small solves of a batch run on one BLAS thread: a second thread only spins there
-        # (a few views: each solve limits its threads itself where it is large enough to
-        # matter, eq13._THREADED_SOLVE)
-        with single_threaded_blas() if k > _FEW_ROWS else nullcontext():
-            f = sparse_signal(
-                self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
-                self.alphas[entry],
-            ).reshape(K, k)  # fmt: skip
-            for j in self.dense:
-                m = self.models[j]
-                w_j = w[j, :, : self.sizes[j]]
-                f[j] = dense_signal(m.weights, m.degrees, m.alpha, w_j, m.centre)
+        # each solve limits the BLAS threads itself where OpenBLAS would use more than one
+        # (eq13._THREADED_SOLVE): a second thread only spins on these small systems
+        f = sparse_signal(
+            self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
+            self.alphas[entry],
+        ).reshape(K, k)  # fmt: skip
+        for j in self.dense:
+            m = self.models[j]
+            w_j = w[j, :, : self.sizes[j]]
+            f[j] = dense_signal(m.weights, m.degrees, m.alpha, w_j, m.centre)
         if normalize:
             f /= self.scales[:, None]
         return f.T, (d2.min(axis=2) * -self.gain[:, None]).T

@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from common.geometry import se2_compose, wrap_angle
+from servo.steering import turn_on_spot
 from servo.turn_fix import neighbourhood
 
 __all__ = ["JunctionTurn", "pose_from_turn", "views_near"]
@@ -140,7 +141,7 @@ class JunctionTurn:
                     self.samples.append((h, int(sel[k]), float(yaw[k]), 1.0 - d[k] / self.trust))
         err = float(wrap_angle(self.heading - h))
         if abs(err) > 0.05 and self.steps < int(2 * np.pi / (self.turn_rate * dt)):
-            return np.array([0.0, np.sign(err) * min(self.turn_rate, abs(err) / dt)])
+            return turn_on_spot(err, self.turn_rate, dt)
         self._apply(belief)
         return None
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from common.geometry import wrap_angle
+from servo.steering import turn_on_spot
 
 __all__ = ["LookBack"]
 
@@ -56,6 +57,4 @@ class LookBack:
         return self._turn(wrap_angle(self.heading - h), dt)
 
     def _turn(self, err: float, dt: float) -> np.ndarray | None:
-        if abs(err) <= 0.05:
-            return None
-        return np.array([0.0, np.sign(err) * min(self.turn_rate, abs(err) / dt)])
+        return None if abs(err) <= 0.05 else turn_on_spot(err, self.turn_rate, dt)

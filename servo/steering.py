@@ -33,6 +33,12 @@ def pursue(point: np.ndarray, speed: float) -> np.ndarray:
     return np.array([v, np.clip(curvature * v, -OMEGA_LIMIT, OMEGA_LIMIT)])
 
 
+def turn_on_spot(err: float, turn_rate: float, dt: float) -> np.ndarray:
+    """(0, omega) turning by ``err`` rad the short way: ``turn_rate``, slowed over the last
+    step so as not to overshoot."""
+    return np.array([0.0, np.sign(err) * min(turn_rate, abs(err) / dt)])
+
+
 def pursue_route(goal: np.ndarray, reverse: bool, speed: float, careful: bool,
                  turn_rate: float) -> np.ndarray:  # fmt: skip
     """(v, omega) of :func:`pursue` toward ``goal`` (robot frame), forward or in reverse.
