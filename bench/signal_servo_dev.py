@@ -12,6 +12,16 @@ set (``--config '{"speed": 1.0}'``), which is how round 6's variants were compar
 ``--trace FROM``: also a line every 5 steps from step FROM (phase, arrival stage, truth,
 belief, command, contact, bumps) and every relocalisation with the belief's error.
 
+``--oracle-fix view|pose`` (session 20) gives the controller a perfect global fix at every
+observing turn, the start's and each relocalisation's: ``view`` the stored view nearest the
+true position and the heading that faces it (the start pose then as the controller finds
+it), ``pose`` also the true pose in that view's frame. What a better global fix is worth,
+against the same episodes without it. Diagnosis only: the controller never sees the truth.
+
+``--by-start-distance FILE...`` reads ``topomap servo-eval --out`` files (checked by
+``servo.compare.load_results``) and counts successes by how far each start lies from the
+nearest stored view (truth, for the analysis only).
+
 ``--sight VIEWS`` instead renders the world at offsets along stored views' sight (-1.6 to
 1.6 m) and prints F^j(k) toward each view there (eq. 13): how sharp the peak the arrival
 looks for is, and where it repeats (round 6: ~0 at 0.4 m, secondary peaks near 1 m in the
@@ -25,8 +35,9 @@ import json
 
 import numpy as np
 
+import servo.signal_servo as signal_servo
 import sim  # noqa: F401  (the GL backend before mujoco)
-from common.geometry import se2_relative, wrap_angle
+from common.geometry import se2_compose, se2_relative, wrap_angle
 from servo.env import ServoEnv
 from servo.map_store import load_or_build
 from servo.protocol import Protocol, episode_specs, reset_options
@@ -37,8 +48,31 @@ def _fmt(p) -> str:
     return "(" + ",".join(f"{v:+.2f}" for v in p) + ")"
 
 
-def episodes(env, m, world, tier, lo, hi, config, trace_from):
+class _OracleFix:
+    """Patches ``SignalServo``'s global fix with the truth (``--oracle-fix``)."""
+
+    def __init__(self, pol: SignalServo, m, mode: str):
+        self.m, self.truth, self.odo = m, None, None
+        signal_servo.contrast_fix = self.fix
+        if mode == "pose" and pol.poses is not None:
+            pol.poses.start = self.start
+
+    def see(self, info, obs) -> None:
+        self.truth = np.asarray(info["pose"], np.float64)
+        self.odo = np.asarray(obs["odometry"], np.float64)
+
+    def fix(self, *args, **kwargs) -> tuple[int, float]:
+        views = self.m.true_poses
+        v = int(np.argmin(np.linalg.norm(views[:, :2] - self.truth[:2], axis=1)))
+        return v, float(views[v, 2] - self.truth[2] + self.odo[2])
+
+    def start(self, view, distances, path, odometry):
+        return se2_compose(path.frames[0], se2_relative(self.m.true_poses[view], self.truth))
+
+
+def episodes(env, m, world, tier, lo, hi, config, trace_from, oracle=None):
     pol = SignalServo(m, config=config, world=world)
+    oracle = _OracleFix(pol, m, oracle) if oracle else None
     print(f"parallax {pol.parallax:.3f} rad/m, reverses {pol.reverses}", flush=True)
     specs = episode_specs(Protocol(world, tier, "dev"), m.true_labels, hi)[lo:hi]
     wins = 0
@@ -47,7 +81,10 @@ def episodes(env, m, world, tier, lo, hi, config, trace_from):
         target = np.asarray(info["target_pose"])
         pol.reset(info["target_view"], info)
         steps, arrive_at, entry, relocs, last = 0, None, None, 0, None
+        off = np.min(np.linalg.norm(m.true_poses[:, :2] - np.asarray(info["pose"])[:2], axis=1))
         while True:
+            if oracle is not None:
+                oracle.see(info, obs)
             action = pol.act(obs, info)
             obs, _, terminated, truncated, info = env.step(action)
             steps += 1
@@ -72,7 +109,8 @@ def episodes(env, m, world, tier, lo, hi, config, trace_from):
             if terminated or truncated:
                 break
         wins += info["reason"] == "success"
-        head = (f"ep {spec.index:2d} {spec.start_manifold} -> {spec.target_manifold}: "
+        head = (f"ep {spec.index:2d} {spec.start_manifold} -> {spec.target_manifold} (start "
+                f"{off:.1f} m from the nearest view): "
                 f"{info['reason']}, {steps} steps, final {info['distance']:.2f} m, ended in "
                 f"{pol.phase_}/{stage or '-'}, relocalised {pol.relocalised_}")  # fmt: skip
         if entry is not None:
@@ -80,6 +118,30 @@ def episodes(env, m, world, tier, lo, hi, config, trace_from):
                      f"{_fmt(entry[1])}")  # fmt: skip
         print(head, flush=True)
     print(f"successes {wins}/{len(specs)}")
+
+
+BINS = ((0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0), (5.0, np.inf))
+
+
+def by_start_distance(files, data, maps) -> None:
+    from servo.compare import load_results
+
+    for path in files:
+        for r in load_results(path, "FILE"):
+            m = load_or_build(r["world"], dataset=data, cache=maps)
+            near, won = [], []
+            for e in r["episodes_detail"]:
+                start = np.asarray(e.get("start_pose"), np.float64)
+                if start.shape != (3,) or not np.all(np.isfinite(start)):
+                    raise ValueError(f"FILE: episode {e['episode']} has no finite start_pose")
+                near.append(np.min(np.linalg.norm(m.true_poses[:, :2] - start[:2], axis=1)))
+                won.append(e["success"])
+            near, won = np.array(near), np.array(won)
+            cells = []
+            for lo, hi in BINS:
+                sel = (near >= lo) & (near < hi)
+                cells.append(f"{lo:g}-{hi:g} m: {int(won[sel].sum())}/{int(sel.sum())}")
+            print(f"{path} ({r['world']}, {r['tier']}): " + ", ".join(cells))
 
 
 def sight(env, m, views):
@@ -105,10 +167,19 @@ def main(argv=None):
     p.add_argument("episodes", nargs="?", default="0:24", help="LO:HI of the dev split")
     p.add_argument("--config", default="{}", help="SignalServoConfig fields as JSON")
     p.add_argument("--trace", type=int, default=None, metavar="FROM")
+    p.add_argument(
+        "--oracle-fix",
+        choices=["view", "pose"],
+        default=None,
+        help="a perfect global fix (diagnosis)",
+    )
+    p.add_argument("--by-start-distance", nargs="+", default=None, metavar="FILE")
     p.add_argument("--sight", default=None, metavar="VIEWS", help="comma-separated views")
     p.add_argument("--data", default="out/dataset")
     p.add_argument("--maps", default="out/servo-maps")
     a = p.parse_args(argv)
+    if a.by_start_distance:
+        return by_start_distance(a.by_start_distance, a.data, a.maps)
     m = load_or_build(a.world, dataset=a.data, cache=a.maps)
     env = ServoEnv(a.world, m, max_steps=600, odometry_noise=True)
     try:
@@ -117,7 +188,7 @@ def main(argv=None):
         else:
             lo, hi = (int(x) for x in a.episodes.split(":"))
             config = SignalServoConfig(**json.loads(a.config))
-            episodes(env, m, a.world, a.tier, lo, hi, config, a.trace)
+            episodes(env, m, a.world, a.tier, lo, hi, config, a.trace, a.oracle_fix)
     finally:
         env.close()
 
