@@ -35,7 +35,6 @@ import json
 
 import numpy as np
 
-import servo.signal_servo as signal_servo
 import sim  # noqa: F401  (the GL backend before mujoco)
 from common.geometry import se2_compose, se2_relative, wrap_angle
 from servo.env import ServoEnv
@@ -52,8 +51,10 @@ class _OracleFix:
     """Patches ``SignalServo``'s global fix with the truth (``--oracle-fix``)."""
 
     def __init__(self, pol: SignalServo, m, mode: str):
+        import servo.signal_servo as module  # here: ``sim`` chose the GL backend first
+
         self.m, self.truth, self.odo = m, None, None
-        signal_servo.contrast_fix = self.fix
+        module.contrast_fix = self.fix
         if mode == "pose" and pol.poses is not None:
             pol.poses.start = self.start
 
