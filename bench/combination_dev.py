@@ -45,6 +45,8 @@ class Captured:
     def __init__(self, scores, adjacent, leaves, y, n_clusters):
         self.M = scores.M[:, -1].copy()  # the top alpha, where ``spectral`` cuts
         self.sizes, self.n, self.K = scores.sizes.copy(), scores.n, n_clusters
+        self.omega = scores.omega  # eq. 9 of a group against the rest, from block sums
+        self._spectral: dict[int, np.ndarray] = {}  # sigma index -> the default's grouping
         self.adjacent = np.asarray(adjacent).reshape(-1, 2)
         labels = np.unique(y)
         self.counts = np.array([[np.sum(y[idx] == k) for k in labels] for idx in leaves], float)
@@ -70,17 +72,21 @@ class Captured:
                    integrality=np.ones(C * K), bounds=Bounds(0, 1))  # fmt: skip
         return 1.0 + res.fun / self.counts.sum()
 
+    def spectral(self, s: int) -> np.ndarray:
+        """``spectral_groups`` at grid sigma ``s``, computed once for all rules."""
+        if s not in self._spectral:
+            self._spectral[s] = spectral_groups(self.M[s], self.sizes, self.K)
+        return self._spectral[s]
+
     def omega_sum(self, s: int, groups: np.ndarray) -> float:
-        """The paper's score of a grouping: the sum of its groups' group-vs-rest eq. 9."""
+        """The paper's score of a grouping: the sum of its groups' group-vs-rest eq. 9, as
+        ``spectral_merge`` scores it."""
         member = np.eye(self.K)[groups]
         size = self.sizes @ member
         if np.any(size == 0):
             return -np.inf
         Mg = member.T @ self.M[s] @ member
-        within, rest = np.diag(Mg), self.n - size
-        e_w = 1.0 - within / size**2
-        e_b = 1.0 - (Mg.sum(axis=1) - within) / (size * np.maximum(rest, 1e-300))
-        return float(np.sum(np.minimum(size, rest) / self.n * (e_b - e_w)))
+        return float(self.omega(np.diag(Mg), Mg.sum(axis=1), size).sum())
 
     def minus_ncut(self, s: int, groups: np.ndarray) -> float:
         member = np.eye(self.K)[groups]
@@ -122,7 +128,7 @@ def _candidates(cap: Captured, s: int, extra: str) -> list[np.ndarray]:
     from sklearn.cluster import AgglomerativeClustering
     from sklearn.cluster._spectral import cluster_qr
 
-    out = [spectral_groups(cap.M[s], cap.sizes, cap.K)]
+    out = [cap.spectral(s)]
     if extra:
         W = np.maximum(cap.M[s], 0.0)
         _, vectors = eigh(W, np.diag(np.maximum(W.sum(axis=1), 1e-300)))

@@ -47,6 +47,11 @@ def _fmt(p) -> str:
     return "(" + ",".join(f"{v:+.2f}" for v in p) + ")"
 
 
+def _view_distances(m, pose) -> np.ndarray:
+    """Each stored view's true distance (m) from ``pose``'s position (truth: diagnosis)."""
+    return np.linalg.norm(m.true_poses[:, :2] - np.asarray(pose, np.float64)[:2], axis=1)
+
+
 class _OracleFix:
     """Patches ``SignalServo``'s global fix with the truth (``--oracle-fix``)."""
 
@@ -63,9 +68,8 @@ class _OracleFix:
         self.odo = np.asarray(obs["odometry"], np.float64)
 
     def fix(self, *args, **kwargs) -> tuple[int, float]:
-        views = self.m.true_poses
-        v = int(np.argmin(np.linalg.norm(views[:, :2] - self.truth[:2], axis=1)))
-        return v, float(views[v, 2] - self.truth[2] + self.odo[2])
+        v = int(np.argmin(_view_distances(self.m, self.truth)))
+        return v, float(self.m.true_poses[v, 2] - self.truth[2] + self.odo[2])
 
     def start(self, view, distances, path, odometry):
         return se2_compose(path.frames[0], se2_relative(self.m.true_poses[view], self.truth))
@@ -82,7 +86,7 @@ def episodes(env, m, world, tier, lo, hi, config, trace_from, oracle=None):
         target = np.asarray(info["target_pose"])
         pol.reset(info["target_view"], info)
         steps, arrive_at, entry, relocs, last = 0, None, None, 0, None
-        off = np.min(np.linalg.norm(m.true_poses[:, :2] - np.asarray(info["pose"])[:2], axis=1))
+        off = _view_distances(m, info["pose"]).min()
         while True:
             if oracle is not None:
                 oracle.see(info, obs)
@@ -135,7 +139,7 @@ def by_start_distance(files, data, maps) -> None:
                 start = np.asarray(e.get("start_pose"), np.float64)
                 if start.shape != (3,) or not np.all(np.isfinite(start)):
                     raise ValueError(f"FILE: episode {e['episode']} has no finite start_pose")
-                near.append(np.min(np.linalg.norm(m.true_poses[:, :2] - start[:2], axis=1)))
+                near.append(_view_distances(m, start).min())
                 won.append(e["success"])
             near, won = np.array(near), np.array(won)
             cells = []
