@@ -28,7 +28,6 @@ import scipy.sparse as sp
 from mapping._manifold_geometry import (
     GraphGeometry,
     as_geometry,
-    combination_sigmas,
     sigma_grid,
 )
 from mapping._manifold_kernel import alpha_from_t
@@ -128,12 +127,9 @@ class GroupScores:
     def __init__(self, geometry, leaves: list[np.ndarray], space: SearchSpace):
         n = geometry.size
         lo, hi = geometry.sigma_bounds()
-        split_grid: set[float] = set()
         if isinstance(geometry, GraphGeometry):
-            # the dense path's count of sigmas, holding the split search's to the last bit,
-            # so the root's bases are reused here and only the others are computed
-            self.sigmas = combination_sigmas(lo, hi, space.n_sigmas)
-            split_grid = set(sigma_grid(lo, hi, geometry.search_space(space).n_sigmas)[1])
+            # the split search's grid to the last bit, so the root's bases are reused here
+            self.sigmas = np.array(sigma_grid(lo, hi, geometry.search_space(space).n_sigmas)[1])
         else:
             self.sigmas = np.geomspace(lo, hi, geometry.search_space(space).n_sigmas)
         ts = space.t_grid()
@@ -146,7 +142,7 @@ class GroupScores:
             member = sp.csr_matrix(member)  # one leaf per point: O(n), not O(n C), per alpha
         mats = []
         for sigma in self.sigmas:
-            basis = geometry.basis(float(sigma), keep=float(sigma) in split_grid)
+            basis = geometry.basis(float(sigma))
             g = basis.gains(self.alphas)
             inv_nu = 1.0 / basis.column_norms(g)
             per_alpha = [basis.group_gram(g, a, member, inv_nu[:, a]) for a in range(len(ts))]

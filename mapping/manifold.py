@@ -98,7 +98,8 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
     kernel : {"auto", "dense", "sparse"}, default "auto"
         "dense": the exact n x n kernel. "sparse": affinities on a symmetrised k-NN graph and,
         per node above ``4 * n_components`` points, the top eigenpairs of S with the rest of
-        the spectrum at its mean (``mapping._manifold_lowrank``), a 6-sigma search per split,
+        the spectrum at its mean (``mapping._manifold_lowrank``), a search per split over the
+        same ``n_sigmas`` grid without Brent's refinement of sigma,
         and eq. 13 on each cluster's graph (``mapping._manifold_graph_model``). "auto": dense
         up to 1000 samples (docs/manifold-clustering.md, "Scaling").
     n_neighbors : int, default 10

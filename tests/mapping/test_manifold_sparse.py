@@ -9,7 +9,7 @@ from scipy.sparse.csgraph import connected_components
 from sklearn.neighbors import NearestNeighbors
 
 from mapping import persistence
-from mapping._manifold_geometry import GraphGeometry, combination_sigmas, knn_edges
+from mapping._manifold_geometry import GraphGeometry, knn_edges
 from mapping._manifold_graph_model import GraphClusterModel
 from mapping._manifold_kernel import SpectralBasis, unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
@@ -217,26 +217,22 @@ def test_shared_kernel_merge_joins_the_pieces_of_each_line():
     assert sorted(map(sorted, groups)) == [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]
 
 
-def test_graph_combination_searches_the_dense_count_of_sigmas_and_keeps_the_split_bases(lines):
-    # The combination on the graph searches as many sigmas as the dense path (16), with the
-    # split's coarse grid among them to the last bit: the root's bases are reused, and the
-    # other sigmas' bases are not kept (memory stays O(COARSE_SIGMAS m r)).
+def test_graph_search_uses_the_dense_grid_without_sigma_refinement_and_reuses_its_bases(lines):
+    # A graph node searches the dense path's n_sigmas grid, refining alpha but not sigma; the
+    # combination uses that grid to the last bit, so the root's bases are computed once
+    # (memory O(n_sigmas m r)) and every sigma the combination asks for is one of them.
     X, _ = lines
     geo = GraphGeometry(X, knn_edges(X, 10), np.arange(X.shape[0]), rank=16, dense_below=64)
-    space = SearchSpace()
+    space = SearchSpace(n_sigmas=9)
+    assert geo.search_space(space).n_sigmas == 9 and not geo.search_space(space).refine_sigma
+    assert geo.search_space(space).refine
     lo, hi = geo.sigma_bounds()
-    n_split = geo.search_space(space).n_sigmas
-    split = [float(np.exp(v)) for v in np.linspace(np.log(lo), np.log(hi), n_split)]
+    split = [float(np.exp(v)) for v in np.linspace(np.log(lo), np.log(hi), 9)]
     kept = {sigma: geo.basis(sigma) for sigma in split}
     scores = GroupScores(geo, [np.arange(150), np.arange(150, X.shape[0])], space)
-    assert scores.sigmas.shape == (space.n_sigmas,) and n_split < space.n_sigmas
-    assert set(split) <= set(scores.sigmas.tolist())
-    assert np.all(np.diff(scores.sigmas) > 0)
+    assert scores.sigmas.tolist() == split
     assert all(geo.basis(sigma) is kept[sigma] for sigma in split)
     assert set(geo._bases) == set(split)
-    # a count whose grid does not hold the coarse one: both grids, each point once
-    ten = combination_sigmas(lo, hi, 10)
-    assert ten.shape == (10 + n_split - 2,) and set(split) <= set(ten.tolist())
 
 
 def test_graph_fit_round_trips_through_persistence():
