@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +38,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import mapping._manifold_geometry as geometry
 import mapping._manifold_split as split_module
-import mapping._manifold_tree as tree
 from bench.bench_manifold import _image_split, add_tie_option
 from mapping._manifold_geometry import DenseGeometry, training_geometry
 from mapping._manifold_split import best_split
@@ -57,10 +57,9 @@ def _full_sub(self, idx):
     return self.node(idx)
 
 
-def _coarse_combination(lo, hi, n_sigmas):
-    """The combination's grid before issue 15's second round: the split's coarse grid."""
-    logs = np.linspace(np.log(lo), np.log(hi), min(n_sigmas, geometry.COARSE_SIGMAS))
-    return np.array([float(np.exp(v)) for v in logs])
+def _six_sigmas(space):
+    """The graph path's split search before session 21: 6 sigmas (the combination keeps 16)."""
+    return replace(space, n_sigmas=min(space.n_sigmas, 6), refine_sigma=False)
 
 
 def _capped_bounds(self):
@@ -73,26 +72,21 @@ def _capped_bounds(self):
 
 
 _GRAPH_BOUNDS = geometry.GraphGeometry.sigma_bounds
-_BEFORE = [(tree, "combination_sigmas", _coarse_combination)]  # the 6-sigma combination
 _SPARSE = {"kernel": "sparse"}
-# name -> (ManifoldClustering settings, patches as (object, attribute, value))
+# name -> (ManifoldClustering settings, patches as (object, attribute, value)). The rows of the
+# tables before session 21 (a 6-sigma split search, some with a 6-sigma combination) were
+# measured with this file at commit 69b317b, where their names meant that base.
 SETTINGS = {
     "dense": ({"kernel": "dense"}, []),
-    "graph, before (6-sigma combination)": (_SPARSE, _BEFORE),
-    "graph, combination over 16 sigmas (adopted)": (_SPARSE, []),
-    "graph, 16 sigmas in every split too": (_SPARSE, [(geometry, "COARSE_SIGMAS", 16)]),
-    "graph, dense sub-nodes searched fully, 6-sigma combination": (
-        _SPARSE, [*_BEFORE, (geometry.GraphGeometry, "sub", _full_sub)]),
+    "graph": (_SPARSE, []),
+    "graph, 6 sigmas per split (before session 21)": (
+        _SPARSE, [(geometry, "coarse_space", _six_sigmas)]),
     "graph, dense sub-nodes searched fully": (
         _SPARSE, [(geometry.GraphGeometry, "sub", _full_sub)]),
-    "graph, n_neighbors = Q = 35, 6-sigma combination": (
-        {**_SPARSE, "n_neighbors": 35}, _BEFORE),
-    "graph, n_neighbors = 35, sub-nodes searched fully, 6-sigma combination": (
-        {**_SPARSE, "n_neighbors": 35}, [*_BEFORE, (geometry.GraphGeometry, "sub", _full_sub)]),
-    "graph, sigma capped at the median longest edge, 6-sigma combination": (
-        _SPARSE, [*_BEFORE, (geometry.GraphGeometry, "sigma_bounds", _capped_bounds)]),
-    "graph, n_components = 32, 6-sigma combination": (
-        {**_SPARSE, "n_components": 32}, _BEFORE),
+    "graph, n_neighbors = Q = 35": ({**_SPARSE, "n_neighbors": 35}, []),
+    "graph, sigma capped at the median longest edge": (
+        _SPARSE, [(geometry.GraphGeometry, "sigma_bounds", _capped_bounds)]),
+    "graph, n_components = 32": ({**_SPARSE, "n_components": 32}, []),
 }  # fmt: skip
 
 

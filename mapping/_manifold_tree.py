@@ -129,9 +129,9 @@ class GroupScores:
         lo, hi = geometry.sigma_bounds()
         if isinstance(geometry, GraphGeometry):
             # the split search's grid to the last bit, so the root's bases are reused here
-            self.sigmas = np.array(sigma_grid(lo, hi, geometry.search_space(space).n_sigmas)[1])
+            self.sigmas = np.array(sigma_grid(lo, hi, space.n_sigmas)[1])
         else:
-            self.sigmas = np.geomspace(lo, hi, geometry.search_space(space).n_sigmas)
+            self.sigmas = np.geomspace(lo, hi, space.n_sigmas)
         ts = space.t_grid()
         self.alphas = alpha_from_t(ts)
         member = np.zeros((n, len(leaves)))
