@@ -57,23 +57,21 @@ def _top_eigenpairs(block: sp.csr_matrix, k: int) -> tuple[np.ndarray, np.ndarra
     size = block.shape[0]
     v0 = 1.5 + np.cos(0.618 * np.arange(size))
     A = block.tocsc()
-    try:
+    for ncv in (k + 16, 2 * (k + 16)):
         try:
-            return eigsh(A, k=k, sigma=_SHIFT, which="LM", tol=1e-8, v0=v0,
-                         ncv=min(size, k + 16))  # fmt: skip
-        except ArpackNoConvergence:
-            raise
-        except ArpackError:
-            return eigsh(A, k=k, sigma=_SHIFT, which="LM", tol=1e-8, v0=v0,
-                         ncv=min(size, 2 * (k + 16)))  # fmt: skip
-    except ArpackError as err:
-        if size <= _DENSE_FALLBACK:
-            lam, q = eigh(block.toarray())
-            return lam[-k:], q[:, -k:]
-        found = getattr(err, "eigenvalues", np.zeros(0))
-        if not found.size:
-            raise RuntimeError(f"ARPACK found no eigenpair of a {size}-point component") from err
-        return found, err.eigenvectors
+            return eigsh(A, k=k, sigma=_SHIFT, which="LM", tol=1e-8, v0=v0, ncv=min(size, ncv))
+        except ArpackNoConvergence as err:
+            failure = err
+            break  # a larger space is for a failed restart, not slow convergence
+        except ArpackError as err:
+            failure = err
+    if size <= _DENSE_FALLBACK:
+        lam, q = eigh(block.toarray())
+        return lam[-k:], q[:, -k:]
+    found = getattr(failure, "eigenvalues", np.zeros(0))
+    if not found.size:
+        raise RuntimeError(f"ARPACK found no eigenpair of a {size}-point component") from failure
+    return found, failure.eigenvectors
 
 
 @dataclass(frozen=True)
