@@ -8,7 +8,8 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
 * fit time for n = 300, 600, 1200, 2400 (d = 2000) beside sklearn's SpectralClustering.
 
 ``--scale [N ...]`` prints fit time against n (300 ... 10,000 by default) beside sklearn's
-SpectralClustering as a ratio, with both clustering errors (issue 15 item 1).
+SpectralClustering as a ratio, with both clustering errors (issue 15 item 1); ``--n-jobs J``
+adds the graph fits with ``ManifoldClustering(n_jobs=J)``.
 
 ``--memory N [N ...]`` prints the peak of numpy's allocations during one such fit.
 
@@ -35,6 +36,7 @@ each a trunk followed by three branches leaving its end at different speeds.
 from __future__ import annotations
 
 import argparse
+import importlib
 import itertools
 import os
 import sys
@@ -144,12 +146,21 @@ def timings(quick: bool, one_view: bool = False) -> None:
         print(f"| {n} | {ours:.2f} s | {theirs:.2f} s |")
 
 
-def scaling(sizes: list[int], dense_up_to: int) -> None:
+def scaling(sizes: list[int], dense_up_to: int, n_jobs: int = 0) -> None:
     """Fit time against n (d = 2000, K = 8, Q = min(35, n / 16)) beside scikit-learn's
     SpectralClustering on the same data, with the clustering error of each against the true
     sequences; ``kernel="auto"`` (dense up to 1000 points, the k-NN graph above), and the exact
-    dense path as well up to ``dense_up_to`` points."""
+    dense path as well up to ``dense_up_to`` points. With ``n_jobs``, the graph fits again
+    with ``n_jobs`` worker processes, started before the first timing (a fresh process's
+    first parallel fit also pays their start and imports, ~1.5 s on 2 cores); the CPU
+    seconds are then the parent's only."""
+    from joblib import Parallel, delayed
     from sklearn.cluster import SpectralClustering
+
+    if n_jobs:  # start the workers and import the search there, as a second fit finds them
+        Parallel(n_jobs=n_jobs)(
+            delayed(importlib.import_module)("mapping._manifold_split") for _ in range(n_jobs)
+        )
 
     print(f"os.cpu_count() = {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
     # CPU seconds (all threads of the process) beside the wall time: on a shared machine the
@@ -166,11 +177,14 @@ def scaling(sizes: list[int], dense_up_to: int) -> None:
         err_sk = clustering_error(y, sk.labels_)
         kernels = ["auto"] + (["dense"] if n <= dense_up_to and n > 1000 else [])
         kernels += ["sparse"] if n <= 1000 else []
-        for kernel in kernels:
-            model = ManifoldClustering(8, q, kernel=kernel)
+        runs = [(kernel, None) for kernel in kernels]
+        runs += [("auto", n_jobs)] if n_jobs and n > 1000 else []
+        for kernel, jobs in runs:
+            model = ManifoldClustering(8, q, kernel=kernel, n_jobs=jobs)
             ours, ours_cpu = _wall_and_cpu(lambda X=X, model=model: model.fit(X))
+            label = kernel if jobs is None else f"{kernel}, n_jobs={jobs}"
             print(
-                f"| {n} | {kernel} | {ours:.2f} s ({ours_cpu:.2f} s) | "
+                f"| {n} | {label} | {ours:.2f} s ({ours_cpu:.2f} s) | "
                 f"{clustering_error(y, model.labels_):.3f} | {theirs:.2f} s ({theirs_cpu:.2f} s) "
                 f"| {err_sk:.3f} | {ours / theirs:.1f} |",
                 flush=True,
@@ -406,6 +420,9 @@ def main() -> None:
         "--pooled", metavar="ROOT", help="dense against 'auto' on several seeds' frames pooled"
     )
     parser.add_argument("--pool", type=int, default=3, help="with --pooled: seeds per pool")
+    parser.add_argument(
+        "--n-jobs", type=int, default=0, help="with --scale: also the graph fits with n_jobs"
+    )
     add_tie_option(parser)
     args = parser.parse_args()
     split_module.TIE = args.tie
@@ -419,7 +436,9 @@ def main() -> None:
     elif args.sparse_accuracy is not None:
         sparse_accuracy(args.sparse_accuracy or None)
     elif args.scale is not None:
-        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to)
+        scaling(
+            args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to, args.n_jobs
+        )
     else:
         experiments() if args.experiments else timings(args.quick, args.one_view)
 

@@ -87,6 +87,8 @@ SETTINGS = {
     "graph, sigma capped at the median longest edge": (
         _SPARSE, [(geometry.GraphGeometry, "sigma_bounds", _capped_bounds)]),
     "graph, n_components = 32": ({**_SPARSE, "n_components": 32}, []),
+    "graph, n_components = 128": ({**_SPARSE, "n_components": 128}, []),
+    "graph, n_components = 225": ({**_SPARSE, "n_components": 225}, []),
 }  # fmt: skip
 
 

@@ -15,9 +15,11 @@ from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
+from joblib import Parallel, delayed, effective_n_jobs
 
 from mapping._manifold_kernel import SpectralBasis, outlier_vector, unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
+from mapping._validation import single_threaded_blas
 from mapping.distances import squared_distances
 
 # Values of ManifoldClustering's ``kernel``; "auto" takes the k-NN graph above this many
@@ -102,6 +104,10 @@ class DenseGeometry:
     def sigma_bounds(self) -> tuple[float, float]:
         return sigma_bounds(self.sq_dist)
 
+    def portable(self) -> DenseGeometry:
+        """This node as sent to a worker process for its split: as it is (m x m)."""
+        return self
+
     def block(self, idx: np.ndarray) -> np.ndarray:
         """Squared distances among the points ``idx`` (for eq. 13's cluster models)."""
         return self.sq_dist[np.ix_(idx, idx)]
@@ -174,11 +180,15 @@ class GraphGeometry:
         Sub-nodes of at most this many points use the exact dense path.
     n_neighbors : int
         k of the graph (the neighbours a new point is joined to by eq. 13's graph models).
+    n_jobs : int or None
+        Processes that compute a node's eigenbases (:meth:`prefetch`; joblib's meaning).
     """
 
-    def __init__(self, X, edges, indices, rank: int, dense_below: int, n_neighbors: int = 10):
+    def __init__(self, X, edges, indices, rank: int, dense_below: int, n_neighbors: int = 10,
+                 n_jobs: int | None = None):  # fmt: skip
         self.X, self.edges, self.indices = X, edges, indices
         self.rank, self.dense_below, self.n_neighbors = rank, dense_below, n_neighbors
+        self.n_jobs = n_jobs
         self._bases: dict[float, LowRankBasis] = {}
 
     @property
@@ -199,8 +209,9 @@ class GraphGeometry:
             return self  # the root: its bases serve the split, the combination and eq. 10
         edges = self.edges[idx][:, idx].tocsr()
         return GraphGeometry(
-            self.X, edges, self.indices[idx], self.rank, self.dense_below, self.n_neighbors
-        )
+            self.X, edges, self.indices[idx], self.rank, self.dense_below, self.n_neighbors,
+            self.n_jobs,
+        )  # fmt: skip
 
     def basis(self, sigma: float) -> LowRankBasis:
         """The low-rank basis of S at sigma, kept (O(n_sigmas m r): the search asks only for
@@ -209,6 +220,34 @@ class GraphGeometry:
         if sigma not in self._bases:
             self._bases[sigma] = LowRankBasis.from_edges(self.edges, sigma, self.rank)
         return self._bases[sigma]
+
+    def prefetch(self, sigmas) -> None:
+        """Compute the bases at ``sigmas`` not kept yet in ``n_jobs`` processes at once.
+
+        The split search needs its whole grid (:func:`coarse_space`), and each sigma is one
+        independent eigensolve, 60-80 % of a graph fit's time (ARPACK holds the GIL, so
+        threads do not help). Each process runs BLAS on one thread, as ``fit`` does, so the
+        bases, and the fit, do not depend on ``n_jobs``. With one job this does nothing:
+        :meth:`basis` computes each sigma when it is asked for.
+        """
+        missing = [s for s in sigmas if s not in self._bases]
+        if len(missing) < 2 or effective_n_jobs(self.n_jobs) < 2:
+            return
+        found = Parallel(n_jobs=self.n_jobs)(
+            delayed(_basis_on_one_thread)(self.edges, s, self.rank) for s in missing
+        )
+        self._bases.update(zip(missing, found, strict=True))
+
+    def portable(self) -> GraphGeometry:
+        """This node as sent to a worker process for its split, which needs only the graph:
+        without the training points (n x d) and on one job. Where no edge has a positive
+        length, sigma's bounds come from the points' distances; then their rows go along."""
+        E = self.edges
+        if E.data.size and E.data.max() > 0:
+            X, indices = None, self.indices
+        else:
+            X, indices = self.X[self.indices], np.arange(self.size)
+        return GraphGeometry(X, E, indices, self.rank, self.dense_below, self.n_neighbors, 1)
 
     def search_space(self, space):
         """The (sigma, alpha) search of a graph node: :func:`coarse_space`."""
@@ -244,14 +283,21 @@ class GraphGeometry:
         return out
 
 
+def _basis_on_one_thread(edges: sp.csr_matrix, sigma: float, rank: int) -> LowRankBasis:
+    """:meth:`LowRankBasis.from_edges` in a worker process, BLAS on one thread as in ``fit``."""
+    with single_threaded_blas():
+        return LowRankBasis.from_edges(edges, sigma, rank)
+
+
 def training_geometry(
-    X: np.ndarray, kernel: str, n_neighbors: int, n_components: int
+    X: np.ndarray, kernel: str, n_neighbors: int, n_components: int, n_jobs: int | None = None
 ) -> DenseGeometry | GraphGeometry:
     """The geometry of all training points for ``ManifoldClustering(kernel=...)``.
 
     Dense: squared distances once, in float64 after centring (a float32 Gram matrix loses
     near-duplicate images entirely); every node and every sigma reuses blocks of it. Sparse:
-    the k-NN graph, and nodes of at most ``4 n_components`` points dense.
+    the k-NN graph, and nodes of at most ``4 n_components`` points dense; ``n_jobs``
+    processes compute each graph node's eigenbases (:meth:`GraphGeometry.prefetch`).
     """
     n = X.shape[0]
     if kernel == "sparse" or (kernel == "auto" and n > AUTO_SPARSE_ABOVE):
@@ -259,7 +305,7 @@ def training_geometry(
             raise ValueError("X: all samples are identical; there is nothing to cluster")
         rank = int(n_components)
         k = min(int(n_neighbors), n - 1)
-        return GraphGeometry(X, knn_edges(X, k), np.arange(n), rank, 4 * rank, k)
+        return GraphGeometry(X, knn_edges(X, k), np.arange(n), rank, 4 * rank, k, n_jobs)
     D2 = squared_distances(X)
     if not D2.max() > 0:
         raise ValueError("X: all samples are identical; there is nothing to cluster")

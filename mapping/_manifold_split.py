@@ -22,10 +22,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from joblib import Parallel, delayed, effective_n_jobs
 from scipy.optimize import minimize_scalar
 
 from mapping._manifold_geometry import DenseGeometry, GraphGeometry, as_geometry, sigma_grid
 from mapping._manifold_kernel import SpectralBasis, alpha_from_t, unit_outliers
+from mapping._validation import single_threaded_blas
 
 # Sign of eq. 9 (see docs/manifold-clustering.md): "corrected" scores E[D^12] - E[D^11]
 # (between-cluster spread minus within-cluster-1 spread); "printed" is the formula as typeset.
@@ -196,6 +198,9 @@ class _NodeSearch:
         space = self.space
         lo, hi = self.geometry.sigma_bounds()
         log_sigmas, sigmas = sigma_grid(lo, hi, space.n_sigmas)
+        prefetch = getattr(self.geometry, "prefetch", None)
+        if prefetch is not None:  # a graph node: its grid's eigensolves, in parallel
+            prefetch(sigmas)
         ts = space.t_grid()
         grid = np.array([self.scores(sigma, ts)[0] for sigma in sigmas])
         i, j = np.unravel_index(np.argmax(grid), grid.shape)
@@ -269,3 +274,24 @@ def best_split(
         Omega, sigma, alpha, the seeds (node-local) and the membership of p1.
     """
     return _NodeSearch(as_geometry(sq_dist), min_size, space).run()
+
+
+def best_splits(nodes: list, min_size: int, space: SearchSpace, n_jobs: int | None = None):
+    """:func:`best_split` of each node (a geometry), the nodes spread over ``n_jobs``
+    processes (joblib's meaning; None: 1).
+
+    A single node is searched here, its grid's eigensolves spread over the processes instead
+    (:meth:`~mapping._manifold_geometry.GraphGeometry.prefetch`): the root's bases stay with
+    it for the combination and eq. 10. Each process runs BLAS on one thread, as ``fit``
+    does, so the splits do not depend on ``n_jobs``.
+    """
+    if len(nodes) < 2 or effective_n_jobs(n_jobs) < 2:
+        return [best_split(node, min_size, space) for node in nodes]
+    return Parallel(n_jobs=n_jobs)(
+        delayed(_split_on_one_thread)(node.portable(), min_size, space) for node in nodes
+    )
+
+
+def _split_on_one_thread(node, min_size: int, space: SearchSpace) -> Split:
+    with single_threaded_blas():
+        return best_split(node, min_size, space)

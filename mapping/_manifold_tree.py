@@ -32,7 +32,7 @@ from mapping._manifold_geometry import (
 )
 from mapping._manifold_kernel import alpha_from_t
 from mapping._manifold_spectral_combine import spectral_merge
-from mapping._manifold_split import SearchSpace, best_split
+from mapping._manifold_split import SearchSpace, Split, best_split, best_splits
 from mapping.split_tree import SplitNode
 
 # Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "spectral" (the
@@ -68,26 +68,32 @@ class ManifoldNode(SplitNode):
     seeds: tuple[int, int] | None = None
 
 
-def build_tree(sq_dist, min_size: int, space: SearchSpace) -> ManifoldNode:
+def build_tree(sq_dist, min_size: int, space: SearchSpace, n_jobs: int | None = None):
     """Bisect recursively until every leaf is smaller than ``2 * min_size`` (Section II-C).
 
     ``sq_dist``: the (n, n) squared distances or a geometry (``mapping._manifold_geometry``).
+    Level by level: the nodes of one depth are independent, and ``n_jobs`` processes search
+    them at once (:func:`~mapping._manifold_split.best_splits`); the tree is the same for any
+    ``n_jobs``.
     """
-    sq_dist = as_geometry(sq_dist)
-    root = ManifoldNode(np.arange(sq_dist.size))
-    stack = [root]
-    while stack:
-        node = stack.pop()
-        if node.indices.shape[0] < 2 * min_size:
-            continue
-        _split(node, sq_dist, min_size, space)
-        stack.extend(node.children)
+    geometry = as_geometry(sq_dist)
+    root = ManifoldNode(np.arange(geometry.size))
+    level = [root]
+    while level:
+        todo = [node for node in level if node.indices.shape[0] >= 2 * min_size]
+        nodes = [geometry.sub(node.indices) for node in todo]
+        for node, split in zip(todo, best_splits(nodes, min_size, space, n_jobs), strict=True):
+            _apply(node, split)
+        level = [child for node in todo for child in node.children]
     return root
 
 
 def _split(node: ManifoldNode, geometry, min_size: int, space: SearchSpace) -> None:
+    _apply(node, best_split(geometry.sub(node.indices), min_size, space))
+
+
+def _apply(node: ManifoldNode, split: Split) -> None:
     idx = node.indices
-    split = best_split(geometry.sub(idx), min_size, space)
     node.omega, node.sigma, node.alpha = split.omega, split.sigma, split.alpha
     node.seeds = (int(idx[split.seeds[0]]), int(idx[split.seeds[1]]))
     node.children = (ManifoldNode(idx[split.in_first]), ManifoldNode(idx[~split.in_first]))

@@ -62,7 +62,8 @@ def _jsonable(value):
 
 # Parameters added after files of a class were first saved (name -> those parameters).
 _ADDED_LATER: dict[str, set[str]] = {
-    "ManifoldClustering": {"kernel", "n_neighbors", "n_components"},  # issue 15 item 1
+    # issue 15 item 1 (n_jobs: session 22)
+    "ManifoldClustering": {"kernel", "n_neighbors", "n_components", "n_jobs"},
 }
 
 
