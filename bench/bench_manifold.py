@@ -436,9 +436,7 @@ def main() -> None:
     elif args.sparse_accuracy is not None:
         sparse_accuracy(args.sparse_accuracy or None)
     elif args.scale is not None:
-        scaling(
-            args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to, args.n_jobs
-        )
+        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to, args.n_jobs)
     else:
         experiments() if args.experiments else timings(args.quick, args.one_view)
 
