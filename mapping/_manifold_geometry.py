@@ -225,10 +225,10 @@ class GraphGeometry:
         """Compute the bases at ``sigmas`` not kept yet in ``n_jobs`` processes at once.
 
         The split search needs its whole grid (:func:`coarse_space`), and each sigma is one
-        independent eigensolve, 60-80 % of a graph fit's time (ARPACK holds the GIL, so
-        threads do not help). Each process runs BLAS on one thread, as ``fit`` does, so the
-        bases, and the fit, do not depend on ``n_jobs``. With one job this does nothing:
-        :meth:`basis` computes each sigma when it is asked for.
+        independent eigensolve; together they are half to two thirds of a graph fit's time
+        (ARPACK holds the GIL, so threads do not help). Each process runs BLAS on one thread,
+        as ``fit`` does, so the bases, and the fit, do not depend on ``n_jobs``. With one job
+        this does nothing: :meth:`basis` computes each sigma when it is asked for.
         """
         missing = [s for s in sigmas if s not in self._bases]
         if len(missing) < 2 or effective_n_jobs(self.n_jobs) < 2:

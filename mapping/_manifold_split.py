@@ -278,7 +278,7 @@ def best_split(
 
 def best_splits(nodes: list, min_size: int, space: SearchSpace, n_jobs: int | None = None):
     """:func:`best_split` of each node (a geometry), the nodes spread over ``n_jobs``
-    processes (joblib's meaning; None: 1).
+    processes (joblib's meaning: None is one unless inside ``joblib.parallel_config``).
 
     A single node is searched here, its grid's eigensolves spread over the processes instead
     (:meth:`~mapping._manifold_geometry.GraphGeometry.prefetch`): the root's bases stay with
