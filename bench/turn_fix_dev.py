@@ -66,8 +66,8 @@ class Descriptors:
 
     def __init__(self, m):
         self.loc = ImageLocaliser(m)
-        self.views = self.loc._images(m.features)
-        self.refs = {name: self._unit(self._prepare(self.views, *how))
+        views = self.loc._images(m.features)
+        self.refs = {name: self.loc._crops(self._prepare(views, *how), 0)
                      for name, how in DESCRIPTORS.items()}  # fmt: skip
 
     def _prepare(self, images: np.ndarray, blur: float, band: str | None) -> np.ndarray:
@@ -76,9 +76,6 @@ class Descriptors:
         if blur > 0:
             images = np.stack([cv2.GaussianBlur(im, (0, 0), blur) for im in images])
         return images if images.ndim == 4 else images[..., None]
-
-    def _unit(self, images: np.ndarray) -> np.ndarray:
-        return self.loc._crops(images, 0)
 
     def align(self, x: np.ndarray, name: str, step: int = 2) -> tuple[np.ndarray, np.ndarray]:
         image = self._prepare(self.loc._images(np.asarray(x)[None]), *DESCRIPTORS[name])[0]

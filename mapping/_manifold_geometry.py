@@ -19,7 +19,7 @@ from joblib import Parallel, delayed, effective_n_jobs
 
 from mapping._manifold_kernel import SpectralBasis, outlier_vector, unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
-from mapping._validation import single_threaded_blas
+from mapping._validation import on_one_blas_thread
 from mapping.distances import squared_distances
 
 # Values of ManifoldClustering's ``kernel``; "auto" takes the k-NN graph above this many
@@ -103,6 +103,10 @@ class DenseGeometry:
 
     def sigma_bounds(self) -> tuple[float, float]:
         return sigma_bounds(self.sq_dist)
+
+    def prefetch(self, sigmas) -> None:
+        """Nothing: a dense node's bases are exact ``eigh`` calls its search makes as it goes
+        (with Brent's refinement of sigma, not only a grid)."""
 
     def portable(self) -> DenseGeometry:
         """This node as sent to a worker process for its split: as it is (m x m)."""
@@ -234,7 +238,8 @@ class GraphGeometry:
         if len(missing) < 2 or effective_n_jobs(self.n_jobs) < 2:
             return
         found = Parallel(n_jobs=self.n_jobs)(
-            delayed(_basis_on_one_thread)(self.edges, s, self.rank) for s in missing
+            delayed(on_one_blas_thread)(LowRankBasis.from_edges, self.edges, s, self.rank)
+            for s in missing
         )
         self._bases.update(zip(missing, found, strict=True))
 
@@ -281,12 +286,6 @@ class GraphGeometry:
             nearest = E.indices[start:stop][np.argsort(E.data[start:stop], kind="stable")[:k]]
             out[i, : nearest.shape[0]] = nearest
         return out
-
-
-def _basis_on_one_thread(edges: sp.csr_matrix, sigma: float, rank: int) -> LowRankBasis:
-    """:meth:`LowRankBasis.from_edges` in a worker process, BLAS on one thread as in ``fit``."""
-    with single_threaded_blas():
-        return LowRankBasis.from_edges(edges, sigma, rank)
 
 
 def training_geometry(

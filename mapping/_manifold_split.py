@@ -27,7 +27,7 @@ from scipy.optimize import minimize_scalar
 
 from mapping._manifold_geometry import DenseGeometry, GraphGeometry, as_geometry, sigma_grid
 from mapping._manifold_kernel import SpectralBasis, alpha_from_t, unit_outliers
-from mapping._validation import single_threaded_blas
+from mapping._validation import on_one_blas_thread
 
 # Sign of eq. 9 (see docs/manifold-clustering.md): "corrected" scores E[D^12] - E[D^11]
 # (between-cluster spread minus within-cluster-1 spread); "printed" is the formula as typeset.
@@ -198,9 +198,7 @@ class _NodeSearch:
         space = self.space
         lo, hi = self.geometry.sigma_bounds()
         log_sigmas, sigmas = sigma_grid(lo, hi, space.n_sigmas)
-        prefetch = getattr(self.geometry, "prefetch", None)
-        if prefetch is not None:  # a graph node: its grid's eigensolves, in parallel
-            prefetch(sigmas)
+        self.geometry.prefetch(sigmas)  # a graph node: its grid's eigensolves, in parallel
         ts = space.t_grid()
         grid = np.array([self.scores(sigma, ts)[0] for sigma in sigmas])
         i, j = np.unravel_index(np.argmax(grid), grid.shape)
@@ -288,10 +286,5 @@ def best_splits(nodes: list, min_size: int, space: SearchSpace, n_jobs: int | No
     if len(nodes) < 2 or effective_n_jobs(n_jobs) < 2:
         return [best_split(node, min_size, space) for node in nodes]
     return Parallel(n_jobs=n_jobs)(
-        delayed(_split_on_one_thread)(node.portable(), min_size, space) for node in nodes
+        delayed(on_one_blas_thread)(best_split, node.portable(), min_size, space) for node in nodes
     )
-
-
-def _split_on_one_thread(node, min_size: int, space: SearchSpace) -> Split:
-    with single_threaded_blas():
-        return best_split(node, min_size, space)

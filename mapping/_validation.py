@@ -60,6 +60,14 @@ def single_threaded_blas() -> _OneBlasThread:
     return _OneBlasThread()
 
 
+def on_one_blas_thread(fn, *args):
+    """``fn(*args)`` under :func:`single_threaded_blas`: what a worker process of a parallel
+    fit runs, so that its result is the one the fit computes in the parent (which holds the
+    same context), to the bit."""
+    with single_threaded_blas():
+        return fn(*args)
+
+
 def busy() -> bool:
     """Whether the machine has no core to spare: the 1-minute load average at least the cores
     less half a core. A second OpenBLAS thread then spin-waits for a descheduled partner (a
