@@ -104,6 +104,11 @@ class DenseGeometry:
     def sigma_bounds(self) -> tuple[float, float]:
         return sigma_bounds(self.sq_dist)
 
+    def has_extent(self) -> bool:
+        """Whether any two of the node's points differ (a node of copies of one point, say a
+        robot standing still, has no sigma to search and stays a leaf)."""
+        return bool(self.sq_dist.max() > 0)
+
     def prefetch(self, sigmas) -> None:
         """Nothing: a dense node's bases are exact ``eigh`` calls its search makes as it goes
         (with Brent's refinement of sigma, not only a grid)."""
@@ -253,6 +258,13 @@ class GraphGeometry:
         else:
             X, indices = self.X[self.indices], np.arange(self.size)
         return GraphGeometry(X, E, indices, self.rank, self.dense_below, self.n_neighbors, 1)
+
+    def has_extent(self) -> bool:
+        """As :meth:`DenseGeometry.has_extent`; a positive edge decides it without the points."""
+        E = self.edges
+        if E.data.size and E.data.max() > 0:
+            return True
+        return bool(self.X is not None and np.ptp(self.X[self.indices], axis=0).max() > 0)
 
     def search_space(self, space):
         """The (sigma, alpha) search of a graph node: :func:`coarse_space`."""

@@ -82,6 +82,10 @@ def build_tree(sq_dist, min_size: int, space: SearchSpace, n_jobs: int | None = 
     while level:
         todo = [node for node in level if node.indices.shape[0] >= 2 * min_size]
         nodes = [geometry.sub(node.indices) for node in todo]
+        # copies of one point (a robot standing still) have no sigma to search: a leaf
+        extent = [node.has_extent() for node in nodes]
+        todo = [node for node, ok in zip(todo, extent, strict=True) if ok]
+        nodes = [node for node, ok in zip(nodes, extent, strict=True) if ok]
         for node, split in zip(todo, best_splits(nodes, min_size, space, n_jobs), strict=True):
             _apply(node, split)
         level = [child for node in todo for child in node.children]
@@ -108,7 +112,14 @@ def ensure_leaves(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpa
     sq_dist = as_geometry(sq_dist)
     leaves = root.leaves()
     while len(leaves) < n_clusters:
-        node = max(leaves, key=lambda leaf: (leaf.indices.shape[0], -leaf.indices[0]))
+        splittable = [leaf for leaf in leaves if leaf.indices.shape[0] >= 2]
+        splittable = [leaf for leaf in splittable if sq_dist.sub(leaf.indices).has_extent()]
+        if not splittable:
+            raise ValueError(
+                f"n_clusters={n_clusters} needs at least {n_clusters} distinct samples in X; "
+                f"it has {len(leaves)} groups of identical samples"
+            )
+        node = max(splittable, key=lambda leaf: (leaf.indices.shape[0], -leaf.indices[0]))
         _split(node, sq_dist, max(1, node.indices.shape[0] // 2), space)
         leaves = root.leaves()
 

@@ -1,5 +1,7 @@
 """ManifoldClustering: synthetic sets, ambiguity choices, invariances, prediction, bad input."""
 
+import warnings
+
 import numpy as np
 import pytest
 from sklearn.base import clone
@@ -178,6 +180,30 @@ def test_fewer_leaves_than_clusters_still_gives_k_clusters():
     X, _ = three_lines(n=20, noise=0.004)
     model = ManifoldClustering(4, 15).fit(X)
     assert np.unique(model.labels_).size == 4
+
+
+@pytest.mark.parametrize("kernel", ["dense", "sparse"])
+def test_copies_of_one_sample_stay_a_leaf(kernel):
+    """A robot standing still records runs of identical frames; a node of copies has no sigma
+    to search (its diameter is 0), so it stays a leaf instead of failing the fit."""
+    t = np.linspace(0.0, 6.0, 300)
+    noise = 0.01 * np.random.default_rng(3).normal(size=(300, 3))
+    path = np.c_[np.cos(t), np.sin(t), t / 3.0] + noise
+    X = np.r_[np.repeat(path[:1], 25, axis=0), path, np.repeat(path[150:151], 80, axis=0)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no log(0) on the way
+        model = ManifoldClustering(3, 10, kernel=kernel).fit(X)
+    assert sorted(np.unique(model.labels_)) == [0, 1, 2]
+    standing = model.labels_[len(path) + 25 :]
+    assert np.all(standing == standing[0])  # the 80 copies share a cluster
+    assert np.all(np.isfinite(model.signal(X[:5], 0)))
+    assert np.array_equal(model.predict(X[-3:]), model.labels_[-3:])
+
+
+def test_fewer_distinct_samples_than_clusters_is_a_clear_error():
+    X = np.r_[np.zeros((40, 3)), np.ones((40, 3))]
+    with pytest.raises(ValueError, match="n_clusters=3 needs at least 3 distinct samples"):
+        ManifoldClustering(3, 10).fit(X)
 
 
 def test_one_cluster_uses_the_root_kernel_and_still_servos(fitted_lines):
