@@ -28,8 +28,9 @@ import numpy as np
 from mapping._manifold_geometry import GraphGeometry
 from mapping._manifold_kernel import unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
-from mapping._manifold_predict import ClusterModel
+from mapping._manifold_predict import ClusterModel, check_scalars
 from mapping._manifold_stack import DerivedCache, Projection, projection_threads
+from mapping._validation import check_layout, check_number
 from mapping.distances import TINY
 
 # Query rows centred at once (~32 MB of float64).
@@ -86,6 +87,22 @@ class GraphClusterModel(DerivedCache):
     def __post_init__(self) -> None:
         # not a field: the derived projection of ``model_scores``, never saved
         object.__setattr__(self, "_stacks", {})
+
+    def validate(self) -> dict[str, int]:
+        """As :meth:`ClusterModel.validate`: sizes ``m``, ``d`` and ``r`` (eigenpairs)."""
+        sizes = check_layout(self, {
+            "indices": ("m",), "mean": ("d",), "points": ("m", "d"), "sq_norms": ("m",),
+            "vectors": ("m", "r"), "values": ("r",), "col_rest": ("r",),
+            "point_rest": ("m",), "degrees": ("m",),
+        })  # fmt: skip
+        check_scalars(self, sizes["m"])
+        check_number(self.n_neighbors, "n_neighbors", 1, 2**31 - 1, integer=True)
+        spectra = (self.values, self.col_rest, self.point_rest)
+        if any(np.abs(v).max(initial=0.0) > 1.0 for v in spectra):
+            raise ValueError("values, col_rest and point_rest must lie in [-1, 1]")
+        if self.degrees.min(initial=0.0) < 0:
+            raise ValueError("degrees must be >= 0")
+        return sizes
 
     @classmethod
     def build(cls, X, geometry: GraphGeometry, basis: LowRankBasis, sigma, alpha, centre, dtype):

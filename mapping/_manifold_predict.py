@@ -55,8 +55,12 @@ import numpy as np
 from mapping._manifold_eq13 import dense_signal, sparse_signal
 from mapping._manifold_kernel import affinity
 from mapping._manifold_stack import CENTRE_ELEMENTS, DerivedCache, projection_threads
-from mapping._validation import single_threaded_blas
+from mapping._validation import check_layout, check_number, single_threaded_blas
 from mapping.distances import TINY as _TINY
+
+_BIG = float(np.finfo(np.float64).max)
+# below 1: eq. 1's (I - alpha S) is singular at alpha = 1
+_ALPHA_MAX = float(np.nextafter(1.0, 0.0))
 
 # Directions of a cluster's span with a squared singular value below this fraction of the
 # largest are numerically zero: kept in the residual norms, not in the basis (dividing by their
@@ -167,6 +171,18 @@ class ClusterModel(DerivedCache):
     def with_scale(self, scale: float) -> ClusterModel:
         return replace(self, scale=scale)
 
+    def validate(self) -> dict[str, int]:
+        """Check the fields' shapes, values and agreement (a model read from a file); returns
+        the sizes ``m`` (points), ``d`` (features), ``r`` (basis). Raises ValueError."""
+        sizes = check_layout(self, {
+            "indices": ("m",), "mean": ("d",), "basis": ("r", "d"), "coords": ("m", "r"),
+            "sq_norms": ("m",), "weights": ("m", "m"), "degrees": ("m",),
+        })  # fmt: skip
+        check_scalars(self, sizes["m"])
+        if min(self.weights.min(initial=0.0), self.degrees.min(initial=0.0)) < 0:
+            raise ValueError("weights and degrees must be >= 0")
+        return sizes
+
     def sq_distances(self, X: np.ndarray) -> np.ndarray:
         """Squared distances (k, m) of rows of X to the cluster's points, clipped at 0.
 
@@ -223,6 +239,15 @@ def _span(centred: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.n
     basis = (U[:, :r] / s).T @ centred
     coords = U[:, :r] * s
     return basis, coords, np.diag(gram).copy()
+
+
+def check_scalars(model, m: int) -> None:
+    """The scalar fields every cluster model has: sigma > 0, alpha in (0, 1), centre one of its
+    m points, scale >= 0, all finite."""
+    check_number(model.sigma, "sigma", _TINY, _BIG)
+    check_number(model.alpha, "alpha", _TINY, _ALPHA_MAX)
+    check_number(model.centre, "centre", 0, m - 1, integer=True)
+    check_number(model.scale, "scale", 0.0, _BIG)
 
 
 def _column_scale(W: np.ndarray, alpha: float, centre: int) -> float:

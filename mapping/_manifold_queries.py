@@ -23,6 +23,37 @@ class ManifoldQueries:
     """eq. 13 on new views, for an estimator whose ``fit`` set ``labels_``, ``centers_`` and
     one cluster model per cluster in ``_models``."""
 
+    def _check_fitted_state(self) -> None:
+        """The state the queries read, as ``fit`` leaves it (an estimator read from a file,
+        :mod:`mapping.persistence`): labels, centres, per-cluster sigma and alpha, and one
+        valid cluster model per cluster on the points of its label. Raises ValueError."""
+        labels, models = getattr(self, "labels_", None), getattr(self, "_models", None)
+        if not (isinstance(labels, np.ndarray) and labels.ndim == 1 and labels.size
+                and labels.dtype.kind in "iu"):  # fmt: skip
+            raise ValueError("labels_ must be a non-empty 1-D integer array")
+        if not (isinstance(models, list) and models and len({type(m) for m in models}) == 1):
+            raise ValueError("_models must be a non-empty list of cluster models of one class")
+        n, K = labels.shape[0], len(models)
+        if labels.min() < 0 or labels.max() >= K:
+            raise ValueError(f"labels_ must lie in [0, {K}), one per cluster model")
+        for name in ("centers_", "sigmas_", "alphas_"):
+            value = getattr(self, name, None)
+            if not (isinstance(value, np.ndarray) and value.shape == (K,)):
+                raise ValueError(f"{name} must be an array of shape ({K},)")
+        d = getattr(self, "n_features_in_", None)
+        for j, model in enumerate(models):
+            try:
+                sizes = model.validate()
+            except ValueError as err:
+                raise ValueError(f"_models[{j}]: {err}") from err
+            if sizes["d"] != d:
+                raise ValueError(f"_models[{j}] has {sizes['d']} features, not n_features_in_ {d}")
+            idx = model.indices
+            if idx.max(initial=-1) >= n or not np.all(labels[idx] == j):
+                raise ValueError(f"_models[{j}].indices must be the training points of label {j}")
+            if idx[model.centre] != self.centers_[j]:
+                raise ValueError(f"centers_[{j}] must be _models[{j}]'s centre")
+
     def _check_query(self, X: ArrayLike) -> np.ndarray:
         """New points: fitted, then finite 2-D float with the feature count of ``fit``."""
         check_is_fitted(self, "labels_")

@@ -1,4 +1,5 @@
-"""The BLAS thread policy shared by the estimators of ``mapping``.
+"""The BLAS thread policy shared by the estimators of ``mapping``, and the checks of a fitted
+state read back from a file (:func:`check_layout`, :func:`check_number`).
 
 Input and parameter checks are scikit-learn's (``validate_data``, ``_parameter_constraints``,
 ``check_is_fitted``); only what scikit-learn does not do lives here.
@@ -101,3 +102,40 @@ def is_plain_query(estimator, X) -> bool:
     # through validate_data): a quarter of np.isfinite(X).all()'s time
     with np.errstate(over="ignore", invalid="ignore"):
         return bool(np.isfinite(X.ravel() @ X.ravel()))
+
+
+def check_layout(record, layout: dict[str, tuple[str, ...]]) -> dict[str, int]:
+    """Check a record's array fields against symbolic shapes and return the sizes.
+
+    ``layout`` maps a field name to its dimensions by symbol (``("m", "d")``); a symbol takes
+    the size of its first occurrence, and every other occurrence must match it. Every array
+    must be numeric and finite; a field named ``indices`` must be of an integer dtype and
+    non-negative. Raises ValueError naming the field and the expected form (what a file saved
+    by :mod:`mapping.persistence` and then altered gets).
+    """
+    sizes: dict[str, int] = {}
+    for name, dims in layout.items():
+        a = getattr(record, name)
+        form = f"({', '.join(dims)})"
+        if not (isinstance(a, np.ndarray) and a.ndim == len(dims) and a.dtype.kind in "biuf"):
+            raise ValueError(f"{name} must be a numeric array of shape {form}")
+        for sym, n in zip(dims, a.shape, strict=True):
+            if sizes.setdefault(sym, n) != n:
+                raise ValueError(
+                    f"{name} has shape {a.shape}, not {form} with {sym} = {sizes[sym]} "
+                    "as in the other fields"
+                )
+        if name == "indices":
+            if a.dtype.kind not in "iu" or (a.size and a.min() < 0):
+                raise ValueError(f"{name} must hold non-negative integers")
+        elif not np.isfinite(a).all():
+            raise ValueError(f"{name} must be finite")
+    return sizes
+
+
+def check_number(value, name: str, low: float, high: float, integer: bool = False) -> None:
+    """``low <= value <= high`` for a real number (an int if ``integer``; never a bool)."""
+    kinds = (int, np.integer) if integer else (int, float, np.integer, np.floating)
+    if isinstance(value, bool) or not isinstance(value, kinds) or not low <= value <= high:
+        kind = "an integer" if integer else "a number"
+        raise ValueError(f"{name} must be {kind} in [{low}, {high}], got {value!r}")

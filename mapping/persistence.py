@@ -13,7 +13,9 @@ Loading treats the description as untrusted input: only the estimator classes in
 :data:`ESTIMATORS` and the record classes in :data:`RECORDS` are ever built, looked up by their
 exact name in those tables (never imported by a name from the file); every parameter and field
 name must be one the class declares; values must be JSON scalars or arrays that the ``.npz``
-holds. Anything else raises :class:`PersistenceError` saying what is wrong.
+holds; records must pass their class's ``validate`` (shapes, finite values, ranges) and the
+estimator its ``_check_fitted_state`` (the records agree with the labels and centres).
+Anything else raises :class:`PersistenceError` saying what is wrong.
 """
 
 from __future__ import annotations
@@ -174,8 +176,13 @@ def _load_records(spec, where: str, arrays: dict, prefix: str) -> list:
             isinstance(item, dict) and set(item) == names,
             f"{where}.items[{i}] must have exactly the fields {sorted(names)}",
         )
-        out.append(cls(**{k: _load_value(v, f"{where}.items[{i}].{k}", arrays, prefix)
-                          for k, v in item.items()}))  # fmt: skip
+        fields = {k: _load_value(v, f"{where}.items[{i}].{k}", arrays, prefix)
+                  for k, v in item.items()}  # fmt: skip
+        try:
+            out.append(cls(**fields))
+        except (TypeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+            what = f"{where}.items[{i}] is not a valid {cls.__name__}"
+            raise PersistenceError(f"{what}: {err}") from err
     return out
 
 
@@ -229,4 +236,10 @@ def load(cls, meta: dict, arrays: dict[str, np.ndarray], prefix: str):
         isinstance(meta["skipped"], list) and all(isinstance(s, str) for s in meta["skipped"]),
         f"{prefix}.skipped must be a list of names",
     )
+    check = getattr(est, "_check_fitted_state", None)
+    if check is not None:  # the class's own invariants of what it reads when predicting
+        try:
+            check()
+        except (TypeError, ValueError, IndexError) as err:
+            raise PersistenceError(f"{prefix}: the fitted state is not valid: {err}") from err
     return est

@@ -104,3 +104,49 @@ def test_arrays_must_be_numeric_and_under_the_prefix(fitted):
     strings = {**arrays, "est/labels_": np.array(["x"])}
     with pytest.raises(PersistenceError, match="not numeric"):
         persistence.load(ManifoldClustering, meta, strings, "est")
+
+
+def _item(meta):
+    return meta["records"]["_models"]["items"][0]
+
+
+def _array(name, value):
+    return lambda meta, arrays: arrays.__setitem__(f"est/_models/0.{name}", value)
+
+
+def _field(name, value):
+    return lambda meta, arrays: _item(meta).__setitem__(name, {"value": value})
+
+
+@pytest.mark.parametrize("kernel", ["dense", "sparse"])
+@pytest.mark.parametrize(
+    "tamper, match",
+    [
+        (_array("mean", np.ones(3)), "has shape"),
+        (_array("degrees", np.full(40, np.nan)), "degrees must be finite"),
+        (_array("sq_norms", np.ones((40, 1))), "sq_norms must be a numeric array of shape"),
+        (_field("sigma", float("nan")), "sigma must be"),
+        (_field("sigma", "abc"), "sigma must be"),
+        (_field("alpha", 1.0), "alpha must be"),
+        (_field("centre", 10**6), "centre must be"),
+        (lambda m, a: a["est/_models/0.indices"].__iadd__(1000), "the training points of"),
+        (lambda m, a: a.__setitem__("est/labels_", a["est/labels_"][:5]), "training points of"),
+        (
+            lambda m, a: a["est/centers_"].__setitem__(slice(None), a["est/centers_"][::-1]),
+            "centers_",
+        ),
+        (lambda m, a: m["records"].clear(), "_models must be"),
+    ],
+)
+def test_altered_fitted_state_is_refused_not_mispredicted(fitted, kernel, tamper, match):
+    """Every field a query reads is checked on load: shapes that agree, finite values in
+    range, and models that match the labels and centres. A file altered by hand or by another
+    program must not load and then predict wrongly or fail deep in numpy."""
+    est, X = fitted
+    if kernel == "sparse":
+        est = ManifoldClustering(n_clusters=2, min_cluster_size=5, kernel="sparse").fit(X)
+    meta, arrays = persistence.dump(est, "est")
+    meta, arrays = json.loads(json.dumps(meta)), {k: v.copy() for k, v in arrays.items()}
+    tamper(meta, arrays)
+    with pytest.raises(PersistenceError, match=match):
+        persistence.load(ManifoldClustering, meta, arrays, "est")
