@@ -18,6 +18,11 @@ from mapping._manifold_graph_model import GraphClusterModel, model_scores
 from mapping._manifold_stack import Stack
 from mapping._validation import is_plain_query
 
+# The largest query value whose distances to the stored points stay finite: float64 squares
+# up to 1e300; float32 products of a query and a stored point (both up to 1e15, the training
+# span float32 storage is used for) summed over d features stay below 3.4e38.
+_QUERY_BOUND = {np.dtype(np.float64): 1e150, np.dtype(np.float32): 1e15}
+
 
 class ManifoldQueries:
     """eq. 13 on new views, for an estimator whose ``fit`` set ``labels_``, ``centers_`` and
@@ -57,9 +62,23 @@ class ManifoldQueries:
     def _check_query(self, X: ArrayLike) -> np.ndarray:
         """New points: fitted, then finite 2-D float with the feature count of ``fit``."""
         check_is_fitted(self, "labels_")
-        if is_plain_query(self, X):
+        bound = _QUERY_BOUND[self._store_dtype()]
+        if is_plain_query(self, X, bound):
             return X
-        return validate_data(self, X, dtype=[np.float64, np.float32], order="C", reset=False)
+        X = validate_data(self, X, dtype=[np.float64, np.float32], order="C", reset=False)
+        largest = float(np.abs(X).max())
+        if largest > bound:
+            raise ValueError(
+                f"X: values up to {largest:.3g}; distances to the stored points can be computed "
+                f"for values up to {bound:g}"
+                + (" (fit with store_dtype='float64' for more)" if bound < 1e100 else "")
+            )
+        return X
+
+    def _store_dtype(self) -> np.dtype:
+        """The dtype the cluster models keep their points in (``store_dtype``, or float64)."""
+        model = self._models[0]
+        return (model.basis if hasattr(model, "basis") else model.points).dtype
 
     # ------------------------------------------------------------------ predict
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

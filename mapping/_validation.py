@@ -80,11 +80,12 @@ def busy() -> bool:
         return False
 
 
-def is_plain_query(estimator, X) -> bool:
+def is_plain_query(estimator, X, bound: float = np.inf) -> bool:
     """Whether X is already what ``validate_data(estimator, X, reset=False)`` would return.
 
     True for a C-contiguous, finite, non-empty float32/float64 ndarray of shape
-    (k, n_features_in_) when the estimator was fitted without feature names. Checking this
+    (k, n_features_in_) whose sum of squares is at most ``bound^2``, when the estimator was
+    fitted without feature names. Checking this
     directly costs microseconds where ``validate_data`` costs ~0.2 ms, as much as the whole
     eq. 13 solve for one view; anything else must go through ``validate_data``.
     """
@@ -99,9 +100,10 @@ def is_plain_query(estimator, X) -> bool:
     ):
         return False
     # a NaN or inf makes the sum of squares NaN or inf (so does an overflow, which then goes
-    # through validate_data): a quarter of np.isfinite(X).all()'s time
+    # through validate_data): a quarter of np.isfinite(X).all()'s time. Below bound^2 every
+    # value lies within ``bound`` (above it, the caller checks the values themselves).
     with np.errstate(over="ignore", invalid="ignore"):
-        return bool(np.isfinite(X.ravel() @ X.ravel()))
+        return bool(X.ravel() @ X.ravel() <= bound * bound)
 
 
 def check_layout(record, layout: dict[str, tuple[str, ...]]) -> dict[str, int]:

@@ -43,6 +43,21 @@ _DTYPES = ("float32", "float64")
 EXPECTED_FAILED_CHECKS: dict[str, str] = {}
 
 
+# Centred values whose magnitude lies outside this band are stored in float64: in float32 a
+# distance's products overflow (3.4e38) or vanish (1e-38) for d up to ~1e6 features.
+_FLOAT32_SAFE = (1e-15, 1e15)
+
+
+def _storage_dtype(requested: str, X: np.ndarray) -> np.dtype:
+    """``requested``, or float64 where float32 cannot hold X's distances (see ``store_dtype``)."""
+    dtype = np.dtype(requested)
+    if dtype == np.float32:
+        spread = float(np.ptp(X, axis=0).max())
+        if not _FLOAT32_SAFE[0] <= spread <= _FLOAT32_SAFE[1]:
+            return np.dtype(np.float64)
+    return dtype
+
+
 class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
     """Clustering along manifolds with per-cluster kernel parameters (Grudic & Mulligan).
 
@@ -88,7 +103,10 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
         by the sum of group-vs-rest Omega(2); or cutting the tree.
     store_dtype : {"float32", "float64"}, default "float32"
         dtype of the centred training points kept for ``predict`` and ``signal``; float32
-        halves memory and the time of a ``signal`` call on image-sized vectors.
+        halves memory and the time of a ``signal`` call on image-sized vectors. Data whose
+        centred values reach beyond float32's safe range (largest magnitude above 1e15 or
+        below 1e-15, where products of two values overflow or vanish in float32) is kept in
+        float64 whatever this says.
     projection_tol : float in [0, 1), default 0.0
         Largest fraction of a cluster's energy (sum of squared norms of its centred points)
         that the basis queries are projected onto may leave out. 0 keeps the whole span, and
@@ -286,7 +304,7 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
             leaf_labels[idx] = c
         inside = np.empty(X.shape[0])
         models, centres = [], []
-        dtype = np.dtype(self.store_dtype)
+        dtype = _storage_dtype(self.store_dtype, X)
         for j, idx in enumerate(members):
             labels[idx] = j
             # eq. 11 in the cluster's own kernel: the centre is the point "most inside".

@@ -206,6 +206,37 @@ def test_fewer_distinct_samples_than_clusters_is_a_clear_error():
         ManifoldClustering(3, 10).fit(X)
 
 
+def test_scale_of_the_data_does_not_change_the_clusters_or_predictions():
+    """Beyond float32's safe range the points are kept in float64 whatever store_dtype says
+    (float32 overflowed at 1e40 and predict disagreed with labels_ on half the points); a
+    span float64 distances cannot hold is refused, naming the remedy."""
+    X, _ = three_lines(noise=0.004)
+    reference = ManifoldClustering(3, 10).fit(X).labels_
+    for scale in (1e-12, 1e20, 1e40):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            model = ManifoldClustering(3, 10).fit(X * scale)
+            assert np.array_equal(model.predict(X * scale), model.labels_)
+        assert adjusted_rand_score(reference, model.labels_) == 1.0
+    for scale in (1e-160, 1e150):
+        with pytest.raises(ValueError, match="rescale X"):
+            ManifoldClustering(3, 10).fit(X * scale)
+
+
+@pytest.mark.parametrize("store_dtype, bound", [("float32", 1e15), ("float64", 1e150)])
+def test_a_query_too_far_for_finite_distances_is_a_clear_error(fitted_lines, store_dtype, bound):
+    X, _, fitted = fitted_lines
+    model = clone(fitted).set_params(store_dtype=store_dtype).fit(X)
+    near = np.full((1, X.shape[1]), 0.5 * bound)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow on the way
+        assert np.all(model.signal(near, 0) == 0.0)
+    with pytest.raises(ValueError, match="values up to"):
+        model.predict(3.0 * near)
+    with pytest.raises(ValueError, match="values up to"):
+        model.signal(3.0 * near, 0)
+
+
 def test_one_cluster_uses_the_root_kernel_and_still_servos(fitted_lines):
     X, _, three = fitted_lines
     model = ManifoldClustering(1, 10).fit(X)
