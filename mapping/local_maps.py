@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from numbers import Integral, Real
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -27,6 +28,7 @@ from scipy.spatial import cKDTree
 
 from common.geometry import se2_compose, se2_relative, transform_points
 from mapping.icp import densify_scan, icp
+from mapping.overlap import check_scans_and_poses
 from mapping.topology import run_starts_from_groups
 
 __all__ = [
@@ -36,6 +38,39 @@ __all__ = [
     "map_residuals",
     "submap_labels",
 ]
+
+
+def _is_integer(value) -> bool:
+    """An integer, not a bool (``True`` is an ``int`` to Python, not a count to a user)."""
+    return isinstance(value, Integral) and not isinstance(value, bool | np.bool_)
+
+
+def _is_real(value) -> bool:
+    """A real number, not a bool."""
+    return isinstance(value, Real) and not isinstance(value, bool | np.bool_)
+
+
+def _check_labels(labels: ArrayLike, n: int) -> np.ndarray:
+    """``labels`` as an array of shape ``(n,)`` of integer group ids (-1: no group)."""
+    labels = np.asarray(labels)
+    if labels.shape != (n,):
+        raise ValueError(f"labels must have shape ({n},), one group per scan, got {labels.shape}")
+    integral = labels.dtype.kind in "iu" or (
+        labels.dtype.kind == "f" and np.all(np.isfinite(labels) & (labels == np.round(labels)))
+    )
+    if not integral:
+        raise ValueError(f"labels must be integer group ids (-1: none), got dtype {labels.dtype}")
+    return labels
+
+
+def _check_indices(indices: ArrayLike, n: int, name: str) -> np.ndarray:
+    """``indices`` as a 1-D int array of scan indices in ``[0, n)``."""
+    indices = np.asarray(indices)
+    if indices.ndim != 1 or (indices.size and indices.dtype.kind not in "iu"):
+        raise ValueError(f"{name} must be a 1-D array of scan indices, got {indices!r}")
+    if indices.size and (indices.min() < 0 or indices.max() >= n):
+        raise ValueError(f"{name} must index the {n} scans (0 to {n - 1}), got {indices!r}")
+    return indices.astype(int)
 
 
 def submap_labels(
@@ -55,15 +90,26 @@ def submap_labels(
     -------
     ndarray of int, shape (N,)
         Submap of each scan, numbered in time order from 0.
+
+    Raises
+    ------
+    ValueError
+        If ``poses`` is not finite of shape ``(N, 3)``, ``n_scans`` is not an integer >= 1
+        (a bool is not), or ``distance`` is not a positive number.
     """
     poses = np.asarray(poses, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 3:
         raise ValueError(f"poses must have shape (N, 3), got {poses.shape}")
+    if not np.isfinite(poses).all():
+        bad = np.flatnonzero(~np.isfinite(poses).all(axis=1))
+        raise ValueError(f"poses contains NaN or inf (rows {bad[:5].tolist()})")
     if (n_scans is None) == (distance is None):
         raise ValueError("give exactly one of n_scans and distance")
-    if n_scans is not None and not (isinstance(n_scans, int | np.integer) and n_scans >= 1):
+    if n_scans is not None and not (_is_integer(n_scans) and n_scans >= 1):
         raise ValueError(f"n_scans must be an integer >= 1, got {n_scans!r}")
-    if distance is not None and not (math.isfinite(distance) and distance > 0):
+    if distance is not None and not (
+        _is_real(distance) and math.isfinite(distance) and distance > 0
+    ):
         raise ValueError(f"distance must be a positive number of metres, got {distance!r}")
     starts = run_starts_from_groups(groups, len(poses))
     labels = np.zeros(len(poses), dtype=int)
@@ -101,9 +147,28 @@ def align_group(
     -------
     ndarray of shape (len(members), 3)
         Aligned poses of the members, in the frame of the given poses of the first member.
+
+    Raises
+    ------
+    ValueError
+        If scans and poses are invalid (``mapping.overlap.check_scans_and_poses``) or
+        ``members`` are not indices of the scans.
     """
-    poses = np.asarray(poses, dtype=float)
-    members = np.sort(np.asarray(members, dtype=int))
+    scans, poses = check_scans_and_poses(scans, poses)
+    members = _check_indices(members, len(scans), "members")
+    return _align_group(scans, poses, members, max_correspondence_distance, window, min_overlap)
+
+
+def _align_group(
+    scans: list[np.ndarray],
+    poses: np.ndarray,
+    members: np.ndarray,
+    max_correspondence_distance: float = 0.5,
+    window: int = 10,
+    min_overlap: float = 0.5,
+) -> np.ndarray:
+    """``align_group`` on checked scans, poses and members."""
+    members = np.sort(members)
     out = poses[members].copy()
     placed: list[np.ndarray] = []  # members' densified points, in the group's frame
     for k, i in enumerate(members):
@@ -124,13 +189,20 @@ def align_group(
 
 def align_groups(scans: Sequence[np.ndarray], poses: ArrayLike, labels: ArrayLike) -> np.ndarray:
     """``align_group`` for every group of ``labels`` (scans labelled -1 keep their pose);
-    returns all poses, each group in its own frame."""
-    poses = np.asarray(poses, dtype=float)
-    labels = np.asarray(labels)
+    returns all poses, each group in its own frame.
+
+    Raises
+    ------
+    ValueError
+        If scans and poses are invalid (``mapping.overlap.check_scans_and_poses``) or
+        ``labels`` is not one integer per scan.
+    """
+    scans, poses = check_scans_and_poses(scans, poses)
+    labels = _check_labels(labels, len(scans))
     out = poses.copy()
     for g in np.unique(labels[labels >= 0]):
         members = np.flatnonzero(labels == g)
-        out[members] = align_group(scans, poses, members)
+        out[members] = _align_group(scans, poses, members)
     return out
 
 
@@ -159,9 +231,15 @@ def map_residuals(
         ``mean_m``, ``median_m``, ``p90_m`` of the residuals within ``max_distance`` over all
         sharing pairs; ``pairs``: how many pairs share surfaces; ``matched``: the fraction of
         the sampled points of those pairs within ``max_distance``.
+
+    Raises
+    ------
+    ValueError
+        If scans and poses are invalid (``mapping.overlap.check_scans_and_poses``) or
+        ``labels`` is not one integer per scan.
     """
-    poses = np.asarray(poses, dtype=float)
-    labels = np.asarray(labels)
+    scans, poses = check_scans_and_poses(scans, poses)
+    labels = _check_labels(labels, len(scans))
     world = [transform_points(poses[i], s) for i, s in enumerate(scans)]
     lo = np.array([w.min(axis=0) if len(w) else [np.inf] * 2 for w in world])
     hi = np.array([w.max(axis=0) if len(w) else [-np.inf] * 2 for w in world])
@@ -227,10 +305,26 @@ def localise_held_out(
     ndarray of shape (len(held_out), 2)
         Translation (m) and absolute heading (rad) error of each held-out scan; ``inf`` where
         ICP did not converge.
+
+    Raises
+    ------
+    ValueError
+        If scans and poses are invalid (``mapping.overlap.check_scans_and_poses``), ``truth``
+        is not finite and shaped as ``poses``, ``held_out`` and ``anchor`` are not indices of
+        the scans of one length, or ``map_of`` has not one entry per held-out scan.
     """
-    poses, truth = np.asarray(poses, dtype=float), np.asarray(truth, dtype=float)
-    held_out, anchor = np.asarray(held_out, dtype=int), np.asarray(anchor, dtype=int)
+    scans, poses = check_scans_and_poses(scans, poses)
+    truth = np.asarray(truth, dtype=float)
+    if truth.shape != poses.shape or not np.isfinite(truth).all():
+        raise ValueError(f"truth must be finite poses of shape {poses.shape}, got {truth.shape}")
+    held_out = _check_indices(held_out, len(scans), "held_out")
+    anchor = _check_indices(anchor, len(scans), "anchor")
     map_of = np.asarray(map_of)
+    if anchor.shape != held_out.shape or map_of.shape != held_out.shape:
+        raise ValueError(
+            f"held_out, anchor and map_of must have one entry per held-out scan, got shapes "
+            f"{held_out.shape}, {anchor.shape} and {map_of.shape}"
+        )
     trees = {m: cKDTree(p) for m, p in maps.items() if len(p) >= 10}
     sigma_t, sigma_r = init_sigma
     noise = rng.normal(size=(len(held_out), 3)) * np.array([sigma_t, sigma_t, sigma_r])

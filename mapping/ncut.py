@@ -44,6 +44,10 @@ _SHIFT = -1e-3
 # LOBPCG: iterations, and the residual ||L z - lambda z|| above which ARPACK takes over.
 _LOBPCG_MAXITER = 200
 _LOBPCG_RESIDUAL = 1e-6
+# Weights above this are divided by the largest one before the degrees are summed: the Ncut
+# and the bisection do not depend on the scale of W, and n weights near the float maximum
+# would overflow the degree sum. Below it W is used as given (bit for bit as before).
+RESCALE_ABOVE = 1e100
 
 
 def check_weights(W: ArrayLike | sp.sparray, name: str = "W") -> np.ndarray | sp.csr_array:
@@ -64,6 +68,12 @@ def check_weights(W: ArrayLike | sp.sparray, name: str = "W") -> np.ndarray | sp
     if asym > 1e-9 * max(1.0, abs(values).max(initial=0.0)):
         raise ValueError(f"{name} must be symmetric (max |W - W.T| = {asym:.3g})")
     return W
+
+
+def _rescaled(W: np.ndarray | sp.csr_array) -> np.ndarray | sp.csr_array:
+    """``W / W.max()`` when its largest weight exceeds ``RESCALE_ABOVE``, else ``W`` itself."""
+    top = float(W.max()) if W.shape[0] else 0.0
+    return W / top if top > RESCALE_ABOVE else W
 
 
 def _check_solver(solver: str) -> None:
@@ -98,7 +108,7 @@ def ncut(W: ArrayLike | sp.sparray, mask: ArrayLike, assoc: str = "mrpt") -> flo
         raise ValueError(f"mask must have shape ({W.shape[0]},), got {mask.shape}")
     if mask.all() or not mask.any():
         raise ValueError("mask must put at least one node on each side of the bisection")
-    return _ncut(W, mask, assoc)
+    return _ncut(_rescaled(W), mask, assoc)
 
 
 def _ncut(W: np.ndarray | sp.csr_array, mask: np.ndarray, assoc: str) -> float:
@@ -159,7 +169,7 @@ def spectral_bisection(
     W = check_weights(W)
     if W.shape[0] < 2:
         raise ValueError(f"W must have at least 2 nodes to bisect, got {W.shape[0]}")
-    return _bisect(W, laplacian, solver)
+    return _bisect(_rescaled(W), laplacian, solver)
 
 
 def _bisect(W, laplacian: str, solver: str) -> tuple[np.ndarray, np.ndarray]:
@@ -303,7 +313,9 @@ def partition_checked(
     solver: str,
 ) -> tuple[np.ndarray, NcutNode]:
     """``recursive_ncut_partition`` on arguments already checked (a valid, non-empty ``W``):
-    for callers that re-partition many small graphs, such as ``partial_fit``."""
+    for callers that re-partition many small graphs, such as ``partial_fit``. Weights of huge
+    magnitude are rescaled first (``RESCALE_ABOVE``)."""
+    W = _rescaled(W)
     n = W.shape[0]
     if n > DENSE_INDEX_MAX_NODES:
         W = sp.csr_array(W)

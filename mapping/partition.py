@@ -29,7 +29,7 @@ from mapping.ncut import (
     check_weights,
     recursive_ncut_partition,
 )
-from mapping.overlap import check_scans_and_poses, sensed_space_overlap
+from mapping.overlap import check_scans_and_poses, check_voxel_size, sensed_space_overlap
 from mapping.scan_matching import refine_poses
 from mapping.topology import (
     TopologicalMap,
@@ -59,10 +59,11 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     match_distance : float, default 0.1
         Tolerance ``delta`` of eq. 16, in metres.
     voxel_size : float, "auto" or None, default "auto"
-        Downsample the scans to a voxel grid of this side (metres, at most ``match_distance``)
-        before the overlap, as MRPT does (``mapping.overlap.sensed_space_overlap``); ``"auto"``
-        is ``match_distance / 4``; ``None`` computes eq. 16-18 exactly on every point
-        (slower; docs/observation-grouping.md compares both).
+        Downsample the scans to a voxel grid of this side (metres, at most ``match_distance``
+        and at least ``match_distance / 50``, ``mapping.overlap.MAX_DISC_RADIUS``) before the
+        overlap, as MRPT does (``mapping.overlap.sensed_space_overlap``); ``"auto"`` is
+        ``match_distance / 4``; ``None`` computes eq. 16-18 exactly on every point (slower;
+        docs/observation-grouping.md compares both).
     affinity : {"sso", "precomputed"}, default "sso"
         ``"sso"``: ``fit(scans, poses)`` weighs the graph by the sensed-space overlap.
         ``"precomputed"``: ``fit(W)`` partitions the symmetric non-negative weight matrix ``W``
@@ -202,17 +203,19 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         self
         """
         self._validate_params()
+        _check_x_given(X, self.affinity)
         self.__dict__.pop("_incremental", None)  # a new fit ends any partial_fit sequence
         if self.affinity == "precomputed":
             return self._fit_precomputed(X, poses, groups)
         if poses is None:
             raise ValueError("poses is required with affinity='sso': fit(scans, poses)")
+        voxel_size = self._voxel_size()  # checked before the scan matching's work
         scans, poses = check_scans_and_poses(X, poses)
         starts = run_starts_from_groups(groups, len(scans))
         if self.scan_matching:
             poses = self._refine(scans, poses, groups)
         W = sensed_space_overlap(
-            scans, poses, self.match_distance, sparse=True, voxel_size=self._voxel_size()
+            scans, poses, self.match_distance, sparse=True, voxel_size=voxel_size
         )
         has_points = np.array([len(s) > 0 for s in scans])
         kept = np.flatnonzero(has_points)
@@ -281,6 +284,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
                 "this model was fitted with fit(); partial_fit continues only a partial_fit "
                 "sequence: start it on an unfitted estimator (e.g. clone(model))"
             )
+        _check_x_given(X, self.affinity)
         scans, given = check_scans_and_poses(X, poses)
         state = self.__dict__.setdefault(
             "_incremental",
@@ -362,6 +366,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         return self
 
     def _voxel_size(self) -> float | None:
+        """The voxel side for the overlap, checked against ``match_distance``."""
         if self.voxel_size == "auto":
             return self.match_distance / 4
         if self.voxel_size is not None and self.voxel_size > self.match_distance:
@@ -370,6 +375,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
                 f"({self.match_distance}): a voxel wider than the tolerance merges what eq. 16 "
                 "tells apart"
             )
+        check_voxel_size(self.match_distance, self.voxel_size)  # not too fine either
         return self.voxel_size
 
     def _partition(self, W) -> tuple[np.ndarray, NcutNode]:
@@ -381,6 +387,15 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
             min_size=self.min_size,
             solver=self.solver,
         )
+
+
+def _check_x_given(X, affinity: str) -> None:
+    """Refuse ``X=None`` with the form ``fit`` expects for ``affinity``."""
+    if X is None:
+        form = "the (N, N) weight matrix W"
+        if affinity != "precomputed":
+            form = "the scans, a sequence of (M_i, 2) point arrays"
+        raise ValueError(f"X must be {form} (affinity={affinity!r}), got None")
 
 
 def _reindex(tree: NcutNode, kept: np.ndarray) -> None:

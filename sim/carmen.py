@@ -25,6 +25,7 @@ import gzip
 import math
 import os
 from dataclasses import dataclass
+from numbers import Real
 from pathlib import Path
 
 import numpy as np
@@ -126,8 +127,16 @@ def _count(path: Path, line_no: int, fields: list[str], at: int, what: str) -> i
     return int(text)
 
 
+def _beam_count(path: Path, line_no: int, fields: list[str], at: int, message: str) -> int:
+    """The range count at ``fields[at]``, at least 1: a scan without beams is refused."""
+    n = _count(path, line_no, fields, at, "range")
+    if n < 1:
+        raise CarmenError(f"{path}, line {line_no}: {message} with {n} ranges; need at least 1")
+    return n
+
+
 def _parse_flaser(path: Path, line_no: int, fields: list[str]) -> dict:
-    n = _count(path, line_no, fields, 1, "range")
+    n = _beam_count(path, line_no, fields, 1, "FLASER")
     expected = 2 + n + _FLASER_TAIL
     if len(fields) != expected:
         raise CarmenError(
@@ -140,7 +149,7 @@ def _parse_flaser(path: Path, line_no: int, fields: list[str]) -> dict:
 
 
 def _parse_robotlaser(path: Path, line_no: int, fields: list[str]) -> dict:
-    n = _count(path, line_no, fields, 1 + _ROBOTLASER_HEAD, "range")
+    n = _beam_count(path, line_no, fields, 1 + _ROBOTLASER_HEAD, "ROBOTLASER1")
     at = 2 + _ROBOTLASER_HEAD + n  # the remission count
     m = _count(path, line_no, fields, at, "remission")
     expected = at + 1 + m + _ROBOTLASER_TAIL
@@ -151,6 +160,11 @@ def _parse_robotlaser(path: Path, line_no: int, fields: list[str]) -> dict:
             "match its values)"
         )
     head = _numbers(path, line_no, fields[1 : 1 + _ROBOTLASER_HEAD], "header")
+    if n > 1 and head[3] == 0:
+        raise CarmenError(
+            f"{path}, line {line_no}: ROBOTLASER1 angular_resolution is 0, so all {n} beams "
+            "would point the same way; need a non-zero angle between beams"
+        )
     ranges = _numbers(path, line_no, fields[2 + _ROBOTLASER_HEAD : at], "range")
     tail = _numbers(path, line_no, fields[at + 1 + m : at + 1 + m + 12], "pose")
     return {
@@ -160,6 +174,13 @@ def _parse_robotlaser(path: Path, line_no: int, fields: list[str]) -> dict:
         "odometry": None,
         "time": tail[11],
     }
+
+
+def _is_distance(value) -> bool:
+    """A positive finite real number (a bool is not one)."""
+    if isinstance(value, bool) or not isinstance(value, Real):
+        return False
+    return math.isfinite(value) and value > 0
 
 
 def read_carmen(
@@ -188,14 +209,19 @@ def read_carmen(
     ------
     CarmenError
         Naming the file and the line: no scans, a truncated line, a non-numeric field, NaN or
-        infinite ranges or poses, negative ranges, a count that does not match its values,
-        scans with different numbers of beams or different beam geometry.
+        infinite ranges or poses, negative ranges, a count that does not match its values, a
+        scan without ranges, a ``ROBOTLASER1`` angular resolution of 0, scans with different
+        numbers of beams or different beam geometry.
+    ValueError
+        If ``message`` is unknown or ``max_range`` is not a positive finite number.
     """
     path = Path(path)
     if message not in ("auto", *MESSAGES):
         raise ValueError(f"message must be 'auto' or one of {MESSAGES}, got {message!r}")
-    if max_range is not None and not (math.isfinite(max_range) and max_range > 0):
-        raise ValueError(f"max_range must be a positive distance in metres, got {max_range!r}")
+    if max_range is not None and not _is_distance(max_range):
+        raise ValueError(
+            f"max_range must be None or a positive finite number of metres, got {max_range!r}"
+        )
     lines = _read_lines(path)
     firsts = [line.split(maxsplit=1)[0] if line.strip() else "" for line in lines]
     if message == "auto":

@@ -10,7 +10,7 @@
   padded, ``step``) and ``sensor_msgs/CompressedImage`` (JPEG, PNG: whatever OpenCV decodes):
   RGB uint8, grey repeated in the three channels.
 - ``nav_msgs/Odometry``: x, y, yaw (from the quaternion, about z), v (twist linear x) and
-  omega (twist angular z).
+  omega (twist angular z), all finite (a NaN or infinite value is refused).
 """
 
 from __future__ import annotations
@@ -35,10 +35,19 @@ def yaw_of(q) -> float:
     return float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
 
 
-def odometry_values(msg) -> tuple[float, float, float, float, float]:
-    """(x, y, yaw, v, omega) of an odometry message."""
+def odometry_values(msg, where: str) -> tuple[float, float, float, float, float]:
+    """(x, y, yaw, v, omega) of an odometry message; ``where`` (bag, topic, message index)
+    names it in the error if a value, or the orientation quaternion, is not finite."""
     p, t = msg.pose.pose, msg.twist.twist
-    return (p.position.x, p.position.y, yaw_of(p.orientation), t.linear.x, t.angular.z)
+    q = p.orientation
+    quaternion = (q.x, q.y, q.z, q.w)
+    values = (p.position.x, p.position.y, yaw_of(q), t.linear.x, t.angular.z)
+    if not (np.isfinite(quaternion).all() and np.isfinite(values).all()):
+        raise RosbagImportError(
+            f"{where}: odometry must be finite, got position ({p.position.x}, {p.position.y}), "
+            f"orientation {quaternion}, velocity (linear.x {t.linear.x}, angular.z {t.angular.z})"
+        )
+    return values
 
 
 def scan_geometry(msg, where: str) -> tuple[int, float, float, float, float]:

@@ -119,6 +119,18 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
     return out
 
 
+def _check_bag_path(bag: Path) -> None:
+    """Refuse a path that is no bag: missing, or a directory without a ROS 2 bag's
+    ``metadata.yaml`` (an empty directory, say)."""
+    if not bag.exists():
+        raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
+    if bag.is_dir() and not (bag / "metadata.yaml").is_file():
+        raise RosbagImportError(
+            f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "
+            ".bag file)"
+        )
+
+
 def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = True) -> dict:
     """One bag's aligned frames: the arrays of one dataset sequence (see the module
     docstring), plus ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans left out, by
@@ -128,8 +140,7 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
     from tqdm.auto import tqdm
 
     bag = Path(bag)
-    if not bag.exists():
-        raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
+    _check_bag_path(bag)
     scans, images, odom = (_Stream(bag, t) for t in (settings.scan_topic, settings.image_topic,
                                                       settings.odom_topic))  # fmt: skip
     try:
@@ -163,7 +174,7 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
                     elif key == "image":
                         images.add(i, stamp_ns(msg), None)
                     else:
-                        odom.add(i, stamp_ns(msg), odometry_values(msg))
+                        odom.add(i, stamp_ns(msg), odometry_values(msg, where))
                     bar.update()
             for stream, least in ((scans, 1), (images, 1), (odom, 2)):
                 if len(stream.stamps) < least:
@@ -172,7 +183,7 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
                     )
             frames, image_index, dropped = _align(scans, images, odom, settings)
             pictures = _read_images(reader, conns["image"], image_index, bag, settings)
-    except AnyReaderError as err:
+    except (AnyReaderError, OSError) as err:  # OSError: files missing or unreadable
         raise RosbagImportError(f"{bag}: cannot be read as a ROS bag ({err})") from err
     n_beams, angle_min, inc, range_max, angle_max = geometry
     if abs((angle_max - angle_min) / inc + 1 - n_beams) < 0.5:  # both ends: float32 inc drifts

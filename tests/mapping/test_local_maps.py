@@ -74,3 +74,42 @@ def test_held_out_scans_localise_against_a_consistent_map(office):
         scans, poses, poses, held, held - 1, shifted, [0] * 3, rng, init_sigma=(0.05, 0.01)
     )
     assert errors[:, 0].mean() > 0.15  # a scan along a corridor cannot see part of the shift
+
+
+def test_submap_labels_refuses_nan_poses_and_bool_counts():
+    poses = np.column_stack([np.arange(10.0), np.zeros(10), np.zeros(10)])
+    poses[2, 0] = np.nan  # every later scan fell into one submap
+    with pytest.raises(ValueError, match=r"poses contains NaN or inf \(rows \[2\]\)"):
+        submap_labels(poses, distance=1.0)
+    with pytest.raises(ValueError, match="n_scans must be an integer >= 1, got True"):
+        submap_labels(np.zeros((3, 3)), n_scans=True)
+    with pytest.raises(ValueError, match="distance must be a positive number"):
+        submap_labels(np.zeros((3, 3)), distance="3")
+
+
+def test_maps_refuse_labels_and_poses_that_do_not_fit_the_scans(office):
+    scans, poses = office
+    labels = np.zeros(len(scans), dtype=int)
+    for f in (map_residuals, align_groups):
+        with pytest.raises(ValueError, match=rf"labels must have shape \({len(scans)},\)"):
+            f(scans, poses, [0, 0])
+        with pytest.raises(ValueError, match="labels must be integer group ids"):
+            f(scans, poses, np.full(len(scans), np.nan))
+        nan_pose = poses.copy()
+        nan_pose[2, 0] = np.nan
+        with pytest.raises(ValueError, match=r"poses contains NaN or inf \(rows \[2\]\)"):
+            f(scans, nan_pose, labels)
+        with pytest.raises(ValueError, match="poses and scans must have the same length"):
+            f(scans, poses[:-1], labels)
+
+
+def test_localise_held_out_refuses_bad_indices(office):
+    scans, poses = office
+    rng = np.random.default_rng(0)
+    cloud = {0: np.concatenate([transform_points(poses[k], scans[k]) for k in range(5)])}
+    with pytest.raises(ValueError, match=r"held_out must index the 60 scans"):
+        localise_held_out(scans, poses, poses, [60], [1], cloud, [0], rng)
+    with pytest.raises(ValueError, match="one entry per held-out scan"):
+        localise_held_out(scans, poses, poses, [3, 4], [2], cloud, [0, 0], rng)
+    with pytest.raises(ValueError, match=r"truth must be finite poses of shape \(60, 3\)"):
+        localise_held_out(scans, poses, poses[:-1], [3], [2], cloud, [0], rng)

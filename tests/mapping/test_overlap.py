@@ -185,3 +185,51 @@ def test_voxel_path_stays_close_to_exact(office):
 def test_rejects_bad_voxel_size(voxel):
     with pytest.raises(ValueError, match="voxel_size must be None or in"):
         sensed_space_overlap([np.ones((2, 2))] * 2, np.zeros((2, 3)), 0.1, voxel_size=voxel)
+
+
+# --------------------------------------------------------------------------- voxel grid size
+
+
+def test_voxel_path_without_row_major_ids_is_the_same(office, monkeypatch):
+    # grids too wide for int64 row-major ids are indexed by rank: the same matrix
+    _, scans, poses = office
+    W = sensed_space_overlap(scans, poses, 0.1, voxel_size=0.025)
+    monkeypatch.setattr("mapping.overlap.KEY_MAX_CELLS", 0)
+    np.testing.assert_array_equal(sensed_space_overlap(scans, poses, 0.1, voxel_size=0.025), W)
+
+
+def test_voxel_grid_wider_than_int64_ids(office):
+    # a tiny tolerance (8e10 voxels across the map) or one far return (4e10 voxels out):
+    # the ids of the bounding box overflow int64, the overlap is still eq. 16-18 on the grid
+    _, scans, poses = office
+    idx = np.arange(0, len(scans), 3)
+    sub_scans, sub_poses = [scans[i] for i in idx], poses[idx]
+    with np.errstate(over="raise", invalid="raise"):
+        tiny = sensed_space_overlap(sub_scans, sub_poses, 1e-9, voxel_size=2.5e-10)
+    np.testing.assert_array_equal(tiny, sensed_space_overlap(sub_scans, sub_poses, 1e-9))
+    far = list(sub_scans)
+    far[2] = np.vstack([far[2], [[1e9, 1e9]]])
+    expected = brute_force_voxel_overlap(far, sub_poses, 0.1, 0.025)
+    np.fill_diagonal(expected, 1.0)
+    with np.errstate(over="raise", invalid="raise"):
+        W = sensed_space_overlap(far, sub_poses, 0.1, voxel_size=0.025)
+    np.testing.assert_allclose(W, expected, atol=1e-12)
+
+
+def test_voxel_coordinates_beyond_int64_are_refused():
+    scans = [np.ones((3, 2))] * 2
+    poses = np.array([[0.0, 0.0, 0.0], [1e300, 0.0, 0.0]])
+    with pytest.raises(ValueError, match=r"voxel_size = 0.025 m is too small .* to 1e\+300 m"):
+        sensed_space_overlap(scans, poses, 0.1, voxel_size=0.025)
+
+
+def test_voxel_far_finer_than_delta_is_refused_at_once():
+    # a disc of 3e16 voxels: refused before anything is allocated (it was a MemoryError)
+    with pytest.raises(ValueError, match=r"voxel_size must be at least delta / 50 .* 1e\+08"):
+        sensed_space_overlap([np.ones((2, 2))] * 2, np.zeros((2, 3)), 0.1, voxel_size=1e-9)
+
+
+@pytest.mark.parametrize("scans", [None, 5, "scans"])
+def test_scans_that_are_no_sequence_are_refused(scans):
+    with pytest.raises(ValueError, match="scans must be a sequence of"):
+        sensed_space_overlap(scans, np.zeros((1, 3)), 0.1)

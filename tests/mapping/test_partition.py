@@ -331,3 +331,41 @@ def test_voxel_size(office):
     assert abs(fast.affinity_matrix_ - exact.affinity_matrix_).max() < 0.05
     with pytest.raises(ValueError, match="voxel_size .* must not exceed match_distance"):
         ObservationGraphPartitioner(voxel_size=0.2).fit(scans, poses)
+
+
+def test_tiny_match_distance_and_voxel_size(office):
+    # match_distance=1e-9: a voxel grid 8e10 cells across, whose int64 ids overflowed
+    _, scans, poses = office
+    with np.errstate(over="raise", invalid="raise"):
+        tiny = ObservationGraphPartitioner(scan_matching=False, match_distance=1e-9)
+        tiny.fit(scans, poses)
+    exact = ObservationGraphPartitioner(scan_matching=False, match_distance=1e-9, voxel_size=None)
+    np.testing.assert_array_equal(tiny.labels_, exact.fit(scans, poses).labels_)
+    # a voxel 1e8 times finer than the tolerance: refused before the scan matching
+    with pytest.raises(ValueError, match="voxel_size must be at least delta / 50"):
+        ObservationGraphPartitioner(voxel_size=1e-9).fit(scans, poses)
+    with pytest.raises(ValueError, match="voxel_size must be at least delta / 50"):
+        ObservationGraphPartitioner(voxel_size=1e-9).partial_fit(scans[:1], poses[:1])
+
+
+def test_weights_near_the_float_maximum():
+    # the degree sums overflowed to inf; the Ncut does not depend on the scale of W
+    W = two_cliques()
+    labels, tree = recursive_ncut_partition(W)
+    big_labels, big_tree = recursive_ncut_partition(W * 1e308)
+    np.testing.assert_array_equal(big_labels, labels)
+    assert big_tree.ncut == pytest.approx(tree.ncut)
+    assert ncut(W * 1e308, MASK) == pytest.approx(ncut(W, MASK))
+    np.testing.assert_array_equal(spectral_bisection(W * 1e308)[0], spectral_bisection(W)[0])
+    model = ObservationGraphPartitioner(affinity="precomputed")
+    np.testing.assert_array_equal(model.fit_predict(np.full((4, 4), 1e308)), [0, 0, 0, 0])
+    np.testing.assert_array_equal(model.fit_predict(sp.csr_array(W * 1e308)), labels)
+
+
+def test_fit_without_x_names_it():
+    with pytest.raises(ValueError, match=r"X must be the scans.*got None"):
+        ObservationGraphPartitioner().fit(None, np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"X must be the \(N, N\) weight matrix W.*got None"):
+        ObservationGraphPartitioner(affinity="precomputed").fit(None)
+    with pytest.raises(ValueError, match=r"X must be the scans.*got None"):
+        ObservationGraphPartitioner().partial_fit(None, np.zeros((1, 3)))

@@ -118,3 +118,20 @@ def test_the_shared_logs():
     np.testing.assert_allclose(np.diff(csail.angles), np.deg2rad(0.5))
     # the corrected logs repeat the corrected pose in the odometry fields
     np.testing.assert_array_equal(aces.poses, aces.odometry)
+
+
+def test_scans_without_beams_or_angle_step_are_refused(tmp_path):
+    # FLASER 0 failed in numpy ("zero-size array"), ROBOTLASER1 0 gave ranges of shape (1, 0)
+    with pytest.raises(CarmenError, match="line 1: FLASER with 0 ranges; need at least 1"):
+        read_carmen(write(tmp_path, [flaser([])]))
+    with pytest.raises(CarmenError, match="line 1: ROBOTLASER1 with 0 ranges; need at least 1"):
+        read_carmen(write(tmp_path, [robotlaser([])]))
+    with pytest.raises(CarmenError, match="line 2: ROBOTLASER1 angular_resolution is 0"):
+        read_carmen(write(tmp_path, [robotlaser([1.0, 2.0]), robotlaser([1.0, 2.0], res=0.0)]))
+
+
+@pytest.mark.parametrize("max_range", ["5", True, 0.0, -1.0, float("nan"), float("inf")])
+def test_bad_max_range_is_refused(tmp_path, max_range):
+    path = write(tmp_path, [flaser([1.0, 2.0, 3.0])])
+    with pytest.raises(ValueError, match="max_range must be"):
+        read_carmen(path, max_range=max_range)

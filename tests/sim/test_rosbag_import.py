@@ -269,3 +269,31 @@ def test_image_messages_decode_to_rgb_or_are_refused():
     junk = SimpleNamespace(format="jpeg", data=np.arange(50, dtype=np.uint8))
     with pytest.raises(RosbagImportError, match=r"OpenCV cannot decode it \(format 'jpeg'\)"):
         decode_image(junk, "sensor_msgs/msg/CompressedImage", "m")
+
+
+NAN_POSE = np.array([[np.nan, 0.0, 3.0], [2.0, 0.0, -3.0]])
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"poses": NAN_POSE}, r"message 0: odometry must be finite, got position \(nan, 0.0\)"),
+        ({"velocities": np.array([[1.0, 0.5], [np.inf, 0.5]])}, r"message 1: .*linear.x inf"),
+    ],
+)
+def test_non_finite_odometry_is_refused(tmp_path, changes, match):
+    # NaN pose and infinite velocity were written into the dataset
+    _refused(tmp_path, _tiny_drive(**changes), match=f"bad: /odom {match}")
+
+
+def test_directory_that_is_no_ros2_bag(tmp_path):
+    (tmp_path / "empty").mkdir()
+    _refused(tmp_path, tmp_path / "empty", match="empty: a directory without metadata.yaml")
+    bag = write_bag(tmp_path / "nometa", _tiny_drive())
+    (bag / "metadata.yaml").unlink()
+    _refused(tmp_path, bag, match="nometa: a directory without metadata.yaml")
+    bag = write_bag(tmp_path / "nodata", _tiny_drive())
+    for f in bag.iterdir():
+        if f.name != "metadata.yaml":
+            f.unlink()  # the storage files are gone: rosbags' FileNotFoundError
+    _refused(tmp_path, bag, match="nodata: cannot be read as a ROS bag")
