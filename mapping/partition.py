@@ -60,7 +60,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         Tolerance ``delta`` of eq. 16, in metres.
     voxel_size : float, "auto" or None, default "auto"
         Downsample the scans to a voxel grid of this side (metres, at most ``match_distance``
-        and at least ``match_distance / 50``, ``mapping.overlap.MAX_DISC_RADIUS``) before the
+        and at least ``match_distance / 50``, ``mapping.voxel_grid.MAX_DISC_RADIUS``) before the
         overlap, as MRPT does (``mapping.overlap.sensed_space_overlap``); ``"auto"`` is
         ``match_distance / 4``; ``None`` computes eq. 16-18 exactly on every point (slower;
         docs/observation-grouping.md compares both).

@@ -165,7 +165,7 @@ def test_voxel_path_is_the_sso_of_snapped_points(office, voxel, monkeypatch):
     W = sensed_space_overlap(sub_scans, sub_poses, 0.1, voxel_size=voxel)
     np.testing.assert_allclose(W, expected, atol=1e-12)
     # the binary search for maps too large for the lookup table gives the same matrix
-    monkeypatch.setattr("mapping.overlap.DENSE_GRID_MAX_CELLS", 0)
+    monkeypatch.setattr("mapping.voxel_grid.DENSE_GRID_MAX_CELLS", 0)
     np.testing.assert_array_equal(
         sensed_space_overlap(sub_scans, sub_poses, 0.1, voxel_size=voxel), W
     )
@@ -194,7 +194,7 @@ def test_voxel_path_without_row_major_ids_is_the_same(office, monkeypatch):
     # grids too wide for int64 row-major ids are indexed by rank: the same matrix
     _, scans, poses = office
     W = sensed_space_overlap(scans, poses, 0.1, voxel_size=0.025)
-    monkeypatch.setattr("mapping.overlap.KEY_MAX_CELLS", 0)
+    monkeypatch.setattr("mapping.voxel_grid.KEY_MAX_CELLS", 0)
     np.testing.assert_array_equal(sensed_space_overlap(scans, poses, 0.1, voxel_size=0.025), W)
 
 
