@@ -13,7 +13,10 @@ minutes::
 
 ``committed`` is the controller's own fix (with its metric check); ``full`` the descriptor it
 uses (the whole feature image); ``far`` its top half (sky, trees, far walls); ``blur S`` the
-whole image blurred by a Gaussian of S feature pixels. Dev splits only.
+whole image blurred by a Gaussian of S feature pixels. ``--keypoints`` adds a wide-baseline
+matcher instead of the contrast fix: SIFT keypoints of the camera images (not the feature
+images), Lowe's ratio test, and the fix is the stored view with the most inliers of a RANSAC
+fundamental matrix against any turn image (~20 s an episode). Dev splits only.
 """
 
 from __future__ import annotations
@@ -86,10 +89,42 @@ class Descriptors:
         return d[np.arange(len(d)), k], -shifts[k] * self.loc.radians_per_pixel
 
 
-def score(m, turns: list[Path]) -> None:
+class KeypointFix:
+    """The stored view with the most epipolar inliers (SIFT, ratio 0.8, RANSAC fundamental
+    matrix at 2 px) against any image of the turn."""
+
+    def __init__(self, m, n_features: int = 500):
+        self.sift = cv2.SIFT_create(nfeatures=n_features)
+        self.matcher = cv2.BFMatcher(cv2.NORM_L2)
+        self.views = [self._keypoints(image) for image in m.images]
+
+    def _keypoints(self, image: np.ndarray):
+        kp, desc = self.sift.detectAndCompute(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY), None)
+        return np.float32([k.pt for k in kp]), desc
+
+    def _inliers(self, a, b) -> int:
+        (pa, da), (pb, db) = a, b
+        if da is None or db is None or len(pa) < 8 or len(pb) < 8:
+            return 0
+        pairs = self.matcher.knnMatch(da, db, k=2)
+        good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < 0.8 * p[1].distance]
+        if len(good) < 8:
+            return len(good) // 2
+        p1 = pa[[g.queryIdx for g in good]]
+        p2 = pb[[g.trainIdx for g in good]]
+        _, mask = cv2.findFundamentalMat(p1, p2, cv2.FM_RANSAC, 2.0, 0.99)
+        return int(mask.sum()) if mask is not None else 0
+
+    def __call__(self, images: np.ndarray) -> int:
+        turn = [self._keypoints(image) for image in images]
+        return int(np.argmax([max(self._inliers(t, v) for t in turn) for v in self.views]))
+
+
+def score(m, turns: list[Path], keypoints: bool = False) -> None:
     """Per descriptor: how many fixes lie within 1.5 m and 3 m of the nearest view's
     distance from the start, and the mean excess (m)."""
     desc = Descriptors(m)
+    keypoint_fix = KeypointFix(m) if keypoints else None
     excess: dict[str, list[float]] = {}
     for path in turns:
         z = np.load(path, allow_pickle=False)
@@ -99,6 +134,8 @@ def score(m, turns: list[Path]) -> None:
         for name in DESCRIPTORS:
             d, yaw = (np.array(a) for a in zip(*(desc.align(x, name) for x in xs), strict=True))
             fixes[name] = contrast_fix(d, yaw, z["odometry"][:, 2])[0]
+        if keypoint_fix is not None:
+            fixes["keypoints"] = keypoint_fix(z["images"])
         for name, view in fixes.items():
             excess.setdefault(name, []).append(float(dist[view] - dist.min()))
     print("| fix | within 1.5 m of the nearest view | within 3 m | mean excess |")
@@ -117,13 +154,14 @@ def main() -> None:
     p.add_argument("--turns", type=Path, default=Path("out/turns"), help="recorded turns")
     p.add_argument("--data", default="out/dataset")
     p.add_argument("--maps", default="out/servo-maps")
+    p.add_argument("--keypoints", action="store_true", help="add the SIFT keypoint fix")
     a = p.parse_args()
     lo, hi = (int(v) for v in a.episodes.split(":"))
     m = load_or_build(a.world, dataset=a.data, cache=a.maps)
     a.turns.mkdir(parents=True, exist_ok=True)
     record_turns(a.world, a.tier, lo, hi, m, a.turns)
     names = [a.turns / f"turn-{a.world}-{a.tier}-{i}.npz" for i in range(lo, hi)]
-    score(m, [n for n in names if n.is_file()])
+    score(m, [n for n in names if n.is_file()], a.keypoints)
 
 
 if __name__ == "__main__":
