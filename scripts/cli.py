@@ -5,11 +5,32 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 from scripts.args import non_negative_float, policies, positive_int, worlds
 
 DEFAULT_OUT = "out"
+
+
+def output_folder(value: str, option: str = "--out") -> Path:
+    """The output folder ``value``, created now and probed for writing, so that a bad
+    ``--out`` is reported before any work runs rather than after it (a servo evaluation
+    writes its file only once every episode has run). Raises ValueError naming ``option``."""
+    path = Path(value)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{option} must be a folder, got the file {value}")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        # a probe file, not os.access: that says yes to root on a read-only mount
+        tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-").close()
+    except OSError as err:
+        reason = err.strerror or type(err).__name__
+        raise ValueError(
+            f"{option} must be a folder this user can create and write, got {value} ({reason})"
+        ) from err
+    return path
 
 
 def _settings(args):
@@ -33,6 +54,7 @@ def _settings(args):
 def cmd_collect(args) -> int:
     from sim.collect import collect_dataset
 
+    output_folder(args.out)
     start = time.perf_counter()
     try:
         out = collect_dataset(args.out, _settings(args), overwrite=args.overwrite, jobs=args.jobs)
@@ -76,6 +98,7 @@ def cmd_preview(args) -> int:
     from scripts.preview import write_previews
     from sim.dataset import load_dataset
 
+    output_folder(args.out)
     written = write_previews(load_dataset(args.data), args.out)
     print(f"wrote {len(written)} preview images to {args.out}")
     return 0
@@ -84,6 +107,7 @@ def cmd_preview(args) -> int:
 def cmd_worlds(args) -> int:
     from scenes import build_world
 
+    output_folder(args.out)
     for name in worlds(args.world):
         print(build_world(name).write(args.out))
     return 0
@@ -147,6 +171,7 @@ def cmd_run(args) -> int:
 
 
 def cmd_group_eval(args) -> int:
+    output_folder(args.out)
     if args.local_maps:
         from scripts.eval_local_maps import run
     elif args.carmen:
@@ -160,6 +185,7 @@ def cmd_group_eval(args) -> int:
 def cmd_reproduce(args) -> int:
     from scripts.reproduce_manifold import run
 
+    output_folder(args.out)
     return run(args)
 
 
@@ -180,12 +206,12 @@ def cmd_servo_eval(args) -> int:
     """Closed-loop servo evaluation by the benchmark protocol (``servo.protocol``): one start
     tier and split, in one world or both, episodes in parallel over the cores."""
     import json
-    from pathlib import Path
 
     from servo.map_file import map_paths
     from servo.map_store import load_or_build
     from servo.protocol import Protocol, run_protocol
 
+    out = output_folder(args.out) if args.out else None
     results = []
     for world in worlds(args.world):
         protocol = Protocol(world, args.tier, args.split, randomize=args.randomize,
@@ -196,13 +222,10 @@ def cmd_servo_eval(args) -> int:
         r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
                          args.policy, workers=args.workers, progress=not args.json)  # fmt: skip
         results.append(r)
-    if args.out:
+    if out is not None:
         from common.fileio import atomic_write_bytes
 
-        Path(args.out).mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(
-            Path(args.out) / servo_eval_name(args), json.dumps(results, indent=2).encode()
-        )
+        atomic_write_bytes(out / servo_eval_name(args), json.dumps(results, indent=2).encode())
     if args.json:
         print(json.dumps(results if len(results) > 1 else results[0], indent=2))
         return 0
@@ -386,6 +409,13 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _os_message(err: OSError) -> str:
+    """One line for an OSError: what failed on which path (``str(err)`` already names the
+    path for the errors ``open`` and ``mkdir`` raise)."""
+    text = str(err) or type(err).__name__
+    return text if err.filename is not None else f"{type(err).__name__}: {text}"
+
+
 def main(argv: list[str] | None = None) -> int:
     import sim  # noqa: F401  (chooses the headless GL backend before mujoco loads)
 
@@ -395,6 +425,9 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as err:  # bad settings: say which, no traceback
         print(f"topomap {args.command}: {err}", file=sys.stderr)
         return 2
+    except OSError as err:  # a file or folder that cannot be read or written: say which
+        print(f"topomap {args.command}: {_os_message(err)}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

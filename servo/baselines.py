@@ -10,16 +10,24 @@ from __future__ import annotations
 import numpy as np
 
 from common.geometry import se2_relative
-from common.validation import check_int
+from common.validation import check_finite, check_int
 from mapping._validation import single_threaded_blas
 from scenes import World
 from servo.geodesic import GeodesicField
-from servo.localise import ImageLocaliser
+from servo.localise import ImageLocaliser, check_observation
 from servo.map_store import ServoMap
 from servo.route import RouteGraph
 from servo.steering import Arrival, pursue
 from servo.waypoint_tracker import WaypointTracker
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
+
+
+def _positive(value, name: str) -> float:
+    """A finite number > 0 (m/s or m): NaN or a negative would steer nowhere, silently."""
+    value = check_finite(value, name)
+    if value <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return value
 
 
 class RandomPolicy:
@@ -28,7 +36,8 @@ class RandomPolicy:
     def __init__(self, rng: np.random.Generator, hold: int = 5):
         if not isinstance(rng, np.random.Generator):
             raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        self.rng, self.hold = rng, int(hold)
+        # hold=0 would draw one command and never another (the count goes negative)
+        self.rng, self.hold = rng, check_int(hold, "hold")
         self._left, self._action = 0, np.zeros(2)
 
     def reset(self, target: int, info: dict | None = None) -> None:
@@ -74,6 +83,7 @@ class GreedyFProbing:
         self.budget_factor = 1 + int(np.ceil(2 * len(PROBES) / self.commit))
         self.localiser = ImageLocaliser(servo_map)
         self.routes = RouteGraph(servo_map) if waypoints else None
+        self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
         self.target = self.map.check_view(target, "target")
@@ -97,6 +107,9 @@ class GreedyFProbing:
             return self._act(observation)
 
     def _act(self, observation) -> np.ndarray:
+        if self.target is None:
+            raise RuntimeError("call reset(target) before act(observation)")
+        check_observation(observation, ("image",))
         x = self.localiser.features(observation["image"])
         if self.waypoints and self.tracker is None:
             self._start(x)
@@ -131,7 +144,10 @@ class OraclePolicy:
     """
 
     def __init__(self, world: World, speed: float = 1.0, lookahead: float = 1.0):
-        self.world, self.speed, self.lookahead = world, float(speed), float(lookahead)
+        self.world = world
+        self.speed = _positive(speed, "speed")
+        self.lookahead = _positive(lookahead, "lookahead")
+        self.field = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
         if info is None or "target_pose" not in info:
@@ -141,6 +157,8 @@ class OraclePolicy:
         self._arrival = Arrival()
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
+        if self.field is None:
+            raise RuntimeError("call reset(target, info) before act(observation, info)")
         if info is None or "pose" not in info:
             raise ValueError("OraclePolicy.act needs the env's info (pose)")
         pose = np.asarray(info["pose"], np.float64)

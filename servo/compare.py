@@ -58,7 +58,8 @@ def load_results(path: str | Path, name: str = "results") -> list[dict]:
         raise ValueError(f"{name}: {path} is larger than {MAX_BYTES >> 20} MB")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
+        # RecursionError: JSON nested deeper than the parser's stack (100 000 '[')
         raise ValueError(f"{name}: {path} is not JSON ({err})") from None
     if isinstance(data, dict):
         data = [data]

@@ -37,7 +37,7 @@ from common.geometry import scan_to_points, se2_compose, se2_relative, transform
 from common.validation import check_int
 from servo.geodesic import GeodesicField
 from servo.laser_localise import GlobalLocaliser, ScanTracker
-from servo.localise import ImageLocaliser
+from servo.localise import ImageLocaliser, check_image, check_observation
 from servo.map_types import ServoMap
 from servo.metric_map import MetricMap
 from servo.steering import Arrival, pursue
@@ -280,24 +280,21 @@ class ManifoldServo:
         return score >= self.config.verify_score
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if not isinstance(observation, dict):
-            raise ValueError(f"observation must be a dict, got {type(observation).__name__}")
-        for key in ("image", "scan", "odometry"):
-            if key not in observation:
-                raise ValueError(f"observation is missing {key!r}")
-        image = np.asarray(observation["image"])
+        check_observation(observation, ("image", "scan", "odometry"))
+        image = check_image(observation["image"], self.map.image_shape)
         scan = np.asarray(observation["scan"], np.float64)
         odo = np.asarray(observation["odometry"], np.float64)
-        if image.shape != self.map.image_shape:
-            raise ValueError(
-                f"observation['image'] must have shape {self.map.image_shape}, got {image.shape}"
-            )
         if scan.shape != self.map.angles.shape:
             raise ValueError(
                 f"observation['scan'] must have shape {self.map.angles.shape}, got {scan.shape}"
             )
         if np.isnan(scan).any():
             raise ValueError("observation['scan'] must not hold NaN (no return is +inf)")
+        if (scan < 0).any():  # -inf too: a range is a distance
+            raise ValueError(
+                f"observation['scan'] must hold ranges >= 0 (m; no return is +inf), got "
+                f"{scan.min()}"
+            )
         if odo.shape != (3,) or not np.all(np.isfinite(odo)):
             raise ValueError(
                 f"observation['odometry'] must be a finite (x, y, yaw), got shape {odo.shape}"

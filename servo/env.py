@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 
 import gymnasium as gym
 import numpy as np
@@ -25,6 +26,36 @@ STUCK_WINDOW = 30  # steps in contact without moving STUCK_DISTANCE end the epis
 STUCK_DISTANCE = 0.1  # m
 SUCCESS_REWARD = 1.0
 COLLISION_PENALTY = 0.1
+
+
+_TASK_OPTIONS = ("pose", "start_manifold", "start_view", "target", "target_manifold")
+
+
+def _check_options(options) -> dict:
+    """``reset``'s ``options`` as a dict: None or a mapping (a list of pairs is refused: it is
+    more likely a mistake than a way to write a dict)."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise TypeError(
+            f"options must be a dict of reset options {_TASK_OPTIONS} or None, got "
+            f"{type(options).__name__}"
+        )
+    return dict(options)
+
+
+def _check_pose(value) -> np.ndarray:
+    """``options['pose']`` as a float64 (x, y, yaw). Checked here, where the task is sampled
+    from it, because ``NavigationEnv.reset`` (whose check says the same) sees it only after."""
+    try:
+        pose = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nesting
+        pose = np.asarray(None)
+    if pose.dtype.kind not in "iuf" or pose.shape != (3,) or not np.all(np.isfinite(pose)):
+        raise ValueError(
+            f"options['pose'] must be a finite (x, y, yaw) of real numbers, got {value!r}"
+        )
+    return pose.astype(np.float64)
 
 
 class ServoEnv(gym.Env):
@@ -156,6 +187,22 @@ class ServoEnv(gym.Env):
                 return np.array([pose[0], pose[1], float(wrap_angle(pose[2]))])
         return base.copy()
 
+    def _candidates(self, ok: np.ndarray, options: dict, what: str) -> np.ndarray:
+        """The views where ``ok``; none means the options contradict ``cross_manifold``
+        (e.g. a start manifold that is the target's), which is said rather than left to
+        ``rng.integers(0)`` ("high <= 0")."""
+        cands = np.flatnonzero(ok)
+        if len(cands) == 0 and not self.cross_manifold:
+            raise ValueError(f"the {self.map.world} map has no stored view on a manifold")
+        if len(cands) == 0:
+            given = {k: options[k] for k in sorted(options) if k in _TASK_OPTIONS}
+            raise ValueError(
+                f"the reset options {given} conflict with cross_manifold=True: no stored view "
+                f"{what} on another manifold; choose other options or pass "
+                "ServoEnv(cross_manifold=False)"
+            )
+        return cands
+
     def _sample_task(self, rng, options: dict) -> tuple[np.ndarray, int]:
         m = self.map
         if "target" in options:
@@ -166,7 +213,7 @@ class ServoEnv(gym.Env):
         else:
             target = None
         if "pose" in options:
-            pose = np.asarray(options["pose"], np.float64)
+            pose = _check_pose(options["pose"])
         else:
             if "start_view" in options:
                 start = m.check_view(options["start_view"], "options['start_view']")
@@ -178,7 +225,7 @@ class ServoEnv(gym.Env):
                     ok &= labels == MANIFOLDS.index(options["start_manifold"])
                 if target is not None and self.cross_manifold:
                     ok &= labels != labels[target]
-                cands = np.flatnonzero(ok)
+                cands = self._candidates(ok, options, "to start from")
                 start = int(cands[rng.integers(len(cands))])
             pose = self._start_pose(rng, start)
         if target is None:
@@ -186,7 +233,7 @@ class ServoEnv(gym.Env):
             ok = self.map.true_labels >= 0
             if self.cross_manifold:
                 ok &= self.map.true_labels != here
-            cands = np.flatnonzero(ok)
+            cands = self._candidates(ok, options, "to target")
             target = int(cands[rng.integers(len(cands))])
         return pose, target
 
@@ -229,7 +276,7 @@ class ServoEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
+        options = _check_options(options)
         task_rng, base_seed = self.np_random.spawn(1)[0], int(self.np_random.integers(2**31))
         pose, self._target = self._sample_task(task_rng, options)
         obs, info = self.base.reset(seed=base_seed, options={"pose": pose})

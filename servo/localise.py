@@ -19,6 +19,36 @@ MAX_SHIFT = 20  # feature-image pixels tried either way (80 px across the 58 deg
 HFOV = 2.0 * np.arctan(np.tan(np.deg2rad(45.0) / 2) * 4.0 / 3.0)  # rad, 320x240 at fovy 45
 
 
+def check_observation(observation, keys: tuple[str, ...]) -> None:
+    """A controller's observation: a dict holding ``keys``; else a ValueError saying which."""
+    if not isinstance(observation, dict):
+        raise ValueError(f"observation must be a dict, got {type(observation).__name__}")
+    for key in keys:
+        if key not in observation:
+            raise ValueError(f"observation is missing {key!r}")
+
+
+def check_image(image, shape: tuple[int, ...], name: str = "observation['image']") -> np.ndarray:
+    """``image`` as an array of ``shape`` holding pixel values: a real numeric dtype (the env
+    gives uint8; a float copy of it works as well) and finite values in [0, 255]. Anything
+    else raises (TypeError for the dtype, ValueError for the shape or values), naming
+    ``name``: a controller would otherwise act on it as on a real image."""
+    image = np.asarray(image)
+    if image.dtype.kind not in "uif":  # not bool, complex, str or object
+        raise TypeError(f"{name} must hold real numbers (uint8 pixels), got dtype {image.dtype}")
+    if image.shape != tuple(shape):
+        raise ValueError(f"{name} must have shape {tuple(shape)}, got {image.shape}")
+    if image.dtype != np.uint8:  # uint8 is in range by its type: no pass over the pixels
+        if not np.all(np.isfinite(image)):
+            raise ValueError(f"{name} must be finite (no NaN or inf)")
+        if image.size and (image.min() < 0 or image.max() > 255):
+            raise ValueError(
+                f"{name} must hold pixel values in [0, 255], got values in "
+                f"[{image.min()}, {image.max()}]"
+            )
+    return image
+
+
 class ImageLocaliser:
     """Shift-aligned image distances and F^j(k) toward stored views (see the module doc).
 
@@ -97,12 +127,8 @@ class ImageLocaliser:
 
     # -- API --------------------------------------------------------------------------------
     def features(self, image, name: str = "observation['image']") -> np.ndarray:
-        """The image's feature vector (d,); refuses a wrong shape or non-finite pixels."""
-        image = np.asarray(image)
-        if image.shape != self.map.image_shape:
-            raise ValueError(f"{name} must have shape {self.map.image_shape}, got {image.shape}")
-        if not np.all(np.isfinite(image)):
-            raise ValueError(f"{name} must be finite (no NaN or inf)")
+        """The image's feature vector (d,); refuses what :func:`check_image` refuses."""
+        image = check_image(image, self.map.image_shape, name)
         return self.map.image_features.transform(image[None]).astype(np.float32)[0]
 
     def align(self, x: np.ndarray, views=None, step: int = 2) -> tuple[np.ndarray, np.ndarray]:

@@ -22,7 +22,7 @@ from common.fileio import atomic_write_bytes
 from mapping import persistence
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
-from scenes import WORLDS
+from scenes import MANIFOLDS, NO_MANIFOLD, WORLDS
 from servo.map_types import MapError, MapSettings, ServoMap
 from sim.dataset import read_npz, write_sequence
 
@@ -102,7 +102,9 @@ def _check(cond: bool, path: Path, what: str) -> None:
 def _read_meta(path: Path, world: str | None) -> dict:
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
+        # RecursionError: JSON nested deeper than the parser's stack; a MapError, so that
+        # load_or_build rebuilds the map as for any other damaged file
         raise MapError(f"{path} is not a valid servo map: not JSON ({err})") from err
     _check(isinstance(meta, dict), path, "the JSON must be an object")
     _check(meta.get("format") == FORMAT, path, f"format must be {FORMAT!r}")
@@ -155,8 +157,25 @@ def _check_arrays(arrays: dict, path: Path) -> None:
     _check(bool(np.all((edges >= 0) & (edges < n))), path, "edges name views outside the map")
     clusters = arrays["clusters"]
     _check(bool(np.all(clusters >= 0)), path, "clusters must be >= 0")
+    labels = arrays["true_labels"]
+    _check(bool(np.all((labels >= NO_MANIFOLD) & (labels < len(MANIFOLDS)))), path,
+           f"true_labels must lie in [{NO_MANIFOLD}, {len(MANIFOLDS)}): a manifold id, "
+           f"{NO_MANIFOLD} for none")  # fmt: skip
     for name in ("features", "poses", "edge_transforms", "angles"):
         _check(bool(np.isfinite(arrays[name]).all()), path, f"{name} holds NaN or inf")
+    # ranges as the dataset stores them: +inf is no return, so only NaN and < 0 are refused
+    # (a scan of NaN or negative ranges has no point, and the map's views need their points)
+    scans = arrays["scans"]
+    _check(not bool(np.isnan(scans).any()), path, "scans hold NaN (no return is +inf)")
+    _check(bool(np.all(scans >= 0)), path, "scans hold ranges < 0")
+
+
+def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: Path) -> None:
+    """Every stored view's cluster is one of the loaded clustering's (the arrays are checked
+    before the estimators are rebuilt, so this comes after)."""
+    k = len(clustering.centers_)
+    _check(bool(np.all(clusters < k)), path, f"clusters must lie in [0, {k}), the clustering's "
+           "clusters")  # fmt: skip
 
 
 def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
@@ -167,6 +186,9 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
     path : the ``.json`` (or ``.npz``) of the map.
     world : if given, the map must be of this world.
     """
+    if world is not None and (not isinstance(world, str) or world not in WORLDS):
+        # an argument error, not a damaged file: no MapError (load_or_build would rebuild)
+        raise ValueError(f"world must be one of {WORLDS} or None, got {world!r}")
     path = Path(path).with_suffix(".json")
     npz_path = path.with_suffix(".npz")
     if not path.is_file():
@@ -182,6 +204,7 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
         )
     except (TypeError, ValueError) as err:
         raise MapError(f"{path} is not a valid servo map: {err}") from err
+    _check_clusters(arrays["clusters"], clustering, npz_path)
     m = ServoMap(
         world=meta["world"],
         key=meta["key"],

@@ -51,7 +51,7 @@ from servo.map_file import FORMAT_VERSION, load_map, map_paths, save_map
 from servo.map_types import MapError, MapSettings, ServoMap
 from servo.scan_profile import clip_ranges, profile_distances
 from sim import datahome
-from sim.dataset import Dataset, load_dataset, read_meta
+from sim.dataset import Dataset, DatasetError, load_dataset, read_meta
 
 __all__ = ["MapError", "MapSettings", "ServoMap", "build_map", "load_map", "load_or_build",
            "map_key", "save_map"]  # fmt: skip
@@ -242,7 +242,9 @@ def build_map(
         dataset = load_dataset(dataset)
     names = _world_sequences(dataset, world)
     first = dataset.sequences[names[0]]
-    max_range = float(dataset.meta["settings"]["laser"]["max_range"])
+    max_range = dataset.max_range
+    if max_range is None:  # a meta.json from another writer: no laser settings recorded
+        raise DatasetError(f"{dataset.path}: meta.json gives no settings.laser.max_range")
     cols: dict[str, list] = {k: [] for k in ("images", "scans", "poses", "true", "labels")}
     seq_ids, frames = [], []
     for k, name in enumerate(names):

@@ -185,8 +185,11 @@ def read_meta(directory: str | os.PathLike) -> dict:
         raise DatasetError(f"no dataset at {directory}: {META_FILE} is missing")
     try:
         meta = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
+    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
+        # RecursionError: JSON nested deeper than the parser's stack (100 000 '[')
         raise DatasetError(f"{path} is not valid JSON: {err}") from err
+    if not isinstance(meta, dict):
+        raise DatasetError(f"{path} must hold a JSON object, got a {type(meta).__name__}")
     if meta.get("format") != FORMAT_NAME:
         raise DatasetError(f"{path} is not a {FORMAT_NAME} (format={meta.get('format')!r})")
     if meta.get("schema_version") not in READABLE_VERSIONS:
@@ -199,12 +202,38 @@ def read_meta(directory: str | os.PathLike) -> dict:
             f"{path}: 'ground_truth' must be true or false in schema version 2, got "
             f"{meta.get('ground_truth')!r}"
         )
-    sequences = meta.get("sequences", {})
+    if "sequences" not in meta:  # every writer records it, even before the first sequence
+        raise DatasetError(
+            f"{path}: the key 'sequences' (an object of sequence entries) is missing"
+        )
+    sequences = meta["sequences"]
     if not isinstance(sequences, dict):
         raise DatasetError(f"{path}: 'sequences' must be an object of sequence entries")
     for name, entry in sequences.items():
         check_entry(path, name, entry)
+    _check_optional_keys(path, meta)
     return meta
+
+
+def _check_optional_keys(path: Path, meta: dict) -> None:
+    """The other keys the code reads, where present: ``settings`` (its ``laser`` and that
+    one's ``max_range``, the laser's range), ``manifolds`` and ``complete``. They may be
+    absent (a dataset of schema version 1, a collection just started)."""
+    settings = meta.get("settings", {})
+    if not isinstance(settings, dict):
+        raise DatasetError(f"{path}: 'settings' must be an object, got {settings!r}")
+    laser = settings.get("laser", {})
+    if not isinstance(laser, dict):
+        raise DatasetError(f"{path}: 'settings.laser' must be an object, got {laser!r}")
+    r = laser.get("max_range", 1.0)
+    if isinstance(r, bool) or not isinstance(r, int | float) or not 0 < r < float("inf"):
+        raise DatasetError(f"{path}: 'settings.laser.max_range' must be a positive number (m), "
+                           f"got {r!r}")  # fmt: skip
+    manifolds = meta.get("manifolds", [])
+    if not (isinstance(manifolds, list) and all(isinstance(m, str) for m in manifolds)):
+        raise DatasetError(f"{path}: 'manifolds' must be a list of names, got {manifolds!r}")
+    if not isinstance(meta.get("complete", False), bool):
+        raise DatasetError(f"{path}: 'complete' must be true or false, got {meta['complete']!r}")
 
 
 def check_entry(path: Path, name: str, entry) -> None:

@@ -162,3 +162,78 @@ def test_the_stall_window_sees_commanded_motion_that_odometry_does_not():
     assert [w.stalled(0.5, odo) for odo in jitter] == [False] * 9 + [True]
     w.clear()
     assert not any(w.stalled(0.0, odo) for odo in jitter)  # nothing commanded
+
+
+BAD_IMAGES = [  # (image from a good one, error, match)
+    (lambda im: np.full(im.shape, -5.0), ValueError, r"in \[0, 255\], got values in \[-5"),
+    (lambda im: np.full(im.shape, 10**6), ValueError, r"in \[0, 255\]"),
+    (lambda im: im.astype(float) + 255.5, ValueError, r"in \[0, 255\]"),
+    (lambda im: np.full(im.shape, "a"), TypeError, "must hold real numbers"),
+    (lambda im: im.astype(object), TypeError, "must hold real numbers"),
+    (lambda im: im > 0, TypeError, "must hold real numbers"),
+    (lambda im: im.astype(complex), TypeError, "must hold real numbers"),
+]
+
+
+@pytest.mark.parametrize("policy", ["servo", "signal", "greedy"])
+def test_controllers_refuse_images_that_are_not_pixels(servo_maps, policy):
+    """Negative, > 255, str, object, bool or complex images were acted on as pixels (or failed
+    in a ufunc); the shared check names observation['image']."""
+    from servo.signal_servo import SignalServo
+
+    m = servo_maps["hallway"]
+    ctl = {"servo": ManifoldServo, "signal": SignalServo, "greedy": GreedyFProbing}[policy](m)
+    ctl.reset(0)
+    obs = {"image": m.images[0], "scan": m.scans[0].copy(), "odometry": np.zeros(3)}
+    for make, error, match in BAD_IMAGES:
+        with pytest.raises(error, match=r"observation\['image'\] .*" + match):
+            ctl.act({**obs, "image": make(m.images[0])})
+
+
+def test_float_pixels_are_still_images(servo_maps):
+    """Float images in [0, 1] (what ImageFeatures documents for floats) and the bounds of
+    [0, 255] themselves are not refused."""
+    from servo.localise import ImageLocaliser
+
+    m = servo_maps["hallway"]
+    loc = ImageLocaliser(m)
+    image = m.images[7]
+    np.testing.assert_allclose(loc.features(image / 255.0), loc.features(image), atol=1e-5)
+    loc.features(np.zeros(m.image_shape, np.int64))
+    loc.features(np.full(m.image_shape, 255.0))
+
+
+@pytest.mark.parametrize("value", [-1.0, -np.inf])
+def test_controller_refuses_negative_ranges(servo_maps, value):
+    m = servo_maps["hallway"]
+    ctl = ManifoldServo(m)
+    ctl.reset(0)
+    scan = m.scans[0].copy()
+    scan[5] = value
+    obs = {"image": m.images[0], "scan": scan, "odometry": np.zeros(3)}
+    with pytest.raises(ValueError, match=r"observation\['scan'\] must hold ranges >= 0"):
+        ctl.act(obs)
+    scan[5] = np.inf  # no return: a range like any other
+    ctl.act(obs)
+
+
+def test_baselines_refuse_bad_use(envs):
+    env = envs["hallway"]
+    obs, info = env.reset(seed=3)
+    for policy in (GreedyFProbing(env.map), OraclePolicy(env.base.world)):
+        with pytest.raises(RuntimeError, match=r"call reset\(.*\) before act"):
+            policy.act(obs, info)
+    greedy = GreedyFProbing(env.map)
+    greedy.reset(info["target_view"])
+    with pytest.raises(ValueError, match="observation is missing 'image'"):
+        greedy.act({"scan": obs["scan"]})
+    with pytest.raises(ValueError, match="observation must be a dict, got NoneType"):
+        greedy.act(None)
+    for hold in (0, -1, 1.5, "5"):
+        with pytest.raises(ValueError, match="hold must be an integer >= 1"):
+            RandomPolicy(np.random.default_rng(0), hold=hold)
+    for bad in (dict(speed=float("nan")), dict(speed=0.0), dict(lookahead=-1.0),
+                dict(lookahead=float("inf")), dict(speed="x")):  # fmt: skip
+        name = next(iter(bad))
+        with pytest.raises(ValueError, match=f"{name} must be a finite number"):
+            OraclePolicy(env.base.world, **bad)

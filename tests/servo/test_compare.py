@@ -113,3 +113,11 @@ def test_cli_refuses_files_without_shared_episodes(tmp_path, capsys):
     assert main(["servo-compare", str(a), str(b)]) == 2
     assert "share no world" in capsys.readouterr().err
     assert np.isfinite(cmp.compare([_result([1])], [_result([0])])[0].sign_test_p)
+
+
+def test_result_files_nested_past_the_parser_are_refused(tmp_path):
+    """100 000 '[' make json.loads raise RecursionError: a ValueError naming the file."""
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000)
+    with pytest.raises(ValueError, match=r"B: .*deep\.json is not JSON"):
+        cmp.load_results(path, "B")

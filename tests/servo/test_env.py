@@ -162,3 +162,46 @@ def test_registered_task_has_one_clock_and_takes_the_reward_weights(env, servo_m
 def test_reward_weights_must_be_finite_numbers(servo_maps, name):
     with pytest.raises(ValueError, match=f"{name} must be a finite number"):
         ServoEnv("hallway", servo_maps["hallway"], **{name: float("nan")})
+
+
+def test_options_that_contradict_cross_manifold_are_named(env):
+    """A start manifold that is the target's leaves no start with cross_manifold=True: a
+    ValueError saying so, not numpy's "high <= 0"."""
+    left_view = int(np.flatnonzero(env.map.true_labels == 1)[0])  # MANIFOLDS[1]: hallway-left
+    for options in (
+        {"start_manifold": "hallway-left", "target_manifold": "hallway-left"},
+        {"start_manifold": "hallway-left", "target": left_view},
+    ):
+        with pytest.raises(ValueError, match="conflict with cross_manifold=True"):
+            env.reset(seed=0, options=options)
+
+
+def test_a_map_with_no_other_manifold_to_target_is_named(env, servo_maps):
+    """The target-less branch: every labelled view on the start pose's manifold."""
+    import dataclasses
+
+    m = servo_maps["hallway"]
+    pose = m.true_poses[0]
+    here = int(env.base.world.manifold_at(pose[:2]))
+    labels = np.where(m.true_labels >= 0, here, -1).astype(m.true_labels.dtype)
+    e = ServoEnv("hallway", dataclasses.replace(m, true_labels=labels), max_steps=5)
+    try:
+        with pytest.raises(ValueError, match="conflict with cross_manifold=True"):
+            e.reset(seed=0, options={"pose": pose})
+    finally:
+        e.close()
+
+
+@pytest.mark.parametrize(
+    "pose", [None, 5.0, [[2.3, 0.0, 0.1]], "abc", [1j, 0, 0], [1.0, np.nan, 0.0], [[1], [2, 3]]]
+)
+def test_a_malformed_pose_option_is_named(env, pose):
+    """Checked where the task is sampled from it, before NavigationEnv.reset would see it."""
+    with pytest.raises(ValueError, match=r"options\['pose'\] must be a finite \(x, y, yaw\)"):
+        env.reset(seed=0, options={"pose": pose})
+
+
+@pytest.mark.parametrize("options", [[("pose", (2.3, 0.0, 0.1))], "target", 3])
+def test_options_must_be_a_mapping(env, options):
+    with pytest.raises(TypeError, match="options must be a dict"):
+        env.reset(seed=0, options=options)

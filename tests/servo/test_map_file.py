@@ -186,3 +186,69 @@ def test_load_or_build_names_a_bad_argument(servo_dataset, tmp_path, what):
     with pytest.raises(ValueError, match=f"{what} must be"):
         load_or_build(**kwargs)
     assert not (tmp_path / "c").exists()
+
+
+def test_json_nested_past_the_parser_is_a_map_error_and_the_cache_is_rebuilt(
+    servo_dataset, tmp_path
+):
+    """100 000 '[' make json.loads raise RecursionError: a MapError, so load_or_build
+    rebuilds the map instead of failing."""
+    from servo.map_file import map_paths
+    from servo.map_types import MapSettings
+    from sim.dataset import read_meta
+
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    # where load_or_build looks (the key of the code as it is now)
+    key = map_store.map_key(read_meta(servo_dataset), "lawn", MapSettings())
+    path, _ = map_paths(cache, "lawn", key)
+    path.write_text("[" * 100_000)
+    with pytest.raises(MapError, match="not JSON"):
+        load_map(path)
+    with pytest.warns(RuntimeWarning, match="rebuilding the servo map: .*not JSON"):
+        rebuilt = load_or_build("lawn", servo_dataset, cache)
+    assert load_map(path, "lawn").key == rebuilt.key == key  # the cache is whole again
+
+
+def _forge(copy: Path, name: str, change) -> None:
+    """Rewrite one array of the map, with both checksums recomputed (as other code would)."""
+    from sim.dataset import write_sequence
+
+    npz = copy.with_suffix(".npz")
+    with np.load(npz) as f:
+        arrays = {k: f[k] for k in f.files}
+    arrays[name] = change(arrays[name].copy())
+    _edit(copy, lambda m: m.update(sha256=write_sequence(npz, arrays)))
+
+
+@pytest.mark.parametrize(
+    ("name", "change", "match"),
+    [
+        ("true_labels", lambda a: np.full_like(a, 99), r"true_labels must lie in \[-1, 8\)"),
+        ("true_labels", lambda a: np.full_like(a, -2), r"true_labels must lie in \[-1, 8\)"),
+        ("clusters", lambda a: np.full_like(a, 999), r"clusters must lie in \[0, \d+\)"),
+        ("scans", lambda a: np.full_like(a, np.nan), "scans hold NaN"),
+        ("scans", lambda a: np.full_like(a, -1.0), "scans hold ranges < 0"),
+        ("scans", lambda a: np.full_like(a, -np.inf), "scans hold ranges < 0"),
+    ],
+)
+def test_impossible_content_is_refused_even_with_matching_checksums(copy, name, change, match):
+    """Labels outside the manifolds, clusters the clustering does not have and NaN or negative
+    ranges would fail only at first use (IndexError, "need at least one array to
+    concatenate"): refused on load."""
+    _forge(copy, name, change)
+    with pytest.raises(MapError, match=match):
+        load_map(copy)
+
+
+def test_no_return_ranges_are_allowed(copy):
+    """+inf is how a scan stores no return: not refused with the NaN and negative ranges."""
+    _forge(copy, "scans", lambda a: np.where(np.arange(a.shape[1]) % 2, np.inf, a))
+    assert np.isinf(load_map(copy).scans).any()
+
+
+@pytest.mark.parametrize("world", ["mars", 3, ""])
+def test_an_unknown_world_argument_is_named(copy, world):
+    with pytest.raises(ValueError, match=r"world must be one of \('hallway', 'lawn'\)") as caught:
+        load_map(copy, world=world)
+    assert not isinstance(caught.value, MapError)  # an argument error, not a damaged file

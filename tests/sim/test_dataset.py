@@ -285,3 +285,53 @@ def test_bad_appearance_is_refused(capsys):
         main(["collect", "--world", "lawn", "--out", "x", "--appearance", "easy"])
     err = capsys.readouterr().err
     assert "--appearance" in err and "'hard'" in err
+
+
+@pytest.mark.parametrize(
+    ("meta", "match"),
+    [
+        ("[1, 2]", "must hold a JSON object, got a list"),
+        ("[" * 100_000, "not valid JSON"),  # deeper than the parser's stack: RecursionError
+        (b"\xff\xfe", "not valid JSON"),
+        ({"sequences": None}, "'sequences' must be an object"),
+        ({"sequences": "drop"}, "the key 'sequences' .* is missing"),
+        ({"settings": []}, "'settings' must be an object"),
+        ({"settings": {"laser": 20.0}}, r"'settings\.laser' must be an object"),
+        ({"settings": {"laser": {"max_range": "20"}}}, r"max_range' must be a positive number"),
+        ({"settings": {"laser": {"max_range": float("nan")}}}, "max_range' must be a positive"),
+        ({"manifolds": [1, 2]}, "'manifolds' must be a list of names"),
+        ({"complete": "yes"}, "'complete' must be true or false"),
+    ],
+)
+def test_a_tampered_meta_is_a_dataset_error(small_dataset, tmp_path, meta, match):
+    """meta.json as untrusted input: a list, JSON nested past the parser's stack, or a key the
+    code reads that is missing or of another form is a DatasetError naming the file, never an
+    AttributeError, KeyError (servo.map_store.map_key reads 'sequences') or RecursionError."""
+    import shutil
+
+    from sim.dataset import read_meta
+
+    d = tmp_path / "d"
+    shutil.copytree(small_dataset, d)
+    if isinstance(meta, dict):
+        good = json.loads((d / "meta.json").read_text())
+        change = {k: v for k, v in meta.items() if v != "drop"}
+        meta = json.dumps({k: v for k, v in good.items() if k not in meta} | change)
+    path = d / "meta.json"
+    path.write_bytes(meta if isinstance(meta, bytes) else meta.encode())
+    with pytest.raises(DatasetError, match=match) as caught:
+        read_meta(d)
+    assert str(path) in str(caught.value)
+
+
+def test_a_meta_without_laser_settings_cannot_build_a_map(small_dataset, tmp_path):
+    import shutil
+
+    from servo.map_store import build_map
+
+    shutil.copytree(small_dataset, tmp_path / "d")
+    meta = json.loads((tmp_path / "d" / "meta.json").read_text())
+    del meta["settings"]["laser"]
+    (tmp_path / "d" / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(DatasetError, match="no settings.laser.max_range"):
+        build_map(tmp_path / "d", "lawn")
