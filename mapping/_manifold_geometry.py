@@ -19,7 +19,7 @@ from joblib import Parallel, delayed, effective_n_jobs
 
 from mapping._manifold_kernel import SpectralBasis, outlier_vector, unit_outliers
 from mapping._manifold_lowrank import LowRankBasis
-from mapping._validation import on_one_blas_thread
+from mapping._validation import check_span, on_one_blas_thread
 from mapping.distances import squared_distances
 
 # Values of ManifoldClustering's ``kernel``; "auto" takes the k-NN graph above this many
@@ -31,9 +31,6 @@ AUTO_SPARSE_ABOVE = 1000
 _KNN_SPARE = 8
 # Elements of one block of the k-NN distance matrix (~32 MB of float32 and its argpartition).
 _KNN_ELEMENTS = 4_000_000
-# The span of X (largest range of a feature) that float64 distances can hold: sigma is a
-# fraction of it, and sigma^2 and the squared distances must stay normal numbers.
-_SPREAD = (1e-140, 1e140)
 
 
 def coarse_space(space):
@@ -314,13 +311,7 @@ def training_geometry(
     processes compute each graph node's eigenbases (:meth:`GraphGeometry.prefetch`).
     """
     n = X.shape[0]
-    spread = float(np.ptp(X, axis=0).max())
-    if spread > 0 and not _SPREAD[0] <= spread <= _SPREAD[1]:
-        raise ValueError(
-            f"X: the samples span {spread:.3g}; squared distances and sigma^2 must be normal "
-            f"float64 numbers, so the span must lie in [{_SPREAD[0]:g}, {_SPREAD[1]:g}]: "
-            "rescale X (the clustering does not depend on its scale)"
-        )
+    check_span(X)  # refuses a span float64 distances cannot hold
     if kernel == "sparse" or (kernel == "auto" and n > AUTO_SPARSE_ABOVE):
         if not np.ptp(X, axis=0).max() > 0:
             raise ValueError("X: all samples are identical; there is nothing to cluster")

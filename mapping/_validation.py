@@ -1,5 +1,6 @@
-"""The BLAS thread policy shared by the estimators of ``mapping``, and the checks of a fitted
-state read back from a file (:func:`check_layout`, :func:`check_number`).
+"""The BLAS thread policy shared by the estimators of ``mapping``, the checks of a fitted
+state read back from a file (:func:`check_layout`, :func:`check_number`) and the checks of
+training points every clustering shares (:func:`check_span`, :func:`check_distinct_rows`).
 
 Input and parameter checks are scikit-learn's (``validate_data``, ``_parameter_constraints``,
 ``check_is_fitted``); only what scikit-learn does not do lives here.
@@ -13,6 +14,10 @@ import numpy as np
 import threadpoolctl
 
 from common.cores import available_cores
+
+# The span of X (largest range of a feature) that float64 distances can hold: a kernel width is
+# a fraction of it, and sigma^2 and the squared distances must stay normal numbers.
+SPAN_RANGE = (1e-140, 1e140)
 
 _BLAS: list | None = None  # threadpoolctl's controllers of the loaded BLAS libraries
 # threadpoolctl >= 3.8 lets one Python thread at a time set OpenBLAS's threads and counts the
@@ -141,3 +146,54 @@ def check_number(value, name: str, low: float, high: float, integer: bool = Fals
     if isinstance(value, bool) or not isinstance(value, kinds) or not low <= value <= high:
         kind = "an integer" if integer else "a number"
         raise ValueError(f"{name} must be {kind} in [{low}, {high}], got {value!r}")
+
+
+def check_span(X: np.ndarray) -> float:
+    """The span of the training points X (the largest range of a feature), checked.
+
+    Raises ValueError naming X when the samples span more than float64 squared distances can
+    hold (or less than a normal number's square root): at 1e200 the distances overflow to inf,
+    at 1e-200 they underflow to 0 and every sample looks identical. Identical samples (span 0)
+    pass: each estimator says in its own words that there is nothing to cluster.
+    """
+    with np.errstate(over="ignore"):  # an overflowing span is inf, refused below
+        spread = float(np.ptp(X, axis=0).max())
+    if spread > 0 and not SPAN_RANGE[0] <= spread <= SPAN_RANGE[1]:
+        raise ValueError(
+            f"X: the samples span {spread:.3g}; squared distances and sigma^2 must be normal "
+            f"float64 numbers, so the span must lie in [{SPAN_RANGE[0]:g}, {SPAN_RANGE[1]:g}]: "
+            "rescale X (the clustering does not depend on its scale)"
+        )
+    return spread
+
+
+def _projected_count(X: np.ndarray) -> int:
+    """Distinct values of one projection of the rows of X: never more than the distinct rows
+    (copies project alike), and as many on every ordinary data set."""
+    # a fixed projection with unequal weights, so that rows with permuted coordinates differ
+    with np.errstate(over="ignore", invalid="ignore"):
+        return int(np.unique(X @ np.linspace(1.0, 2.0, X.shape[1])).size)
+
+
+def first_copies(X: np.ndarray) -> np.ndarray | None:
+    """Index of the first copy of each distinct row of X, ascending; None when no two rows are
+    equal (found without sorting the rows when a projection already tells them apart)."""
+    if _projected_count(X) == X.shape[0]:
+        return None
+    _, first = np.unique(X, axis=0, return_index=True)
+    return None if first.size == X.shape[0] else np.sort(first)
+
+
+def check_distinct_rows(X: np.ndarray, n_clusters: int) -> None:
+    """Refuse fewer distinct rows in X than ``n_clusters``: identical samples cannot be told
+    apart, so a clustering would split copies of one point into different clusters (or its
+    eigensolver fail). The rows are sorted only when a projection has fewer distinct values.
+    """
+    if n_clusters <= 1 or _projected_count(X) >= n_clusters:
+        return
+    n_distinct = np.unique(X, axis=0).shape[0]
+    if n_distinct < n_clusters:
+        raise ValueError(
+            f"n_clusters={n_clusters} needs at least {n_clusters} distinct samples in X; "
+            f"it has {n_distinct} groups of identical samples"
+        )

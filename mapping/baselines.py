@@ -25,14 +25,19 @@ from scipy.linalg import eigh
 from sklearn.base import BaseEstimator, ClusterMixin, TransformerMixin, _fit_context
 from sklearn.cluster import KMeans
 from sklearn.metrics import pairwise_distances_argmin
-from sklearn.utils import check_array, check_consistent_length, column_or_1d
+from sklearn.utils import check_array, column_or_1d
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from mapping._validation import single_threaded_blas
+from mapping._validation import (
+    check_distinct_rows,
+    check_span,
+    first_copies,
+    single_threaded_blas,
+)
 from mapping.distances import TINY as _TINY
 from mapping.distances import squared_distances
-from mapping.metrics import clustering_error
+from mapping.metrics import check_labels, clustering_error
 
 __all__ = [
     "NormalizedCutClustering",
@@ -41,6 +46,7 @@ __all__ = [
     "best_sigma_ncut",
     "default_sigmas",
 ]
+
 
 def _unit_rows(E: np.ndarray) -> np.ndarray:
     norms = np.linalg.norm(E, axis=1, keepdims=True)
@@ -70,6 +76,14 @@ class _SpectralBase(ClusterMixin, TransformerMixin, BaseEstimator):
                 f"n_clusters={self.n_clusters} exceeds the number of samples ({n_samples})"
             )
 
+    def _check_samples(self, X: np.ndarray) -> None:
+        """The checks of the training points themselves: their number, a span float64
+        distances can hold, and at least ``n_clusters`` distinct rows."""
+        self._check_n_samples(X.shape[0])
+        if not check_span(X) > 0:
+            raise ValueError("X: all samples are identical; there is nothing to cluster")
+        check_distinct_rows(X, self.n_clusters)
+
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: ArrayLike, y: None = None) -> _SpectralBase:
         """Cluster the rows of X; sets ``labels_`` and the state ``predict`` needs.
@@ -82,7 +96,7 @@ class _SpectralBase(ClusterMixin, TransformerMixin, BaseEstimator):
             Ignored; present for scikit-learn compatibility.
         """
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
-        self._check_n_samples(X.shape[0])
+        self._check_samples(X)
         return self._fit_sqdist(X, squared_distances(X))
 
     def _fit_sqdist(self, X: np.ndarray, D2: np.ndarray) -> _SpectralBase:
@@ -209,9 +223,10 @@ class SelfTuningSpectralClustering(_SpectralBase):
     """Spectral clustering with local scaling (Zelnik-Manor & Perona, NIPS 2004).
 
     Each point gets its own scale ``sigma_i``, the distance to its ``n_neighbors``-th nearest
-    neighbour, and ``W_ij = exp(-|x_i - x_j|^2 / (sigma_i sigma_j))``. The number of clusters is
-    fixed (their eigenvector-rotation search for it is not used) and the rest is the NJW pipeline
-    of :class:`NormalizedCutClustering`. A new point's scale is its distance to its
+    neighbour (copies of a point, a robot standing still, count as one neighbour), and
+    ``W_ij = exp(-|x_i - x_j|^2 / (sigma_i sigma_j))``. The number of clusters is fixed (their
+    eigenvector-rotation search for it is not used) and the rest is the NJW pipeline of
+    :class:`NormalizedCutClustering`. A new point's scale is its distance to its
     ``n_neighbors``-th nearest training point; it is then embedded by the Nystrom extension.
 
     Parameters
@@ -232,7 +247,8 @@ class SelfTuningSpectralClustering(_SpectralBase):
     scales_ : ndarray of shape (n,)
         The local scale sigma_i of each training point.
     min_scale_ : float
-        Floor of every scale, also of new points': 1e-9 times the training data's diameter.
+        Floor of every scale, also of new points': 1e-9 times the training data's diameter;
+        every scale where the data has at most ``n_neighbors`` distinct points.
     """
 
     _parameter_constraints: dict = {
@@ -256,10 +272,23 @@ class SelfTuningSpectralClustering(_SpectralBase):
                 f"({n_samples})"
             )
 
+    def _fit_sqdist(self, X: np.ndarray, D2: np.ndarray) -> SelfTuningSpectralClustering:
+        # copies of one point (a robot standing still) are one neighbour of the local scales,
+        # not n_neighbors of them: they would shrink sigma_i to the floor and cut them off
+        self._distinct = first_copies(X)
+        return super()._fit_sqdist(X, D2)
+
     def _local_scales(self, D2: np.ndarray, exclude_self: bool) -> np.ndarray:
+        """Each row's scale: the distance to its ``n_neighbors``-th nearest distinct training
+        position (copies of a training point count once; a row's own copies are skipped)."""
         kth = self.n_neighbors if exclude_self else self.n_neighbors - 1
+        distinct = getattr(self, "_distinct", None)  # None: every training row is distinct
+        if distinct is not None:
+            D2 = D2[:, distinct]  # one column per position; a row's own comes first (~0)
+            if kth >= D2.shape[1]:  # fewer distinct neighbours than n_neighbors: the floor
+                return np.full(D2.shape[0], self.min_scale_)
         d = np.sqrt(np.partition(D2, kth, axis=1)[:, kth])
-        # Duplicated points can have a zero k-th neighbour distance; floor the scale at a tiny
+        # Near-duplicates can have a zero k-th neighbour distance; floor the scale at a tiny
         # fraction of the data's spread so that W stays finite and such points stay connected.
         return np.maximum(d, self.min_scale_)
 
@@ -333,14 +362,17 @@ def best_sigma_ncut(
         ``errors`` of the sweep.
     """
     X = check_array(X, dtype=np.float64, ensure_min_samples=2)
-    y = column_or_1d(y)
-    check_consistent_length(X, y)
+    y = check_labels(column_or_1d(y), "y")  # column_or_1d: an (n, 1) column as well
+    if y.shape[0] != X.shape[0]:
+        raise ValueError(
+            f"X and y have inconsistent numbers of samples: {X.shape[0]} rows of X, "
+            f"{y.shape[0]} labels in y"
+        )
+    probe = NormalizedCutClustering(n_clusters, n_init=n_init, random_state=random_state)
+    probe._validate_params()
+    probe._check_samples(X)  # once, not per sigma
     D2 = squared_distances(X)
-    if not D2.max() > 0:
-        raise ValueError("X: all samples are identical; there is nothing to cluster")
-    grid = default_sigmas(D2) if sigmas is None else np.asarray(sigmas, dtype=np.float64).ravel()
-    if grid.size == 0 or not (np.isfinite(grid).all() and (grid > 0).all()):
-        raise ValueError("sigmas must be a non-empty sequence of positive finite numbers")
+    grid = default_sigmas(D2) if sigmas is None else _check_sigmas(sigmas)
     errors = np.full(grid.size, np.inf)
     for i, sigma in enumerate(grid):
         model = _fit_ncut(X, D2, n_clusters, float(sigma), n_init, random_state)
@@ -354,6 +386,18 @@ def best_sigma_ncut(
     best = int(tied[(tied.size - 1) // 2])
     model = _fit_ncut(X, D2, n_clusters, float(grid[best]), n_init, random_state)
     return SigmaSweep(float(grid[best]), float(errors[best]), model, grid, errors)
+
+
+def _check_sigmas(sigmas: ArrayLike) -> np.ndarray:
+    """``sigmas`` as a flat float array of positive finite numbers, or a ValueError naming it."""
+    form = "a non-empty sequence of positive finite numbers"
+    try:
+        grid = np.asarray(sigmas, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise ValueError(f"sigmas must be {form}, got {sigmas!r}") from None
+    if grid.size == 0 or not (np.isfinite(grid).all() and (grid > 0).all()):
+        raise ValueError(f"sigmas must be {form}, got {sigmas!r}")
+    return grid
 
 
 def _fit_ncut(

@@ -38,14 +38,20 @@ _LUMA = np.array([0.299, 0.587, 0.114])
 
 
 def _positive_pair(value: object, name: str, what: str) -> tuple[int, int]:
-    """``value`` as a pair of positive ints (an image size, a grid), or a clear error."""
-    try:
-        a, b = (int(v) for v in value)  # type: ignore[union-attr]
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be {what} of positive ints, got {value!r}") from None
-    if a < 1 or b < 1:
+    """``value`` as a pair of positive ints (an image size, a grid), or a clear error.
+
+    Only integers: a string ("32" is not (3, 2)) or a float (8.7 is not 8) is refused rather
+    than read digit by digit or truncated.
+    """
+    pair = None if isinstance(value, str | bytes) else np.asarray(value, dtype=object)
+    if (
+        pair is None
+        or pair.shape != (2,)
+        or not all(isinstance(v, int | np.integer) and not isinstance(v, bool) for v in pair)
+        or min(pair) < 1
+    ):
         raise ValueError(f"{name} must be {what} of positive ints, got {value!r}")
-    return a, b
+    return int(pair[0]), int(pair[1])
 
 
 def _image_tags(tags):
@@ -60,6 +66,50 @@ def _image_tags(tags):
     return tags
 
 
+_SHAPES = "(n, H, W, 3), (n, H, W), (H, W, 3) or (H, W)"
+_VALUES = "uint8, uint16, other integers in 0-255, or floats in [0, 1] (or 0-255)"
+
+
+def _image_batch(images: np.ndarray) -> np.ndarray:
+    """``images`` as a batch ``(n, H, W, 3)`` or ``(n, H, W)``: (H, W) is one grey image,
+    (H, W, 3) one colour image and any other 3-D array a grey batch, except a last axis of 4:
+    RGBA, refused (one RGBA image would be read as H grey images 4 pixels wide)."""
+    if images.ndim in (3, 4) and images.shape[0] == 0:
+        raise ValueError("images is empty")
+    if images.ndim in (3, 4) and images.shape[-1] == 4:
+        raise ValueError(
+            f"images must have shape {_SHAPES}, got {images.shape}: RGBA? pass images[..., :3]"
+        )
+    if images.ndim == 2 or (images.ndim == 3 and images.shape[-1] == 3):
+        images = images[None]
+    if images.ndim not in (3, 4) or (images.ndim == 4 and images.shape[-1] != 3):
+        raise ValueError(f"images must have shape {_SHAPES}, got {images.shape}")
+    if images.shape[1] == 0 or images.shape[2] == 0:
+        raise ValueError(f"images must have pixels, got {images.shape[1]}x{images.shape[2]}")
+    return images
+
+
+def _pixel_scale(images: np.ndarray) -> float:
+    """The factor that maps ``images`` to [0, 1] (the rule of :func:`images_to_vectors`).
+
+    uint8 and uint16 go by their type, with no pass over the pixels. A float copy of 8-bit
+    pixels (what ``servo`` passes on) gives what the uint8 image gives.
+    """
+    kind = images.dtype.kind
+    if images.dtype == np.uint8:
+        return 1.0 / 255.0
+    if images.dtype == np.uint16:
+        return 1.0 / 65535.0
+    if kind not in "uif":
+        raise ValueError(f"images must be {_VALUES}; got dtype {images.dtype}")
+    if kind == "f" and not np.isfinite(images).all():
+        raise ValueError("images contain NaN or inf")
+    lo, hi = images.min(), images.max()
+    if lo < 0 or hi > 255:
+        raise ValueError(f"images must be {_VALUES}; got {images.dtype} values in [{lo}, {hi}]")
+    return 1.0 if kind == "f" and hi <= 1 else 1.0 / 255.0
+
+
 def images_to_vectors(
     images: ArrayLike, size: tuple[int, int] | None = None, color: bool = True
 ) -> np.ndarray:
@@ -68,8 +118,12 @@ def images_to_vectors(
     Parameters
     ----------
     images : array-like of shape (H, W, 3), (H, W), (n, H, W, 3) or (n, H, W)
-        One image or a batch; RGB or grey; uint8 (0-255) or float (already in [0, 1]). A 3-D
-        array whose last axis has length 3 is read as one RGB image, otherwise as grey images.
+        One image or a batch; RGB or grey. uint8 is scaled by 1/255, uint16 by 1/65535,
+        other integers must lie in 0-255 (scaled by 1/255); floats in [0, 1] are kept, and
+        floats in 0-255 with some value above 1 are 8-bit values, scaled by 1/255 (a float
+        copy of an all-dark 8-bit frame, every value <= 1, is thus read as [0, 1]: pass
+        uint8 to be sure). Anything else raises ValueError. A 3-D array whose last axis has
+        length 3 is one RGB image, otherwise grey images; a last axis of 4 (RGBA) is refused.
     size : (width, height), optional
         Resample to this resolution with ``cv2.INTER_AREA`` (pixel-area averaging, which does
         not alias when shrinking). None keeps the native resolution, as the paper did.
@@ -80,21 +134,8 @@ def images_to_vectors(
     -------
     ndarray of shape (n, width * height * channels), float64
     """
-    images = np.asarray(images)
-    if images.dtype.kind not in "uif":
-        raise ValueError(f"images must be numeric, got dtype {images.dtype}")
-    # (H, W) is one grey image and (H, W, 3) one colour image; (n, H, W) a grey batch.
-    if images.ndim == 2 or (images.ndim == 3 and images.shape[-1] == 3):
-        images = images[None]
-    if images.ndim not in (3, 4) or (images.ndim == 4 and images.shape[-1] != 3):
-        raise ValueError(
-            f"images must have shape (n, H, W, 3), (n, H, W), (H, W, 3) or (H, W), "
-            f"got {np.shape(images)}"
-        )
-    if images.shape[0] == 0:
-        raise ValueError("images is empty")
-    if images.dtype.kind == "f" and not np.isfinite(images).all():
-        raise ValueError("images contain NaN or inf")
+    images = _image_batch(np.asarray(images))
+    scale = _pixel_scale(images)
     if size is not None:
         width, height = _positive_pair(size, "size", "(width, height)")
     else:
@@ -110,8 +151,8 @@ def images_to_vectors(
         if size is not None:
             im = cv2.resize(im, (width, height), interpolation=cv2.INTER_AREA)
         out[i] = (im @ _LUMA)[..., None] if grey else im.reshape(height, width, channels)
-    if images.dtype == np.uint8:
-        out *= 1.0 / 255.0
+    if scale != 1.0:
+        out *= scale
     return out.reshape(out.shape[0], -1)
 
 
@@ -123,9 +164,12 @@ def normalize_rows(X: np.ndarray, method: str = "unit") -> np.ndarray:
     """Per-vector normalisation: ``"unit"`` subtracts each row's mean and scales it to norm 1.
 
     This removes global brightness and contrast changes between views. A constant row (zero
-    norm after centring) stays all zeros. ``"none"`` returns X unchanged (as float64).
+    norm after centring) stays all zeros. ``"none"`` returns X unchanged (as float64). X must
+    be 2-D, one vector per row (``X[None]`` for a single vector).
     """
     X = np.asarray(X, dtype=np.float64)
+    if X.ndim != 2:
+        raise ValueError(f"X must be 2-D, one vector per row (X[None] for one), got {X.shape}")
     if method == "none":
         return X
     X = X - X.mean(axis=1, keepdims=True)
@@ -212,6 +256,11 @@ class ImageFeatures(TransformerMixin, BaseEstimator):
             self.scale_ = np.where(std > 0, std, 1.0)
             X = (X - self.mean_) / self.scale_
         if self.n_components is not None:
+            if X.shape[0] < 2:  # one image has no variance (PCA would divide 0 by 0)
+                raise ValueError(
+                    f"n_components={self.n_components} needs at least 2 training images for "
+                    f"the PCA, got {X.shape[0]}"
+                )
             pca = PCA(self.n_components, svd_solver="full").fit(X)
             self.pca_mean_ = pca.mean_
             self.components_ = pca.components_
@@ -264,11 +313,14 @@ def color_histograms(
             f"images must be uint8 RGB of shape (H, W, 3) or (n, H, W, 3), got {arr.dtype} "
             f"{arr.shape}"
         )
-    nb = np.asarray(bins, dtype=np.int64)
-    if nb.shape != (3,) or (nb < 1).any():
+    nb = np.asarray(bins)  # ints only: 4.5 bins is not 4
+    if nb.dtype.kind not in "iu" or nb.shape != (3,) or (nb < 1).any():
         raise ValueError(f"bins must be three positive ints (hue, saturation, value), got {bins}")
+    nb = nb.astype(np.int64)
     cols, rows = _positive_pair(grid, "grid", "(columns, rows)")
     n, H, W, _ = arr.shape
+    if n == 0:
+        raise ValueError("images is empty")
     if H < rows or W < cols:
         raise ValueError(f"grid {grid} has more cells than the {W}x{H} image has pixels")
     cell = (np.arange(H) * rows // H)[:, None] * cols + (np.arange(W) * cols // W)[None, :]
@@ -322,7 +374,9 @@ class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, images: ArrayLike, y: None = None) -> ColorHistogramFeatures:
         """Check the parameters and images; remember the feature count."""
-        first = np.asarray(images)[:1]
+        arr = np.asarray(images)
+        # the first image checks the lot: one (H, W, 3) image is a batch of one, not H rows
+        first = arr if arr.ndim == 3 else arr[:1]
         self.n_features_in_ = color_histograms(first, self.bins, self.grid).shape[1]
         return self
 

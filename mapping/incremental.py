@@ -14,19 +14,23 @@ new node touches. ``ObservationGraphPartitioner.partial_fit`` does the same with
 
 from __future__ import annotations
 
+from numbers import Real
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from common.geometry import transform_points
 from mapping.ncut import partition_checked
-from mapping.overlap import voxel_offsets
+from mapping.overlap import check_scans_and_poses, check_voxel_size, voxel_offsets
 
 __all__ = ["VoxelOverlapIndex", "add_scans", "repartition"]
 
 # voxel (ix, iy) -> one int64 key; iy is offset so that negative cells keep their order
 _Y_BITS = 32
 _Y_OFFSET = 1 << (_Y_BITS - 1)
+# voxel coordinates (either sign) the keys hold with room for the dilation's shifts
+_CELL_MAX = 1 << (_Y_BITS - 2)
 
 
 class VoxelOverlapIndex:
@@ -35,10 +39,17 @@ class VoxelOverlapIndex:
     Parameters
     ----------
     delta, voxel_size : float
-        Match tolerance and voxel side in metres, as in ``sensed_space_overlap``.
+        Match tolerance and voxel side in metres, as in ``sensed_space_overlap``: delta
+        positive and finite, voxel_size in ``[delta / MAX_DISC_RADIUS, delta]``.
     """
 
     def __init__(self, delta: float, voxel_size: float) -> None:
+        if not (_is_real(delta) and 0 < delta < np.inf):
+            raise ValueError(f"delta must be a positive finite number (metres), got {delta!r}")
+        if not (_is_real(voxel_size) and 0 < voxel_size <= delta):  # None is no voxel here
+            raise ValueError(f"voxel_size must be a number in (0, delta = {delta}], got "
+                             f"{voxel_size!r}")  # fmt: skip
+        check_voxel_size(delta, voxel_size)  # and not so fine that the disc is too large
         self.delta = delta
         self.voxel_size = voxel_size
         off = voxel_offsets(delta / voxel_size)
@@ -54,9 +65,21 @@ class VoxelOverlapIndex:
 
     def add(self, points: np.ndarray, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Add a scan (sensor-frame points at ``pose``); return its overlaps ``Psi`` (eq. 18)
-        with the scans already indexed, as ``(indices, weights)`` with weights > 0."""
+        with the scans already indexed, as ``(indices, weights)`` with weights > 0.
+
+        ``points`` is ``(M, 2)`` and finite (``(0, 2)`` for a scan without returns), ``pose``
+        a finite ``(x, y, yaw)``.
+        """
+        points, pose = _check_scan(points, pose)
         world = transform_points(pose, points)
-        cells = np.floor(world / self.voxel_size).astype(np.int64)
+        cells = np.floor(world / self.voxel_size)
+        if cells.size and not np.abs(cells).max() < _CELL_MAX:
+            raise ValueError(
+                f"points: voxel coordinates beyond {_CELL_MAX} cells of {self.voxel_size} m at "
+                f"this pose (a point far outside the map?); the index holds |x|, |y| below "
+                f"{_CELL_MAX * self.voxel_size:.3g} m"
+            )
+        cells = cells.astype(np.int64)
         key = cells[:, 0] * (1 << _Y_BITS) + (cells[:, 1] + _Y_OFFSET)
         keys, counts = np.unique(key, return_counts=True)
         reach = float(np.hypot(points[:, 0], points[:, 1]).max()) if len(points) else 0.0
@@ -92,6 +115,8 @@ class VoxelOverlapIndex:
         hit = near[pos] == ckeys
         # Pi(j, new): points of j within delta of the new scan
         pi_old = np.bincount(owner[hit], weights=ccounts[hit], minlength=cand.size)
+        # with no hit at all (no shared voxel: the robot turned round) bincount gives int64
+        pi_old = pi_old.astype(float, copy=False)
         pi_old /= np.array([self.n_points[j] for j in cand], dtype=float)
         # Pi(new, j): cells u of the new scan with some cell of j in u's dilation
         occupied = sp.csr_array(
@@ -108,6 +133,26 @@ class VoxelOverlapIndex:
         psi = 0.5 * (np.asarray(pi_new).ravel() + pi_old)
         keep = psi > 0
         return cand[keep], psi[keep]
+
+
+def _is_real(value: object) -> bool:
+    """A real number (numpy's too), not a bool or a string."""
+    return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def _check_scan(points, pose) -> tuple[np.ndarray, np.ndarray]:
+    """One scan and its pose as float arrays, checked as ``partial_fit`` checks a batch."""
+    try:
+        pose = np.asarray(pose, dtype=float)
+    except (TypeError, ValueError):
+        pose = np.empty(0)  # not numbers: refused below
+    if pose.shape != (3,):
+        raise ValueError(f"pose must have shape (3,) of (x, y, yaw), got {pose.shape}")
+    try:
+        scans, poses = check_scans_and_poses([points], pose[None])
+    except ValueError as err:  # its messages name the batch's scans[0] and poses
+        raise ValueError(str(err).replace("scans[0]", "points").replace("poses", "pose")) from None
+    return scans[0], poses[0]
 
 
 def add_scans(

@@ -22,14 +22,14 @@ from numbers import Integral
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.linalg import eigh
+from scipy.linalg import LinAlgError, eigh
 from sklearn.base import BaseEstimator, ClusterMixin, _fit_context
 from sklearn.cluster import SpectralClustering
 from sklearn.neighbors import KNeighborsClassifier, kneighbors_graph
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from mapping._validation import single_threaded_blas
+from mapping._validation import check_distinct_rows, check_span, single_threaded_blas
 from mapping.baselines import NormalizedCutClustering, default_sigmas
 from mapping.distances import squared_distances
 
@@ -53,8 +53,32 @@ def eigengap(affinity: np.ndarray, n_clusters: int) -> float:
     inv = 1.0 / np.sqrt(np.where(deg > 0, deg, 1.0))
     S = inv[:, None] * W * inv[None, :]
     with single_threaded_blas():
-        top = eigh(S, eigvals_only=True, subset_by_index=[n - n_clusters - 1, n - 1])
+        top = _top_eigenvalues(S, n_clusters + 1)
     return float(top[1] - top[0])  # ascending: top[0] is lambda_{K+1}, top[1] is lambda_K
+
+
+def _top_eigenvalues(S: np.ndarray, count: int) -> np.ndarray:
+    """The ``count`` largest eigenvalues of the symmetric S, ascending.
+
+    LAPACK's subset solver (syevr) can fail ("Internal Error") on a spectrum of large
+    clusters of equal eigenvalues, as copies of a point (a robot standing still) make at some
+    sigmas; the full divide-and-conquer solver then gives the same values.
+    """
+    n = S.shape[0]
+    try:
+        return eigh(S, eigvals_only=True, subset_by_index=[n - count, n - 1])
+    except LinAlgError:
+        return eigh(S, eigvals_only=True, driver="evd")[n - count :]
+
+
+def _check_training_points(X: np.ndarray, n_clusters: int) -> None:
+    """At least ``n_clusters`` samples, as many distinct ones, and a span float64 distances
+    can hold (1e200 overflows them, 1e-200 underflows them to "all identical")."""
+    if n_clusters > X.shape[0]:
+        raise ValueError(f"n_clusters={n_clusters} exceeds n_samples ({X.shape[0]})")
+    if not check_span(X) > 0:
+        raise ValueError("X: all samples are identical; there is nothing to cluster")
+    check_distinct_rows(X, n_clusters)
 
 
 class KNNSpectralClustering(ClusterMixin, BaseEstimator):
@@ -122,8 +146,7 @@ class KNNSpectralClustering(ClusterMixin, BaseEstimator):
     def fit(self, X: ArrayLike, y: None = None) -> KNNSpectralClustering:
         """Cluster the rows of X (``y`` is ignored)."""
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
-        if self.n_clusters > X.shape[0]:
-            raise ValueError(f"n_clusters={self.n_clusters} exceeds n_samples ({X.shape[0]})")
+        _check_training_points(X, self.n_clusters)
         self.gaps_ = {}
         self.n_neighbors_ = self._choose_k(X)
         model = SpectralClustering(
@@ -191,11 +214,8 @@ class EigengapNCutClustering(ClusterMixin, BaseEstimator):
         """Choose sigma by the eigengap, then fit NCut with it (``y`` is ignored)."""
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
         n = X.shape[0]
-        if self.n_clusters > n:
-            raise ValueError(f"n_clusters={self.n_clusters} exceeds n_samples ({n})")
+        _check_training_points(X, self.n_clusters)
         D2 = squared_distances(X)
-        if not D2.max() > 0:
-            raise ValueError("X: all samples are identical; there is nothing to cluster")
         self.sigmas_ = default_sigmas(D2, self.n_sigmas)
         self.gaps_ = np.full(self.sigmas_.size, -np.inf)
         if self.n_clusters < n:

@@ -26,13 +26,36 @@ __all__ = [
 ]
 
 
+def check_labels(y: ArrayLike, name: str) -> np.ndarray:
+    """``y`` as a 1-D array of labels, refusing a missing label (NaN, None) or an infinite one.
+
+    A NaN would otherwise be one more class (NaN labels all compare unequal, yet
+    scikit-learn's contingency counts them together) and None cannot be sorted with the other
+    labels; both usually mean "no ground truth here": drop those points before scoring.
+    """
+    y = np.asarray(y)
+    if y.ndim != 1:
+        raise ValueError(f"{name} must be 1-D, got shape {y.shape}")
+    if y.dtype.kind in "fc":
+        bad = ~np.isfinite(y)
+    elif y.dtype.kind == "O":  # Python objects: None, or float NaN among other labels
+        bad = np.array(
+            [v is None or (isinstance(v, float | np.floating) and not np.isfinite(v)) for v in y]
+        )
+    else:
+        return y
+    if bad.any():
+        raise ValueError(
+            f"{name} must hold a finite label for every point, got {y[bad][0]} at index "
+            f"{int(np.argmax(bad))} (drop unlabelled points, or give them a label of their own)"
+        )
+    return y
+
+
 def _check_labellings(y_true: ArrayLike, y_pred: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Return both labellings as 1-D arrays after checking they describe the same points."""
-    y_true = np.asarray(y_true)
-    y_pred = np.asarray(y_pred)
-    for name, y in (("y_true", y_true), ("y_pred", y_pred)):
-        if y.ndim != 1:
-            raise ValueError(f"{name} must be 1-D, got shape {y.shape}")
+    y_true = check_labels(y_true, "y_true")
+    y_pred = check_labels(y_pred, "y_pred")
     if y_true.shape[0] != y_pred.shape[0]:
         raise ValueError(
             f"y_true and y_pred must have the same length, got {y_true.shape[0]} "
@@ -83,7 +106,8 @@ def clustering_error(y_true: ArrayLike, y_pred: ArrayLike) -> float:
     Raises
     ------
     ValueError
-        If the labellings are not 1-D, are empty, or differ in length.
+        If the labellings are not 1-D, are empty, differ in length, or miss a label (NaN,
+        None) or hold an infinite one.
 
     Examples
     --------
@@ -110,7 +134,7 @@ def best_matching(y_true: ArrayLike, y_pred: ArrayLike) -> dict:
 
     Clusters left unmatched (more clusters than classes) are absent from the dict.
     """
-    _, rows, cols = _hungarian(y_true, y_pred)
+    _, rows, cols = _hungarian(y_true, y_pred)  # checks both labellings
     classes, clusters = np.unique(np.asarray(y_true)), np.unique(np.asarray(y_pred))
     return {clusters[j].item(): classes[i].item() for i, j in zip(rows, cols, strict=True)}
 

@@ -25,7 +25,8 @@ deviation ``noise`` is added only when asked, and then needs an explicit ``rng``
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from numbers import Real
 
 import numpy as np
 
@@ -42,16 +43,44 @@ __all__ = [
 
 # Default sampling intervals of the three curves in sets (b)-(d): dense, medium, sparse.
 _SPACINGS = (0.01, 0.025, 0.05)
+# Points per curve at most (length / spacing): a million is far beyond the paper's sizes, and
+# a spacing like 1e-300 would otherwise ask numpy for an impossible array.
+_MAX_CURVE_POINTS = 1_000_000
+
+
+def _is_real(value: object) -> bool:
+    """A real number (numpy's too), not a bool or a string of digits."""
+    return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def _check_positive(value: object, name: str) -> None:
+    """``value`` a positive finite number, or a ValueError naming ``name``."""
+    if not (_is_real(value) and np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+
+
+def _check_noise(noise: object) -> None:
+    """``noise`` a non-negative finite number (a standard deviation), or a ValueError."""
+    if not (_is_real(noise) and np.isfinite(noise) and noise >= 0):
+        raise ValueError(f"noise must be a non-negative number, got {noise!r}")
 
 
 def _check_spacings(spacings: Sequence[float], length: float) -> tuple[float, float, float]:
-    spacings = tuple(float(s) for s in spacings)
-    if len(spacings) != 3 or not all(np.isfinite(s) and s > 0 for s in spacings):
-        raise ValueError(f"spacings must be three positive numbers, got {spacings!r}")
-    if not (np.isfinite(length) and length > 0):
-        raise ValueError(f"length must be positive, got {length!r}")
+    form = "three positive numbers, e.g. (0.01, 0.025, 0.05)"
+    if isinstance(spacings, str | bytes) or not isinstance(spacings, Iterable):
+        raise ValueError(f"spacings must be {form}, got {spacings!r}")
+    values = tuple(spacings)
+    if len(values) != 3 or not all(_is_real(s) and np.isfinite(s) and s > 0 for s in values):
+        raise ValueError(f"spacings must be {form}, got {values!r}")
+    spacings = tuple(float(s) for s in values)
+    _check_positive(length, "length")
     if max(spacings) > length:
         raise ValueError(f"spacings must not exceed length={length}, got {spacings!r}")
+    if length / min(spacings) > _MAX_CURVE_POINTS:
+        raise ValueError(
+            f"spacings: length / spacing = {length / min(spacings):.3g} points on one curve; "
+            f"at most {_MAX_CURVE_POINTS} (length={length}, spacings={spacings!r})"
+        )
     return spacings
 
 
@@ -61,8 +90,7 @@ def _finish(
     """Stack the per-curve point arrays, label them 0, 1, 2 and add optional noise."""
     X = np.concatenate(parts).astype(np.float64)
     y = np.repeat(np.arange(len(parts)), [len(p) for p in parts])
-    if not (np.isfinite(noise) and noise >= 0):
-        raise ValueError(f"noise must be a non-negative number, got {noise!r}")
+    _check_noise(noise)
     if noise > 0:
         if not isinstance(rng, np.random.Generator):
             raise ValueError("noise > 0 needs rng, a numpy.random.Generator")
@@ -101,8 +129,8 @@ def parallel_lines(
         raise ValueError(f"n_per_line must be an integer >= 2, got {n_per_line!r}")
     if n_per_line < 2:
         raise ValueError(f"n_per_line must be an integer >= 2, got {n_per_line!r}")
-    if not (np.isfinite(gap) and gap > 0):
-        raise ValueError(f"gap must be positive, got {gap!r}")
+    _check_positive(gap, "gap")
+    _check_positive(length, "length")
     x = np.linspace(0.0, length, n_per_line)
     parts = [np.column_stack([x, np.full_like(x, k * gap)]) for k in range(3)]
     return _finish(parts, noise, rng)
@@ -134,8 +162,7 @@ def lines_variable_spacing(
         Optional Gaussian noise; ``rng`` is required when ``noise > 0``.
     """
     spacings = _check_spacings(spacings, length)
-    if not (np.isfinite(gap) and gap > 0):
-        raise ValueError(f"gap must be positive, got {gap!r}")
+    _check_positive(gap, "gap")
     parts = []
     for k, h in enumerate(spacings):
         x = _arc_samples(length, h)
@@ -173,7 +200,7 @@ def converging_paths(
         Optional Gaussian noise; ``rng`` is required when ``noise > 0``.
     """
     spacings = _check_spacings(spacings, length)
-    if not (np.isfinite(turn) and 0 < turn <= np.pi):
+    if not (_is_real(turn) and np.isfinite(turn) and 0 < turn <= np.pi):
         raise ValueError(f"turn must be in (0, pi], got {turn!r}")
     radius = length / turn
     parts = []
@@ -220,8 +247,7 @@ def spirals_3d(
     """
     spacings = _check_spacings(spacings, length)
     for name, value in (("radius", radius), ("pitch", pitch)):
-        if not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be positive, got {value!r}")
+        _check_positive(value, name)
     rise = pitch / (2 * np.pi)
     # Arc length per radian of the helix parameter t.
     speed = np.hypot(radius, rise)
@@ -269,6 +295,7 @@ def branching_sequences(
         raise ValueError(f"d must be a positive integer, got {d!r}")
     if not isinstance(rng, np.random.Generator):
         raise ValueError("rng must be a numpy.random.Generator")
+    _check_noise(noise)
     parts = []
 
     def curve(start: np.ndarray, speed: float) -> np.ndarray:

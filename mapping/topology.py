@@ -12,6 +12,7 @@ Poses are ``(x, y, yaw)`` rows; their algebra (``se2_compose``, ``se2_relative``
 from __future__ import annotations
 
 import itertools
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -64,17 +65,57 @@ def run_starts_from_groups(groups: ArrayLike | None, n: int) -> np.ndarray:
     groups = np.asarray(groups)
     if groups.shape != (n,):
         raise ValueError(f"groups must have one label per sample, shape ({n},), got {groups.shape}")
-    if groups.dtype.kind == "f" and np.isnan(groups).any():
-        raise ValueError("groups contains NaN; give every sample the label of its run")
-    starts[1:] = groups[1:] != groups[:-1]
-    first = groups[starts]
-    if len(np.unique(first)) != len(first):
-        values, counts = np.unique(first, return_counts=True)
+    missing = np.isnan(groups) if groups.dtype.kind == "f" else None
+    if groups.dtype == object:  # Python objects: None, or float NaN among other labels
+        missing = np.array([g is None or (isinstance(g, float) and g != g) for g in groups])
+    if missing is not None and missing.any():
         raise ValueError(
-            "groups must keep each run's samples consecutive; label(s) "
-            f"{values[counts > 1].tolist()[:5]} occur in separate stretches"
+            f"groups contains {groups[missing][0]} (a missing label); give every sample the "
+            "label of its run"
+        )
+    starts[1:] = groups[1:] != groups[:-1]
+    repeated = _repeated(groups[starts])
+    if repeated:
+        raise ValueError(
+            f"groups must keep each run's samples consecutive; label(s) {repeated[:5]} occur "
+            "in separate stretches"
         )
     return starts
+
+
+def _repeated(values: np.ndarray) -> list:
+    """The values that occur more than once; by hashing, so that labels numpy cannot sort
+    (ints mixed with strings in an object array) work too."""
+    return [v for v, count in Counter(values.tolist()).items() if count > 1]
+
+
+def _check_labels(labels: ArrayLike, n: int | None = None) -> np.ndarray:
+    """``labels`` as a 1-D integer array (one per scan when ``n`` is given) of group labels
+    ``>= -1`` (-1: no group), or a ValueError naming ``labels``."""
+    labels = np.asarray(labels)
+    if labels.size == 0 and labels.ndim == 1:
+        labels = labels.astype(np.intp)  # [] is float64 to numpy
+    if labels.ndim != 1 or labels.dtype.kind not in "iu":
+        raise ValueError(
+            "labels must be a 1-D array of integer group labels (-1 for none), got "
+            f"{labels.dtype} of shape {labels.shape}"
+        )
+    if n is not None and labels.shape[0] != n:
+        raise ValueError(f"labels must have one entry per scan ({n}), got {labels.shape[0]}")
+    if labels.size and labels.min() < -1:
+        raise ValueError(f"labels must be -1 (no group) or a group >= 0, got {labels.min()}")
+    return labels
+
+
+def _check_poses(poses: ArrayLike) -> np.ndarray:
+    """``poses`` as a finite ``(N, 3)`` float array, or a ValueError naming ``poses``."""
+    poses = np.asarray(poses, dtype=float)
+    if poses.ndim != 2 or poses.shape[1] != 3:
+        raise ValueError(f"poses must have shape (N, 3) of (x, y, yaw), got {poses.shape}")
+    if not np.isfinite(poses).all():
+        bad = np.flatnonzero(~np.isfinite(poses).all(axis=1))
+        raise ValueError(f"poses contains NaN or inf (rows {bad[:5].tolist()})")
+    return poses
 
 
 # --------------------------------------------------------------------------- local maps
@@ -92,8 +133,23 @@ def group_frames(poses: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.
         Index of each group's reference scan (groups ``0..K-1``; label ``-1`` is ignored).
     frames : ndarray of shape (K, 3)
         World pose of each reference scan, i.e. of each local map's frame.
+
+    Raises
+    ------
+    ValueError
+        Naming ``labels`` (not one integer per pose, below -1, or a group of ``0..K-1``
+        without a scan) or ``poses`` (not a finite ``(N, 3)`` array).
     """
+    poses = _check_poses(poses)
+    labels = _check_labels(labels, poses.shape[0])
     n_groups = int(labels.max()) + 1 if labels.size and labels.max() >= 0 else 0
+    present = np.unique(labels[labels >= 0])
+    if present.size != n_groups:  # a group without a scan has no reference scan
+        gaps = np.setdiff1d(np.arange(n_groups), present)
+        raise ValueError(
+            f"labels must number the groups 0..K-1 without gaps; no scan has label(s) "
+            f"{gaps[:5].tolist()}"
+        )
     reference = np.empty(n_groups, dtype=np.intp)
     for k in range(n_groups):
         members = np.flatnonzero(labels == k)
@@ -110,6 +166,12 @@ def build_local_maps(
     Section IV-A step 3: one local map per group. Scan ``i`` of group ``k`` is placed with the
     differential pose ``se2_relative(frames[k], poses[i])``.
     """
+    poses = _check_poses(poses)
+    labels = _check_labels(labels, poses.shape[0])
+    if len(scans) != labels.shape[0]:
+        raise ValueError(
+            f"scans must have one scan per label ({labels.shape[0]}), got {len(scans)}"
+        )
     maps = []
     for k, frame in enumerate(frames):
         members = np.flatnonzero(labels == k)
@@ -228,6 +290,19 @@ def build_topology(
     begins is not joined to the scan before it by the trajectory (the last scan of one drive
     and the first of the next are not neighbours).
     """
+    poses = _check_poses(poses)
+    labels = _check_labels(labels, poses.shape[0])
+    if labels.size and labels.max() >= len(frames):
+        raise ValueError(
+            f"labels must be groups 0..{len(frames) - 1} of the {len(frames)} frames, got "
+            f"{labels.max()}"
+        )
+    shape = affinity.shape if hasattr(affinity, "shape") else np.shape(affinity)  # sparse too
+    if tuple(shape) != (poses.shape[0],) * 2:
+        raise ValueError(
+            f"affinity must be ({poses.shape[0]}, {poses.shape[0]}), one row and column per "
+            f"pose, got {tuple(shape)}"
+        )
     starts = run_starts_from_groups(groups, labels.shape[0])
     pairs, kind, glabels = _connecting_pairs(labels, affinity, starts)
     if pairs.size == 0:
@@ -276,19 +351,32 @@ def build_topology(
     return TopologicalMap(reference, frames, arcs)
 
 
-def fill_from_nearest(labels: np.ndarray, starts: np.ndarray | None = None) -> np.ndarray:
+def fill_from_nearest(labels: ArrayLike, starts: ArrayLike | None = None) -> np.ndarray:
     """Give each ``-1`` the label of the nearest labelled index (the earlier one on a tie).
 
-    With ``starts`` (a mask of run starts) the search stays inside each run; a run without any
-    labelled index falls back to the search over all runs.
+    With ``starts`` (a boolean mask of run starts, one per label) the search stays inside each
+    run; a run without any labelled index falls back to the search over all runs.
     """
+    labels = _check_labels(labels)
+    if starts is not None:
+        starts = np.asarray(starts)
+        if starts.dtype != bool or starts.shape != labels.shape:
+            raise ValueError(
+                f"starts must be a boolean mask of shape {labels.shape}, one per label, got "
+                f"{starts.dtype} of shape {starts.shape}"
+            )
     if starts is not None and starts[1:].any():
         out = labels.copy()
         bounds = np.append(np.flatnonzero(starts), labels.size)
         for lo, hi in itertools.pairwise(bounds):
             if (labels[lo:hi] >= 0).any():
-                out[lo:hi] = fill_from_nearest(labels[lo:hi])
-        return fill_from_nearest(out) if (out < 0).any() else out
+                out[lo:hi] = _fill(labels[lo:hi])
+        return _fill(out) if (out < 0).any() else out
+    return _fill(labels)
+
+
+def _fill(labels: np.ndarray) -> np.ndarray:
+    """:func:`fill_from_nearest` over all indices, on checked labels."""
     known = np.flatnonzero(labels >= 0)
     if known.size == 0:
         return np.zeros_like(labels)

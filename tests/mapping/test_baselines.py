@@ -190,3 +190,64 @@ def test_predict_before_fit_and_wrong_dimension(lines):
         best_sigma_ncut(X, y, 3, sigmas=[0.1, -1.0])
     with pytest.raises(ValueError, match="all-zero affinity"):
         best_sigma_ncut(X, y, 3, sigmas=[1e-7])
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-200])
+def test_a_span_float64_distances_cannot_hold_is_refused(lines, scale):
+    """At 1e200 the squared distances overflow, at 1e-200 they underflow to 0: the fits said
+    'all samples are identical' (after overflow warnings); now ManifoldClustering's check."""
+    X, y = lines
+    for model in (NormalizedCutClustering(3, 0.085 * scale), SelfTuningSpectralClustering(3)):
+        with pytest.raises(ValueError, match="X: the samples span .*rescale X"):
+            model.fit(X * scale)
+    with pytest.raises(ValueError, match="rescale X"):
+        best_sigma_ncut(X * scale, y, 3)
+
+
+def test_fewer_distinct_samples_than_clusters_is_a_clear_error():
+    """Two places, the robot stood still at each: 3 clusters would split copies of a point."""
+    X = np.vstack([np.zeros((20, 2)), np.ones((20, 2))])
+    y = np.repeat([0, 1], 20)
+    match = "n_clusters=3 needs at least 3 distinct samples in X; it has 2 groups"
+    for model in (NormalizedCutClustering(3, 0.5), SelfTuningSpectralClustering(3)):
+        with pytest.raises(ValueError, match=match):
+            model.fit(X)
+    with pytest.raises(ValueError, match=match):
+        best_sigma_ncut(X, y, 3)
+    labels = SelfTuningSpectralClustering(2).fit(X).labels_  # as many places as clusters
+    assert clustering_error(y, labels) == 0.0
+
+
+def test_self_tuning_scales_skip_copies_of_a_point():
+    """A robot standing still (30 copies of one point among 180): the copies were each
+    other's nearest neighbours, so their scale fell to the floor and they became a cluster of
+    their own (error 0.28); the scale is now the n_neighbors-th distinct neighbour's."""
+    X, y = parallel_lines(60)
+    Xd = np.vstack([X[:30], np.repeat(X[[30]], 30, axis=0), X[30:]])
+    yd = np.concatenate([y[:30], np.full(30, y[30]), y[30:]])
+    clean = SelfTuningSpectralClustering(3).fit(X)
+    model = SelfTuningSpectralClustering(3).fit(Xd)
+    assert clustering_error(yd, model.labels_) == 0.0 == clustering_error(y, clean.labels_)
+    # a copy's scale is the clean point's, and predict treats new copies the same way
+    np.testing.assert_allclose(model.scales_[30:61], clean.scales_[30], rtol=1e-9)
+    np.testing.assert_array_equal(model.predict(X), _training_labels(model, X, Xd))
+    # fewer distinct neighbours than n_neighbors: the floor, and the places still split
+    few = np.vstack([np.zeros((20, 2)), np.ones((20, 2))])
+    two = SelfTuningSpectralClustering(2).fit(few)
+    np.testing.assert_array_equal(two.scales_, two.min_scale_)
+
+
+def _training_labels(model, X, Xd):
+    """The training label of each row of X (a row of the training data Xd)."""
+    return np.array([model.labels_[np.flatnonzero((Xd == x).all(axis=1))[0]] for x in X])
+
+
+def test_best_sigma_ncut_names_its_arguments(lines):
+    X, y = lines
+    with pytest.raises(ValueError, match="X and y have inconsistent numbers of samples: 120 "):
+        best_sigma_ncut(X, y[:-1], 3)
+    with pytest.raises(ValueError, match="y must hold a finite label for every point, got nan"):
+        best_sigma_ncut(X, np.where(np.arange(len(y)) == 5, np.nan, y), 3)
+    for sigmas in ("abc", [0.1, "a"], [[0.1, None]]):
+        with pytest.raises(ValueError, match="sigmas must be a non-empty sequence of positive"):
+            best_sigma_ncut(X, y, 3, sigmas=sigmas)

@@ -215,3 +215,65 @@ def test_color_histogram_features_interface_and_bad_input(images):
         ColorHistogramFeatures(bins=(0, 2, 2)).fit(images)
     with pytest.raises(ValueError, match="grid"):
         ColorHistogramFeatures(grid=(2,)).fit(images)
+
+
+def test_color_histogram_features_fit_on_one_image(images):
+    """One (H, W, 3) image is a batch of one in fit, as in transform (fit took images[:1], its
+    first pixel row, and refused it as a 32x1 image)."""
+    from mapping import ColorHistogramFeatures
+
+    model = ColorHistogramFeatures()
+    np.testing.assert_array_equal(model.fit_transform(images[0]), model.transform(images[:1]))
+    assert model.fit(images[0]).n_features_in_ == 512
+    with pytest.raises(ValueError, match="images is empty"):
+        ColorHistogramFeatures().fit(images[:0])
+    with pytest.raises(ValueError, match="images is empty"):
+        ColorHistogramFeatures().fit(images).transform(images[:0])
+    for bins in ((4.5, 4, 4), (8, 4), np.array([8.0, 4, 4])):  # 4.5 was truncated to 4
+        with pytest.raises(ValueError, match="bins must be three positive ints"):
+            ColorHistogramFeatures(bins=bins).fit(images)
+
+
+def test_pixel_values_are_scaled_to_the_unit_range_by_one_rule(images):
+    """uint8 by 1/255, uint16 by 1/65535, 8-bit values in a wider type or as floats like
+    uint8, floats in [0, 1] as they are; anything else is refused."""
+    u8 = images_to_vectors(images)
+    np.testing.assert_array_equal(images_to_vectors(images.astype(np.int64)), u8)
+    np.testing.assert_allclose(images_to_vectors(images.astype(np.float64)), u8, rtol=1e-15)
+    np.testing.assert_allclose(images_to_vectors(images / 255.0), u8, rtol=1e-15)
+    deep = images.astype(np.uint16) * 257  # 0-255 stretched to 0-65535
+    np.testing.assert_allclose(images_to_vectors(deep), u8, rtol=1e-6)
+    assert images_to_vectors(np.full((2, 4, 4, 3), 65535, np.uint16)).max() == 1.0
+    for bad, match in [
+        (images.astype(np.int64) + 1, r"int64 values in \[1, 256\]"),
+        (images.astype(np.int16) - 1, r"int16 values in \[-1"),
+        (images * 300.0, r"float64 values in \[0.0, 76500.0\]"),
+        (images > 0, "got dtype bool"),
+    ]:
+        with pytest.raises(ValueError, match="images must be uint8, uint16, .*" + match):
+            images_to_vectors(bad)
+    with pytest.raises(ValueError, match="images must be uint8"):
+        ImageFeatures().fit(images * 300.0)
+
+
+def test_image_shapes_rgba_empty_and_sizes(images):
+    rgba = np.concatenate([images[0], images[0, ..., :1]], axis=-1)  # one (H, W, 4) image
+    with pytest.raises(ValueError, match=r"got \(24, 32, 4\): RGBA\? pass images\[\.\.\., :3\]"):
+        images_to_vectors(rgba)
+    with pytest.raises(ValueError, match=r"images must have shape .*: RGBA\?"):
+        ImageFeatures().fit(rgba[None])
+    assert images_to_vectors(images[..., 0]).shape == (12, 24 * 32)  # a grey batch still
+    with pytest.raises(ValueError, match="images must have pixels, got 24x0"):
+        images_to_vectors(images[:, :, :0], size=(8, 6))
+    for size in ("32", (8.7, 6), (8, 6.0), (True, 6), (8, 6, 1), 8):
+        with pytest.raises(ValueError, match=r"size must be \(width, height\) of positive ints"):
+            images_to_vectors(images, size=size)
+    assert images_to_vectors(images, size=np.array([8, 6])).shape == (12, 144)
+
+
+def test_normalize_rows_needs_rows_and_pca_two_images(images):
+    with pytest.raises(ValueError, match=r"X must be 2-D, one vector per row \(X\[None\]"):
+        normalize_rows(np.arange(5.0))
+    with pytest.raises(ValueError, match="n_components=1 needs at least 2 training images"):
+        ImageFeatures(n_components=1).fit(images[:1])  # no 'invalid value in divide'
+    assert ImageFeatures(n_components=1).fit(images[:2]).transform(images).shape == (12, 1)

@@ -5,6 +5,7 @@ import pytest
 from sklearn.base import clone
 
 from mapping._synthetic_scans import office_path, office_world, raycast
+from mapping.incremental import VoxelOverlapIndex
 from mapping.metrics import adjusted_rand_index, purity
 from mapping.partition import ObservationGraphPartitioner
 
@@ -101,3 +102,53 @@ def test_where_every_scan_touches_every_group_it_is_the_batch_partition():
     )
     np.testing.assert_array_equal(inc.labels_, batch.labels_)
     assert batch.n_groups_ > 1  # and the graph is really partitioned
+
+
+def test_a_near_scan_sharing_no_voxel_is_added():
+    """The robot turned round: the second scan is within the search radius of the first but
+    sees the opposite wall, so no voxel is shared (bincount of no hit gave int64 and the
+    division crashed)."""
+    wall_ahead = np.column_stack([np.full(20, 2.0), np.linspace(-1, 1, 20)])
+    model = ObservationGraphPartitioner(scan_matching=False)
+    model.partial_fit([wall_ahead], np.array([[0.0, 0.0, 0.0]]))
+    model.partial_fit([wall_ahead], np.array([[0.0, 0.0, np.pi]]))
+    np.testing.assert_array_equal(model.labels_, [0, 1])
+    assert model.affinity_matrix_[0, 1] == 0.0
+    index = VoxelOverlapIndex(0.2, 0.05)
+    index.add(wall_ahead, np.zeros(3))
+    idx, w = index.add(wall_ahead, np.array([0.0, 0.0, np.pi]))
+    assert idx.size == 0 and w.dtype == np.float64
+
+
+@pytest.mark.parametrize(
+    ("delta", "voxel_size", "match"),
+    [
+        (0.2, 0.0, r"voxel_size must be a number in \(0, delta"),
+        (0.2, -0.05, "voxel_size must be"),
+        (-0.2, 0.05, "delta must be a positive finite number"),
+        (np.nan, 0.05, "delta must be"),
+        (0.2, None, "voxel_size must be a number"),
+        (0.2, 0.3, "voxel_size must be"),
+    ],
+)
+def test_voxel_overlap_index_refuses_bad_sizes(delta, voxel_size, match):
+    with pytest.raises(ValueError, match=match):
+        VoxelOverlapIndex(delta, voxel_size)
+
+
+@pytest.mark.parametrize(
+    ("points", "pose", "match"),
+    [
+        (np.ones((5, 3)), np.zeros(3), r"points must have shape \(M, 2\)"),
+        (np.array([[np.nan, 1.0]]), np.zeros(3), "points contains NaN or inf"),
+        (np.array([[np.inf, 1.0]]), np.zeros(3), "points contains NaN or inf"),
+        (np.ones((5, 2)), np.zeros(2), r"pose must have shape \(3,\)"),
+        (np.ones((5, 2)), np.array([0.0, np.nan, 0.0]), "pose contains NaN"),
+        (np.ones((5, 2)), np.array([1e9, 0.0, 0.0]), "points: voxel coordinates beyond"),
+    ],
+)
+def test_voxel_overlap_index_refuses_bad_scans(points, pose, match):
+    index = VoxelOverlapIndex(0.2, 0.05)
+    with pytest.raises(ValueError, match=match):
+        index.add(points, pose)
+    assert len(index) == 0  # nothing half-added

@@ -68,3 +68,35 @@ def test_knn_spectral_refuses_bad_settings():
 )
 def test_sklearn_estimator_checks(estimator, check):
     check(estimator)
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-200])
+def test_a_span_float64_distances_cannot_hold_is_refused(scale):
+    """EigengapNCut said 'all samples are identical'; KNN returned error 0.62 silently."""
+    X, _ = _blobs(np.random.default_rng(6))
+    for model in (EigengapNCutClustering(3), KNNSpectralClustering(3)):
+        with pytest.raises(ValueError, match="X: the samples span .*rescale X"):
+            model.fit(X * scale)
+
+
+def test_fewer_distinct_samples_than_clusters_is_a_clear_error():
+    X = np.vstack([np.zeros((20, 2)), np.ones((20, 2))])
+    match = "n_clusters=3 needs at least 3 distinct samples in X; it has 2 groups"
+    for model in (
+        EigengapNCutClustering(3),
+        KNNSpectralClustering(3),
+        KNNSpectralClustering(3, "eigengap"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            model.fit(X)
+    with pytest.raises(ValueError, match="all samples are identical"):
+        KNNSpectralClustering(2).fit(np.ones((9, 2)))
+
+
+def test_eigengap_survives_lapacks_subset_solver_failing():
+    """Copies of two points: at some sigma LAPACK's syevr fails ('Internal Error') on the
+    clustered spectrum; the full solver gives the gaps instead."""
+    X = np.vstack([np.zeros((20, 2)), np.ones((20, 2))])
+    model = EigengapNCutClustering(2).fit(X)
+    assert clustering_error(np.repeat([0, 1], 20), model.labels_) == 0.0
+    assert np.isfinite(model.gaps_).all()

@@ -3,7 +3,13 @@
 import numpy as np
 import pytest
 
-from mapping.metrics import adjusted_rand_index, clustering_error, contingency_matrix, purity
+from mapping.metrics import (
+    adjusted_rand_index,
+    best_matching,
+    clustering_error,
+    contingency_matrix,
+    purity,
+)
 
 
 def test_contingency_matrix_counts_pairs_in_sorted_label_order():
@@ -83,3 +89,21 @@ def test_best_matching_is_the_matching_clustering_error_scores():
     assert best_matching(y_true, y_pred) == {7: 0, 5: 1, 9: 2}
     # more clusters than classes: the extra cluster is left unmatched
     assert best_matching([0, 0, 1, 1], [3, 4, 5, 5]) in ({3: 0, 5: 1}, {4: 0, 5: 1})
+
+
+@pytest.mark.parametrize(
+    "score", [clustering_error, purity, adjusted_rand_index, contingency_matrix, best_matching]
+)
+def test_missing_or_infinite_labels_are_refused(score):
+    """NaN labels (missing ground truth) were one class for every score but the ARI."""
+    y = np.array([0, 1, 2, 3, 4, 4])
+    nan = np.array([np.nan, np.nan, np.nan, np.nan, 1, 1])
+    with pytest.raises(ValueError, match="y_true must hold a finite label for every point"):
+        score(nan, y)
+    with pytest.raises(ValueError, match="y_pred must hold a finite label .* got inf at index 2"):
+        score(y, np.where(y == 2, np.inf, y))
+    with pytest.raises(ValueError, match="y_true must hold a finite label .* got None at index 0"):
+        score([None, None, 1], [0, 0, 1])
+    with pytest.raises(ValueError, match="y_true must hold a finite label .* got nan at index 1"):
+        score(np.array(["a", np.nan, "b"], dtype=object), [0, 0, 1])
+    score(y.astype(float), y)  # finite float labels are labels

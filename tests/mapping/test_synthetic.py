@@ -6,6 +6,7 @@ import pytest
 
 from mapping.synthetic import (
     SYNTHETIC_SETS,
+    branching_sequences,
     converging_paths,
     lines_variable_spacing,
     make_all,
@@ -116,3 +117,33 @@ def test_plot_sets_writes_a_png(tmp_path):
     fig = plot_sets(path, sets=make_all())
     assert len(fig.axes) == 4
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: parallel_lines(length=np.nan), "length must be a positive finite number"),
+        (lambda: parallel_lines(length=np.inf), "length must be"),
+        (lambda: parallel_lines(length=-1.0), "length must be"),
+        (lambda: parallel_lines(length=0), "length must be"),
+        (lambda: parallel_lines(gap="0.3"), "gap must be"),
+        (lambda: parallel_lines(noise="0.1"), "noise must be a non-negative number"),
+        (lambda: parallel_lines(noise=np.nan), "noise must be"),
+        (lambda: lines_variable_spacing(spacings=0.01), "spacings must be three positive"),
+        (lambda: lines_variable_spacing(spacings="abc"), "spacings must be three positive"),
+        (lambda: lines_variable_spacing(spacings=(1e-300, 0.01, 0.01)), "spacings: length / "),
+        (lambda: converging_paths(turn="1"), "turn must be"),
+        (lambda: spirals_3d(pitch=np.nan), "pitch must be"),
+    ],
+)
+def test_unusable_parameters_are_refused_by_name(make, match):
+    """NaN, inf or non-positive lengths gave NaN data silently; a scalar or a string spacing,
+    a string noise or a vanishing spacing failed inside numpy."""
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
+@pytest.mark.parametrize("noise", [np.nan, -1.0, np.inf, "0.02"])
+def test_branching_sequences_refuse_bad_noise(noise):
+    with pytest.raises(ValueError, match="noise must be a non-negative number"):
+        branching_sequences(5, 2, np.random.default_rng(0), noise=noise)

@@ -6,7 +6,12 @@ import pytest
 from common.geometry import se2_inverse, se2_relative, transform_points
 from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
 from mapping.partition import ObservationGraphPartitioner
-from mapping.topology import build_topology
+from mapping.topology import (
+    build_local_maps,
+    build_topology,
+    fill_from_nearest,
+    group_frames,
+)
 
 
 @pytest.fixture(scope="module")
@@ -73,3 +78,51 @@ def test_no_trajectory_arc_across_runs():
     assert build_topology(poses, labels, W, np.array([0, 2]), frames).edges() == [(0, 1)]
     runs = [0, 0, 1, 1]
     assert build_topology(poses, labels, W, np.array([0, 2]), frames, groups=runs).arcs == []
+
+
+POSES = np.column_stack([np.arange(8.0), np.zeros(8), np.zeros(8)])
+LABELS = np.array([0, 0, 0, 1, 1, 1, 2, 2])
+
+
+@pytest.mark.parametrize(
+    ("poses", "labels", "match"),
+    [
+        (POSES, np.array([0, 0, 0, 2, 2, 2, 2, 2]), r"without gaps; no scan has label\(s\) \[1\]"),
+        (POSES, LABELS[:5], r"labels must have one entry per scan \(8\), got 5"),
+        (POSES, LABELS.astype(float), "labels must be a 1-D array of integer group labels"),
+        (POSES, LABELS - 2, "labels must be -1 .* got -2"),
+        (np.where(POSES == 3.0, np.nan, POSES), LABELS, r"poses contains NaN or inf \(rows \[3\]"),
+        (POSES[:, :2], LABELS, r"poses must have shape \(N, 3\)"),
+    ],
+)
+def test_group_frames_refuses_labels_it_cannot_use(poses, labels, match):
+    """A gap crashed in argmin of an empty group; short labels and NaN poses passed silently."""
+    with pytest.raises(ValueError, match=match):
+        group_frames(poses, labels)
+
+
+def test_build_topology_and_fill_check_their_labels():
+    reference, frames = group_frames(POSES, LABELS)
+    assert group_frames(POSES, list(LABELS))[0].tolist() == reference.tolist()  # a list works
+    with pytest.raises(ValueError, match="labels must be a 1-D array of integer"):
+        build_topology(POSES, LABELS.astype(float), np.eye(8), reference, frames)
+    with pytest.raises(ValueError, match=r"labels must be groups 0..1 of the 2 frames, got 2"):
+        build_topology(POSES, LABELS, np.eye(8), reference[:2], frames[:2])
+    with pytest.raises(ValueError, match=r"affinity must be \(8, 8\)"):
+        build_topology(POSES, LABELS, np.eye(7), reference, frames)
+    # None is a missing run label, like NaN (it failed sorting against the ints)
+    with pytest.raises(ValueError, match="groups contains None"):
+        build_topology(POSES, LABELS, np.eye(8), reference, frames, groups=[None] * 4 + [1] * 4)
+    mixed = np.array(["a"] * 6 + [1] * 2, dtype=object)  # labels numpy cannot sort
+    topo = build_topology(POSES, LABELS, np.eye(8), reference, frames, groups=mixed)
+    assert topo.edges() == [(0, 1)]  # the 1-2 step crosses runs
+    with pytest.raises(ValueError, match=r"label\(s\) \['a', 1\] occur in separate stretches"):
+        build_topology(POSES, LABELS, np.eye(8), reference, frames, groups=mixed[[0, 7] * 4])
+    scans = [np.zeros((2, 2))] * 8
+    with pytest.raises(ValueError, match=r"scans must have one scan per label \(8\), got 7"):
+        build_local_maps(scans[:7], POSES, LABELS, frames)
+    np.testing.assert_array_equal(fill_from_nearest([-1, 0, -1]), [0, 0, 0])
+    with pytest.raises(ValueError, match=r"starts must be a boolean mask of shape \(6,\)"):
+        fill_from_nearest(np.array([-1, 0, -1, -1, 1, -1]), np.array([True, False, True]))
+    with pytest.raises(ValueError, match="labels must be a 1-D array of integer"):
+        fill_from_nearest(np.array([-1.0, 0.0]))
