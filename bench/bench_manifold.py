@@ -325,7 +325,8 @@ def sparse_accuracy(dataset: str | None) -> None:
 
 
 def experiments() -> None:
-    from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
+    from mapping.baselines import SelfTuningSpectralClustering
+    from mapping.sigma_sweep import best_sigma_ncut
     from mapping.synthetic import make_all
 
     variants = {

@@ -12,7 +12,7 @@
 The eigengap rule (von Luxburg, *A tutorial on spectral clustering*, 2007, Section 8.3): the
 scale whose normalised affinity has the largest gap ``lambda_K - lambda_{K+1}`` between its
 K-th and (K+1)-th largest eigenvalue, i.e. the graph closest to K disconnected parts. It looks
-at the data only, never at labels, unlike :func:`~mapping.baselines.best_sigma_ncut`, the
+at the data only, never at labels, unlike :func:`~mapping.sigma_sweep.best_sigma_ncut`, the
 paper's oracle, which is kept as a ceiling.
 """
 
@@ -30,8 +30,9 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from mapping._validation import check_distinct_rows, check_span, single_threaded_blas
-from mapping.baselines import NormalizedCutClustering, default_sigmas
+from mapping.baselines import NormalizedCutClustering
 from mapping.distances import squared_distances
+from mapping.sigma_sweep import default_sigmas
 
 __all__ = ["EigengapNCutClustering", "KNNSpectralClustering", "eigengap"]
 
@@ -176,7 +177,7 @@ class EigengapNCutClustering(ClusterMixin, BaseEstimator):
     n_clusters : int, default 2
         Number of clusters K.
     n_sigmas : int, default 25
-        Size of the log grid of :func:`~mapping.baselines.default_sigmas` (half the median
+        Size of the log grid of :func:`~mapping.sigma_sweep.default_sigmas` (half the median
         nearest-neighbour distance to the diameter) that the rule searches.
     n_init : int, default 10
         k-means restarts.

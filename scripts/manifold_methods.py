@@ -15,8 +15,8 @@ import warnings
 import numpy as np
 
 from mapping import ManifoldClustering, clustering_error
-from mapping.baselines import best_sigma_ncut
 from mapping.label_free import EigengapNCutClustering, KNNSpectralClustering
+from mapping.sigma_sweep import best_sigma_ncut
 from scripts.tables import Column, Table
 
 OURS = "ours"

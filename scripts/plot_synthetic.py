@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
+from mapping.baselines import SelfTuningSpectralClustering
 from mapping.metrics import clustering_error
+from mapping.sigma_sweep import best_sigma_ncut
 from mapping.synthetic import make_all, plot_sets
 
 _DEFAULT_OUT = Path(__file__).resolve().parent.parent / "docs" / "img" / "synthetic_sets.png"

@@ -36,7 +36,8 @@ from mapping import (
     ScanFeatures,
     clustering_error,
 )
-from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
+from mapping.baselines import SelfTuningSpectralClustering
+from mapping.sigma_sweep import best_sigma_ncut
 from mapping.synthetic import make_all
 from scripts.grouping_plots import agg_pyplot, save_figure
 

@@ -6,13 +6,10 @@ from sklearn.cluster import SpectralClustering
 from sklearn.exceptions import NotFittedError
 from sklearn.metrics import adjusted_rand_score
 
-from mapping.baselines import (
-    NormalizedCutClustering,
-    SelfTuningSpectralClustering,
-    best_sigma_ncut,
-)
+from mapping.baselines import NormalizedCutClustering, SelfTuningSpectralClustering
 from mapping.distances import squared_distances
 from mapping.metrics import clustering_error
+from mapping.sigma_sweep import best_sigma_ncut
 from mapping.synthetic import converging_paths, parallel_lines
 
 
