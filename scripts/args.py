@@ -1,19 +1,46 @@
 """Argument types shared by the command-line parsers (``topomap`` and its subcommands): each
-parses one string or raises ``argparse.ArgumentTypeError`` naming the expected form."""
+parses one string or raises ``argparse.ArgumentTypeError`` naming the expected form; and
+:func:`output_folder`, the check every ``--out`` gets before any work runs."""
 
 from __future__ import annotations
 
 import argparse
+import tempfile
+from pathlib import Path
 
-__all__ = ["non_negative_float", "policies", "positive_int", "worlds"]
+__all__ = [
+    "frame_count",
+    "non_negative_float",
+    "non_negative_int",
+    "output_folder",
+    "policies",
+    "positive_int",
+    "worlds",
+]
+
+
+def _int_at_least(text: str, minimum: int) -> int:
+    """``text`` as an integer >= ``minimum``; a ValueError for a non-integer (argparse then
+    says "invalid ... value"), an ArgumentTypeError naming the bound for a smaller one."""
+    value = int(text)
+    if value < minimum:
+        raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text}")
+    return value
 
 
 def positive_int(text: str) -> int:
     """An integer >= 1."""
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text}")
-    return value
+    return _int_at_least(text, 1)
+
+
+def non_negative_int(text: str) -> int:
+    """An integer >= 0, such as a seed (numpy refuses negative seeds)."""
+    return _int_at_least(text, 0)
+
+
+def frame_count(text: str) -> int:
+    """Frames per sequence: an integer >= 2 (a sequence runs from its start to its end)."""
+    return _int_at_least(text, 2)
 
 
 def non_negative_float(text: str) -> float:
@@ -43,3 +70,22 @@ def policies(text: str) -> tuple[str, ...]:
     if bad:
         raise argparse.ArgumentTypeError(f"unknown policies {bad}; choose from {POLICIES}")
     return names
+
+
+def output_folder(value: str, option: str = "--out") -> Path:
+    """The output folder ``value``, created now and probed for writing, so that a bad
+    ``--out`` is reported before any work runs rather than after it (a servo evaluation
+    writes its file only once every episode has run). Raises ValueError naming ``option``."""
+    path = Path(value)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{option} must be a folder, got the file {value}")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        # a probe file, not os.access: that says yes to root on a read-only mount
+        tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-").close()
+    except OSError as err:
+        reason = err.strerror or type(err).__name__
+        raise ValueError(
+            f"{option} must be a folder this user can create and write, got {value} ({reason})"
+        ) from err
+    return path

@@ -5,64 +5,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 import time
-from pathlib import Path
 
-from scripts.args import non_negative_float, policies, positive_int, worlds
+from scripts.args import (
+    non_negative_int,
+    output_folder,
+    policies,
+    positive_int,
+    worlds,
+)
 
 DEFAULT_OUT = "out"
-
-
-def output_folder(value: str, option: str = "--out") -> Path:
-    """The output folder ``value``, created now and probed for writing, so that a bad
-    ``--out`` is reported before any work runs rather than after it (a servo evaluation
-    writes its file only once every episode has run). Raises ValueError naming ``option``."""
-    path = Path(value)
-    if path.exists() and not path.is_dir():
-        raise ValueError(f"{option} must be a folder, got the file {value}")
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        # a probe file, not os.access: that says yes to root on a read-only mount
-        tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-").close()
-    except OSError as err:
-        reason = err.strerror or type(err).__name__
-        raise ValueError(
-            f"{option} must be a folder this user can create and write, got {value} ({reason})"
-        ) from err
-    return path
-
-
-def _settings(args):
-    from sim.camera import CameraConfig
-    from sim.collect import CollectionSettings
-    from sim.laser import LaserConfig
-    from sim.teleop import TeleopConfig
-
-    return CollectionSettings(
-        worlds=worlds(args.world),
-        frames=args.frames,
-        seed=args.seed,
-        randomize=args.randomize,
-        appearance=args.appearance,
-        camera=CameraConfig(width=args.width, height=args.height, depth=args.depth),
-        laser=LaserConfig(beams=args.beams, max_range=args.max_range),
-        teleop=TeleopConfig().scaled(args.teleop_jitter),
-    )
-
-
-def cmd_collect(args) -> int:
-    from sim.collect import collect_dataset
-
-    output_folder(args.out)
-    start = time.perf_counter()
-    try:
-        out = collect_dataset(args.out, _settings(args), overwrite=args.overwrite, jobs=args.jobs)
-    except FileExistsError as err:
-        print(f"topomap collect: {err}", file=sys.stderr)
-        return 2
-    print(f"dataset ready in {out} ({time.perf_counter() - start:.1f} s)")
-    return 0
 
 
 def cmd_import(args) -> int:
@@ -267,42 +220,12 @@ def cmd_servo_compare(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from scenes import WORLDS
-    from scenes.appearance import APPEARANCE_MODES
+    from scripts.collect_command import add_parser as add_collect_parser
 
     p = argparse.ArgumentParser(prog="topomap", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
 
-    c = sub.add_parser("collect", help="collect a teleop dataset (resumable)")
-    c.add_argument("--world", choices=(*WORLDS, "all"), required=True)
-    c.add_argument("--out", required=True, help="dataset directory")
-    c.add_argument("--seed", type=int, default=0)
-    c.add_argument("--frames", type=positive_int, default=150, help="frames per sequence")
-    c.add_argument("--randomize", action="store_true", help="domain-randomised worlds")
-    c.add_argument(
-        "--appearance",
-        choices=APPEARANCE_MODES,
-        default="default",
-        help="hard: every branch shares the main manifold's wall, floor and light materials, "
-        "so only the layout tells the manifolds apart (default: each its own)",
-    )
-    c.add_argument(
-        "--teleop-jitter",
-        type=non_negative_float,
-        default=1.0,
-        metavar="SCALE",
-        help="scale of the driver's random speed, turn, wander and start jitter (0: the route's "
-        "centre line, the same pass for every seed; default 1)",
-    )
-    c.add_argument("--overwrite", action="store_true", help="replace a dataset with other settings")
-    c.add_argument(
-        "--jobs", type=positive_int, default=None, help="worker processes (default: cores)"
-    )
-    c.add_argument("--width", type=positive_int, default=320)
-    c.add_argument("--height", type=positive_int, default=240)
-    c.add_argument("--depth", action="store_true", help="also record depth images")
-    c.add_argument("--beams", type=positive_int, default=361)
-    c.add_argument("--max-range", type=float, default=20.0)
-    c.set_defaults(func=cmd_collect)
+    add_collect_parser(sub)
 
     i = sub.add_parser("import", help="a robot's ROS 1 / ROS 2 bags as a dataset (own data)")
     i.add_argument("--rosbag", nargs="+", required=True, help="bags: drives through one place")
@@ -338,8 +261,15 @@ def build_parser() -> argparse.ArgumentParser:
     w.set_defaults(func=cmd_worlds)
 
     r = sub.add_parser("run", help="the main job end to end on the default worlds")
-    r.add_argument("--out", default=DEFAULT_OUT)
-    r.add_argument("--seed", type=int, default=0)
+    r.add_argument(
+        "--out", default=DEFAULT_OUT, help="folder for the dataset, maps and report/ (default: out)"
+    )
+    r.add_argument(
+        "--seed",
+        type=non_negative_int,
+        default=0,
+        help="seeds the dataset and the servo episodes (integer >= 0; default 0)",
+    )
     r.add_argument("--jobs", type=positive_int, default=None, help="collection processes")
     r.add_argument(
         "--episodes",

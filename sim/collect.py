@@ -31,6 +31,11 @@ from sim.teleop import ScriptedTeleop, TeleopConfig
 DEFAULT_FRAMES = 150  # per sequence, as the paper
 TELEOP_CONTROL_DT = 0.05  # s: fine enough that frames land within ~3 cm of their progress mark
 END_MARGIN = 0.3  # m: the last frame is taken this short of the route's end
+# A sequence is held in memory whole until it is written, once per worker process. The paper's
+# 150 frames of 320x240 take 35 MB; these bounds refuse settings that would exhaust memory or
+# run for days before anything is written (10^9 frames once failed after meta.json was written).
+MAX_FRAMES = 100_000  # per sequence: past ~10^3 frames they repeat poses; ~15 min at 120/s
+MAX_SEQUENCE_BYTES = 4 * 2**30  # the arrays of one sequence (images, depth, scans, poses, ...)
 
 
 @dataclass(frozen=True)
@@ -59,6 +64,7 @@ class CollectionSettings:
             )
         if int(self.frames) != self.frames or self.frames < 2:
             raise ValueError(f"frames must be an integer >= 2, got {self.frames}")
+        check_sequence_size(self.frames, self.camera, self.laser)
         if int(self.seed) != self.seed or self.seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {self.seed}")
         check_appearance_mode(self.appearance)
@@ -83,6 +89,29 @@ class CollectionSettings:
                 index = names.WORLDS.index(w) * len(names.BRANCHES) + names.BRANCHES.index(b)
                 out.append((index, w, names.manifold_name(w, b)))
         return out
+
+
+def frame_bytes(camera: CameraConfig, laser: LaserConfig) -> int:
+    """Bytes one frame adds to a sequence's arrays (see :func:`collect_sequence`): the RGB
+    image, the depth image when recorded, the scan, and pose, odometry, command, label, time."""
+    pixels = camera.height * camera.width
+    return pixels * 3 + pixels * 4 * bool(camera.depth) + laser.beams * 4 + 3 * 3 * 8 + 2 + 8
+
+
+def check_sequence_size(frames: int, camera: CameraConfig, laser: LaserConfig) -> None:
+    """Refuse ``frames`` per sequence above :data:`MAX_FRAMES`, or whose arrays would take more
+    than :data:`MAX_SEQUENCE_BYTES` of memory with these camera and laser settings."""
+    if frames > MAX_FRAMES:
+        raise ValueError(f"frames must be an integer in [2, {MAX_FRAMES}], got {frames}")
+    size = frames * frame_bytes(camera, laser) + laser.beams * 4
+    if size > MAX_SEQUENCE_BYTES:
+        most = (MAX_SEQUENCE_BYTES - laser.beams * 4) // frame_bytes(camera, laser)
+        depth = " and depth" * bool(camera.depth)
+        raise ValueError(
+            f"frames must be at most {most} for {camera.width}x{camera.height} images{depth} "
+            f"and {laser.beams} beams (a sequence is held in memory whole: {size / 2**30:.1f} "
+            f"GiB, over the {MAX_SEQUENCE_BYTES / 2**30:.0f} GiB limit), got {frames}"
+        )
 
 
 @lru_cache(maxsize=4)
@@ -139,12 +168,21 @@ def collect_sequence(
             if k == n:
                 return out
             sim.step(*command)
-        raise RuntimeError(
-            f"teleop on {route_name} stalled at {teleop.progress:.1f} m of "
-            f"{teleop.route.length:.1f} m after {budget} steps"
-        )
+        raise ValueError(_stall_message(route_name, teleop, budget, settings.teleop))
     finally:
         sim.close()
+
+
+def _stall_message(route_name: str, teleop: ScriptedTeleop, steps: int, config) -> str:
+    """Why a sequence could not be collected: the driver stalled short of the route's end,
+    which its jitter makes likelier (``TeleopConfig.scaled``)."""
+    return (
+        f"teleop on {route_name} stalled at {teleop.progress:.1f} m of "
+        f"{teleop.route.length:.1f} m after {steps} steps; the teleop jitter (speed "
+        f"{config.speed_jitter:g}, turn {config.turn_jitter:g}, wander "
+        f"{config.lateral_wander:g}) may be too large for this route: collect with a smaller "
+        "--teleop-jitter or another seed"
+    )
 
 
 # -- parallel collection ---------------------------------------------------------------------
@@ -207,10 +245,7 @@ def collect_dataset(
     directory.mkdir(parents=True, exist_ok=True)
     meta = _base_meta(settings)
     if (directory / ds.META_FILE).exists():
-        try:
-            old = ds.read_meta(directory)
-        except ds.DatasetError:
-            old = None
+        old = _old_meta(directory, overwrite)
         if old is not None and old.get("settings") == meta["settings"] and not overwrite:
             meta["sequences"] = {
                 k: v
@@ -266,6 +301,20 @@ def collect_dataset(
     meta["complete"] = True
     write_json(directory / ds.META_FILE, meta)
     return directory
+
+
+def _old_meta(directory: Path, overwrite: bool) -> dict | None:
+    """The dataset metadata already in ``directory``; None where it cannot be read and
+    ``overwrite`` replaces it, else FileExistsError saying why it cannot be read."""
+    try:
+        return ds.read_meta(directory)
+    except ds.DatasetError as err:
+        if overwrite:
+            return None
+        raise FileExistsError(
+            f"{directory} holds a {ds.META_FILE} that cannot be read ({err}); pass "
+            "overwrite=True (--overwrite) to replace it, or choose another directory"
+        ) from err
 
 
 def _collect_to_file_inline(settings, index, world, route, directory, bar):

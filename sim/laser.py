@@ -13,6 +13,11 @@ import numpy as np
 
 from scenes import names
 
+# Real 2-D lasers have a few hundred to a few thousand beams (SICK LMS-200: 361, Hokuyo
+# UTM-30LX: 1081); 100 000 is far beyond them and still casts a scan in well under a second,
+# where a count of 10^8 would hang the collection allocating and casting rays.
+MAX_BEAMS = 100_000
+
 
 @dataclass(frozen=True)
 class LaserConfig:
@@ -27,8 +32,10 @@ class LaserConfig:
     def __post_init__(self):
         if not (0 < self.fov <= 2 * np.pi):
             raise ValueError(f"laser fov must be in (0, 2*pi] radians, got {self.fov}")
-        if int(self.beams) != self.beams or self.beams < 1:
-            raise ValueError(f"laser beams must be a positive integer, got {self.beams}")
+        if int(self.beams) != self.beams or not (1 <= self.beams <= MAX_BEAMS):
+            raise ValueError(
+                f"laser beams must be an integer in [1, {MAX_BEAMS}], got {self.beams}"
+            )
         if not (np.isfinite(self.max_range) and self.max_range > 0):
             raise ValueError(f"laser max_range must be a finite number > 0, got {self.max_range}")
         if not (np.isfinite(self.noise_std) and self.noise_std >= 0):

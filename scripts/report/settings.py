@@ -56,6 +56,7 @@ class RunSettings:
                 "protocol must be a folder written by scripts.manifold_protocol (holding "
                 f"cells/), got {self.protocol!r}"
             )
+        check_int(self.seed, "seed", minimum=0)  # numpy refuses a negative seed
         check_int(self.episodes, "episodes")
         check_int(self.videos, "videos", minimum=0)
         if not self.policies:

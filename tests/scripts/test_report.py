@@ -398,7 +398,12 @@ def test_python_dash_m_takes_the_run_arguments():
 
 @pytest.mark.parametrize(
     ("kwargs", "match"),
-    [({"episodes": 0}, "episodes"), ({"videos": -1}, "videos"), ({"policies": ()}, "policies")],
+    [
+        ({"episodes": 0}, "episodes"),
+        ({"videos": -1}, "videos"),
+        ({"policies": ()}, "policies"),
+        ({"seed": -1}, "seed must be an integer >= 0, got -1"),
+    ],
 )
 def test_run_settings_refuse_bad_values(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -454,6 +459,17 @@ def test_cmd_run_refuses_bad_settings_without_a_traceback(monkeypatch, capsys):
     assert "videos must be an integer >= 0" in capsys.readouterr().err
 
 
+def test_cmd_run_refuses_a_negative_seed_before_making_any_folder(tmp_path, capsys):
+    """--seed -1 once failed the dataset stage with a traceback, leaving out/report behind."""
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exit_:  # argparse's own refusal, exit 2
+        cli_main(["run", "--seed", "-1", "--out", str(out), "--quiet"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "--seed: expected an integer >= 0" in err and "Traceback" not in err
+    assert not out.exists()
+
+
 def test_cmd_run_explains_a_dataset_of_other_settings(monkeypatch, capsys):
     def fake_pipeline(out, settings, *, progress, command):
         try:
@@ -492,6 +508,7 @@ def _stub_internals(monkeypatch):
 
     monkeypatch.setattr("scripts.reproduce_manifold.reproduce", reproduce)
     monkeypatch.setattr("scripts.eval_grouping.evaluate_grouping", evaluate_grouping)
+
     def run_protocol(protocol, servo_map, episodes, policy="servo", *, plot=None, **kw):
         Path(plot).write_bytes(PNG)
         return {**SERVO, "world": protocol.world, "policy": policy, "tier": protocol.tier,

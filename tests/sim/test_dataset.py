@@ -335,3 +335,72 @@ def test_a_meta_without_laser_settings_cannot_build_a_map(small_dataset, tmp_pat
     (tmp_path / "d" / "meta.json").write_text(json.dumps(meta))
     with pytest.raises(DatasetError, match="no settings.laser.max_range"):
         build_map(tmp_path / "d", "lawn")
+
+
+def test_frames_that_do_not_fit_in_memory_are_refused_up_front():
+    """--frames 10**9 once ran 43 s, wrote meta.json, then died allocating 210 TiB; 10**5
+    frames of 320x240 would hold 23 GB per sequence: both are refused by the settings."""
+    assert collect_mod.MAX_SEQUENCE_BYTES <= 8 * 2**30
+    with pytest.raises(ValueError, match=r"frames must be an integer in \[2, 100000\], got 10*"):
+        CollectionSettings(frames=10**9)
+    with pytest.raises(ValueError, match=r"frames must be at most 18\d\d\d for 320x240 images"):
+        CollectionSettings(frames=100_000)
+    with pytest.raises(ValueError, match=r"frames must be at most \d+ for 4096x4096 images and"):
+        CollectionSettings(frames=150, camera=CameraConfig(width=4096, height=4096, depth=True))
+    assert CollectionSettings(frames=10_000).frames == 10_000  # generous for the usual size
+
+
+def test_cli_collect_refuses_too_many_frames_before_writing(tmp_path, capsys):
+    from scripts.cli import main
+
+    out = tmp_path / "big"
+    argv = ["collect", "--world", "hallway", "--out", str(out), "--frames", "1000000000"]
+    assert main([*argv, "--jobs", "1"]) == 2
+    assert "frames must be an integer in [2, 100000]" in capsys.readouterr().err
+    assert not (out / "meta.json").exists()
+
+
+def test_an_unreadable_meta_is_reported_as_unreadable(tmp_path, capsys):
+    """A corrupt meta.json is not "a dataset collected with other settings": the error says
+    the file cannot be read and why; --overwrite still replaces it."""
+    from dataclasses import replace
+
+    from scripts.cli import main
+
+    (tmp_path / "meta.json").write_text("{oops")
+    with pytest.raises(FileExistsError, match="meta.json that cannot be read .*not valid JSON"):
+        collect_dataset(tmp_path, SETTINGS, jobs=1, progress=False)
+    argv = ["collect", "--world", "lawn", "--out", str(tmp_path), "--frames", "2", "--jobs", "1"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "cannot be read" in err and "other settings" not in err
+    assert (tmp_path / "meta.json").read_text() == "{oops"
+    tiny = replace(SETTINGS, frames=2, camera=CameraConfig(width=8, height=6))
+    collect_dataset(tmp_path, tiny, overwrite=True, jobs=1, progress=False)
+    assert load_dataset(tmp_path).meta["complete"]
+
+
+def test_teleop_jitter_is_capped_where_the_driver_still_finishes(capsys):
+    from scripts.cli import main
+    from sim.teleop import MAX_JITTER, TeleopConfig
+
+    assert MAX_JITTER == 2.0 and TeleopConfig().scaled(2.0).speed_jitter == pytest.approx(0.24)
+    with pytest.raises(ValueError, match=r"teleop jitter must be at most 2.0 .*got 3.5"):
+        TeleopConfig().scaled(3.5)
+    argv = ["collect", "--world", "hallway", "--out", "x", "--frames", "3", "--jobs", "1"]
+    assert main([*argv, "--teleop-jitter", "10"]) == 2
+    assert "teleop jitter must be at most 2.0" in capsys.readouterr().err
+
+
+def test_a_stalled_drive_is_a_value_error_naming_the_teleop_jitter(monkeypatch):
+    """Were the driver to stall all the same, the collection says so in one line (exit 2 on
+    the command line) rather than with a RuntimeError's traceback."""
+    from dataclasses import replace
+
+    from sim.teleop import ScriptedTeleop, TeleopConfig
+
+    monkeypatch.setattr(ScriptedTeleop, "command", lambda self, pose, dt: (0.0, 0.0))
+    # a fast nominal speed makes the step budget short: 200 and a few steps
+    settings = replace(SETTINGS, frames=2, teleop=TeleopConfig(speed=1000.0))
+    with pytest.raises(ValueError, match=r"teleop on lawn-left stalled .*teleop-jitter"):
+        collect_mod.collect_sequence(settings, 3, "lawn", "lawn-left")

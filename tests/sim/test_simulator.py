@@ -143,6 +143,10 @@ def test_render_larger_than_the_buffer_grows_it(worlds):
     [
         (lambda: LaserConfig(fov=0), "laser fov"),
         (lambda: LaserConfig(beams=0), "laser beams"),
+        (
+            lambda: LaserConfig(beams=100_000_000),
+            r"laser beams must be an integer in \[1, 100000\]",
+        ),
         (lambda: LaserConfig(max_range=np.inf), "laser max_range"),
         (lambda: CameraConfig(width=0), "camera width"),
         (lambda: OdometryConfig(translation=-1), "odometry translation"),
@@ -151,3 +155,15 @@ def test_render_larger_than_the_buffer_grows_it(worlds):
 def test_bad_sensor_settings_are_refused(factory, match):
     with pytest.raises(ValueError, match=match):
         factory()
+
+
+def test_a_hundred_thousand_beams_is_the_most_and_still_scans(worlds):
+    """--beams 10**8 once hung the collection; the cap is far beyond real 2-D lasers (a few
+    thousand beams) and a scan at the cap is quick."""
+    from sim.laser import MAX_BEAMS
+
+    assert MAX_BEAMS == 100_000
+    sim = Simulator(worlds["hallway"], None, LaserConfig(beams=MAX_BEAMS), OdometryConfig(), 0.05)
+    sim.reset(np.array([8.0, 0.0, 0.0]), np.random.default_rng(0))
+    assert sim.scan().shape == (MAX_BEAMS,)
+    sim.close()
