@@ -29,7 +29,7 @@ from scipy.spatial import cKDTree
 from common.geometry import se2_compose, se2_relative, transform_points
 from mapping.icp import densify_scan, icp
 from mapping.overlap import check_scans_and_poses
-from mapping.topology import run_starts_from_groups
+from mapping.topology import check_poses, run_starts_from_groups
 
 __all__ = [
     "align_group",
@@ -97,12 +97,7 @@ def submap_labels(
         If ``poses`` is not finite of shape ``(N, 3)``, ``n_scans`` is not an integer >= 1
         (a bool is not), or ``distance`` is not a positive number.
     """
-    poses = np.asarray(poses, dtype=float)
-    if poses.ndim != 2 or poses.shape[1] != 3:
-        raise ValueError(f"poses must have shape (N, 3), got {poses.shape}")
-    if not np.isfinite(poses).all():
-        bad = np.flatnonzero(~np.isfinite(poses).all(axis=1))
-        raise ValueError(f"poses contains NaN or inf (rows {bad[:5].tolist()})")
+    poses = check_poses(poses)
     if (n_scans is None) == (distance is None):
         raise ValueError("give exactly one of n_scans and distance")
     if n_scans is not None and not (_is_integer(n_scans) and n_scans >= 1):

@@ -32,6 +32,7 @@ __all__ = [
     "TopologyArc",
     "build_local_maps",
     "build_topology",
+    "check_poses",
     "fill_from_nearest",
     "group_frames",
     "run_starts_from_groups",
@@ -107,7 +108,7 @@ def _check_labels(labels: ArrayLike, n: int | None = None) -> np.ndarray:
     return labels
 
 
-def _check_poses(poses: ArrayLike) -> np.ndarray:
+def check_poses(poses: ArrayLike) -> np.ndarray:
     """``poses`` as a finite ``(N, 3)`` float array, or a ValueError naming ``poses``."""
     poses = np.asarray(poses, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 3:
@@ -140,7 +141,7 @@ def group_frames(poses: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.
         Naming ``labels`` (not one integer per pose, below -1, or a group of ``0..K-1``
         without a scan) or ``poses`` (not a finite ``(N, 3)`` array).
     """
-    poses = _check_poses(poses)
+    poses = check_poses(poses)
     labels = _check_labels(labels, poses.shape[0])
     n_groups = int(labels.max()) + 1 if labels.size and labels.max() >= 0 else 0
     present = np.unique(labels[labels >= 0])
@@ -166,7 +167,7 @@ def build_local_maps(
     Section IV-A step 3: one local map per group. Scan ``i`` of group ``k`` is placed with the
     differential pose ``se2_relative(frames[k], poses[i])``.
     """
-    poses = _check_poses(poses)
+    poses = check_poses(poses)
     labels = _check_labels(labels, poses.shape[0])
     if len(scans) != labels.shape[0]:
         raise ValueError(
@@ -290,7 +291,7 @@ def build_topology(
     begins is not joined to the scan before it by the trajectory (the last scan of one drive
     and the first of the next are not neighbours).
     """
-    poses = _check_poses(poses)
+    poses = check_poses(poses)
     labels = _check_labels(labels, poses.shape[0])
     if labels.size and labels.max() >= len(frames):
         raise ValueError(
