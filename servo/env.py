@@ -15,7 +15,7 @@ from mapping._validation import single_threaded_blas
 from scenes import MANIFOLDS
 from servo.map_store import MapError, ServoMap, load_map, load_or_build
 from servo.registration import MAX_EPISODE_STEPS
-from sim.env import NavigationEnv
+from sim.env import NavigationEnv, check_pose_option
 from sim.odometry import OdometryConfig
 
 SUCCESS_RADIUS = 0.5  # m
@@ -42,20 +42,6 @@ def _check_options(options) -> dict:
             f"{type(options).__name__}"
         )
     return dict(options)
-
-
-def _check_pose(value) -> np.ndarray:
-    """``options['pose']`` as a float64 (x, y, yaw). Checked here, where the task is sampled
-    from it, because ``NavigationEnv.reset`` (whose check says the same) sees it only after."""
-    try:
-        pose = np.asarray(value)
-    except (TypeError, ValueError):  # ragged nesting
-        pose = np.asarray(None)
-    if pose.dtype.kind not in "iuf" or pose.shape != (3,) or not np.all(np.isfinite(pose)):
-        raise ValueError(
-            f"options['pose'] must be a finite (x, y, yaw) of real numbers, got {value!r}"
-        )
-    return pose.astype(np.float64)
 
 
 class ServoEnv(gym.Env):
@@ -213,7 +199,7 @@ class ServoEnv(gym.Env):
         else:
             target = None
         if "pose" in options:
-            pose = _check_pose(options["pose"])
+            pose = check_pose_option(options["pose"])
         else:
             if "start_view" in options:
                 start = m.check_view(options["start_view"], "options['start_view']")

@@ -22,6 +22,21 @@ START_CLEARANCE = 0.45  # m from any obstacle for a sampled start pose
 COLLISION_PENALTY = 1.0
 
 
+def check_pose_option(value) -> np.ndarray:
+    """``options['pose']`` of ``reset`` as a float64 (x, y, yaw): three finite real numbers;
+    anything else (None, a string, complex or ragged values) a ValueError naming it. Shared
+    with ``servo.env.ServoEnv``, which samples its task from the pose before this env sees it."""
+    try:
+        pose = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nesting
+        pose = np.asarray(None)
+    if pose.dtype.kind not in "iuf" or pose.shape != (3,) or not np.all(np.isfinite(pose)):
+        raise ValueError(
+            f"options['pose'] must be a finite (x, y, yaw) of real numbers, got {value!r}"
+        )
+    return pose.astype(np.float64)
+
+
 class NavigationEnv(gym.Env):
     """Drive a differential-drive robot through the hallway or lawn world.
 
@@ -170,11 +185,7 @@ class NavigationEnv(gym.Env):
         self._noise_rng, odo_rng, look_rng = rng.spawn(3)
         self._randomizer.apply(look_rng if self.randomize else None)
         if "pose" in options:
-            pose = np.asarray(options["pose"], np.float64)
-            if pose.shape != (3,) or not np.all(np.isfinite(pose)):
-                raise ValueError(
-                    f"options['pose'] must be a finite (x, y, yaw), got {options['pose']!r}"
-                )
+            pose = check_pose_option(options["pose"])
             if (
                 not self.occupancy.is_free(pose[:2])
                 or self.occupancy.clearance[self.occupancy.cell_of(pose[:2])] < RADIUS
