@@ -311,9 +311,9 @@ def training_geometry(
     processes compute each graph node's eigenbases (:meth:`GraphGeometry.prefetch`).
     """
     n = X.shape[0]
-    check_span(X)  # refuses a span float64 distances cannot hold
+    span = check_span(X)  # refuses a span float64 distances cannot hold
     if kernel == "sparse" or (kernel == "auto" and n > AUTO_SPARSE_ABOVE):
-        if not np.ptp(X, axis=0).max() > 0:
+        if not span > 0:
             raise ValueError("X: all samples are identical; there is nothing to cluster")
         rank = int(n_components)
         k = min(int(n_neighbors), n - 1)
