@@ -114,7 +114,7 @@ def ensure_leaves(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpa
     while len(leaves) < n_clusters:
         splittable = [leaf for leaf in leaves if leaf.indices.shape[0] >= 2]
         splittable = [leaf for leaf in splittable if sq_dist.sub(leaf.indices).has_extent()]
-        if not splittable:
+        if not splittable:  # ManifoldClustering.fit refuses such X first (check_distinct_rows)
             raise ValueError(
                 f"n_clusters={n_clusters} needs at least {n_clusters} distinct samples in X; "
                 f"it has {len(leaves)} groups of identical samples"

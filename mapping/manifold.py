@@ -29,7 +29,7 @@ from mapping._manifold_graph_model import cluster_model
 from mapping._manifold_queries import ManifoldQueries
 from mapping._manifold_split import OMEGA_SIGNS, SEED_RULES, SearchSpace
 from mapping._manifold_tree import COMBINE_RULES, build_tree, combine_tree, ensure_leaves
-from mapping._validation import single_threaded_blas
+from mapping._validation import check_distinct_rows, single_threaded_blas
 from mapping.split_tree import SplitNode
 
 __all__ = ["EXPECTED_FAILED_CHECKS", "ManifoldClustering"]
@@ -276,6 +276,7 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
         geometry = training_geometry(
             X, self.kernel, self.n_neighbors, self.n_components, self.n_jobs
         )
+        check_distinct_rows(X, K)  # before the tree, not once it has run out of leaves
         with single_threaded_blas():
             self._fit_from_distances(X, geometry, K, Q, space)
         return self
