@@ -1,4 +1,5 @@
-"""Atomic file writes and JSON coercion, the one home for both.
+"""Atomic file writes, JSON coercion and reading JSON that may be damaged: the one home for
+each.
 
 A write goes to a temporary file in the same directory, then a rename, so a reader never sees
 half a file and a failed write leaves nothing behind. JSON goes through :func:`jsonable` first,
@@ -17,7 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_path", "atomic_write_bytes", "jsonable", "write_json", "write_png"]
+__all__ = [
+    "UnreadableJSON",
+    "atomic_path",
+    "atomic_write_bytes",
+    "jsonable",
+    "read_json",
+    "write_json",
+    "write_png",
+]
 
 _JSON_SCALARS = (str, int, float, bool, type(None))
 
@@ -81,6 +90,20 @@ def _non_finite(value) -> bool:
 def _key(key):
     key = key.item() if isinstance(key, np.generic) else key
     return key if isinstance(key, _JSON_SCALARS) else str(key)
+
+
+class UnreadableJSON(ValueError):
+    """A file that does not parse as JSON; its message is the parser's reason."""
+
+
+def read_json(path: str | os.PathLike):
+    """The JSON value in the UTF-8 file ``path``; :class:`UnreadableJSON` for bad UTF-8, bad
+    syntax, or nesting deeper than the parser's stack (100,000 ``[`` raise RecursionError,
+    which is no ValueError), so that each reader turns all three into its own error."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
+        raise UnreadableJSON(str(err)) from err
 
 
 def write_json(path: str | os.PathLike, obj, indent: int = 2, finite: bool = False) -> None:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from common.fileio import UnreadableJSON, read_json
 from common.validation import check_int
 
 __all__ = ["PairedComparison", "compare", "load_results", "markdown"]
@@ -57,9 +58,8 @@ def load_results(path: str | Path, name: str = "results") -> list[dict]:
     if path.stat().st_size > MAX_BYTES:
         raise ValueError(f"{name}: {path} is larger than {MAX_BYTES >> 20} MB")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
-        # RecursionError: JSON nested deeper than the parser's stack (100 000 '[')
+        data = read_json(path)
+    except UnreadableJSON as err:
         raise ValueError(f"{name}: {path} is not JSON ({err})") from None
     if isinstance(data, dict):
         data = [data]

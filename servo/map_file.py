@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common.fileio import atomic_write_bytes
+from common.fileio import UnreadableJSON, atomic_write_bytes, read_json
 from mapping import persistence
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
@@ -101,10 +101,8 @@ def _check(cond: bool, path: Path, what: str) -> None:
 
 def _read_meta(path: Path, world: str | None) -> dict:
     try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
-        # RecursionError: JSON nested deeper than the parser's stack; a MapError, so that
-        # load_or_build rebuilds the map as for any other damaged file
+        meta = read_json(path)
+    except UnreadableJSON as err:  # a MapError: load_or_build rebuilds as for any damage
         raise MapError(f"{path} is not a valid servo map: not JSON ({err})") from err
     _check(isinstance(meta, dict), path, "the JSON must be an object")
     _check(meta.get("format") == FORMAT, path, f"format must be {FORMAT!r}")

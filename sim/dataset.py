@@ -28,7 +28,6 @@ after its file is complete, so an interrupted collection never leaves a half-wri
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import re
 import zipfile
@@ -37,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common.fileio import atomic_path
+from common.fileio import UnreadableJSON, atomic_path, read_json
 from sim.runs import Runs
 
 SCHEMA_VERSION = 2
@@ -184,9 +183,8 @@ def read_meta(directory: str | os.PathLike) -> dict:
     if not path.is_file():
         raise DatasetError(f"no dataset at {directory}: {META_FILE} is missing")
     try:
-        meta = json.loads(path.read_text())
-    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
-        # RecursionError: JSON nested deeper than the parser's stack (100 000 '[')
+        meta = read_json(path)
+    except UnreadableJSON as err:
         raise DatasetError(f"{path} is not valid JSON: {err}") from err
     if not isinstance(meta, dict):
         raise DatasetError(f"{path} must hold a JSON object, got a {type(meta).__name__}")
