@@ -29,7 +29,10 @@ class SignalServoConfig:
     image_trust : largest aligned image distance (0..4) that counts as an image fix.
     heading_gain / along_gain : share of an image fix's heading / along-sight error corrected.
     behind / ahead : m of route about the progress whose views an image fix compares.
-    facing : rad: only route views within this of the robot's heading are compared.
+    facing : rad: only route views within this of the robot's heading are compared: the
+        alignment's range (``MAX_SHIFT`` pixels, 0.25 rad) plus 0.1 for the belief's own
+        error; a view turned farther gives a false minimum inside the range (0.6 until
+        round 16, whose dev trace had such fixes turn the belief 0.4 rad wrong).
     window : m of progress the belief may move in one step (:class:`RouteBelief`).
     arrive_distance : m of route left at which the arrival law takes over.
     arrive_drop : F toward the target below this share of its peak means past the peak.
@@ -132,7 +135,7 @@ class SignalServoConfig:
     along_gain: float = 0.2
     behind: float = 1.5
     ahead: float = 2.5
-    facing: float = 0.6
+    facing: float = 0.35
     window: float = 2.0
     arrive_distance: float = 1.0
     arrive_drop: float = 0.5

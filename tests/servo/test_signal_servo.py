@@ -497,3 +497,39 @@ def test_arrival_lanes_find_a_view_beside_the_line_of_sight():
         for along in (3.6, 4.5):
             _, final, done = _arrive(SignalServoConfig(arrive_lanes=lanes), np.array([along, 0]))
             assert final < 0.3 and done
+
+
+def test_image_fixes_compare_only_views_the_alignment_can_measure(servo_maps):
+    """The alignment tries shifts up to ``MAX_SHIFT`` pixels either way (0.25 rad). Against a
+    view turned farther from the camera it still finds a minimum inside that range, sharp
+    enough to pass the fix's tests, and a heading short by the rest: round 16's dev trace,
+    turning on the spot at the end of a lawn arm, read +0.20-0.25 rad where the truth was
+    0.34-0.40, and those fixes turned the belief 0.4 rad the wrong way. So image fixes
+    compare only the route views within ``facing`` of the robot's heading: the range plus
+    0.1 rad for the belief's own error."""
+    m = servo_maps["lawn"]
+    start = 60  # on a straight arm: the route's first views all look the same way
+    loc = ImageLocaliser(m)
+    reach = loc.max_shift * loc.radians_per_pixel
+    w, h = m.settings.image_size
+    turned = 0.36  # the camera this far left of the view: its scene moves right
+    image = np.roll(m.features[start].reshape(h, w, -1), round(turned / loc.radians_per_pixel),
+                    axis=1).ravel()  # fmt: skip
+    best, yaw, contrast = loc.align_contrast(image, [start])
+    default = SignalServoConfig()
+    assert best[0] < default.image_trust and contrast[0] < default.fix_contrast  # trusted
+    assert abs(yaw[0]) <= reach + 1e-9 and abs(yaw[0] + turned) > 0.08  # and short of -0.36
+    assert reach < default.facing <= reach + 0.1
+    ahead = (m.sequence == m.sequence[start]) & (m.frame > m.frame[start])
+    target = int(np.flatnonzero(ahead & (m.clusters != m.clusters[start]))[0])
+    headings = {}
+    for facing in (0.6, default.facing):  # 0.6: the tolerance before round 16
+        ctl = SignalServo(m, config=SignalServoConfig(facing=facing, pose_every=0), world="lawn")
+        ctl.reset(target)
+        _observe(ctl, m.images[start], 200)
+        assert ctl.phase_ == "follow" and ctl.route_[0] == start
+        ctl.belief_.pose = np.array([0.0, 0.0, turned])  # the truth: at the view, turned
+        ctl._image_fix(image)
+        headings[facing] = float(ctl.belief_.pose[2])
+    assert headings[0.6] < turned - 0.04  # the false minimum's fix turned the belief back
+    assert headings[default.facing] == turned  # no view compared: no fix
