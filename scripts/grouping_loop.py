@@ -11,13 +11,12 @@ dataset directory.
 
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from common.fileio import write_json
+from common.fileio import UnreadableJSON, read_json, write_json
 from scenes import names
 from scenes.regions import Route
 from sim import dataset as ds
@@ -99,11 +98,11 @@ def collect_loop(
     key = {"settings": settings.to_json(), "waypoints": route.waypoints.tolist()}
     if meta_path.is_file():
         try:  # a cache: anything unreadable or foreign in it is collected again
-            meta = json.loads(meta_path.read_text(encoding="utf-8"))
+            meta = read_json(meta_path)
             if isinstance(meta, dict) and meta.get("key") == key:
                 ds.check_entry(meta_path, name, meta.get("entry"))
                 return ds.load_sequence(cache_dir, name, meta["entry"])
-        except (UnicodeDecodeError, json.JSONDecodeError, ds.DatasetError):
+        except (UnreadableJSON, ds.DatasetError):
             pass
     # collect_sequence looks routes up in the (cached) world by name; the loop is one more
     # route of that world, added under a name no default sequence uses.

@@ -43,11 +43,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from common.fileio import atomic_write_bytes
+from common.fileio import UnreadableJSON, atomic_write_bytes, read_json
 from mapping import ColorHistogramFeatures, ImageFeatures, ScanFeatures, ScanStatistics
 from scripts.manifold_methods import METHODS, bootstrap_mean, score_methods
 
@@ -171,7 +172,7 @@ def run_cells(
     (out / "cells").mkdir(parents=True, exist_ok=True)
     for condition, features, seed in tqdm(plan, disable=not progress, desc="protocol cells"):
         path = _cell_path(out, condition, features, seed)
-        cached = json.loads(path.read_text()) if path.exists() else None
+        cached = _cached_cell(path)
         done = {r["method"] for r in cached["rows"]} if cached else set()
         missing = tuple(m for m in methods if m not in done)
         if not missing:
@@ -193,14 +194,33 @@ def run_cells(
         atomic_write_bytes(path, (json.dumps(result, indent=2) + "\n").encode())
 
 
+def _cached_cell(path: Path) -> dict | None:
+    """The cell cached at ``path``; None where there is none, and where the file is not a
+    cell (unreadable, damaged or foreign: :func:`_cell_problem`), which is then computed
+    again with a warning, as any cache would be."""
+    if not path.exists():
+        return None
+    try:
+        data = read_json(path)
+    except UnreadableJSON as err:
+        problem = f"not JSON ({err})"
+    else:
+        problem = _cell_problem(data)
+    if problem:
+        warnings.warn(f"{path}: computed again, the cached cell is unusable: {problem}",
+                      RuntimeWarning, stacklevel=3)  # fmt: skip
+        return None
+    return data
+
+
 def load_cells(out: Path) -> list[dict]:
     """Every cached cell under ``out/cells``, checked for the fields the summary reads (the
     files may come from elsewhere: the report reads a folder it is given)."""
     cells = []
     for path in sorted((Path(out) / "cells").glob("*.json")):
         try:
-            data = json.loads(path.read_text())
-        except (UnicodeDecodeError, json.JSONDecodeError) as err:
+            data = read_json(path)
+        except UnreadableJSON as err:
             raise ValueError(f"{path}: not a protocol cell: not JSON ({err})") from err
         problem = _cell_problem(data)
         if problem:

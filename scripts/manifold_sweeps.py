@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common.fileio import atomic_write_bytes
+from common.fileio import atomic_write_bytes, read_json
 from mapping.synthetic import branching_sequences, lines_variable_spacing, make_all
 from scripts.manifold_methods import METHODS, score_methods
 
@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
         r
         for p in ("gap", "density")
         if (args.out / f"{p}.json").exists()
-        for r in json.loads((args.out / f"{p}.json").read_text())
+        for r in read_json(args.out / f"{p}.json")
     ]
     if args.figure is not None and swept:
         print(f"wrote {plot_sweeps(swept, args.figure)}")

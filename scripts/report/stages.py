@@ -4,13 +4,12 @@ the report and returns a plain dict for its section (paths relative to the repor
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from common.fileio import write_png
+from common.fileio import UnreadableJSON, read_json, write_png
 from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet
 from scripts.report.provenance import REPO_ROOT
 from scripts.report.settings import RunSettings
@@ -94,8 +93,8 @@ def _protocol_meta(path: Path) -> dict:
     if not path.is_file():
         return {}
     try:
-        data = json.loads(path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        data = read_json(path)
+    except UnreadableJSON as err:
         raise ValueError(f"{path}: not JSON ({err})") from err
     strings = isinstance(data, dict) and all(
         isinstance(k, str) and isinstance(v, str) and len(v) < 2000 for k, v in data.items()

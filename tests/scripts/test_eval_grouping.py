@@ -107,3 +107,16 @@ def test_targets_are_purity_and_groups_per_manifold_at_their_bounds():
     assert meets_targets(at_bounds)
     assert not meets_targets({**at_bounds, "purity": 0.8999})
     assert not meets_targets({**at_bounds, "max_groups_per_manifold": 4})
+
+
+def test_a_damaged_loop_cache_is_collected_again(tiny):
+    """The loop's cache entry is read as untrusted JSON: nesting deeper than the parser's
+    stack raised RecursionError (no ValueError) before; now it is collected again, equal."""
+    _, out, _ = tiny
+    first = collect_loop("hallway", out / "loop", frames=LOOP_FRAMES)
+    meta = out / "loop" / f"{loop_route(build_world('hallway')).name}.json"
+    good = meta.read_bytes()
+    meta.write_text("[" * 100_000)
+    again = collect_loop("hallway", out / "loop", frames=LOOP_FRAMES)
+    np.testing.assert_array_equal(again.images, first.images)
+    assert meta.read_bytes() == good

@@ -62,6 +62,7 @@ def test_summary_keeps_the_dev_seed_apart(tmp_path):
     [
         ("[1, 2]", "JSON object with these keys"),
         ("{nope", "not JSON"),
+        ("[" * 100_000, "not JSON"),  # deeper than the parser's stack: RecursionError before
         ('{"condition": "sunny", "features": "hsv", "seed": 1, "rows": []}', "condition must"),
         ('{"condition": "hard", "features": "hsv", "seed": -1, "rows": []}', "seed must"),
         ('{"condition": "hard", "features": "hsv", "seed": 1, "rows": {}}', "rows must"),
@@ -142,3 +143,19 @@ def test_scan_features_run_as_cells_and_later_methods_are_added(tmp_path, monkey
     assert both["rows"][0] == first["rows"][0]
     with pytest.raises(ValueError, match="features must be one of"):
         mp.cell(tmp_path, "interleaved", "sonar", 0)
+
+
+def test_an_unusable_cached_cell_is_computed_again(tmp_path):
+    """``run_cells`` reads its cache as untrusted input: a damaged or foreign cell file counts
+    as no cache (computed again, with a warning) instead of crashing on its contents."""
+    from scripts.manifold_protocol import _cached_cell
+
+    path = tmp_path / "cell.json"
+    assert _cached_cell(path) is None
+    good = {"condition": "interleaved", "features": "hsv", "seed": 1, "rows": []}
+    path.write_text(json.dumps(good))
+    assert _cached_cell(path) == good
+    for text in ("[" * 100_000, "{nope", '{"rows": 5}', "[]"):
+        path.write_text(text)
+        with pytest.warns(RuntimeWarning, match="computed again, the cached cell is unusable"):
+            assert _cached_cell(path) is None

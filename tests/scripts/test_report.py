@@ -575,6 +575,9 @@ def test_protocol_provenance_is_shown_and_checked(tmp_path):
     (folder / "meta.json").write_text(json.dumps({"command": ["not", "a", "string"]}))
     with pytest.raises(ValueError, match="meta.json: must be a JSON object of strings"):
         report.stage_protocol(folder)
+    (folder / "meta.json").write_text("[" * 100_000)  # RecursionError before: no ValueError
+    with pytest.raises(ValueError, match="meta.json: not JSON"):
+        report.stage_protocol(folder)
 
 
 def test_run_shows_the_committed_protocol_cells_unless_told_not_to():
