@@ -165,11 +165,15 @@ def normalize_rows(X: np.ndarray, method: str = "unit") -> np.ndarray:
 
     This removes global brightness and contrast changes between views. A constant row (zero
     norm after centring) stays all zeros. ``"none"`` returns X unchanged (as float64). X must
-    be 2-D, one vector per row (``X[None]`` for a single vector).
+    be 2-D, one vector per row (``X[None]`` for a single vector), and finite: a row with a NaN
+    has no norm (it became all zeros, a constant image, before).
     """
     X = np.asarray(X, dtype=np.float64)
     if X.ndim != 2:
         raise ValueError(f"X must be 2-D, one vector per row (X[None] for one), got {X.shape}")
+    if not np.isfinite(X).all():
+        bad = np.flatnonzero(~np.isfinite(X).all(axis=1))
+        raise ValueError(f"X must be finite; rows {bad[:5].tolist()} hold NaN or inf")
     if method == "none":
         return X
     X = X - X.mean(axis=1, keepdims=True)

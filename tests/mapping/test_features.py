@@ -274,6 +274,13 @@ def test_image_shapes_rgba_empty_and_sizes(images):
 def test_normalize_rows_needs_rows_and_pca_two_images(images):
     with pytest.raises(ValueError, match=r"X must be 2-D, one vector per row \(X\[None\]"):
         normalize_rows(np.arange(5.0))
+    X = np.ones((3, 4))
+    X[1, 2] = np.nan  # was a row of zeros, read downstream as a constant image
+    with pytest.raises(ValueError, match=r"X must be finite; rows \[1\] hold NaN or inf"):
+        normalize_rows(X)
+    X[1, 2] = np.inf
+    with pytest.raises(ValueError, match="X must be finite"):
+        normalize_rows(X, "none")
     with pytest.raises(ValueError, match="n_components=1 needs at least 2 training images"):
         ImageFeatures(n_components=1).fit(images[:1])  # no 'invalid value in divide'
     assert ImageFeatures(n_components=1).fit(images[:2]).transform(images).shape == (12, 1)
