@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from numbers import Real
 
-__all__ = ["check_finite", "check_int"]
+__all__ = ["check_finite", "check_int", "is_real"]
 
 
 def check_int(value, name: str, minimum: int = 1) -> int:
@@ -21,8 +21,15 @@ def check_int(value, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
+def is_real(value) -> bool:
+    """Whether ``value`` is a real number, numpy's included; not a bool (``np.bool_`` is no
+    ``Real`` either) and not a string of digits. The test every scalar check here starts with;
+    callers add their own range."""
+    return isinstance(value, Real) and not isinstance(value, bool)
+
+
 def check_finite(value, name: str) -> float:
     """``value`` as a ``float``: a finite real number (not a bool); else ``ValueError``."""
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
+    if not is_real(value) or not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     return float(value)

@@ -14,13 +14,12 @@ new node touches. ``ObservationGraphPartitioner.partial_fit`` does the same with
 
 from __future__ import annotations
 
-from numbers import Real
-
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from common.geometry import transform_points
+from common.validation import is_real
 from mapping.ncut import partition_checked
 from mapping.overlap import check_scans_and_poses, check_voxel_size, voxel_offsets
 
@@ -44,9 +43,9 @@ class VoxelOverlapIndex:
     """
 
     def __init__(self, delta: float, voxel_size: float) -> None:
-        if not (_is_real(delta) and 0 < delta < np.inf):
+        if not (is_real(delta) and 0 < delta < np.inf):
             raise ValueError(f"delta must be a positive finite number (metres), got {delta!r}")
-        if not (_is_real(voxel_size) and 0 < voxel_size <= delta):  # None is no voxel here
+        if not (is_real(voxel_size) and 0 < voxel_size <= delta):  # None is no voxel here
             raise ValueError(f"voxel_size must be a number in (0, delta = {delta}], got "
                              f"{voxel_size!r}")  # fmt: skip
         check_voxel_size(delta, voxel_size)  # and not so fine that the disc is too large
@@ -133,11 +132,6 @@ class VoxelOverlapIndex:
         psi = 0.5 * (np.asarray(pi_new).ravel() + pi_old)
         keep = psi > 0
         return cand[keep], psi[keep]
-
-
-def _is_real(value: object) -> bool:
-    """A real number (numpy's too), not a bool or a string."""
-    return isinstance(value, Real) and not isinstance(value, bool)
 
 
 def _check_scan(points, pose) -> tuple[np.ndarray, np.ndarray]:

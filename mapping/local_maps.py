@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from numbers import Integral, Real
+from numbers import Integral
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
 from common.geometry import se2_compose, se2_relative, transform_points
+from common.validation import is_real
 from mapping.icp import densify_scan, icp
 from mapping.overlap import check_scans_and_poses
 from mapping.topology import check_poses, run_starts_from_groups
@@ -43,11 +44,6 @@ __all__ = [
 def _is_integer(value) -> bool:
     """An integer, not a bool (``True`` is an ``int`` to Python, not a count to a user)."""
     return isinstance(value, Integral) and not isinstance(value, bool | np.bool_)
-
-
-def _is_real(value) -> bool:
-    """A real number, not a bool."""
-    return isinstance(value, Real) and not isinstance(value, bool | np.bool_)
 
 
 def _check_labels(labels: ArrayLike, n: int) -> np.ndarray:
@@ -103,7 +99,7 @@ def submap_labels(
     if n_scans is not None and not (_is_integer(n_scans) and n_scans >= 1):
         raise ValueError(f"n_scans must be an integer >= 1, got {n_scans!r}")
     if distance is not None and not (
-        _is_real(distance) and math.isfinite(distance) and distance > 0
+        is_real(distance) and math.isfinite(distance) and distance > 0
     ):
         raise ValueError(f"distance must be a positive number of metres, got {distance!r}")
     starts = run_starts_from_groups(groups, len(poses))

@@ -26,9 +26,10 @@ deviation ``noise`` is added only when asked, and then needs an explicit ``rng``
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
-from numbers import Real
 
 import numpy as np
+
+from common.validation import is_real
 
 __all__ = [
     "SYNTHETIC_SETS",
@@ -48,20 +49,15 @@ _SPACINGS = (0.01, 0.025, 0.05)
 _MAX_CURVE_POINTS = 1_000_000
 
 
-def _is_real(value: object) -> bool:
-    """A real number (numpy's too), not a bool or a string of digits."""
-    return isinstance(value, Real) and not isinstance(value, bool)
-
-
 def _check_positive(value: object, name: str) -> None:
     """``value`` a positive finite number, or a ValueError naming ``name``."""
-    if not (_is_real(value) and np.isfinite(value) and value > 0):
+    if not (is_real(value) and np.isfinite(value) and value > 0):
         raise ValueError(f"{name} must be a positive finite number, got {value!r}")
 
 
 def _check_noise(noise: object) -> None:
     """``noise`` a non-negative finite number (a standard deviation), or a ValueError."""
-    if not (_is_real(noise) and np.isfinite(noise) and noise >= 0):
+    if not (is_real(noise) and np.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise must be a non-negative number, got {noise!r}")
 
 
@@ -70,7 +66,7 @@ def _check_spacings(spacings: Sequence[float], length: float) -> tuple[float, fl
     if isinstance(spacings, str | bytes) or not isinstance(spacings, Iterable):
         raise ValueError(f"spacings must be {form}, got {spacings!r}")
     values = tuple(spacings)
-    if len(values) != 3 or not all(_is_real(s) and np.isfinite(s) and s > 0 for s in values):
+    if len(values) != 3 or not all(is_real(s) and np.isfinite(s) and s > 0 for s in values):
         raise ValueError(f"spacings must be {form}, got {values!r}")
     spacings = tuple(float(s) for s in values)
     _check_positive(length, "length")
@@ -200,7 +196,7 @@ def converging_paths(
         Optional Gaussian noise; ``rng`` is required when ``noise > 0``.
     """
     spacings = _check_spacings(spacings, length)
-    if not (_is_real(turn) and np.isfinite(turn) and 0 < turn <= np.pi):
+    if not (is_real(turn) and np.isfinite(turn) and 0 < turn <= np.pi):
         raise ValueError(f"turn must be in (0, pi], got {turn!r}")
     radius = length / turn
     parts = []

@@ -25,10 +25,11 @@ import gzip
 import math
 import os
 from dataclasses import dataclass
-from numbers import Real
 from pathlib import Path
 
 import numpy as np
+
+from common.validation import is_real
 
 __all__ = ["CarmenError", "CarmenLog", "read_carmen"]
 
@@ -176,13 +177,6 @@ def _parse_robotlaser(path: Path, line_no: int, fields: list[str]) -> dict:
     }
 
 
-def _is_distance(value) -> bool:
-    """A positive finite real number (a bool is not one)."""
-    if isinstance(value, bool) or not isinstance(value, Real):
-        return False
-    return math.isfinite(value) and value > 0
-
-
 def read_carmen(
     path: str | os.PathLike,
     *,
@@ -218,7 +212,7 @@ def read_carmen(
     path = Path(path)
     if message not in ("auto", *MESSAGES):
         raise ValueError(f"message must be 'auto' or one of {MESSAGES}, got {message!r}")
-    if max_range is not None and not _is_distance(max_range):
+    if max_range is not None and not (is_real(max_range) and 0 < max_range < math.inf):
         raise ValueError(
             f"max_range must be None or a positive finite number of metres, got {max_range!r}"
         )
