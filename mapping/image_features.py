@@ -171,8 +171,9 @@ def normalize_rows(X: np.ndarray, method: str = "unit") -> np.ndarray:
     X = np.asarray(X, dtype=np.float64)
     if X.ndim != 2:
         raise ValueError(f"X must be 2-D, one vector per row (X[None] for one), got {X.shape}")
-    if not np.isfinite(X).all():
-        bad = np.flatnonzero(~np.isfinite(X).all(axis=1))
+    finite = np.isfinite(X).all(axis=1)
+    if not finite.all():
+        bad = np.flatnonzero(~finite)
         raise ValueError(f"X must be finite; rows {bad[:5].tolist()} hold NaN or inf")
     if method == "none":
         return X
