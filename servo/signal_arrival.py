@@ -52,7 +52,8 @@ class PeakArrival:
 
     ``step(belief, target, signal)``: ``target`` is the view's pose in the route frame and
     ``signal()`` returns F toward it for the current image (called only when it is needed).
-    ``stage``: "face", "sweep", "settle", "probe" or "done".
+    ``stage``: "face", "sweep", "settle", "probe" or "done". ``swept_peak``: None, or the
+    largest F of the last whole sweep (every leg and lane) that never reached ``arrive_min``.
     """
 
     def __init__(self, config: SignalServoConfig):
@@ -65,6 +66,8 @@ class PeakArrival:
         self.lanes = (0.0, config.lateral, -config.lateral) if config.arrive_lanes else (0.0,)
         self._probe: list[float] = []  # F at the centre, then at each side probed
         self._rounds = 0
+        # F's peak over the last whole sweep that ended without one (below ``arrive_min``)
+        self.swept_peak: float | None = None
 
     @property
     def done(self) -> bool:
@@ -113,6 +116,7 @@ class PeakArrival:
             return self._arrival(se2_relative(b.pose, target))
         if swept:
             self._lane = 0
+            self.swept_peak = self._peak
         if at_end:
             self._leg, self._legs = -self._leg, (self._legs + 1) % c.sweeps
         goal = target.copy()

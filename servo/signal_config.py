@@ -12,7 +12,7 @@ from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 # settings that may be 0 (off)
 _MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift",
-                "cross_gain", "pose_every", "pose_agree", "fix_check", "look_back")
+                "cross_gain", "pose_every", "pose_agree", "fix_check", "look_back", "unpeaked")
 
 
 @dataclass(frozen=True)
@@ -55,6 +55,10 @@ class SignalServoConfig:
         (:func:`~servo.turn_fix.contrast_fix`; overrides ``consistent_fix``).
     exclude_fix : a relocalisation (``contrast_fix``) skips the views within 3 m of the last
         fix's, once the robot has driven more than 3 m from where it fixed.
+    unpeaked : observe and localise again (within ``max_relocalise``) when a whole sweep of the
+        target's line of sight in the arrival (:class:`~servo.signal_arrival.PeakArrival`)
+        saw F's peak below this, i.e. below ``arrive_min``: the robot is not where it believes
+        the target is. 0: off, sweeping on. Round 17, dev: +1 / -0 of 200 episodes, not adopted.
     look_back / look_steps : m; on a map where the robot turns round rather than reverse
         (``reverse_parallax``), every ``look_back`` m driven along a recording backwards turn
         to face the way its views look, take ``look_steps`` steps of image and pose fixes,
@@ -153,6 +157,7 @@ class SignalServoConfig:
     contrast_fix: bool = True
     fix_far: float = 0.6
     exclude_fix: bool = False
+    unpeaked: float = 0.0
     reverse: bool = True
     reverse_parallax: float = 0.1
     reverse_speed: float = 0.5

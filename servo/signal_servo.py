@@ -378,8 +378,10 @@ class SignalServo:
         # pushing a wall again and again at one place: the belief is off across the route
         walled = (c.relocalise_bumps > 0 and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
                   and (self.phase_ == "follow" or c.bumps_arriving))  # fmt: skip
+        unpeaked = (self.phase_ == "arrive" and self._arrival.swept_peak is not None
+                    and self._arrival.swept_peak < c.unpeaked)
         if (self.phase_ in (("follow", "arrive") if c.relocalise_arrive else ("follow",))
-                and (self._lost > c.relocalise_after or walled)
+                and (self._lost > c.relocalise_after or walled or unpeaked)
                 and self.relocalised_ < c.max_relocalise):  # fmt: skip
             self.relocalised_ += 1
             self._exclude_fix()

@@ -467,7 +467,7 @@ def _arrive(config, true_view_xy, steps=900):
     while the view really is at ``true_view_xy`` (the belief is off); F is a sharp bump at
     the true view (as measured on rendered views: ~0 at 0.4 m). Returns the closest approach
     to the true view, the final distance to it and whether the arrival is done (then it
-    holds the pose it settled on)."""
+    holds the pose it settled on), and the arrival itself."""
     path = RoutePath(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]]))
     belief = RouteBelief(path, [3.0, 0.0, 0.0])
     arrival = PeakArrival(config)
@@ -480,7 +480,7 @@ def _arrive(config, true_view_xy, steps=900):
         pose = se2_compose(pose, step)
         belief.predict(step)
         closest = min(closest, float(np.hypot(*(pose[:2] - true_view_xy))))
-    return closest, float(np.hypot(*(pose[:2] - true_view_xy))), arrival.done
+    return closest, float(np.hypot(*(pose[:2] - true_view_xy))), arrival.done, arrival
 
 
 def test_arrival_lanes_find_a_view_beside_the_line_of_sight():
@@ -488,15 +488,50 @@ def test_arrival_lanes_find_a_view_beside_the_line_of_sight():
     never sees F's peak (and sweeps on), points probed to the side read ~0; the lane search
     finds it and settles there."""
     for beside in ([4.4, 0.6], [4.0, -0.6]):
-        closest, _, done = _arrive(SignalServoConfig(), np.array(beside))
+        closest, _, done, _ = _arrive(SignalServoConfig(), np.array(beside))
         assert closest > 0.4 and not done
-        closest, final, done = _arrive(SignalServoConfig(arrive_lanes=True), np.array(beside))
+        closest, final, done, _ = _arrive(SignalServoConfig(arrive_lanes=True), np.array(beside))
         assert closest < 0.15 and final < 0.3 and done
     # on the line of sight, before or past the believed place, both settle at the view
     for lanes in (False, True):
         for along in (3.6, 4.5):
-            _, final, done = _arrive(SignalServoConfig(arrive_lanes=lanes), np.array([along, 0]))
+            _, final, done, _ = _arrive(SignalServoConfig(arrive_lanes=lanes), np.array([along, 0]))
             assert final < 0.3 and done
+
+
+def test_a_sweep_without_f_is_reported_and_relocalises_when_asked(servo_maps):
+    """A whole sweep of the target's line of sight that never sees F (the view is 2 m
+    beside, or the belief is somewhere else) ends with its peak in ``swept_peak``; one that
+    sees the peak never sets it. With ``unpeaked`` the controller then observes and
+    localises again instead of sweeping until the time runs out (round 17)."""
+    *_, done, arrival = _arrive(SignalServoConfig(), np.array([4.0, 2.0]), steps=400)
+    assert not done and arrival.swept_peak is not None and arrival.swept_peak < 0.05
+    *_, done, arrival = _arrive(SignalServoConfig(), np.array([4.3, 0.0]), steps=400)
+    assert done and arrival.swept_peak is None
+    m = servo_maps["hallway"]
+    start = 30
+    near = (m.sequence == m.sequence[start]) & (m.frame > m.frame[start])
+    target = int(np.flatnonzero(near)[0])  # the next view: the route is all arrival
+    # an image from the far end of another recording: F toward the target is ~0 throughout
+    other = int(np.flatnonzero(m.sequence != m.sequence[start])[-1])
+    phases = {}
+    for unpeaked in (0.0, 1.0):
+        # neither losing the image fixes nor bumps may start the relocalisation here
+        config = SignalServoConfig(unpeaked=unpeaked, relocalise_after=10_000, relocalise_bumps=0)
+        ctl = SignalServo(m, config=config, world="hallway")
+        ctl.reset(target)
+        yaw = _observe(ctl, m.images[start], 200)
+        odo = np.array([0.0, 0.0, yaw])
+        seen = []
+        for _ in range(400):
+            v, w = ctl.act({"image": m.images[other], "odometry": odo})
+            odo = se2_compose(odo, [v * CONTROL_DT, 0.0, w * CONTROL_DT])  # no wall
+            seen.append(ctl.phase_)
+            if ctl.phase_ == "observe":
+                break
+        assert "arrive" in seen, (unpeaked, set(seen))
+        phases[unpeaked] = (ctl.phase_, ctl.relocalised_)
+    assert phases[0.0] == ("arrive", 0) and phases[1.0] == ("observe", 1)
 
 
 def test_image_fixes_compare_only_views_the_alignment_can_measure(servo_maps):
