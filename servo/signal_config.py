@@ -57,7 +57,8 @@ class SignalServoConfig:
         fix's, once the robot has driven more than 3 m from where it fixed.
     unpeaked : observe and localise again (within ``max_relocalise``) when a whole sweep of the
         target's line of sight in the arrival (:class:`~servo.signal_arrival.PeakArrival`)
-        saw F's peak below this, i.e. below ``arrive_min``: the robot is not where it believes
+        ended with F below ``arrive_min`` all along and below ``unpeaked`` (so any value above
+        ``arrive_min``, e.g. 1, takes every such sweep): the robot is not where it believes
         the target is. 0: off, sweeping on. Round 17, dev: +1 / -0 of 200 episodes, not adopted.
     look_back / look_steps : m; on a map where the robot turns round rather than reverse
         (``reverse_parallax``), every ``look_back`` m driven along a recording backwards turn
