@@ -8,9 +8,12 @@ the ``numpy.random.Generator`` passed in.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
+
+if TYPE_CHECKING:  # trimesh is imported where a mesh is built: it takes ~1 s to import, and
+    import trimesh  # ``import scenes`` is on every command's path, ``topomap --help`` included
 
 CANOPY_SUBDIVISIONS = 2  # 162 vertices: lumpy enough, cheap to render on llvmpipe
 TRUNK_SECTIONS = 10
@@ -35,6 +38,8 @@ def _from_trimesh(mesh: trimesh.Trimesh) -> Mesh:
 
 
 def _lumpy(mesh: trimesh.Trimesh, rng: np.random.Generator, amount: float) -> trimesh.Trimesh:
+    import trimesh
+
     # Smooth radial noise: random per-vertex offsets averaged with their neighbours, so the
     # surface bulges like foliage instead of looking spiky.
     offsets = rng.normal(0.0, amount, len(mesh.vertices))
@@ -48,6 +53,8 @@ def _lumpy(mesh: trimesh.Trimesh, rng: np.random.Generator, amount: float) -> tr
 
 def canopy(rng: np.random.Generator, radius: float, squash: float = 0.8) -> Mesh:
     """A tree crown: an icosphere with smooth radial lumps, squashed vertically."""
+    import trimesh
+
     sphere = trimesh.creation.icosphere(subdivisions=CANOPY_SUBDIVISIONS, radius=radius)
     lumpy = _lumpy(sphere, rng, 0.18 * radius)
     lumpy.vertices[:, 2] *= squash
@@ -56,6 +63,8 @@ def canopy(rng: np.random.Generator, radius: float, squash: float = 0.8) -> Mesh
 
 def trunk(rng: np.random.Generator, radius: float, height: float) -> Mesh:
     """A tapered, slightly leaning trunk (a cone frustum with jittered rings)."""
+    import trimesh
+
     cyl = trimesh.creation.cylinder(radius=radius, height=height, sections=TRUNK_SECTIONS)
     v = cyl.vertices.copy()
     top = v[:, 2] > 0
@@ -68,6 +77,8 @@ def trunk(rng: np.random.Generator, radius: float, height: float) -> Mesh:
 
 def bush(rng: np.random.Generator, radius: float) -> Mesh:
     """A low shrub: a flattened lumpy sphere sitting on the ground."""
+    import trimesh
+
     sphere = trimesh.creation.icosphere(subdivisions=CANOPY_SUBDIVISIONS, radius=radius)
     lumpy = _lumpy(sphere, rng, 0.22 * radius)
     lumpy.vertices[:, 2] = lumpy.vertices[:, 2] * 0.7 + 0.7 * radius
@@ -76,6 +87,8 @@ def bush(rng: np.random.Generator, radius: float) -> Mesh:
 
 def rock(rng: np.random.Generator, radius: float) -> Mesh:
     """A garden rock: a coarse, strongly jittered icosphere half sunk into the ground."""
+    import trimesh
+
     sphere = trimesh.creation.icosphere(subdivisions=1, radius=radius)
     lumpy = _lumpy(sphere, rng, 0.3 * radius)
     lumpy.vertices[:, 2] *= 0.6
@@ -84,6 +97,8 @@ def rock(rng: np.random.Generator, radius: float) -> Mesh:
 
 def gable_roof(length: float, depth: float, height: float) -> Mesh:
     """A triangular prism roof (ridge along x), base centred at the origin at z = 0."""
+    import trimesh
+
     hx, hy = length / 2.0, depth / 2.0
     v = np.array(
         [[-hx, -hy, 0], [hx, -hy, 0], [hx, hy, 0], [-hx, hy, 0], [-hx, 0, height], [hx, 0, height]],

@@ -63,7 +63,7 @@ def worlds(choice: str) -> tuple[str, ...]:
 
 def policies(text: str) -> tuple[str, ...]:
     """A comma-separated list of servo policies, each one of ``servo.evaluate.POLICIES``."""
-    from servo.evaluate import POLICIES
+    from servo.policies import POLICIES
 
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     bad = [n for n in names if n not in POLICIES]

@@ -218,9 +218,14 @@ def cmd_servo_compare(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``topomap`` parser. With ``command``, the subcommands whose options are declared
+    by a heavy module (``reproduce``, ``group-eval``: scikit-learn, the experiments) get
+    them only if they are ``command`` ("": neither); the others list them all, so ``topomap
+    --help`` need not import every experiment (it took ~3 s)."""
     from scenes import WORLDS
     from scripts.collect_command import add_parser as add_collect_parser
+    from servo.policies import POLICIES
 
     p = argparse.ArgumentParser(prog="topomap", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
@@ -297,17 +302,17 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.set_defaults(func=cmd_run)
 
-    from scripts.reproduce_manifold import build_parser as reproduce_parser
-
     m = sub.add_parser("reproduce", help="reproduce the manifold-clustering paper's experiments")
-    reproduce_parser(m).set_defaults(func=cmd_reproduce)
+    if command in (None, "reproduce"):
+        from scripts.reproduce_manifold import build_parser as reproduce_parser
 
-    from scripts.eval_grouping import build_parser as group_eval_parser
+        reproduce_parser(m).set_defaults(func=cmd_reproduce)
 
     g = sub.add_parser("group-eval", help="evaluate the laser observation grouping (Blanco et al.)")
-    group_eval_parser(g).set_defaults(func=cmd_group_eval)
+    if command in (None, "group-eval"):
+        from scripts.eval_grouping import build_parser as group_eval_parser
 
-    from servo.evaluate import POLICIES
+        group_eval_parser(g).set_defaults(func=cmd_group_eval)
 
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
     e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
@@ -349,7 +354,10 @@ def _os_message(err: OSError) -> str:
 def main(argv: list[str] | None = None) -> int:
     import sim  # noqa: F401  (chooses the headless GL backend before mujoco loads)
 
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # the subcommand is the first word (``topomap`` itself has no options but --help)
+    command = next((a for a in argv if not a.startswith("-")), "")
+    args = build_parser(command).parse_args(argv)
     try:
         return args.func(args)
     except ValueError as err:  # bad settings: say which, no traceback

@@ -65,7 +65,7 @@ def parse_seeds(text: str) -> list[int]:
 
 def _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps):
     from scenes import WORLDS
-    from servo.evaluate import POLICIES
+    from servo.policies import POLICIES
 
     worlds, settings, seeds = list(worlds), list(settings), list(seeds)
     if not worlds or any(w not in WORLDS for w in worlds):
@@ -250,7 +250,7 @@ def add_parser(sub, default_out: str = "out"):
     """Add the ``sweep`` subcommand to the ``topomap`` parser's subparsers."""
     from scenes import WORLDS
     from scripts.args import positive_int as positive
-    from servo.evaluate import POLICIES
+    from servo.policies import POLICIES
 
     s = sub.add_parser(
         "sweep", help="evaluation sweep over worlds, seeds and settings, in parallel"

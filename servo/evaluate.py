@@ -25,9 +25,9 @@ from servo.controller import ManifoldServo
 from servo.env import ServoEnv
 from servo.geodesic import GeodesicField
 from servo.map_store import ServoMap, load_or_build
+from servo.policies import POLICIES
 from servo.stats import wilson_interval
 
-POLICIES = ("servo", "signal", "oracle", "greedy", "greedy-target", "random")
 SIGNAL_LAG = 5  # steps between the two ends of a step pair in the F-vs-distance summary
 SIGNAL_MIN_DROP = 0.1  # m of true (geodesic) distance a pair must fall to count
 

@@ -151,9 +151,10 @@ def run_protocol(
     """
     from tqdm.auto import tqdm
 
-    from servo.evaluate import POLICIES, summarise
+    from servo.evaluate import summarise
     from servo.map_file import load_map, save_map
     from servo.map_types import ServoMap
+    from servo.policies import POLICIES
 
     if not isinstance(protocol, Protocol):
         raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
