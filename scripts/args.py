@@ -62,7 +62,7 @@ def worlds(choice: str) -> tuple[str, ...]:
 
 
 def policies(text: str) -> tuple[str, ...]:
-    """A comma-separated list of servo policies, each one of ``servo.evaluate.POLICIES``."""
+    """A comma-separated list of servo policies, each one of ``servo.policies.POLICIES``."""
     from servo.policies import POLICIES
 
     names = tuple(n.strip() for n in text.split(",") if n.strip())

@@ -70,7 +70,7 @@ class EpisodeRunner:
     """Runs sweep episodes in one worker; keeps one ``ServoEnv`` per (world, setting), built on
     first use, so a worker pays for imports, maps and renderers once per sweep.
 
-    ``maps``: ``{world: ServoMap}``; ``policy``: a name of ``servo.evaluate.POLICIES``. The
+    ``maps``: ``{world: ServoMap}``; ``policy``: a name of ``servo.policies.POLICIES``. The
     process is set to one thread (:func:`configure_worker`).
     """
 

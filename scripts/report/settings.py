@@ -25,7 +25,7 @@ class RunSettings:
     episodes : servo episodes per world, start tier and policy, on the benchmark protocol's
         ``test`` split (``servo.protocol``; the issue asks for at least 20 in the run and 100
         in the headline tables of ``topomap servo-eval``).
-    policies : servo policies evaluated (``servo`` first; see ``servo.evaluate.POLICIES``).
+    policies : servo policies evaluated (``servo`` first; see ``servo.policies.POLICIES``).
     tiers : the protocol's start tiers the two controllers (``servo``, ``signal``) run on:
         ``anywhere`` by default (the hard one; 20 episodes of both controllers from both tiers
         and the oracle took ~14 minutes on 2 cores, over the run's 10).
