@@ -37,7 +37,7 @@ from common.geometry import scan_to_points, se2_compose, se2_relative, transform
 from common.validation import check_int
 from servo.geodesic import GeodesicField
 from servo.laser_localise import GlobalLocaliser, ScanTracker
-from servo.localise import ImageLocaliser, check_image, check_observation
+from servo.localise import ImageLocaliser, check_image, check_observation, check_odometry
 from servo.map_types import ServoMap
 from servo.metric_map import MetricMap
 from servo.steering import Arrival, pursue
@@ -283,7 +283,7 @@ class ManifoldServo:
         check_observation(observation, ("image", "scan", "odometry"))
         image = check_image(observation["image"], self.map.image_shape)
         scan = np.asarray(observation["scan"], np.float64)
-        odo = np.asarray(observation["odometry"], np.float64)
+        odo = check_odometry(observation["odometry"])
         if scan.shape != self.map.angles.shape:
             raise ValueError(
                 f"observation['scan'] must have shape {self.map.angles.shape}, got {scan.shape}"
@@ -294,9 +294,5 @@ class ManifoldServo:
             raise ValueError(
                 f"observation['scan'] must hold ranges >= 0 (m; no return is +inf), got "
                 f"{scan.min()}"
-            )
-        if odo.shape != (3,) or not np.all(np.isfinite(odo)):
-            raise ValueError(
-                f"observation['odometry'] must be a finite (x, y, yaw), got shape {odo.shape}"
             )
         return image, scan, odo

@@ -28,6 +28,16 @@ def check_observation(observation, keys: tuple[str, ...]) -> None:
             raise ValueError(f"observation is missing {key!r}")
 
 
+def check_odometry(odometry) -> np.ndarray:
+    """``observation['odometry']`` as a finite float (x, y, yaw); else a ValueError."""
+    odo = np.asarray(odometry, np.float64)
+    if odo.shape != (3,) or not np.all(np.isfinite(odo)):
+        raise ValueError(
+            f"observation['odometry'] must be a finite (x, y, yaw), got shape {odo.shape}"
+        )
+    return odo
+
+
 def check_image(image, shape: tuple[int, ...], name: str = "observation['image']") -> np.ndarray:
     """``image`` as an array of ``shape`` holding pixel values: a real numeric dtype (the env
     gives uint8; a float copy of it works as well) and finite values in [0, 255]. Anything

@@ -73,8 +73,14 @@ class PeakArrival:
     def done(self) -> bool:
         return self.stage == "done"
 
-    def step(self, belief: RouteBelief, target: np.ndarray,
-             signal: Callable[[], float]) -> np.ndarray:  # fmt: skip
+    def blocked(self) -> None:
+        """The robot bumped (:class:`~servo.descent_arrival.DescentArrival` turns its search
+        across; here the sweep goes on)."""
+
+    def step(self, belief: RouteBelief, target: np.ndarray, signal: Callable[[], float],
+             distance: Callable[[], float] | None = None) -> np.ndarray:  # fmt: skip
+        """The command for this step; ``distance`` (the image's distance to the view) is
+        :class:`~servo.descent_arrival.DescentArrival`'s."""
         c, b = self.config, belief
         u = np.array([np.cos(target[2]), np.sin(target[2])])
         left = np.array([-u[1], u[0]])

@@ -60,6 +60,12 @@ class SignalServoConfig:
         ended with F below ``arrive_min`` all along and below ``unpeaked`` (so any value above
         ``arrive_min``, e.g. 1, takes every such sweep): the robot is not where it believes
         the target is. 0: off, sweeping on. Round 17, dev: +1 / -0 of 200 episodes, not adopted.
+    arrive_descent / descent_step / descent_rounds / descent_rise : where a sweep of the
+        target's sight sees no F, search across by the image's shift-minimised distance to
+        the view (:class:`~servo.descent_arrival.DescentArrival`): ``descent_step`` m first,
+        at most ``descent_rounds`` searches, from the line's least distance once the distance
+        has risen by ``descent_rise`` of it (or a sweep there and back is done). Round 18,
+        dev: lawn +1 / -0 of 140 episodes, hallway +0 / -1 of 60; not adopted.
     look_back / look_steps : m; on a map where the robot turns round rather than reverse
         (``reverse_parallax``), every ``look_back`` m driven along a recording backwards turn
         to face the way its views look, take ``look_steps`` steps of image and pose fixes,
@@ -186,6 +192,10 @@ class SignalServoConfig:
     pose_start: bool = True
     fix_check: int = 8
     look_back: float = 10.0
+    arrive_descent: bool = False
+    descent_step: float = 1.0
+    descent_rounds: int = 4
+    descent_rise: float = 0.3
     look_steps: int = 6
 
     def __post_init__(self):

@@ -41,8 +41,9 @@ import numpy as np
 
 from common.geometry import se2_relative, wrap_angle
 from mapping._validation import single_threaded_blas
+from servo.descent_arrival import DescentArrival
 from servo.junction_fix import JunctionTurn
-from servo.localise import ImageLocaliser
+from servo.localise import ImageLocaliser, check_observation, check_odometry
 from servo.look_back import LookBack
 from servo.map_types import ServoMap
 from servo.pose_fix import PoseFixes
@@ -146,18 +147,9 @@ class SignalServo:
         self._rows: list[tuple[np.ndarray, np.ndarray, float]] = []
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
-        if not isinstance(observation, dict):
-            raise ValueError(f"observation must be a dict, got {type(observation).__name__}")
-        for key in ("image", "odometry"):
-            if key not in observation:
-                raise ValueError(f"observation is missing {key!r}")
-        x = self.localiser.features(observation["image"])
-        odo = np.asarray(observation["odometry"], np.float64)
-        if odo.shape != (3,) or not np.all(np.isfinite(odo)):
-            raise ValueError(
-                f"observation['odometry'] must be a finite (x, y, yaw), got shape {odo.shape}"
-            )
-        return x, odo
+        check_observation(observation, ("image", "odometry"))
+        odo = check_odometry(observation["odometry"])
+        return self.localiser.features(observation["image"]), odo
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
         """The command (v, omega) for this observation (``info`` is ignored)."""
@@ -205,6 +197,8 @@ class SignalServo:
         self._backup = self.config.backup_steps
         self._careful = 3 * self.config.backup_steps
         self.bumps_ += 1
+        if self.phase_ == "arrive":
+            self._arrival.blocked()
         if direction < 0 and self.config.bump_shift > 0 and self.belief_ is not None:
             turn = self.parallax if self.config.bump_turn and self.reverses else 0.0
             self.belief_.bumped(direction, self.config.bump_shift, turn)
@@ -257,7 +251,7 @@ class SignalServo:
         if start is None:
             start = [0.0, 0.0, wrap_angle(odo[2] - heading)]
         self.belief_ = RouteBelief(path, start, c.window)
-        self._arrival = PeakArrival(c)
+        self._arrival = DescentArrival(c) if c.arrive_descent else PeakArrival(c)
         self._lost = 0
         self._junction: JunctionTurn | None = None
         self._plan_bumps = self.bumps_
@@ -412,10 +406,12 @@ class SignalServo:
         return pursue_route(goal, reverse, speed, careful, c.turn_rate)
 
     def _arrive(self, x: np.ndarray) -> np.ndarray:
-        """At the target: :class:`~servo.signal_arrival.PeakArrival` (the F peak)."""
+        """At the target: the F peak (:class:`~servo.signal_arrival.PeakArrival`); with
+        ``arrive_descent``, also the image distance (:mod:`servo.descent_arrival`)."""
         b = self.belief_
         action = self._arrival.step(b, b.path.frames[-1],
-                                    lambda: self.localiser.signal(x, self.target))  # fmt: skip
+                                    lambda: self.localiser.signal(x, self.target),
+                                    lambda: float(self.localiser.align(x, [self.target])[0][0]))
         self.done_ = self._arrival.done
         self.phase_ = "done" if self.done_ else "arrive"
         return action
