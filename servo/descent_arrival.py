@@ -1,17 +1,18 @@
 """Arrive at a stored view by descending the image distance to it (round 18), for
 :class:`~servo.signal_servo.SignalServo` with ``arrive_descent``.
 
-F^j(k) toward a view (eq. 13) is computed on the image as it is, so it falls with the heading
-as much as with the place: rendered around eight lawn views facing their heading give or
-take 0.1 rad, F at the view itself was below 0.2 at five of them, and a metre or more away
-its median was 0.00-0.04 at seven. The image's distance to the view minimised over horizontal shifts
-(:meth:`~servo.localise.ImageLocaliser.align`: the heading taken out) is the translational
-image difference function of visual homing (Zeil, Hofmann & Chahl 2003, "Catchment areas of
-panoramic snapshots in outdoor scenes"): greedy descent on it over a 0.5 m grid reached the
-view from 86-100 % of the points 2-3 m off at five of the eight views, and 1 m across toward
-the view it was below 1 m away from it at 88-100 % of the points at seven of them
-(``bench/arrival_descent_dev.py``; docs/servo.md, round 18). Along the view's sight its least
-lies up to 0.5 m off, where F's peak, when it is seen, does not.
+F^j(k) toward a view (eq. 13) is computed on the image as it is, so it falls with the
+heading as much as with the place: rendered around eight lawn views facing their heading
+give or take 0.1 rad, F at the view itself was below 0.2 at five of them, and a metre or
+more away its median was 0.00-0.04 at seven. The image's distance to the view minimised
+over horizontal shifts (:meth:`~servo.localise.ImageLocaliser.align`: the heading taken
+out) is the translational image difference function of visual homing (Zeil, Hofmann &
+Chahl 2003, "Catchment areas of panoramic snapshots in outdoor scenes"): greedy descent on
+it over a 0.5 m grid reached the view from 86-100 % of the points 2-3 m off at five of the
+eight views, and 1 m across toward the view it was below 1 m away from it at 88-100 % of
+the points at seven of them (``bench/arrival_descent_dev.py``; docs/servo.md, round 18).
+Along the view's sight its least lies up to 0.5 m off, where F's peak, when it is seen,
+does not.
 :class:`DescentArrival` is :class:`~servo.signal_arrival.PeakArrival` (the F peak on the
 view's line of sight, probed across) until a sweep finds no F at all:
 
@@ -85,7 +86,7 @@ class DescentArrival(PeakArrival):
     def blocked(self) -> None:
         """The robot bumped: while searching across, the point it was driving to reads as no
         match (the search turns the other way)."""
-        if self.stage == "across":
+        if self.stage == "across" and self._next is not None:
             self._read[self._next] = np.inf
             self._next = self._choose()
             self._arrival = Arrival()
@@ -124,7 +125,6 @@ class DescentArrival(PeakArrival):
             self.stage, self._arrival = "across", Arrival()
             return self._arrival(se2_relative(b.pose, target))
         return super()._sweep(b, target, u, left, f)
-
 
     def _choose(self) -> float | None:
         """The next point across to read, or None where the least reading has readings on

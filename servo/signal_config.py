@@ -192,11 +192,11 @@ class SignalServoConfig:
     pose_start: bool = True
     fix_check: int = 8
     look_back: float = 10.0
+    look_steps: int = 6
     arrive_descent: bool = False
     descent_step: float = 1.0
     descent_rounds: int = 4
     descent_rise: float = 0.3
-    look_steps: int = 6
 
     def __post_init__(self):
         for f in fields(self):
