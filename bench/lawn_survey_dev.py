@@ -10,6 +10,7 @@ starts kept on the three recorded routes (so the episodes are those of the commi
 Dev only, truth printed for diagnosis::
 
     python bench/lawn_survey_dev.py collect OUT        # OUT/dataset: out/dataset's + surveys
+    python bench/lawn_survey_dev.py collect OUT --drives return   # or the routes driven back
     python bench/lawn_survey_dev.py links OUT          # OUT/maps: links between recordings
     python bench/lawn_survey_dev.py oracle OUT         # OUT/maps-oracle: true links only
     python bench/lawn_survey_dev.py episodes OUT anywhere 60:90 [--oracle]
@@ -47,10 +48,15 @@ SURVEY = {
 }
 FRAMES = 120  # ~0.25 m apart on a 30 m drive; stride 2 keeps 60 views per survey
 SEED_INDEX = 100  # survey k is seeded by (dataset seed, SEED_INDEX + k), apart from the routes'
+# ``--drives return`` (round 18): each route driven back, arm -> main, as many frames as the
+# routes have (every recording drives main -> arm, so a route out of an arm faces no view)
+RETURNS = {"lawn-survey-back-left": "lawn-left", "lawn-survey-back-straight": "lawn-straight",
+           "lawn-survey-back-right": "lawn-right"}  # fmt: skip
 
 
-def collect_surveys(out: Path, source: Path) -> Path:
-    """``out/dataset``: the source dataset's sequences (linked, not copied) and the surveys."""
+def collect_surveys(out: Path, source: Path, drives: str = "survey") -> Path:
+    """``out/dataset``: the source dataset's sequences (linked, not copied) and the extra
+    drives: the surveys across the lawn, or (``drives="return"``) the routes driven back."""
     target = out / "dataset"
     target.mkdir(parents=True, exist_ok=True)
     meta = dataset.read_meta(source)
@@ -58,13 +64,16 @@ def collect_surveys(out: Path, source: Path) -> Path:
         link = target / entry["file"]
         if not link.exists():
             link.symlink_to((source / entry["file"]).resolve())
-    settings = collect.CollectionSettings(frames=FRAMES)
+    frames = FRAMES if drives == "survey" else int(meta["settings"]["frames"])
+    settings = collect.CollectionSettings(frames=frames)
     world = collect.collection_world("lawn", settings.seed, False, "default")
-    for k, (name, waypoints) in enumerate(SURVEY.items()):
+    extra = SURVEY if drives == "survey" else {
+        name: world.routes[route].waypoints[::-1] for name, route in RETURNS.items()}
+    for k, (name, waypoints) in enumerate(extra.items()):
         world.routes[name] = Route(name, np.asarray(waypoints, float), "survey")
         arrays = collect.collect_sequence(settings, SEED_INDEX + k, "lawn", name)
         digest = dataset.write_sequence(target / f"{name}.npz", arrays)
-        meta["sequences"][name] = {"file": f"{name}.npz", "world": "lawn", "frames": FRAMES,
+        meta["sequences"][name] = {"file": f"{name}.npz", "world": "lawn", "frames": frames,
                                    "sha256": digest}  # fmt: skip
         print(f"recorded {name}", flush=True)
     write_json(target / dataset.META_FILE, meta)
@@ -90,8 +99,9 @@ def link_errors(m) -> None:
 
 
 def oracle_map(m):
-    """The map with only the links the truth confirms, and the straight arm's surveys joined
-    to the straight route by true relative poses (an upper bound on what linking could do)."""
+    """The map with only the links the truth confirms, and the straight arm's surveys (or
+    the routes' return drives) joined to their route by true relative poses (an upper bound
+    on what linking could do)."""
     edges, transforms = [], []
     for (a, b), t in zip(m.edges, m.edge_transforms, strict=True):
         true = se2_relative(m.true_poses[a], m.true_poses[b])
@@ -99,8 +109,12 @@ def oracle_map(m):
                                               and abs(wrap_angle(t[2] - true[2])) < 0.1):
             edges.append((int(a), int(b)))
             transforms.append(t)
-    route = np.flatnonzero(m.sequence == m.sequence_names.index("lawn-straight"))
-    for name in ("lawn-survey-sn", "lawn-survey-ss"):
+    # joined by truth: the straight arm's surveys (round 17), or each route's return drive
+    joined = {"lawn-survey-sn": "lawn-straight", "lawn-survey-ss": "lawn-straight", **RETURNS}
+    for name, route_name in joined.items():
+        if name not in m.sequence_names:
+            continue
+        route = np.flatnonzero(m.sequence == m.sequence_names.index(route_name))
         for i in np.flatnonzero(m.sequence == m.sequence_names.index(name))[::2]:
             d = np.hypot(*(m.true_poses[route, :2] - m.true_poses[i, :2]).T)
             if d.min() < 4.0:
@@ -140,10 +154,12 @@ def main(argv=None) -> None:
     p.add_argument("--oracle", action="store_true", help="episodes on OUT/maps-oracle")
     p.add_argument("--config", default="{}", help="SignalServoConfig fields as JSON")
     p.add_argument("--data", type=Path, default=Path("out/dataset"), help="the routes' dataset")
+    p.add_argument("--drives", choices=["survey", "return"], default="survey",
+                   help="collect: the surveys across the lawn, or the routes driven back")
     a = p.parse_args(argv)
     data, maps = a.out / "dataset", a.out / "maps"
     if a.command == "collect":
-        collect_surveys(a.out, a.data)
+        collect_surveys(a.out, a.data, a.drives)
         return
     m = load_or_build("lawn", dataset=data, cache=maps)
     if a.command == "links":
