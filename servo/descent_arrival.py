@@ -115,8 +115,7 @@ class DescentArrival(PeakArrival):
         inside = self._seen[0] + 0.1 < self._least_along < self._seen[1] - 0.1
         unseen = max(self._peak, f) < c.arrive_min  # no F anywhere on this line
         # far beside the view the distance is flat along the line: a sweep there and back
-        end = self._leg * c.overshoot * (1.0 + 0.5 * self._legs)
-        swept = (along - end) * self._leg > -0.1 and self._legs >= min(1, c.sweeps - 1)
+        swept = self._leg_end(along)[1] and self._legs >= min(1, c.sweeps - 1)
         if ((beyond and risen) or swept) and inside and unseen and self.searches < c.descent_rounds:
             b.pose[:2] -= u * self._least_along  # search across where the distance was least
             self.searches += 1

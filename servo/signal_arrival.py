@@ -104,8 +104,7 @@ class PeakArrival:
         if f > self._peak:
             across = float(left @ (b.pose[:2] - target[:2]))
             self._peak, self._peak_along, self._peak_across = f, along, across
-        end = self._leg * c.overshoot * (1.0 + 0.5 * self._legs)
-        at_end = (along - end) * self._leg > -0.1
+        end, at_end = self._leg_end(along)
         # F toward a view is not monotonic along its sight (a door or a tree can give a
         # secondary peak a metre out): a peak counts once F has fallen well below it and
         # the robot has gone on a good way past it
@@ -128,6 +127,12 @@ class PeakArrival:
         goal = target.copy()
         goal[:2] += u * end + left * self.lanes[self._lane]
         return line_drive(se2_relative(b.pose, goal))
+
+    def _leg_end(self, along: float) -> tuple[float, bool]:
+        """Where the sweep's current leg ends (m along the view's sight; each leg longer than
+        the last) and whether the robot, ``along`` m past the view, has reached it."""
+        end = self._leg * self.config.overshoot * (1.0 + 0.5 * self._legs)
+        return end, (along - end) * self._leg > -0.1
 
     def _settle_lanes(self, b: RouteBelief, target: np.ndarray,
                       signal: Callable[[], float]) -> np.ndarray:  # fmt: skip

@@ -3,42 +3,14 @@
 import numpy as np
 import pytest
 
-from common.geometry import se2_compose
 from servo.descent_arrival import DescentArrival, parabola_vertex
-from servo.route import RoutePath
-from servo.route_belief import RouteBelief
 from servo.signal_arrival import PeakArrival
 from servo.signal_config import SignalServoConfig
-from sim.simulator import CONTROL_DT
+from tests.servo.arrival_sim import drive_arrival
 
 
 def _arrive(arrival, true_view_xy, steps=1500, wall=None):
-    """An arrival on a simulated unicycle whose belief puts the view at (4, 0) facing +x while
-    it really is at ``true_view_xy``. F is a sharp bump at the true view (~0 at 0.4 m, as
-    rendered); the image distance a wide funnel into it (as rendered around lawn views).
-    ``wall``: y above which the robot cannot go (a bump: the step is undone and, for a
-    ``DescentArrival``, reported). Returns the closest approach and the final distance to
-    the true view."""
-    path = RoutePath(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]]))
-    belief = RouteBelief(path, [3.0, 0.0, 0.0])
-    pose = np.array([3.0, 0.0, 0.0])  # the truth, in the same frame
-    closest = np.inf
-    for _ in range(steps):
-        r2 = float(np.sum((pose[:2] - true_view_xy) ** 2))
-        f, d = float(np.exp(-r2 / (2 * 0.15**2))), 0.01 + 0.1 * np.sqrt(r2)
-        if isinstance(arrival, DescentArrival):
-            v, w = arrival.step(belief, path.frames[-1], lambda f=f: f, lambda d=d: d)
-        else:
-            v, w = arrival.step(belief, path.frames[-1], lambda f=f: f)
-        step = np.array([v * CONTROL_DT, 0.0, w * CONTROL_DT])
-        moved = se2_compose(pose, step)
-        if wall is not None and moved[1] > wall:
-            arrival.blocked()
-            continue
-        pose = moved
-        belief.predict(step)
-        closest = min(closest, float(np.hypot(*(pose[:2] - true_view_xy))))
-    return closest, float(np.hypot(*(pose[:2] - true_view_xy)))
+    return drive_arrival(arrival, true_view_xy, steps, wall)
 
 
 @pytest.mark.parametrize("beside", [[4.3, 1.8], [3.8, -1.2], [4.0, 2.6]])

@@ -13,6 +13,7 @@ from servo.route_belief import RouteBelief
 from servo.signal_arrival import PeakArrival, line_drive
 from servo.signal_servo import SignalServo, SignalServoConfig
 from sim.simulator import CONTROL_DT
+from tests.servo.arrival_sim import drive_arrival
 
 # An L-shaped route: 4 m along +x, then 3 m along +y (views face the way of travel).
 L_FRAMES = np.array(
@@ -463,24 +464,12 @@ def test_consistent_fix_prefers_the_supported_place(servo_maps):
 
 
 def _arrive(config, true_view_xy, steps=900):
-    """``PeakArrival`` on a simulated unicycle whose belief puts the view at (4, 0) facing +x
-    while the view really is at ``true_view_xy`` (the belief is off); F is a sharp bump at
-    the true view (as measured on rendered views: ~0 at 0.4 m). Returns the closest approach
-    to the true view, the final distance to it and whether the arrival is done (then it
-    holds the pose it settled on), and the arrival itself."""
-    path = RoutePath(np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]]))
-    belief = RouteBelief(path, [3.0, 0.0, 0.0])
+    """``PeakArrival`` on the simulated unicycle (:func:`drive_arrival`). Returns the closest
+    approach to the true view, the final distance to it and whether the arrival is done
+    (then it holds the pose it settled on), and the arrival itself."""
     arrival = PeakArrival(config)
-    pose = np.array([3.0, 0.0, 0.0])  # the truth, in the same frame
-    closest = np.inf
-    for _ in range(steps):
-        f = float(np.exp(-np.sum((pose[:2] - true_view_xy) ** 2) / (2 * 0.15**2)))
-        v, w = arrival.step(belief, path.frames[-1], lambda f=f: f)
-        step = np.array([v * CONTROL_DT, 0.0, w * CONTROL_DT])
-        pose = se2_compose(pose, step)
-        belief.predict(step)
-        closest = min(closest, float(np.hypot(*(pose[:2] - true_view_xy))))
-    return closest, float(np.hypot(*(pose[:2] - true_view_xy))), arrival.done, arrival
+    closest, final = drive_arrival(arrival, true_view_xy, steps)
+    return closest, final, arrival.done, arrival
 
 
 def test_arrival_lanes_find_a_view_beside_the_line_of_sight():
