@@ -4,8 +4,8 @@
 ``topomap/LawnServo-v0`` on import), ``servo.ManifoldServo`` the laser+image controller,
 ``servo.SignalServo`` the camera-only one that servoes by F^j(k), ``servo.protocol`` the
 benchmark protocol, ``servo.baselines`` its comparisons, ``servo.compare`` two evaluations
-paired episode by episode and ``servo.evaluate`` the closed-loop evaluation. Heavy modules
-load lazily.
+paired episode by episode and ``servo.evaluate`` the closed-loop evaluation (the module: its
+function is ``servo.evaluate.evaluate``). Heavy modules load lazily.
 """
 
 from importlib import import_module
@@ -25,15 +25,20 @@ _EXPORTS = {
     "SignalServoConfig": "servo.signal_servo",
     "Protocol": "servo.protocol",
     "run_protocol": "servo.protocol",
-    "evaluate": "servo.evaluate",
 }
+# submodules served lazily as themselves. ``evaluate`` once also named the function
+# ``servo.evaluate.evaluate`` here, so ``servo.evaluate`` was the function until the module
+# was first imported and the module after: one name, one thing
+_MODULES = ("evaluate",)
 
-__all__ = sorted(_EXPORTS)
+__all__ = sorted((*_EXPORTS, *_MODULES))
 
 register_envs()
 
 
 def __getattr__(name):
+    if name in _MODULES:
+        return import_module(f"servo.{name}")
     try:
         module = _EXPORTS[name]
     except KeyError:

@@ -1,7 +1,6 @@
 """The run report: HTML builders on small fake inputs, the pipeline with stub stages, and the
 ``topomap run`` arguments."""
 
-import importlib
 import json
 import re
 from pathlib import Path
@@ -515,9 +514,7 @@ def _stub_internals(monkeypatch):
         return {**SERVO, "world": protocol.world, "policy": policy, "tier": protocol.tier,
                 "split": protocol.split, "plot": str(plot)}  # fmt: skip
 
-    # the module itself: ``servo.evaluate`` is also the package's lazy export of the function,
-    # so the dotted path names the function until something has imported the module
-    monkeypatch.setattr(importlib.import_module("servo.evaluate"), "evaluate", evaluate)
+    monkeypatch.setattr("servo.evaluate.evaluate", evaluate)
     monkeypatch.setattr("servo.protocol.run_protocol", run_protocol)
     monkeypatch.setattr(
         "servo.map_store.load_or_build", lambda *a, **k: SimpleNamespace(key="0123456789abcdef")
