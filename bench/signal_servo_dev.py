@@ -12,11 +12,14 @@ set (``--config '{"speed": 1.0}'``), which is how round 6's variants were compar
 ``--trace FROM``: also a line every 5 steps from step FROM (phase, arrival stage, truth,
 belief, command, contact, bumps) and every relocalisation with the belief's error.
 
-``--oracle-fix view|pose`` (session 20) gives the controller a perfect global fix at every
-observing turn, the start's and each relocalisation's: ``view`` the stored view nearest the
-true position and the heading that faces it (the start pose then as the controller finds
-it), ``pose`` also the true pose in that view's frame. What a better global fix is worth,
-against the same episodes without it. Diagnosis only: the controller never sees the truth.
+``--oracle-fix view|pose|top5`` (session 20) gives the controller a perfect global fix at
+every observing turn, the start's and each relocalisation's: ``view`` the stored view
+nearest the true position and the heading that faces it (the start pose then as the
+controller finds it), ``pose`` also the true pose in that view's frame; ``top5`` (session
+27) a perfect choice among the candidates the turn offers: of the controller's own five best
+places by contrast score (views 4 m or more apart, :func:`servo.turn_fix.contrast_scores`),
+the one nearest the truth. What a better global fix is worth, against the same episodes
+without it. Diagnosis only: the controller never sees the truth.
 
 ``--by-start-distance FILE...`` reads ``topomap servo-eval --out`` files (checked by
 ``servo.compare.load_results``) and counts successes by how far each start lies from the
@@ -58,7 +61,7 @@ class _OracleFix:
     def __init__(self, pol: SignalServo, m, mode: str):
         import servo.signal_servo as module  # here: ``sim`` chose the GL backend first
 
-        self.m, self.truth, self.odo = m, None, None
+        self.m, self.mode, self.truth, self.odo = m, mode, None, None
         module.contrast_fix = self.fix
         if mode == "pose" and pol.poses is not None:
             pol.poses.start = self.start
@@ -68,8 +71,26 @@ class _OracleFix:
         self.odo = np.asarray(obs["odometry"], np.float64)
 
     def fix(self, *args, **kwargs) -> tuple[int, float]:
+        if self.mode == "top5":
+            return self._best_of(*args, far=kwargs["far"], exclude=kwargs["exclude"])
         v = int(np.argmin(_view_distances(self.m, self.truth)))
         return v, float(self.m.true_poses[v, 2] - self.truth[2] + self.odo[2])
+
+    def _best_of(self, d, yaw, h, *, far, exclude, places=5, apart=4.0):
+        from servo.turn_fix import contrast_scores
+
+        score, facing = contrast_scores(d, yaw, h, far=far)
+        if len(exclude) < len(score):
+            score[list(exclude)] = np.inf
+        chosen = []
+        for v in np.argsort(score, kind="stable"):
+            far_from = _view_distances(self.m, self.m.true_poses[v])[chosen]
+            if np.all(far_from >= apart):
+                chosen.append(int(v))
+            if len(chosen) == places:
+                break
+        v = chosen[int(np.argmin(_view_distances(self.m, self.truth)[chosen]))]
+        return v, float(facing[v])
 
     def start(self, view, distances, path, odometry):
         return se2_compose(path.frames[0], se2_relative(self.m.true_poses[view], self.truth))
@@ -174,7 +195,7 @@ def main(argv=None):
     p.add_argument("--trace", type=int, default=None, metavar="FROM")
     p.add_argument(
         "--oracle-fix",
-        choices=["view", "pose"],
+        choices=["view", "pose", "top5"],
         default=None,
         help="a perfect global fix (diagnosis)",
     )

@@ -107,6 +107,24 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), ver
     score that it supports (a look-alike down a symmetric corridor matches as well as the
     place, but keypoints at known depths pose the robot only against the place; round 11).
     Returns (view, heading)."""
+    score, facing = contrast_scores(distances, yaws, headings, far=far)
+    out = np.zeros(len(score), bool)
+    out[np.asarray(list(exclude), int)] = True
+    if not out.all():
+        score[out] = np.inf
+    k = int(np.argmin(score))
+    if verify is not None and candidates > 0 and not verify(k):
+        order = np.argsort(score, kind="stable")[1 : candidates + 1]
+        k = next((int(j) for j in order if np.isfinite(score[j]) and verify(int(j))), k)
+    return k, float(facing[k])
+
+
+def contrast_scores(
+    distances, yaws, headings, *, far: float = 0.6
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`contrast_fix`'s score of every stored view (smaller: its best match over the
+    turn stands out more) and the odometry heading that faces the way each looks; arguments
+    as there. Returns two (N,) arrays."""
     d = np.asarray(distances, np.float64)
     y = np.asarray(yaws, np.float64)
     h = np.asarray(headings, np.float64)
@@ -122,12 +140,4 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), ver
     d_far = np.where(apart, d, np.inf).min(axis=0)
     # no sample far enough (a short turn): fall back on the distance alone
     score = np.where(np.isfinite(d_far), d_best / np.maximum(d_far, 1e-9), d_best)
-    out = np.zeros(len(score), bool)
-    out[np.asarray(list(exclude), int)] = True
-    if not out.all():
-        score[out] = np.inf
-    k = int(np.argmin(score))
-    if verify is not None and candidates > 0 and not verify(k):
-        order = np.argsort(score, kind="stable")[1 : candidates + 1]
-        k = next((int(j) for j in order if np.isfinite(score[j]) and verify(int(j))), k)
-    return k, float(h[best[k]] + y[best[k], k])
+    return score, h[best] + y[best, cols]

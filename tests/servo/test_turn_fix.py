@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from servo.turn_fix import contrast_fix
+from servo.turn_fix import contrast_fix, contrast_scores
 
 
 def _turn(n=24):
@@ -21,6 +21,11 @@ def test_a_sharp_dip_beats_a_lower_flat_profile():
     view, heading = contrast_fix(d, y, h)
     assert view == 0
     assert heading == pytest.approx(h[5] + 0.1)
+    # the scores behind it: the dip's ratio to its far best, the flat profile's 1, each
+    # view's heading facing its best sample
+    score, facing = contrast_scores(d, y, h)
+    assert score == pytest.approx([0.05, 1.0, 0.3])
+    assert facing == pytest.approx([h[5] + 0.1, h[0], h[9]])
 
 
 def test_nearby_samples_do_not_flatten_the_dip():
