@@ -23,10 +23,9 @@ import time
 import numpy as np
 
 import servo  # noqa: F401  (headless GL before mujoco)
-from servo.controller import ManifoldServo
-from servo.env import ServoEnv
-from servo.evaluate import make_policy
-from servo.map_store import build_map, load_or_build
+from servo.laser_image import ManifoldServo
+from servo.maps import build_map, load_or_build
+from servo.task import ServoEnv, make_policy
 from sim.datahome import default_dataset
 
 
@@ -96,7 +95,7 @@ def known_limitation(dataset=None, cache=None) -> dict:
     """Run the known-limitation episode (start and target: the middle stored views of the two
     manifolds); returns its record."""
     from scenes import MANIFOLDS
-    from servo.evaluate import run_episode
+    from servo.task import run_episode
 
     world, start, target, seed = KNOWN_LIMITATION
     dataset = default_dataset() if dataset is None else dataset

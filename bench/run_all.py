@@ -181,7 +181,7 @@ def partition_rows(quick: bool) -> list[Row]:
     import bench_partition as bp
     from threadpoolctl import threadpool_limits
 
-    from mapping.partition import ObservationGraphPartitioner
+    from mapping.grouping import ObservationGraphPartitioner
 
     rows = []
     cases = [(4, 77, 0.05), (104, 2000, 5.0)]

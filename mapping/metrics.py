@@ -22,6 +22,7 @@ __all__ = [
     "best_matching",
     "clustering_error",
     "contingency_matrix",
+    "majority_merge_error",
     "purity",
 ]
 
@@ -177,3 +178,31 @@ def adjusted_rand_index(y_true: ArrayLike, y_pred: ArrayLike) -> float:
     """
     y_true, y_pred = _check_labellings(y_true, y_pred)
     return float(adjusted_rand_score(y_true, y_pred))
+
+
+def majority_merge_error(y_true: ArrayLike, leaves: ArrayLike) -> float:
+    """Clustering error when each leaf takes its majority true label.
+
+    The best any combination of the leaves into clusters can do: a lower bound on the error
+    of every rule that combines a clustering's leaves (the C clusters of Grudic & Mulligan's
+    Section II-E before they are combined into K).
+
+    Parameters
+    ----------
+    y_true : array-like of shape (n,)
+        True labels.
+    leaves : array-like of shape (n,)
+        The leaf of each sample.
+
+    Returns
+    -------
+    float
+        In [0, 1].
+    """
+    y_true, leaves = _check_labellings(y_true, leaves)
+    values, y_index = np.unique(y_true, return_inverse=True)
+    merged = np.empty_like(y_true)
+    for leaf in np.unique(leaves):
+        members = leaves == leaf
+        merged[members] = values[np.bincount(y_index[members]).argmax()]
+    return clustering_error(y_true, merged)

@@ -3,8 +3,8 @@
 scikit-learn conventions make the layout generic: ``__init__`` arguments are the parameters and
 fitted state lives in public attributes ending in ``_``. Arrays go into an ``.npz`` under
 ``<prefix>/<name>``; scalars, parameters and the layout go into JSON. A private list of
-*records* (``ManifoldClustering._models``, one :class:`~mapping._manifold_predict.ClusterModel`
-per cluster, a ``mapping._manifold_graph_model.GraphClusterModel`` after a k-NN graph fit) is
+*records* (``ManifoldClustering._models``, one :class:`~mapping.manifold.cluster_model.ClusterModel`
+per cluster, a ``mapping.manifold.graph_cluster_model.GraphClusterModel`` after a k-NN graph fit) is
 saved field by field. Attributes of any other type (a split tree kept for
 inspection) are skipped and listed, so a loaded estimator predicts exactly like the saved one
 but cannot be inspected in those respects.
@@ -26,10 +26,8 @@ import re
 
 import numpy as np
 
-from mapping._manifold_graph_model import GraphClusterModel
-from mapping._manifold_predict import ClusterModel
 from mapping.features import ImageFeatures
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import ClusterModel, GraphClusterModel, ManifoldClustering
 
 ESTIMATORS = {cls.__name__: cls for cls in (ManifoldClustering, ImageFeatures)}
 RECORDS = {cls.__name__: cls for cls in (ClusterModel, GraphClusterModel)}

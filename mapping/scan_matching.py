@@ -2,7 +2,7 @@
 
 The observation grouping of Blanco et al. assumes the poses come from a map builder (Section
 IV-A); with raw odometry, heading drift smears the sensed-space overlap. ``refine_poses``
-replaces each odometry increment by the ICP alignment (``mapping.icp``) of consecutive scans,
+replaces each odometry increment by the ICP alignment (``mapping.icp_solver``) of consecutive scans,
 seeded with that increment, before the overlap is computed.
 """
 
@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from common.geometry import se2_compose, se2_relative
-from mapping.icp import densify_scan, icp_batch
-from mapping.topology import run_starts_from_groups
+from mapping.icp_solver import densify_scan, icp_batch
+from mapping.runs import run_starts_from_groups
 
 __all__ = ["refine_poses"]
 
@@ -40,8 +40,8 @@ def refine_poses(
     kept. The poses are re-chained from ``poses[0]``.
 
     ``groups`` gives the run (drive) of each scan, scikit-learn's per-sample convention (see
-    ``mapping.topology.run_starts_from_groups``): where a new run begins there is no odometry
-    increment from the previous scan, so that scan keeps its input pose and the next ones
+    ``mapping.grouping.topology.run_starts_from_groups``): where a new run begins there is no
+    odometry increment from the previous scan, so that scan keeps its input pose and the next ones
     chain from it.
 
     ``decimation`` keeps every ``decimation``-th point of each source scan (the target stays

@@ -1,10 +1,10 @@
 """The node of a recursive bisection tree, shared by both methods' trees.
 
-The manifold clustering (Grudic & Mulligan, Section II-C, ``mapping._manifold_tree``) and the
-observation grouping (Blanco et al., Section II-B, ``mapping.ncut``) both bisect their data
-recursively. Their nodes are :class:`SplitNode` s with one convention: a node's ``children``
-are its two halves, or the empty tuple for a leaf. Each method subclasses it to record its own
-split criterion (Omega(2) with its sigma and alpha; the Ncut).
+The manifold clustering (Grudic & Mulligan, Section II-C, ``mapping.manifold.tree``) and the
+observation grouping (Blanco et al., Section II-B, ``mapping.grouping.normalized_cut``) both bisect
+their data recursively. Their nodes are :class:`SplitNode` s with one convention: a node's
+``children`` are its two halves, or the empty tuple for a leaf. Each method subclasses it to record
+its own split criterion (Omega(2) with its sigma and alpha; the Ncut).
 """
 
 from __future__ import annotations

@@ -280,7 +280,7 @@ def branching_sequences(
     branches leaving its end (speeds 0.03, 0.05, 0.08 against the trunk's 0.05).
 
     The same draws as ``bench/bench_manifold.py``'s benchmark data (identical output for the
-    same generator), so the tables of ``scripts.manifold_sweeps`` and the speed benchmark use
+    same generator), so the tables of ``experiments.manifold.sweeps`` and the speed benchmark use
     one data set. Each curve is ``start + t drift + sum_k (sin(f_k t + p_k) - sin p_k) u_k``
     with four random unit-scale directions u_k; labels 0..7 in order (trunk, 3 branches,
     trunk, 3 branches); isotropic noise ``noise / sqrt(d)`` per coordinate.

@@ -62,8 +62,8 @@ def worlds(choice: str) -> tuple[str, ...]:
 
 
 def policies(text: str) -> tuple[str, ...]:
-    """A comma-separated list of servo policies, each one of ``servo.policies.POLICIES``."""
-    from servo.policies import POLICIES
+    """A comma-separated list of servo policies, each one of ``servo.task.policies.POLICIES``."""
+    from servo.task import POLICIES
 
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     bad = [n for n in names if n not in POLICIES]

@@ -19,9 +19,9 @@ DEFAULT_OUT = "out"
 
 
 def cmd_import(args) -> int:
-    """A robot's ROS 1 / ROS 2 bags as a dataset (``sim.rosbag_import``)."""
+    """A robot's ROS 1 / ROS 2 bags as a dataset (``sim.readers.rosbag``)."""
     from sim.dataset import load_dataset
-    from sim.rosbag_import import ImportSettings, import_rosbags
+    from sim.readers import ImportSettings, import_rosbags
 
     settings = ImportSettings(
         scan_topic=args.scan_topic,
@@ -69,7 +69,7 @@ def cmd_worlds(args) -> int:
 def _protocol_folder(value: str | None) -> str | None:
     """``--protocol``: "committed" (the default) is the repository's
     ``docs/results/manifold-protocol`` when present, "none" shows no spread, else a folder."""
-    from scripts.report.settings import COMMITTED_PROTOCOL
+    from scripts.report import COMMITTED_PROTOCOL
 
     if value == "committed":
         return str(COMMITTED_PROTOCOL) if (COMMITTED_PROTOCOL / "cells").is_dir() else None
@@ -125,21 +125,20 @@ def cmd_run(args) -> int:
 
 def cmd_group_eval(args) -> int:
     output_folder(args.out)
-    if args.local_maps:
-        from scripts.eval_local_maps import run
-    elif args.carmen:
-        from scripts.eval_carmen import run
-    else:
-        from scripts.eval_grouping import run
+    from scripts.grouping import carmen_eval, group_eval, local_maps_eval
 
-    return run(args)
+    if args.local_maps:
+        return local_maps_eval(args)
+    if args.carmen:
+        return carmen_eval(args)
+    return group_eval(args)
 
 
 def cmd_reproduce(args) -> int:
-    from scripts.reproduce_manifold import run
+    from scripts.manifold import reproduce_command
 
     output_folder(args.out)
-    return run(args)
+    return reproduce_command(args)
 
 
 def servo_eval_name(args) -> str:
@@ -156,13 +155,12 @@ def servo_eval_name(args) -> str:
 
 
 def cmd_servo_eval(args) -> int:
-    """Closed-loop servo evaluation by the benchmark protocol (``servo.protocol``): one start
+    """Closed-loop servo evaluation by the benchmark protocol (``servo.task.protocol``): one start
     tier and split, in one world or both, episodes in parallel over the cores."""
     import json
 
-    from servo.map_file import map_paths
-    from servo.map_store import load_or_build
-    from servo.protocol import Protocol, run_protocol
+    from servo.maps import load_or_build, map_paths
+    from servo.task import Protocol, run_protocol
 
     out = output_folder(args.out) if args.out else None
     results = []
@@ -197,11 +195,12 @@ def cmd_servo_eval(args) -> int:
 
 
 def cmd_servo_compare(args) -> int:
-    """Two ``servo-eval --out`` files compared episode by episode (``servo.compare``)."""
+    """Two ``servo-eval --out`` files compared episode by episode
+    (``servo.task.paired_comparison``)."""
     import json
     from dataclasses import asdict
 
-    from servo.compare import compare, load_results, markdown
+    from servo.task import compare, load_results, markdown
 
     a, b = load_results(args.a, "A"), load_results(args.b, "B")
     rows = compare(a, b)
@@ -225,7 +224,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     --help`` need not import every experiment (it took ~3 s)."""
     from scenes import WORLDS
     from scripts.collect_command import add_parser as add_collect_parser
-    from servo.policies import POLICIES
+    from servo.task import POLICIES
 
     p = argparse.ArgumentParser(prog="topomap", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
@@ -295,7 +294,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         "--protocol",
         default="committed",
         metavar="DIR",
-        help="a folder written by python -m scripts.manifold_protocol --out DIR: the report "
+        help="a folder written by python -m scripts.manifold.protocol --out DIR: the report "
         "shows its per-seed manifold-clustering errors (the run does not compute them); "
         "default: the cells committed in docs/results/manifold-protocol; 'none': no table",
     )
@@ -304,13 +303,13 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
     m = sub.add_parser("reproduce", help="reproduce the manifold-clustering paper's experiments")
     if command in (None, "reproduce"):
-        from scripts.reproduce_manifold import build_parser as reproduce_parser
+        from scripts.manifold import reproduce_parser
 
         reproduce_parser(m).set_defaults(func=cmd_reproduce)
 
     g = sub.add_parser("group-eval", help="evaluate the laser observation grouping (Blanco et al.)")
     if command in (None, "group-eval"):
-        from scripts.eval_grouping import build_parser as group_eval_parser
+        from scripts.grouping import group_eval_parser
 
         group_eval_parser(g).set_defaults(func=cmd_group_eval)
 

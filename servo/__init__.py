@@ -1,46 +1,39 @@
 """Closed-loop servoing between manifolds (the paper's Section II-G, run in simulation).
 
-``servo.ServoEnv`` is the task (registered as ``topomap/HallwayServo-v0`` and
-``topomap/LawnServo-v0`` on import), ``servo.ManifoldServo`` the laser+image controller,
-``servo.SignalServo`` the camera-only one that servoes by F^j(k), ``servo.protocol`` the
-benchmark protocol, ``servo.baselines`` its comparisons, ``servo.compare`` two evaluations
-paired episode by episode and ``servo.evaluate`` the closed-loop evaluation (the module: its
-function is ``servo.evaluate.evaluate``). Heavy modules load lazily.
+The subpackages follow the data flow: :mod:`servo.maps` builds and stores the map a robot
+servoes on (its recordings, clustered by the manifold method and linked by ICP);
+:mod:`servo.laser_image` is :class:`ManifoldServo`, the laser + image controller;
+:mod:`servo.camera_only` is :class:`SignalServo`, the camera-only controller that servoes by
+F^j(k); :mod:`servo.task` is the task (:class:`ServoEnv`, registered as
+``topomap/HallwayServo-v0`` and ``topomap/LawnServo-v0`` on import), the benchmark protocol,
+the closed-loop evaluation (``servo.evaluate``, the module), the baseline policies and the
+paired comparison. The modules beside them are the tools both controllers use: image
+localisation, the route graph, steering, the waypoint tracker and the geodesic field. Heavy
+modules load lazily.
 """
 
-from importlib import import_module
-
 import sim  # noqa: F401  (headless GL backend before mujoco; base envs registered)
-from servo.registration import register_envs
+from common.lazy import lazy_exports
+from servo.task import register_envs
 
-_EXPORTS = {
-    "MapError": "servo.map_store",
-    "MapSettings": "servo.map_store",
-    "ServoMap": "servo.map_store",
-    "build_map": "servo.map_store",
-    "load_or_build": "servo.map_store",
-    "ServoEnv": "servo.env",
-    "ManifoldServo": "servo.controller",
-    "SignalServo": "servo.signal_servo",
-    "SignalServoConfig": "servo.signal_servo",
-    "Protocol": "servo.protocol",
-    "run_protocol": "servo.protocol",
-}
-# submodules served lazily as themselves. ``evaluate`` once also named the function
-# ``servo.evaluate.evaluate`` here, so ``servo.evaluate`` was the function until the module
-# was first imported and the module after: one name, one thing
-_MODULES = ("evaluate",)
-
-__all__ = sorted((*_EXPORTS, *_MODULES))
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "SignalServo": "servo.camera_only",
+        "SignalServoConfig": "servo.camera_only",
+        "ManifoldServo": "servo.laser_image",
+        "MapError": "servo.maps",
+        "MapSettings": "servo.maps",
+        "ServoMap": "servo.maps",
+        "build_map": "servo.maps",
+        "load_or_build": "servo.maps",
+        "Protocol": "servo.task",
+        "ServoEnv": "servo.task",
+        "run_protocol": "servo.task",
+    },
+    # the closed-loop evaluation, served as the module (its function is
+    # ``servo.evaluate.evaluate``): one name, one thing
+    modules={"evaluate": "servo.task.evaluation"},
+)
 
 register_envs()
-
-
-def __getattr__(name):
-    if name in _MODULES:
-        return import_module(f"servo.{name}")
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'servo' has no attribute {name!r}") from None
-    return getattr(import_module(module), name)

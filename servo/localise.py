@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from common.geometry import se2_relative
-from servo.map_types import ServoMap
+from servo.maps import ServoMap
 
 MAX_SHIFT = 20  # feature-image pixels tried either way (80 px across the 58 deg camera)
 HFOV = 2.0 * np.arctan(np.tan(np.deg2rad(45.0) / 2) * 4.0 / 3.0)  # rad, 320x240 at fovy 45

@@ -11,7 +11,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from common.geometry import se2_compose, se2_relative
-from servo.map_types import MapError, ServoMap
+from servo.maps import MapError, ServoMap
 
 LINK_PENALTY = 1.0  # m added to a link between recordings: stay on one recording if possible
 

@@ -1,7 +1,8 @@
 """The data home: one documented place for the default dataset and the servo maps.
 
 Library entry points that need the default data (``servo.load_or_build``, ``ServoEnv`` with no
-map, ``servo.evaluate.evaluate``) never look in the working directory. They resolve, in order:
+map, ``servo.task.evaluation.evaluate``) never look in the working directory. They resolve, in
+order:
 
 1. the ``home`` argument, if given;
 2. the ``TOPOMAP_HOME`` environment variable, if set and not empty;

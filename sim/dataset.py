@@ -17,7 +17,7 @@ Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
         times     float64 (N,)          simulation time (s)
 
 (*) ground truth: present when ``meta["ground_truth"]`` is true (collected in simulation); a
-dataset imported from a robot's log (:mod:`sim.rosbag_import`) has ``"ground_truth": false``,
+dataset imported from a robot's log (:mod:`sim.readers.rosbag`) has ``"ground_truth": false``,
 no ``poses`` or ``labels`` arrays and no manifolds. Schema version 1 (before that key existed)
 is still read, as a dataset with ground truth.
 

@@ -25,7 +25,8 @@ COLLISION_PENALTY = 1.0
 def check_pose_option(value) -> np.ndarray:
     """``options['pose']`` of ``reset`` as a float64 (x, y, yaw): three finite real numbers;
     anything else (None, a string, complex or ragged values) a ValueError naming it. Shared
-    with ``servo.env.ServoEnv``, which samples its task from the pose before this env sees it."""
+    with ``servo.task.env.ServoEnv``, which samples its task from the pose before this env sees
+    it."""
     try:
         pose = np.asarray(value)
     except (TypeError, ValueError):  # ragged nesting

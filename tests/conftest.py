@@ -40,6 +40,6 @@ def map_cache(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="session")
 def servo_maps(servo_dataset, map_cache):
-    from servo.map_store import load_or_build
+    from servo.maps.build import load_or_build
 
     return {w: load_or_build(w, servo_dataset, map_cache) for w in ("hallway", "lawn")}

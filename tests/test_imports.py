@@ -1,5 +1,5 @@
-"""The import structure: the packages form layers, with no cycles and no private names imported
-across modules.
+"""The import structure: the packages form layers, with no cycles; each subpackage is entered
+through its face; the two servo controllers stand apart; nothing private crosses a package.
 
 Read from the source with ``ast`` (nothing is imported), so the test also sees imports inside
 functions, which Python only runs later. Imports under ``if TYPE_CHECKING:`` are for
@@ -9,24 +9,39 @@ annotations only and never run, so they are left out.
 from __future__ import annotations
 
 import ast
+import tomllib
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-# lowest first: a package may import only the ones before it (and itself)
-LAYERS = ("common", "scenes", "sim", "mapping", "servo", "scripts")
+# lowest first: a package may import only the ones before it (and itself). ``bench`` and
+# ``experiments`` are not installed; they sit above everything the wheel holds.
+LAYERS = ("common", "scenes", "sim", "mapping", "servo", "scripts", "bench", "experiments")
+INSTALLED = LAYERS[:6]
+# code that may reach into a subpackage past its face
+REACH_IN = ("tests", "experiments")
+CONTROLLERS = ("servo.laser_image", "servo.camera_only")
+MAX_MODULES = 15  # modules directly in one folder of the installed packages
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
 
 
 def _modules() -> dict[str, Path]:
-    mods = {}
-    for package in LAYERS:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = list(path.relative_to(ROOT).with_suffix("").parts)
-            if parts[-1] == "__init__":
-                parts.pop()
-            mods[".".join(parts)] = path
-    return mods
+    return {
+        _module_name(path): path
+        for package in LAYERS
+        for path in sorted((ROOT / package).rglob("*.py"))
+    }
+
+
+def _packages(mods: dict[str, Path]) -> set[str]:
+    return {name for name, path in mods.items() if path.name == "__init__.py"}
 
 
 def _runtime_nodes(tree: ast.AST):
@@ -62,8 +77,12 @@ def _imports(name: str, path: Path, mods: dict[str, Path]):
 
 
 @pytest.fixture(scope="module")
-def graph():
-    mods = _modules()
+def mods():
+    return _modules()
+
+
+@pytest.fixture(scope="module")
+def graph(mods):
     return {name: list(_imports(name, path, mods)) for name, path in mods.items()}
 
 
@@ -87,6 +106,10 @@ def _cycle(edges: dict[str, set[str]]) -> list[str] | None:
     return None
 
 
+def _inside(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
 def test_the_cycle_finder_finds_cycles():
     assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
     assert _cycle({"a": {"b"}, "b": set()}) is None
@@ -107,6 +130,18 @@ def test_no_private_names_imported_across_modules(graph):
     assert not bad, "\n".join(bad)
 
 
+def test_no_private_module_imported_across_packages(graph, mods):
+    """A module named ``_x`` is its package's own: no other package imports it."""
+    packages = _packages(mods)
+    bad = []
+    for m, imports in graph.items():
+        for target, _, line in imports:
+            owner, _, leaf = target.rpartition(".")
+            if leaf.startswith("_") and target not in packages and not _inside(m, owner):
+                bad.append(f"{m}:{line} imports the private module {target}")
+    assert not bad, "\n".join(bad)
+
+
 def test_lower_layers_never_import_higher_ones(graph):
     rank = {package: i for i, package in enumerate(LAYERS)}
     bad = [
@@ -116,3 +151,72 @@ def test_lower_layers_never_import_higher_ones(graph):
         if rank[target.split(".")[0]] > rank[m.split(".")[0]]
     ]
     assert not bad, "\n".join(bad)
+
+
+def test_subpackages_are_entered_through_their_face(graph, mods):
+    """Outside a subpackage (a package below a top-level one), code imports it only through its
+    ``__init__``; tests and experiments may reach in."""
+    subpackages = {p for p in _packages(mods) if "." in p}
+    bad = []
+    for m, imports in graph.items():
+        if m.split(".")[0] in REACH_IN:
+            continue
+        for target, _, line in imports:
+            for sub in subpackages:
+                if target != sub and _inside(target, sub) and not _inside(m, sub):
+                    bad.append(f"{m}:{line} reaches into {sub} ({target})")
+    assert not bad, "\n".join(sorted(set(bad)))
+
+
+def test_the_two_controllers_never_import_each_other(graph):
+    bad = [
+        f"{m}:{line} imports {target}"
+        for m, imports in graph.items()
+        for target, _, line in imports
+        for one, other in (CONTROLLERS, CONTROLLERS[::-1])
+        if _inside(m, one) and _inside(target, other)
+    ]
+    assert not bad, "\n".join(bad)
+
+
+def test_no_folder_of_the_installed_packages_holds_too_many_modules():
+    crowded = {
+        str(folder.relative_to(ROOT)): n
+        for package in INSTALLED
+        for folder in [ROOT / package, *(p for p in (ROOT / package).rglob("*") if p.is_dir())]
+        if (n := len(list(folder.glob("*.py")))) > MAX_MODULES
+    }
+    assert not crowded, f"more than {MAX_MODULES} modules in one folder: {crowded}"
+
+
+def test_no_face_exports_a_name_that_is_also_a_submodule(mods):
+    """``from package import x`` must give the same thing whatever was imported before: a
+    public name that is also a submodule's name is replaced by the module once that module is
+    imported."""
+    bad = []
+    for package in _packages(mods):
+        if package.split(".")[0] not in INSTALLED:
+            continue
+        tree = ast.parse(mods[package].read_text())
+        exported = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Dict) and all(
+                isinstance(k, ast.Constant) and isinstance(k.value, str) for k in node.keys
+            ):
+                exported |= {k.value for k in node.keys}
+            if isinstance(node, ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets
+            ):
+                exported |= set(ast.literal_eval(node.value))
+        folder = mods[package].parent
+        submodules = {p.stem for p in folder.glob("*.py")} | {
+            p.name for p in folder.iterdir() if (p / "__init__.py").exists()
+        }
+        bad += [f"{package}.{name}" for name in sorted(exported & submodules)]
+    assert not bad, f"exported names that are also submodules: {bad}"
+
+
+def test_the_wheel_holds_the_installed_packages_only():
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    include = config["tool"]["setuptools"]["packages"]["find"]["include"]
+    assert sorted(include) == sorted(f"{p}*" for p in INSTALLED)

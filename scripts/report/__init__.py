@@ -9,14 +9,14 @@ each timed; a failing stage stops the run with :class:`StageError` naming it):
 
 1. ``worlds``: a top-down view per world with the dataset's trajectories, and per manifold
    sample camera frames beside the laser scan drawn on the map (``worlds/``);
-2. ``manifold``: the manifold-clustering reproduction (``scripts.reproduce_manifold``):
+2. ``manifold``: the manifold-clustering reproduction (``scripts.manifold.reproduce``):
    synthetic and real tables with the paper's numbers beside ours, and its figures;
 3. ``seeds``: the manifold clustering's error on every dataset seed of the frozen protocol
-   (``scripts.manifold_protocol``), read from the folder given as ``--protocol`` (not
+   (``scripts.manifold.protocol``), read from the folder given as ``--protocol`` (not
    computed by the run: it would take far longer than 10 minutes); without one, how to make it;
-4. ``grouping``: the observation grouping (``scripts.eval_grouping``): tables, laser groups,
+4. ``grouping``: the observation grouping (``scripts.grouping.evaluate``): tables, laser groups,
    local maps, topological graph and weights;
-5. ``servo``: closed-loop servoing (``servo.evaluate``) per world, the servo policy and the
+5. ``servo``: closed-loop servoing (``servo.task.evaluation``) per world, the servo policy and the
    baselines: results per manifold pair, trajectories on the map, episode videos.
 
 ``index.html`` references the PNGs and mp4s beside it by relative paths (no external
@@ -56,7 +56,13 @@ from scripts.report.sections import (
     section_servo,
     section_worlds,
 )
-from scripts.report.settings import REPORT_DIR, OutputError, RunSettings, StageError
+from scripts.report.settings import (
+    COMMITTED_PROTOCOL,
+    REPORT_DIR,
+    OutputError,
+    RunSettings,
+    StageError,
+)
 from scripts.report.stages import (
     stage_grouping,
     stage_manifold,
@@ -66,6 +72,7 @@ from scripts.report.stages import (
 )
 
 __all__ = [
+    "COMMITTED_PROTOCOL",
     "INDEX",
     "PAPER",
     "REPORT_DIR",

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scripts.grouping_tables import comparison_table, grouping_table
+from scripts.grouping import comparison_table, grouping_table
 from scripts.report.html import esc, figure, fmt, section, table
 from scripts.servo_tables import pair_table, summary_table
 
@@ -47,7 +47,7 @@ def section_worlds(result: dict) -> str:
 
 
 def section_manifold(result: dict) -> str:
-    """``result`` of ``scripts.reproduce_manifold.reproduce`` (paths relative to the root)."""
+    """``result`` of ``scripts.manifold.reproduce.reproduce`` (paths relative to the root)."""
     synthetic = table(
         "Synthetic sets: clustering error, ours beside the paper's claim",
         ("set", "method", "error", "paper"),
@@ -87,7 +87,7 @@ def section_manifold(result: dict) -> str:
 SPREAD = ("min", "median", "max")
 PROTOCOL_HOWTO = (
     "collect the seeds (<code>topomap collect --world all --seed S --out ROOT/m-data-S</code>, "
-    "S = 0 ... 10), run <code>python -m scripts.manifold_protocol --root ROOT --out DIR "
+    "S = 0 ... 10), run <code>python -m scripts.manifold.protocol --root ROOT --out DIR "
     "--seeds 1 2 3 4 5 6 7 8 9 10</code> (about a minute per seed and condition on 2 cores) "
     "and give <code>topomap run --protocol DIR</code>"
 )
@@ -95,7 +95,7 @@ PROTOCOL_HOWTO = (
 
 def section_protocol(result: dict) -> str:
     """``result`` of ``stage_protocol``: {"source": folder or None, "rows": the rows of
-    ``scripts.manifold_protocol.summarize``}. One table per condition and features: a row per
+    ``scripts.manifold.protocol.summarize``}. One table per condition and features: a row per
     method, a column per seed (the dev seed first), then min / median / max and the mean with
     its bootstrap 95% interval over the fresh seeds."""
     intro = (
@@ -147,15 +147,15 @@ def section_protocol(result: dict) -> str:
         "Manifold clustering: the spread over dataset seeds",
         intro,
         f"<p>From <code>{esc(result['source'])}</code> ({result.get('cells', '?')} cells), "
-        "written by <code>scripts.manifold_protocol</code>, not recomputed by this run.</p>"
+        "written by <code>scripts.manifold.protocol</code>, not recomputed by this run.</p>"
         + "".join(f"<p>{esc(k)}: {esc(v)}</p>" for k, v in result.get("made", {}).items()),
         *tables,
     )
 
 
 def section_grouping(result: dict, prefix: str = "") -> str:
-    """``result`` of ``scripts.eval_grouping.evaluate_grouping``; figures under ``prefix``.
-    The tables are ``scripts.grouping_tables``', the ones the command line prints."""
+    """``result`` of ``scripts.grouping.evaluate.evaluate_grouping``; figures under ``prefix``.
+    The tables are ``scripts.grouping.tables``', the ones the command line prints."""
     targets = result.get("settings", {}).get("targets", {})
     purity_min, max_groups = targets.get("purity_min"), targets.get("max_groups_per_manifold")
     parts = [
@@ -186,7 +186,7 @@ def _no_labels_note(result: dict) -> str:
 
 
 def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
-    """``results``: ``servo.evaluate.evaluate`` dicts (with ``plot`` relative to the root);
+    """``results``: ``servo.task.evaluation.evaluate`` dicts (with ``plot`` relative to the root);
     ``videos``: per "world/policy", video paths relative to the root."""
     summary, pairs = summary_table(results).to_html(), pair_table(results).to_html()
     parts = [

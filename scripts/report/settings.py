@@ -23,9 +23,9 @@ class RunSettings:
 
     seed : seeds the dataset and the servo episodes.
     episodes : servo episodes per world, start tier and policy, on the benchmark protocol's
-        ``test`` split (``servo.protocol``; the issue asks for at least 20 in the run and 100
+        ``test`` split (``servo.task.protocol``; the issue asks for at least 20 in the run and 100
         in the headline tables of ``topomap servo-eval``).
-    policies : servo policies evaluated (``servo`` first; see ``servo.policies.POLICIES``).
+    policies : servo policies evaluated (``servo`` first; see ``servo.task.policies.POLICIES``).
     tiers : the protocol's start tiers the two controllers (``servo``, ``signal``) run on:
         ``anywhere`` by default (the hard one; 20 episodes of both controllers from both tiers
         and the oracle took ~14 minutes on 2 cores, over the run's 10).
@@ -33,7 +33,7 @@ class RunSettings:
     videos : episode videos per world, of the ``servo`` policy.
     grouping_loop : also drive and group a loop through each world (``eval_grouping``).
     jobs : worker processes for the collection (None: one per core).
-    protocol : a folder written by ``python -m scripts.manifold_protocol --out`` (its
+    protocol : a folder written by ``python -m scripts.manifold.protocol --out`` (its
         ``cells/*.json``), whose per-seed errors the report shows; None: the report says how to
         make one. The run does not compute it: ten more datasets and their fits would take
         far longer than the run's 10 minutes on 2 cores.
@@ -53,7 +53,7 @@ class RunSettings:
         # checked here, not when the stage reads it, so a typo fails before minutes of work
         if self.protocol is not None and not (Path(self.protocol) / "cells").is_dir():
             raise ValueError(
-                "protocol must be a folder written by scripts.manifold_protocol (holding "
+                "protocol must be a folder written by scripts.manifold.protocol (holding "
                 f"cells/), got {self.protocol!r}"
             )
         check_int(self.seed, "seed", minimum=0)  # numpy refuses a negative seed
@@ -61,7 +61,7 @@ class RunSettings:
         check_int(self.videos, "videos", minimum=0)
         if not self.policies:
             raise ValueError("policies is empty")
-        from servo.protocol import TIERS
+        from servo.task import TIERS
 
         for name in ("tiers", "baseline_tiers"):
             value = getattr(self, name)

@@ -59,27 +59,27 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
 
 
 def stage_manifold(dataset_dir: Path, out_dir: Path, root: Path, progress: bool) -> dict:
-    from scripts.reproduce_manifold import reproduce
+    from scripts.manifold import run_reproduction
 
-    result = reproduce(dataset_dir, out_dir, progress=progress)
+    result = run_reproduction(dataset_dir, out_dir, progress=progress)
     result = dict(result)
     result["figures"] = [_rel(out_dir / p, root) for p in result.get("figures", [])]
     return result
 
 
 def stage_protocol(folder: str | Path | None) -> dict:
-    """The frozen protocol's per-seed errors from ``folder`` (``scripts.manifold_protocol``'s
+    """The frozen protocol's per-seed errors from ``folder`` (``scripts.manifold.protocol``'s
     ``--out``), summarised per condition, features and method; ``{"source": None}`` without one.
     The cells are files from disk: ``load_cells`` checks their form. An optional
     ``meta.json`` of strings (how and at which commit the cells were made) is shown beside."""
     if folder is None:
         return {"source": None, "rows": []}
-    from scripts.manifold_protocol import load_cells, summarize
+    from scripts.manifold import load_cells, summarize
 
     cells = load_cells(Path(folder))
     if not cells:
         raise ValueError(
-            f"protocol: {folder} holds no cells/*.json; run python -m scripts.manifold_protocol "
+            f"protocol: {folder} holds no cells/*.json; run python -m scripts.manifold.protocol "
             f"--out {folder} first"
         )
     source = Path(folder).resolve()
@@ -105,7 +105,7 @@ def _protocol_meta(path: Path) -> dict:
 
 
 def stage_grouping(dataset, out_dir: Path, settings: RunSettings, progress: bool) -> dict:
-    from scripts.eval_grouping import evaluate_grouping
+    from scripts.grouping import evaluate_grouping
 
     return evaluate_grouping(dataset, out_dir, loop=settings.grouping_loop, progress=progress)
 
@@ -119,13 +119,11 @@ def stage_servo(
     maps_dir: Path,
     progress: bool,
 ) -> dict:
-    """The servo benchmark's test split (``servo.protocol``): every policy from every start
+    """The servo benchmark's test split (``servo.task.protocol``): every policy from every start
     tier, ``settings.episodes`` episodes each, in parallel over the cores; videos of the first
-    policy's own episodes (``servo.evaluate.evaluate``)."""
-    from servo.evaluate import evaluate
-    from servo.map_file import map_paths
-    from servo.map_store import load_or_build
-    from servo.protocol import Protocol, run_protocol
+    policy's own episodes (``servo.task.evaluation.evaluate``)."""
+    from servo.maps import load_or_build, map_paths
+    from servo.task import Protocol, evaluate, run_protocol
 
     results, videos = [], {}
     for world in worlds:

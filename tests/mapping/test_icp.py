@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from common.geometry import se2_relative, transform_points
-from mapping._synthetic_scans import office_path, office_world, raycast, simulate_odometry
-from mapping.icp import _kabsch_2d, densify_scan, icp, icp_batch
+from mapping.icp_solver import _kabsch_2d, densify_scan, icp, icp_batch
 from mapping.scan_matching import refine_poses
+from mapping.synthetic_scans import office_path, office_world, raycast, simulate_odometry
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import pytest
 from scipy.stats import binomtest
 
 from mapping import ColorHistogramFeatures, ManifoldClustering, clustering_error
-from scripts.reproduce_manifold import (
+from scripts.manifold.reproduce import (
     PAPER_FEATURES,
     feature_sets,
     markdown_tables,

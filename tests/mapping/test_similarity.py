@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mapping.ncut import recursive_ncut_partition
+from mapping.grouping.normalized_cut import recursive_ncut_partition
 from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
 
 

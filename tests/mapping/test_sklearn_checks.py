@@ -20,9 +20,9 @@ from sklearn.utils.validation import check_is_fitted
 from mapping import manifold
 from mapping.baselines import NormalizedCutClustering, SelfTuningSpectralClustering
 from mapping.features import ScanFeatures
-from mapping.image_features import ColorHistogramFeatures, ImageFeatures
+from mapping.features.images import ColorHistogramFeatures, ImageFeatures
+from mapping.features.statistics import ScanStatistics
 from mapping.manifold import ManifoldClustering
-from mapping.scan_statistics import ScanStatistics
 
 ESTIMATORS = [
     ManifoldClustering(n_clusters=2, min_cluster_size=3, n_sigmas=4, n_alphas=3, refine=False),

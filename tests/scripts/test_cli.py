@@ -11,7 +11,7 @@ import pytest
 from scripts.cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parents[2]
-HEAVY = ("sklearn", "trimesh", "servo.evaluate", "scripts.reproduce_manifold")
+HEAVY = ("sklearn", "trimesh", "servo.task.evaluation", "scripts.manifold.reproduce")
 
 
 def test_help_imports_no_experiment():

@@ -8,12 +8,12 @@ import pytest
 
 from scripts import report
 from scripts.cli import main
-from scripts.eval_grouping import evaluate_grouping
+from scripts.grouping.evaluate import evaluate_grouping
 from sim.camera import CameraConfig
 from sim.collect import CollectionSettings, collect_dataset
 from sim.dataset import load_dataset
-from sim.rosbag_import import ImportSettings, import_rosbags
-from tests.sim.rosbag_fixtures import IMAGE, ODOM, SCAN, drive_from_sequence, write_bag
+from sim.readers.rosbag import ImportSettings, import_rosbags
+from tests.sim.readers.rosbag_fixtures import IMAGE, ODOM, SCAN, drive_from_sequence, write_bag
 
 FRAMES = 12
 
@@ -69,7 +69,7 @@ def test_group_eval_runs_without_ground_truth(imported, tmp_path, capsys):
 
 
 def test_reproduce_clusters_without_ground_truth(imported, tmp_path, capsys, monkeypatch):
-    import scripts.reproduce_manifold as rm
+    import scripts.manifold.reproduce as rm
 
     one_set = dict(list(rm.make_all().items())[:1])  # the synthetic part is not under test
     monkeypatch.setattr(rm, "make_all", lambda: one_set)

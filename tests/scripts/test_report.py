@@ -321,7 +321,7 @@ def test_the_pipeline_runs_the_stages_it_is_given_in_order(tmp_path, capsys):
 
 
 def _protocol_folder(path: Path, errors: dict[str, dict[int, float]]) -> Path:
-    """A folder as ``scripts.manifold_protocol`` writes it: one cell per seed, with the test
+    """A folder as ``scripts.manifold.protocol`` writes it: one cell per seed, with the test
     error of each method given as {method: {seed: error}}."""
     (path / "cells").mkdir(parents=True)
     seeds = sorted({seed for by_seed in errors.values() for seed in by_seed})
@@ -506,18 +506,18 @@ def _stub_internals(monkeypatch):
             (Path(out) / f"{world}-{policy}-episode{i}.mp4").write_bytes(b"mp4")
         return {**SERVO, "world": world, "policy": policy, "plot": str(plot)}
 
-    monkeypatch.setattr("scripts.reproduce_manifold.reproduce", reproduce)
-    monkeypatch.setattr("scripts.eval_grouping.evaluate_grouping", evaluate_grouping)
+    monkeypatch.setattr("scripts.manifold.reproduce.reproduce", reproduce)
+    monkeypatch.setattr("scripts.grouping.evaluate.evaluate_grouping", evaluate_grouping)
 
     def run_protocol(protocol, servo_map, episodes, policy="servo", *, plot=None, **kw):
         Path(plot).write_bytes(PNG)
         return {**SERVO, "world": protocol.world, "policy": policy, "tier": protocol.tier,
                 "split": protocol.split, "plot": str(plot)}  # fmt: skip
 
-    monkeypatch.setattr("servo.evaluate.evaluate", evaluate)
-    monkeypatch.setattr("servo.protocol.run_protocol", run_protocol)
+    monkeypatch.setattr("servo.task.evaluation.evaluate", evaluate)
+    monkeypatch.setattr("servo.task.protocol.run_protocol", run_protocol)
     monkeypatch.setattr(
-        "servo.map_store.load_or_build", lambda *a, **k: SimpleNamespace(key="0123456789abcdef")
+        "servo.maps.build.load_or_build", lambda *a, **k: SimpleNamespace(key="0123456789abcdef")
     )
 
 

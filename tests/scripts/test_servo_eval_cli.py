@@ -37,10 +37,10 @@ def _servo_eval(tmp_path, out: str) -> list[str]:
 def test_a_bad_out_is_reported_before_any_episode(tmp_path, capsys, monkeypatch):
     """An --out that is a file, lies under a file or cannot be created: one line, exit 2, and
     nothing run (it was a traceback from mkdir after every episode)."""
-    import servo.protocol
+    import servo.task.protocol
     from scripts.cli import main
 
-    monkeypatch.setattr(servo.protocol, "run_protocol", pytest.fail)
+    monkeypatch.setattr(servo.task.protocol, "run_protocol", pytest.fail)
     (tmp_path / "afile").write_text("x")
     for out, why in ((tmp_path / "afile", "must be a folder, got the file"),
                      (tmp_path / "afile" / "sub", "Not a directory")):  # fmt: skip

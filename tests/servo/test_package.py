@@ -11,7 +11,7 @@ FRESH = """
 import servo
 first = servo.evaluate
 from servo import evaluate
-import servo.evaluate as module
+import servo.task.evaluation as module
 assert first is evaluate is module, (first, evaluate, module)
 assert callable(module.evaluate)
 """

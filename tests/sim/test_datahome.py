@@ -92,8 +92,8 @@ def test_a_damaged_default_dataset_is_reported_not_replaced(tmp_path, monkeypatc
 
 def test_servo_entry_points_never_read_the_working_directory(tmp_path, monkeypatch):
     """``evaluate`` and ``load_or_build`` with no paths go to the data home, wherever they run."""
-    from servo import map_store
-    from servo.evaluate import evaluate
+    from servo.maps import build as map_store
+    from servo.task.evaluation import evaluate
 
     seen = []
 

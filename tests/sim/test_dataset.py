@@ -306,7 +306,7 @@ def test_bad_appearance_is_refused(capsys):
 def test_a_tampered_meta_is_a_dataset_error(small_dataset, tmp_path, meta, match):
     """meta.json as untrusted input: a list, JSON nested past the parser's stack, or a key the
     code reads that is missing or of another form is a DatasetError naming the file, never an
-    AttributeError, KeyError (servo.map_store.map_key reads 'sequences') or RecursionError."""
+    AttributeError, KeyError (servo.maps.build.map_key reads 'sequences') or RecursionError."""
     import shutil
 
     from sim.dataset import read_meta
@@ -327,7 +327,7 @@ def test_a_tampered_meta_is_a_dataset_error(small_dataset, tmp_path, meta, match
 def test_a_meta_without_laser_settings_cannot_build_a_map(small_dataset, tmp_path):
     import shutil
 
-    from servo.map_store import build_map
+    from servo.maps.build import build_map
 
     shutil.copytree(small_dataset, tmp_path / "d")
     meta = json.loads((tmp_path / "d" / "meta.json").read_text())

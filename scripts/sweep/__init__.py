@@ -1,0 +1,14 @@
+"""``topomap sweep``: servo episodes over seeds and settings (``command``), run by a local
+process pool or a Ray cluster (``backends``, ``ray_backend``), one episode per task
+(``episode``).
+"""
+
+from common.lazy import lazy_exports
+
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "add_parser": "scripts.sweep.command",
+        "run_sweep": "scripts.sweep.command",
+    },
+)

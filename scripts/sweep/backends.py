@@ -1,0 +1,107 @@
+"""Where a sweep's episodes run: ``local`` (a pool of spawned processes on this machine) or
+``ray`` (Ray actors, on a local Ray instance or an existing cluster: ``scripts.sweep.ray_backend``).
+
+Every backend's workers run whole episodes, env and policy together, through
+:class:`scripts.sweep.episode.EpisodeRunner`, so both give the same records for the same tasks.
+A backend is used as ``with open_backend(name, workers, address) as b:`` then
+``b.start(maps, policy, max_steps)`` and ``for i, record in b.run(tasks): ...`` (records as they
+complete, with their task's index).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from multiprocessing import get_context
+
+from common.cores import available_cores
+from common.validation import check_int
+from scripts.sweep.episode import ONE_THREAD, EpisodeRunner, EpisodeTask
+from scripts.sweep.ray_backend import RayBackend, parse_address  # imports Ray only when used
+
+BACKENDS = ("local", "ray")
+
+_RUNNER: list[EpisodeRunner] = []  # the pool worker's runner (one per process)
+
+
+def _init_pool_worker(maps: dict, policy: str, max_steps: int) -> None:
+    _RUNNER.append(EpisodeRunner(maps, policy, max_steps))
+
+
+def _run_in_pool(task: EpisodeTask) -> dict:
+    return _RUNNER[0].run(task)
+
+
+class LocalBackend:
+    """``workers`` spawned processes (``spawn``: a forked worker hangs on its first render once
+    the parent has had a GL context), each an :class:`EpisodeRunner` with its own copy of the
+    maps (pickled from this process's, already checked: loading and re-checking the saved files
+    in every worker took longer than the episodes of a small sweep)."""
+
+    name = "local"
+
+    def __init__(self, workers: int):
+        self.workers = int(workers)
+        self._pool: ProcessPoolExecutor | None = None
+
+    def start(self, maps: dict, policy: str, max_steps: int) -> None:
+        """``maps``: ``{world: ServoMap}``."""
+        args = (dict(maps), policy, int(max_steps))
+        self._pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"),
+                                         initializer=_init_pool_worker, initargs=args)  # fmt: skip
+        # start the processes now (a spawned pool starts them all on its first task), so that
+        # their start-up counts as the sweep's start-up on both backends; they inherit
+        # ONE_THREAD from the environment they are started in
+        saved = dict(os.environ)
+        os.environ.update(ONE_THREAD)
+        try:
+            for f in [self._pool.submit(os.getpid) for _ in range(self.workers)]:
+                f.result()
+        finally:
+            os.environ.clear()
+            os.environ.update(saved)
+
+    def run(self, tasks: list[EpisodeTask]) -> Iterator[tuple[int, dict]]:
+        futures = {self._pool.submit(_run_in_pool, t): i for i, t in enumerate(tasks)}
+        for f in as_completed(futures):
+            yield futures[f], f.result()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            self._pool = None
+
+
+def check_backend(backend: str, workers, address) -> None:
+    """Bad settings raise ValueError naming the parameter and the expected form."""
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    check_int(workers, "num_envs")
+    if address is not None and backend != "ray":
+        raise ValueError(f"address is for the ray backend only, got backend {backend!r}")
+    if address is not None and (not isinstance(address, str) or not address.strip()):
+        raise ValueError(f"address must be a Ray cluster's host:port, got {address!r}")
+    if address is not None:
+        parse_address(address)  # its form, before anything is started
+
+
+@contextmanager
+def open_backend(backend: str, workers: int, address: str | None = None):
+    """The backend ``backend`` with ``workers`` workers, closed (its workers stopped, a Ray
+    instance it started shut down) on leaving the block."""
+    check_backend(backend, workers, address)
+    if backend == "ray":
+        b = RayBackend(workers, address)  # fails here if Ray is missing or address unreachable
+    else:
+        b = LocalBackend(workers)
+    try:
+        yield b
+    finally:
+        b.close()
+
+
+def default_workers() -> int:
+    """The cores this process may use."""
+    return available_cores()

@@ -1,0 +1,24 @@
+"""The camera-only controller, :class:`SignalServo`, which servoes by maximising F^j(k)
+toward the target view (Grudic & Mulligan, Section II-G), and what only it uses:
+
+* ``controller`` and ``config`` -- the controller and its settings;
+* ``route_belief`` -- the robot's pose on its route, from odometry and image fixes;
+* ``view_pose`` -- the camera's metric pose against a stored view (keypoints at the view's
+  depths, PnP); ``metric_pose_fixes`` -- such poses taken along the route;
+* ``turn_global_fix`` -- the global position fix of an observing turn, checked across the turn;
+* ``junction_pose`` -- the local position fix where a route turns at a junction;
+* ``rear_view_heading`` -- the heading fix from views behind a robot driving a route turned
+  round;
+* ``peak_arrival`` and ``image_descent_arrival`` -- the arrival at the target view, at the peak
+  of F toward it or by descending the image distance to it.
+"""
+
+from common.lazy import lazy_exports
+
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "SignalServo": "servo.camera_only.controller",
+        "SignalServoConfig": "servo.camera_only.config",
+    },
+)

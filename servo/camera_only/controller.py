@@ -1,0 +1,420 @@
+"""``SignalServo``: servo between manifolds by F^j(k) (Section II-G), camera and odometry only.
+
+1. *Observe and localise.* Turn in place once around; every few degrees compare the image
+   with the stored views (:meth:`~servo.localise.ImageLocaliser.localise`: the clusters eq. 13
+   ranks first, then the best horizontally-aligned view). The global fix is a stored view and
+   the odometry heading that faces the way it looks: with ``contrast_fix`` (default) the view
+   whose best match over the turn stands out most against the turn's other headings
+   (:func:`~servo.camera_only.turn_global_fix.contrast_fix`; every sample is aligned with all views;
+   one the turn's images cannot pose the robot against gives way to the next candidate they can,
+   ``fix_check``), else the best match over the turn (or, with ``consistent_fix``, the
+   match best supported by the turn's other images,
+   :func:`~servo.camera_only.turn_global_fix.consistent_fix`).
+2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
+   view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
+   into waypoint views about ``spacing`` apart.
+3. *Servo.* Toward the waypoints along the route: the pose in the route frame is carried by
+   odometry and fixed by the images (:class:`~servo.camera_only.route_belief.RouteBelief`): the
+   heading from the best horizontal shift against the route views the camera faces, the position
+   along the route from which of them matches best; every few steps a metric pose against
+   the best of them (:class:`~servo.camera_only.metric_pose_fixes.PoseFixes`: keypoints at the
+   view's map-time depths) corrects position and heading at once. :class:`WaypointTracker` moves on
+   when F toward the next waypoint overtakes F toward the current one (view-sequence navigation),
+   which also tells the robot it is past the current one. Where the route drives its
+   recording backwards (out of a branch) the robot reverses, the camera facing the way the
+   stored views look, and takes the reverse-stable fix
+   (:meth:`~servo.camera_only.route_belief.RouteBelief.fix_reversing`), on a map with the parallax
+   that fix needs (``reverse_parallax``); on others it turns round and drives on odometry.
+4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
+   take the peak as the view's place (the robot went past it) and come back.
+5. *Recover.* Commanded motion that odometry does not see is a wall: back off (reversing,
+   also move the belief across toward the side the robot was backing to). Facing route
+   views that no image matches for long (following or arriving), or pushing a wall again
+   and again while following, means the fix or the belief is wrong: observe and localise
+   again.
+
+The controller never reads the simulator's truth; ``info`` is ignored.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common.blas import single_threaded_blas
+from common.geometry import se2_relative, wrap_angle
+from servo.camera_only.config import SignalServoConfig
+from servo.camera_only.image_descent_arrival import DescentArrival
+from servo.camera_only.junction_pose import JunctionTurn
+from servo.camera_only.metric_pose_fixes import PoseFixes
+from servo.camera_only.peak_arrival import PeakArrival
+from servo.camera_only.rear_view_heading import LookBack
+from servo.camera_only.route_belief import RouteBelief
+from servo.camera_only.turn_global_fix import consistent_fix, contrast_fix, neighbourhood
+from servo.camera_only.view_pose import ViewPose
+from servo.localise import ImageLocaliser, check_observation, check_odometry
+from servo.maps import ServoMap
+from servo.route import RouteGraph, RoutePath
+from servo.steering import StallWindow, pursue_route
+from servo.waypoint_tracker import WaypointTracker
+from sim.simulator import CONTROL_DT
+
+__all__ = ["SignalServo", "SignalServoConfig", "WaypointTracker"]
+
+MIN_PARALLAX = 0.02  # rad/m: a floor (the reversing fix's cross gain grows as 1 / parallax)
+EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalisation skips
+
+
+class SignalServo:
+    """Servo to a stored view by F^j(k) with the camera and odometry (see the module doc).
+
+    Parameters
+    ----------
+    servo_map : ServoMap
+    config : SignalServoConfig, optional
+    world : str, optional   the world it will drive in (a map of another world is refused).
+
+    Attributes (after ``act``)
+    ----------
+    phase_ : "observe", "follow", "arrive" or "done".
+    route_ : stored views of the route; ``waypoint_``: the current waypoint view (None while
+        observing).
+    manifold_ : cluster of the current image by eq. 13 (``predict``), at the global fix.
+    belief_ : :class:`~servo.camera_only.route_belief.RouteBelief` (None while observing).
+    reverses : bool: drives the routes' backward segments in reverse (set up from the map).
+    done_ : bool
+    """
+
+    def __init__(self, servo_map: ServoMap, *, config: SignalServoConfig | None = None,
+                 world: str | None = None):  # fmt: skip
+        if not isinstance(servo_map, ServoMap):
+            raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
+        if world is not None:
+            servo_map.check_world(world)
+        self.map = servo_map
+        self.config = SignalServoConfig() if config is None else config
+        if not isinstance(self.config, SignalServoConfig):
+            raise TypeError(f"config must be a SignalServoConfig, got {type(config).__name__}")
+        self.localiser = ImageLocaliser(servo_map, refine_shift=self.config.refine_shift)
+        self.routes = RouteGraph(servo_map)
+        # the image shift per m across a view's sight, from the map's linked views: the
+        # reversing fix's model (hallway ~0.15, lawn ~0.05: the scene's depth differs)
+        self.parallax = max(self.localiser.parallax(), MIN_PARALLAX)
+        # reversing keeps image fixes only where the map's parallax makes them stable
+        self.reverses = self.config.reverse and self.parallax >= self.config.reverse_parallax
+        # a far scene (grass, sky, trees: little parallax) where bland images match at any
+        # shift, so image fixes need a sharp alignment (``fix_contrast``, round 8)
+        self.far_scene = self.parallax < self.config.reverse_parallax
+        # the near ground's extra shift per m across (two bands): measures the offset across
+        # the route apart from the heading, where the map says it is resolved (round 8)
+        k = self.localiser.cross_parallax()
+        self.cross_parallax = k if k >= self.config.cross_min_parallax else 0.0
+        # metric poses against route views from keypoints at the views' map-time depths
+        # (round 10): the offset across apart from the heading, in both worlds
+        self.poses = (PoseFixes(ViewPose(servo_map), self.config) if self.config.pose_every
+                      else None)  # fmt: skip
+        self.target = None
+
+    def reset(self, target: int, info: dict | None = None) -> None:
+        """Start an episode toward stored view ``target`` (``info`` is ignored)."""
+        self.target = self.map.check_view(target, "target")
+        self.done_ = False
+        self.route_: list[int] = []
+        self.manifold_ = -1
+        self.relocalised_ = 0
+        self.bumps_ = 0
+        self._odo = None
+        self._steps = 0
+        self._stall = StallWindow(self.config.stuck_steps)
+        self._backup = 0
+        self._reversing = False
+        self._careful = 0  # steps left of turning on the spot before driving (after a bump)
+        self._last_direction = 1
+        self._exclude: list[int] = []  # views a relocalisation may not fix on
+        self._fix_view, self._fix_odo = -1, np.zeros(3)
+        self.junction_shifts_: list[float | None] = []  # m each junction fix moved the belief
+        self.junction_last_: JunctionTurn | None = None
+        self._observe_start()
+
+    def _observe_start(self) -> None:
+        self.phase_ = "observe"
+        self.waypoint_: int | None = None
+        self.belief_: RouteBelief | None = None
+        self._turned = 0.0
+        self._travel = 0.0  # m driven since the last look back (``look_back``)
+        self._look: LookBack | None = None
+        # the turn's localisations: aligned distance, view, odometry heading facing it
+        self._samples: list[tuple[float, int, float]] = []
+        # with ``contrast_fix``: each sample's aligned distances and yaws to every view
+        self._rows: list[tuple[np.ndarray, np.ndarray, float]] = []
+
+    def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
+        check_observation(observation, ("image", "odometry"))
+        odo = check_odometry(observation["odometry"])
+        return self.localiser.features(observation["image"]), odo
+
+    def act(self, observation, info: dict | None = None) -> np.ndarray:
+        """The command (v, omega) for this observation (``info`` is ignored)."""
+        # One BLAS thread: the products here are small (an image against a few views, one
+        # projection per cluster) and on a busy machine spinning BLAS threads made a step
+        # 15x slower (sq. distances to a cluster: 0.4 ms -> 16 ms).
+        with single_threaded_blas():
+            return self._act(observation)
+
+    def _act(self, observation) -> np.ndarray:
+        if self.target is None:
+            raise RuntimeError("call reset(target) before act(observation)")
+        x, odo = self._check(observation)
+        self._image = observation["image"]
+        prev = odo if self._odo is None else self._odo
+        step = se2_relative(prev, odo)
+        self._turned += abs(float(step[2]))
+        self._travel += float(np.hypot(step[0], step[1]))
+        self._odo = odo
+        self._steps += 1
+        if self.belief_ is not None:
+            self.belief_.predict(step)
+        if self.phase_ == "observe":
+            return self._observe(x, odo).astype(np.float32)
+        if self._backup > 0:
+            self._backup -= 1
+            return np.array([-0.4 * self._last_direction, 0.0], np.float32)
+        action = self._follow(x, step)
+        self._reversing = bool(action[0] < 0)
+        if self._stall.stalled(action[0], odo):
+            self._last_direction = int(np.sign(action[0])) or 1
+            self._bumped(self._last_direction)
+        return action.astype(np.float32)
+
+    def _bumped(self, direction: int) -> None:
+        """Commanded motion odometry did not see: a wall. Back off the way it came.
+
+        Reversing, the belief also moves ``bump_shift`` across the route toward the side the
+        robot was backing to (:meth:`~servo.camera_only.route_belief.RouteBelief.bumped`): out of a
+        branch the reversing fix leaves the belief ~0.7 m off, and without it every back-off
+        and retry drives the same line into the same wall (dev traces: 10-12 bumps at one
+        place). Forward, the image fix's funnel corrects the offset, and shifting did not
+        help (round 7)."""
+        self._stall.clear()
+        self._backup = self.config.backup_steps
+        self._careful = 3 * self.config.backup_steps
+        self.bumps_ += 1
+        if self.phase_ == "arrive":
+            self._arrival.blocked()
+        if direction < 0 and self.config.bump_shift > 0 and self.belief_ is not None:
+            turn = self.parallax if self.config.bump_turn and self.reverses else 0.0
+            self.belief_.bumped(direction, self.config.bump_shift, turn)
+
+    # -- phases -----------------------------------------------------------------------------
+    def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
+        c = self.config
+        if self._steps % c.observe_every == 0 or c.observe_every == 1:
+            if c.contrast_fix:
+                d_all, yaw_all = self.localiser.align(x)
+                self._rows.append((d_all, yaw_all, float(odo[2])))
+                if self.poses is not None:
+                    self.poses.observe(self._image, odo)
+                k = int(np.argmin(d_all))
+                self._samples.append((float(d_all[k]), k, float(odo[2] + yaw_all[k])))
+            else:
+                view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
+                self._samples.append((d, view, float(odo[2] + yaw)))
+        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT or not self._samples:
+            return np.array([0.0, c.turn_rate])
+        self._plan(odo)
+        return np.zeros(2)
+
+    def _plan(self, odo: np.ndarray) -> None:
+        """Route from the global fix's view to the target and start following it."""
+        c = self.config
+        if c.contrast_fix:
+            d, yaw, h = (np.array(a) for a in zip(*self._rows, strict=True))
+            verify = None if self.poses is None else (lambda v: self.poses.supports(v, d[:, v]))
+            view, heading = contrast_fix(d, yaw, h, far=c.fix_far, exclude=self._exclude,
+                                         verify=verify, candidates=c.fix_check)  # fmt: skip
+        elif c.consistent_fix:
+            view, heading = consistent_fix(self._samples, self.routes)
+        else:
+            _, view, heading = min(self._samples)
+        self._fix_view, self._fix_odo = view, odo.copy()
+        self.manifold_ = int(self.map.clusters[view])
+        self.route_ = self.routes.route(view, self.target)
+        path = RoutePath(self.routes.frames(self.route_))
+        waypoints, directions = self.routes.waypoints(self.route_, c.spacing)
+        self._wp_index = np.array([self.route_.index(w) for w in waypoints])
+        gaps = np.diff(np.r_[0.0, path.arc[self._wp_index]])
+        self.tracker = WaypointTracker(waypoints, directions, gaps, np.inf)
+        # The robot in the route's frame: at the fix's view, turned from its heading by what
+        # odometry measured since (or where the turn's images pose it against the view);
+        # odometry carries it, images correct it.
+        start = None
+        if self.poses is not None:
+            start = self.poses.start(view, np.array([r[0][view] for r in self._rows]), path, odo)
+        if start is None:
+            start = [0.0, 0.0, wrap_angle(odo[2] - heading)]
+        self.belief_ = RouteBelief(path, start, c.window)
+        self._arrival = DescentArrival(c) if c.arrive_descent else PeakArrival(c)
+        self._lost = 0
+        self._junction: JunctionTurn | None = None
+        self._plan_bumps = self.bumps_
+        self.waypoint_ = waypoints[0]
+        self.phase_ = "follow"
+
+    def _exclude_fix(self) -> None:
+        """Lost on the route: with ``exclude_fix``, the relocalisation may not fix on the views
+        near the last fix's (a look-alike that won once wins again from nearby). Only once
+        the robot has driven farther from where it fixed than that neighbourhood's radius:
+        then the robot is not there even if the fix was right."""
+        c = self.config
+        moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
+        if c.exclude_fix and self._fix_view >= 0 and moved > EXCLUDE_RADIUS:
+            near = neighbourhood(self.routes, self._fix_view, EXCLUDE_RADIUS)
+            self._exclude = sorted(set(self._exclude) | set(near))
+
+    def _image_fix(self, x: np.ndarray) -> None:
+        """Correct the belief by the route view the image matches best among those about the
+        current progress that look the way the robot faces (none: odometry alone).
+
+        The image's shift mixes the heading with the offset across the route (a robot right
+        of a view must turn left to line up with it). Driving forward, correcting the heading
+        by it steers the robot back onto the route (a funnel); reversing, the same correction
+        would push it away, so a reversing robot takes the reverse-stable fix
+        (:meth:`~servo.camera_only.route_belief.RouteBelief.fix_reversing`), and none in the
+        arrival's sweep. At the target only the heading is fixed: the route ends there, so beyond it
+        the best view is always the last, and the F peak places the robot along the view's
+        sight."""
+        c, b = self.config, self.belief_
+        near = b.facing(b.path.within(b.s, c.behind, c.ahead), c.facing)
+        reversing = self._reversing and self.phase_ == "follow"
+        if len(near) == 0:
+            return
+        if self._reversing and not reversing:
+            self._pose_fix(x, near)
+            return
+        d, yaw, contrast = self.localiser.align_contrast(x, [self.route_[i] for i in near])
+        if self.far_scene:
+            # grass and sky match a view turned 0.7 rad away almost equally at every shift
+            # (a dev trace: after the arrival's turn on the spot such fixes turned the
+            # belief's heading 0.45 rad the wrong way); only a sharp minimum gives a heading
+            d = np.where(contrast <= c.fix_contrast, d, np.inf)
+        k = int(np.argmin(d))
+        if d[k] <= c.image_trust and self._pose_fix(x, near[k:k + 1]):
+            self._lost = 0
+        elif d[k] <= c.image_trust:
+            # "Best among its neighbours" places the robot at the view only if there are
+            # neighbours on both sides: past the last view that faces its way (a junction
+            # where the route turns) the end view stays the best and would pin the belief
+            # there while the robot drives on.
+            interior = 0 < k < len(near) - 1
+            along = c.along_gain if self.phase_ == "follow" and interior else 0.0
+            if reversing:
+                metres = c.reverse_speed * CONTROL_DT  # the gains are per metre reversed
+                # no fix along the route (see fix_reversing); odometry's distance is good
+                # over a route's length
+                g1, g2 = b.reverse_gains(c.reverse_heading_gain, self.parallax)
+                b.fix_reversing(int(near[k]), float(yaw[k]), self.parallax, g1 * metres,
+                                g2 * metres)  # fmt: skip
+            else:
+                b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
+            if self.cross_parallax > 0 and c.cross_gain > 0:
+                across = self.localiser.cross_offset(x, self.route_[near[k]], self.cross_parallax)
+                if np.isfinite(across):
+                    b.fix_across(int(near[k]), across, c.cross_gain, c.cross_gate)
+            self._lost = 0
+        else:
+            self._lost += 1
+
+    def _pose_fix(self, x: np.ndarray, near: np.ndarray) -> bool:
+        """Every ``pose_every`` steps, the metric pose against the best-aligned of the route
+        views ``near`` (:class:`~servo.camera_only.metric_pose_fixes.PoseFixes`). Whether it moved
+        the belief."""
+        if self.poses is None or self._steps % self.config.pose_every or len(near) == 0:
+            return False
+        if len(near) > 1:
+            d = self.localiser.align(x, [self.route_[i] for i in near])[0]
+            near = near[[int(np.argmin(d))]]
+        k = int(near[0])
+        return self.poses.fix(self.belief_, self.route_[k], k, self._image, self._odo)
+
+    def _advance(self, x: np.ndarray) -> None:
+        """Next waypoint when F toward it overtakes F toward the current one (then the robot
+        is past the current one), or when the belief has passed the current one."""
+        t, b = self.tracker, self.belief_
+        arc = b.path.arc[self._wp_index]
+        before = t.directions[t.index]
+        while not t.last and b.s >= arc[t.index] - 0.05:
+            t.advance()
+        if self.config.junction_fix and before < 0 < t.directions[t.index]:
+            # reversing gave way to driving forward (a junction): turn on the spot there
+            self._junction = JunctionTurn.on_route(self.routes, b, self.route_,
+                                                   int(self._wp_index[t.index]), self.config,
+                                                   self.parallax)  # fmt: skip
+        if not t.last and t.directions[t.index] > 0:
+            f_cur, f_next = self.localiser.signals(x, [t.current, t.next])
+            if f_cur > self.config.arrive_min and t.update(f_cur, f_next, 1.0, 1.0, 0.0):
+                b.shift_along(max(0.0, arc[t.index - 1] - b.s))
+        self.waypoint_ = t.current
+
+    def _follow(self, x: np.ndarray, step: np.ndarray) -> np.ndarray:
+        c, b = self.config, self.belief_
+        if self._junction is not None:
+            action = self._junction.step(b, x, self.localiser, CONTROL_DT)
+            if action is not None:
+                return action
+            self.junction_shifts_.append(self._junction.shift_)
+            self.junction_last_ = self._junction
+            self._junction = None
+        if self._look is not None:
+            action = self._look.step(b, CONTROL_DT)
+            if self._look.fixing:
+                self._image_fix(x)
+            if action is not None:
+                return action
+            self._look, self._travel = None, 0.0
+        self._image_fix(x)
+        # pushing a wall again and again at one place: the belief is off across the route
+        walled = (c.relocalise_bumps > 0 and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
+                  and (self.phase_ == "follow" or c.bumps_arriving))  # fmt: skip
+        unpeaked = (self.phase_ == "arrive" and self._arrival.swept_peak is not None
+                    and self._arrival.swept_peak < c.unpeaked)
+        if (self.phase_ in (("follow", "arrive") if c.relocalise_arrive else ("follow",))
+                and (self._lost > c.relocalise_after or walled or unpeaked)
+                and self.relocalised_ < c.max_relocalise):  # fmt: skip
+            self.relocalised_ += 1
+            self._exclude_fix()
+            self._observe_start()
+            return np.zeros(2)
+        self._advance(x)
+        t = self.tracker
+        if (c.look_back > 0 and self.phase_ == "follow" and not self.reverses
+                and t.directions[t.index] < 0 and self._travel >= c.look_back):  # fmt: skip
+            # turned round on a recording driven backwards: no view faces this way
+            self._look = LookBack(float(b.pose[2]), c.look_steps, c.turn_rate)
+            return self._look.step(b, CONTROL_DT)
+        if self.phase_ == "follow" and b.path.length - b.s > c.arrive_distance:
+            return self._drive(b.goal(b.s + c.lookahead))
+        self.phase_ = "arrive" if self.phase_ == "follow" else self.phase_  # latched
+        return self._arrive(x)
+
+    def _drive(self, goal: np.ndarray) -> np.ndarray:
+        """Pure pursuit toward ``goal`` (robot frame): forward, or in reverse where the route
+        drives its recording backwards (``WaypointTracker.directions`` < 0) on a map that
+        reverses, so the camera keeps facing the way the stored views look and image fixes
+        stay available (:func:`~servo.steering.pursue_route`)."""
+        c, t = self.config, self.tracker
+        reverse = self.reverses and not t.directions[t.index] > 0
+        careful = self._careful > 0
+        self._careful -= int(careful)
+        speed = c.reverse_speed if reverse else c.speed
+        return pursue_route(goal, reverse, speed, careful, c.turn_rate)
+
+    def _arrive(self, x: np.ndarray) -> np.ndarray:
+        """At the target: the F peak (:class:`~servo.camera_only.peak_arrival.PeakArrival`); with
+        ``arrive_descent``, also the image distance
+        (:mod:`servo.camera_only.image_descent_arrival`)."""
+        b = self.belief_
+        action = self._arrival.step(b, b.path.frames[-1],
+                                    lambda: self.localiser.signal(x, self.target),
+                                    lambda: float(self.localiser.align(x, [self.target])[0][0]))
+        self.done_ = self._arrival.done
+        self.phase_ = "done" if self.done_ else "arrive"
+        return action

@@ -1,0 +1,53 @@
+"""Scan matching of the current laser scan against a servo map's stored views.
+
+:class:`ViewMatcher` runs ICP (``mapping.icp_solver``) of the current scan on one stored view's scan
+(or on a given ``(tree, points)`` map) and scores a match by its overlap both ways, which is
+what tells places along a uniform corridor apart: ``ManifoldServo``'s arrival check.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from common.geometry import transform_points
+from mapping.icp_solver import densify_scan, icp
+from servo.maps import ServoMap
+
+__all__ = ["ViewMatcher"]
+
+
+class ViewMatcher:
+    """ICP of scans on the stored views of ``servo_map`` (each view's tree built once)."""
+
+    def __init__(self, servo_map: ServoMap):
+        self.map = servo_map
+        self._trees: dict[int, tuple[cKDTree, np.ndarray]] = {}
+
+    def tree(self, view: int) -> tuple[cKDTree, np.ndarray]:
+        """The KD-tree and points of stored view ``view``'s densified scan."""
+        if view not in self._trees:
+            dense = densify_scan(self.map.scan_points(view))
+            self._trees[view] = (cKDTree(dense), dense)
+        return self._trees[view]
+
+    def match(self, points: np.ndarray, view: int, init, iterations: int = 20, target=None):
+        """ICP of ``points`` on view ``view``'s scan (or on ``target``, a ``(tree, points)``
+        local map); returns the result and the share of ``points`` matched."""
+        tree, dense = self.tree(view) if target is None else target
+        res = icp(points, dense, init=init, target_tree=tree, max_iterations=iterations)
+        frac = res.n_matches / max(len(points), 1)
+        return res, frac
+
+    def score(self, points: np.ndarray, view: int, init) -> tuple[float, np.ndarray]:
+        """ICP of the current scan on a stored view's, scored by the overlap both ways: the
+        share of current points matched and of the view's points matched. The second term is
+        what tells places along a uniform corridor apart (the end wall must match too)."""
+        res, frac = self.match(points, view, init, iterations=30)
+        if not np.isfinite(res.rmse):
+            return -np.inf, res.transform
+        view_points = self.map.scan_points(view)[::3]
+        moved = transform_points(res.transform, points)
+        d, _ = cKDTree(densify_scan(moved)).query(view_points, distance_upper_bound=0.15)
+        back = float(np.mean(np.isfinite(d))) if len(view_points) else 0.0
+        return frac + back - 2.0 * min(res.rmse, 0.5), res.transform

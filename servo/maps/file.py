@@ -1,0 +1,229 @@
+"""The servo map on disk: ``<world>-<key>.npz`` (arrays) and ``<world>-<key>.json`` (the rest).
+
+No pickle anywhere. A map file is untrusted input: :func:`load_map` checks the JSON's schema, the
+``.npz``'s SHA-256 against the one recorded at save time, every array's dtype and shape against
+the others, checks the description's own SHA-256, rebuilds the estimators only through
+:mod:`mapping.persistence` (an exact set of known classes), and finally re-runs the feature
+transform and the clustering's ``predict`` on a few stored views and compares with what was
+saved. Whatever fails raises :class:`MapError` naming the file and the fault.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from common.fileio import UnreadableJSON, atomic_write_bytes, read_json
+from mapping import persistence
+from mapping.features import ImageFeatures
+from mapping.manifold import ManifoldClustering
+from scenes import MANIFOLDS, NO_MANIFOLD, WORLDS
+from servo.maps.types import MapError, MapSettings, ServoMap
+from sim.dataset import read_npz, write_sequence
+
+FORMAT = "topomap-servo-map"
+FORMAT_VERSION = 3  # 3: sequences aligned by sensing only (each odometry from its own origin)
+PROBE_VIEWS = 8  # stored views re-checked through the loaded estimators
+_ARRAYS = {  # name: (dtype kinds allowed, shape pattern); n = views, B = beams, E = edges
+    "images": ("u", ("n", "H", "W", 3)),
+    "features": ("f", ("n", "d")),
+    "scans": ("f", ("n", "B")),
+    "angles": ("f", ("B",)),
+    "poses": ("f", ("n", 3)),
+    "sequence": ("iu", ("n",)),
+    "frame": ("iu", ("n",)),
+    "clusters": ("iu", ("n",)),
+    "edges": ("iu", ("E", 2)),
+    "edge_transforms": ("f", ("E", 3)),
+    "true_poses": ("f", ("n", 3)),
+    "true_labels": ("iu", ("n",)),
+}
+_META_KEYS = {"format", "version", "world", "key", "max_range", "sequence_names", "settings",
+              "clustering", "image_features", "sha256", "probe", "meta_sha256"}  # fmt: skip
+_KEY = re.compile(r"[0-9a-f]{16}\Z")
+_SHA = re.compile(r"[0-9a-f]{64}\Z")
+
+
+def map_paths(directory: str | os.PathLike, world: str, key: str) -> tuple[Path, Path]:
+    stem = Path(directory) / f"{world}-{key}"
+    return stem.with_suffix(".json"), stem.with_suffix(".npz")
+
+
+def _probe(clustering: ManifoldClustering, features: np.ndarray) -> list[int]:
+    """The clusters predicted for the first stored views: a loaded map must predict the same."""
+    return [int(c) for c in clustering.predict(features[:PROBE_VIEWS])]
+
+
+def meta_digest(meta: dict) -> str:
+    """SHA-256 of the description itself (all but this field, canonical JSON): an edited or
+    damaged ``.json`` is caught like a damaged ``.npz``."""
+    body = {k: v for k, v in meta.items() if k != "meta_sha256"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
+
+
+def save_map(m: ServoMap, directory: str | os.PathLike) -> Path:
+    """Write ``<world>-<key>.npz`` and ``.json`` atomically; returns the ``.json`` path."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    json_path, npz_path = map_paths(directory, m.world, m.key)
+    arrays = {k: getattr(m, k) for k in _ARRAYS}
+    c_meta, c_arrays = persistence.dump(m.clustering, "clustering")
+    f_meta, f_arrays = persistence.dump(m.image_features, "image_features")
+    digest = write_sequence(npz_path, {**arrays, **c_arrays, **f_arrays})
+    meta = {
+        "format": FORMAT,
+        "version": FORMAT_VERSION,
+        "world": m.world,
+        "key": m.key,
+        "max_range": m.max_range,
+        "sequence_names": m.sequence_names,
+        "settings": m.settings.to_json(),
+        "clustering": c_meta,
+        "image_features": f_meta,
+        "sha256": digest,
+        "probe": _probe(m.clustering, m.features),
+    }
+    meta["meta_sha256"] = meta_digest(meta)
+    atomic_write_bytes(json_path, (json.dumps(meta, indent=2) + "\n").encode())
+    return json_path
+
+
+# -- loading (untrusted) ----------------------------------------------------------------------
+def _check(cond: bool, path: Path, what: str) -> None:
+    if not cond:
+        raise MapError(f"{path} is not a valid servo map: {what}")
+
+
+def _read_meta(path: Path, world: str | None) -> dict:
+    try:
+        meta = read_json(path)
+    except UnreadableJSON as err:  # a MapError: load_or_build rebuilds as for any damage
+        raise MapError(f"{path} is not a valid servo map: not JSON ({err})") from err
+    _check(isinstance(meta, dict), path, "the JSON must be an object")
+    _check(meta.get("format") == FORMAT, path, f"format must be {FORMAT!r}")
+    if meta.get("version") != FORMAT_VERSION:
+        raise MapError(
+            f"{path} is a servo map of format version {meta.get('version')!r}; this code reads "
+            f"version {FORMAT_VERSION}: delete it and build the map again"
+        )
+    _check(set(meta) == _META_KEYS, path, f"expected exactly the keys {sorted(_META_KEYS)}")
+    if meta["meta_sha256"] != meta_digest(meta):
+        raise MapError(f"{path} is truncated or modified: its meta_sha256 does not match")
+    _check(meta["world"] in WORLDS, path, f"world must be one of {WORLDS}")
+    if world is not None and meta["world"] != world:
+        raise MapError(
+            f"{path} is a servo map of the {meta['world']!r} world, not of {world!r}: build "
+            f"the map from the {world!r} dataset"
+        )
+    _check(isinstance(meta["key"], str) and bool(_KEY.match(meta["key"])), path, "bad key")
+    _check(isinstance(meta["sha256"], str) and bool(_SHA.match(meta["sha256"])), path,
+           "sha256 must be 64 hex digits")  # fmt: skip
+    r = meta["max_range"]
+    _check(isinstance(r, int | float) and np.isfinite(r) and r > 0, path,
+           "max_range must be a positive number")  # fmt: skip
+    names = meta["sequence_names"]
+    _check(isinstance(names, list) and all(isinstance(n, str) for n in names), path,
+           "sequence_names must be a list of strings")  # fmt: skip
+    probe = meta["probe"]
+    _check(isinstance(probe, list) and all(isinstance(c, int) for c in probe), path,
+           "probe must be a list of cluster indices")  # fmt: skip
+    return meta
+
+
+def _check_arrays(arrays: dict, path: Path) -> None:
+    dims: dict[str, int] = {}
+    for name, (kinds, pattern) in _ARRAYS.items():
+        _check(name in arrays, path, f"array {name!r} is missing")
+        a = arrays[name]
+        _check(a.dtype.kind in kinds and a.ndim == len(pattern), path,
+               f"{name} must be a {len(pattern)}-d array of kind {kinds!r}, got {a.dtype} "
+               f"with shape {a.shape}")  # fmt: skip
+        for size, want in zip(a.shape, pattern, strict=True):
+            if isinstance(want, int):
+                _check(size == want, path, f"{name} has shape {a.shape}, expected {pattern}")
+            else:
+                _check(dims.setdefault(want, size) == size, path,
+                       f"{name} has shape {a.shape}; {want} is {dims[want]} elsewhere")  # fmt: skip
+    n = dims["n"]
+    _check(n > 0, path, "the map has no stored view")
+    edges = arrays["edges"]
+    _check(bool(np.all((edges >= 0) & (edges < n))), path, "edges name views outside the map")
+    clusters = arrays["clusters"]
+    _check(bool(np.all(clusters >= 0)), path, "clusters must be >= 0")
+    labels = arrays["true_labels"]
+    _check(bool(np.all((labels >= NO_MANIFOLD) & (labels < len(MANIFOLDS)))), path,
+           f"true_labels must lie in [{NO_MANIFOLD}, {len(MANIFOLDS)}): a manifold id, "
+           f"{NO_MANIFOLD} for none")  # fmt: skip
+    for name in ("features", "poses", "edge_transforms", "angles"):
+        _check(bool(np.isfinite(arrays[name]).all()), path, f"{name} holds NaN or inf")
+    # ranges as the dataset stores them: +inf is no return, so only NaN and < 0 are refused
+    # (a scan of NaN or negative ranges has no point, and the map's views need their points)
+    scans = arrays["scans"]
+    _check(not bool(np.isnan(scans).any()), path, "scans hold NaN (no return is +inf)")
+    _check(bool(np.all(scans >= 0)), path, "scans hold ranges < 0")
+
+
+def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: Path) -> None:
+    """Every stored view's cluster is one of the loaded clustering's (the arrays are checked
+    before the estimators are rebuilt, so this comes after)."""
+    k = len(clustering.centers_)
+    _check(bool(np.all(clusters < k)), path, f"clusters must lie in [0, {k}), the clustering's "
+           "clusters")  # fmt: skip
+
+
+def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
+    """Read and verify a map written by :func:`save_map` (see the module docstring).
+
+    Parameters
+    ----------
+    path : the ``.json`` (or ``.npz``) of the map.
+    world : if given, the map must be of this world.
+    """
+    if world is not None and (not isinstance(world, str) or world not in WORLDS):
+        # an argument error, not a damaged file: no MapError (load_or_build would rebuild)
+        raise ValueError(f"world must be one of {WORLDS} or None, got {world!r}")
+    path = Path(path).with_suffix(".json")
+    npz_path = path.with_suffix(".npz")
+    if not path.is_file():
+        raise MapError(f"no servo map at {path}")
+    meta = _read_meta(path, world)
+    arrays = read_npz(npz_path, meta["sha256"], "the servo map's arrays ", MapError)
+    _check_arrays(arrays, npz_path)
+    try:
+        settings = MapSettings.from_json(meta["settings"])
+        clustering = persistence.load(ManifoldClustering, meta["clustering"], arrays, "clustering")
+        image_features = persistence.load(
+            ImageFeatures, meta["image_features"], arrays, "image_features"
+        )
+    except (TypeError, ValueError) as err:
+        raise MapError(f"{path} is not a valid servo map: {err}") from err
+    _check_clusters(arrays["clusters"], clustering, npz_path)
+    m = ServoMap(
+        world=meta["world"],
+        key=meta["key"],
+        max_range=float(meta["max_range"]),
+        sequence_names=list(meta["sequence_names"]),
+        clustering=clustering,
+        image_features=image_features,
+        settings=settings,
+        **{k: arrays[k] for k in _ARRAYS},
+    )
+    try:
+        features = image_features.transform(m.images[:PROBE_VIEWS])
+        probe = _probe(clustering, m.features)
+    except Exception as err:  # a wrong shape or value anywhere in the estimators' state
+        raise MapError(f"{path}: the stored estimators do not work ({type(err).__name__}: "
+                       f"{err})") from err  # fmt: skip
+    if not np.allclose(features, m.features[:PROBE_VIEWS], rtol=1e-4, atol=1e-6) or (
+        probe != meta["probe"]
+    ):
+        raise MapError(
+            f"{path}: the loaded estimators do not reproduce the saved map's features and "
+            "clusters on its first views: the file was modified or written by other code"
+        )
+    return m

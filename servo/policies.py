@@ -1,5 +1,0 @@
-"""The names of the policies the servo evaluation runs (:func:`servo.evaluate.make_policy`),
-kept apart from the policies so that a command line can offer them without importing them
-(``topomap --help`` would load scikit-learn and the controllers)."""
-
-POLICIES = ("servo", "signal", "oracle", "greedy", "greedy-target", "random")

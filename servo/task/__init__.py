@@ -1,0 +1,39 @@
+"""The servo task and how it is measured: the env (``env``, registered by ``registration``),
+the closed-loop evaluation (``evaluation``), the frozen benchmark protocol (``protocol``), the
+policies it can run (``policies``: their names; ``baseline_policies``: random, greedy F
+probing and the oracle), two evaluations paired episode by episode (``paired_comparison``)
+and the Wilson interval of a success rate (``stats``).
+"""
+
+from common.lazy import lazy_exports
+
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    {
+        "GreedyFProbing": "servo.task.baseline_policies",
+        "OraclePolicy": "servo.task.baseline_policies",
+        "RandomPolicy": "servo.task.baseline_policies",
+        "ServoEnv": "servo.task.env",
+        "episode_seeds": "servo.task.evaluation",
+        "evaluate": "servo.task.evaluation",
+        "make_policy": "servo.task.evaluation",
+        "plot_trajectories": "servo.task.evaluation",
+        "run_episode": "servo.task.evaluation",
+        "summarise": "servo.task.evaluation",
+        "PairedComparison": "servo.task.paired_comparison",
+        "compare": "servo.task.paired_comparison",
+        "load_results": "servo.task.paired_comparison",
+        "markdown": "servo.task.paired_comparison",
+        "POLICIES": "servo.task.policies",
+        "TIERS": "servo.task.protocol",
+        "EpisodeSpec": "servo.task.protocol",
+        "Protocol": "servo.task.protocol",
+        "episode_specs": "servo.task.protocol",
+        "reset_options": "servo.task.protocol",
+        "run_protocol": "servo.task.protocol",
+        "MAX_EPISODE_STEPS": "servo.task.registration",
+        "register_envs": "servo.task.registration",
+        "WILSON_Z": "servo.task.stats",
+        "wilson_interval": "servo.task.stats",
+    },
+)

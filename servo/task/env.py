@@ -1,0 +1,319 @@
+"""``ServoEnv``: the servo task of Section II-G as a Gymnasium env."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from common.blas import single_threaded_blas
+from common.geometry import se2_relative, wrap_angle
+from common.validation import check_finite, check_int
+from scenes import MANIFOLDS
+from servo.maps import MapError, ServoMap, load_map, load_or_build
+from servo.task.registration import MAX_EPISODE_STEPS
+from sim.env import NavigationEnv, check_pose_option
+from sim.odometry import OdometryConfig
+
+SUCCESS_RADIUS = 0.5  # m
+SUCCESS_HEADING = np.deg2rad(20.0)
+START_RADIUS = 0.4  # m: start within this of a stored view (on the recorded routes)
+START_YAW = 0.3  # rad: and within this of its heading (17 deg)
+STUCK_WINDOW = 30  # steps in contact without moving STUCK_DISTANCE end the episode
+STUCK_DISTANCE = 0.1  # m
+SUCCESS_REWARD = 1.0
+COLLISION_PENALTY = 0.1
+
+
+_TASK_OPTIONS = ("pose", "start_manifold", "start_view", "target", "target_manifold")
+
+
+def _check_options(options) -> dict:
+    """``reset``'s ``options`` as a dict: None or a mapping (a list of pairs is refused: it is
+    more likely a mistake than a way to write a dict)."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise TypeError(
+            f"options must be a dict of reset options {_TASK_OPTIONS} or None, got "
+            f"{type(options).__name__}"
+        )
+    return dict(options)
+
+
+class ServoEnv(gym.Env):
+    """Servo the robot to a stored view of the world's map.
+
+    Description
+        The robot starts near a stored view on one manifold (within ``START_RADIUS`` and
+        ``START_YAW`` of it, so the task lies on the recorded routes) and must reach the pose
+        of a stored view, the target, on another manifold (``cross_manifold``) or any.
+
+    Action Space
+        ``Box([-0.5, -1.5], [1.5, 1.5], float32)``: (v m/s, omega rad/s), as ``NavigationEnv``.
+
+    Observation Space
+        ``Dict(image, scan, odometry, target_image, target_scan)``: the camera image (H, W, 3)
+        uint8, the laser ranges (B,) float32 (+inf: no return), the odometry pose (3,) float64
+        *relative to the start of the episode* (what wheel encoders give; the env's absolute
+        odometry starts at the true pose and would leak it), and the target view's image and
+        scan.
+
+    Rewards
+        ``reward_signal``: the change of F^j(k) toward the target (eq. 13) over the step,
+        divided by F at the target view itself, times ``signal_weight`` (1);
+        ``reward_success`` (``success_reward``, +1, on arrival) and ``reward_collision``
+        (``-collision_penalty``, -0.1, per step in contact).
+
+    Episode End
+        Terminated on success (within 0.5 m and 20 deg of the target pose) or when stuck
+        (``STUCK_WINDOW`` steps in contact while moving less than ``STUCK_DISTANCE``);
+        truncated after ``max_steps``, the env's one time limit (it is registered without a
+        ``TimeLimit`` wrapper, so ``gym.make(..., max_steps=n)`` is not cut short by another
+        clock). ``info["reason"]``: "success", "stuck", "time limit" or None while running.
+
+    Info
+        ``pose`` (true), ``target_pose``, ``target_view``, ``start_manifold``,
+        ``target_manifold``, ``distance``, ``heading_error``, ``success``, ``reason``,
+        ``signal`` (F), ``path_length``, the reward parts and the base env's info. Truth is for
+        evaluation only.
+
+    Arguments
+        ``world``, ``servo_map`` (a ServoMap, the path of a saved one, or None: the cached
+        default map of the world),
+        ``max_steps`` (600), ``cross_manifold`` (True), ``randomize`` (lights and colours per
+        episode), ``odometry_noise`` (True), ``render_mode`` (None | "rgb_array"), the reward
+        weights ``signal_weight`` (1.0), ``success_reward`` (1.0), ``collision_penalty`` (0.1).
+
+    Reset options
+        ``target`` (stored view index) or ``target_manifold`` (name); ``start_view`` (stored
+        view index) or ``start_manifold`` (name), or ``pose`` (x, y, yaw).
+
+    Version History
+        v0: initial version.
+    """
+
+    metadata = NavigationEnv.metadata
+
+    def __init__(
+        self,
+        world: str = "hallway",
+        servo_map: ServoMap | str | os.PathLike | None = None,
+        max_steps: int = MAX_EPISODE_STEPS,
+        cross_manifold: bool = True,
+        randomize: bool = False,
+        odometry_noise: bool = True,
+        render_mode: str | None = None,
+        signal_weight: float = 1.0,
+        success_reward: float = SUCCESS_REWARD,
+        collision_penalty: float = COLLISION_PENALTY,
+    ):
+        if servo_map is None:
+            servo_map = load_or_build(world)
+        elif isinstance(servo_map, str | os.PathLike):
+            servo_map = load_map(servo_map, world)  # a path keeps vector-env workers cheap
+        if not isinstance(servo_map, ServoMap):
+            raise TypeError(
+                f"servo_map must be a ServoMap, a saved map's path or None, got "
+                f"{type(servo_map).__name__}"
+            )
+        servo_map.check_world(world)
+        check_int(max_steps, "max_steps")
+        self.signal_weight = check_finite(signal_weight, "signal_weight")
+        self.success_reward = check_finite(success_reward, "success_reward")
+        self.collision_penalty = check_finite(collision_penalty, "collision_penalty")
+        self.map = servo_map
+        self.max_steps = int(max_steps)
+        self.cross_manifold = bool(cross_manifold)
+        self.render_mode = render_mode
+        self.base = NavigationEnv(
+            world,
+            render_mode=render_mode,
+            odometry=None if odometry_noise else OdometryConfig.noiseless(),
+            randomize=randomize,
+        )
+        if self.base.observation_space["image"].shape != servo_map.image_shape:
+            raise MapError(
+                f"the map's images are {servo_map.image_shape}, the camera gives "
+                f"{self.base.observation_space['image'].shape}"
+            )
+        b = self.base.observation_space
+        self.observation_space = spaces.Dict(
+            {
+                "image": b["image"],
+                "scan": b["scan"],
+                "odometry": spaces.Box(-np.inf, np.inf, (3,), np.float64),
+                "target_image": b["image"],
+                "target_scan": b["scan"],
+            }
+        )
+        self.action_space = self.base.action_space
+        self._target = 0
+        self._feats_cache: dict = {}
+
+    # -- task sampling ----------------------------------------------------------------------
+    def _views_on(self, manifold: str) -> np.ndarray:
+        if manifold not in MANIFOLDS:
+            raise ValueError(f"manifold must be one of {MANIFOLDS}, got {manifold!r}")
+        views = np.flatnonzero(self.map.true_labels == MANIFOLDS.index(manifold))
+        if len(views) == 0:
+            raise ValueError(f"no stored view on manifold {manifold!r} in the {self.map.world} map")
+        return views
+
+    def _start_pose(self, rng, view: int) -> np.ndarray:
+        free = self.base.occupancy
+        base = self.map.true_poses[view]
+        for _ in range(100):
+            r, a = START_RADIUS * np.sqrt(rng.uniform()), rng.uniform(-np.pi, np.pi)
+            pose = base + (r * np.cos(a), r * np.sin(a), rng.uniform(-START_YAW, START_YAW))
+            if free.is_free(pose[:2]) and free.clearance[free.cell_of(pose[:2])] >= 0.35:
+                return np.array([pose[0], pose[1], float(wrap_angle(pose[2]))])
+        return base.copy()
+
+    def _candidates(self, ok: np.ndarray, options: dict, what: str) -> np.ndarray:
+        """The views where ``ok``; none means the options contradict ``cross_manifold``
+        (e.g. a start manifold that is the target's), which is said rather than left to
+        ``rng.integers(0)`` ("high <= 0")."""
+        cands = np.flatnonzero(ok)
+        if len(cands) == 0 and not self.cross_manifold:
+            raise ValueError(f"the {self.map.world} map has no stored view on a manifold")
+        if len(cands) == 0:
+            given = {k: options[k] for k in sorted(options) if k in _TASK_OPTIONS}
+            raise ValueError(
+                f"the reset options {given} conflict with cross_manifold=True: no stored view "
+                f"{what} on another manifold; choose other options or pass "
+                "ServoEnv(cross_manifold=False)"
+            )
+        return cands
+
+    def _sample_task(self, rng, options: dict) -> tuple[np.ndarray, int]:
+        m = self.map
+        if "target" in options:
+            target = m.check_view(options["target"], "options['target']")
+        elif "target_manifold" in options:
+            views = self._views_on(options["target_manifold"])
+            target = int(views[rng.integers(len(views))])
+        else:
+            target = None
+        if "pose" in options:
+            pose = check_pose_option(options["pose"])
+        else:
+            if "start_view" in options:
+                start = m.check_view(options["start_view"], "options['start_view']")
+            else:
+                labels = m.true_labels
+                ok = labels >= 0
+                if "start_manifold" in options:
+                    self._views_on(options["start_manifold"])  # validates the name
+                    ok &= labels == MANIFOLDS.index(options["start_manifold"])
+                if target is not None and self.cross_manifold:
+                    ok &= labels != labels[target]
+                cands = self._candidates(ok, options, "to start from")
+                start = int(cands[rng.integers(len(cands))])
+            pose = self._start_pose(rng, start)
+        if target is None:
+            here = self.base.world.manifold_at(pose[:2])
+            ok = self.map.true_labels >= 0
+            if self.cross_manifold:
+                ok &= self.map.true_labels != here
+            cands = self._candidates(ok, options, "to target")
+            target = int(cands[rng.integers(len(cands))])
+        return pose, target
+
+    # -- signal -----------------------------------------------------------------------------
+    def _signal(self, image: np.ndarray) -> float:
+        """F^j(k) of eq. 13 toward the target view, in the target's cluster."""
+        m = self.map
+        x = m.image_features.transform(image[None]).astype(np.float32)
+        # one BLAS thread whatever the machine's load: two (mapping.validation.busy) would
+        # change the reward's last bits, and an episode must be the same for the same seed
+        with single_threaded_blas():
+            return float(m.clustering.signal(x, int(m.clusters[self._target]), self._target)[0])
+
+    # -- gymnasium API ----------------------------------------------------------------------
+    def _obs(self, base_obs: dict, odometry: np.ndarray) -> dict:
+        return {
+            "image": base_obs["image"],
+            "scan": base_obs["scan"],
+            "odometry": se2_relative(self._odo0, odometry),
+            # Copies: a caller may keep or modify what it gets (check_env tests this).
+            "target_image": self.map.images[self._target].copy(),
+            "target_scan": self.map.scans[self._target].copy(),
+        }
+
+    def _progress(self, info: dict) -> dict:
+        rel = se2_relative(self._target_pose, info["pose"])
+        info.update(
+            target_view=self._target,
+            target_pose=self._target_pose.copy(),
+            start_manifold=self._start_manifold,
+            target_manifold=self.map.true_manifold(self._target),
+            distance=float(np.hypot(rel[0], rel[1])),
+            heading_error=float(abs(rel[2])),
+            path_length=self._path_length,
+        )
+        info["success"] = bool(
+            info["distance"] <= SUCCESS_RADIUS and info["heading_error"] <= SUCCESS_HEADING
+        )
+        return info
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = _check_options(options)
+        task_rng, base_seed = self.np_random.spawn(1)[0], int(self.np_random.integers(2**31))
+        pose, self._target = self._sample_task(task_rng, options)
+        obs, info = self.base.reset(seed=base_seed, options={"pose": pose})
+        self._target_pose = self.map.true_poses[self._target].copy()
+        self._start_manifold = info["manifold"]
+        self._odo0 = info["odometry"].copy()
+        self._steps = 0
+        self._path_length = 0.0
+        self._recent: list[np.ndarray] = [info["pose"][:2]]
+        self._contacts = 0
+        self._f_target = max(self._signal(self.map.images[self._target]), 1e-12)
+        self._f = self._signal(obs["image"]) / self._f_target
+        info = self._progress(info)
+        info.update(signal=self._f, reason=None)
+        return self._obs(obs, info["odometry"]), info
+
+    def step(self, action):
+        before = self.base.sim.pose
+        obs, _, _, _, info = self.base.step(action)
+        self._steps += 1
+        self._path_length += float(np.hypot(*(info["pose"][:2] - before[:2])))
+        info = self._progress(info)
+        f = self._signal(obs["image"]) / self._f_target
+        parts = {
+            "reward_signal": self.signal_weight * (f - self._f),
+            "reward_success": self.success_reward if info["success"] else 0.0,
+            "reward_collision": -self.collision_penalty if info["collision"] else 0.0,
+        }
+        self._f = f
+        self._contacts = self._contacts + 1 if info["collision"] else 0
+        self._recent = (self._recent + [info["pose"][:2]])[-STUCK_WINDOW:]
+        stuck = (
+            self._contacts >= STUCK_WINDOW
+            and np.hypot(*(self._recent[-1] - self._recent[0])) < STUCK_DISTANCE
+        )
+        terminated = info["success"] or stuck
+        truncated = not terminated and self._steps >= self.max_steps
+        reason = None
+        if terminated or truncated:
+            reason = "success" if info["success"] else "stuck" if stuck else "time limit"
+        info.update(parts, signal=f, reason=reason, stuck=bool(stuck))
+        reward = float(sum(parts.values()))
+        return self._obs(obs, info["odometry"]), reward, terminated, truncated, info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        return self.base.draw(target=self._target_pose)
+
+    def close(self):
+        """Free renderers; safe to call twice."""
+        base = getattr(self, "base", None)
+        if base is not None:
+            base.close()

@@ -1,0 +1,309 @@
+"""Closed-loop evaluation: success rate, SPL, final errors, steps and collisions per manifold
+pair, with trajectory plots over the top-down map and videos of chosen episodes.
+
+SPL (Anderson et al. 2018, "On evaluation of embodied navigation agents"):
+``mean_i S_i l_i / max(p_i, l_i)`` with l_i the shortest free-space path length from the start
+to the target (:class:`~servo.geodesic.GeodesicField`) and p_i the length actually driven.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from common.blas import single_threaded_blas
+from common.fileio import write_png
+from common.validation import check_int
+from scenes import WORLDS
+from servo.geodesic import GeodesicField
+from servo.laser_image import ManifoldServo
+from servo.maps import ServoMap, load_or_build
+from servo.task.baseline_policies import GreedyFProbing, OraclePolicy, RandomPolicy
+from servo.task.env import ServoEnv
+from servo.task.policies import POLICIES
+from servo.task.stats import wilson_interval
+
+SIGNAL_LAG = 5  # steps between the two ends of a step pair in the F-vs-distance summary
+SIGNAL_MIN_DROP = 0.1  # m of true (geodesic) distance a pair must fall to count
+
+
+def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
+    """The policy ``name`` of :data:`POLICIES` for ``env`` (``options``: its keyword
+    arguments). ``greedy`` probes toward the next waypoint view of the route
+    (:class:`~servo.task.baseline_policies.GreedyFProbing`); ``greedy-target``: the earlier variant
+    that probes toward the final target only (labelled as such: its cluster gives no signal from
+    another manifold)."""
+    if name == "servo":
+        return ManifoldServo(env.map, world=env.map.world, **options)
+    if name == "signal":
+        from servo.camera_only import SignalServo
+
+        return SignalServo(env.map, world=env.map.world, **options)
+    if name == "oracle":
+        return OraclePolicy(env.base.world, **options)
+    if name == "greedy":
+        return GreedyFProbing(env.map, **options)
+    if name == "greedy-target":
+        return GreedyFProbing(env.map, waypoints=False, **options)
+    if name == "random":
+        return RandomPolicy(rng, **options)
+    raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
+
+
+_F_AT_VIEW: dict[tuple[str, int], float] = {}
+
+
+def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
+    """F^j(k) of eq. 13 toward stored view ``view`` in its cluster, divided by F at the view
+    itself (1 at the view, 0 where the cluster gives no signal)."""
+    c = int(m.clusters[view])
+    key = (m.key, int(view))
+    # one BLAS thread whatever the load (as ServoEnv's reward): the episode's record of F
+    # must not change in its last bits with mapping.validation.busy
+    with single_threaded_blas():
+        if key not in _F_AT_VIEW:
+            f = m.clustering.signal(m.features[view][None], c, int(view))[0]
+            _F_AT_VIEW[key] = max(float(f), 1e-12)
+        x = m.image_features.transform(np.asarray(image)[None]).astype(np.float32)
+        return float(m.clustering.signal(x, c, int(view))[0]) / _F_AT_VIEW[key]
+
+
+def episode_seeds(seed: int, episodes: int) -> list[int]:
+    """Episode ``i``'s seed: the ``i``-th child of ``SeedSequence(seed)``, so a run is
+    reproducible and a longer run extends a shorter one."""
+    return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
+
+
+def run_episode(env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None):
+    """One episode; returns its record (:func:`score_episode`; and appends video frames to
+    ``frames`` if given)."""
+    obs, info = env.reset(seed=seed, options=options)
+    field = GeodesicField(env.base.world, info["target_pose"])
+    shortest = field.distance(info["pose"][:2])
+    if not np.isfinite(shortest):
+        raise ValueError(f"episode {seed}: the target is unreachable from the start {info['pose']}")
+    policy.reset(info["target_view"], info)
+    # poses copied: an env may update its info's arrays in place
+    infos = [{**info, "pose": np.array(info["pose"])}]
+    act_time, f_waypoint, true_dist = [], [], [shortest]
+    while True:
+        t0 = time.perf_counter()
+        action = policy.act(obs, info)
+        act_time.append(time.perf_counter() - t0)
+        waypoint = getattr(policy, "waypoint_", None)
+        obs, _, terminated, truncated, info = env.step(action)
+        infos.append({**info, "pose": np.array(info["pose"])})
+        true_dist.append(field.distance(info["pose"][:2]))
+        f_waypoint.append(
+            np.nan if waypoint is None else signal_toward(env.map, obs["image"], waypoint)
+        )
+        if frames is not None:
+            frames.append(np.concatenate([obs["image"], _fit(env.render(), obs["image"])], axis=1))
+        if terminated or truncated:
+            break
+    return score_episode(seed, infos, shortest, true_dist, act_time, f_waypoint)
+
+
+def score_episode(
+    seed: int, infos: Sequence[dict], shortest: float, true_distance: Sequence[float],
+    act_s: Sequence[float], signal_waypoint: Sequence[float],
+) -> dict:  # fmt: skip
+    """An episode's record from what it produced, with no env or policy: ``infos`` (the
+    reset's info, then every step's), the shortest free-space path from the start, the true
+    (geodesic) distance to the target at every info, the policy's seconds per act, and F^j(k)
+    toward the policy's waypoint view after every step (NaN: none)."""
+    if len(infos) < 2:
+        raise ValueError(f"infos must hold the reset's and at least one step's, got {len(infos)}")
+    last = infos[-1]
+    p = last["path_length"]
+    success = bool(last["success"])
+    trail = np.array([np.asarray(i["pose"], dtype=float) for i in infos])
+    return {
+        "seed": int(seed),
+        "start_manifold": last["start_manifold"],
+        "target_manifold": last["target_manifold"],
+        "target_view": int(last["target_view"]),
+        "success": success,
+        "reason": last["reason"],
+        "spl": float(success * shortest / max(p, shortest, 1e-9)),
+        "shortest_path": float(shortest),
+        "path_length": float(p),
+        "final_distance": float(last["distance"]),
+        "final_heading_error_deg": float(np.rad2deg(last["heading_error"])),
+        "steps": len(infos) - 1,
+        "collisions": sum(int(i["collision"]) for i in infos[1:]),
+        "act_ms": float(1e3 * np.mean(act_s)),
+        "trail": trail,
+        "target_pose": np.asarray(last["target_pose"]),
+        "start_pose": trail[0].copy(),
+        # F along the trajectory (item 5): toward the target and the policy's waypoint view
+        # (NaN: the policy has none), and the true geodesic distance to the target per step.
+        "signal_target": np.array([float(i["signal"]) for i in infos]),
+        "signal_waypoint": np.asarray(signal_waypoint, dtype=float),
+        "true_distance": np.asarray(true_distance, dtype=float),
+    }
+
+
+def _fit(top: np.ndarray, image: np.ndarray) -> np.ndarray:
+    h = image.shape[0]
+    w = round(top.shape[1] * h / top.shape[0])
+    return cv2.resize(top, (w, h), interpolation=cv2.INTER_AREA)
+
+
+def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
+    """How often F^j(k) toward the target rises as the true distance falls (the paper's
+    premise, Section II-G), over step pairs ``lag`` apart whose geodesic distance to the
+    target fell by at least ``SIGNAL_MIN_DROP``: ``rises`` (share where F rose), ``flat_zero``
+    (share where F was 0 at both ends: no signal, e.g. on another manifold), ``pairs``."""
+    rises = zero = pairs = 0
+    for r in records:
+        f, d = r.get("signal_target"), r.get("true_distance")
+        if f is None or len(f) <= lag:
+            continue
+        fall = d[:-lag] - d[lag:] >= SIGNAL_MIN_DROP
+        df = f[lag:] - f[:-lag]
+        both_zero = (f[lag:] == 0) & (f[:-lag] == 0)
+        pairs += int(fall.sum())
+        rises += int((fall & (df > 0)).sum())
+        zero += int((fall & both_zero).sum())
+    return {
+        "pairs": pairs,
+        "rises": rises / pairs if pairs else None,
+        "flat_zero": zero / pairs if pairs else None,
+        "lag": lag,
+    }
+
+
+def summarise(records: list[dict]) -> dict:
+    """Aggregate episode records: overall and per (start manifold, target manifold), success
+    with its Wilson 95% interval, and F along the trajectories (:func:`signal_agreement`)."""
+
+    def agg(rs):
+        ok = [r for r in rs if r["success"]]
+        return {
+            "episodes": len(rs),
+            "successes": len(ok),
+            "success_rate": len(ok) / len(rs),
+            "success_ci95": list(wilson_interval(len(ok), len(rs))),
+            "spl": float(np.mean([r["spl"] for r in rs])),
+            "final_distance": float(np.median([r["final_distance"] for r in rs])),
+            "final_heading_error_deg": float(np.median([r["final_heading_error_deg"] for r in rs])),
+            "steps": float(np.mean([r["steps"] for r in ok])) if ok else None,
+            "collisions": float(np.mean([r["collisions"] for r in rs])),
+            "reasons": {
+                k: sum(r["reason"] == k for r in rs) for k in sorted({str(r["reason"]) for r in rs})
+            },
+        }
+
+    pairs = defaultdict(list)
+    for r in records:
+        pairs[f"{r['start_manifold']} -> {r['target_manifold']}"].append(r)
+    out = agg(records)
+    out["act_ms"] = float(np.mean([r["act_ms"] for r in records]))
+    out["signal"] = signal_agreement(records)
+    out["per_pair"] = {k: agg(v) for k, v in sorted(pairs.items())}
+    out["episodes_detail"] = [
+        {k: (v.tolist() if isinstance(v, np.ndarray) and k == "start_pose" else v)
+         for k, v in r.items() if not isinstance(v, np.ndarray) or k == "start_pose"}
+        for r in records
+    ]  # fmt: skip
+    return out
+
+
+def plot_trajectories(world, records: list[dict], path: Path, limit: int = 24) -> Path:
+    """Trails over the top-down map of ``world`` (a ``scenes.World``): green succeeded, red
+    failed; targets as outlines."""
+    from sim.topdown import TopDownView
+
+    view = TopDownView(world, max_size=720)
+    img = view.draw()
+    for r in records[:limit]:
+        colour = (30, 150, 40) if r["success"] else (210, 30, 30)
+        pts = np.round(view.to_pixels(r["trail"][:, :2])).astype(np.int32)
+        cv2.polylines(img, [pts], False, colour, 2, cv2.LINE_AA)
+        cv2.circle(img, tuple(int(v) for v in pts[0]), 4, (0, 0, 0), -1)
+        view.draw_robot(img, r["target_pose"], colour, outline_only=True)
+    return write_png(path, img)
+
+
+def write_video(frames: list[np.ndarray], path: Path, fps: int = 10) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    h, w = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
+    try:
+        for f in frames:
+            writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    finally:
+        writer.release()
+    return path
+
+
+def evaluate(
+    world: str,
+    episodes: int,
+    seed: int,
+    policy: str = "servo",
+    *,
+    randomize: bool = False,
+    odometry_noise: bool = True,
+    cross_manifold: bool = True,
+    max_steps: int = 600,
+    servo_map: ServoMap | None = None,
+    home: str | Path | None = None,
+    out: str | Path | None = None,
+    videos: int = 0,
+    progress: bool = True,
+) -> dict:
+    """Run ``episodes`` servo episodes in ``world`` and summarise them (see :func:`summarise`).
+
+    Episode ``i`` is seeded with the ``i``-th child of ``SeedSequence(seed)``, so a run is
+    reproducible and a longer run extends a shorter one. With ``out``, writes
+    ``<world>-<policy>-trajectories.png`` and ``videos`` mp4s of the first episodes. Without
+    ``servo_map``, the world's map is loaded from (or built in) the data home ``home`` (see
+    ``sim.datahome``: the argument, then ``TOPOMAP_HOME``, then the per-user cache).
+    """
+    from tqdm.auto import tqdm
+
+    check_int(episodes, "episodes")
+    if policy not in POLICIES:
+        raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
+    if world not in WORLDS:
+        raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
+    servo_map = servo_map or load_or_build(world, home=home, progress=progress)
+    env = ServoEnv(
+        world,
+        servo_map,
+        max_steps=max_steps,
+        cross_manifold=cross_manifold,
+        randomize=randomize,
+        odometry_noise=odometry_noise,
+        render_mode="rgb_array" if videos else None,
+    )
+    seeds = episode_seeds(seed, episodes)
+    pol = make_policy(policy, env, np.random.default_rng(seed))
+    records = []
+    try:
+        for i, s in enumerate(
+            tqdm(seeds, desc=f"servo-eval {world}/{policy}", disable=not progress)
+        ):
+            frames = [] if out is not None and i < videos else None
+            records.append(run_episode(env, pol, s, frames=frames))
+            if frames:
+                write_video(frames, Path(out) / f"{world}-{policy}-episode{i}.mp4")
+        result = summarise(records)
+        if out is not None:
+            result["plot"] = str(
+                plot_trajectories(
+                    env.base.world, records, Path(out) / f"{world}-{policy}-trajectories.png"
+                )
+            )
+    finally:
+        env.close()
+    result.update(world=world, policy=policy, seed=seed, randomize=randomize,
+                  odometry_noise=odometry_noise)  # fmt: skip
+    return result

@@ -1,0 +1,206 @@
+"""The servo benchmark protocol: named start tiers, named splits, deterministic episode sets,
+and a parallel runner over the machine's cores (success rates carry the Wilson intervals of
+:mod:`servo.task.stats`).
+
+Tiers
+    ``view``: today's starts, within 0.4 m and 17 deg of a stored view of the start manifold
+    (``ServoEnv``'s own sampling). ``anywhere``: uniform over the start manifold's free space
+    (at least 0.45 m from obstacles, ``NavigationEnv.sample_pose``), any heading: global
+    localisation then has no near-duplicate stored image.
+Splits
+    ``dev`` for tuning, ``test`` for reporting; their episode seeds come from disjoint
+    ``SeedSequence`` spawn keys, so no test episode is ever seen while tuning.
+Episode ``i``
+    start -> target manifold pair ``i mod P`` of the world's ordered pairs of distinct
+    manifolds that hold stored views (the main corridor / lawn included, as start and as
+    target), so every pair gets its share; the target view is drawn uniformly on the target
+    manifold, the start as the tier says, all from episode ``i``'s seed.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+from common.cores import available_cores
+from common.validation import check_int
+from scenes import MANIFOLDS, WORLDS
+
+TIERS = ("view", "anywhere")
+SPLITS = ("dev", "test")
+PROTOCOL_ENTROPY = 0x5E2F0_12  # the benchmark's root seed (issue 12); never changed
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """One cell of the benchmark: a world, a start tier, a split and the env settings."""
+
+    world: str
+    tier: str = "view"
+    split: str = "dev"
+    randomize: bool = False
+    odometry_noise: bool = True
+    max_steps: int = 600
+
+    def __post_init__(self):
+        if self.world not in WORLDS:
+            raise ValueError(f"world must be one of {WORLDS}, got {self.world!r}")
+        if self.tier not in TIERS:
+            raise ValueError(f"tier must be one of {TIERS}, got {self.tier!r}")
+        if self.split not in SPLITS:
+            raise ValueError(f"split must be one of {SPLITS}, got {self.split!r}")
+        check_int(self.max_steps, "max_steps")
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    index: int
+    seed: int
+    start_manifold: str
+    target_manifold: str
+
+
+def manifold_pairs(true_labels: np.ndarray) -> list[tuple[str, str]]:
+    """Ordered pairs of distinct manifolds that both hold stored views (evaluation labels)."""
+    present = [MANIFOLDS[i] for i in np.unique(true_labels) if i >= 0]
+    return [(a, b) for a in present for b in present if a != b]
+
+
+def episode_specs(protocol: Protocol, true_labels: np.ndarray, episodes: int) -> list[EpisodeSpec]:
+    """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
+    one). Seeds depend on the split and the world only, so tiers and settings share episodes."""
+    check_int(episodes, "episodes")
+    pairs = manifold_pairs(true_labels)
+    if not pairs:
+        raise ValueError("the map needs stored views on at least two manifolds")
+    root = np.random.SeedSequence(
+        PROTOCOL_ENTROPY,
+        spawn_key=(SPLITS.index(protocol.split), WORLDS.index(protocol.world)),
+    )
+    seeds = [int(s.generate_state(1)[0]) for s in root.spawn(int(episodes))]
+    return [EpisodeSpec(i, s, *pairs[i % len(pairs)]) for i, s in enumerate(seeds)]
+
+
+def reset_options(env, spec: EpisodeSpec, tier: str) -> dict:
+    """``ServoEnv.reset`` options of one episode (the ``anywhere`` pose from its seed)."""
+    if tier == "view":
+        return {"start_manifold": spec.start_manifold, "target_manifold": spec.target_manifold}
+    if tier == "anywhere":
+        rng = np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=(1,)))
+        pose = env.base.sample_pose(rng, spec.start_manifold)
+        return {"pose": pose, "target_manifold": spec.target_manifold}
+    raise ValueError(f"tier must be one of {TIERS}, got {tier!r}")
+
+
+# -- the runner (one env and policy per worker process) ---------------------------------------
+_WORKER: dict = {}
+
+
+def _init_worker(protocol: Protocol, map_path: str, policy: str, options: dict) -> None:
+    import sim  # noqa: F401  (the GL backend before mujoco, in a spawned process)
+    from servo.task.env import ServoEnv
+    from servo.task.evaluation import make_policy
+
+    env = ServoEnv(
+        protocol.world,
+        map_path,
+        max_steps=protocol.max_steps,
+        randomize=protocol.randomize,
+        odometry_noise=protocol.odometry_noise,
+    )
+    pol = make_policy(policy, env, np.random.default_rng(0), **options)
+    # a slow policy (greedy probing) gets the steps to cover the route: it measures F then
+    env.max_steps = protocol.max_steps * int(getattr(pol, "budget_factor", 1))
+    _WORKER.update(env=env, protocol=protocol, policy=pol)
+
+
+def _run_spec(spec: EpisodeSpec) -> dict:
+    from servo.task.evaluation import run_episode
+
+    env, protocol = _WORKER["env"], _WORKER["protocol"]
+    record = run_episode(env, _WORKER["policy"], spec.seed, reset_options(env, spec, protocol.tier))
+    record["episode"] = spec.index
+    return record
+
+
+def run_protocol(
+    protocol: Protocol,
+    servo_map,
+    episodes: int,
+    policy: str = "servo",
+    *,
+    workers: int | None = None,
+    policy_options: dict | None = None,
+    progress: bool = True,
+    plot: str | os.PathLike | None = None,
+) -> dict:
+    """Run the first ``episodes`` episodes of ``protocol`` and summarise them
+    (``servo.task.evaluation.summarise``: success with its Wilson 95% interval, SPL, final errors,
+    steps, collisions, failure reasons, per start -> target pair, F along the trajectories).
+
+    ``servo_map``: a ``ServoMap`` or the path of a saved one (workers load it by path).
+    ``workers``: processes (spawned, each with its own env and policy); default: the cores
+    this process may use; 1 runs in this process. ``plot``: write the trails over the world's
+    top-down map there (``servo.task.evaluation.plot_trajectories``; the result's ``plot``).
+    """
+    from tqdm.auto import tqdm
+
+    from servo.maps import ServoMap, load_map, save_map
+    from servo.task.evaluation import summarise
+    from servo.task.policies import POLICIES
+
+    if not isinstance(protocol, Protocol):
+        raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
+    if policy not in POLICIES:
+        raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
+    workers = available_cores() if workers is None else int(workers)
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    with tempfile.TemporaryDirectory(prefix="servo-protocol-") as tmp:
+        if isinstance(servo_map, ServoMap):
+            m = servo_map
+            map_path = str(save_map(m, tmp))
+        elif isinstance(servo_map, str | os.PathLike):
+            map_path = str(Path(servo_map))
+            m = load_map(map_path, protocol.world)
+        else:
+            raise TypeError(
+                f"servo_map must be a ServoMap or a saved map's path, got "
+                f"{type(servo_map).__name__}"
+            )
+        m.check_world(protocol.world)
+        specs = episode_specs(protocol, m.true_labels, episodes)
+        args = (protocol, map_path, policy, dict(policy_options or {}))
+        name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
+        bar = tqdm(total=len(specs), disable=not progress, desc=name)
+        records = []
+        if workers == 1:
+            _init_worker(*args)
+            try:
+                for s in specs:
+                    records.append(_run_spec(s))
+                    bar.update()
+            finally:
+                _WORKER.pop("env").close()
+        else:
+            ctx = get_context("spawn")  # no forked MuJoCo / GL state
+            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+                                     initargs=args) as pool:  # fmt: skip
+                for r in pool.map(_run_spec, specs):
+                    records.append(r)
+                    bar.update()
+        bar.close()
+    result = summarise(records)
+    result.update(asdict(protocol), policy=policy, workers=workers)
+    if plot is not None:
+        from scenes import build_world
+        from servo.task.evaluation import plot_trajectories
+
+        result["plot"] = str(plot_trajectories(build_world(protocol.world), records, Path(plot)))
+    return result

@@ -1,0 +1,102 @@
+"""ROS messages to arrays: the per-message half of :mod:`sim.readers.rosbag`.
+
+- ``sensor_msgs/LaserScan``: beam ``i`` is at ``angle_min + i * angle_increment`` (spread
+  evenly from ``angle_min`` to ``angle_max`` when that is the last beam's angle, since a
+  float32 increment drifts over hundreds of beams); readings that are not finite, below
+  ``range_min`` or at or beyond ``range_max`` become ``+inf`` (no return), the dataset's
+  convention. Range counts one beam off the angles are accepted (drivers differ on whether
+  ``angle_max`` is the last beam's angle); more is refused.
+- ``sensor_msgs/Image`` (``rgb8``, ``bgr8``, ``rgba8``, ``bgra8``, ``mono8``; rows may be
+  padded, ``step``) and ``sensor_msgs/CompressedImage`` (JPEG, PNG: whatever OpenCV decodes):
+  RGB uint8, grey repeated in the three channels.
+- ``nav_msgs/Odometry``: x, y, yaw (from the quaternion, about z), v (twist linear x) and
+  omega (twist angular z), all finite (a NaN or infinite value is refused).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+ENCODINGS = {"rgb8": (3, None), "bgr8": (3, [2, 1, 0]), "rgba8": (4, None)}
+ENCODINGS |= {"bgra8": (4, [2, 1, 0]), "mono8": (1, None)}  # channels, reorder to RGB
+
+
+class RosbagImportError(ValueError):
+    """A bag that cannot be imported; the message names the bag, topic and message."""
+
+
+def stamp_ns(msg) -> int:
+    """The header stamp in nanoseconds."""
+    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
+
+
+def yaw_of(q) -> float:
+    """Rotation about z (rad) of a quaternion."""
+    return float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
+
+
+def odometry_values(msg, where: str) -> tuple[float, float, float, float, float]:
+    """(x, y, yaw, v, omega) of an odometry message; ``where`` (bag, topic, message index)
+    names it in the error if a value, or the orientation quaternion, is not finite."""
+    p, t = msg.pose.pose, msg.twist.twist
+    q = p.orientation
+    quaternion = (q.x, q.y, q.z, q.w)
+    values = (p.position.x, p.position.y, yaw_of(q), t.linear.x, t.angular.z)
+    if not (np.isfinite(quaternion).all() and np.isfinite(values).all()):
+        raise RosbagImportError(
+            f"{where}: odometry must be finite, got position ({p.position.x}, {p.position.y}), "
+            f"orientation {quaternion}, velocity (linear.x {t.linear.x}, angular.z {t.angular.z})"
+        )
+    return values
+
+
+def scan_geometry(msg, where: str) -> tuple[int, float, float, float, float]:
+    """(beams, angle_min, angle_increment, range_max, angle_max), checked."""
+    n, inc = len(msg.ranges), float(msg.angle_increment)
+    if n == 0 or not np.isfinite(inc) or inc == 0:
+        raise RosbagImportError(f"{where}: {n} ranges with angle_increment {inc}")
+    span = (float(msg.angle_max) - float(msg.angle_min)) / inc + 1
+    # drivers differ on whether angle_max is the last beam's angle or one increment beyond
+    if abs(span - n) > 1 + 1e-6:
+        raise RosbagImportError(
+            f"{where}: {n} ranges, but angle_min {msg.angle_min:.6f}, angle_max "
+            f"{msg.angle_max:.6f} and angle_increment {inc:.6f} rad give {span:.1f} beams"
+        )
+    if not (np.isfinite(msg.range_max) and msg.range_max > 0):
+        raise RosbagImportError(f"{where}: range_max must be finite and > 0, got {msg.range_max}")
+    return n, float(msg.angle_min), inc, float(msg.range_max), float(msg.angle_max)
+
+
+def scan_ranges(msg) -> np.ndarray:
+    """Ranges (float32); not finite, below ``range_min`` or at or beyond ``range_max``: inf."""
+    r = np.asarray(msg.ranges, dtype=np.float32).copy()
+    ok = np.isfinite(r) & (r >= msg.range_min) & (r < msg.range_max)
+    r[~ok] = np.inf
+    return r
+
+
+def decode_image(msg, msgtype: str, where: str) -> np.ndarray:
+    """An ``Image`` or ``CompressedImage`` message as an RGB uint8 array (H, W, 3)."""
+    import cv2
+
+    data = np.asarray(msg.data, dtype=np.uint8)
+    if msgtype.endswith("CompressedImage"):
+        bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+        if bgr is None:
+            raise RosbagImportError(f"{where}: OpenCV cannot decode it (format {msg.format!r})")
+        return np.ascontiguousarray(bgr[..., ::-1])
+    if msg.encoding not in ENCODINGS:
+        raise RosbagImportError(
+            f"{where}: image encoding {msg.encoding!r} is not supported; supported: "
+            f"{sorted(ENCODINGS)}"
+        )
+    channels, order = ENCODINGS[msg.encoding]
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    if h < 1 or w < 1 or step < w * channels or data.size < step * h:
+        raise RosbagImportError(
+            f"{where}: {data.size} bytes do not hold a {w}x{h} {msg.encoding} image (step {step})"
+        )
+    img = data[: step * h].reshape(h, step)[:, : w * channels].reshape(h, w, channels)
+    if channels == 1:
+        return np.repeat(img, 3, axis=2)
+    return np.ascontiguousarray(img[..., order or [0, 1, 2]])

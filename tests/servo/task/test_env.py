@@ -1,0 +1,207 @@
+import warnings
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from servo.maps.build import MapError, save_map
+from servo.task.env import ServoEnv
+
+
+@pytest.fixture(scope="module")
+def env(servo_maps):
+    e = ServoEnv("hallway", servo_maps["hallway"], max_steps=50)
+    yield e
+    e.close()
+
+
+# check_env's advice the base env deliberately does not take (see tests/sim/test_env.py):
+# (v, omega) keep their physical units, and odometry is unbounded.
+EXPECTED_WARNINGS = (
+    "symmetric and normalized space",
+    "maximum value is infinity",
+    "minimum value is -infinity",
+)
+
+
+def test_check_env(env):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    unexpected = [
+        str(w.message) for w in caught if not any(e in str(w.message) for e in EXPECTED_WARNINGS)
+    ]
+    assert not unexpected
+
+
+def test_cross_manifold_task_and_info(env):
+    for seed in range(5):
+        obs, info = env.reset(seed=seed)
+        assert info["start_manifold"] != info["target_manifold"]
+        assert obs["target_image"].shape == obs["image"].shape
+        np.testing.assert_allclose(obs["odometry"], 0.0, atol=1e-12)
+        assert info["distance"] > 0.5 and info["reason"] is None
+    obs, r, _, _, info = env.step(np.array([0.5, 0.0], np.float32))
+    assert {"reward_signal", "reward_success", "reward_collision"} <= set(info)
+    assert r == pytest.approx(
+        info["reward_signal"] + info["reward_success"] + info["reward_collision"]
+    )
+
+
+def test_deterministic_for_a_seed(env):
+    def rollout():
+        obs, _ = env.reset(seed=7)
+        out = [obs]
+        for k in range(5):
+            obs, *_ = env.step(np.array([1.0, 0.3 * (-1) ** k], np.float32))
+            out.append(obs)
+        return out
+
+    a, b = rollout(), rollout()
+    for oa, ob in zip(a, b, strict=True):
+        for key in oa:
+            np.testing.assert_array_equal(oa[key], ob[key])
+
+
+def test_success_terminates_at_the_target(env):
+    m = env.map
+    target = 40
+    _, info = env.reset(seed=0, options={"target": target, "pose": m.true_poses[target]})
+    assert info["success"]
+    _, _, term, _, info = env.step(np.zeros(2, np.float32))
+    assert term and info["reason"] == "success"
+
+
+def test_step_limit_truncates(env):
+    env.reset(seed=1)
+    for _ in range(env.max_steps):
+        _, _, term, trunc, info = env.step(np.zeros(2, np.float32))
+    assert trunc and not term and info["reason"] == "time limit"
+
+
+def test_pushing_a_wall_ends_as_stuck(servo_maps):
+    e = ServoEnv("hallway", servo_maps["hallway"], max_steps=200)
+    # Facing the end wall of the main hallway (x = 0), a few cm away from it.
+    e.reset(seed=0, options={"pose": (0.5, 0.0, np.pi), "target": 100})
+    for _ in range(200):
+        _, _, term, trunc, info = e.step(np.array([1.0, 0.0], np.float32))
+        if term or trunc:
+            break
+    e.close()
+    assert term and info["reason"] == "stuck"
+
+
+@pytest.mark.parametrize(
+    "options, match",
+    [
+        ({"target": 99_999}, r"options\['target'\]"),
+        ({"target_manifold": "kitchen"}, "manifold must be one of"),
+        ({"start_view": -3}, r"options\['start_view'\]"),
+        ({"target_manifold": "lawn-left"}, "no stored view on manifold 'lawn-left'"),
+    ],
+)
+def test_bad_options_are_named(env, options, match):
+    with pytest.raises((ValueError, MapError), match=match):
+        env.reset(seed=0, options=options)
+
+
+def test_async_vector_env_spawn(servo_maps, tmp_path):
+    from gymnasium.vector import AsyncVectorEnv
+
+    path = save_map(servo_maps["hallway"], tmp_path)
+    fns = [lambda: ServoEnv("hallway", str(path), max_steps=20)] * 2
+    venv = AsyncVectorEnv(fns, context="spawn")
+    try:
+        obs, _ = venv.reset(seed=3)
+        assert obs["image"].shape == (2, 240, 320, 3)
+        obs, r, *_ = venv.step(np.tile(np.float32([0.5, 0.0]), (2, 1)))
+        assert r.shape == (2,) and np.isfinite(r).all()
+    finally:
+        venv.close()
+
+
+def test_registered_task_has_one_clock_and_takes_the_reward_weights(env, servo_maps):
+    import gymnasium as gym
+    from gymnasium.wrappers import TimeLimit
+
+    made = gym.make(
+        "topomap/HallwayServo-v0",
+        servo_map=servo_maps["hallway"],
+        max_steps=70,
+        signal_weight=2.0,
+        collision_penalty=0.3,
+    )
+    try:
+        # no TimeLimit of the registry on top of the env's own max_steps (issue 16)
+        assert made.spec.max_episode_steps is None
+        wrapper = made
+        while isinstance(wrapper, gym.Wrapper):
+            assert not isinstance(wrapper, TimeLimit)
+            wrapper = wrapper.env
+        assert made.unwrapped.max_steps == 70
+        # the same seed and actions drive the same episode; only the weighted parts change
+        options = {"pose": (0.5, 0.0, np.pi), "target": 100}  # facing the end wall: contacts
+        env.reset(seed=0, options=options)
+        made.reset(seed=0, options=options)
+        contacts = 0
+        for _ in range(12):
+            action = np.array([1.0, 0.0], np.float32)
+            *_, a = env.step(action)
+            _, r2, *_, b = made.step(action)
+            np.testing.assert_array_equal(a["pose"], b["pose"])
+            assert b["reward_signal"] == pytest.approx(2.0 * a["reward_signal"])
+            assert b["reward_collision"] == pytest.approx(3.0 * a["reward_collision"])
+            assert r2 == pytest.approx(b["reward_signal"] + b["reward_collision"])
+            contacts += a["collision"]
+        assert contacts > 0
+    finally:
+        made.close()
+
+
+@pytest.mark.parametrize("name", ["signal_weight", "success_reward", "collision_penalty"])
+def test_reward_weights_must_be_finite_numbers(servo_maps, name):
+    with pytest.raises(ValueError, match=f"{name} must be a finite number"):
+        ServoEnv("hallway", servo_maps["hallway"], **{name: float("nan")})
+
+
+def test_options_that_contradict_cross_manifold_are_named(env):
+    """A start manifold that is the target's leaves no start with cross_manifold=True: a
+    ValueError saying so, not numpy's "high <= 0"."""
+    left_view = int(np.flatnonzero(env.map.true_labels == 1)[0])  # MANIFOLDS[1]: hallway-left
+    for options in (
+        {"start_manifold": "hallway-left", "target_manifold": "hallway-left"},
+        {"start_manifold": "hallway-left", "target": left_view},
+    ):
+        with pytest.raises(ValueError, match="conflict with cross_manifold=True"):
+            env.reset(seed=0, options=options)
+
+
+def test_a_map_with_no_other_manifold_to_target_is_named(env, servo_maps):
+    """The target-less branch: every labelled view on the start pose's manifold."""
+    import dataclasses
+
+    m = servo_maps["hallway"]
+    pose = m.true_poses[0]
+    here = int(env.base.world.manifold_at(pose[:2]))
+    labels = np.where(m.true_labels >= 0, here, -1).astype(m.true_labels.dtype)
+    e = ServoEnv("hallway", dataclasses.replace(m, true_labels=labels), max_steps=5)
+    try:
+        with pytest.raises(ValueError, match="conflict with cross_manifold=True"):
+            e.reset(seed=0, options={"pose": pose})
+    finally:
+        e.close()
+
+
+@pytest.mark.parametrize(
+    "pose", [None, 5.0, [[2.3, 0.0, 0.1]], "abc", [1j, 0, 0], [1.0, np.nan, 0.0], [[1], [2, 3]]]
+)
+def test_a_malformed_pose_option_is_named(env, pose):
+    """Checked where the task is sampled from it, before NavigationEnv.reset would see it."""
+    with pytest.raises(ValueError, match=r"options\['pose'\] must be a finite \(x, y, yaw\)"):
+        env.reset(seed=0, options={"pose": pose})
+
+
+@pytest.mark.parametrize("options", [[("pose", (2.3, 0.0, 0.1))], "target", 3])
+def test_options_must_be_a_mapping(env, options):
+    with pytest.raises(TypeError, match="options must be a dict"):
+        env.reset(seed=0, options=options)

@@ -1,0 +1,123 @@
+"""``servo.task.paired_comparison`` / ``topomap servo-compare``: two evaluations paired episode by
+episode, and the result files read as untrusted input."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from scripts.cli import main
+from servo.task import paired_comparison as cmp
+
+RESULTS = Path(__file__).resolve().parents[3] / "docs" / "results"
+
+
+def _result(wins, world="hallway", starts=None, seeds=None, **setting):
+    base = dict(world=world, tier="anywhere", split="test", randomize=False,
+                odometry_noise=True, max_steps=600, policy="signal")  # fmt: skip
+    base.update(setting)
+    starts = starts or ["hallway"] * len(wins)
+    seeds = seeds or [100 + i for i in range(len(wins))]
+    base["episodes_detail"] = [
+        {"episode": i, "seed": s, "success": bool(w), "start_manifold": m}
+        for i, (w, s, m) in enumerate(zip(wins, seeds, starts, strict=True))
+    ]
+    return base
+
+
+def _write(path, obj):
+    path.write_text(json.dumps(obj))
+    return path
+
+
+def test_paired_counts_sign_test_and_bootstrap():
+    a = [_result([1, 1, 0, 0, 1, 0], starts=["m", "m", "m", "b", "b", "b"])]
+    b = [_result([1, 0, 1, 1, 1, 1, 0], starts=["m", "m", "m", "b", "b", "b", "b"])]
+    (row,) = cmp.compare(a, b)
+    assert (row.n, row.successes_a, row.successes_b) == (6, 3, 5)  # B's 7th has no pair
+    assert (row.gained, row.lost) == (3, 1)
+    assert row.sign_test_p == pytest.approx(stats.binomtest(3, 4, 0.5).pvalue)
+    assert row.difference == pytest.approx(2 / 6)
+    lo, hi = row.difference_ci95
+    assert lo < row.difference < hi and -1 <= lo and hi <= 1
+    assert row.difference_ci95 == cmp.compare(a, b)[0].difference_ci95  # default rng: seeded
+    assert row.by_start == {"b": (3, 1, 3), "m": (3, 2, 2)}
+    assert "+3 / -1" in cmp.markdown([row])
+
+
+def test_only_shared_settings_are_compared_and_seeds_must_agree():
+    a = [_result([1, 0]), _result([1, 1], world="lawn")]
+    b = [_result([0, 0], world="lawn"), _result([1, 1], randomize=True)]
+    (row,) = cmp.compare(a, b)
+    assert row.setting["world"] == "lawn" and (row.gained, row.lost) == (0, 2)
+    with pytest.raises(ValueError, match="seed"):
+        cmp.compare([_result([1, 0])], [_result([1, 0], seeds=[100, 7])])
+    with pytest.raises(TypeError, match="Generator"):
+        cmp.compare(a, b, rng=0)
+    with pytest.raises(ValueError, match="resamples"):
+        cmp.compare(a, b, resamples=0)
+
+
+def test_result_files_are_checked(tmp_path):
+    good = _write(tmp_path / "a.json", [_result([1, 0])])
+    assert cmp.load_results(good)[0]["world"] == "hallway"
+    assert len(cmp.load_results(_write(tmp_path / "one.json", _result([1])))) == 1
+    with pytest.raises(ValueError, match="not a file"):
+        cmp.load_results(tmp_path / "missing.json", "A")
+    (tmp_path / "bad.json").write_text("{not json")
+    with pytest.raises(ValueError, match="not JSON"):
+        cmp.load_results(tmp_path / "bad.json")
+    broken = _result([1, 0])
+    del broken["split"]
+    with pytest.raises(ValueError, match="'split'"):
+        cmp.load_results(_write(tmp_path / "c.json", [broken]))
+    twice = _result([1, 0])
+    twice["episodes_detail"][1]["episode"] = 0
+    with pytest.raises(ValueError, match="twice"):
+        cmp.load_results(_write(tmp_path / "d.json", [twice]))
+    for field, value in (("success", 1), ("seed", "7"), ("episode", -1), ("episode", True)):
+        bad = _result([1])
+        bad["episodes_detail"][0][field] = value
+        with pytest.raises(ValueError, match=r"B\[0\]\.episodes_detail\[0\]"):
+            cmp.load_results(_write(tmp_path / "e.json", [bad]), "B")
+    with pytest.raises(ValueError, match="non-empty list"):
+        cmp.load_results(_write(tmp_path / "f.json", []))
+
+
+def test_result_files_over_the_size_limit_are_refused(tmp_path, monkeypatch):
+    path = _write(tmp_path / "a.json", [_result([1, 0])])
+    monkeypatch.setattr(cmp, "MAX_BYTES", 16)
+    with pytest.raises(ValueError, match="larger than"):
+        cmp.load_results(path)
+
+
+def test_cli_on_the_published_rounds(capsys):
+    """Round 7 against round 8 of ``SignalServo`` on the test split: the lawn's +7 / -3 on
+    round 7's 40 episodes (docs/servo.md), the hallway's identical episodes."""
+    a = RESULTS / "signal-round7" / "servo-eval-all-anywhere-test-signal-40ep.json"
+    b = RESULTS / "signal-round8" / "servo-eval-all-anywhere-test-signal-100ep.json"
+    assert main(["servo-compare", str(a), str(b)]) == 0
+    out = capsys.readouterr().out
+    assert "| lawn | anywhere | test | 600 steps | 40 | 11 | 15 | +7 / -3 |" in out
+    assert "| hallway | anywhere | test | 600 steps | 40 | 22 | 22 | +0 / -0 |" in out
+    assert main(["servo-compare", str(a), str(b), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["n"] for r in rows] == [40, 40]
+
+
+def test_cli_refuses_files_without_shared_episodes(tmp_path, capsys):
+    a = _write(tmp_path / "a.json", [_result([1, 0])])
+    b = _write(tmp_path / "b.json", [_result([1, 0], world="lawn")])
+    assert main(["servo-compare", str(a), str(b)]) == 2
+    assert "share no world" in capsys.readouterr().err
+    assert np.isfinite(cmp.compare([_result([1])], [_result([0])])[0].sign_test_p)
+
+
+def test_result_files_nested_past_the_parser_are_refused(tmp_path):
+    """100 000 '[' make json.loads raise RecursionError: a ValueError naming the file."""
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000)
+    with pytest.raises(ValueError, match=r"B: .*deep\.json is not JSON"):
+        cmp.load_results(path, "B")
