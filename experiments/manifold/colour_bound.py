@@ -100,7 +100,7 @@ def draw_modes(root: Path, path: Path, seed: int = DEV_SEED) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from sim.dataset import write_json
+    from common.fileio import write_json
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--root", type=Path, required=True, help="folder of the m-data-* sets")
