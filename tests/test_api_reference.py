@@ -1,0 +1,90 @@
+"""The API reference (docs/api/, built by mkdocs) shows every public name of every package
+face, and every public class there is documented like a scikit-learn estimator."""
+
+import importlib
+import inspect
+import re
+from pathlib import Path
+
+import pytest
+
+API = Path(__file__).resolve().parents[1] / "docs" / "api"
+FACES = (
+    "mapping", "mapping.manifold", "mapping.grouping", "mapping.baselines", "mapping.features",
+    "servo", "servo.maps", "servo.task", "servo.laser_image", "servo.camera_only",
+    "sim.readers", "scenes",
+)
+# sim's face exports nothing itself: users import its modules, which its page renders whole
+SIM_MODULES = ("sim.simulator", "sim.env", "sim.collect", "sim.dataset")
+SECTIONS = ("Parameters", "Attributes", "Examples", "See Also")
+DIRECTIVE = re.compile(r"^::: ([\w.]+)\s*$", re.M)
+
+
+def resolve(path: str):
+    """The object at a dotted path: the longest importable module, then its attributes."""
+    parts = path.split(".")
+    for cut in range(len(parts), 0, -1):
+        try:
+            value = importlib.import_module(".".join(parts[:cut]))
+        except ImportError:
+            continue
+        for part in parts[cut:]:
+            value = getattr(value, part)
+        return value
+    raise ImportError(path)
+
+
+def directives(page: Path) -> list[str]:
+    return DIRECTIVE.findall(page.read_text())
+
+
+def rendered() -> list:
+    return [resolve(path) for page in sorted(API.glob("*.md")) for path in directives(page)]
+
+
+def test_every_directive_names_an_object():
+    paths = [path for page in sorted(API.glob("*.md")) for path in directives(page)]
+    assert len(paths) > 50
+    for path in paths:
+        resolve(path)  # raises on a misspelt or removed name
+
+
+@pytest.mark.parametrize("face", FACES)
+def test_every_name_a_face_exports_is_on_the_api_pages(face):
+    module = importlib.import_module(face)
+    shown = rendered()
+    page = (API / f"{face}.md").read_text()
+    missing = [name for name in module.__all__
+               if not any(getattr(module, name) is value for value in shown)]
+    assert not missing, f"{face}: not rendered on any page of docs/api/: {missing}"
+    unnamed = [name for name in module.__all__ if f"`{name}`" not in page
+               and not re.search(rf"^::: [\w.]*\.{name}\s*$", page, re.M)]
+    assert not unnamed, f"docs/api/{face}.md does not name {unnamed}"
+
+
+def test_the_sim_page_renders_its_modules():
+    assert set(SIM_MODULES) <= set(directives(API / "sim.md"))
+
+
+def public_classes() -> dict[str, type]:
+    classes = {}
+    for face in FACES:
+        module = importlib.import_module(face)
+        for name in module.__all__:
+            value = getattr(module, name)
+            if inspect.isclass(value):
+                classes[f"{value.__module__}.{value.__qualname__}"] = value
+    for name in SIM_MODULES:
+        for value in vars(importlib.import_module(name)).values():
+            if inspect.isclass(value) and value.__module__ == name and value.__name__[0] != "_":
+                classes[f"{name}.{value.__qualname__}"] = value
+    # an exception carries its message only; it has no parameters or attributes to document
+    return {key: value for key, value in classes.items()
+            if not issubclass(value, BaseException)}
+
+
+@pytest.mark.parametrize("path", sorted(public_classes()))
+def test_a_public_class_is_documented_like_an_estimator(path):
+    doc = inspect.getdoc(public_classes()[path]) or ""
+    absent = [s for s in SECTIONS if not re.search(rf"^{s}\n-{{{len(s)}}}$", doc, re.M)]
+    assert not absent, f"{path}: its docstring lacks the numpydoc sections {absent}"
