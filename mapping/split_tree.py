@@ -27,6 +27,26 @@ class SplitNode:
         The samples (graph nodes) in this node.
     children : tuple of SplitNode
         The two halves if this node was split, else empty (a leaf).
+
+    Parameters
+    ----------
+    indices : ndarray of int
+        The samples of this node.
+    children : tuple of SplitNode, default ()
+        The two halves of a split node; empty for a leaf.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping import SplitNode
+    >>> root = SplitNode(np.arange(4), (SplitNode(np.array([0, 1])), SplitNode(np.array([2, 3]))))
+    >>> root.is_leaf, [node.indices.tolist() for node in root.walk()]
+    (False, [[0, 1, 2, 3], [0, 1], [2, 3]])
+
+    See Also
+    --------
+    mapping.manifold.ManifoldClustering : Its ``tree_`` of recursive splits.
+    mapping.grouping.recursive_ncut_partition : The grouping's tree of Ncut splits.
     """
 
     indices: np.ndarray

@@ -106,6 +106,22 @@ class KNNSpectralClustering(ClusterMixin, BaseEstimator):
         The neighbour count used.
     gaps_ : dict
         k -> eigengap, for the candidates tried (empty for a fixed k).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X = np.r_[rng.normal(0.0, 0.1, (20, 2)), rng.normal(3.0, 0.1, (20, 2))]
+    >>> from mapping.baselines import KNNSpectralClustering
+    >>> model = KNNSpectralClustering(n_clusters=2, n_neighbors="eigengap").fit(X)
+    >>> np.bincount(model.labels_).tolist(), model.n_neighbors_ in model.gaps_
+    ([20, 20], True)
+
+    See Also
+    --------
+    mapping.baselines.eigengap : The rule that picks the neighbour count.
+    mapping.baselines.EigengapNCutClustering : The same rule choosing NCut's sigma.
+    sklearn.cluster.SpectralClustering : The clustering this estimator runs.
     """
 
     _parameter_constraints: dict = {
@@ -194,6 +210,22 @@ class EigengapNCutClustering(ClusterMixin, BaseEstimator):
         The grid and the eigengap at each sigma (-inf where every affinity underflows).
     model_ : NormalizedCutClustering
         The NCut fitted at ``sigma_``; ``predict`` is its Nystrom extension.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X = np.r_[rng.normal(0.0, 0.1, (20, 2)), rng.normal(3.0, 0.1, (20, 2))]
+    >>> from mapping.baselines import EigengapNCutClustering
+    >>> model = EigengapNCutClustering(n_clusters=2, n_sigmas=10).fit(X)
+    >>> np.bincount(model.labels_).tolist(), bool(model.sigma_ in model.sigmas_)
+    ([20, 20], True)
+
+    See Also
+    --------
+    mapping.baselines.eigengap : The rule that picks sigma.
+    mapping.baselines.NormalizedCutClustering : The model fitted at the chosen sigma.
+    mapping.baselines.best_sigma_ncut : Sigma chosen on the labels instead.
     """
 
     _parameter_constraints: dict = {

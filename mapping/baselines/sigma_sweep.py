@@ -20,7 +20,39 @@ __all__ = ["SigmaSweep", "best_sigma_ncut", "default_sigmas"]
 
 @dataclass(frozen=True)
 class SigmaSweep:
-    """Result of :func:`best_sigma_ncut`: the chosen sigma, its error and model, and the sweep."""
+    """Result of :func:`best_sigma_ncut`: the chosen sigma, its error and model, and the sweep.
+
+    Parameters
+    ----------
+    sigma : float
+        The sigma of the lowest error.
+    error : float
+        Its clustering error on the labels, a fraction in [0, 1].
+    model : NormalizedCutClustering
+        The NCut fitted at ``sigma``.
+    sigmas, errors : ndarray of shape (n_sigmas,)
+        Every sigma tried and its error.
+
+    Attributes
+    ----------
+    sigma, error, model, sigmas, errors
+        The parameters, stored as given (the object is frozen).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.baselines import best_sigma_ncut
+    >>> rng = np.random.default_rng(0)
+    >>> X = np.r_[rng.normal(0.0, 0.1, (20, 2)), rng.normal(3.0, 0.1, (20, 2))]
+    >>> sweep = best_sigma_ncut(X, [0] * 20 + [1] * 20, n_clusters=2, sigmas=[0.3, 1.0, 3.0])
+    >>> sweep.error, sweep.sigmas.tolist()
+    (0.0, [0.3, 1.0, 3.0])
+
+    See Also
+    --------
+    mapping.baselines.best_sigma_ncut : The sweep that returns this result.
+    mapping.baselines.NormalizedCutClustering : The model swept.
+    """
 
     sigma: float
     error: float

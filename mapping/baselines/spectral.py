@@ -186,6 +186,25 @@ class NormalizedCutClustering(_SpectralBase):
         Top ``n_clusters`` eigenpairs of S, largest first.
     embedding_ : ndarray of shape (n, n_clusters)
         Row-normalised eigenvectors; ``cluster_centers_`` are the k-means centres in it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X = np.r_[rng.normal(0.0, 0.1, (20, 2)), rng.normal(3.0, 0.1, (20, 2))]
+    >>> from mapping.baselines import NormalizedCutClustering
+    >>> model = NormalizedCutClustering(n_clusters=2, sigma=0.5).fit(X)
+    >>> np.bincount(model.labels_).tolist()
+    [20, 20]
+    >>> bool(model.predict([[3.0, 3.1]])[0] == model.labels_[-1])
+    True
+
+    See Also
+    --------
+    mapping.baselines.best_sigma_ncut : This estimator at the sigma of lowest error on labels.
+    mapping.baselines.EigengapNCutClustering : Sigma chosen by the eigengap, without labels.
+    mapping.baselines.SelfTuningSpectralClustering : A scale per point instead of one sigma.
+    mapping.manifold.ManifoldClustering : The method this baseline is compared with.
     """
 
     _parameter_constraints: dict = {
@@ -237,6 +256,22 @@ class SelfTuningSpectralClustering(_SpectralBase):
     min_scale_ : float
         Floor of every scale, also of new points': 1e-9 times the training data's diameter;
         every scale where the data has at most ``n_neighbors`` distinct points.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> X = np.r_[rng.normal(0.0, 0.1, (20, 2)), rng.normal(3.0, 0.1, (20, 2))]
+    >>> from mapping.baselines import SelfTuningSpectralClustering
+    >>> model = SelfTuningSpectralClustering(n_clusters=2, n_neighbors=7).fit(X)
+    >>> np.bincount(model.labels_).tolist(), model.scales_.shape
+    ([20, 20], (40,))
+
+    See Also
+    --------
+    mapping.baselines.NormalizedCutClustering : One kernel width for every point.
+    mapping.baselines.KNNSpectralClustering : Spectral clustering on a k-NN graph.
+    mapping.manifold.ManifoldClustering : The method this baseline is compared with.
     """
 
     _parameter_constraints: dict = {

@@ -213,6 +213,22 @@ class ImageFeatures(TransformerMixin, BaseEstimator):
     explained_variance_ : ndarray of shape (n_components,)
         The PCA projection (``n_components`` only), copied from the fitted ``PCA`` so that the
         fitted state is plain arrays.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.features import ImageFeatures
+    >>> images = np.random.default_rng(0).integers(0, 256, (5, 60, 80, 3), dtype=np.uint8)
+    >>> ImageFeatures(size=(8, 6), color=False, normalization="unit").fit_transform(images).shape
+    (5, 48)
+    >>> ImageFeatures(size=(8, 6), n_components=3).fit_transform(images).shape
+    (5, 3)
+
+    See Also
+    --------
+    mapping.features.ColorHistogramFeatures : Colour histograms instead of pixels.
+    mapping.features.images_to_vectors : The pixels as rows, without resizing.
+    mapping.manifold.ManifoldClustering : The method that clusters these vectors.
     """
 
     _parameter_constraints: dict = {
@@ -363,6 +379,19 @@ class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
     ----------
     n_features_in_ : int
         Values per image, ``columns * rows * prod(bins)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.features import ColorHistogramFeatures
+    >>> images = np.zeros((3, 60, 80, 3), dtype=np.uint8)
+    >>> ColorHistogramFeatures(bins=(8, 4, 4), grid=(2, 2)).fit_transform(images).shape
+    (3, 512)
+
+    See Also
+    --------
+    mapping.features.color_histograms : The function this transformer wraps.
+    mapping.features.ImageFeatures : The pixels themselves as features.
     """
 
     _parameter_constraints: dict = {"bins": ["array-like"], "grid": ["array-like"]}

@@ -158,7 +158,31 @@ def fitted_max_range(ranges: np.ndarray, max_range: float | None) -> float:
 class ScanRangesInput:
     """Input handling shared by the scan transformers: rows of ranges (n, n_beams) in which inf
     (no return) and NaN (invalid beam) are readings, not missing data (see :func:`scan_ranges`),
-    so scikit-learn's finiteness check is off and its ``allow_nan`` tag on."""
+    so scikit-learn's finiteness check is off and its ``allow_nan`` tag on.
+
+    Parameters
+    ----------
+    None
+        A mixin: the transformers that inherit it define the parameters.
+
+    Attributes
+    ----------
+    None
+        A mixin: it holds no state.
+
+    Examples
+    --------
+    >>> from mapping.features import ScanFeatures, ScanRangesInput
+    >>> issubclass(ScanFeatures, ScanRangesInput)
+    True
+    >>> ScanFeatures().__sklearn_tags__().input_tags.allow_nan
+    True
+
+    See Also
+    --------
+    mapping.features.ScanFeatures, mapping.features.ScanStatistics : The transformers using it.
+    mapping.features.scan_ranges : What the ranges' readings mean.
+    """
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -189,6 +213,21 @@ class ScanFeatures(ScanRangesInput, TransformerMixin, BaseEstimator):
         Beams per scan seen in ``fit``; ``transform`` requires the same.
     max_range_ : float
         The range limit used: ``max_range``, or the one found in the training scans.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.features import ScanFeatures
+    >>> scans = np.array([[1.0, 2.0, np.inf, 4.0], [2.0, 2.0, 2.0, 2.0]])
+    >>> features = ScanFeatures(max_range=5.0).fit(scans)
+    >>> features.transform(scans).shape, features.max_range_
+    ((2, 4), 5.0)
+
+    See Also
+    --------
+    mapping.features.scan_vectors : The function this transformer wraps.
+    mapping.features.ScanStatistics : Rotation-invariant statistics of the scans.
+    mapping.grouping.ObservationGraphPartitioner : Groups scans by their overlap instead.
     """
 
     _parameter_constraints: dict = {

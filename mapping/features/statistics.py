@@ -156,6 +156,21 @@ class ScanStatistics(ScanRangesInput, TransformerMixin, BaseEstimator):
         The range limit used.
     block_scales_ : ndarray of shape (n_blocks,)
         The divisor of each block (1 without ``block_scaling``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.features import ScanStatistics
+    >>> angles = np.linspace(-np.pi / 2, np.pi / 2, 181)
+    >>> scans = np.stack([2.0 + np.sin(k * angles) ** 2 for k in range(1, 6)])
+    >>> features = ScanStatistics(max_range=10.0).fit(scans)
+    >>> features.transform(scans).shape[0], len(features.block_scales_)
+    (5, 6)
+
+    See Also
+    --------
+    mapping.features.scan_statistics : The blocks, unscaled.
+    mapping.features.ScanFeatures : The ranges themselves as features.
     """
 
     _parameter_constraints: dict = {

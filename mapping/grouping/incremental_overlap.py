@@ -40,6 +40,36 @@ class VoxelOverlapIndex:
     delta, voxel_size : float
         Match tolerance and voxel side in metres, as in ``sensed_space_overlap``: delta
         positive and finite, voxel_size in ``[delta / MAX_DISC_RADIUS, delta]``.
+
+    Attributes
+    ----------
+    delta, voxel_size : float
+        The parameters.
+    keys, counts : list of ndarray
+        Per indexed scan: its sorted voxel keys and the points in each voxel.
+    n_points : list of int
+        Per indexed scan: its points' count.
+    centres : list of ndarray of shape (2,)
+        Per indexed scan: the sensor's position.
+    reach : list of float
+        Per indexed scan: its farthest point from the sensor, in metres.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.grouping import VoxelOverlapIndex
+    >>> wall = np.c_[np.full(50, 2.0), np.linspace(-1.0, 1.0, 50)]
+    >>> index = VoxelOverlapIndex(delta=0.1, voxel_size=0.05)
+    >>> index.add(wall, np.zeros(3))[0].tolist()
+    []
+    >>> indices, weights = index.add(wall, np.zeros(3))
+    >>> indices.tolist(), weights.round(2).tolist()
+    ([0], [1.0])
+
+    See Also
+    --------
+    mapping.grouping.sensed_space_overlap : The whole matrix at once, on points or voxels.
+    mapping.grouping.ObservationGraphPartitioner : The estimator these weights feed.
     """
 
     def __init__(self, delta: float, voxel_size: float) -> None:

@@ -123,6 +123,13 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     >>> model = ObservationGraphPartitioner(scan_matching=False)
     >>> model.fit(raycast(world.segments, poses), poses).n_groups_
     8
+
+    See Also
+    --------
+    mapping.grouping.sensed_space_overlap : The weights of the observation graph (eq. 16-18).
+    mapping.grouping.recursive_ncut_partition : The recursive min-Ncut with threshold 1.
+    mapping.grouping.TopologicalMap : The map in ``topology_``.
+    mapping.manifold.ManifoldClustering : The visual-manifold method, on images.
     """
 
     _parameter_constraints: dict = {

@@ -168,7 +168,43 @@ class TopologyArc:
 
 @dataclass
 class TopologicalMap:
-    """Groups as nodes (each with a local-map frame), arcs with relative transformations."""
+    """Groups as nodes (each with a local-map frame), arcs with relative transformations.
+
+    Parameters
+    ----------
+    reference_scans : ndarray of int, shape (n_nodes,)
+        The scan that anchors each local map.
+    frames : ndarray of shape (n_nodes, 3)
+        Each local map's frame as a pose ``(x, y, yaw)`` in the odometry frame.
+    arcs : list of TopologyArc, default []
+        The arcs between local maps that share observations.
+
+    Attributes
+    ----------
+    reference_scans, frames, arcs
+        The parameters, as given.
+    n_nodes : int
+        Number of local maps.
+
+    Examples
+    --------
+    >>> from mapping.grouping import ObservationGraphPartitioner
+    >>> from mapping.synthetic_scans import office_path, office_world, raycast
+    >>> world = office_world()
+    >>> poses = office_path(world, step=1.17)
+    >>> model = ObservationGraphPartitioner(scan_matching=False)
+    >>> topology = model.fit(raycast(world.segments, poses), poses).topology_
+    >>> topology.n_nodes, topology.frames.shape
+    (8, (8, 3))
+    >>> a, b = topology.edges()[0]
+    >>> topology.transform(a, b).shape
+    (3,)
+
+    See Also
+    --------
+    mapping.grouping.ObservationGraphPartitioner : Builds this map as ``topology_``.
+    mapping.grouping.align_groups : The local maps aligned by ICP.
+    """
 
     reference_scans: np.ndarray
     frames: np.ndarray

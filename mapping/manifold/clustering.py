@@ -162,6 +162,14 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
     >>> model = ManifoldClustering(n_clusters=2, min_cluster_size=10).fit(X)
     >>> np.bincount(model.labels_).tolist()
     [40, 40]
+
+    See Also
+    --------
+    mapping.baselines.NormalizedCutClustering : Normalised cut with one kernel width, the
+        paper's baseline.
+    mapping.baselines.SelfTuningSpectralClustering : Spectral clustering with local scaling.
+    mapping.features.ImageFeatures : Images as the vectors this estimator clusters.
+    servo.maps.ServoMap : A world's stored views, clustered by this estimator.
     """
 
     _parameter_constraints: dict = {
