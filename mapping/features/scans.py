@@ -160,16 +160,6 @@ class ScanRangesInput:
     (no return) and NaN (invalid beam) are readings, not missing data (see :func:`scan_ranges`),
     so scikit-learn's finiteness check is off and its ``allow_nan`` tag on.
 
-    Parameters
-    ----------
-    None
-        A mixin: the transformers that inherit it define the parameters.
-
-    Attributes
-    ----------
-    None
-        A mixin: it holds no state.
-
     Examples
     --------
     >>> from mapping.features import ScanFeatures, ScanRangesInput

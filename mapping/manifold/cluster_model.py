@@ -105,6 +105,29 @@ class ClusterModel(DerivedCache):
     inverse : ndarray of shape (m, m) or None
         ``H = (I - alpha D^-1/2 W D^-1/2)^-1`` for eq. 13's Woodbury form; None when a training
         point has degree 0. Derived from the fields on construction (also of a loaded model).
+
+    Parameters
+    ----------
+    indices, sigma, alpha, centre, mean, basis, coords, sq_norms, weights, degrees, scale
+        The attributes above, as :meth:`build` computes them from one cluster of the training
+        data (``ManifoldClustering.fit`` builds one model per cluster).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.distances import squared_distances
+    >>> from mapping.manifold import ClusterModel
+    >>> X = np.c_[np.linspace(0.0, 1.0, 10), np.zeros(10)]
+    >>> model = ClusterModel.build(X, np.arange(10), squared_distances(X), sigma=0.2, alpha=0.99,
+    ...                            centre=5, dtype=np.float64)
+    >>> F = model.signal(model.sq_distances(X[[4, 9]]), target=5)
+    >>> bool(F[0] > F[1])  # nearer the target view along the manifold, larger F
+    True
+
+    See Also
+    --------
+    mapping.manifold.GraphClusterModel : The same for a cluster of a k-NN graph fit.
+    mapping.manifold.ManifoldClustering : Its ``predict`` and ``signal`` read these models.
     """
 
     indices: np.ndarray

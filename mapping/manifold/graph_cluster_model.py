@@ -67,6 +67,35 @@ class GraphClusterModel(DerivedCache):
 
     Once ``predict`` has projected a query, ``points`` is a row block (a view, the same values)
     of the :class:`~mapping.manifold.stacked_signal.Projection` of all the clusters' points.
+
+    Parameters
+    ----------
+    indices, sigma, alpha, centre, n_neighbors, mean, points, sq_norms
+        The attributes above.
+    vectors, values, col_rest, point_rest, degrees, scale
+        The attributes above. All are as :meth:`build` computes them from a cluster's graph
+        and its low-rank basis (``ManifoldClustering.fit`` with ``kernel="sparse"`` builds
+        them).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mapping.manifold import GraphClusterModel
+    >>> from mapping.manifold.geometry import GraphGeometry, knn_edges
+    >>> from mapping.manifold.lowrank_kernel import LowRankBasis
+    >>> X = np.c_[np.linspace(0.0, 1.0, 40), np.zeros(40)]
+    >>> geometry = GraphGeometry(X, knn_edges(X, 10), np.arange(40), rank=20, dense_below=0,
+    ...                          n_neighbors=10)
+    >>> basis = LowRankBasis.from_edges(geometry.edges, 0.1, rank=20)
+    >>> model = GraphClusterModel.build(X, geometry, basis, 0.1, 0.99, 20, np.dtype(np.float64))
+    >>> F = model.signal(model.sq_distances(X[[19, 39]]), target=20)
+    >>> bool(F[0] > F[1])  # nearer the target view along the manifold, larger F
+    True
+
+    See Also
+    --------
+    mapping.manifold.ClusterModel : The same for a cluster of a dense fit.
+    mapping.manifold.ManifoldClustering : Its ``kernel="sparse"`` fit builds these models.
     """
 
     indices: np.ndarray
