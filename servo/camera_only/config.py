@@ -17,127 +17,210 @@ _MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_sh
 
 @dataclass(frozen=True)
 class SignalServoConfig:
-    """Everything that tunes :class:`~servo.camera_only.controller.SignalServo` (tuned on the
-    ``dev`` split only).
+    """Every setting of :class:`~servo.camera_only.controller.SignalServo`, checked when made.
 
-    speed : m/s along the route (pure pursuit).
-    lookahead : m ahead along the route of the pursued point.
-    spacing : m between waypoint views.
-    turn_rate : rad/s of the observing turn.
-    observe_every : steps between localisations during the observing turn.
-    fix_clusters : clusters (by eq. 13) whose views the global fix compares.
-    image_trust : largest aligned image distance (0..4) that counts as an image fix.
-    heading_gain / along_gain : share of an image fix's heading / along-sight error corrected.
-    behind / ahead : m of route about the progress whose views an image fix compares.
-    facing : rad: only route views within this of the robot's heading are compared: the
-        alignment's range (``MAX_SHIFT`` pixels, 0.25 rad) plus 0.1 for the belief's own
-        error; a view turned farther gives a false minimum inside the range (0.6 until
-        round 16, whose dev trace had such fixes turn the belief 0.4 rad wrong).
-    window : m of progress the belief may move in one step (:class:`RouteBelief`).
-    arrive_distance : m of route left at which the arrival law takes over.
-    arrive_drop : F toward the target below this share of its peak means past the peak.
-    arrive_min : F toward a view (0..1) that counts as a signal (peak, overtaking).
-    arrive_confirm : F toward the target (0..1) whose peak counts as having passed the view.
-    arrive_past : m the robot must have gone past an F peak before it counts.
-    overshoot : m beyond the target view the robot drives while looking for the F peak.
-    sweeps : legs of the sweep along the target view's sight before the best F is taken.
-    lateral / lateral_rounds : m to either side where F is probed once settled, and how many
-        times a better side moves the sweep there
-        (:class:`~servo.camera_only.peak_arrival.PeakArrival`).
-    arrive_lanes : search the F peak on the view's line of sight and on lines ``lateral`` m to
-        either side, then check F where the peak was
-        (:class:`~servo.camera_only.peak_arrival.PeakArrival`); else probe F at points to the sides.
-    relocalise_after / max_relocalise : steps facing route views without an image fix after
-        which the robot observes and localises again, at most ``max_relocalise`` times.
-    consistent_fix : take the observing turn's fix best supported by the turn's other images
+    A frozen dataclass: change a setting with :func:`dataclasses.replace`. The defaults are the
+    settings the servo evaluation measures (chosen on the ``dev`` split of the benchmark protocol
+    only, so the ``test`` split stays unseen). Gains and shares lie in (0, 1]; a setting marked
+    "0: off" may be 0, every other number must be positive; a wrong value raises ``ValueError``
+    naming the field.
+
+    Parameters
+    ----------
+    speed : float, default 1.5
+        Forward speed along the route, m/s (pure pursuit); at most the action space's 1.5.
+    lookahead : float, default 1.0
+        Distance ahead along the route of the pursued point, m.
+    spacing : float, default 0.8
+        Distance between the waypoint views picked along a route, m.
+    turn_rate : float, default 1.2
+        Angular speed of the observing turn, rad/s; at most the action space's 1.5.
+    observe_every : int, default 2
+        Steps between the images localised during the observing turn.
+    fix_clusters : int, default 2
+        Clusters (ranked by eq. 13's ``predict``) whose views the global fix compares.
+    image_trust : float, default 0.9
+        Largest aligned image distance (of 0..4) that counts as an image fix.
+    heading_gain : float, default 0.5
+        Share of an image fix's heading error corrected per fix.
+    along_gain : float, default 0.2
+        Share of an image fix's error along the view's sight corrected per fix.
+    behind, ahead : float, default 1.5 and 2.5
+        Route behind and ahead of the believed progress whose views an image fix compares, m.
+    facing : float, default 0.35
+        Only route views within this of the robot's heading are compared, rad, in (0, pi): the
+        alignment's range (0.25 rad) plus 0.1 for the belief's own error, since a view turned
+        farther gives a false minimum inside the range.
+    window : float, default 2.0
+        Largest move of the believed progress in one step, m.
+    arrive_distance : float, default 1.0
+        Route left at which the arrival law takes over, m.
+    arrive_drop : float, default 0.5
+        F toward the target below this share of its peak means the robot is past the peak.
+    arrive_min : float, default 0.05
+        F toward a view (0..1) that counts as a signal at all (a peak, an overtaking).
+    arrive_confirm : float, default 0.5
+        F toward the target (0..1) whose peak counts as having passed the view.
+    arrive_past : float, default 0.4
+        Distance the robot must have gone past an F peak before it counts, m.
+    overshoot : float, default 1.0
+        Distance beyond the target view driven while looking for the F peak, m.
+    sweeps : int, default 3
+        Legs of the sweep along the target view's line of sight before the best F is taken.
+    lateral : float, default 0.6
+        Offset to either side at which F is probed once the sweep has settled, m.
+    lateral_rounds : int, default 2
+        Times a better side moves the sweep there (0: off;
+        :class:`~servo.camera_only.peak_arrival.PeakArrival`).
+    arrive_lanes : bool, default False
+        Search the F peak on the view's line of sight and on lines ``lateral`` to either side,
+        then check F where the peak was, instead of probing points to the sides.
+    relocalise_after : int, default 40
+        Steps facing route views without an image fix after which the robot observes and
+        localises again.
+    max_relocalise : int, default 2
+        Most relocalisations in an episode (0: never).
+    consistent_fix : bool, default False
+        Take the observing turn's fix best supported by the turn's other images
         (:func:`~servo.camera_only.turn_global_fix.consistent_fix`) rather than its best single
         match.
-    contrast_fix / fix_far : take the view whose best match over the turn stands out most
-        against its matches from headings ``fix_far`` rad or more away
-        (:func:`~servo.camera_only.turn_global_fix.contrast_fix`; overrides ``consistent_fix``).
-    exclude_fix : a relocalisation (``contrast_fix``) skips the views within 3 m of the last
-        fix's, once the robot has driven more than 3 m from where it fixed.
-    unpeaked : observe and localise again (within ``max_relocalise``) when a whole sweep of the
-        target's line of sight in the arrival (:class:`~servo.camera_only.peak_arrival.PeakArrival`)
-        ended with F below ``arrive_min`` all along and below ``unpeaked`` (so any value above
-        ``arrive_min``, e.g. 1, takes every such sweep): the robot is not where it believes
-        the target is. 0: off, sweeping on. Round 17, dev: +1 / -0 of 200 episodes, not adopted.
-    arrive_descent / descent_step / descent_rounds / descent_rise : where a sweep of the
-        target's sight sees no F, search across by the image's shift-minimised distance to
-        the view (:class:`~servo.camera_only.image_descent_arrival.DescentArrival`):
-        ``descent_step`` m first, at most ``descent_rounds`` searches, from the line's least
-        distance once the distance has risen by ``descent_rise`` of it (or a sweep there and back is
-        done). Round 18, dev: lawn +1 / -0 of 140 episodes, hallway +0 / -1 of 60; not adopted.
-    look_back / look_steps : m; on a map where the robot turns round rather than reverse
-        (``reverse_parallax``), every ``look_back`` m driven along a recording backwards turn
-        to face the way its views look, take ``look_steps`` steps of image and pose fixes,
-        and turn back (:class:`~servo.camera_only.rear_view_heading.LookBack`); 0: never (session
-        19).
-    reverse : drive the route segments that run a recording backwards in reverse (camera
-        facing the way the stored views look) rather than turned round.
-    reverse_parallax : rad/m: reverse only on a map whose parallax (image shift per m across
-        a view's sight, :meth:`~servo.localise.ImageLocaliser.parallax`) is at least this.
-        The reversing fix's cross gain grows as 1 / parallax (lawn, 0.055: ~27 per m), so
-        there it turns the shift's noise into metres across (a dev trace: 2.3 m within 20
-        steps) and the robot does better turned round at full speed on odometry alone.
-    reverse_speed : m/s reversing (the action space allows down to -0.5).
-    reverse_heading_gain : per metre reversed, the share of the reversing fix's innovation
-        taken off the heading; the cross gain is chosen for critical damping with it and the
-        map's parallax (:meth:`~servo.camera_only.route_belief.RouteBelief.reverse_gains`).
-    junction_fix : where the route turns from reversing to driving forward, turn on the spot
-        to the forward heading before driving on
-        (:class:`~servo.camera_only.junction_pose.JunctionTurn`).
-    junction_position / junction_radius / junction_parallax : and there fix the position by
-        the shifts against the stored views within ``junction_radius`` m, assuming
-        ``junction_parallax`` times the map's parallax (off: on dev traces it moved the belief
-        the wrong way as often as the right; the parallax near a junction is 2-4x the map's).
-    relocalise_arrive : also observe and localise again when lost in the arrival phase (a
-        wrong global fix often only shows there: dev hallway episode 8).
-    relocalise_bumps : bumps since the last fix after which the robot observes and localises
-        again (counts toward ``max_relocalise``; 0: never): pushing a wall over and over at one
-        place means the belief is off across the route (dev hallway episode 10).
-    bumps_arriving : count bumps toward ``relocalise_bumps`` in the arrival phase too (off
-        since round 7: the arrival's back-and-forth by the target looks like a wall to the
-        stuck detector, and the relocalisation it started cost the approach's last minute).
-    bump_shift : m the belief moves across the route at a bump while reversing, toward the
-        side the robot was backing to (:meth:`~servo.camera_only.route_belief.RouteBelief.bumped`);
-        0: off. Round 7, dev: hallway `anywhere` 0-59 40 -> 45 of 60 (shifting at forward bumps
-        too: 45, but the lawn 26 -> 25 and hallway `view` 19 -> 18 of 24); on the test split
-        round 7 as a whole gained nothing (docs/servo.md).
-    cross_gain : share of the offset across the matched route view's line of sight that the
-        two-band measurement (:meth:`~servo.localise.ImageLocaliser.cross_offset`) corrects
-        per step (0: off); round 8.
-    cross_gate : m; a two-band offset farther than this from the belief is ignored.
-    cross_min_parallax : pixels per m; the two-band measurement is used only on a map whose
-        :meth:`~servo.localise.ImageLocaliser.cross_parallax` reaches this (below, one pixel
-        is more than 0.2 m and the regression on the map's few side-by-side views is weak).
-    fix_contrast : on a map whose parallax is below ``reverse_parallax`` (a far scene), an
-        image fix needs its best aligned distance at most this share of the median over the
-        shifts (1: any; round 8): a flat alignment (grass and sky) gives no heading
-        (:meth:`~servo.localise.ImageLocaliser.align_contrast`). Dev: lawn `anywhere` 0-59
-        26 -> 30 of 60; in the hallway (where it is not used) 45 -> 42.
-    stuck_steps / backup_steps : commanded motion for ``stuck_steps`` steps that odometry
-        does not see means a wall: drive the other way for ``backup_steps`` steps.
-    refine_shift : image alignments place the best shift between the tried ones (2 pixels,
-        0.025 rad apart) by a parabola (:func:`~servo.localise.refined_shift`); round 9.
-    bump_turn : where the robot reverses, a bump's shift across also turns the belief's
-        heading by -parallax times the shift, so the image's theta + c y is unchanged and the
-        reversing fix keeps the shift (:meth:`~servo.camera_only.route_belief.RouteBelief.bumped`);
-        round 9.
-    pose_every : steps between metric pose fixes against the best-matching route view
+    contrast_fix : bool, default True
+        Take the view whose best match over the turn stands out most against its matches from
+        headings ``fix_far`` or more away
+        (:func:`~servo.camera_only.turn_global_fix.contrast_fix`); overrides ``consistent_fix``.
+        On by default: look-alike places match one heading well, a true fix one heading only.
+    fix_far : float, default 0.6
+        Heading difference from which ``contrast_fix`` counts a match as another heading's, rad.
+    exclude_fix : bool, default False
+        A relocalisation by ``contrast_fix`` skips the views within 3 m of the last fix's once
+        the robot has driven more than 3 m from where it fixed.
+    unpeaked : float, default 0.0
+        Observe and localise again when a whole sweep of the target's line of sight ended with F
+        below ``arrive_min`` all along and below this (0: off, sweeping on).
+    reverse : bool, default True
+        Drive the route segments that run a recording backwards in reverse, the camera facing
+        the way the stored views look, rather than turned round.
+    reverse_parallax : float, default 0.1
+        Reverse only on a map whose parallax (image shift per m across a view's sight,
+        :meth:`~servo.localise.ImageLocaliser.parallax`) is at least this, rad/m: the reversing
+        fix's cross gain grows as 1 / parallax, so on a far scene (the lawn, ~0.055) it turns the
+        shift's noise into metres across, and the robot does better turned round on odometry.
+    reverse_speed : float, default 0.5
+        Speed when reversing, m/s; at most the action space's 0.5.
+    reverse_heading_gain : float, default 1.0
+        Per metre reversed, the share of the reversing fix's innovation taken off the heading;
+        the cross gain is then chosen for critical damping with it and the map's parallax
+        (:meth:`~servo.camera_only.route_belief.RouteBelief.reverse_gains`).
+    relocalise_arrive : bool, default True
+        Also observe and localise again when lost in the arrival phase, since a wrong global fix
+        often shows only there.
+    junction_fix : bool, default False
+        Where the route turns from reversing to driving forward, turn on the spot to the forward
+        heading before driving on (:class:`~servo.camera_only.junction_pose.JunctionTurn`).
+    junction_position : bool, default False
+        At such a junction, also fix the position by the image shifts against the stored views
+        within ``junction_radius``. Off: the parallax near a junction is 2-4 times the map's,
+        and the fix moves the belief the wrong way as often as the right.
+    junction_radius : float, default 3.5
+        Radius of the views a junction fix compares, m.
+    junction_parallax : float, default 1.0
+        Parallax a junction fix assumes, as a multiple of the map's.
+    relocalise_bumps : int, default 3
+        Bumps since the last fix after which the robot observes and localises again (counts
+        toward ``max_relocalise``; 0: never): pushing a wall again and again at one place means
+        the belief is off across the route.
+    bumps_arriving : bool, default False
+        Count bumps toward ``relocalise_bumps`` in the arrival phase too. Off: the arrival's
+        back-and-forth by the target looks like a wall to the stuck detector.
+    stuck_steps : int, default 10
+        Steps of commanded motion that odometry does not see that mean a wall.
+    bump_shift : float, default 0.5
+        Distance the belief moves across the route at a bump while reversing, toward the side
+        the robot was backing to, m (0: off;
+        :meth:`~servo.camera_only.route_belief.RouteBelief.bumped`).
+    cross_gain : float, default 0.1
+        Share of the offset across the matched route view's line of sight, measured by the
+        image's two bands (:meth:`~servo.localise.ImageLocaliser.cross_offset`), corrected per
+        step (0: off).
+    fix_contrast : float, default 0.5
+        On a far scene (parallax below ``reverse_parallax``), an image fix needs its best
+        aligned distance at most this share of the median over the shifts (1: any), since a flat
+        alignment (grass and sky) gives no heading
+        (:meth:`~servo.localise.ImageLocaliser.align_contrast`).
+    cross_gate : float, default 1.0
+        A two-band offset farther than this from the belief is ignored, m.
+    cross_min_parallax : float, default 5.0
+        The two-band measurement is used only on a map whose
+        :meth:`~servo.localise.ImageLocaliser.cross_parallax` reaches this, pixels per m: below
+        it one pixel is more than 0.2 m and the fit on the map's few side-by-side views is weak.
+    backup_steps : int, default 8
+        Steps driven the other way after a wall is detected.
+    refine_shift : bool, default False
+        Place an image alignment's best shift between the tried ones (2 pixels, 0.025 rad
+        apart) by a parabola (:func:`~servo.localise.refined_shift`).
+    bump_turn : bool, default False
+        Where the robot reverses, a bump's shift across also turns the believed heading by
+        -parallax times the shift, so that the reversing fix keeps the image's shift.
+    pose_every : int, default 3
+        Steps between metric pose fixes against the best-matching route view
         (:meth:`~servo.camera_only.view_pose.ViewPose.pose`: keypoints at the view's map-time
-        depths, PnP), forward and reversing, following and arriving; 0: off. Round 10.
-    pose_gain / pose_gate : share of a pose fix's error corrected (position and heading);
-        a pose more than ``pose_gate`` m from the belief is ignored.
-    pose_start : with ``pose_every``, the belief starts where the observing turn's images
-        that matched the global fix's view best pose the robot against it (two agreeing),
-        not at the view.
-    pose_agree : m; a pose is used only where the one before it, carried by odometry,
-        agrees within this (:class:`~servo.camera_only.view_pose.PoseAgreement`); 0: every pose.
-    fix_check : with ``contrast_fix``, ``pose_every`` and ``pose_start``: where the two turn
-        images that match the fix's view best do not both pose against it and agree
+        depths, PnP), in every phase (0: off).
+    pose_gain : float, default 0.5
+        Share of a pose fix's error corrected, position and heading.
+    pose_gate : float, default 6.0
+        A pose farther than this from the belief is ignored, m.
+    pose_agree : float, default 0.3
+        A pose is used only where the one before it, carried by odometry, agrees within this, m
+        (0: every pose; :class:`~servo.camera_only.view_pose.PoseAgreement`).
+    pose_start : bool, default True
+        With ``pose_every``, start the belief where the observing turn's two best images pose
+        the robot against the fix's view (when they agree), not at the view itself.
+    fix_check : int, default 8
+        With ``contrast_fix``, ``pose_every`` and ``pose_start``: where the turn's two best
+        images do not both pose against the fix's view and agree
         (:meth:`~servo.camera_only.metric_pose_fixes.PoseFixes.supports`), the first of the next
-        ``fix_check`` views by contrast score that they do support is the fix; 0: off. Round 11.
+        ``fix_check`` views by contrast that they do support becomes the fix (0: off).
+    look_back : float, default 10.0
+        On a map where the robot turns round rather than reverses, every this many metres driven
+        along a recording backwards, turn to face the way its views look, take ``look_steps``
+        steps of image and pose fixes, and turn back, m (0: never;
+        :class:`~servo.camera_only.rear_view_heading.LookBack`).
+    look_steps : int, default 6
+        Steps of fixes taken while looking back.
+    arrive_descent : bool, default False
+        Where a sweep of the target's line of sight sees no F, search across by the image's
+        shift-minimised distance to the view instead
+        (:class:`~servo.camera_only.image_descent_arrival.DescentArrival`).
+    descent_step : float, default 1.0
+        The first step of that search across the line, m.
+    descent_rounds : int, default 4
+        Most searches across of the descent.
+    descent_rise : float, default 0.3
+        A search leg ends once the image distance has risen by this share of the line's least.
+
+    Attributes
+    ----------
+    speed, lookahead, spacing, ...
+        Each parameter, stored under its own name (the object is frozen).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from servo.camera_only import SignalServoConfig
+    >>> config = SignalServoConfig()
+    >>> config.speed, config.contrast_fix, config.pose_every
+    (1.5, True, 3)
+    >>> replace(config, pose_every=0).pose_every  # metric pose fixes off
+    0
+    >>> SignalServoConfig(speed=2.0)
+    Traceback (most recent call last):
+        ...
+    ValueError: speed must be in (0, 1.5] m/s, got 2.0
+
+    See Also
+    --------
+    servo.camera_only.SignalServo : The controller these settings tune.
+    servo.laser_image.ServoConfig : The settings of the laser + image controller.
     """
 
     speed: float = 1.5

@@ -65,23 +65,75 @@ EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalis
 
 
 class SignalServo:
-    """Servo to a stored view by F^j(k) with the camera and odometry (see the module doc).
+    """Servo to a stored view by F^j(k) (eq. 13) with the camera and odometry only.
+
+    The robot turns on the spot and fixes its place globally from the images, plans a route of
+    waypoint views through the map's view graph and follows it, its belief on the route
+    corrected by image and metric pose fixes, and arrives at the target where F toward the
+    target view peaks. See the package's description for each part.
 
     Parameters
     ----------
     servo_map : ServoMap
+        The map of the world it drives in.
     config : SignalServoConfig, optional
-    world : str, optional   the world it will drive in (a map of another world is refused).
+        Its settings; default ``SignalServoConfig()``.
+    world : str, optional
+        The world it will drive in; a map of another world raises ``MapError``.
 
-    Attributes (after ``act``)
+    Attributes
     ----------
-    phase_ : "observe", "follow", "arrive" or "done".
-    route_ : stored views of the route; ``waypoint_``: the current waypoint view (None while
-        observing).
-    manifold_ : cluster of the current image by eq. 13 (``predict``), at the global fix.
-    belief_ : :class:`~servo.camera_only.route_belief.RouteBelief` (None while observing).
-    reverses : bool: drives the routes' backward segments in reverse (set up from the map).
+    map : ServoMap
+        The map.
+    config : SignalServoConfig
+        The settings.
+    parallax : float
+        The map's image shift per metre across a view's sight (rad/m), from its linked views.
+    reverses : bool
+        Whether it drives the routes' backward segments in reverse (``config.reverse`` and a map
+        whose parallax reaches ``config.reverse_parallax``).
+    far_scene : bool
+        Whether the map's parallax is below ``config.reverse_parallax`` (grass, sky, trees).
+    target : int or None
+        The target view of the episode (None before :meth:`reset`).
+    phase_ : {"observe", "follow", "arrive", "done"}
+        The phase after the last :meth:`act`.
+    route_ : list of int
+        Stored views of the route.
+    waypoint_ : int or None
+        The current waypoint view (None while observing).
+    manifold_ : int
+        Cluster of the current image by eq. 13 (``predict``) at the global fix.
+    belief_ : RouteBelief or None
+        The pose on the route (:class:`~servo.camera_only.route_belief.RouteBelief`); None
+        while observing.
     done_ : bool
+        Whether the controller has arrived and stopped.
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from servo import load_or_build
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> servo_map = load_or_build("lawn", data, cache="servo-maps", progress=False)
+    >>> import numpy as np
+    >>> from servo import ServoEnv, SignalServo
+    >>> env = ServoEnv("lawn", servo_map, max_steps=20)
+    >>> obs, info = env.reset(seed=1)
+    >>> policy = SignalServo(servo_map, world="lawn")
+    >>> policy.reset(info["target_view"], info)
+    >>> action = policy.act(obs, info)
+    >>> policy.phase_, bool(np.allclose(action, [0.0, policy.config.turn_rate]))
+    ('observe', True)
+
+    See Also
+    --------
+    servo.camera_only.SignalServoConfig : Its settings.
+    servo.laser_image.ManifoldServo : The laser + image controller.
+    mapping.manifold.ManifoldClustering.signal : F^j(k) of eq. 13.
+    servo.ServoEnv : The task it is evaluated on.
     """
 
     def __init__(self, servo_map: ServoMap, *, config: SignalServoConfig | None = None,

@@ -49,26 +49,70 @@ SCAN_POINTS = 90  # current-scan points used by tracking ICP (every k-th return)
 
 @dataclass(frozen=True)
 class ServoConfig:
-    """Everything that tunes :class:`ManifoldServo` (chosen on the ``dev`` split only).
+    """Every setting of :class:`ManifoldServo`, checked when made.
 
-    speed : m/s cruise.  lookahead : m of pure pursuit along the path.
-    keep_off : m of clearance (beyond the planning grid's own margin) below which the path
-        costs more (``GeodesicField``'s ``keep_off``): paths swing wide round corners.
-    turn_rate : rad/s of the observing turn.  image_every : steps between the turn's images.
-    image_weight : the images' weight against the laser fit in global localisation.
-    lost_fit / lost_steps : the scan fitting the map this badly (share of points within
-        0.1 m) for this many steps in a row means the pose is wrong: localise again.
-    drift_window / max_drift : the scan matches moving the pose more than ``max_drift`` m
-        (beyond what odometry said) within ``drift_window`` steps is inconsistent tracking
-        (good odometry drifts centimetres there): localise again.
-    arrive_distance : m of path left at which the arrival law takes over.
-    arrive_radius : m from the target view's pose (as the map places it) at which the arrival
-        law stops driving and turns to the view's heading (the map may place a view ~0.3 m
-        off; success needs 0.5 m).
-    verify_score : the scan's two-way overlap with the target view's (0..2) that confirms
-        arrival.  max_relocalisations : after this many, arrival is accepted unverified.
-    stuck_steps / backup_steps : commanded motion without odometry motion for ``stuck_steps``
-        steps is a wall: back up for ``backup_steps``.
+    A frozen dataclass: change a setting with :func:`dataclasses.replace`. The defaults are the
+    settings the servo evaluation measures, chosen on the benchmark's ``dev`` split only.
+
+    Parameters
+    ----------
+    speed : float, default 1.0
+        Cruise speed along the path, m/s.
+    lookahead : float, default 1.0
+        Distance ahead along the path of the pursued point, m.
+    keep_off : float, default 0.4
+        Clearance beyond the planning grid's own margin below which the path costs more, m
+        (``GeodesicField``'s ``keep_off``), so paths swing wide round corners.
+    turn_rate : float, default 1.4
+        Angular speed of the observing turn, rad/s.
+    image_every : int, default 3
+        Steps between the images kept during the observing turn.
+    image_weight : float, default 0.3
+        Weight of the images against the laser fit in global localisation.
+    lost_fit : float, default 0.5
+        Share of scan points within 0.1 m of the map below which the scan fits the map badly.
+    lost_steps : int, default 10
+        Steps of bad fit in a row after which the pose counts as wrong: localise again.
+    drift_window : int, default 20
+        Steps over which the scan matches' corrections are summed.
+    max_drift : float, default 0.6
+        Corrections moving the pose more than this within ``drift_window`` steps, beyond what
+        odometry said, mean inconsistent tracking (good odometry drifts centimetres there):
+        localise again, m.
+    arrive_distance : float, default 1.0
+        Path left at which the arrival law takes over, m.
+    arrive_radius : float, default 0.1
+        Distance from the target view's pose (as the map places it) at which the arrival law
+        stops driving and turns to the view's heading, m; the map may place a view ~0.3 m off
+        and success needs 0.5 m.
+    verify_score : float, default 1.4
+        The scan's two-way overlap with the target view's (0..2) that confirms arrival.
+    max_relocalisations : int, default 3
+        Global localisations after which arrival is accepted unverified.
+    stuck_steps : int, default 12
+        Steps of commanded motion without odometry motion that mean a wall.
+    backup_steps : int, default 6
+        Steps backed up after a wall is detected.
+
+    Attributes
+    ----------
+    speed, lookahead, keep_off, ...
+        Each parameter, stored under its own name (the object is frozen).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from servo.laser_image import ServoConfig
+    >>> config = ServoConfig()
+    >>> config.speed, config.arrive_radius
+    (1.0, 0.1)
+    >>> replace(config, speed=0.5).speed
+    0.5
+
+    See Also
+    --------
+    servo.laser_image.ManifoldServo : The controller these settings tune.
+    servo.camera_only.SignalServoConfig : The settings of the camera-only controller.
     """
 
     speed: float = 1.0
@@ -108,23 +152,74 @@ class ServoConfig:
 
 
 class ManifoldServo:
-    """Servo to a stored view of a :class:`~servo.maps.build.ServoMap` (see the module doc).
+    """Servo to a stored view of a :class:`~servo.maps.ServoMap` with the laser and the camera.
+
+    An episode runs in phases (see the module's description): observe (turn once round on the
+    spot), localise globally (the all-round scan on the map's point map, look-alikes told apart
+    by the images), drive the shortest path to the target view while tracking by ICP, arrive and
+    verify by the scan, and recover by localising again when the scan stops fitting. The
+    controller reads the observation only (image, scan, odometry relative to the episode's
+    start), never the simulator's truth.
 
     Parameters
     ----------
     servo_map : ServoMap
+        The map of the world it drives in.
     config : ServoConfig, optional
+        Its settings; default ``ServoConfig()``.
     world : str, optional
-        The world the controller will drive in; a map fitted on another world is refused.
+        The world it will drive in; a map of another world raises ``MapError``.
 
-    Attributes (after ``act``)
+    Attributes
     ----------
-    phase_ : "observe", "drive" or "done".
-    pose_ : the robot's pose in the map frame (while driving).
-    route_ : stored views along the planned path; ``waypoint_``: the one nearest the pursuit
-        point. ``manifold_route_``: the clusters the path crosses.
-    manifold_ : cluster of the image by eq. 13 (``predict``) at the last localisation.
-    done_ : bool.  relocalisations_ : global localisations this episode.
+    map : ServoMap
+        The map.
+    config : ServoConfig
+        The settings.
+    target : int or None
+        The target view of the episode (None before :meth:`reset`).
+    phase_ : {"observe", "drive", "done"}
+        The phase after the last :meth:`act`.
+    pose_ : ndarray of shape (3,) or None
+        The robot's pose in the map frame while driving.
+    route_ : list of int
+        Stored views along the planned path.
+    waypoint_ : int or None
+        The view of ``route_`` nearest the pursued point.
+    manifold_route_ : list of int
+        The clusters the path crosses.
+    manifold_ : int
+        Cluster of the image by eq. 13 (``predict``) at the last localisation; -1 before.
+    done_ : bool
+        Whether the controller has arrived and stopped.
+    relocalisations_ : int
+        Global localisations in this episode.
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from servo import load_or_build
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> servo_map = load_or_build("lawn", data, cache="servo-maps", progress=False)
+    >>> import numpy as np
+    >>> from servo import ManifoldServo, ServoEnv
+    >>> env = ServoEnv("lawn", servo_map, max_steps=20)
+    >>> obs, info = env.reset(seed=1)
+    >>> policy = ManifoldServo(servo_map, world="lawn")
+    >>> policy.reset(info["target_view"], info)
+    >>> action = policy.act(obs, info)
+    >>> policy.phase_, bool(np.allclose(action, [0.0, policy.config.turn_rate]))
+    ('observe', True)
+    >>> obs, reward, terminated, truncated, info = env.step(action)
+
+    See Also
+    --------
+    servo.laser_image.ServoConfig : Its settings.
+    servo.camera_only.SignalServo : The camera-only controller.
+    servo.ServoEnv : The task it is evaluated on.
+    servo.evaluate : The closed-loop evaluation of either controller.
     """
 
     def __init__(self, servo_map: ServoMap, *, config: ServoConfig | None = None,
