@@ -24,16 +24,41 @@ class MapError(ValueError):
 
 @dataclass(frozen=True)
 class MapSettings:
-    """What determines a map besides the dataset.
+    """What determines a servo map besides the dataset.
 
-    stride : keep every ``stride``-th frame of each sequence as a stored view (2: the paper's
+    Parameters
+    ----------
+    stride : int, default 2
+        Keep every ``stride``-th frame of each recording as a stored view (2: the paper's
         split, frames 0, 2, 4, ... build the map).
-    image_size : (width, height) of the image features (``ImageFeatures``, unit-normalised so
+    image_size : (int, int), default (80, 60)
+        (width, height) of the image features (``ImageFeatures``, unit-normalised so that
         brightness changes cancel).
-    min_cluster_size : Q of ``ManifoldClustering``.
-    link_radius : m, distance (the two sequences aligned by sensing) within which views of two
-        sequences may be linked.
-    link_rmse : m, largest ICP residual accepted for a link.
+    min_cluster_size : int, default 8
+        Q of ``ManifoldClustering``.
+    link_radius : float, default 4.0
+        Distance within which views of two recordings (aligned by sensing) may be linked, m.
+    link_rmse : float, default 0.06
+        Largest ICP residual accepted for a link, m.
+
+    Attributes
+    ----------
+    stride, image_size, min_cluster_size, link_radius, link_rmse
+        The parameters (the object is frozen).
+
+    Examples
+    --------
+    >>> from servo import MapSettings
+    >>> settings = MapSettings(min_cluster_size=10)
+    >>> settings.to_json()["image_size"]
+    [80, 60]
+    >>> MapSettings.from_json(settings.to_json()) == settings
+    True
+
+    See Also
+    --------
+    servo.maps.build_map : Builds a map with these settings.
+    servo.maps.map_key : The cache key they enter.
     """
 
     stride: int = 2
@@ -74,14 +99,84 @@ class MapSettings:
 
 @dataclass
 class ServoMap:
-    """The stored views of one world and the graphs over them (see the module docstring).
+    """The stored views of one world and the graphs over them.
 
-    Arrays are indexed by view: ``images`` (n, H, W, 3) uint8, ``features`` (n, d) float32,
-    ``scans`` (n, B) float32, ``poses`` (n, 3) refined odometry in each sequence's own frame,
-    ``sequence`` (n,) and ``frame`` (n,) where it was recorded, ``clusters`` (n,) the
-    clustering's labels. ``edges`` (E, 2) with ``edge_transforms`` (E, 3): the pose of view
-    ``edges[e, 1]`` in the frame of view ``edges[e, 0]`` (one direction stored).
-    ``true_poses`` and ``true_labels`` are ground truth for the env and evaluation only.
+    Built from a dataset by :func:`~servo.maps.build_map` (cached by
+    :func:`~servo.maps.load_or_build`), saved and loaded by :func:`~servo.maps.save_map` and
+    :func:`~servo.maps.load_map`. No ground truth goes into building it: each recording's
+    odometry starts at its own origin and recordings are joined by scan and image matching only;
+    ``true_poses`` and ``true_labels`` are kept for the env and the evaluation.
+
+    Parameters
+    ----------
+    world : str
+        The world the views were recorded in.
+    key : str
+        The cache key: the dataset's checksums, the settings and the code that built the map.
+    images : ndarray of shape (n, H, W, 3), uint8
+        The stored views' images.
+    features : ndarray of shape (n, d), float32
+        Their image features (``image_features.transform(images)``).
+    scans : ndarray of shape (n, B), float32
+        Their laser ranges (+inf: no return).
+    angles : ndarray of shape (B,)
+        The beams' angles, rad.
+    max_range : float
+        The laser's range, m.
+    poses : ndarray of shape (n, 3)
+        Odometry refined by scan matching, in each recording's own frame.
+    sequence, frame : ndarray of shape (n,), int
+        The recording and frame of each view.
+    sequence_names : list of str
+        The recordings' names.
+    clusters : ndarray of shape (n,), int
+        The manifold clustering's labels.
+    edges : ndarray of shape (E, 2), int
+        Pairs of linked views (one direction stored).
+    edge_transforms : ndarray of shape (E, 3)
+        The pose of view ``edges[e, 1]`` in the frame of view ``edges[e, 0]``.
+    clustering : ManifoldClustering
+        The fitted clustering of ``features``.
+    image_features : ImageFeatures
+        The fitted image transformer.
+    true_poses : ndarray of shape (n, 3)
+        The views' true poses (evaluation only).
+    true_labels : ndarray of shape (n,), int
+        The views' true manifolds, ``MANIFOLD_IDS`` values (evaluation only).
+    settings : MapSettings, default MapSettings()
+        The settings it was built with.
+
+    Attributes
+    ----------
+    world, key, images, ..., settings
+        The parameters, as given.
+    n_clusters : int
+        Number of clusters.
+    image_shape : tuple of int
+        (H, W, 3) of the stored images.
+    manifold_graph : ndarray of shape (n_clusters, n_clusters), bool
+        Cluster b follows cluster a somewhere in a recording (both ways stored).
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from servo import load_or_build
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> servo_map = load_or_build("lawn", data, cache="servo-maps", progress=False)
+    >>> len(servo_map), servo_map.world, servo_map.image_shape
+    (60, 'lawn', (240, 320, 3))
+    >>> servo_map.sequence_names
+    ['lawn-left', 'lawn-straight', 'lawn-right']
+    >>> servo_map.manifold_graph.shape == (servo_map.n_clusters,) * 2
+    True
+
+    See Also
+    --------
+    servo.maps.load_or_build : The cached map of a world, built on first use.
+    servo.maps.MapSettings : What determines a map besides the dataset.
+    servo.ServoEnv : The task on a map.
     """
 
     world: str

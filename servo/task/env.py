@@ -45,7 +45,9 @@ def _check_options(options) -> dict:
 
 
 class ServoEnv(gym.Env):
-    """Servo the robot to a stored view of the world's map.
+    """Servo the robot to a stored view of the world's map (a Gymnasium env).
+
+    Registered as ``topomap/HallwayServo-v0`` and ``topomap/LawnServo-v0``.
 
     Description
         The robot starts near a stored view on one manifold (within ``START_RADIUS`` and
@@ -64,9 +66,9 @@ class ServoEnv(gym.Env):
 
     Rewards
         ``reward_signal``: the change of F^j(k) toward the target (eq. 13) over the step,
-        divided by F at the target view itself, times ``signal_weight`` (1);
-        ``reward_success`` (``success_reward``, +1, on arrival) and ``reward_collision``
-        (``-collision_penalty``, -0.1, per step in contact).
+        divided by F at the target view itself, times ``signal_weight``;
+        ``reward_success`` (``success_reward`` on arrival) and ``reward_collision``
+        (``-collision_penalty`` per step in contact).
 
     Episode End
         Terminated on success (within 0.5 m and 20 deg of the target pose) or when stuck
@@ -81,19 +83,74 @@ class ServoEnv(gym.Env):
         ``signal`` (F), ``path_length``, the reward parts and the base env's info. Truth is for
         evaluation only.
 
-    Arguments
-        ``world``, ``servo_map`` (a ServoMap, the path of a saved one, or None: the cached
-        default map of the world),
-        ``max_steps`` (600), ``cross_manifold`` (True), ``randomize`` (lights and colours per
-        episode), ``odometry_noise`` (True), ``render_mode`` (None | "rgb_array"), the reward
-        weights ``signal_weight`` (1.0), ``success_reward`` (1.0), ``collision_penalty`` (0.1).
-
     Reset options
         ``target`` (stored view index) or ``target_manifold`` (name); ``start_view`` (stored
         view index) or ``start_manifold`` (name), or ``pose`` (x, y, yaw).
 
     Version History
         v0: initial version.
+
+    Parameters
+    ----------
+    world : {"hallway", "lawn"}, default "hallway"
+        The world.
+    servo_map : ServoMap, str, path or None, default None
+        The map: a ``ServoMap``, the path of a saved one (cheap to pass to vector-env workers),
+        or None for the world's cached default map (:func:`~servo.maps.load_or_build`).
+    max_steps : int, default 600
+        Steps before the episode is truncated.
+    cross_manifold : bool, default True
+        Draw the target on another manifold than the start's.
+    randomize : bool, default False
+        Draw the lights and colours anew each episode.
+    odometry_noise : bool, default True
+        Odometry with random-walk drift; False gives noiseless odometry.
+    render_mode : {None, "rgb_array"}, default None
+        ``"rgb_array"``: :meth:`render` draws the top-down map.
+    signal_weight : float, default 1.0
+        Weight of the F reward.
+    success_reward : float, default 1.0
+        Reward on arrival.
+    collision_penalty : float, default 0.1
+        Penalty per step in contact.
+
+    Attributes
+    ----------
+    map : ServoMap
+        The map.
+    base : NavigationEnv
+        The navigation env the robot runs in.
+    observation_space, action_space : gymnasium.spaces.Space
+        As above.
+    max_steps, cross_manifold, signal_weight, success_reward, collision_penalty, render_mode
+        The parameters.
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from servo import load_or_build
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> servo_map = load_or_build("lawn", data, cache="servo-maps", progress=False)
+    >>> from servo import ServoEnv
+    >>> env = ServoEnv("lawn", servo_map, max_steps=5)
+    >>> obs, info = env.reset(seed=1)
+    >>> sorted(obs), obs["image"].shape
+    (['image', 'odometry', 'scan', 'target_image', 'target_scan'], (240, 320, 3))
+    >>> info["start_manifold"] != info["target_manifold"]
+    True
+    >>> for _ in range(5):
+    ...     obs, reward, terminated, truncated, info = env.step([0.0, 0.5])
+    >>> truncated, info["reason"]
+    (True, 'time limit')
+
+    See Also
+    --------
+    servo.ManifoldServo, servo.SignalServo : The controllers that solve it.
+    servo.task.RandomPolicy, servo.task.GreedyFProbing, servo.task.OraclePolicy : Baselines.
+    servo.evaluate : Episodes run and scored.
+    sim.env.NavigationEnv : The plain navigation env it wraps.
     """
 
     metadata = NavigationEnv.metadata

@@ -39,7 +39,52 @@ PROTOCOL_ENTROPY = 0x5E2F0_12  # the benchmark's root seed (issue 12); never cha
 
 @dataclass(frozen=True)
 class Protocol:
-    """One cell of the benchmark: a world, a start tier, a split and the env settings."""
+    """One cell of the servo benchmark: a world, a start tier, a split and the env settings.
+
+    Episode ``i`` of a protocol is the same on every machine: its seed comes from the split and
+    the world only (so tiers and settings share episodes), and it goes from the ``i mod P``-th of
+    the world's ordered pairs of manifolds to the next (see the module's description).
+
+    Parameters
+    ----------
+    world : {"hallway", "lawn"}
+        The world.
+    tier : {"view", "anywhere"}, default "view"
+        Where episodes start: near a stored view of the start manifold, or anywhere in its free
+        space with any heading.
+    split : {"dev", "test"}, default "dev"
+        ``dev`` for tuning, ``test`` for reporting (disjoint seeds).
+    randomize : bool, default False
+        Lights and colours drawn anew each episode.
+    odometry_noise : bool, default True
+        Odometry with random-walk drift.
+    max_steps : int, default 600
+        Steps per episode.
+
+    Attributes
+    ----------
+    world, tier, split, randomize, odometry_noise, max_steps
+        The parameters (the object is frozen).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scenes import MANIFOLD_IDS
+    >>> from servo.task import Protocol, episode_specs
+    >>> protocol = Protocol("lawn", tier="anywhere", split="test")
+    >>> labels = np.array([MANIFOLD_IDS["lawn"], MANIFOLD_IDS["lawn-left"]])
+    >>> [(s.index, s.start_manifold, s.target_manifold) for s in episode_specs(protocol, labels, 3)]
+    [(0, 'lawn', 'lawn-left'), (1, 'lawn-left', 'lawn'), (2, 'lawn', 'lawn-left')]
+    >>> Protocol("lawn", tier="somewhere")
+    Traceback (most recent call last):
+        ...
+    ValueError: tier must be one of ('view', 'anywhere'), got 'somewhere'
+
+    See Also
+    --------
+    servo.run_protocol : Runs a protocol's episodes in parallel and summarises them.
+    servo.task.episode_specs : Its deterministic episodes.
+    """
 
     world: str
     tier: str = "view"
@@ -60,6 +105,38 @@ class Protocol:
 
 @dataclass(frozen=True)
 class EpisodeSpec:
+    """One episode of a :class:`Protocol`: its index, seed and manifold pair.
+
+    Parameters
+    ----------
+    index : int
+        Position in the protocol's episode list.
+    seed : int
+        The episode's seed (``ServoEnv.reset(seed=...)``).
+    start_manifold, target_manifold : str
+        Where it starts and the manifold of its target view.
+
+    Attributes
+    ----------
+    index, seed, start_manifold, target_manifold
+        The parameters (the object is frozen).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scenes import MANIFOLD_IDS
+    >>> from servo.task import Protocol, episode_specs
+    >>> labels = np.array([MANIFOLD_IDS["hallway"], MANIFOLD_IDS["hallway-left"]])
+    >>> spec = episode_specs(Protocol("hallway"), labels, 1)[0]
+    >>> spec.index, spec.start_manifold, spec.target_manifold, isinstance(spec.seed, int)
+    (0, 'hallway', 'hallway-left', True)
+
+    See Also
+    --------
+    servo.task.episode_specs : The episodes of a protocol.
+    servo.task.reset_options : The env's reset options of an episode.
+    """
+
     index: int
     seed: int
     start_manifold: str
