@@ -31,7 +31,35 @@ def _positive(value, name: str) -> float:
 
 
 class RandomPolicy:
-    """Uniform random commands, each held for ``hold`` steps (a lower bound)."""
+    """Uniform random commands, each held for ``hold`` steps: the benchmark's lower bound.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws the commands, uniform over the action space.
+    hold : int, default 5
+        Steps each command is held.
+
+    Attributes
+    ----------
+    rng, hold
+        The parameters.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from servo.task import RandomPolicy
+    >>> policy = RandomPolicy(np.random.default_rng(0), hold=2)
+    >>> policy.reset(target=0)
+    >>> a, b, c = (policy.act(None) for _ in range(3))
+    >>> bool((a == b).all()), bool((b == c).all()), a.dtype
+    (True, False, dtype('float32'))
+
+    See Also
+    --------
+    servo.task.GreedyFProbing : Greedy ascent on F by probing.
+    servo.task.OraclePolicy : The upper bound, on the true pose.
+    """
 
     def __init__(self, rng: np.random.Generator, hold: int = 5):
         if not isinstance(rng, np.random.Generator):
@@ -56,23 +84,68 @@ PROBES = np.array([(0.5, 0.0), (0.4, 0.8), (0.4, -0.8), (0.0, 1.0), (0.0, -1.0),
 
 
 class GreedyFProbing:
-    """The paper's greedy servo, literally: probe candidate motions, keep the one that raises
-    F^j(k) most (eq. 13), repeat.
+    """The paper's greedy servo, literally: probe motions, keep the one raising F^j(k) most.
+
+    F^j(k) is eq. 13 toward a stored view; the probing repeats until the episode ends.
 
     Each probe is executed for one step, F is read from the next image, and the probe is
     undone by the opposite command; after all probes the best is executed ``commit`` times.
 
-    With ``waypoints`` (the fair baseline), F is taken toward the next waypoint view of a
-    route in the current manifold: the first image is localised
+    With ``waypoints`` (the fair baseline, ``policy="greedy"``), F is taken toward the next
+    waypoint view of a route in the current manifold: the first image is localised
     (:class:`~servo.localise.ImageLocaliser`), the route over the view graph is cut into
     waypoints ``spacing`` apart, and the probing moves on when F toward the next waypoint
-    overtakes F toward the current one (:class:`~servo.camera_only.controller.WaypointTracker`).
-    Without (``policy="greedy-target"``, the earlier variant, labelled as such) F is taken
-    toward the final target only, whose cluster gives no signal from another manifold.
+    overtakes F toward the current one (:class:`~servo.waypoint_tracker.WaypointTracker`).
+    Without (``policy="greedy-target"``), F is taken toward the final target only, whose cluster
+    gives no signal from another manifold.
 
-    ``budget_factor``: the evaluation multiplies its step limit by this, so that the probing
-    (12 probe steps per ``commit`` steps of motion) can cover the route and the result
-    measures F, not the step budget.
+    Parameters
+    ----------
+    servo_map : ServoMap
+        The map whose clustering gives F.
+    commit : int, default 8
+        Steps the best probe is executed for.
+    waypoints : bool, default True
+        Ascend F toward waypoint views along a route rather than toward the target only.
+    spacing : float, default 0.8
+        Distance between waypoint views, m.
+
+    Attributes
+    ----------
+    map : ServoMap
+        The map.
+    commit, waypoints, spacing
+        The parameters.
+    budget_factor : int
+        The evaluation multiplies its step limit by this, so that the probing (12 probe steps
+        per ``commit`` steps of motion) can cover the route and the result measures F, not the
+        step budget.
+    target : int or None
+        The target view (None before :meth:`reset`).
+    waypoint_ : int
+        The view F is ascended toward.
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from servo import load_or_build
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> servo_map = load_or_build("lawn", data, cache="servo-maps", progress=False)
+    >>> from servo import ServoEnv
+    >>> from servo.task import GreedyFProbing
+    >>> env = ServoEnv("lawn", servo_map, max_steps=5)
+    >>> obs, info = env.reset(seed=1)
+    >>> policy = GreedyFProbing(servo_map)
+    >>> policy.reset(info["target_view"], info)
+    >>> policy.budget_factor, policy.act(obs, info).shape
+    (3, (2,))
+
+    See Also
+    --------
+    servo.camera_only.SignalServo : The camera-only controller, servoing by F along a route.
+    mapping.manifold.ManifoldClustering.signal : F^j(k) of eq. 13.
     """
 
     def __init__(self, servo_map: ServoMap, commit: int = 8, *, waypoints: bool = True,
@@ -137,10 +210,53 @@ class GreedyFProbing:
 
 
 class OraclePolicy:
-    """Follows the shortest free-space route to the target using the *true* pose.
+    """Follows the shortest free-space route to the target using the *true* pose: the upper bound.
 
     Same steering as the controller (pure pursuit, then the arrival law), so the gap between
-    the two is what localisation from images and scans costs.
+    the two is what localisation from images and scans costs. It reads ``info["pose"]`` and
+    ``info["target_pose"]``, the env's ground truth.
+
+    Parameters
+    ----------
+    world : World
+        The world, whose free space the route is planned in.
+    speed : float, default 1.0
+        Cruise speed, m/s.
+    lookahead : float, default 1.0
+        Distance ahead along the route of the pursued point, m.
+
+    Attributes
+    ----------
+    world, speed, lookahead
+        The parameters.
+    field : GeodesicField or None
+        The distance field to the target (None before :meth:`reset`).
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from servo import load_or_build
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> servo_map = load_or_build("lawn", data, cache="servo-maps", progress=False)
+    >>> from scenes import build_world
+    >>> from servo import ServoEnv
+    >>> from servo.task import OraclePolicy
+    >>> env = ServoEnv("lawn", servo_map, max_steps=200, odometry_noise=False)
+    >>> obs, info = env.reset(seed=1)
+    >>> policy = OraclePolicy(build_world("lawn"))
+    >>> policy.reset(info["target_view"], info)
+    >>> start = info["distance"]
+    >>> for _ in range(20):
+    ...     obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
+    >>> bool(info["distance"] < start)
+    True
+
+    See Also
+    --------
+    servo.ManifoldServo : The controller on the same steering, without the truth.
+    servo.task.RandomPolicy : The lower bound.
     """
 
     def __init__(self, world: World, speed: float = 1.0, lookahead: float = 1.0):

@@ -35,7 +35,55 @@ BOOTSTRAP = 10_000
 
 @dataclass(frozen=True)
 class PairedComparison:
-    """One world and setting: the episodes both files ran, paired by index."""
+    """Two evaluations of one world and setting, compared episode by episode.
+
+    :func:`compare` makes one per world and setting present in both results; episodes are
+    paired by their index (and must have the same seed).
+
+    Parameters
+    ----------
+    setting : dict
+        World, tier, split, randomize, odometry_noise and max_steps.
+    n : int
+        Episodes both ran.
+    successes_a, successes_b : int
+        Successes of A and of B among them.
+    gained, lost : int
+        Episodes won by B only, and by A only.
+    sign_test_p : float
+        Exact two-sided sign test on the ``gained + lost`` episodes.
+    difference : float
+        B's success rate minus A's.
+    difference_ci95 : (float, float)
+        Its 95% paired bootstrap interval.
+    by_start : dict
+        Start manifold -> (episodes, successes of A, successes of B).
+
+    Attributes
+    ----------
+    setting, n, successes_a, successes_b, gained, lost, sign_test_p, difference
+        The parameters (the object is frozen).
+    difference_ci95, by_start
+        The parameters.
+
+    Examples
+    --------
+    >>> from servo.task import compare
+    >>> def result(successes):
+    ...     episodes = [{"episode": i, "seed": 10 + i, "success": s, "start_manifold": "lawn"}
+    ...                 for i, s in enumerate(successes)]
+    ...     return {"world": "lawn", "tier": "view", "split": "dev", "randomize": False,
+    ...             "odometry_noise": True, "max_steps": 600, "episodes_detail": episodes}
+    >>> [row] = compare([result([True, False, False])], [result([True, True, False])])
+    >>> row.n, row.gained, row.lost, round(row.difference, 3)
+    (3, 1, 0, 0.333)
+
+    See Also
+    --------
+    servo.task.compare : Makes the comparisons.
+    servo.task.markdown : Their table.
+    servo.task.load_results : Reads ``topomap servo-eval --out`` files.
+    """
 
     setting: dict
     n: int
