@@ -40,10 +40,50 @@ MAX_SEQUENCE_BYTES = 4 * 2**30  # the arrays of one sequence (images, depth, sca
 
 @dataclass(frozen=True)
 class CollectionSettings:
-    """Everything that determines a dataset's bytes (stored in ``meta.json``).
+    """Everything that determines a dataset's bytes (stored in its ``meta.json``).
 
-    ``appearance`` is one of :data:`scenes.world.APPEARANCE_MODES`; ``"hard"`` worlds give
-    every branch the main manifold's materials (:func:`scenes.build_world`).
+    Parameters
+    ----------
+    worlds : tuple of str, default ("hallway", "lawn")
+        The worlds to record; each has its three teleop routes, one per branch.
+    frames : int, default 150
+        Frames per recording (the paper's count); at least 2.
+    seed : int, default 0
+        Seed of the teleop's jitter, the odometry's drift and the sensors' noise.
+    randomize : bool, default False
+        Draw the lights and colours from the world's randomisation table.
+    appearance : {"default", "hard"}, default "default"
+        ``"hard"`` worlds give every branch the main manifold's materials
+        (:func:`scenes.build_world`).
+    camera : CameraConfig, optional
+        The camera; default ``CameraConfig()``.
+    laser : LaserConfig, optional
+        The laser; default ``LaserConfig()``.
+    odometry : OdometryConfig, optional
+        The odometry's drift; default ``OdometryConfig()``.
+    teleop : TeleopConfig, optional
+        The scripted driver; default ``TeleopConfig()``.
+
+    Attributes
+    ----------
+    worlds, frames, seed, randomize, appearance, camera, laser, odometry, teleop
+        The parameters (the object is frozen).
+
+    Examples
+    --------
+    >>> from sim.collect import CollectionSettings
+    >>> settings = CollectionSettings(worlds=("lawn",), frames=40, seed=3)
+    >>> settings.to_json()["worlds"], settings.to_json()["frames"]
+    (['lawn'], 40)
+    >>> CollectionSettings(frames=1)
+    Traceback (most recent call last):
+        ...
+    ValueError: frames must be an integer >= 2, got 1
+
+    See Also
+    --------
+    sim.collect.collect_dataset : Records a dataset with these settings.
+    sim.dataset.load_dataset : Reads it back.
     """
 
     worlds: tuple[str, ...] = names.WORLDS

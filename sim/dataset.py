@@ -76,7 +76,56 @@ class DatasetError(ValueError):
 
 @dataclass
 class Sequence:
-    """One recorded sequence (see the module docstring for the arrays)."""
+    """One recorded sequence (one drive) of a dataset, its arrays indexed by frame.
+
+    The arrays and their units are those of the dataset format (the module's description).
+
+    Parameters
+    ----------
+    name : str
+        The sequence's name, e.g. ``"lawn-left"``.
+    world : str
+        The world (place) it was recorded in.
+    images : ndarray of shape (N, H, W, 3), uint8
+        The camera frames.
+    scans : ndarray of shape (N, B), float32
+        The laser ranges, m (+inf: no return).
+    angles : ndarray of shape (B,), float32
+        The beams' angles in the sensor frame, rad.
+    odometry : ndarray of shape (N, 3)
+        The odometry pose (x, y, yaw).
+    commands : ndarray of shape (N, 2)
+        The command (v m/s, omega rad/s) being executed.
+    times : ndarray of shape (N,)
+        Simulation time, s.
+    poses : ndarray of shape (N, 3) or None, default None
+        The true pose; None without ground truth.
+    labels : ndarray of shape (N,) or None, default None
+        The true manifold id (-1: none); None without ground truth.
+    depth : ndarray of shape (N, H, W) or None, default None
+        Metric depth, when collected with depth.
+
+    Attributes
+    ----------
+    name, world, images, scans, angles, odometry, commands, times, poses, labels, depth
+        The parameters.
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> from sim.dataset import load_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> ds = load_dataset(data)
+    >>> sequence = ds.sequences["lawn-left"]
+    >>> len(sequence), sequence.images.shape, sequence.scans.shape
+    (40, (40, 240, 320, 3), (40, 361))
+
+    See Also
+    --------
+    sim.dataset.Dataset : The sequences of a dataset.
+    """
 
     name: str
     world: str
@@ -96,7 +145,52 @@ class Sequence:
 
 @dataclass
 class Dataset:
-    """A loaded dataset: ``meta`` (the parsed ``meta.json``) and sequences by name."""
+    """A loaded dataset: its ``meta.json`` and its sequences by name.
+
+    Made by :func:`load_dataset`, which verifies every file's checksum.
+
+    Parameters
+    ----------
+    path : Path
+        The dataset's directory.
+    meta : dict
+        The parsed ``meta.json``.
+    sequences : dict of str to Sequence
+        The sequences, in ``meta`` order.
+
+    Attributes
+    ----------
+    path, meta, sequences
+        The parameters.
+    manifolds : list of str
+        The manifolds' names (label ``i`` is ``manifolds[i]``).
+    has_ground_truth : bool
+        True poses and manifold labels are recorded (simulated data, not imported logs).
+    max_range : float or None
+        The laser's range from the settings, m.
+    worlds : list of str
+        The worlds of the sequences, in order of first appearance.
+
+    Examples
+    --------
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from sim.collect import CollectionSettings, collect_dataset
+    >>> from sim.dataset import load_dataset
+    >>> data = collect_dataset("lawn-40", CollectionSettings(worlds=("lawn",), frames=40),
+    ...                        jobs=1, progress=False)  # three drives of 40 frames, ~10 s
+    >>> ds = load_dataset(data)
+    >>> list(ds.sequences), ds.worlds
+    (['lawn-left', 'lawn-straight', 'lawn-right'], ['lawn'])
+    >>> train, test = ds.paper_split()
+    >>> ds.concat("images")[train].shape, int(test.sum())
+    ((60, 240, 320, 3), 60)
+
+    See Also
+    --------
+    sim.dataset.load_dataset : Reads and verifies a dataset.
+    sim.collect.collect_dataset : Records one.
+    sim.readers.import_rosbags : Imports a robot's ROS bags as one.
+    """
 
     path: Path
     meta: dict

@@ -39,7 +39,9 @@ def check_pose_option(value) -> np.ndarray:
 
 
 class NavigationEnv(gym.Env):
-    """Drive a differential-drive robot through the hallway or lawn world.
+    """Drive a differential-drive robot through the hallway or lawn world (a Gymnasium env).
+
+    Registered as ``topomap/Hallway-v0`` and ``topomap/Lawn-v0`` when ``sim`` is imported.
 
     Description
         A robot with a forward camera and a 2-D laser starts at a random free pose (or the one
@@ -57,7 +59,7 @@ class NavigationEnv(gym.Env):
         ``sensors`` selects which keys are present (a laser-only env never renders).
 
     Rewards
-        ``-collision_penalty`` (1) on a step where the robot touches an obstacle, else ``0``
+        ``-collision_penalty`` on a step where the robot touches an obstacle, else ``0``
         (``info["reward_collision"]``).
 
     Episode End
@@ -67,20 +69,65 @@ class NavigationEnv(gym.Env):
         ``pose`` (true x, y, yaw), ``odometry`` (noisy pose), ``manifold`` (name or None),
         ``manifold_id``, ``collision``, ``time``: truth is for evaluation only.
 
-    Arguments
-        ``world`` ("hallway" | "lawn"), ``render_mode`` (None | "rgb_array": a top-down map
-        with the robot, its laser and its trail), ``camera`` (CameraConfig), ``laser``
-        (LaserConfig), ``odometry`` (OdometryConfig), ``sensors`` (subset of
-        ("image", "scan")), ``randomize`` (re-draw lights and colours each reset),
-        ``appearance`` ("default" | "hard": every branch in the main manifold's materials),
-        ``collision_penalty`` (1.0).
-
     Hooks for tasks built on it (``servo.ServoEnv``)
         ``occupancy`` (the free-space grid of the world), ``sample_pose`` and ``draw(target=)``
         (the top-down map, optionally with a target pose outlined).
 
     Version History
         v0: initial version.
+
+    Parameters
+    ----------
+    world : {"hallway", "lawn"}, default "hallway"
+        The world.
+    render_mode : {None, "rgb_array"}, default None
+        ``"rgb_array"``: :meth:`render` draws a top-down map with the robot, its laser and its
+        trail.
+    camera : CameraConfig, optional
+        The camera; default ``CameraConfig()`` (320 x 240, 45 degrees vertical field of view).
+    laser : LaserConfig, optional
+        The laser; default ``LaserConfig()`` (361 beams over 180 degrees, 20 m).
+    odometry : OdometryConfig, optional
+        The odometry's drift; default ``OdometryConfig()``.
+    sensors : tuple of {"image", "scan"}, default ("image", "scan")
+        The observation's keys.
+    randomize : bool, default False
+        Draw the lights and colours anew at each reset.
+    collision_penalty : float, default 1.0
+        Penalty on a step in contact.
+    appearance : {"default", "hard"}, default "default"
+        ``"hard"``: every branch in the main manifold's materials.
+
+    Attributes
+    ----------
+    world : scenes.World
+        The world with its ground truth.
+    sim : Simulator
+        The simulator.
+    occupancy
+        The world's free-space grid (5 cm cells), for start poses.
+    observation_space, action_space : gymnasium.spaces.Space
+        As above.
+    world_name, render_mode, sensors, randomize, collision_penalty
+        The parameters.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import sim  # registers the envs; headless rendering before mujoco loads
+    >>> env = gym.make("topomap/Lawn-v0", sensors=("scan",))
+    >>> obs, info = env.reset(seed=0)
+    >>> obs["scan"].shape, info["manifold"] in ("lawn", "lawn-left", "lawn-straight", "lawn-right")
+    ((361,), True)
+    >>> obs, reward, terminated, truncated, info = env.step([0.5, 0.0])
+    >>> terminated, sorted(obs)
+    (False, ['scan'])
+    >>> env.close()
+
+    See Also
+    --------
+    servo.ServoEnv : The servo task built on it.
+    sim.simulator.Simulator : The robot and its sensors.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}

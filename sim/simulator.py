@@ -27,17 +27,59 @@ def compile_world(world: World) -> mujoco.MjModel:
 
 
 class Simulator:
-    """One robot in one world.
+    """One robot in one world: MuJoCo physics, the camera, the laser and odometry.
+
+    The robot is a unicycle on slide and hinge joints with velocity actuators; the camera
+    renders off-screen (EGL, OSMesa as fallback; the renderer opens on first use) and the laser
+    casts all its beams in one ``mj_multiRay``.
 
     Parameters
     ----------
     world : scenes.World
-    camera : CameraConfig or None
-        None: no camera (laser-only runs never create a GL context).
-    laser : LaserConfig or None
-    odometry : OdometryConfig
+        The world to compile.
+    camera : CameraConfig or None, default None
+        The camera; None: no camera (laser-only runs never create a GL context).
+    laser : LaserConfig or None, default None
+        The laser; None: no laser.
+    odometry : OdometryConfig or None, default None
+        The odometry's drift; None: ``OdometryConfig()``.
+    control_dt : float, default 0.1
+        Seconds each :meth:`step` command is held (rounded to whole physics steps).
+
+    Attributes
+    ----------
+    world : scenes.World
+        The world.
+    model, data : mujoco.MjModel, mujoco.MjData
+        The compiled model and its state.
     control_dt : float
-        Seconds each :meth:`step` command is held.
+        The hold time actually used, s.
+    camera, laser, odometry
+        The sensors (None where not given).
+    collisions : int
+        Steps in contact since the last :meth:`reset`.
+    pose : ndarray of shape (3,)
+        The true pose (x, y, yaw).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sim  # headless rendering, chosen before anything imports mujoco
+    >>> from scenes import build_world
+    >>> from sim.laser import LaserConfig
+    >>> from sim.simulator import Simulator
+    >>> robot = Simulator(build_world("lawn"), laser=LaserConfig())
+    >>> robot.reset([8.0, 2.0, 0.0], np.random.default_rng(0))
+    >>> for _ in range(10):
+    ...     touched = robot.step(1.0, 0.0)  # 1 m/s straight ahead for 1 s
+    >>> robot.pose.round(1).tolist(), robot.scan().shape
+    ([9.0, 2.0, 0.0], (361,))
+    >>> robot.close()
+
+    See Also
+    --------
+    sim.env.NavigationEnv : The Gymnasium env around a simulator.
+    sim.collect.collect_dataset : Recordings of scripted drives.
     """
 
     def __init__(
