@@ -43,6 +43,29 @@ class World:
         Whether those were drawn (else the defaults).
     appearance_mode : str
         One of :data:`APPEARANCE_MODES`.
+
+    Parameters
+    ----------
+    name, xml, assets, manifolds, footprints, bounds, routes, appearance
+        The attributes above, as :func:`scenes.build_world` makes them.
+    randomized : bool, default False
+        Whether the appearance was drawn.
+    appearance_mode : str, default "default"
+        One of :data:`APPEARANCE_MODES`.
+
+    Examples
+    --------
+    >>> from scenes import MANIFOLDS, build_world
+    >>> world = build_world("lawn")
+    >>> world.name, list(world.routes)
+    ('lawn', ['lawn-left', 'lawn-straight', 'lawn-right'])
+    >>> MANIFOLDS[world.manifold_at([[8.0, 2.0]])[0]]
+    'lawn'
+
+    See Also
+    --------
+    scenes.build_world : Builds a world by name.
+    sim.simulator.Simulator : Simulates it.
     """
 
     name: str

@@ -70,6 +70,27 @@ class CarmenLog:
         ``ipc_timestamp`` (``FLASER``) or ``timestamp`` (``ROBOTLASER1``) in seconds.
     line_numbers : ndarray of shape (N,)
         1-based line of each scan in the file.
+
+    Parameters
+    ----------
+    path, message, ranges, angles, max_range, poses, odometry, timestamps, line_numbers
+        The attributes above, as :func:`read_carmen` reads them from a log.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from sim.readers import read_carmen
+    >>> _ = Path("two-scans.log").write_text(
+    ...     "FLASER 3 1.0 2.0 80.0 0.0 0.0 0.0 0.0 0.0 0.0 1.0 host 1.0\\n"
+    ...     "FLASER 3 1.5 2.5 80.0 0.5 0.0 0.1 0.5 0.0 0.1 2.0 host 2.0\\n")
+    >>> log = read_carmen("two-scans.log")
+    >>> len(log), log.message, log.max_range, log.poses[1].tolist()
+    (2, 'FLASER', 80.0, [0.5, 0.0, 0.1])
+
+    See Also
+    --------
+    sim.readers.read_carmen : Reads a log.
+    mapping.grouping.ObservationGraphPartitioner : Groups its scans.
     """
 
     path: Path

@@ -55,7 +55,48 @@ ODOM_TYPES = ("nav_msgs/msg/Odometry",)
 @dataclass(frozen=True)
 class ImportSettings:
     """The topics to read and the alignment rule (see the module docstring); stored in
-    ``meta.json``. Times in seconds, distances in metres, angles in radians."""
+    ``meta.json``. Times in seconds, distances in metres, angles in radians.
+
+    Parameters
+    ----------
+    scan_topic, image_topic, odom_topic : str
+        The topics of the ``LaserScan``, ``Image`` (or ``CompressedImage``) and ``Odometry``
+        messages.
+    world : str, default "robot"
+        The name of the place the bags were recorded in (the dataset's world).
+    image_tolerance : float, default 0.1
+        Largest gap between a scan and the nearest image for a frame, s.
+    odom_max_gap : float, default 0.5
+        Largest gap between the two odometry messages a scan's pose is interpolated between, s.
+    min_travel : float, default 0.1
+        Travel since the last kept frame that keeps a frame, m.
+    min_turn : float, default 0.2
+        Turn since the last kept frame that keeps a frame, rad (either at 0 keeps every one).
+    laser_offset : (float, float, float), default (0.0, 0.0, 0.0)
+        The laser's pose (x, y, yaw) in the odometry's frame.
+
+    Attributes
+    ----------
+    scan_topic, image_topic, odom_topic, world, image_tolerance, odom_max_gap, min_travel
+        The parameters (the object is frozen).
+    min_turn, laser_offset
+        The parameters.
+
+    Examples
+    --------
+    >>> from sim.readers import ImportSettings
+    >>> settings = ImportSettings("/scan", "/camera/image", "/odom", min_travel=0.2)
+    >>> settings.world, settings.min_travel
+    ('robot', 0.2)
+    >>> ImportSettings("/scan", "/camera/image", "/odom", image_tolerance=0)
+    Traceback (most recent call last):
+        ...
+    ValueError: image_tolerance must be a number > 0, got 0
+
+    See Also
+    --------
+    sim.readers.import_rosbags : Imports bags with these settings.
+    """
 
     scan_topic: str
     image_topic: str
