@@ -82,27 +82,13 @@ class Sequence:
 
     Parameters
     ----------
-    name : str
-        The sequence's name, e.g. ``"lawn-left"``.
-    world : str
-        The world (place) it was recorded in.
-    images : ndarray of shape (N, H, W, 3), uint8
-        The camera frames.
-    scans : ndarray of shape (N, B), float32
-        The laser ranges, m (+inf: no return).
-    angles : ndarray of shape (B,), float32
-        The beams' angles in the sensor frame, rad.
-    odometry : ndarray of shape (N, 3)
-        The odometry pose (x, y, yaw).
-    commands : ndarray of shape (N, 2)
-        The command (v m/s, omega rad/s) being executed.
-    times : ndarray of shape (N,)
-        Simulation time, s.
-    poses : ndarray of shape (N, 3) or None, default None
-        The true pose; None without ground truth.
-    labels : ndarray of shape (N,) or None, default None
-        The true manifold id (-1: none); None without ground truth.
-    depth : ndarray of shape (N, H, W) or None, default None
+    name, world : str
+        The sequence's name (e.g. ``"lawn-left"``) and the world (place) it was recorded in.
+    images, scans, angles, odometry, commands, times : ndarray
+        The arrays of the dataset format, in its units (the module's description).
+    poses, labels : ndarray or None, default None
+        The true poses and manifold ids; None without ground truth.
+    depth : ndarray or None, default None
         Metric depth, when collected with depth.
 
     Attributes

@@ -111,11 +111,11 @@ class KNNSpectralClustering(ClusterMixin, BaseEstimator):
     --------
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
-    >>> X = np.r_[rng.normal(0.0, 0.1, (20, 2)), rng.normal(3.0, 0.1, (20, 2))]
+    >>> X = np.r_[rng.normal(0.0, 0.5, (20, 2)), rng.normal(2.0, 0.5, (20, 2))]
     >>> from mapping.baselines import KNNSpectralClustering
     >>> model = KNNSpectralClustering(n_clusters=2, n_neighbors="eigengap").fit(X)
-    >>> np.bincount(model.labels_).tolist(), model.n_neighbors_ in model.gaps_
-    ([20, 20], True)
+    >>> np.bincount(model.labels_).tolist(), model.n_neighbors_
+    ([20, 20], 20)
 
     See Also
     --------
