@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from scripts.grouping import comparison_table, grouping_table
-from scripts.report.html import esc, figure, fmt, section, table
+from scripts.report.html import esc, figure, fmt, section, table, video
 from scripts.servo_tables import pair_table, summary_table
 
 __all__ = [
@@ -19,6 +19,7 @@ __all__ = [
     "section_protocol",
     "section_reproduce",
     "section_servo",
+    "section_summary",
     "section_worlds",
 ]
 
@@ -26,6 +27,33 @@ PAPER = {
     "manifold": "Grudic & Mulligan, topological mapping with visual manifolds",
     "grouping": "Blanco et al., observation grouping by sensed-space overlap",
 }
+
+
+def section_summary(lines: Sequence[dict]) -> str:
+    """The page's opening summary: one row per line of ``scripts.report.summary.summarise_run``
+    (the task, what its number is, the number with its 95% interval, the target and whether the
+    number meets it)."""
+    rows = []
+    for line in lines:
+        value, interval = line["value"], line["interval"]
+        if value is None:
+            shown = "not scored"
+        elif interval is None:
+            shown = fmt(value)
+        else:
+            lo, hi = (fmt(v) for v in interval)
+            shown = f"{fmt(value)} [{lo}, {hi}] ({line['interval_kind']})"
+        target = line["target"] or "no target"
+        rows.append([line["task"], line["measure"], shown, target, line["meets"], line["detail"]])
+    return section(
+        "summary",
+        "Summary",
+        table(
+            "Each task's headline number against its target (worst world where there are several)",
+            ("task", "measure", "value [95% interval]", "target", "meets target", "details"),
+            rows,
+        ),
+    )
 
 
 def section_worlds(result: dict) -> str:
@@ -216,18 +244,13 @@ def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
                 )
             )
     parts.append("</div>")
-    links = [
-        f'<li>{esc(key)}: <a href="{esc(v)}">{esc(Path(v).name)}</a></li>'
-        for key, paths in videos.items()
-        for v in paths
-    ]
-    if links:
+    clips = [video(v, key) for key, paths in videos.items() for v in paths]
+    if clips:
         parts += [
-            "<p>Episode videos (camera view beside the top-down map; MPEG-4, if the browser "
-            "does not play them, open them with a video player):</p>",
-            "<ul>",
-            *links,
-            "</ul>",
+            "<p>Episode videos: the robot's camera view beside the top-down map.</p>",
+            '<div class="row">',
+            *clips,
+            "</div>",
         ]
     return section("servo", "Closed-loop servoing", *parts)
 

@@ -58,6 +58,19 @@ class Protocol:
         check_int(self.max_steps, "max_steps")
 
 
+# The success-rate targets, per world, of the two controllers (docs/servo.md): ManifoldServo
+# (laser and images) 95 % from anywhere, with and without randomize; SignalServo (camera
+# only) 95 % from a view, 80 % from anywhere, 75 % from anywhere with randomize. Keys: (policy,
+# tier, randomize); a cell not listed has no target.
+SUCCESS_TARGETS = {
+    ("servo", "anywhere", False): 0.95,
+    ("servo", "anywhere", True): 0.95,
+    ("signal", "view", False): 0.95,
+    ("signal", "anywhere", False): 0.80,
+    ("signal", "anywhere", True): 0.75,
+}
+
+
 @dataclass(frozen=True)
 class EpisodeSpec:
     index: int
