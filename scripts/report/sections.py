@@ -49,7 +49,8 @@ def section_summary(lines: Sequence[dict]) -> str:
         "summary",
         "Summary",
         table(
-            "Each task's headline number against its target (worst world where there are several)",
+            "Each task's headline number against its target (the worst world where there are "
+            "several; met: the number itself reaches the target, the interval says how surely)",
             ("task", "measure", "value [95% interval]", "target", "meets target", "details"),
             rows,
         ),

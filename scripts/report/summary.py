@@ -145,7 +145,10 @@ def _servo_lines(results: Sequence[dict]) -> list[dict]:
             for r in rs
         )
         task = f"servo: {POLICY_NAMES.get(policy, policy)}{starts}"
-        measure = f"success rate, lowest world ({worst['world']}; {worst['episodes']} episodes)"
+        split = f" on the {worst['split']} split" if worst.get("split") else ""
+        measure = (
+            f"success rate{split}, lowest world ({worst['world']}; {worst['episodes']} episodes)"
+        )
         rate, ci = worst["success_rate"], list(worst["success_ci95"])
         if goal is None:
             lines.append(_line(task, measure, rate, ci, "Wilson 95%", detail=detail))

@@ -120,7 +120,8 @@ def test_a_servo_line_per_policy_and_start_condition_with_the_worst_world():
     assert (servo["value"], servo["target"], servo["meets"]) == (0.95, ">= 0.95 in every world",
                                                                  True)  # fmt: skip
     assert servo["interval"] == list(wilson_interval(19, 20))
-    assert "hallway" in servo["measure"] and "lawn: 20/20 = 1.00" in servo["detail"]
+    assert servo["measure"] == "success rate on the test split, lowest world (hallway; 20 episodes)"
+    assert "lawn: 20/20 = 1.00" in servo["detail"]
     # SignalServo: 80 % from anywhere, decided by the lawn's 11/20
     assert (signal["value"], signal["meets"]) == (0.55, False) and "lawn" in signal["measure"]
     assert randomized["target"] == ">= 0.75 in every world"
