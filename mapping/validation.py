@@ -1,6 +1,6 @@
-"""The checks of a fitted
-state read back from a file (:func:`check_layout`, :func:`check_number`) and the checks of
-training points every clustering shares (:func:`check_span`, :func:`check_distinct_rows`).
+"""The checks of a fitted state read back from a file (:func:`check_layout`,
+:func:`check_number`) and the checks of training points every clustering shares
+(:func:`check_span`, :func:`check_distinct_rows`).
 
 Input and parameter checks are scikit-learn's (``validate_data``, ``_parameter_constraints``,
 ``check_is_fitted``); only what scikit-learn does not do lives here.
