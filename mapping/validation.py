@@ -14,6 +14,7 @@ import numpy as np
 # a fraction of it, and sigma^2 and the squared distances must stay normal numbers.
 SPAN_RANGE = (1e-140, 1e140)
 
+
 def is_plain_query(estimator, X, bound: float = np.inf) -> bool:
     """Whether X is already what ``validate_data(estimator, X, reset=False)`` would return.
 
