@@ -85,7 +85,7 @@ def _bench_row(n_rooms: int, step: float) -> None:
 
 
 def bench_targets(repeats: int = 5) -> None:
-    """Issue 14's speed targets, each beside its peer measured in the same run: the real
+    """The grouping's speed targets, each beside its peer measured in the same run: the real
     logs and the dense synthetic log with given poses and ICP off (voxel overlap, the default;
     the exact overlap, ``voxel_size=None``, beside it), and ICP on over ICP off."""
     from scripts.grouping import log_points
