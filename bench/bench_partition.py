@@ -87,7 +87,7 @@ def _bench_row(n_rooms: int, step: float) -> None:
 
 
 def bench_targets(logs: list[Path], repeats: int = 5) -> None:
-    """Issue 14's speed targets, each beside its peer measured in the same run: the real
+    """The grouping's speed targets, each beside its peer measured in the same run: the real
     logs and the dense synthetic log with given poses and ICP off (voxel overlap, the default;
     the exact overlap, ``voxel_size=None``, beside it), and ICP on over ICP off."""
     from scripts.grouping import log_points
@@ -160,14 +160,6 @@ def _target_row(tag, scans, poses, repeats, exact=True, icp=True) -> np.ndarray:
         cells.append(f"{t_icp:>7.3f} {t_icp / t_fast:>6.1f} {with_icp.n_groups_:>6}")
     print(" ".join(cells))
     return fast.labels_
-
-
-
-
-
-
-
-
 
 
 def main() -> None:

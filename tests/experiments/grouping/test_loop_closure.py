@@ -1,4 +1,4 @@
-"""Loop closure on a real log (issue 14 item 3): odometry simulated from the corrected poses,
+"""Loop closure on a real log: odometry simulated from the corrected poses,
 the pose graph must bring the trajectory closer to them than the drifting odometry."""
 
 import gzip

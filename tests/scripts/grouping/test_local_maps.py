@@ -1,4 +1,4 @@
-"""The local-map evaluation (issue 14 item 2) on a slice of a real log: every method scored,
+"""The local-map evaluation on a slice of a real log: every method scored,
 the JSON written, the report printed."""
 
 import json
