@@ -142,7 +142,7 @@ def score_episode(
         "trail": trail,
         "target_pose": np.asarray(last["target_pose"]),
         "start_pose": trail[0].copy(),
-        # F along the trajectory (item 5): toward the target and the policy's waypoint view
+        # F along the trajectory: toward the target and the policy's waypoint view
         # (NaN: the policy has none), and the true geodesic distance to the target per step.
         "signal_target": np.array([float(i["signal"]) for i in infos]),
         "signal_waypoint": np.asarray(signal_waypoint, dtype=float),

@@ -34,7 +34,7 @@ from scenes import MANIFOLDS, WORLDS
 
 TIERS = ("view", "anywhere")
 SPLITS = ("dev", "test")
-PROTOCOL_ENTROPY = 0x5E2F0_12  # the benchmark's root seed (issue 12); never changed
+PROTOCOL_ENTROPY = 0x5E2F0_12  # the benchmark's root seed; never changed
 
 
 @dataclass(frozen=True)
