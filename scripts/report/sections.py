@@ -103,8 +103,8 @@ def section_manifold(result: dict) -> str:
         "manifold",
         f"Manifold clustering ({PAPER['manifold']})",
         "<p>Error: the fraction of points in the wrong cluster after the best matching of "
-        "clusters to true manifolds. See docs/manifold-clustering.md for the choices made "
-        "where the paper is ambiguous.</p>" + _no_labels_note(result),
+        "clusters to true manifolds. See docs/guides/manifold-clustering.md for the choices "
+        "made where the paper is ambiguous.</p>" + _no_labels_note(result),
         synthetic,
         real,
         '<div class="row">',
@@ -131,8 +131,8 @@ def section_protocol(result: dict) -> str:
         "<p>The manifold-clustering tables above are <strong>one dataset seed</strong>: seed 0, "
         "the dev seed on which the features and the merge rule were chosen. What the method "
         "does on other seeds is the frozen protocol's job: the same settings on fresh dataset "
-        "seeds, beside the label-free baselines a user would pick (see docs/"
-        "manifold-clustering.md, &ldquo;Results that survive scrutiny&rdquo;).</p>"
+        "seeds, beside the label-free baselines a user would pick (see docs/guides/"
+        "manifold-clustering.md, &ldquo;The frozen multi-seed protocol&rdquo;).</p>"
     )
     if result.get("source") is None:
         return section(
@@ -191,7 +191,8 @@ def section_grouping(result: dict, prefix: str = "") -> str:
         "<p>Each world's three sequences are grouped together in one observation graph; groups "
         f"are scored against the true manifolds. Targets: purity &ge; "
         f"{fmt(purity_min, 2)}, at most {fmt(max_groups)} "
-        "groups per manifold. See docs/observation-grouping.md.</p>" + _no_labels_note(result),
+        "groups per manifold. See docs/guides/observation-grouping.md.</p>"
+        + _no_labels_note(result),
         grouping_table(result).to_html(),
     ]
     if result.get("compare"):
@@ -228,7 +229,7 @@ def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
         "<i>signal</i> (camera and odometry only, servoing by F^j(k) of eq. 13 through "
         "waypoint views: the paper's Section II-G), the oracle (the true pose on the shortest "
         "path: the upper bound), and random commands or greedy probing of F when asked for. "
-        "See docs/servo.md.</p>",
+        "See docs/guides/servo.md.</p>",
         summary,
         pairs,
         '<div class="row">',

@@ -2,8 +2,9 @@
 interval and whether it meets its target, built from the results the stages already computed.
 
 Where a task is measured on several worlds, the line shows the worst world: each target holds
-per world (docs/servo.md, docs/observation-grouping.md), so the worst one decides. A task
-without a stated target says so (``target`` None) rather than being given one here.
+per world (docs/guides/servo.md, docs/guides/observation-grouping.md), so the worst one
+decides. A task without a stated target says so (``target`` None) rather than being given one
+here.
 """
 
 from __future__ import annotations

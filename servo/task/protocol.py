@@ -58,7 +58,7 @@ class Protocol:
         check_int(self.max_steps, "max_steps")
 
 
-# The success-rate targets, per world, of the two controllers (docs/servo.md): ManifoldServo
+# The success-rate targets, per world, of the two controllers (docs/guides/servo.md): ManifoldServo
 # (laser and images) 95 % from anywhere, with and without randomize; SignalServo (camera
 # only) 95 % from a view, 80 % from anywhere, 75 % from anywhere with randomize. Keys: (policy,
 # tier, randomize); a cell not listed has no target.
