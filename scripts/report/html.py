@@ -71,10 +71,11 @@ def figure(src: str, caption: str) -> str:
 def video(src: str, caption: str) -> str:
     """A video by relative path, played in the page (``<video controls>``), with a caption
     and a link to the file."""
-    src = esc(Path(src).as_posix())
+    path = Path(src)
+    src = esc(path.as_posix())
     return (
         f'<figure><video src="{src}" controls preload="metadata"></video>'
-        f'<figcaption>{esc(caption)} (<a href="{src}">{esc(Path(src).name)}</a>)</figcaption>'
+        f'<figcaption>{esc(caption)} (<a href="{src}">{esc(path.name)}</a>)</figcaption>'
         "</figure>"
     )
 

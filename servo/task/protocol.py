@@ -58,10 +58,8 @@ class Protocol:
         check_int(self.max_steps, "max_steps")
 
 
-# The success-rate targets, per world, of the two controllers (docs/guides/servo.md): ManifoldServo
-# (laser and images) 95 % from anywhere, with and without randomize; SignalServo (camera
-# only) 95 % from a view, 80 % from anywhere, 75 % from anywhere with randomize. Keys: (policy,
-# tier, randomize); a cell not listed has no target.
+# Success-rate targets per (policy, tier, randomize), each to be met in every world, as the
+# servo guide states them (docs/guides/servo.md, "Targets"); a cell not listed has none.
 SUCCESS_TARGETS = {
     ("servo", "anywhere", False): 0.95,
     ("servo", "anywhere", True): 0.95,
