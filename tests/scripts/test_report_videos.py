@@ -52,3 +52,9 @@ def test_check_report_refuses_a_video_browsers_do_not_play(tmp_path, capsys):
     assert "v.mp4: codec mp4v" in capsys.readouterr().err
     (tmp_path / "v.mp4").write_bytes(b"mp4")
     assert problems(index)[0].startswith("v.mp4: not a readable MP4")
+
+
+def test_a_video_path_and_caption_are_escaped_once():
+    html = report.video("servo/a&b.mp4", "x<y")
+    assert 'src="servo/a&amp;b.mp4"' in html and ">a&amp;b.mp4</a>" in html and "x&lt;y" in html
+    assert report.referenced_files(html) == ["servo/a&b.mp4"]
