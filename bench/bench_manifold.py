@@ -8,7 +8,7 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
 * fit time for n = 300, 600, 1200, 2400 (d = 2000) beside sklearn's SpectralClustering.
 
 ``--scale [N ...]`` prints fit time against n (300 ... 10,000 by default) beside sklearn's
-SpectralClustering as a ratio, with both clustering errors (issue 15 item 1); ``--n-jobs J``
+SpectralClustering as a ratio, with both clustering errors; ``--n-jobs J``
 adds the graph fits with ``ManifoldClustering(n_jobs=J)``.
 
 ``--memory N [N ...]`` prints the peak of numpy's allocations during one such fit.
@@ -181,7 +181,8 @@ def _wall_and_cpu(fn) -> tuple[float, float]:
 
 def peak_memory(sizes: list[int]) -> None:
     """Peak of numpy's allocations during one fit (``tracemalloc``, which numpy reports to),
-    beside the data itself, for the ``--scale`` data (issue 15: O(n k + n m), not O(n^2))."""
+    beside the data itself, for the ``--scale`` data (the graph path's target: O(n k + n m),
+    not O(n^2))."""
     import tracemalloc
 
     print("\n| n | data X | fit peak (beyond X) |\n|---|---|---|")

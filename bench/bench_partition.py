@@ -2,12 +2,15 @@
 
     .venv/bin/python bench/bench_partition.py                # cost against n (the table)
     .venv/bin/python bench/bench_partition.py --targets      # the speed targets
+    .venv/bin/python bench/bench_partition.py --targets --carmen LOG ...  # other real logs
     .venv/bin/python bench/bench_partition.py --incremental  # partial_fit per scan at 1000
 
 All data are synthetic scans of ``mapping.synthetic_scans.office_world``: a corridor with
 rooms, a route touring every room, a 181-beam 180-degree laser with 8 m range. The office of
 the paper (4 rooms, 77 scans, one every 1.17 m) is scaled up by adding rooms. The
 association, noise and figure studies are ``python -m experiments.grouping.partition_studies``.
+``--targets`` also times real Carmen logs: those given by ``--carmen``, else the two Radish logs
+in the folder ``TOPOMAP_RADISH`` names (``sim.datahome.radish_log``).
 """
 
 from __future__ import annotations
@@ -26,12 +29,11 @@ from mapping.grouping import (
 )
 from mapping.metrics import adjusted_rand_index, purity
 from mapping.synthetic_scans import office_path, office_world, raycast
+from sim.datahome import RADISH_LOGS, RADISH_VAR, DataHomeError, radish_log
 
 STEP = 1.17  # metres between scans: 77 scans in the paper-sized office
 DENSE_STEP = 0.5  # a denser keyframe rate, for the stress row
 DELTA = 0.1
-RADISH = Path(__file__).resolve().parents[2] / "shared" / "data" / "radish"  # ../shared
-LOGS = ("aces-corrected.log.gz", "csail-corrected.log.gz")
 # The dense synthetic log of the speed targets: 360 beams every 9 cm along a tour of a
 # 20-room office (120 m of corridor), ~5000 scans, 8 m range.
 DENSE_LOG = {"n_rooms": 20, "step": 0.09, "n_beams": 360}
@@ -84,8 +86,8 @@ def _bench_row(n_rooms: int, step: float) -> None:
     )
 
 
-def bench_targets(repeats: int = 5) -> None:
-    """Issue 14's speed targets, each beside its peer measured in the same run: the real
+def bench_targets(logs: list[Path], repeats: int = 5) -> None:
+    """The grouping's speed targets, each beside its peer measured in the same run: the real
     logs and the dense synthetic log with given poses and ICP off (voxel overlap, the default;
     the exact overlap, ``voxel_size=None``, beside it), and ICP on over ICP off."""
     from scripts.grouping import log_points
@@ -95,9 +97,9 @@ def bench_targets(repeats: int = 5) -> None:
     print("best of repeats, wall-clock seconds of fit (overlap + partition + maps + topology)")
     print(f"{'log':<22} {'scans':>5} {'pts':>5} {'fit':>7} {'groups':>6} {'exact':>7} "
           f"{'groups':>6} {'ICP on':>7} {'ratio':>6} {'groups':>6}")  # fmt: skip
-    for name in LOGS:
-        log = read_carmen(RADISH / name)
-        _target_row(name.split(".")[0], log_points(log), log.poses, repeats)
+    for path in logs:
+        log = read_carmen(path)
+        _target_row(path.name.split(".")[0], log_points(log), log.poses, repeats)
     world = office_world(n_rooms=DENSE_LOG["n_rooms"])
     poses = office_path(world, step=DENSE_LOG["step"])
     scans = raycast(
@@ -160,21 +162,22 @@ def _target_row(tag, scans, poses, repeats, exact=True, icp=True) -> np.ndarray:
     return fast.labels_
 
 
-
-
-
-
-
-
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--targets", action="store_true", help="the speed targets")
+    parser.add_argument(
+        "--carmen", action="append", type=Path, metavar="LOG",
+        help="a real Carmen log for --targets (repeatable; default: the Radish logs in the "
+        f"folder {RADISH_VAR} names)",
+    )  # fmt: skip
     parser.add_argument("--incremental", action="store_true", help="partial_fit per scan")
     args = parser.parse_args()
     if args.targets:
-        bench_targets()
+        try:
+            logs = args.carmen or [radish_log(name) for name in RADISH_LOGS]
+        except DataHomeError as err:
+            parser.error(f"{err}; or give --carmen LOG")
+        bench_targets(logs)
     if args.incremental:
         bench_incremental()
     if not (args.targets or args.incremental):

@@ -9,7 +9,7 @@ the map build and the controller's set-up (the servo's metric map: pose graph, p
 free space).
 
 Run: ``.venv/bin/python bench/bench_servo.py [--episodes N] [--policy servo signal]``. Prints
-the machine's core count and a table; the targets (issues 5 and 12) are a controller step
+the machine's core count and a table; the targets are a controller step
 within 10 ms median and the start-of-episode localisation within 0.5 s on a 2-core CPU machine.
 """
 

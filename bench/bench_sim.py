@@ -2,7 +2,7 @@
 laser scans/s, and the wall time to collect the default 900-frame dataset.
 
 Run: ``.venv/bin/python bench/bench_sim.py [--skip-dataset]``. Prints a table with the machine's
-core count; targets are from issue 2 (2-core CPU machine).
+core count; the targets are for a 2-core CPU machine.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@
 Runs the simulator (``bench_sim``), manifold clustering (``bench_manifold``), observation
 grouping (``bench_partition``) and servo (``bench_servo``) measurements by importing their
 functions, and writes a table with the machine (CPU model, core count, load) and each figure
-beside its target from the issues. ``--quick`` (about a minute) uses fewer repeats, skips the
+beside its target. ``--quick`` (about a minute) uses fewer repeats, skips the
 dataset collection and the full-resolution clustering, stops the scaling at n = 600 and times
 one servo episode in the hallway. ``--only sim manifold`` runs some groups.
 """
@@ -134,7 +134,7 @@ def manifold_rows(quick: bool) -> list[Row]:
                 10,
             )
         )
-        # issue 15 targets for one view: 0.5 ms at d=2000, 2 ms for a 320x240 RGB image
+        # the targets for one view: 0.5 ms at d=2000, 2 ms for a 320x240 RGB image
         target = 0.5 if d == 2000 else 2.0
         for tol in (0.0, 1e-4):
             if tol:
@@ -160,7 +160,7 @@ def manifold_rows(quick: bool) -> list[Row]:
         with warnings.catch_warnings():  # "graph is not fully connected": the branches
             warnings.simplefilter("ignore", UserWarning)
             theirs = bm._time(lambda X=X, sk=sk: sk.fit(X))
-        # issue 15 item 1: n = 2400 in 5 s (kernel="auto" is the k-NN graph path above 1000)
+        # the target: n = 2400 in 5 s (kernel="auto" is the k-NN graph path above 1000)
         target = 5.0 if n == 2400 else None
         rows.append(
             Row(

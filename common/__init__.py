@@ -1,6 +1,8 @@
 """Pieces every layer shares, below ``scenes``: SE(2) pose algebra and scan geometry
-(:mod:`common.geometry`), atomic file writes and JSON coercion (:mod:`common.fileio`).
+(:mod:`common.geometry`), atomic file writes and JSON coercion (:mod:`common.fileio`), argument
+checks (:mod:`common.validation`), the BLAS thread policy (:mod:`common.blas`), the cores this
+process may use (:mod:`common.cores`) and the lazy package faces (:mod:`common.lazy`).
 
-Pure numpy and the standard library; nothing here imports another package of the project, so
-each layer above may use it.
+numpy, threadpoolctl and the standard library only; nothing here imports another package of the
+project, so each layer above may use it.
 """

@@ -52,7 +52,7 @@ def single_threaded_blas() -> _OneBlasThread:
 
     The libraries' own thread setters (threadpoolctl's controllers, found once), not
     ``ThreadpoolController.limit``: that one reads every library's full ``info`` on entry,
-    ~0.1 ms, a sixth of ``predict`` for one view at d = 2000 (issue 15 item 2).
+    ~0.1 ms, a sixth of ``predict`` for one view at d = 2000.
     """
     global _BLAS
     if _BLAS is None:  # scanning the loaded libraries costs ~2 ms; do it once

@@ -62,7 +62,7 @@ def _jsonable(value):
 
 # Parameters added after files of a class were first saved (name -> those parameters).
 _ADDED_LATER: dict[str, set[str]] = {
-    # issue 15 item 1 (n_jobs: session 22)
+    # the graph path's parameters, then n_jobs
     "ManifoldClustering": {"kernel", "n_neighbors", "n_components", "n_jobs"},
 }
 

@@ -1,6 +1,6 @@
-"""The checks of a fitted
-state read back from a file (:func:`check_layout`, :func:`check_number`) and the checks of
-training points every clustering shares (:func:`check_span`, :func:`check_distinct_rows`).
+"""The checks of a fitted state read back from a file (:func:`check_layout`,
+:func:`check_number`) and the checks of training points every clustering shares
+(:func:`check_span`, :func:`check_distinct_rows`).
 
 Input and parameter checks are scikit-learn's (``validate_data``, ``_parameter_constraints``,
 ``check_is_fitted``); only what scikit-learn does not do lives here.
@@ -13,6 +13,7 @@ import numpy as np
 # The span of X (largest range of a feature) that float64 distances can hold: a kernel width is
 # a fraction of it, and sigma^2 and the squared distances must stay normal numbers.
 SPAN_RANGE = (1e-140, 1e140)
+
 
 def is_plain_query(estimator, X, bound: float = np.inf) -> bool:
     """Whether X is already what ``validate_data(estimator, X, reset=False)`` would return.

@@ -28,7 +28,8 @@ TEXTURE_SEED = 20_040_607  # canonical textures: fixed noise, part of the world'
 # How the manifolds of a world differ in look. "default": each branch has its own wall, floor
 # and light colour (a colour histogram tells them apart). "hard": every branch shares the main
 # manifold's wall, floor (ground) and light materials, so only the layout (branch directions,
-# lengths, furniture and landmarks) tells them apart (issue 13, item 5).
+# lengths, furniture and landmarks) tells them apart: what colour alone cannot tell is then
+# measured (experiments/manifold/colour_bound.py).
 APPEARANCE_MODES = ("default", "hard")
 
 

@@ -1,7 +1,8 @@
 """Check that a written report is whole: ``python -m scripts.check_report out/report/index.html``.
 
 Exits non-zero, listing what is wrong, if the page is missing or links to a file that is not
-there, or to anything outside the report folder (the report must open offline, moved anywhere).
+there, or to anything outside the report folder (the report must open offline, moved anywhere),
+or to an MP4 that browsers do not play (only H.264, ``avc1``, plays everywhere).
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from common.video import BROWSER_CODECS, mp4_codecs
 from scripts.report import referenced_files
 
 
@@ -24,7 +26,19 @@ def problems(index: Path) -> list[str]:
             out.append(f"{ref}: not a path inside {root}")
         elif not target.is_file():
             out.append(f"{ref}: missing")
+        elif target.suffix.lower() == ".mp4":
+            out += _video_problems(ref, target)
     return out
+
+
+def _video_problems(ref: str, target: Path) -> list[str]:
+    try:
+        codecs = mp4_codecs(target)
+    except (ValueError, OSError) as err:
+        return [f"{ref}: not a readable MP4 ({err})"]
+    if set(codecs) <= set(BROWSER_CODECS):
+        return []
+    return [f"{ref}: codec {', '.join(codecs)}; browsers play {', '.join(BROWSER_CODECS)} (H.264)"]
 
 
 def main(argv: list[str] | None = None) -> int:

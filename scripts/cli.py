@@ -1,5 +1,5 @@
-"""The ``topomap`` command line: ``collect``, ``import``, ``preview``, ``worlds``, ``run``,
-``reproduce``, ``group-eval`` and ``servo-eval``."""
+"""The ``topomap`` command line. ``topomap --help`` lists every subcommand with the one-line
+``help=`` it is registered with (:func:`command_listing`), so the list cannot go stale."""
 
 from __future__ import annotations
 
@@ -16,6 +16,11 @@ from scripts.args import (
 )
 
 DEFAULT_OUT = "out"
+SUMMARY = (
+    "Simulated robot worlds and datasets, two topological mapping methods (Grudic &\n"
+    "Mulligan's visual manifold clustering, Blanco et al.'s laser observation grouping)\n"
+    "and closed-loop visual servoing between places."
+)
 
 
 def cmd_import(args) -> int:
@@ -226,8 +231,15 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     from scripts.collect_command import add_parser as add_collect_parser
     from servo.task import POLICIES
 
-    p = argparse.ArgumentParser(prog="topomap", description=__doc__)
-    sub = p.add_subparsers(dest="command", required=True)
+    # the commands are listed in the description (command_listing), one line each, instead of
+    # argparse's own list, which wraps help lines and repeats every name in the usage
+    p = argparse.ArgumentParser(
+        prog="topomap",
+        usage="%(prog)s [-h] COMMAND ...",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="topomap COMMAND --help shows the options of one command.",
+    )
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND", help=argparse.SUPPRESS)
 
     add_collect_parser(sub)
 
@@ -340,7 +352,19 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     from scripts.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub, default_out=DEFAULT_OUT)
+    p.description = f"{SUMMARY}\n\ncommands:\n{command_listing(sub)}"
     return p
+
+
+def command_listing(sub: argparse.Action) -> str:
+    """One line per subcommand registered on the subparsers action ``sub``, in the order
+    registered: its name, then the ``help=`` it was added with (blank without one)."""
+    # argparse keeps each help= in _choices_actions (what its own listing reads; no public
+    # accessor) and leaves out a subcommand added without one: the names come from choices
+    helps = {a.dest: a.help for a in sub._choices_actions}
+    names = list(sub.choices)
+    width = max(map(len, names))
+    return "\n".join(f"  {name:<{width}}  {helps.get(name) or ''}".rstrip() for name in names)
 
 
 def _os_message(err: OSError) -> str:

@@ -12,6 +12,10 @@ A home named by 1 or 2 must already exist (a typo should not scatter data over t
 per-user cache is created on first use. The home holds ``dataset/`` (the default dataset,
 collected with a progress bar when missing, never replaced) and ``servo-maps/`` (the map cache).
 The command line keeps its own ``--out`` folders and does not use the home.
+
+The real laser logs are not part of the home: the folder that holds them is named by the
+``TOPOMAP_RADISH`` variable (:func:`radish_log`), read by every command and test that has a
+default for them (docs/references.md says where to get them).
 """
 
 from __future__ import annotations
@@ -24,6 +28,8 @@ ENV_VAR = "TOPOMAP_HOME"
 DATASET_DIR = "dataset"
 MAPS_DIR = "servo-maps"
 LOCK_FILE = ".lock"
+RADISH_VAR = "TOPOMAP_RADISH"
+RADISH_LOGS = ("aces-corrected.log.gz", "csail-corrected.log.gz")
 
 
 class DataHomeError(ValueError):
@@ -109,3 +115,35 @@ def maps_dir(home: str | os.PathLike | None = None) -> Path:
         raise DataHomeError(f"{directory} should be the servo-map cache folder but is a file")
     directory.mkdir(exist_ok=True)
     return directory
+
+
+def radish_log(name: str) -> Path:
+    """A Radish Carmen log in the folder the ``TOPOMAP_RADISH`` variable names.
+
+    Parameters
+    ----------
+    name : str
+        The log's file name in that folder, e.g. ``"aces-corrected.log.gz"`` (the two logs the
+        project uses are :data:`RADISH_LOGS`).
+
+    Returns
+    -------
+    Path
+        The log's absolute path; it exists.
+
+    Raises
+    ------
+    DataHomeError
+        When the variable is unset or empty, or its folder does not hold ``name``; the message
+        names the variable, so a skipped test or a failed command says what to set.
+    """
+    folder = os.environ.get(RADISH_VAR, "")
+    if not folder:
+        raise DataHomeError(
+            f"{RADISH_VAR} is not set: set it to the folder holding the Radish logs "
+            f"({', '.join(RADISH_LOGS)}; docs/references.md says where to get them)"
+        )
+    path = Path(folder).expanduser() / name
+    if not path.is_file():
+        raise DataHomeError(f"{RADISH_VAR}={folder!r} holds no {name}")
+    return path.resolve()

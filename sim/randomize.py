@@ -9,7 +9,7 @@ renderer, ~1 s.)
 Why multiplicative and unclipped: every material's base ``rgba`` is white (its colour is in
 its texture, which ``rgba`` multiplies), and the lights' diffuse colours are 0.85-1.0. An
 additive jitter clipped to [0, 1] could then only darken materials, and a light gain above 1
-was mostly clipped away, so the first round's "randomised" images differed from the plain ones
+was mostly clipped away, so such "randomised" images differed from the plain ones
 by 0.4-7 grey levels of 255. OpenGL's fixed-function lighting accepts light colours above 1
 (it clamps the lit fragment, not the light), so gains brighten as well as darken; a material's
 colour factor is a hue shift, divided by its largest channel so that channel keeps its base

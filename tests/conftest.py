@@ -9,6 +9,28 @@ import pytest
 
 import sim  # noqa: F401  (must come before anything imports mujoco)
 from scenes import build_world
+from sim.datahome import DataHomeError, radish_log
+
+
+def radish_or_skip(name: str) -> Path:
+    """The Radish log ``name`` from the folder ``TOPOMAP_RADISH`` names, or skip the test with
+    the reason (the variable unset, or the folder without the file)."""
+    try:
+        return radish_log(name)
+    except DataHomeError as err:
+        pytest.skip(str(err))
+
+
+@pytest.fixture(scope="session")
+def aces_log() -> Path:
+    """The ACES log (``aces-corrected.log.gz``), or a skip naming ``TOPOMAP_RADISH``."""
+    return radish_or_skip("aces-corrected.log.gz")
+
+
+@pytest.fixture(scope="session")
+def csail_log() -> Path:
+    """The CSAIL log (``csail-corrected.log.gz``), or a skip naming ``TOPOMAP_RADISH``."""
+    return radish_or_skip("csail-corrected.log.gz")
 
 
 @pytest.fixture(scope="session")

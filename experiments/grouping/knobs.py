@@ -1,4 +1,4 @@
-"""The grouping's knobs measured, not assumed (issue 14, item 4).
+"""The grouping's knobs measured, not assumed.
 
     python -m experiments.grouping.knobs [--data DIR] [--carmen LOG ...] --out DIR
 

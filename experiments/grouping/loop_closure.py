@@ -1,4 +1,4 @@
-"""What closing the loop changes (issue 14, item 3): the loops of
+"""What closing the loop changes: the loops of
 ``scripts.grouping.loop_recordings``.
 
     python -m experiments.grouping.loop_closure (--data DIR | --carmen LOG [--carmen LOG]) --out DIR

@@ -1,4 +1,4 @@
-"""Why ours loses to scikit-learn's 10-NN graph on the branching sequences (issue 13, item 3).
+"""Why ours loses to scikit-learn's 10-NN graph on the branching sequences.
 
 The sequences of :func:`mapping.synthetic.branching_sequences` are two stars: per world a trunk
 and three branches that all start at the trunk's end. For each draw this script fits

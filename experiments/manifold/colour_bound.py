@@ -1,4 +1,4 @@
-"""How much colour tells about the manifolds, by appearance mode (issue 13, item 5): a
+"""How much colour tells about the manifolds, by appearance mode: a
 supervised bound on the frozen protocol's features (HSV histograms 8x4x4 in 2x2 cells).
 
     python -m experiments.manifold.colour_bound --root ROOT --seeds 1 2 3 --out OUT [--figure PNG]

@@ -1,5 +1,5 @@
 """Dev study of the combination step (ambiguity 4): is the leaves' grouping, not the tree,
-what fails, and would another search over the same leaves do better? (session 20)
+what fails, and would another search over the same leaves do better?
 
 Every fit's combination inputs are captured once (the C x C leaf block sums ``M`` of the
 kernel at each grid sigma and alpha, the leaf sizes, the leaves joined by a 10-NN edge) and

@@ -204,11 +204,12 @@ def experiments() -> None:
 
 def add_tie_option(parser: argparse.ArgumentParser) -> None:
     """``--tie``: the near-tie tolerance of the split's choices, to set as
-    ``mapping.manifold.split.TIE`` (0: ties decided by round-off, the code before session 18)."""
+    ``mapping.manifold.split.TIE`` (0: ties decided by round-off, as before the tolerance
+    existed)."""
     parser.add_argument(
         "--tie", type=float, default=split_module.TIE,
-        help="near-tie tolerance of the split's choices (0: ties decided by round-off, the "
-        "code before session 18)",
+        help="near-tie tolerance of the split's choices (0: ties decided by round-off, as "
+        "before the tolerance existed)",
     )  # fmt: skip
 
 

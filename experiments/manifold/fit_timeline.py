@@ -1,4 +1,4 @@
-"""Where the wall time of one graph-path fit goes, phase by phase (issue 15 item 1).
+"""Where the wall time of one graph-path fit goes, phase by phase.
 
 Fits ``ManifoldClustering(8, 35, n_jobs=J)`` on the speed benchmark's draw (8 branching
 sequences, n points, d = 2000) twice in one process (the second fit finds the worker

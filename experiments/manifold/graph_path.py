@@ -4,16 +4,17 @@ Graph path (``kernel="sparse"``) settings against the dense path on the 8-manifo
 the dev dataset seeds (HSV histograms, K = 8, Q = 35, the paper's split). Every setting is
 fitted on each seed's features as they are and on ``--draws - 1`` copies multiplied by
 ``1 + 1e-12 N(0, 1)``; the mean train / test error, the tree's majority-merge bound and the
-number of seeds whose draws gave different errors are printed. Until session 18 the trees
-were chaotic on these images (round-off decided near-ties of eq. 8, 10 and 12; ``--tie 0``
-brings that back), and the draws averaged that out; since, one draw per seed is enough.
+number of seeds whose draws gave different errors are printed. Without the split's near-tie
+tolerance the trees are chaotic on these images (round-off decides near-ties of eq. 8, 10 and
+12; ``--tie 0`` brings that back) and the draws average that out; with it, one draw per seed
+is enough.
 
 Settings that are not options of ``ManifoldClustering`` are made here by patching module
 constants and functions for the duration of one setting (diagnosis only)::
 
     python -m experiments.manifold.graph_path ROOT --seeds 0 100 101 102 103 --draws 3
 
-``--where`` instead prints where the two paths part on the same fits (session 11): whether
+``--where`` instead prints where the two paths part on the same fits: whether
 the root splits put the points on the same sides, and each tree's leaves combined in each
 path's kernel (the combination's kernel swapped); ``--sensitivity SEED`` searches one
 sub-node of the dense tree twice, on its block of the full distance matrix and on its
@@ -55,7 +56,7 @@ def _full_sub(self, idx):
 
 
 def _six_sigmas(space):
-    """The graph path's split search before session 21: 6 sigmas (the combination keeps 16)."""
+    """The graph path's former split search: 6 sigmas (the combination keeps 16)."""
     return replace(space, n_sigmas=min(space.n_sigmas, 6), refine_sigma=False)
 
 
@@ -70,13 +71,13 @@ def _capped_bounds(self):
 
 _GRAPH_BOUNDS = geometry.GraphGeometry.sigma_bounds
 _SPARSE = {"kernel": "sparse"}
-# name -> (ManifoldClustering settings, patches as (object, attribute, value)). The rows of the
-# tables before session 21 (a 6-sigma split search, some with a 6-sigma combination) were
-# measured with this file at commit 69b317b, where their names meant that base.
+# name -> (ManifoldClustering settings, patches as (object, attribute, value)). The tables
+# measured on a 6-sigma split search (some with a 6-sigma combination) came from this file at
+# commit 69b317b, where the names meant that base.
 SETTINGS = {
     "dense": ({"kernel": "dense"}, []),
     "graph": (_SPARSE, []),
-    "graph, 6 sigmas per split (before session 21)": (
+    "graph, 6 sigmas per split (the former default)": (
         _SPARSE, [(geometry, "coarse_space", _six_sigmas)]),
     "graph, dense sub-nodes searched fully": (
         _SPARSE, [(geometry.GraphGeometry, "sub", _full_sub)]),

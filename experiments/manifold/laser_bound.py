@@ -1,4 +1,4 @@
-"""What the laser scans can tell about the manifolds (issue 13, item 6): a supervised bound,
+"""What the laser scans can tell about the manifolds: a supervised bound,
 then the label-free methods on the same features.
 
     python -m experiments.manifold.laser_bound --dev ROOT/m-data-0 --test ROOT/m-data-1 ... --out

@@ -1,4 +1,4 @@
-"""Synthetic tables and sweeps of issue 13: every method on the paper's sets and on branching
+"""Synthetic tables and sweeps: every method on the paper's sets and on branching
 sequences at several n, and the paper's claim tested where it should matter.
 
 Per-cluster sigma should beat one sigma when no single sigma both connects the sparsest curve

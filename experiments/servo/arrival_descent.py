@@ -1,4 +1,4 @@
-"""Dev measurement behind ``SignalServoConfig.arrive_descent`` (issue 12, round 18): how the
+"""Dev measurement behind ``SignalServoConfig.arrive_descent``: how the
 image's distance to a stored view, and F^j(k) toward it, vary around the view.
 
 For each view the world is rendered on a square grid of points about the view's true pose

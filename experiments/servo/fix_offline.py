@@ -1,4 +1,4 @@
-"""Offline check of SignalServo's global fix (issue 12 item 2): for the dev ``anywhere`` starts,
+"""Offline check of SignalServo's global fix: for the dev ``anywhere`` starts,
 record the observing turn (the env stepped with the controller's turn command, odometry and
 images as the controller sees them) and score candidate fix methods by the distance from the
 true start to the fix view's true position. Truth is used here for scoring only.

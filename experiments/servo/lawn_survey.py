@@ -1,12 +1,13 @@
-"""Dev measurement (issue 12, round 17): would views recorded across the open lawn give
-``SignalServo`` the global fix it lacks from starts off the one recorded path per arm?
+"""Dev measurement: would views recorded across the open lawn give ``SignalServo`` the global fix
+it lacks from starts off the one recorded path per arm?
 
-Rounds 13-15 named a denser map as the lawn's remaining remedy. This script records six
-survey drives (two lines each across the main lawn and the straight arm, up one side of the
-left and right arms and down the other), adds them to a copy of the dataset, builds the servo
-map from all nine recordings (the map aligns them by sensing only), and runs ``dev`` episodes
-on it exactly as ``experiments/servo/signal_servo.py`` does, with the targets and the ``view``
-tier's starts kept on the three recorded routes (so the episodes are those of the committed map).
+The lawn's diagnoses (docs/servo.md) name a denser map as its remaining remedy. This script
+records six survey drives (two lines each across the main lawn and the straight arm, up one side
+of the left and right arms and down the other), adds them to a copy of the dataset, builds the
+servo map from all nine recordings (the map aligns them by sensing only), and runs ``dev``
+episodes on it exactly as ``experiments/servo/signal_servo.py`` does, with the targets and the
+``view`` tier's starts kept on the three recorded routes (so the episodes are those of the
+committed map).
 Dev only, truth printed for diagnosis::
 
     python -m experiments.servo.lawn_survey collect OUT        # OUT/dataset: out/dataset's +
@@ -48,7 +49,7 @@ SURVEY = {
 }
 FRAMES = 120  # ~0.25 m apart on a 30 m drive; stride 2 keeps 60 views per survey
 SEED_INDEX = 100  # survey k is seeded by (dataset seed, SEED_INDEX + k), apart from the routes'
-# ``--drives return`` (round 18): each route driven back, arm -> main, as many frames as the
+# ``--drives return``: each route driven back, arm -> main, as many frames as the
 # routes have (every recording drives main -> arm, so a route out of an arm faces no view)
 RETURNS = {"lawn-survey-back-left": "lawn-left", "lawn-survey-back-straight": "lawn-straight",
            "lawn-survey-back-right": "lawn-right"}  # fmt: skip
@@ -109,7 +110,7 @@ def oracle_map(m):
                                               and abs(wrap_angle(t[2] - true[2])) < 0.1):
             edges.append((int(a), int(b)))
             transforms.append(t)
-    # joined by truth: the straight arm's surveys (round 17), or each route's return drive
+    # joined by truth: the straight arm's surveys, or each route's return drive
     joined = {"lawn-survey-sn": "lawn-straight", "lawn-survey-ss": "lawn-straight", **RETURNS}
     for name, route_name in joined.items():
         if name not in m.sequence_names:

@@ -1,22 +1,22 @@
-"""Dev diagnosis of ``SignalServo`` (issue 12 item 2): what its episodes did, beside the truth.
+"""Dev diagnosis of ``SignalServo``: what its episodes did, beside the truth.
 
 Runs ``dev`` episodes of the benchmark protocol exactly as ``topomap servo-eval`` does (the
 same specs, starts, env and 600 steps) and prints per episode the end, the phase it ended
 in, when the arrival began and where the robot really was against where it believed it was,
 both in the target view's frame (along its sight, across it, heading). The truth is read
 for diagnosis only; the controller never sees it. Any ``SignalServoConfig`` field can be
-set (``--config '{"speed": 1.0}'``), which is how round 6's variants were compared::
+set (``--config '{"speed": 1.0}'``), which is how the controller's variants are compared on dev::
 
     python -m experiments.servo.signal_servo hallway anywhere 0:24 [--config JSON] [--trace FROM]
 
 ``--trace FROM``: also a line every 5 steps from step FROM (phase, arrival stage, truth,
 belief, command, contact, bumps) and every relocalisation with the belief's error.
 
-``--oracle-fix view|pose|top5`` (session 20) gives the controller a perfect global fix at
-every observing turn, the start's and each relocalisation's: ``view`` the stored view
+``--oracle-fix view|pose|top5`` gives the controller a perfect global fix at every observing
+turn, the start's and each relocalisation's: ``view`` the stored view
 nearest the true position and the heading that faces it (the start pose then as the
-controller finds it), ``pose`` also the true pose in that view's frame; ``top5`` (session
-27) a perfect choice among the candidates the turn offers: of the controller's own five best
+controller finds it), ``pose`` also the true pose in that view's frame; ``top5``
+a perfect choice among the candidates the turn offers: of the controller's own five best
 places by contrast score (views 4 m or more apart,
 :func:`servo.camera_only.turn_global_fix.contrast_scores`), the one nearest the truth. What a better
 global fix is worth, against the same episodes without it. Diagnosis only: the controller never sees
@@ -28,8 +28,9 @@ the nearest stored view (truth, for the analysis only).
 
 ``--sight VIEWS`` instead renders the world at offsets along stored views' sight (-1.6 to
 1.6 m) and prints F^j(k) toward each view there (eq. 13): how sharp the peak the arrival
-looks for is, and where it repeats (round 6: ~0 at 0.4 m, secondary peaks near 1 m in the
-hallway). Dev splits only: the test split is run once per round with ``servo-eval``.
+looks for is, and where it repeats (measured: ~0 at 0.4 m, secondary peaks near 1 m in the
+hallway). Dev splits only: the test split is run once per frozen controller with
+``servo-eval``.
 """
 
 from __future__ import annotations

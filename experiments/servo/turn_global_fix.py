@@ -1,4 +1,4 @@
-"""Offline dev loop for ``SignalServo``'s global fix (issue 12 item 2): the observing turn's
+"""Offline dev loop for ``SignalServo``'s global fix: the observing turn's
 images of ``dev`` episodes, recorded once, and the fix each image descriptor would take.
 
 Runs the controller exactly as ``topomap servo-eval`` starts an episode (same specs, starts,

@@ -1,4 +1,4 @@
-"""Dev check of ``ViewPose`` (issue 12, round 10): metric poses against stored views, scored
+"""Dev check of ``ViewPose``: metric poses against stored views, scored
 by the truth (for diagnosis only; the controller never sees it).
 
 For ``--views`` random stored views of a world (``default_rng(5)``), ``--renders`` images are

@@ -1,4 +1,4 @@
-"""Laser scans as sector and ring statistics (issue 13, item 6).
+"""Laser scans as sector and ring statistics.
 
 :mod:`mapping.features` turns a scan into its ranges, inverse ranges or a polar occupancy grid:
 one number per beam or per (sector, range bin). Those vectors change a lot when the robot turns

@@ -40,9 +40,9 @@ def coarse_space(space):
 
     Each sigma costs one eigensolve, alpha none (eigenpairs are reused across alpha), so the
     refinement in sigma (about 12 more eigensolves per split) is what is left out. The grid
-    was 6 sigmas until session 21: the 16-sigma grid makes purer leaves (on 100 test image
-    seeds the tree's bound 6.0 -> 4.4 %, test error 10.7 -> 9.1 %) at about 1.7x the fit's
-    time (docs: "Scaling", "The split search's grid").
+    is the full 16 sigmas, not 6: it makes purer leaves (on 100 test image seeds the tree's
+    bound 6.0 -> 4.4 %, test error 10.7 -> 9.1 %) at about 1.7x the fit's time (docs:
+    "Scaling", "The split search's grid").
     """
     return replace(space, refine_sigma=False)
 

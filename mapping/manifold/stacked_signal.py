@@ -30,7 +30,7 @@ the large |y|^2 and |delta_j|^2 for a query near cluster j, and a float32 ``y . 
 made it 1 % wrong on the tests' data (3000-d curves 20x their spread apart), ~1e-3 of F.
 tests/mapping/manifold/test_stacked_signal.py bounds the difference.
 
-Two things cut what a view reads further (issue 15 item 2: <= 2 ms at 320x240x3):
+Two things cut what a view reads further (the target: <= 2 ms at 320x240x3):
 
 * **Unreachable clusters are skipped.** ``q`` comes first (K rows of d); a cluster whose
   nearest possible point, ``(sqrt(q_j) - radius_j)^2``, lies beyond exp's underflow at its

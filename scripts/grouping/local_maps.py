@@ -1,4 +1,4 @@
-"""Test the grouping on what Blanco et al. claim: consistent local maps (issue 14, item 2).
+"""Test the grouping on what Blanco et al. claim: consistent local maps.
 
     topomap group-eval --data DIR --carmen LOG [--carmen LOG] --local-maps --out DIR
 

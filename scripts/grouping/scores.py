@@ -18,7 +18,7 @@ from sim.runs import Runs
 
 __all__ = ["TARGETS", "compare_methods", "meets_targets", "score_groups", "unscored"]
 
-# The targets: groups mix manifolds by at most 10 %, no manifold in more than 3 groups.
+# The targets: groups mix manifolds by at most 10 %, no manifold in more than 3 groups.
 TARGETS = {"purity_min": 0.9, "max_groups_per_manifold": 3}
 MC_MIN_CLUSTER_SIZE = 35  # Q of docs/manifold-clustering.md on the same sequences
 

@@ -11,6 +11,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "METHODS": "scripts.manifold.methods",
         "bootstrap_mean": "scripts.manifold.methods",
         "score_methods": "scripts.manifold.methods",
+        "FEATURES": "scripts.manifold.protocol",
         "load_cells": "scripts.manifold.protocol",
         "summarize": "scripts.manifold.protocol",
         "run_reproduction": "scripts.manifold.reproduce:reproduce",

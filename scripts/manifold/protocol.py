@@ -1,7 +1,7 @@
-"""A frozen evaluation protocol for manifold clustering on the image datasets (issue 13).
+"""A frozen evaluation protocol for manifold clustering on the image datasets.
 
 Every choice (features: HSV histograms 8x4x4 in 2x2 cells; the combination of the leaves,
-``spectral`` since issue 13 item 3, ``separability`` before; K = 8, Q = 35; the baselines'
+``spectral``, which replaced ``separability``; K = 8, Q = 35; the baselines'
 label-free rules) was made on the ``dev`` dataset, seed 0, the one
 ``docs/manifold-clustering.md`` was written on. This script applies them unchanged to fresh
 dataset seeds and reports every method's error per seed and as a mean with a bootstrap 95%
@@ -29,7 +29,7 @@ Usage::
 Features (``--features``): ``hsv`` and ``raw`` from the camera images; ``scan-range``,
 ``scan-inverse``, ``scan-polar`` (``mapping.ScanFeatures``) and ``scan-stats``
 (``mapping.ScanStatistics``: sector and ring statistics) from the laser scans of the same
-frames (issue 13, item 6). ``--methods`` computes a subset of the methods; a later call with
+frames. ``--methods`` computes a subset of the methods; a later call with
 more methods adds them to the cached cells.
 
 Each dataset's ``meta.json`` must say it was collected for its condition (randomised or not,
@@ -66,7 +66,7 @@ FEATURES = {
     "hsv": ("HSV histograms 8x4x4, 2x2 cells", ColorHistogramFeatures),
     "raw": ("raw pixels 320x240 RGB (paper)", ImageFeatures),
 }
-# laser scans (issue 13 item 6): name -> (description, the transformer for a sensor's max range)
+# laser scans: name -> (description, the transformer for a sensor's max range)
 SCAN_FEATURES = {
     "scan-range": ("laser ranges / max range, 361 beams", lambda m: ScanFeatures(m, "range")),
     "scan-inverse": ("inverse laser ranges", lambda m: ScanFeatures(m, "inverse")),

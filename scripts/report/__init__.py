@@ -19,13 +19,16 @@ each timed; a failing stage stops the run with :class:`StageError` naming it):
 5. ``servo``: closed-loop servoing (``servo.task.evaluation``) per world, the servo policy and the
    baselines: results per manifold pair, trajectories on the map, episode videos.
 
-``index.html`` references the PNGs and mp4s beside it by relative paths (no external
-resource) and ends with what is needed to reproduce it: settings, seed, versions, commit,
-machine and timings. ``report.json`` holds every number. The HTML is built by small functions
+``index.html`` opens with a summary (:mod:`~scripts.report.summary`: one line per task, its
+headline number and interval against its target), references the PNGs and H.264 MP4s beside
+it by relative paths (no external resource; the videos play in the page) and ends with what is
+needed to reproduce it: settings, seed, versions, commit, machine and timings.
+``report.json`` holds every number, the summary first. The HTML is built by small functions
 (``section_*``) of plain dicts, so each can be tested on fake inputs.
 
 Modules: :mod:`~scripts.report.html` (escaping, tables, figures, the page),
-:mod:`~scripts.report.sections` (one builder per section), :mod:`~scripts.report.drawing` and
+:mod:`~scripts.report.sections` (one builder per section), :mod:`~scripts.report.summary`
+(the summary's lines), :mod:`~scripts.report.drawing` and
 :mod:`~scripts.report.stages` (the stages' work), :mod:`~scripts.report.provenance` (versions,
 machine, commit), :mod:`~scripts.report.settings` (:class:`RunSettings`, the errors) and
 :mod:`~scripts.report.pipeline` (the stage registry and :func:`run_pipeline`, which takes the
@@ -43,6 +46,7 @@ from scripts.report.html import (
     referenced_files,
     section,
     table,
+    video,
     write_report,
 )
 from scripts.report.pipeline import STAGES, RunContext, Stage, replace_runs, run_pipeline
@@ -54,6 +58,7 @@ from scripts.report.sections import (
     section_protocol,
     section_reproduce,
     section_servo,
+    section_summary,
     section_worlds,
 )
 from scripts.report.settings import (
@@ -70,6 +75,7 @@ from scripts.report.stages import (
     stage_servo,
     stage_worlds,
 )
+from scripts.report.summary import summarise_run
 
 __all__ = [
     "COMMITTED_PROTOCOL",
@@ -102,13 +108,16 @@ __all__ = [
     "section_protocol",
     "section_reproduce",
     "section_servo",
+    "section_summary",
     "section_worlds",
     "stage_grouping",
     "stage_manifold",
     "stage_protocol",
     "stage_servo",
     "stage_worlds",
+    "summarise_run",
     "table",
     "versions",
+    "video",
     "write_report",
 ]

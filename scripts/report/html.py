@@ -23,6 +23,7 @@ __all__ = [
     "referenced_files",
     "section",
     "table",
+    "video",
     "write_report",
 ]
 
@@ -67,6 +68,18 @@ def figure(src: str, caption: str) -> str:
     )
 
 
+def video(src: str, caption: str) -> str:
+    """A video by relative path, played in the page (``<video controls>``), with a caption
+    and a link to the file."""
+    path = Path(src)
+    src = esc(path.as_posix())
+    return (
+        f'<figure><video src="{src}" controls preload="metadata"></video>'
+        f'<figcaption>{esc(caption)} (<a href="{src}">{esc(path.name)}</a>)</figcaption>'
+        "</figure>"
+    )
+
+
 def section(anchor: str, title: str, *parts: str) -> str:
     return (
         f'<section id="{esc(anchor)}">\n<h2>{esc(title)}</h2>\n' + "\n".join(parts) + "\n</section>"
@@ -81,6 +94,7 @@ th, td { border: 1px solid #bbb; padding: 0.2em 0.5em; text-align: left; }
 th { background: #eee; }
 figure { display: inline-block; margin: 0.5em; vertical-align: top; }
 figure img { max-width: 560px; max-height: 420px; border: 1px solid #ccc; }
+figure video { max-width: 100%; border: 1px solid #ccc; }
 figcaption { font-size: 0.85em; max-width: 560px; }
 """
 

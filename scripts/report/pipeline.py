@@ -30,6 +30,7 @@ from scripts.report.sections import (
     section_protocol,
     section_reproduce,
     section_servo,
+    section_summary,
     section_worlds,
 )
 from scripts.report.settings import REPORT_DIR, OutputError, RunSettings, StageError
@@ -40,6 +41,7 @@ from scripts.report.stages import (
     stage_servo,
     stage_worlds,
 )
+from scripts.report.summary import summarise_run
 
 __all__ = ["STAGES", "RunContext", "Stage", "replace_runs", "run_pipeline"]
 
@@ -252,14 +254,17 @@ def run_pipeline(
         "total": time.perf_counter() - start,
     }
     sections = [s.section(ctx.results[s.name], ctx) for s in stages if s.section is not None]
+    summary = summarise_run(ctx.results)
     page = build_html(
         TITLE,
         [*sections, section_reproduce(info)],
-        summary=f"<p>Seed {settings.seed}; written in {info['total']:.0f} s on "
+        summary=(section_summary(summary) if summary else "")
+        + f"<p>Seed {settings.seed}; written in {info['total']:.0f} s on "
         f"{esc(info['machine']['cores (os.cpu_count)'])} cores.</p>",
     )
     recorded = [s for s in stages if s.recorded]
-    report = {s.name: ctx.results[s.name] for s in recorded if s.saved_as is None}
+    report = {"summary": summary}
+    report.update({s.name: ctx.results[s.name] for s in recorded if s.saved_as is None})
     report.update({s.name: f"{s.name}/{s.saved_as}" for s in recorded if s.saved_as is not None})
     report["info"] = info
     atomic_write_bytes(

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from scripts.grouping import comparison_table, grouping_table
-from scripts.report.html import esc, figure, fmt, section, table
+from scripts.report.html import esc, figure, fmt, section, table, video
 from scripts.servo_tables import pair_table, summary_table
 
 __all__ = [
@@ -19,6 +19,7 @@ __all__ = [
     "section_protocol",
     "section_reproduce",
     "section_servo",
+    "section_summary",
     "section_worlds",
 ]
 
@@ -26,6 +27,34 @@ PAPER = {
     "manifold": "Grudic & Mulligan, topological mapping with visual manifolds",
     "grouping": "Blanco et al., observation grouping by sensed-space overlap",
 }
+
+
+def section_summary(lines: Sequence[dict]) -> str:
+    """The page's opening summary: one row per line of ``scripts.report.summary.summarise_run``
+    (the task, what its number is, the number with its 95% interval, the target and whether the
+    number meets it)."""
+    rows = []
+    for line in lines:
+        value, interval = line["value"], line["interval"]
+        if value is None:
+            shown = "not scored"
+        elif interval is None:
+            shown = fmt(value)
+        else:
+            lo, hi = (fmt(v) for v in interval)
+            shown = f"{fmt(value)} [{lo}, {hi}] ({line['interval_kind']})"
+        target = line["target"] or "no target"
+        rows.append([line["task"], line["measure"], shown, target, line["meets"], line["detail"]])
+    return section(
+        "summary",
+        "Summary",
+        table(
+            "Each task's headline number against its target (the worst world where there are "
+            "several; met: the number itself reaches the target, the interval says how surely)",
+            ("task", "measure", "value [95% interval]", "target", "meets target", "details"),
+            rows,
+        ),
+    )
 
 
 def section_worlds(result: dict) -> str:
@@ -74,8 +103,8 @@ def section_manifold(result: dict) -> str:
         "manifold",
         f"Manifold clustering ({PAPER['manifold']})",
         "<p>Error: the fraction of points in the wrong cluster after the best matching of "
-        "clusters to true manifolds. See docs/manifold-clustering.md for the choices made "
-        "where the paper is ambiguous.</p>" + _no_labels_note(result),
+        "clusters to true manifolds. See docs/guides/manifold-clustering.md for the choices "
+        "made where the paper is ambiguous.</p>" + _no_labels_note(result),
         synthetic,
         real,
         '<div class="row">',
@@ -102,8 +131,8 @@ def section_protocol(result: dict) -> str:
         "<p>The manifold-clustering tables above are <strong>one dataset seed</strong>: seed 0, "
         "the dev seed on which the features and the merge rule were chosen. What the method "
         "does on other seeds is the frozen protocol's job: the same settings on fresh dataset "
-        "seeds, beside the label-free baselines a user would pick (see docs/"
-        "manifold-clustering.md, &ldquo;Results that survive scrutiny&rdquo;).</p>"
+        "seeds, beside the label-free baselines a user would pick (see docs/guides/"
+        "manifold-clustering.md, &ldquo;The frozen multi-seed protocol&rdquo;).</p>"
     )
     if result.get("source") is None:
         return section(
@@ -162,7 +191,8 @@ def section_grouping(result: dict, prefix: str = "") -> str:
         "<p>Each world's three sequences are grouped together in one observation graph; groups "
         f"are scored against the true manifolds. Targets: purity &ge; "
         f"{fmt(purity_min, 2)}, at most {fmt(max_groups)} "
-        "groups per manifold. See docs/observation-grouping.md.</p>" + _no_labels_note(result),
+        "groups per manifold. See docs/guides/observation-grouping.md.</p>"
+        + _no_labels_note(result),
         grouping_table(result).to_html(),
     ]
     if result.get("compare"):
@@ -199,7 +229,7 @@ def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
         "<i>signal</i> (camera and odometry only, servoing by F^j(k) of eq. 13 through "
         "waypoint views: the paper's Section II-G), the oracle (the true pose on the shortest "
         "path: the upper bound), and random commands or greedy probing of F when asked for. "
-        "See docs/servo.md.</p>",
+        "See docs/guides/servo.md.</p>",
         summary,
         pairs,
         '<div class="row">',
@@ -216,18 +246,13 @@ def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
                 )
             )
     parts.append("</div>")
-    links = [
-        f'<li>{esc(key)}: <a href="{esc(v)}">{esc(Path(v).name)}</a></li>'
-        for key, paths in videos.items()
-        for v in paths
-    ]
-    if links:
+    clips = [video(v, key) for key, paths in videos.items() for v in paths]
+    if clips:
         parts += [
-            "<p>Episode videos (camera view beside the top-down map; MPEG-4, if the browser "
-            "does not play them, open them with a video player):</p>",
-            "<ul>",
-            *links,
-            "</ul>",
+            "<p>Episode videos: the robot's camera view beside the top-down map.</p>",
+            '<div class="row">',
+            *clips,
+            "</div>",
         ]
     return section("servo", "Closed-loop servoing", *parts)
 

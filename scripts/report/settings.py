@@ -12,7 +12,7 @@ from scripts.report.provenance import REPO_ROOT
 __all__ = ["COMMITTED_PROTOCOL", "REPORT_DIR", "OutputError", "RunSettings", "StageError"]
 
 REPORT_DIR = "report"
-# The frozen protocol's cells as committed with the code (issue 13 item 7): ``topomap run``
+# The frozen protocol's cells as committed with the code: ``topomap run``
 # shows them unless told otherwise, so every report carries the spread over dataset seeds.
 COMMITTED_PROTOCOL = REPO_ROOT / "docs" / "results" / "manifold-protocol"
 
@@ -23,8 +23,8 @@ class RunSettings:
 
     seed : seeds the dataset and the servo episodes.
     episodes : servo episodes per world, start tier and policy, on the benchmark protocol's
-        ``test`` split (``servo.task.protocol``; the issue asks for at least 20 in the run and 100
-        in the headline tables of ``topomap servo-eval``).
+        ``test`` split (``servo.task.protocol``; at least 20 in the run and 100 in the
+        headline tables of ``topomap servo-eval``).
     policies : servo policies evaluated (``servo`` first; see ``servo.task.policies.POLICIES``).
     tiers : the protocol's start tiers the two controllers (``servo``, ``signal``) run on:
         ``anywhere`` by default (the hard one; 20 episodes of both controllers from both tiers

@@ -154,14 +154,14 @@ class SignalServo:
         # reversing keeps image fixes only where the map's parallax makes them stable
         self.reverses = self.config.reverse and self.parallax >= self.config.reverse_parallax
         # a far scene (grass, sky, trees: little parallax) where bland images match at any
-        # shift, so image fixes need a sharp alignment (``fix_contrast``, round 8)
+        # shift, so image fixes need a sharp alignment (``fix_contrast``)
         self.far_scene = self.parallax < self.config.reverse_parallax
         # the near ground's extra shift per m across (two bands): measures the offset across
-        # the route apart from the heading, where the map says it is resolved (round 8)
+        # the route apart from the heading, where the map says it is resolved
         k = self.localiser.cross_parallax()
         self.cross_parallax = k if k >= self.config.cross_min_parallax else 0.0
         # metric poses against route views from keypoints at the views' map-time depths
-        # (round 10): the offset across apart from the heading, in both worlds
+        # measure the offset across apart from the heading, in both worlds
         self.poses = (PoseFixes(ViewPose(servo_map), self.config) if self.config.pose_every
                       else None)  # fmt: skip
         self.target = None
@@ -245,7 +245,7 @@ class SignalServo:
         branch the reversing fix leaves the belief ~0.7 m off, and without it every back-off
         and retry drives the same line into the same wall (dev traces: 10-12 bumps at one
         place). Forward, the image fix's funnel corrects the offset, and shifting did not
-        help (round 7)."""
+        help on dev."""
         self._stall.clear()
         self._backup = self.config.backup_steps
         self._careful = 3 * self.config.backup_steps

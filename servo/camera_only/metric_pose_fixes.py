@@ -1,4 +1,4 @@
-"""The metric pose fixes of :class:`~servo.camera_only.controller.SignalServo` (round 10).
+"""The metric pose fixes of :class:`~servo.camera_only.controller.SignalServo`.
 
 The whole image's shift against a route view measures the heading plus the parallax times the
 offset across the view's sight (z = theta + c y) and cannot tell the two apart; only motion
@@ -77,7 +77,7 @@ class PoseFixes:
     def supports(self, view: int, distances: np.ndarray) -> bool:
         """Whether the two turn images that matched ``view`` best both pose against it and
         agree (``pose_agree``, carried by odometry from one to the other): the observing
-        turn's metric support for a global fix on ``view`` (round 11)."""
+        turn's metric support for a global fix on ``view``."""
         poses = self._two_poses(view, distances)
         if poses is None:
             return False

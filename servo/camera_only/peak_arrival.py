@@ -14,7 +14,7 @@ largest at the view), for :class:`~servo.camera_only.controller.SignalServo`.
    to each); where a side gives more F, the view lies that way: the belief is moved across and
    the sweep starts again (at most ``lateral_rounds`` times). Otherwise the robot is done.
 
-With ``arrive_lanes`` (round 6) steps 2 and 3 search lanes instead: F toward a view is sharp
+With ``arrive_lanes`` steps 2 and 3 search lanes instead: F toward a view is sharp
 (measured by rendering along stored views' sight in the hallway: 1 at the view, 0.6-0.9 at
 0.2 m, ~0 at 0.4 m, with secondary peaks near 1 m where the corridor repeats), so F read at
 a point 0.6 m to the side says nothing, and a sweep on a line 0.6 m beside the view never

@@ -1,5 +1,5 @@
 """The global fix of :class:`~servo.camera_only.controller.SignalServo`'s observing turn, checked
-for consistency across the turn (issue 12, item 2: a wrong or loose fix).
+for consistency across the turn (against a wrong or loose fix).
 
 Every few degrees of the turn the image is localised on its own (the best-aligned view of the
 clusters eq. 13 ranks first, :meth:`~servo.localise.ImageLocaliser.localise`), which gives a
@@ -10,7 +10,7 @@ headings at which they matched differ by what odometry turned between them, as t
 relative headings of those views say. :func:`consistent_fix` scores each of the best few
 candidates by that support and keeps the best supported (ties: the best match).
 
-:func:`contrast_fix` (the default since round 5) uses the whole turn differently: every
+:func:`contrast_fix` (the default) uses the whole turn differently: every
 sample is aligned with every stored view, and a view counts by how sharply its distance
 profile over the turn dips (a real place is seen only facing one way; a look-alike that
 matches at every heading is not).
@@ -106,7 +106,7 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), ver
     :meth:`~servo.camera_only.metric_pose_fixes.PoseFixes.supports`) a fix it does not support gives
     way to the first of the next ``candidates`` views by score that it supports (a look-alike down a
     symmetric corridor matches as well as the place, but keypoints at known depths pose the robot
-    only against the place; round 11). Returns (view, heading)."""
+    only against the place). Returns (view, heading)."""
     score, facing = contrast_scores(distances, yaws, headings, far=far)
     out = np.zeros(len(score), bool)
     out[np.asarray(list(exclude), int)] = True

@@ -271,8 +271,8 @@ def build_map(
     image_features = ImageFeatures(size=tuple(settings.image_size), normalization="unit")
     feats = image_features.fit_transform(images).astype(np.float32)
     # The combination the servo tables (docs/servo.md) were measured with; the estimator's
-    # default became "spectral" (issue 13 item 3), which changes the views' clusters. Switch
-    # when the servo evaluation is re-run.
+    # default, "spectral", changes the views' clusters. Switch when the servo evaluation is
+    # re-run.
     clustering = ManifoldClustering(
         n_clusters=max(2, n_manifolds),
         min_cluster_size=settings.min_cluster_size,

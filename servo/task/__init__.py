@@ -25,6 +25,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "load_results": "servo.task.paired_comparison",
         "markdown": "servo.task.paired_comparison",
         "POLICIES": "servo.task.policies",
+        "SUCCESS_TARGETS": "servo.task.protocol",
         "TIERS": "servo.task.protocol",
         "EpisodeSpec": "servo.task.protocol",
         "Protocol": "servo.task.protocol",

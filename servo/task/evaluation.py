@@ -19,6 +19,7 @@ import numpy as np
 from common.blas import single_threaded_blas
 from common.fileio import write_png
 from common.validation import check_int
+from common.video import write_mp4
 from scenes import WORLDS
 from servo.geodesic import GeodesicField
 from servo.laser_image import ManifoldServo
@@ -141,7 +142,7 @@ def score_episode(
         "trail": trail,
         "target_pose": np.asarray(last["target_pose"]),
         "start_pose": trail[0].copy(),
-        # F along the trajectory (item 5): toward the target and the policy's waypoint view
+        # F along the trajectory: toward the target and the policy's waypoint view
         # (NaN: the policy has none), and the true geodesic distance to the target per step.
         "signal_target": np.array([float(i["signal"]) for i in infos]),
         "signal_waypoint": np.asarray(signal_waypoint, dtype=float),
@@ -231,18 +232,6 @@ def plot_trajectories(world, records: list[dict], path: Path, limit: int = 24) -
     return write_png(path, img)
 
 
-def write_video(frames: list[np.ndarray], path: Path, fps: int = 10) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    h, w = frames[0].shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
-    try:
-        for f in frames:
-            writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-    finally:
-        writer.release()
-    return path
-
-
 def evaluate(
     world: str,
     episodes: int,
@@ -263,7 +252,8 @@ def evaluate(
 
     Episode ``i`` is seeded with the ``i``-th child of ``SeedSequence(seed)``, so a run is
     reproducible and a longer run extends a shorter one. With ``out``, writes
-    ``<world>-<policy>-trajectories.png`` and ``videos`` mp4s of the first episodes. Without
+    ``<world>-<policy>-trajectories.png`` and ``videos`` H.264 MP4s of the first episodes
+    (``common.video.write_mp4``: the camera view beside the top-down map). Without
     ``servo_map``, the world's map is loaded from (or built in) the data home ``home`` (see
     ``sim.datahome``: the argument, then ``TOPOMAP_HOME``, then the per-user cache).
     """
@@ -294,7 +284,7 @@ def evaluate(
             frames = [] if out is not None and i < videos else None
             records.append(run_episode(env, pol, s, frames=frames))
             if frames:
-                write_video(frames, Path(out) / f"{world}-{policy}-episode{i}.mp4")
+                write_mp4(Path(out) / f"{world}-{policy}-episode{i}.mp4", frames)
         result = summarise(records)
         if out is not None:
             result["plot"] = str(

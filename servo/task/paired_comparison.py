@@ -2,7 +2,7 @@
 servo-compare``).
 
 The protocol's episodes are deterministic from the split (``servo.task.protocol``): two controllers,
-or two rounds of one, run on the same starts and targets, so their difference is measured
+or two versions of one, run on the same starts and targets, so their difference is measured
 episode by episode rather than as two rates with overlapping intervals. For each world and
 setting present in both files this gives the episodes both ran, each side's successes, the
 episodes only one side won ("gained" by B, "lost" by B), the exact two-sided sign test on

@@ -17,9 +17,9 @@ from scripts.manifold.reproduce import (
 )
 
 # The dev seed (0, this dataset), on which the features and the merge rule were chosen, gives
-# 13 test errors of 450 and 12 training errors of 450 (measured for issue 13; the older table
-# in the docs says 2.2 % train). The margins are the 95 % Wilson upper bounds of those counts,
-# the spread one run of this size has; the spectral combination (issue 13 item 3) gives the
+# 13 test errors of 450 and 12 training errors of 450 (an older table in the docs says 2.2 %
+# train). The margins are the 95 % Wilson upper bounds of those counts,
+# the spread one run of this size has; the spectral combination gives the
 # same counts. On 12 fresh seeds the default errs 2.9-21.8 % (mean 9.7 %; 13-31 % with the
 # former separability merge; docs/manifold-clustering.md, "Results that survive scrutiny"):
 # this pins the dev seed, not a claim about the method.

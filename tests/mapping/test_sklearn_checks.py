@@ -26,7 +26,7 @@ from mapping.manifold import ManifoldClustering
 
 ESTIMATORS = [
     ManifoldClustering(n_clusters=2, min_cluster_size=3, n_sigmas=4, n_alphas=3, refine=False),
-    # the k-NN graph path, truncated above 16 points (issue 15 item 1)
+    # the k-NN graph path, truncated above 16 points
     ManifoldClustering(
         n_clusters=2, min_cluster_size=3, n_sigmas=4, n_alphas=3, kernel="sparse", n_components=4
     ),

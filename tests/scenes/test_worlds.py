@@ -112,7 +112,7 @@ def test_randomised_clutter_keeps_the_routes_drivable(seed):
 
 
 def test_a_world_compares_by_value_so_it_is_not_hashable():
-    # A mutable dataclass that compares by value must not hash by identity (issue 16): two equal
+    # A mutable dataclass that compares by value must not hash by identity: two equal
     # worlds would be different dict keys. The free-space cache lives on the instance instead.
     world = build_world("hallway")
     with pytest.raises(TypeError, match="unhashable"):

@@ -24,6 +24,7 @@ def _grouping_score(frames=10):
         "purity": 0.95,
         "ari": 0.5,
         "groups_per_manifold": {"hallway": 1, "hallway-left": 2},
+        "max_groups_per_manifold": 2,
         "max_groups_touching": 2,
         "max_drift_m": 0.4,
         "seconds": 0.1,
@@ -32,7 +33,10 @@ def _grouping_score(frames=10):
 
 
 GROUPING = {
-    "settings": {"targets": {"purity_min": 0.9, "max_groups_per_manifold": 3}},
+    "settings": {
+        "targets": {"purity_min": 0.9, "max_groups_per_manifold": 3},
+        "shown": "odometry+icp",
+    },
     "default": {"hallway": {"frames": 10, "sequences": ["a"], "odometry+icp": _grouping_score()}},
     "loop": {},
     "compare": {
@@ -81,6 +85,7 @@ SERVO = {
     "world": "hallway",
     "policy": "servo",
     **_PAIR,
+    "successes": 1,
     "final_heading_error_deg": 5.0,
     "steps": 80.0,
     "act_ms": 3.0,
@@ -274,7 +279,11 @@ def test_run_pipeline_writes_a_complete_report(tmp_path):
     stages = {"dataset", "worlds", "manifold", "seeds", "grouping", "servo"}
     assert set(data["info"]["timings"]) == stages
     assert "numpy" in data["info"]["versions"]
-    assert list(data) == ["worlds", "manifold", "seeds", "servo", "grouping", "info"]
+    assert list(data) == ["summary", "worlds", "manifold", "seeds", "servo", "grouping", "info"]
+    assert [line["task"].split(" (")[0] for line in data["summary"]] == [
+        "manifold clustering", "observation grouping", "servo: ManifoldServo"
+    ]  # fmt: skip
+    assert page.index('<section id="summary">') < page.index('<section id="worlds">')
     assert data["seeds"] == {"source": None, "rows": []}  # no --protocol: said, not computed
     assert "Not part of this run" in page and "topomap run --protocol DIR" in page
     assert data["grouping"] == "grouping/grouping.json"
@@ -313,7 +322,8 @@ def test_the_pipeline_runs_the_stages_it_is_given_in_order(tmp_path, capsys):
     assert page.index('<section id="notes">') < page.index('<section id="reproduce">')
     assert '<section id="worlds">' not in page
     data = json.loads((index.parent / "report.json").read_text())
-    assert list(data) == ["notes", "info"] and data["notes"] == {"worlds": ["hallway"]}
+    assert list(data) == ["summary", "notes", "info"] and data["notes"] == {"worlds": ["hallway"]}
+    assert data["summary"] == [] and '<section id="summary">' not in page  # no task of its own
     assert list(data["info"]["timings"]) == ["dataset", "notes", "after"]
     assert sorted(p.name for p in index.parent.iterdir()) == ["index.html", "notes", "report.json"]
     out = capsys.readouterr().out

@@ -110,3 +110,19 @@ def test_servo_entry_points_never_read_the_working_directory(tmp_path, monkeypat
         evaluate("mars", episodes=1, seed=0)
     assert seen == [None]
     assert not (tmp_path / "out").exists()
+
+
+def test_radish_log_is_read_from_the_variable_only(tmp_path, monkeypatch):
+    monkeypatch.delenv(datahome.RADISH_VAR, raising=False)
+    with pytest.raises(DataHomeError, match="TOPOMAP_RADISH is not set"):
+        datahome.radish_log("aces-corrected.log.gz")
+    monkeypatch.setenv(datahome.RADISH_VAR, str(tmp_path / "logs"))
+    with pytest.raises(DataHomeError, match="TOPOMAP_RADISH=.* holds no aces-corrected"):
+        datahome.radish_log("aces-corrected.log.gz")
+    (tmp_path / "logs").mkdir()
+    (tmp_path / "logs" / "aces-corrected.log.gz").write_bytes(b"")
+    assert datahome.radish_log("aces-corrected.log.gz") == (
+        tmp_path / "logs" / "aces-corrected.log.gz"
+    ).resolve()
+    with pytest.raises(DataHomeError, match="holds no csail-corrected"):
+        datahome.radish_log("csail-corrected.log.gz")

@@ -33,7 +33,7 @@ def _image(env: NavigationEnv, where: float | None) -> np.ndarray:
 def test_light_gain_darkens_and_brightens_the_image(world):
     env = NavigationEnv(world, camera=SMALL, sensors=("image",))
     plain, dark, bright = _image(env, None), _image(env, 0.0), _image(env, 1.0)
-    # gain 0.55 with tint -0.12 / gain 1.45 with tint +0.12: the first round's clipped draw
+    # gain 0.55 with tint -0.12 / gain 1.45 with tint +0.12: an additive draw clipped to [0, 1]
     # moved these images by < 1 grey level where the gain was above 1
     assert dark.mean() < plain.mean() - 5
     assert bright.mean() > plain.mean() + 3

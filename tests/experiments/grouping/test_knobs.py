@@ -1,4 +1,4 @@
-"""The knob sweep of the grouping (issue 14 item 4): cropping, the dev criterion and its
+"""The knob sweep of the grouping: cropping, the dev criterion and its
 guard, and a full small sweep on the synthetic office (two rooms' worth of scans)."""
 
 import json

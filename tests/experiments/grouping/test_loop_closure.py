@@ -1,20 +1,14 @@
-"""Loop closure on a real log (issue 14 item 3): odometry simulated from the corrected poses,
+"""Loop closure on a real log: odometry simulated from the corrected poses,
 the pose graph must bring the trajectory closer to them than the drifting odometry."""
 
 import gzip
 import json
-from pathlib import Path
-
-import pytest
 
 from experiments.grouping import loop_closure as elc
 
-ACES = Path(__file__).resolve().parents[4] / "shared" / "data" / "radish" / "aces-corrected.log.gz"
-pytestmark = pytest.mark.skipif(not ACES.is_file(), reason="../shared/data/radish not beside")
 
-
-def test_loop_closure_on_a_slice_of_a_real_log(tmp_path):
-    lines = gzip.open(ACES, "rt").read().splitlines()
+def test_loop_closure_on_a_slice_of_a_real_log(tmp_path, aces_log):
+    lines = gzip.open(aces_log, "rt").read().splitlines()
     scans = [line for line in lines if line.startswith("FLASER")][:150]
     log = tmp_path / "aces-slice.log"
     log.write_text("\n".join(scans) + "\n")

@@ -1,4 +1,4 @@
-"""The branching-sequence diagnosis of issue 13 item 3 (the full run is in the docs)."""
+"""The branching-sequence diagnosis (the full run is in the docs)."""
 
 import json
 

@@ -1,4 +1,4 @@
-"""The laser bound of issue 13 item 6 on two tiny lawn datasets (two seeds): every
+"""The laser bound on two tiny lawn datasets (two seeds): every
 representation gets the supervised bound and both label-free methods, per test seed."""
 
 import json

@@ -1,4 +1,4 @@
-"""Synthetic sweeps and the diagnosis helpers of issue 13 (the full runs are in the docs)."""
+"""Synthetic sweeps and the diagnosis helpers (the full runs are in the docs)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Sector and ring statistics of laser scans (issue 13 item 6): values against a per-sector
+"""Sector and ring statistics of laser scans: values against a per-sector
 loop, rotation tolerance of the ring block, the learned block scales, bad input."""
 
 import numpy as np

@@ -2,7 +2,6 @@
 
 import gzip
 import json
-from pathlib import Path
 
 import pytest
 
@@ -10,17 +9,13 @@ from scripts.cli import main as cli_main
 from scripts.grouping.carmen_logs import JSON_FILE, evaluate_carmen
 from sim.readers.carmen import CarmenError
 
-RADISH = Path(__file__).resolve().parents[4] / "shared" / "data" / "radish"  # ../shared
-ACES = RADISH / "aces-corrected.log.gz"
 SCANS = 60
 
 
 @pytest.fixture(scope="module")
-def aces_slice(tmp_path_factory):
+def aces_slice(tmp_path_factory, aces_log):
     """The first 60 scans of the ACES log, as a plain-text log of its own."""
-    if not ACES.is_file():
-        pytest.skip("shared Radish logs not present")
-    with gzip.open(ACES, "rt") as f:
+    with gzip.open(aces_log, "rt") as f:
         lines = [line for line in f if not line.startswith("FLASER")][:20]
         f.seek(0)
         lines += [line for line in f if line.startswith("FLASER")][:SCANS]

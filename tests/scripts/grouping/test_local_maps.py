@@ -1,20 +1,15 @@
-"""The local-map evaluation (issue 14 item 2) on a slice of a real log: every method scored,
+"""The local-map evaluation on a slice of a real log: every method scored,
 the JSON written, the report printed."""
 
 import json
-from pathlib import Path
 
 import numpy as np
-import pytest
 
 from scripts.grouping import local_maps as elm
 
-ACES = Path(__file__).resolve().parents[4] / "shared" / "data" / "radish" / "aces-corrected.log.gz"
-pytestmark = pytest.mark.skipif(not ACES.is_file(), reason="../shared/data/radish not beside")
 
-
-def test_local_maps_on_a_slice_of_a_real_log(tmp_path):
-    ((tag, (scans, truth, odometry, groups)),) = elm.carmen_cases([ACES]).items()
+def test_local_maps_on_a_slice_of_a_real_log(tmp_path, aces_log):
+    ((tag, (scans, truth, odometry, groups)),) = elm.carmen_cases([aces_log]).items()
     n = 90
     cases = {tag: (scans[:n], truth[:n], odometry[:n], groups[:n])}
     result = elm.evaluate_cases(cases, tmp_path, progress=False)

@@ -1,4 +1,4 @@
-"""Sweeps on Ray (``scripts.sweep.ray_backend``, issue 15 item 3): the same table as the local
+"""Sweeps on Ray (``scripts.sweep.ray_backend``): the same table as the local
 backend for the same seeds, whatever the number of workers; MuJoCo renders in Ray workers with the
 parent's GL backend; an unreachable or non-Ray address fails at once with a clear error. Ray runs
 locally with 2 CPUs and a small object store, and is shut down after. Skipped where Ray is

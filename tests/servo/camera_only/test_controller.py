@@ -1,4 +1,4 @@
-"""The camera-only controller's units (issue 12, item 2): the route path and the belief on it,
+"""The camera-only controller's units: the route path and the belief on it,
 the configuration, the line drive of the arrival sweep, F toward several views at once, the
 bump detector, and the controller's refusal of bad input."""
 
@@ -492,7 +492,7 @@ def test_a_sweep_without_f_is_reported_and_relocalises_when_asked(servo_maps):
     """A whole sweep of the target's line of sight that never sees F (the view is 2 m
     beside, or the belief is somewhere else) ends with its peak in ``swept_peak``; one that
     sees the peak never sets it. With ``unpeaked`` the controller then observes and
-    localises again instead of sweeping until the time runs out (round 17)."""
+    localises again instead of sweeping until the time runs out."""
     *_, done, arrival = _arrive(SignalServoConfig(), np.array([4.0, 2.0]), steps=400)
     assert not done and arrival.swept_peak is not None and arrival.swept_peak < 0.05
     *_, done, arrival = _arrive(SignalServoConfig(), np.array([4.3, 0.0]), steps=400)
@@ -526,7 +526,7 @@ def test_a_sweep_without_f_is_reported_and_relocalises_when_asked(servo_maps):
 def test_image_fixes_compare_only_views_the_alignment_can_measure(servo_maps):
     """The alignment tries shifts up to ``MAX_SHIFT`` pixels either way (0.25 rad). Against a
     view turned farther from the camera it still finds a minimum inside that range, sharp
-    enough to pass the fix's tests, and a heading short by the rest: round 16's dev trace,
+    enough to pass the fix's tests, and a heading short by the rest: a dev trace,
     turning on the spot at the end of a lawn arm, read +0.20-0.25 rad where the truth was
     0.34-0.40, and those fixes turned the belief 0.4 rad the wrong way. So image fixes
     compare only the route views within ``facing`` of the robot's heading: the range plus
@@ -547,7 +547,7 @@ def test_image_fixes_compare_only_views_the_alignment_can_measure(servo_maps):
     ahead = (m.sequence == m.sequence[start]) & (m.frame > m.frame[start])
     target = int(np.flatnonzero(ahead & (m.clusters != m.clusters[start]))[0])
     headings = {}
-    for facing in (0.6, default.facing):  # 0.6: the tolerance before round 16
+    for facing in (0.6, default.facing):  # 0.6: the former tolerance
         ctl = SignalServo(m, config=SignalServoConfig(facing=facing, pose_every=0), world="lawn")
         ctl.reset(target)
         _observe(ctl, m.images[start], 200)

@@ -1,4 +1,4 @@
-"""``DescentArrival`` (round 18): the search across by the image distance where F is not seen."""
+"""``DescentArrival``: the search across by the image distance where F is not seen."""
 
 import numpy as np
 import pytest

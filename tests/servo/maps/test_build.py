@@ -69,7 +69,7 @@ def test_map_of_another_world_is_refused(servo_maps):
 
 
 def test_links_between_recordings_agree_with_the_truth(servo_maps):
-    """The recordings are joined by sensing only (issue 12 item 6); the truth checks it."""
+    """The recordings are joined by sensing only; the truth checks it."""
     from common.geometry import se2_relative
 
     for m in servo_maps.values():

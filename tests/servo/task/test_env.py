@@ -132,7 +132,7 @@ def test_registered_task_has_one_clock_and_takes_the_reward_weights(env, servo_m
         collision_penalty=0.3,
     )
     try:
-        # no TimeLimit of the registry on top of the env's own max_steps (issue 16)
+        # no TimeLimit of the registry on top of the env's own max_steps
         assert made.spec.max_episode_steps is None
         wrapper = made
         while isinstance(wrapper, gym.Wrapper):

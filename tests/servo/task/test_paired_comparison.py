@@ -1,6 +1,7 @@
 """``servo.task.paired_comparison`` / ``topomap servo-compare``: two evaluations paired episode by
 episode, and the result files read as untrusted input."""
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -93,11 +94,24 @@ def test_result_files_over_the_size_limit_are_refused(tmp_path, monkeypatch):
         cmp.load_results(path)
 
 
-def test_cli_on_the_published_rounds(capsys):
-    """Round 7 against round 8 of ``SignalServo`` on the test split: the lawn's +7 / -3 on
-    round 7's 40 episodes (docs/servo.md), the hallway's identical episodes."""
-    a = RESULTS / "signal-round7" / "servo-eval-all-anywhere-test-signal-40ep.json"
-    b = RESULTS / "signal-round8" / "servo-eval-all-anywhere-test-signal-100ep.json"
+def _published(name, sha256_prefix):
+    """The committed result file ``name`` whose content hashes to ``sha256_prefix``: several
+    evaluations share a file name, and the content, not the folder, says which one it is."""
+    found = [
+        path
+        for path in RESULTS.rglob(name)
+        if hashlib.sha256(path.read_bytes()).hexdigest().startswith(sha256_prefix)
+    ]
+    assert len(found) == 1, (name, sha256_prefix, found)
+    return found[0]
+
+
+def test_cli_on_two_published_evaluations_of_the_same_episodes(capsys):
+    """``SignalServo`` on the test split before and after the far scene's sharp-alignment gate
+    and two-band offset across (``fix_contrast``, ``cross_gain``): the lawn's +7 / -3 on the
+    first file's 40 episodes (docs/servo.md), the hallway's identical episodes."""
+    a = _published("servo-eval-all-anywhere-test-signal-40ep.json", "3081bae9e4db")
+    b = _published("servo-eval-all-anywhere-test-signal-100ep.json", "53c6589ef450")
     assert main(["servo-compare", str(a), str(b)]) == 0
     out = capsys.readouterr().out
     assert "| lawn | anywhere | test | 600 steps | 40 | 11 | 15 | +7 / -3 |" in out

@@ -8,8 +8,6 @@ import pytest
 
 from sim.readers.carmen import CarmenError, read_carmen
 
-RADISH = Path(__file__).resolve().parents[4] / "shared" / "data" / "radish"  # ../shared
-
 
 def flaser(ranges, pose=(1.0, 2.0, 0.5), odom=(1.1, 2.1, 0.4), t=10.0) -> str:
     values = " ".join(str(r) for r in ranges)
@@ -109,11 +107,10 @@ def test_bad_robotlaser_and_files(tmp_path):
         read_carmen(write(tmp_path, [ok]), message="RLASER")
 
 
-@pytest.mark.skipif(not RADISH.is_dir(), reason="shared Radish logs not present")
-def test_the_shared_logs():
-    aces = read_carmen(RADISH / "aces-corrected.log.gz")
+def test_the_radish_logs(aces_log, csail_log):
+    aces = read_carmen(aces_log)
     assert aces.ranges.shape == (440, 180) and aces.max_range == 50.0
-    csail = read_carmen(RADISH / "csail-corrected.log.gz")
+    csail = read_carmen(csail_log)
     assert csail.ranges.shape == (406, 361) and csail.max_range == 50.0  # PARAM in the log
     np.testing.assert_allclose(np.diff(csail.angles), np.deg2rad(0.5))
     # the corrected logs repeat the corrected pose in the odometry fields
