@@ -112,6 +112,7 @@ def clustering_error(y_true: ArrayLike, y_pred: ArrayLike) -> float:
 
     Examples
     --------
+    >>> from mapping import clustering_error
     >>> clustering_error([0, 0, 1, 1], ["b", "b", "a", "a"])
     0.0
     >>> clustering_error([0, 0, 0, 0], [0, 0, 1, 2])

@@ -157,6 +157,7 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
     Examples
     --------
     >>> import numpy as np
+    >>> from mapping import ManifoldClustering
     >>> t = np.linspace(0, 1, 40)
     >>> X = np.concatenate([np.c_[t, 0 * t], np.c_[t, 0 * t + 0.3]])
     >>> model = ManifoldClustering(n_clusters=2, min_cluster_size=10).fit(X)
