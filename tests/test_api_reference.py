@@ -91,3 +91,11 @@ def test_a_public_class_is_documented_like_an_estimator(path):
     sections = SECTIONS if inspect.signature(cls).parameters else ("Examples", "See Also")
     absent = [s for s in sections if not re.search(rf"^{s}\n-{{{len(s)}}}$", doc, re.M)]
     assert not absent, f"{path}: its docstring lacks the numpydoc sections {absent}"
+
+
+@pytest.mark.parametrize("path", sorted(public_classes()))
+def test_the_docs_a_public_class_names_exist(path):
+    doc = inspect.getdoc(public_classes()[path]) or ""
+    named = re.findall(r"docs/[\w./-]+\.md", doc)
+    missing = [page for page in named if not (API.parents[1] / page).is_file()]
+    assert not missing, f"{path} names pages that do not exist: {missing}"

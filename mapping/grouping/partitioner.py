@@ -64,7 +64,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         and at least ``match_distance / 50``, ``mapping.grouping.voxel_grid.MAX_DISC_RADIUS``)
         before the overlap, as MRPT does (``mapping.grouping.overlap.sensed_space_overlap``);
         ``"auto"`` is ``match_distance / 4``; ``None`` computes eq. 16-18 exactly on every point
-        (slower; docs/observation-grouping.md compares both).
+        (slower; docs/decisions/032-voxel-overlap.md compares both).
     affinity : {"sso", "precomputed"}, default "sso"
         ``"sso"``: ``fit(scans, poses)`` weighs the graph by the sensed-space overlap.
         ``"precomputed"``: ``fit(W)`` partitions the symmetric non-negative weight matrix ``W``
@@ -73,7 +73,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     assoc : {"mrpt", "paper"}, default "mrpt"
         How the association of eq. 1 is counted (see ``mapping.grouping.normalized_cut.ncut``);
         ``"mrpt"`` is the basis on which the threshold of 1 separates rooms, see
-        ``docs/observation-grouping.md``.
+        ``docs/decisions/030-counting-assoc.md``.
     laplacian : {"normalized", "unnormalized"}, default "normalized"
         Eigenproblem of the bisection: eq. 10 (the paper) or MRPT's ``(D - W) y = lambda y``.
     min_size : int, default 1
@@ -81,14 +81,14 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     scan_matching : bool, default True
         Refine consecutive poses by ICP (``mapping.scan_matching.refine_poses``) before the
         overlap; on by default because raw odometry splits the default sequences
-        (docs/observation-grouping.md).
+        (docs/decisions/033-pose-noise-and-icp.md).
     icp_max_distance : float, default 0.5
         Correspondence gate of the ICP in metres.
     icp_decimation : int, default 3
         The ICP matches every ``icp_decimation``-th point of each scan (``refine_poses``'s
         ``decimation``, MRPT's ``corresponding_points_decimation``). 3 was chosen on dev
         dataset seeds: about half the ICP's time, groups as good as with every point
-        (docs/observation-grouping.md, "ICP decimation"); 1 matches every point.
+        (docs/decisions/033-pose-noise-and-icp.md); 1 matches every point.
     empty_scans : {"nearest", "noise"}, default "nearest"
         Scans without points overlap nothing, so they stay out of the partition. ``"nearest"``
         gives each the group of the nearest scan with points along the trajectory (the earlier

@@ -120,7 +120,7 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
         the spectrum at its mean (``mapping.manifold.lowrank_kernel``), a search per split over the
         same ``n_sigmas`` grid without Brent's refinement of sigma,
         and eq. 13 on each cluster's graph (``mapping.manifold.graph_cluster_model``). "auto": dense
-        up to 1000 samples (docs/manifold-clustering.md, "Scaling").
+        up to 1000 samples (docs/decisions/006-dense-or-graph-kernel.md).
     n_neighbors : int, default 10
         k of the sparse path's graph, also the training points a new point is joined to;
         n or more means the complete graph.
