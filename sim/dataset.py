@@ -184,6 +184,7 @@ class Dataset:
 
     @property
     def manifolds(self) -> list[str]:
+        """The manifolds' names: label ``i`` is ``manifolds[i]``."""
         return list(self.meta["manifolds"])
 
     @property

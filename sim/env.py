@@ -227,6 +227,9 @@ class NavigationEnv(gym.Env):
 
     # -- gymnasium API ----------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Place the robot at ``options["pose"]``, else at a free pose drawn from ``seed``
+        (on ``options["manifold"]`` when given); ``randomize`` draws the lights and colours anew.
+        """
         super().reset(seed=seed)
         options = options or {}
         rng = self.np_random
@@ -246,6 +249,7 @@ class NavigationEnv(gym.Env):
         return self._observe(), self._info()
 
     def step(self, action):
+        """Hold ``action`` (v, omega) for one control step; the usual Gymnasium five-tuple."""
         a = np.asarray(action, dtype=np.float64)
         if a.shape != (2,):
             raise ValueError(f"action must have shape (2,) = (v, omega), got shape {a.shape}")
@@ -273,6 +277,7 @@ class NavigationEnv(gym.Env):
         )
 
     def render(self):
+        """The top-down map: robot, laser and trail (``"rgb_array"``), else None."""
         if self.render_mode != "rgb_array":
             return None
         return self.draw()

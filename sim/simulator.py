@@ -123,6 +123,7 @@ class Simulator:
 
     @property
     def time(self) -> float:
+        """Simulated time since the last reset, s."""
         return float(self.data.time)
 
     def reset(self, pose, rng: np.random.Generator) -> None:
@@ -166,11 +167,13 @@ class Simulator:
 
     # -- sensing ----------------------------------------------------------------------------
     def render(self) -> np.ndarray:
+        """The camera image, (H, W, 3) uint8; ``RuntimeError`` without a camera."""
         if self.camera is None:
             raise RuntimeError("this Simulator has no camera (camera=None)")
         return self.camera.render(self.data)
 
     def scan(self, rng: np.random.Generator | None = None) -> np.ndarray:
+        """The laser ranges, (beams,) float32 (+inf: no return), noisy when ``rng`` is given."""
         if self.laser is None:
             raise RuntimeError("this Simulator has no laser (laser=None)")
         return self.laser.scan(self.data, rng)

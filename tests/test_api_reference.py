@@ -99,3 +99,15 @@ def test_the_docs_a_public_class_names_exist(path):
     named = re.findall(r"docs/[\w./-]+\.md", doc)
     missing = [page for page in named if not (API.parents[1] / page).is_file()]
     assert not missing, f"{path} names pages that do not exist: {missing}"
+
+
+@pytest.mark.parametrize("path", sorted(public_classes()))
+def test_the_public_methods_of_a_public_class_have_docstrings(path):
+    cls = public_classes()[path]
+    bare = []
+    for name, value in vars(cls).items():
+        function = value.fget if isinstance(value, property) else getattr(value, "__func__", value)
+        # its own docstring: one inherited from a library base class does not describe it
+        if not name.startswith("_") and callable(function) and not (function.__doc__ or "").strip():
+            bare.append(name)
+    assert not bare, f"{path}: public methods without a docstring: {bare}"

@@ -194,6 +194,7 @@ class ClusterModel(DerivedCache):
         return model.with_scale(_column_scale(W, alpha, centre))
 
     def with_scale(self, scale: float) -> ClusterModel:
+        """The same model with the divisor ``scale`` of ``predict``'s F."""
         return replace(self, scale=scale)
 
     def validate(self) -> dict[str, int]:

@@ -72,6 +72,7 @@ class MapSettings:
         check_int(self.min_cluster_size, "min_cluster_size")
 
     def to_json(self) -> dict:
+        """The settings as the map's file stores them (``image_size`` as a list)."""
         d = asdict(self)
         d["image_size"] = list(self.image_size)
         return d
@@ -204,10 +205,12 @@ class ServoMap:
 
     @property
     def n_clusters(self) -> int:
+        """Number of clusters of the stored views."""
         return int(self.clusters.max()) + 1
 
     @property
     def image_shape(self) -> tuple[int, ...]:
+        """(H, W, 3) of the stored images."""
         return tuple(self.images.shape[1:])
 
     @property
@@ -223,6 +226,7 @@ class ServoMap:
         return adj | adj.T
 
     def true_manifold(self, view: int) -> str | None:
+        """The true manifold of stored view ``view`` (None: on none); for evaluation only."""
         label = int(self.true_labels[view])
         return None if label < 0 else MANIFOLDS[label]
 
@@ -238,6 +242,7 @@ class ServoMap:
         return int(view)
 
     def check_world(self, world: str) -> None:
+        """Raise ``MapError`` unless this map was built for ``world``."""
         if world != self.world:
             raise MapError(
                 f"this servo map was fitted on the {self.world!r} world and cannot be used in "
@@ -245,4 +250,5 @@ class ServoMap:
             )
 
     def scan_points(self, view: int) -> np.ndarray:
+        """The scan of stored view ``view`` as (M, 2) points in its frame, no-returns dropped."""
         return scan_to_points(self.scans[view], self.angles, self.max_range)

@@ -69,9 +69,11 @@ class RandomPolicy:
         self._left, self._action = 0, np.zeros(2)
 
     def reset(self, target: int, info: dict | None = None) -> None:
+        """Start a new episode: the next step draws a new command."""
         self._left = 0
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
+        """The current random command, drawn anew every ``hold`` steps."""
         if self._left == 0:
             self._action = self.rng.uniform((V_LIMITS[0], -OMEGA_LIMIT), (V_LIMITS[1], OMEGA_LIMIT))
             self._left = self.hold
@@ -159,6 +161,7 @@ class GreedyFProbing:
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
+        """Start a new episode toward stored view ``target`` (``info`` is not read)."""
         self.target = self.map.check_view(target, "target")
         self.waypoint_ = self.target
         self.tracker = None
@@ -176,6 +179,7 @@ class GreedyFProbing:
         self.waypoint_ = self.tracker.current
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
+        """The command (v, omega): the next probe, its undoing, or the best probe held."""
         with single_threaded_blas():  # small products: BLAS threads only spin (SignalServo)
             return self._act(observation)
 
@@ -266,6 +270,7 @@ class OraclePolicy:
         self.field = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
+        """Start a new episode toward ``info["target_pose"]`` (the env's truth)."""
         if info is None or "target_pose" not in info:
             raise ValueError("OraclePolicy.reset needs the env's info (target_pose)")
         self.target_pose = np.asarray(info["target_pose"], np.float64)
@@ -273,6 +278,7 @@ class OraclePolicy:
         self._arrival = Arrival()
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
+        """The command (v, omega) along the shortest path from ``info["pose"]`` (the truth)."""
         if self.field is None:
             raise RuntimeError("call reset(target, info) before act(observation, info)")
         if info is None or "pose" not in info:

@@ -318,6 +318,7 @@ class ServoEnv(gym.Env):
         return info
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode: start and target as ``options`` say (see the class), from ``seed``."""
         super().reset(seed=seed)
         options = _check_options(options)
         task_rng, base_seed = self.np_random.spawn(1)[0], int(self.np_random.integers(2**31))
@@ -337,6 +338,7 @@ class ServoEnv(gym.Env):
         return self._obs(obs, info["odometry"]), info
 
     def step(self, action):
+        """Hold ``action`` (v, omega) for one control step; the usual Gymnasium five-tuple."""
         before = self.base.sim.pose
         obs, _, _, _, info = self.base.step(action)
         self._steps += 1
@@ -365,6 +367,7 @@ class ServoEnv(gym.Env):
         return self._obs(obs, info["odometry"]), reward, terminated, truncated, info
 
     def render(self):
+        """The top-down map: robot, laser, trail and target (``"rgb_array"``), else None."""
         if self.render_mode != "rgb_array":
             return None
         return self.base.draw(target=self._target_pose)
