@@ -85,7 +85,7 @@ def bench_world(world: str, episodes: int, dataset=None, cache=None, policy: str
     }
 
 
-# Known limitation (docs/servo.md): from the middle of the uniform straight branch, global
+# Known limitation (docs/guides/servo.md): from the middle of the uniform straight branch, global
 # localisation can start ~2 m off along it, more than a tracking correction may move, so the
 # episode to the right branch fails on some machines and succeeds on others.
 KNOWN_LIMITATION = ("hallway", "hallway-straight", "hallway-right", 11)

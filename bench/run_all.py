@@ -238,7 +238,7 @@ def servo_rows(quick: bool) -> list[Row]:
         ]
     r = bsv.known_limitation(dataset, ROOT / "out" / "servo-maps")
     _, start, target, _ = bsv.KNOWN_LIMITATION
-    measure = f"known limitation {start} -> {target} (docs/servo.md): outcome"
+    measure = f"known limitation {start} -> {target} (docs/guides/servo.md): outcome"
     rows.append(Row("servo", measure, f"{r['reason']}, {r['final_distance']:.2f} m"))
     return rows
 

@@ -15,7 +15,7 @@ the sparsest still has 41 points, about 2 Q) and curves 0.13-0.3 apart. Lines 0.
 NCut at the paper's sigma for set (a), 0.085, separate set (a) as the paper reports. Each
 curve's own interval stays below the distance to the other curves (apart from the junction of
 set (c)), so every set is three 1-D manifolds that a nearest-neighbour chain separates. Each
-generator documents its parameters; ``docs/baselines.md`` shows the sets and the baselines.
+generator documents its parameters; ``docs/guides/baselines.md`` shows the sets and the baselines.
 
 Every generator returns ``(X, y)``: ``X`` of shape (n, 2) or (n, 3), float64, points ordered
 cluster by cluster and along each curve (so index plots look like the paper's Figures 2-5), and

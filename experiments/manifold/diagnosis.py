@@ -19,7 +19,7 @@ paper's split (even frames):
 Usage::
 
     python -m experiments.manifold.diagnosis --data ROOT/m-data-0 --features raw --out out/diag.json
-    python -m experiments.manifold.diagnosis --figure docs/img/x.png --data ... (distance figure)
+    python -m experiments.manifold.diagnosis --figure out/distances.png --data ... (distance figure)
 """
 
 from __future__ import annotations

@@ -5,8 +5,7 @@ sequences, n points, d = 2000) twice in one process (the second fit finds the wo
 processes started) and prints, per fit, when each phase ran: the k-NN graph, every level of
 the tree's split searches (with its nodes' sizes), the combination and eq. 13's cluster
 models. Run it once with ``--n-jobs 1`` and once with ``--n-jobs 2``: the one-process phases
-bound what two cores can do (docs/manifold-clustering.md, "The 5 s target needs a
-decision")::
+bound what two cores can do (docs/guides/manifold-clustering.md)::
 
     python -m experiments.manifold.fit_timeline --n 2400 --n-jobs 2
 """

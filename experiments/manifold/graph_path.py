@@ -1,4 +1,4 @@
-"""The dev-seed sweep behind "The graph path on the images" (docs/manifold-clustering.md).
+"""The dev-seed sweep behind "The graph path on the images" (docs/guides/manifold-clustering.md).
 
 Graph path (``kernel="sparse"``) settings against the dense path on the 8-manifold images of
 the dev dataset seeds (HSV histograms, K = 8, Q = 35, the paper's split). Every setting is

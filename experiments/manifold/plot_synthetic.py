@@ -6,7 +6,7 @@ Usage::
     [--noise 0.003]
 
 ``--table`` prints the clustering error of best-sigma NCut (oracle sweep) and self-tuning
-spectral clustering on each set, the numbers quoted in ``docs/baselines.md``.
+spectral clustering on each set, the numbers quoted in ``docs/guides/baselines.md``.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ Each point is drawn ``repeats`` times with Gaussian noise 0.002 (seeds 0, 1, ...
 
 Usage::
 
-    python -m experiments.manifold.sweeps --out out/sweeps [--repeats 2] [--figure docs/img/x.png]
+    python -m experiments.manifold.sweeps --out out/sweeps [--repeats 2] [--figure out/sweeps.png]
 """
 
 from __future__ import annotations

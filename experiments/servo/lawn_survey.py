@@ -1,7 +1,7 @@
 """Dev measurement: would views recorded across the open lawn give ``SignalServo`` the global fix
 it lacks from starts off the one recorded path per arm?
 
-The lawn's diagnoses (docs/servo.md) name a denser map as its remaining remedy. This script
+The lawn's diagnoses (docs/guides/servo.md) name a denser map as its remaining remedy. This script
 records six survey drives (two lines each across the main lawn and the straight arm, up one side
 of the left and right arms and down the other), adds them to a copy of the dataset, builds the
 servo map from all nine recordings (the map aligns them by sensing only), and runs ``dev``

@@ -6,7 +6,7 @@ a normalisation; :class:`ImageFeatures` wraps it with an optional PCA projection
 training images (scikit-learn's ``PCA``). :func:`color_histograms` /
 :class:`ColorHistogramFeatures` are the compact alternative that reproduces the paper's image
 result here: per-cell HSV histograms, square-rooted so that Euclidean distance is the Hellinger
-distance (docs/manifold-clustering.md, "Images").
+distance (docs/decisions/010-image-features.md).
 
 Everything is vectorised over images; the only Python loop is one OpenCV call per image.
 """

@@ -34,7 +34,7 @@ __all__ = [
 
 _METHODS = ("auto", "per_scan", "global")
 # Above this many points in all, the self-join's list of close point pairs (tens per point)
-# costs more memory than it saves time; see the benchmark in docs/observation-grouping.md.
+# costs more memory than it saves time; see the benchmark in docs/guides/observation-grouping.md.
 GLOBAL_MAX_POINTS = 25_000
 
 

@@ -5,8 +5,9 @@
 (eq. 4-6), outlier vectors (eq. 10, 11) and seeds (eq. 12), recursive bisection maximising
 Omega(2) over (sigma, alpha) (eq. 9) down to ``min_cluster_size``, the combination of the C
 leaves into ``n_clusters``, and the out-of-sample signal F^j(k) of eq. 13 for prediction and
-servoing. The functional cores live in ``mapping._manifold_*``; the readings chosen where the
-paper is ambiguous, and the evidence for them, are in ``docs/manifold-clustering.md``.
+servoing. The functional cores are the other modules of :mod:`mapping.manifold`; the readings chosen
+where the paper is ambiguous, and the evidence for them, are the decision records
+``docs/decisions/001-*`` to ``010-*`` (listed in ``docs/guides/manifold-clustering.md``).
 """
 
 from __future__ import annotations

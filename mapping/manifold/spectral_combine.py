@@ -1,5 +1,5 @@
 """The default combination of the C leaves into K clusters: a spectral cut of the leaves'
-affinity in the manifold kernel (ambiguity 4, ``docs/manifold-clustering.md``).
+affinity in the manifold kernel (``docs/decisions/004-combining-leaves-into-k-clusters.md``).
 
 The paper says only that "the C clusters are finally combined to give the best K clusters that
 each have maximal values of Omega(2)". Greedy pairwise rules (``separability``, ``merge``)

@@ -29,7 +29,7 @@ from common.blas import on_one_blas_thread
 from mapping.manifold.geometry import DenseGeometry, GraphGeometry, as_geometry, sigma_grid
 from mapping.manifold.kernel import SpectralBasis, alpha_from_t, unit_outliers
 
-# Sign of eq. 9 (see docs/manifold-clustering.md): "corrected" scores E[D^12] - E[D^11]
+# Sign of eq. 9 (see docs/decisions/001-sign-of-eq-9.md): "corrected" scores E[D^12] - E[D^11]
 # (between-cluster spread minus within-cluster-1 spread); "printed" is the formula as typeset.
 OMEGA_SIGNS = ("corrected", "printed")
 # Second-seed rule of eq. 12: "weighted" = argmax (1 - O_d) * D_M[:, l1] (the text);
@@ -38,7 +38,7 @@ SEED_RULES = ("weighted", "printed")
 # Values of eq. 8-12 closer than this are ties, broken by the lower index. On the fast path
 # they carry ~1e-13 of round-off: points of a component that the kernel barely links (small
 # sigma) have equal O_d and a zero margin up to it, and a choice among them by the last bits
-# made the tree depend on them (docs/manifold-clustering.md: "Ties broken by index").
+# made the tree depend on them (docs/decisions/007-near-tie-tolerance.md).
 TIE = 1e-9
 # Eigenbases a node's search keeps (by sigma, oldest dropped first).
 _CACHED_BASES = 4

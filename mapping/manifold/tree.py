@@ -15,7 +15,8 @@ on the full data; each step merges the pair of groups that raises the sum of the
 (or lowers it least). Because ``E[D_M]`` over any two sets of points is a bilinear form of their
 indicator vectors, one C x C matrix per (sigma, alpha) holds everything: merging two groups
 adds their rows and columns. The winning (sigma, alpha) of each final group are its
-``sigma_j, alpha_j``. ``docs/manifold-clustering.md`` compares this with cutting the tree.
+``sigma_j, alpha_j``. ``docs/decisions/004-combining-leaves-into-k-clusters.md`` compares this with cutting the
+tree.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from mapping.manifold.spectral_combine import spectral_merge
 from mapping.manifold.split import SearchSpace, Split, best_split, best_splits
 from mapping.split_tree import SplitNode
 
-# Rules for combining leaves (docs/manifold-clustering.md, ambiguity 4): "spectral" (the
+# Rules for combining leaves (docs/guides/manifold-clustering.md, ambiguity 4): "spectral" (the
 # default: a normalised cut of the leaves' kernel affinity, mapping.manifold.spectral_combine),
 # "separability" (merge the neighbouring pair least separable as two manifolds), "merge" (greedy
 # agglomeration maximising the sum of group-vs-rest Omega(2)) or "cut" (cut the tree into K

@@ -20,7 +20,7 @@ __all__ = ["TARGETS", "compare_methods", "meets_targets", "score_groups", "unsco
 
 # The targets: groups mix manifolds by at most 10 %, no manifold in more than 3 groups.
 TARGETS = {"purity_min": 0.9, "max_groups_per_manifold": 3}
-MC_MIN_CLUSTER_SIZE = 35  # Q of docs/manifold-clustering.md on the same sequences
+MC_MIN_CLUSTER_SIZE = 35  # Q of docs/guides/manifold-clustering.md on the same sequences
 
 
 def score_groups(truth: np.ndarray, labels: np.ndarray) -> dict:
@@ -102,7 +102,7 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
             "labels": scan_model.labels_,
         }
     }
-    # The image features that reproduce the paper's image result (docs/manifold-clustering.md).
+    # The image features that reproduce the paper's image result (docs/guides/manifold-clustering.md).
     images = ColorHistogramFeatures().fit_transform(runs.images)
     start = time.perf_counter()
     W, sigma = knn_gaussian_affinity(images)

@@ -3,7 +3,7 @@
 Every choice (features: HSV histograms 8x4x4 in 2x2 cells; the combination of the leaves,
 ``spectral``, which replaced ``separability``; K = 8, Q = 35; the baselines'
 label-free rules) was made on the ``dev`` dataset, seed 0, the one
-``docs/manifold-clustering.md`` was written on. This script applies them unchanged to fresh
+``docs/guides/manifold-clustering.md`` was written on. This script applies them unchanged to fresh
 dataset seeds and reports every method's error per seed and as a mean with a bootstrap 95%
 interval over seeds. Conditions (``CONDITIONS``):
 

@@ -10,7 +10,7 @@ the paper did) and self-tuning spectral clustering. Real (Figure 6): every secon
 sequence of the dataset builds the map, the others are the test set, K = 8, Q = 35; the same
 three methods on three feature sets (the paper's raw pixels, HSV colour histograms, laser
 scans). Writes ``results.json``, ``clusters.npz`` (every frame's cluster) and paper-style plots
-of true and predicted label against the point or frame index; ``docs/manifold-clustering.md``
+of true and predicted label against the point or frame index; ``docs/guides/manifold-clustering.md``
 quotes the numbers.
 
 On a dataset without ground truth (imported from a robot's log, ``topomap import``) the same
@@ -271,7 +271,7 @@ def reproduce(
 
 
 def markdown_tables(result: dict) -> str:
-    """The two tables of ``docs/manifold-clustering.md`` from a :func:`reproduce` result."""
+    """The two tables of ``docs/guides/manifold-clustering.md`` from a :func:`reproduce` result."""
     lines = ["| set | method | error | paper's claim |", "|---|---|---|---|"]
     for r in result["synthetic"]:
         lines.append(f"| {r['set']} | {r['method']} | {r['error']:.3f} | {r['paper_claim']} |")

@@ -8,7 +8,7 @@ episode ``i`` of ``servo.task.evaluation.evaluate(world, episodes, s)``, so the 
 every backend and any number of workers (its time columns apart). Episodes are scored by
 ``servo.task.evaluation.run_episode`` and aggregated with its ``summarise``.
 
-Run as ``topomap sweep`` (see ``docs/sweeps.md``).
+Run as ``topomap sweep`` (see ``docs/guides/sweeps.md``).
 """
 
 from __future__ import annotations

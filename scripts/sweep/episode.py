@@ -50,7 +50,7 @@ def sweep_tasks(worlds, settings, seeds, episodes_per_seed: int) -> list[Episode
 
 # One thread per worker: Mesa renders in the calling thread, BLAS and OpenMP run single-threaded.
 # The workers are the parallelism, one per core (a Ray actor asks for one CPU); more threads only
-# contend for the cores (docs/sweeps.md, "Measured"). Set in a worker's environment before it
+# contend for the cores (docs/guides/sweeps.md, "Measured"). Set in a worker's environment before it
 # starts (libraries read them on loading), and again by configure_worker.
 ONE_THREAD = {"LP_NUM_THREADS": "0", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
               "MKL_NUM_THREADS": "1"}  # fmt: skip

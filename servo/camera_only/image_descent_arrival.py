@@ -10,7 +10,7 @@ out) is the translational image difference function of visual homing (Zeil, Hofm
 Chahl 2003, "Catchment areas of panoramic snapshots in outdoor scenes"): greedy descent on
 it over a 0.5 m grid reached the view from 86-100 % of the points 2-3 m off at five of the
 eight views, and 1 m across toward the view it was below 1 m away from it at 88-100 % of
-the points at seven of them (``experiments/servo/arrival_descent.py``; docs/servo.md).
+the points at seven of them (``experiments/servo/arrival_descent.py``; docs/guides/servo.md).
 Along the view's sight its least lies up to 0.5 m off, where F's peak, when it is seen,
 does not.
 :class:`DescentArrival` is :class:`~servo.camera_only.peak_arrival.PeakArrival` (the F peak on the

@@ -21,7 +21,7 @@ diagonal shift, so the heading's prior decides it; three fix all three. Views' p
 the view graph's sensed transforms (:func:`~servo.camera_only.turn_global_fix.neighbourhood`); no
 ground truth.
 
-Dev result (docs/servo.md): the position fix moved the belief the wrong way as
+Dev result (docs/guides/servo.md): the position fix moved the belief the wrong way as
 often as the right way (the parallax near a junction is 2-4x the map's; views on a curve
 leave the along-sight position ill-conditioned), and the turn alone did not help either; both
 are off in :class:`~servo.camera_only.config.SignalServoConfig` (``junction_fix``,

@@ -13,7 +13,7 @@ arrived facing back along a recording, 2.2-4.8 m from the target view).
 way the views look, stands for ``look_steps`` steps while the controller takes its ordinary
 image and pose fixes (heading, the position along the matched view's sight, the offset across
 it), then turns back and drives on. Two half turns per look (~5 s at 1.2 rad/s). Measured
-(docs/servo.md): dev `view` +6 / -1 of 80, test +7 / -4 over the lawn's three cells.
+(docs/guides/servo.md): dev `view` +6 / -1 of 80, test +7 / -4 over the lawn's three cells.
 """
 
 from __future__ import annotations

@@ -270,7 +270,7 @@ def build_map(
 
     image_features = ImageFeatures(size=tuple(settings.image_size), normalization="unit")
     feats = image_features.fit_transform(images).astype(np.float32)
-    # The combination the servo tables (docs/servo.md) were measured with; the estimator's
+    # The combination the servo tables (docs/guides/servo.md) were measured with; the estimator's
     # default, "spectral", changes the views' clusters. Switch when the servo evaluation is
     # re-run.
     clustering = ManifoldClustering(

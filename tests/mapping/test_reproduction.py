@@ -1,4 +1,4 @@
-"""The paper reproductions of docs/manifold-clustering.md, pinned: the synthetic table and the
+"""The paper reproductions of docs/guides/manifold-clustering.md, pinned: the synthetic table and the
 8-manifold image result, on the real default dataset (collected once per session)."""
 
 
@@ -21,7 +21,7 @@ from scripts.manifold.reproduce import (
 # train). The margins are the 95 % Wilson upper bounds of those counts,
 # the spread one run of this size has; the spectral combination gives the
 # same counts. On 12 fresh seeds the default errs 2.9-21.8 % (mean 9.7 %; 13-31 % with the
-# former separability merge; docs/manifold-clustering.md, "Results that survive scrutiny"):
+# former separability merge; docs/guides/manifold-clustering.md):
 # this pins the dev seed, not a claim about the method.
 DEV_TEST_BOUND = binomtest(13, 450).proportion_ci(method="wilson").high  # 0.049
 DEV_TRAIN_BOUND = binomtest(12, 450).proportion_ci(method="wilson").high  # 0.046

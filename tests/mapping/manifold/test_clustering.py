@@ -28,7 +28,7 @@ def fitted_lines():
     return X, y, ManifoldClustering(3, 10).fit(X)
 
 
-# --- the paper's synthetic sets (K = 3, Q = 20), see docs/manifold-clustering.md --------------
+# --- the paper's synthetic sets (K = 3, Q = 20), see docs/guides/manifold-clustering.md --------------
 # Best-sigma NCut (oracle) errors on the same sets: 0, 0, 0.312, 0.
 EXPECTED_MAX_ERROR = {
     "parallel_lines": 0.0,
@@ -54,7 +54,7 @@ def test_combinations_that_beat_ncut_on_converging_paths(combine):
 
 
 def test_greedy_merge_is_kept_but_loses_on_converging_paths():
-    # The documented reason "merge" is no longer the default (docs/manifold-clustering.md).
+    # The documented reason "merge" is no longer the default (docs/guides/manifold-clustering.md).
     # Measured 0.156 against the default's 0.047 since near-ties are broken by index (0.341
     # against 0.072 before).
     X, y = SYNTHETIC_SETS["converging_paths"]()

@@ -139,7 +139,7 @@ def test_geometry_turns_dense_below_the_threshold(lines):
 def test_sparse_path_clusters_like_the_dense_path(name):
     X, y = SYNTHETIC_SETS[name]()
     # n_components=16 sends every node above 64 points through the truncated basis (with 8,
-    # converging paths loses 29 % of its points: docs/manifold-clustering.md, "Scaling").
+    # converging paths loses 29 % of its points: docs/decisions/006-dense-or-graph-kernel.md).
     sparse = ManifoldClustering(3, 20, kernel="sparse", n_components=16).fit(X)
     dense = ManifoldClustering(3, 20, kernel="dense").fit(X)
     assert clustering_error(y, sparse.labels_) <= clustering_error(y, dense.labels_)

@@ -109,7 +109,7 @@ def _published(name, sha256_prefix):
 def test_cli_on_two_published_evaluations_of_the_same_episodes(capsys):
     """``SignalServo`` on the test split before and after the far scene's sharp-alignment gate
     and two-band offset across (``fix_contrast``, ``cross_gain``): the lawn's +7 / -3 on the
-    first file's 40 episodes (docs/servo.md), the hallway's identical episodes."""
+    first file's 40 episodes (docs/guides/servo.md), the hallway's identical episodes."""
     a = _published("servo-eval-all-anywhere-test-signal-40ep.json", "3081bae9e4db")
     b = _published("servo-eval-all-anywhere-test-signal-100ep.json", "53c6589ef450")
     assert main(["servo-compare", str(a), str(b)]) == 0
