@@ -11,7 +11,7 @@ from scipy import stats
 from scripts.cli import main
 from servo.task import paired_comparison as cmp
 
-RESULTS = Path(__file__).resolve().parents[3] / "docs" / "results"
+RESULTS = Path(__file__).resolve().parents[3] / "docs" / "results" / "data" / "servo"
 
 
 def _result(wins, world="hallway", starts=None, seeds=None, **setting):
@@ -93,18 +93,21 @@ def test_result_files_over_the_size_limit_are_refused(tmp_path, monkeypatch):
         cmp.load_results(path)
 
 
-def test_cli_on_the_published_rounds(capsys):
-    """Round 7 against round 8 of ``SignalServo`` on the test split: the lawn's +7 / -3 on
-    round 7's 40 episodes (docs/servo.md), the hallway's identical episodes."""
-    a = RESULTS / "signal-round7" / "servo-eval-all-anywhere-test-signal-40ep.json"
-    b = RESULTS / "signal-round8" / "servo-eval-all-anywhere-test-signal-100ep.json"
-    assert main(["servo-compare", str(a), str(b)]) == 0
+def test_cli_on_the_committed_results(capsys):
+    """The two controllers on the committed test cells: on the hallway's 100 ``anywhere``
+    episodes ``ManifoldServo`` (96) against ``SignalServo`` (89); a two-world file against a
+    lawn-only one pairs the lawn alone."""
+    signal = RESULTS / "signal-hallway-anywhere-test-100ep.json"
+    servo = RESULTS / "servo-hallway-anywhere-test-100ep.json"
+    assert main(["servo-compare", str(signal), str(servo)]) == 0
     out = capsys.readouterr().out
-    assert "| lawn | anywhere | test | 600 steps | 40 | 11 | 15 | +7 / -3 |" in out
-    assert "| hallway | anywhere | test | 600 steps | 40 | 22 | 22 | +0 / -0 |" in out
-    assert main(["servo-compare", str(a), str(b), "--json"]) == 0
+    assert "| hallway | anywhere | test | 600 steps | 100 | 89 | 96 | +10 / -3 |" in out
+    both = RESULTS / "servo-all-view-test-100ep.json"
+    lawn = RESULTS / "signal-lawn-view-test-100ep.json"
+    assert main(["servo-compare", str(lawn), str(both), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
-    assert [r["n"] for r in rows] == [40, 40]
+    paired = [(r["setting"]["world"], r["n"], r["gained"], r["lost"]) for r in rows]
+    assert paired == [("lawn", 100, 10, 0)]
 
 
 def test_cli_refuses_files_without_shared_episodes(tmp_path, capsys):
