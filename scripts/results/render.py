@@ -145,7 +145,47 @@ def _servo_summary(root: Path, sources) -> str:
     return summary_table(results).to_markdown()
 
 
+def _servo_reruns(root: Path, sources) -> str:
+    """Each rerun's episodes against the same episodes of the committed cell of its controller
+    (``servo.task.compare``): whether the current code ends them as the committed run did."""
+    from servo.task import compare
+
+    committed = dict.fromkeys(row.source for row in ROWS if row.reader == "servo-success")
+    cells = [e for s in committed for e in servo_results(root / DATA / s)]
+    rows = []
+    for path in sorted((root / DATA / sources[0]).glob("*ep.json")):
+        for rerun in servo_results(path):
+            same_policy = [e for e in cells if e["policy"] == rerun["policy"]]
+            for c in compare(same_policy, [rerun]):
+                ends = {e["episode"]: (e["success"], e["reason"]) for e in rerun["episodes_detail"]}
+                base = next(e for e in same_policy if e["world"] == rerun["world"]
+                            and e["tier"] == rerun["tier"] and e["randomize"] == rerun["randomize"])
+                same = sum(ends.get(e["episode"]) == (e["success"], e["reason"])
+                           for e in base["episodes_detail"])  # fmt: skip
+                rows.append({
+                    "world": rerun["world"], "policy": rerun["policy"],
+                    "cell": f"{rerun['tier']}/{rerun['split']}"
+                    + ("/randomize" if rerun["randomize"] else ""),
+                    "n": c.n, "committed": c.successes_a, "rerun": c.successes_b,
+                    "changed": f"+{c.gained} / -{c.lost}", "same_end": same,
+                })  # fmt: skip
+    columns = (
+        Column("world", "world"),
+        Column("policy", "policy"),
+        Column("cell", "starts / split"),
+        Column("n", "first episodes rerun", "d"),
+        Column("committed", "successes, committed run", "d"),
+        Column("rerun", "successes, rerun", "d"),
+        Column("changed", "gained / lost by the rerun"),
+        Column("same_end", "same end (success, reason)", "d"),
+    )
+    note = ("`topomap servo-compare COMMITTED RERUN` pairs a rerun with its committed cell "
+            "episode by episode.",)  # fmt: skip
+    return Table.of(columns, rows, notes=note).to_markdown()
+
+
 RENDERERS: dict[str, Callable[[Path, tuple[str, ...]], str]] = {
+    "servo-reruns": _servo_reruns,
     "protocol-summary": _protocol_summary,
     "grouping-tables": _grouping_tables,
     "grouping-seeds": _grouping_seeds,

@@ -99,7 +99,7 @@ ROWS: tuple[Row, ...] = (
     _carmen("aces-corrected", "ACES"),
     _carmen("csail-corrected", "CSAIL"),
     *(
-        Row("servo", f"{world}, {_TIERS[tier][0]}", _CONTROLLERS[policy], "success", "test",
+        Row("servo", f"{world}, {_TIERS[tier][0]}", _CONTROLLERS[policy], "success", "test split",
             "servo-success", _servo_file(policy, world, tier), {"world": world})
         for policy in _CONTROLLERS
         for world in ("hallway", "lawn")
@@ -135,4 +135,6 @@ SECTIONS: tuple[Section, ...] = (
             ("grouping/radish-logs.json",)),
     *(Section("servo", f"{name}, test split, 100 episodes per cell", "servo-summary",
               _servo_sources(policy)) for policy, name in _CONTROLLERS.items()),
+    Section("servo", "The cells above rerun at the current code, first episodes",
+            "servo-reruns", ("servo/reruns",)),
 )  # fmt: skip
