@@ -53,12 +53,15 @@ def bench_world(world: str, episodes: int, dataset=None, cache=None, policy: str
                 action = ctl.act(obs)
                 dt = time.perf_counter() - t0
                 fixed = before is not None and ctl.relocalisations_ > before
-                # the signal controller's global fix: the step that ends its observing turn
+                # the step that ends an observing turn: the servo's global localisation
+                # (its counter moves on that step), the signal controller's global fix
                 planned = observing and ctl.phase_ != "observe"
-                if planned:
+                if fixed:
+                    first.append(dt)
+                elif planned:
                     plans.append(dt)
                 else:
-                    (first if fixed or (before is None and t == 0) else steps).append(dt)
+                    (first if before is None and t == 0 else steps).append(dt)
                 t0 = time.perf_counter()
                 obs, _, term, trunc, _ = env.step(action)
                 env_steps.append(time.perf_counter() - t0)

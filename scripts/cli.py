@@ -73,7 +73,7 @@ def cmd_worlds(args) -> int:
 
 def _protocol_folder(value: str | None) -> str | None:
     """``--protocol``: "committed" (the default) is the repository's
-    ``docs/results/manifold-protocol`` when present, "none" shows no spread, else a folder."""
+    ``docs/results/data/manifold/protocol`` when present, "none" shows no spread, else a folder."""
     from scripts.report import COMMITTED_PROTOCOL
 
     if value == "committed":
@@ -308,7 +308,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         metavar="DIR",
         help="a folder written by python -m scripts.manifold.protocol --out DIR: the report "
         "shows its per-seed manifold-clustering errors (the run does not compute them); "
-        "default: the cells committed in docs/results/manifold-protocol; 'none': no table",
+        "default: the cells committed in docs/results/data/manifold/protocol; 'none': no table",
     )
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     r.set_defaults(func=cmd_run)

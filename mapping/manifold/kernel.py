@@ -198,7 +198,8 @@ def seed_pair(D_M: np.ndarray) -> tuple[int, int]:
     ``argmin O_d * D_M[:, l1]``, which is 0 at l1 itself (and then l1's nearest neighbour);
     the text says the factor is ``1 - O_d`` and that the re-weighting should "separate out
     points in the first cluster", so ``l2 = argmax (1 - O_d) * D_M[:, l1]``: a central point
-    that is far from l1 along the manifold. ``docs/decisions/002-second-seed-of-eq-12.md`` has the evidence.
+    that is far from l1 along the manifold. ``docs/decisions/002-second-seed-of-eq-12.md`` has the
+    evidence.
     """
     O_d = outlier_vector(D_M)
     l1 = int(np.argmin(O_d))

@@ -15,8 +15,8 @@ on the full data; each step merges the pair of groups that raises the sum of the
 (or lowers it least). Because ``E[D_M]`` over any two sets of points is a bilinear form of their
 indicator vectors, one C x C matrix per (sigma, alpha) holds everything: merging two groups
 adds their rows and columns. The winning (sigma, alpha) of each final group are its
-``sigma_j, alpha_j``. ``docs/decisions/004-combining-leaves-into-k-clusters.md`` compares this with cutting the
-tree.
+``sigma_j, alpha_j``. ``docs/decisions/004-combining-leaves-into-k-clusters.md`` compares this with
+cutting the tree.
 """
 
 from __future__ import annotations

@@ -10,6 +10,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     {
         "carmen_eval": "scripts.grouping.carmen_logs:run",
+        "carmen_report": "scripts.grouping.carmen_logs:format_report",
         "evaluate_carmen": "scripts.grouping.carmen_logs",
         "log_points": "scripts.grouping.carmen_logs",
         "evaluate_grouping": "scripts.grouping.evaluate",

@@ -102,7 +102,8 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
             "labels": scan_model.labels_,
         }
     }
-    # The image features that reproduce the paper's image result (docs/guides/manifold-clustering.md).
+    # The image features that reproduce the paper's image result
+    # (docs/guides/manifold-clustering.md).
     images = ColorHistogramFeatures().fit_transform(runs.images)
     start = time.perf_counter()
     W, sigma = knn_gaussian_affinity(images)

@@ -14,6 +14,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "FEATURES": "scripts.manifold.protocol",
         "load_cells": "scripts.manifold.protocol",
         "summarize": "scripts.manifold.protocol",
+        "protocol_markdown": "scripts.manifold.protocol:markdown",
         "run_reproduction": "scripts.manifold.reproduce:reproduce",
         "reproduce_command": "scripts.manifold.reproduce:run",
         "reproduce_parser": "scripts.manifold.reproduce:build_parser",

@@ -14,7 +14,7 @@ __all__ = ["COMMITTED_PROTOCOL", "REPORT_DIR", "OutputError", "RunSettings", "St
 REPORT_DIR = "report"
 # The frozen protocol's cells as committed with the code: ``topomap run``
 # shows them unless told otherwise, so every report carries the spread over dataset seeds.
-COMMITTED_PROTOCOL = REPO_ROOT / "docs" / "results" / "manifold-protocol"
+COMMITTED_PROTOCOL = REPO_ROOT / "docs" / "results" / "data" / "manifold" / "protocol"
 
 
 @dataclass(frozen=True)

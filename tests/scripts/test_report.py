@@ -600,4 +600,4 @@ def test_run_shows_the_committed_protocol_cells_unless_told_not_to():
     assert chosen("none") is None and chosen("some/dir") == "some/dir"
     if committed is not None:  # the repository's own cells pass the report's checks
         result = report.stage_protocol(committed)
-        assert result["source"] == "docs/results/manifold-protocol" and result["rows"]
+        assert result["source"] == "docs/results/data/manifold/protocol" and result["rows"]

@@ -28,7 +28,7 @@ def fitted_lines():
     return X, y, ManifoldClustering(3, 10).fit(X)
 
 
-# --- the paper's synthetic sets (K = 3, Q = 20), see docs/guides/manifold-clustering.md --------------
+# --- the paper's synthetic sets (K = 3, Q = 20), see docs/guides/manifold-clustering.md ---
 # Best-sigma NCut (oracle) errors on the same sets: 0, 0, 0.312, 0.
 EXPECTED_MAX_ERROR = {
     "parallel_lines": 0.0,

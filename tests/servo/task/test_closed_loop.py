@@ -1,6 +1,6 @@
 """Real episodes, scored as rates: the controller and the oracle over seeded cross-manifold
-tasks in both worlds, each asserted with a margin below the rate measured (docs/guides/servo.md), so a
-test never pins one episode's outcome. Closed-loop outcomes are per machine: a last-bit change in
+tasks in both worlds, each asserted with a margin below the rate measured (docs/guides/servo.md), so
+a test never pins one episode's outcome. Closed-loop outcomes are per machine: a last-bit change in
 BLAS or in Mesa's JIT-compiled rasteriser can flip a near tie and with it an episode (see
 docs/guides/servo.md, "Determinism"); the same seed gives the same episode on one machine."""
 
@@ -51,7 +51,8 @@ def test_success_rate_over_seeded_tasks(envs, world, policy):
 @pytest.mark.parametrize("world", ["hallway", "lawn"])
 def test_servo_from_anywhere(envs, world):
     """The protocol's ``anywhere`` tier (uniform in the start manifold's free space, any
-    heading), its test split's first episodes: measured 6/6 in both worlds (docs/guides/servo.md)."""
+    heading), its test split's first episodes: measured 6/6 in both worlds
+    (docs/guides/servo.md)."""
     env = envs[world]
     env.max_steps = 600
     pol = ManifoldServo(env.map, world=world)

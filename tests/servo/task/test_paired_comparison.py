@@ -1,7 +1,6 @@
 """``servo.task.paired_comparison`` / ``topomap servo-compare``: two evaluations paired episode by
 episode, and the result files read as untrusted input."""
 
-import hashlib
 import json
 from pathlib import Path
 
@@ -12,7 +11,7 @@ from scipy import stats
 from scripts.cli import main
 from servo.task import paired_comparison as cmp
 
-RESULTS = Path(__file__).resolve().parents[3] / "docs" / "results"
+RESULTS = Path(__file__).resolve().parents[3] / "docs" / "results" / "data" / "servo"
 
 
 def _result(wins, world="hallway", starts=None, seeds=None, **setting):
@@ -94,31 +93,21 @@ def test_result_files_over_the_size_limit_are_refused(tmp_path, monkeypatch):
         cmp.load_results(path)
 
 
-def _published(name, sha256_prefix):
-    """The committed result file ``name`` whose content hashes to ``sha256_prefix``: several
-    evaluations share a file name, and the content, not the folder, says which one it is."""
-    found = [
-        path
-        for path in RESULTS.rglob(name)
-        if hashlib.sha256(path.read_bytes()).hexdigest().startswith(sha256_prefix)
-    ]
-    assert len(found) == 1, (name, sha256_prefix, found)
-    return found[0]
-
-
-def test_cli_on_two_published_evaluations_of_the_same_episodes(capsys):
-    """``SignalServo`` on the test split before and after the far scene's sharp-alignment gate
-    and two-band offset across (``fix_contrast``, ``cross_gain``): the lawn's +7 / -3 on the
-    first file's 40 episodes (docs/guides/servo.md), the hallway's identical episodes."""
-    a = _published("servo-eval-all-anywhere-test-signal-40ep.json", "3081bae9e4db")
-    b = _published("servo-eval-all-anywhere-test-signal-100ep.json", "53c6589ef450")
-    assert main(["servo-compare", str(a), str(b)]) == 0
+def test_cli_on_the_committed_results(capsys):
+    """The two controllers on the committed test cells: on the hallway's 100 ``anywhere``
+    episodes ``ManifoldServo`` (96) against ``SignalServo`` (89); a two-world file against a
+    lawn-only one pairs the lawn alone."""
+    signal = RESULTS / "signal-hallway-anywhere-test-100ep.json"
+    servo = RESULTS / "servo-hallway-anywhere-test-100ep.json"
+    assert main(["servo-compare", str(signal), str(servo)]) == 0
     out = capsys.readouterr().out
-    assert "| lawn | anywhere | test | 600 steps | 40 | 11 | 15 | +7 / -3 |" in out
-    assert "| hallway | anywhere | test | 600 steps | 40 | 22 | 22 | +0 / -0 |" in out
-    assert main(["servo-compare", str(a), str(b), "--json"]) == 0
+    assert "| hallway | anywhere | test | 600 steps | 100 | 89 | 96 | +10 / -3 |" in out
+    both = RESULTS / "servo-all-view-test-100ep.json"
+    lawn = RESULTS / "signal-lawn-view-test-100ep.json"
+    assert main(["servo-compare", str(lawn), str(both), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
-    assert [r["n"] for r in rows] == [40, 40]
+    paired = [(r["setting"]["world"], r["n"], r["gained"], r["lost"]) for r in rows]
+    assert paired == [("lawn", 100, 10, 0)]
 
 
 def test_cli_refuses_files_without_shared_episodes(tmp_path, capsys):

@@ -1,0 +1,73 @@
+"""``python -m scripts.results``: README's Results table and the results pages are what the
+committed result files give, and a number changed on either side is caught."""
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from scripts.results import ROWS, generate, main, read_estimate
+from scripts.results.render import DATA, END, START
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def copy(tmp_path):
+    """README.md and docs/results/ copied, to be tampered with."""
+    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
+    shutil.copytree(ROOT / "docs" / "results", tmp_path / "docs" / "results")
+    return tmp_path
+
+
+def test_the_repository_is_up_to_date(capsys):
+    assert main(["--check"]) == 0, capsys.readouterr().err
+
+
+def test_every_row_reads_an_estimate_inside_its_interval():
+    for row in ROWS:
+        e = read_estimate(ROOT / DATA, row.reader, row.source, **row.keys)
+        assert e.n >= 1
+        if e.interval is not None:
+            assert e.interval[0] <= e.value <= e.interval[1], row
+
+
+def test_a_number_edited_in_readme_is_caught(copy, capsys):
+    readme = copy / "README.md"
+    text = readme.read_text()
+    table = text[text.index(START) : text.index(END)]
+    assert "| 89.0% [81.4%, 93.7%] |" in table  # SignalServo, hallway, anywhere: 89/100
+    readme.write_text(text.replace("| 89.0% [81.4%, 93.7%] |", "| 90.0% [81.4%, 93.7%] |"))
+    assert main(["--check", "--root", str(copy)]) == 1
+    assert "README.md" in capsys.readouterr().err
+
+
+def test_a_changed_result_file_makes_readme_and_page_stale(copy, capsys):
+    path = copy / DATA / "servo" / "signal-hallway-anywhere-test-100ep.json"
+    entries = json.loads(path.read_text())
+    entries[0]["successes"] -= 1
+    path.write_text(json.dumps(entries))
+    assert main(["--check", "--root", str(copy)]) == 1
+    stale = capsys.readouterr().err
+    assert "README.md" in stale and "docs/results/servo.md" in stale
+    assert "docs/results/manifold-clustering.md" not in stale
+    assert main(["--root", str(copy)]) == 0  # regenerated: 88/100 now, and consistent
+    assert "| 88.0% [80.2%, 93.0%] |" in (copy / "README.md").read_text()
+    assert main(["--check", "--root", str(copy)]) == 0
+
+
+def test_readme_without_its_markers_is_refused(copy):
+    readme = copy / "README.md"
+    readme.write_text(readme.read_text().replace(END, ""))
+    with pytest.raises(ValueError, match="results:end"):
+        generate(copy)
+
+
+def test_a_file_without_its_provenance_is_refused(copy):
+    meta = copy / DATA / "grouping" / "meta.json"
+    entries = json.loads(meta.read_text())
+    del entries["radish-logs.json"]["commit"]
+    meta.write_text(json.dumps(entries))
+    with pytest.raises(ValueError, match="lacks"):
+        generate(copy)
