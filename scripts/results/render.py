@@ -230,8 +230,8 @@ def page(root: Path, task: str) -> str:
     sections = "\n".join(_section(root, s) for s in SECTIONS if s.task == task)
     return (
         f"{_BANNER}\n\n# Results: {title.lower()}\n\n"
-        f"The current numbers, from the committed result files; back to the "
-        f"[README's summary](../../README.md#results).\n\n{summary}\n{sections}"
+        f"The current numbers, from the committed result files (the same rows as the Results "
+        f"table of the repository's README).\n\n{summary}\n{sections}"
     )
 
 
