@@ -3,10 +3,14 @@ parameter and the expected form."""
 
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Iterable, Mapping
 from numbers import Real
 
-__all__ = ["check_finite", "check_int", "is_real"]
+import numpy as np
+
+__all__ = ["check_bool", "check_finite", "check_int", "check_keys", "is_real"]
 
 
 def check_int(value, name: str, minimum: int = 1) -> int:
@@ -33,3 +37,30 @@ def check_finite(value, name: str) -> float:
     if not is_real(value) or not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     return float(value)
+
+
+def check_bool(value, name: str) -> bool:
+    """``value`` as a ``bool``: ``True`` or ``False`` (numpy's ``np.bool_`` too); anything else,
+    ``1`` and ``"yes"`` included, raises ``ValueError`` naming ``name``."""
+    if not isinstance(value, bool | np.bool_):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def check_keys(value, allowed: Iterable[str], name: str) -> dict:
+    """``value`` as a dict whose keys are among ``allowed``: None gives ``{}``; a value that is
+    no mapping raises ``TypeError``, an unknown key ``ValueError``, each naming ``name``, the
+    allowed keys and, for a misspelt key, the closest one ("did you mean")."""
+    allowed = tuple(allowed)
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise TypeError(
+            f"{name} must be a dict with keys from {allowed} or None, got {type(value).__name__}"
+        )
+    for key in value:
+        if key not in allowed:
+            close = difflib.get_close_matches(str(key), allowed, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ValueError(f"{name} has an unknown key {key!r} (known: {allowed}){hint}")
+    return dict(value)

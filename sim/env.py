@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from common.validation import check_bool, check_finite, check_keys
 from scenes import MANIFOLDS, NO_MANIFOLD, WORLDS, build_world
 from scenes.robot import RADIUS
 from sim.camera import CameraConfig
@@ -18,8 +21,63 @@ from sim.simulator import OMEGA_LIMIT, V_LIMITS, Simulator
 from sim.topdown import TopDownView
 
 SENSORS = ("image", "scan")
+NO_RETURN = ("max_range", "inf")  # what a beam with no return reads in the observation
+RESET_OPTIONS = ("pose", "manifold")
 START_CLEARANCE = 0.45  # m from any obstacle for a sampled start pose
 COLLISION_PENALTY = 1.0
+
+
+def sensor_config(value, cls, name: str):
+    """``value`` as an instance of the dataclass ``cls`` (``CameraConfig``, ``LaserConfig``,
+    ``OdometryConfig``): None gives the default, a dict its fields (a spec that stays JSON);
+    anything else, or an unknown field, an error naming ``name``."""
+    if value is None:
+        return cls()
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, Mapping):
+        fields = tuple(f.name for f in dataclasses.fields(cls))
+        return cls(**check_keys(value, fields, name))
+    raise TypeError(
+        f"{name} must be a {cls.__name__}, a dict of its fields or None, got "
+        f"{type(value).__name__}"
+    )
+
+
+def check_world(world, registered_world) -> str:
+    """The world to build: ``world``, else the one the env id names (``registered_world``,
+    passed by the registry), else "hallway"; a ``world`` that contradicts the id's is an
+    error rather than the other world under the id's name."""
+    for name, value in (("world", world), ("registered_world", registered_world)):
+        if value is not None and value not in WORLDS:
+            raise ValueError(f"{name} must be one of {WORLDS}, got {value!r}")
+    if world is not None and registered_world is not None and world != registered_world:
+        raise ValueError(
+            f"world={world!r} contradicts the env id, which is the {registered_world} world; "
+            f"make the {world} world's id instead of passing world="
+        )
+    return world or registered_world or "hallway"
+
+
+def check_sensors(sensors) -> tuple[str, ...]:
+    """``sensors`` as a tuple of distinct names from ``SENSORS``; a bare string (which would
+    split into letters) is refused, naming the tuple to write."""
+    if isinstance(sensors, str):
+        raise ValueError(
+            f"sensors must be a tuple of names from {SENSORS}, got the string {sensors!r}; "
+            f"write ({sensors!r},)"
+        )
+    try:
+        sensors = tuple(sensors)
+    except TypeError:
+        raise ValueError(
+            f"sensors must be a tuple of names from {SENSORS}, got {sensors!r}"
+        ) from None
+    if not sensors or any(s not in SENSORS for s in sensors) or len(set(sensors)) < len(sensors):
+        raise ValueError(
+            f"sensors must be a non-empty subset of {SENSORS} without repeats, got {sensors}"
+        )
+    return sensors
 
 
 def check_pose_option(value) -> np.ndarray:
@@ -54,8 +112,12 @@ class NavigationEnv(gym.Env):
         raise ``ValueError``. Each action is held for ``control_dt`` = 0.1 s.
 
     Observation Space
-        ``Dict(image=Box(0, 255, (H, W, 3), uint8), scan=Box(0, inf, (beams,), float32))``.
-        ``scan`` ranges are metres; ``+inf`` marks a beam with no return within max range.
+        ``Dict(image=Box(0, 255, (H, W, 3), uint8), scan=Box(0, max_range, (beams,), float32),
+        scan_valid=MultiBinary(beams))``. ``scan`` ranges are metres; a beam with no return
+        within the laser's maximum range reads ``max_range`` and has ``scan_valid`` 0 (1 where
+        it returned), so every observation is finite and inside its bounds, as RL libraries and
+        Gymnasium's normalising wrappers need. ``no_return="inf"`` gives the raw ranges instead:
+        ``scan=Box(0, inf)`` with ``+inf`` for no return (REP 117) and no ``scan_valid``.
         ``sensors`` selects which keys are present (a laser-only env never renders).
 
     Rewards
@@ -78,25 +140,33 @@ class NavigationEnv(gym.Env):
 
     Parameters
     ----------
-    world : {"hallway", "lawn"}, default "hallway"
-        The world.
+    world : {"hallway", "lawn"}, optional
+        The world; default the one the env id names, else "hallway". A world that contradicts
+        the id (``gym.make("topomap/Hallway-v0", world="lawn")``) raises ``ValueError``.
     render_mode : {None, "rgb_array"}, default None
         ``"rgb_array"``: :meth:`render` draws a top-down map with the robot, its laser and its
         trail.
-    camera : CameraConfig, optional
-        The camera; default ``CameraConfig()`` (320 x 240, 45 degrees vertical field of view).
-    laser : LaserConfig, optional
-        The laser; default ``LaserConfig()`` (361 beams over 180 degrees, 20 m).
-    odometry : OdometryConfig, optional
-        The odometry's drift; default ``OdometryConfig()``.
+    camera : CameraConfig or dict, optional
+        The camera, or a dict of its fields (``{"width": 160, "height": 120}``: a spec that
+        stays JSON); default ``CameraConfig()`` (320 x 240, 45 degrees vertical field of view).
+    laser : LaserConfig or dict, optional
+        The laser, or a dict of its fields; default ``LaserConfig()`` (361 beams over 180
+        degrees, 20 m).
+    odometry : OdometryConfig or dict, optional
+        The odometry's drift, or a dict of its fields; default ``OdometryConfig()``.
     sensors : tuple of {"image", "scan"}, default ("image", "scan")
-        The observation's keys.
+        The sensors whose observations are given (a tuple: ``("scan",)``, not ``"scan"``).
     randomize : bool, default False
         Draw the lights and colours anew at each reset.
     collision_penalty : float, default 1.0
         Penalty on a step in contact.
     appearance : {"default", "hard"}, default "default"
         ``"hard"``: every branch in the main manifold's materials.
+    no_return : {"max_range", "inf"}, default "max_range"
+        What a beam with no return reads: the maximum range, flagged by ``scan_valid``, or
+        ``+inf``.
+    registered_world : {"hallway", "lawn"}, optional
+        Set by the registry: the world the env id names, which ``world`` must not contradict.
 
     Attributes
     ----------
@@ -108,7 +178,7 @@ class NavigationEnv(gym.Env):
         The world's free-space grid (5 cm cells), for start poses.
     observation_space, action_space : gymnasium.spaces.Space
         As above.
-    world_name, render_mode, sensors, randomize, collision_penalty
+    world_name, render_mode, sensors, randomize, collision_penalty, no_return
         The parameters.
 
     Examples
@@ -117,11 +187,11 @@ class NavigationEnv(gym.Env):
     >>> import sim  # registers the envs; headless rendering before mujoco loads
     >>> env = gym.make("topomap/Lawn-v0", sensors=("scan",))
     >>> obs, info = env.reset(seed=0)
-    >>> obs["scan"].shape, info["manifold"] in ("lawn", "lawn-left", "lawn-straight", "lawn-right")
-    ((361,), True)
+    >>> obs["scan"].shape, obs["scan_valid"].shape, info["manifold"].startswith("lawn")
+    ((361,), (361,), True)
     >>> obs, reward, terminated, truncated, info = env.step([0.5, 0.0])
-    >>> terminated, sorted(obs)
-    (False, ['scan'])
+    >>> terminated, sorted(obs), env.observation_space.contains(obs)
+    (False, ['scan', 'scan_valid'], True)
     >>> env.close()
 
     See Also
@@ -134,39 +204,42 @@ class NavigationEnv(gym.Env):
 
     def __init__(
         self,
-        world: str = "hallway",
+        world: str | None = None,
         render_mode: str | None = None,
-        camera: CameraConfig | None = None,
-        laser: LaserConfig | None = None,
-        odometry: OdometryConfig | None = None,
+        camera: CameraConfig | Mapping | None = None,
+        laser: LaserConfig | Mapping | None = None,
+        odometry: OdometryConfig | Mapping | None = None,
         sensors: tuple[str, ...] = SENSORS,
         randomize: bool = False,
         collision_penalty: float = COLLISION_PENALTY,
         appearance: str = "default",
+        no_return: str = "max_range",
+        registered_world: str | None = None,
     ):
-        if world not in WORLDS:
-            raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
+        world = check_world(world, registered_world)
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
-        sensors = tuple(sensors)
-        if not sensors or any(s not in SENSORS for s in sensors):
-            raise ValueError(f"sensors must be a non-empty subset of {SENSORS}, got {sensors}")
+        sensors = check_sensors(sensors)
+        if no_return not in NO_RETURN:
+            raise ValueError(f"no_return must be one of {NO_RETURN}, got {no_return!r}")
         self.world_name = world
         self.render_mode = render_mode
         self.sensors = sensors
-        self.randomize = randomize
-        self.collision_penalty = float(collision_penalty)
-        self.camera_config = camera or CameraConfig()
-        self.laser_config = laser or LaserConfig()
+        self.randomize = check_bool(randomize, "randomize")
+        self.collision_penalty = check_finite(collision_penalty, "collision_penalty")
+        self.no_return = no_return
+        self.camera_config = sensor_config(camera, CameraConfig, "camera")
+        self.laser_config = sensor_config(laser, LaserConfig, "laser")
+        odometry = sensor_config(odometry, OdometryConfig, "odometry")
         self.world = build_world(world, appearance=appearance)
         self.sim = Simulator(
             self.world,
             self.camera_config if "image" in sensors else None,
             self.laser_config if "scan" in sensors else None,
-            odometry or OdometryConfig(),
+            odometry,
         )
         self._randomizer = AppearanceRandomizer(self.sim.model)
         obs = {}
@@ -174,7 +247,7 @@ class NavigationEnv(gym.Env):
             c = self.camera_config
             obs["image"] = spaces.Box(0, 255, (c.height, c.width, 3), np.uint8)
         if "scan" in sensors:
-            obs["scan"] = spaces.Box(0.0, np.inf, (self.laser_config.beams,), np.float32)
+            obs.update(self.scan_spaces("scan"))
         self.observation_space = spaces.Dict(obs)
         self.action_space = spaces.Box(
             np.array([V_LIMITS[0], -OMEGA_LIMIT], np.float32),
@@ -187,6 +260,29 @@ class NavigationEnv(gym.Env):
         self._noise_rng = np.random.default_rng(0)
 
     # -- helpers ----------------------------------------------------------------------------
+    def scan_spaces(self, key: str) -> dict[str, spaces.Space]:
+        """The observation's spaces of a scan under ``key``: ``no_return="max_range"`` gives
+        ``Box(0, max_range)`` and its mask ``{key}_valid``; ``"inf"`` ``Box(0, inf)`` alone."""
+        beams = self.laser_config.beams
+        if self.no_return == "inf":
+            return {key: spaces.Box(0.0, np.inf, (beams,), np.float32)}
+        high = np.float32(self.laser_config.max_range)
+        return {
+            key: spaces.Box(0.0, high, (beams,), np.float32),
+            f"{key}_valid": spaces.MultiBinary(beams),
+        }
+
+    def scan_observation(self, ranges: np.ndarray, key: str) -> dict[str, np.ndarray]:
+        """``ranges`` (+inf: no return) as the observation's entries of :meth:`scan_spaces`:
+        a copy, with no return (and a return pushed past the maximum range by the range noise)
+        at the maximum range and ``{key}_valid`` 1 where the beam returned."""
+        if self.no_return == "inf":
+            return {key: np.array(ranges, np.float32)}
+        valid = np.isfinite(ranges)
+        high = np.float32(self.laser_config.max_range)
+        clipped = np.where(valid, np.minimum(ranges, high), high).astype(np.float32)
+        return {key: clipped, f"{key}_valid": valid.astype(np.int8)}
+
     def sample_pose(self, rng: np.random.Generator, manifold: str | None = None) -> np.ndarray:
         """A random pose at least ``START_CLEARANCE`` from obstacles, on ``manifold`` if given."""
         ok = self.occupancy.clearance >= START_CLEARANCE
@@ -210,7 +306,7 @@ class NavigationEnv(gym.Env):
             obs["image"] = self.sim.render()
         if "scan" in self.sensors:
             self._last_scan = self.sim.scan(self._noise_rng)
-            obs["scan"] = self._last_scan
+            obs.update(self.scan_observation(self._last_scan, "scan"))
         return obs
 
     def _info(self, collision: bool = False) -> dict[str, Any]:
@@ -229,9 +325,11 @@ class NavigationEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Place the robot at ``options["pose"]``, else at a free pose drawn from ``seed``
         (on ``options["manifold"]`` when given); ``randomize`` draws the lights and colours anew.
+        ``options``: None or a dict with keys from ``RESET_OPTIONS`` (an unknown key is an
+        error naming the closest known one).
         """
         super().reset(seed=seed)
-        options = options or {}
+        options = check_keys(options, RESET_OPTIONS, "options")
         rng = self.np_random
         self._noise_rng, odo_rng, look_rng = rng.spawn(3)
         self._randomizer.apply(look_rng if self.randomize else None)

@@ -8,17 +8,25 @@ MAX_EPISODE_STEPS = 1000
 
 
 def register_per_world(
-    env_ids: dict[str, str], entry_point: str, max_episode_steps: int | None
+    env_ids: dict[str, str],
+    entry_point: str,
+    max_episode_steps: int | None,
+    additional_wrappers: tuple = (),
 ) -> None:
     """Register one env id per world (``{id: world}``), each once; shared by ``servo``.
-    ``max_episode_steps=None`` adds no ``TimeLimit`` wrapper (for envs with their own clock)."""
+    ``max_episode_steps=None`` adds no ``TimeLimit`` wrapper (for envs with their own clock).
+    The id's world goes in as ``registered_world``, not ``world``: ``gym.make``'s keyword
+    arguments replace the registered ones, so a ``world=`` that contradicts the id could not
+    be told from the id's own; the env checks the two agree. ``additional_wrappers``
+    (``gymnasium.envs.registration.WrapperSpec``) go on top of the ``TimeLimit``."""
     for env_id, world in env_ids.items():
         if env_id not in gym.registry:
             gym.register(
                 id=env_id,
                 entry_point=entry_point,
-                kwargs={"world": world},
+                kwargs={"registered_world": world},
                 max_episode_steps=max_episode_steps,
+                additional_wrappers=additional_wrappers,
             )
 
 

@@ -390,4 +390,11 @@ class ManifoldServo:
                 f"observation['scan'] must hold ranges >= 0 (m; no return is +inf), got "
                 f"{scan.min()}"
             )
+        if "scan_valid" in observation:  # the env's default: no return at max range, flagged
+            valid = np.asarray(observation["scan_valid"])
+            if valid.shape != scan.shape:
+                raise ValueError(
+                    f"observation['scan_valid'] must have shape {scan.shape}, got {valid.shape}"
+                )
+            scan = np.where(valid != 0, scan, np.inf)
         return image, scan, odo

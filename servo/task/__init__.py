@@ -33,6 +33,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "reset_options": "servo.task.protocol",
         "run_protocol": "servo.task.protocol",
         "MAX_EPISODE_STEPS": "servo.task.registration",
+        "TruncationReason": "servo.task.registration",
         "register_envs": "servo.task.registration",
         "WILSON_Z": "servo.task.stats",
         "wilson_interval": "servo.task.stats",

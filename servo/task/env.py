@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
 
 import gymnasium as gym
 import numpy as np
@@ -11,11 +10,11 @@ from gymnasium import spaces
 
 from common.blas import single_threaded_blas
 from common.geometry import se2_relative, wrap_angle
-from common.validation import check_finite, check_int
+from common.validation import check_bool, check_finite, check_int, check_keys
 from scenes import MANIFOLDS
 from servo.maps import MapError, ServoMap, load_map, load_or_build
-from servo.task.registration import MAX_EPISODE_STEPS
-from sim.env import NavigationEnv, check_pose_option
+from servo.task.registration import MAX_EPISODE_STEPS, spec_with_own_limit, warn_of_map_object
+from sim.env import NavigationEnv, check_pose_option, check_world
 from sim.odometry import OdometryConfig
 
 SUCCESS_RADIUS = 0.5  # m
@@ -28,20 +27,7 @@ SUCCESS_REWARD = 1.0
 COLLISION_PENALTY = 0.1
 
 
-_TASK_OPTIONS = ("pose", "start_manifold", "start_view", "target", "target_manifold")
-
-
-def _check_options(options) -> dict:
-    """``reset``'s ``options`` as a dict: None or a mapping (a list of pairs is refused: it is
-    more likely a mistake than a way to write a dict)."""
-    if options is None:
-        return {}
-    if not isinstance(options, Mapping):
-        raise TypeError(
-            f"options must be a dict of reset options {_TASK_OPTIONS} or None, got "
-            f"{type(options).__name__}"
-        )
-    return dict(options)
+RESET_OPTIONS = ("pose", "start_manifold", "start_view", "target", "target_manifold")
 
 
 class ServoEnv(gym.Env):
@@ -58,11 +44,14 @@ class ServoEnv(gym.Env):
         ``Box([-0.5, -1.5], [1.5, 1.5], float32)``: (v m/s, omega rad/s), as ``NavigationEnv``.
 
     Observation Space
-        ``Dict(image, scan, odometry, target_image, target_scan)``: the camera image (H, W, 3)
-        uint8, the laser ranges (B,) float32 (+inf: no return), the odometry pose (3,) float64
-        *relative to the start of the episode* (what wheel encoders give; the env's absolute
-        odometry starts at the true pose and would leak it), and the target view's image and
-        scan.
+        ``Dict(image, scan, scan_valid, odometry, target_image, target_scan,
+        target_scan_valid)``: the camera image (H, W, 3) uint8, the laser ranges (B,) float32
+        in ``[0, max_range]`` with their mask (B,) of returns (``MultiBinary``: 0 where the
+        beam hit nothing and reads ``max_range``), the odometry pose (3,) float64 *relative to
+        the start of the episode* (what wheel encoders give; the env's absolute odometry starts
+        at the true pose and would leak it), and the target view's image, scan and mask.
+        ``no_return="inf"``: the raw ranges, ``+inf`` for no return, and no masks (as
+        :class:`~sim.env.NavigationEnv`).
 
     Rewards
         ``reward_signal``: the change of F^j(k) toward the target (eq. 13) over the step,
@@ -75,7 +64,10 @@ class ServoEnv(gym.Env):
         (``STUCK_WINDOW`` steps in contact while moving less than ``STUCK_DISTANCE``);
         truncated after ``max_steps``, the env's one time limit (it is registered without a
         ``TimeLimit`` wrapper, so ``gym.make(..., max_steps=n)`` is not cut short by another
-        clock). ``info["reason"]``: "success", "stuck", "time limit" or None while running.
+        clock; ``spec.max_episode_steps`` is ``max_steps``). ``info["reason"]``: "success",
+        "stuck", "time limit" or None while running; "time limit" too when an outer
+        ``TimeLimit`` (``gym.make(..., max_episode_steps=n)``) cuts the episode, which the
+        registered ids' :class:`~servo.task.registration.TruncationReason` wrapper reports.
 
     Info
         ``pose`` (true), ``target_pose``, ``target_view``, ``start_manifold``,
@@ -85,18 +77,22 @@ class ServoEnv(gym.Env):
 
     Reset options
         ``target`` (stored view index) or ``target_manifold`` (name); ``start_view`` (stored
-        view index) or ``start_manifold`` (name), or ``pose`` (x, y, yaw).
+        view index) or ``start_manifold`` (name), or ``pose`` (x, y, yaw). Any other key is
+        an error naming the closest of these.
 
     Version History
         v0: initial version.
 
     Parameters
     ----------
-    world : {"hallway", "lawn"}, default "hallway"
-        The world.
+    world : {"hallway", "lawn"}, optional
+        The world; default the one the env id names, else "hallway" (a world that contradicts
+        the id raises ``ValueError``).
     servo_map : ServoMap, str, path or None, default None
-        The map: a ``ServoMap``, the path of a saved one (cheap to pass to vector-env workers),
-        or None for the world's cached default map (:func:`~servo.maps.load_or_build`).
+        The map: a ``ServoMap``, the path of a saved one (cheap to pass to vector-env workers,
+        and the form to give ``gym.make``: a map object there warns, since the spec would hold
+        its arrays), or None for the world's cached default map
+        (:func:`~servo.maps.load_or_build`).
     max_steps : int, default 600
         Steps before the episode is truncated.
     cross_manifold : bool, default True
@@ -113,6 +109,11 @@ class ServoEnv(gym.Env):
         Reward on arrival.
     collision_penalty : float, default 0.1
         Penalty per step in contact.
+    no_return : {"max_range", "inf"}, default "max_range"
+        What a scan's beam with no return reads: the maximum range, flagged by the mask, or
+        ``+inf``.
+    registered_world : {"hallway", "lawn"}, optional
+        Set by the registry: the world the env id names, which ``world`` must not contradict.
 
     Attributes
     ----------
@@ -124,6 +125,8 @@ class ServoEnv(gym.Env):
         As above.
     max_steps, cross_manifold, signal_weight, success_reward, collision_penalty, render_mode
         The parameters.
+    spec : gymnasium.envs.registration.EnvSpec or None
+        ``gym.make``'s spec, its ``max_episode_steps`` the env's ``max_steps``.
 
     Examples
     --------
@@ -136,8 +139,13 @@ class ServoEnv(gym.Env):
     >>> from servo import ServoEnv
     >>> env = ServoEnv("lawn", servo_map, max_steps=5)
     >>> obs, info = env.reset(seed=1)
-    >>> sorted(obs), obs["image"].shape
-    (['image', 'odometry', 'scan', 'target_image', 'target_scan'], (240, 320, 3))
+    >>> sorted(obs)  # doctest: +NORMALIZE_WHITESPACE
+    ['image', 'odometry', 'scan', 'scan_valid', 'target_image', 'target_scan',
+     'target_scan_valid']
+    >>> obs["image"].shape
+    (240, 320, 3)
+    >>> env.observation_space.contains(obs)
+    True
     >>> info["start_manifold"] != info["target_manifold"]
     True
     >>> for _ in range(5):
@@ -157,7 +165,7 @@ class ServoEnv(gym.Env):
 
     def __init__(
         self,
-        world: str = "hallway",
+        world: str | None = None,
         servo_map: ServoMap | str | os.PathLike | None = None,
         max_steps: int = MAX_EPISODE_STEPS,
         cross_manifold: bool = True,
@@ -167,7 +175,10 @@ class ServoEnv(gym.Env):
         signal_weight: float = 1.0,
         success_reward: float = SUCCESS_REWARD,
         collision_penalty: float = COLLISION_PENALTY,
+        no_return: str = "max_range",
+        registered_world: str | None = None,
     ):
+        world = check_world(world, registered_world)
         if servo_map is None:
             servo_map = load_or_build(world)
         elif isinstance(servo_map, str | os.PathLike):
@@ -184,13 +195,15 @@ class ServoEnv(gym.Env):
         self.collision_penalty = check_finite(collision_penalty, "collision_penalty")
         self.map = servo_map
         self.max_steps = int(max_steps)
-        self.cross_manifold = bool(cross_manifold)
+        self.cross_manifold = check_bool(cross_manifold, "cross_manifold")
+        odometry_noise = check_bool(odometry_noise, "odometry_noise")
         self.render_mode = render_mode
         self.base = NavigationEnv(
             world,
             render_mode=render_mode,
             odometry=None if odometry_noise else OdometryConfig.noiseless(),
             randomize=randomize,
+            no_return=no_return,
         )
         if self.base.observation_space["image"].shape != servo_map.image_shape:
             raise MapError(
@@ -201,15 +214,25 @@ class ServoEnv(gym.Env):
         self.observation_space = spaces.Dict(
             {
                 "image": b["image"],
-                "scan": b["scan"],
+                **self.base.scan_spaces("scan"),
                 "odometry": spaces.Box(-np.inf, np.inf, (3,), np.float64),
                 "target_image": b["image"],
-                "target_scan": b["scan"],
+                **self.base.scan_spaces("target_scan"),
             }
         )
         self.action_space = self.base.action_space
         self._target = 0
         self._feats_cache: dict = {}
+
+    # -- the registry's spec -----------------------------------------------------------------
+    @property
+    def spec(self):
+        """``gym.make``'s ``EnvSpec`` (None otherwise), ``max_episode_steps`` the ``max_steps``."""
+        return spec_with_own_limit(self.__dict__.get("_spec"), self.max_steps)
+
+    @spec.setter
+    def spec(self, spec) -> None:
+        self._spec = warn_of_map_object(spec)
 
     # -- task sampling ----------------------------------------------------------------------
     def _views_on(self, manifold: str) -> np.ndarray:
@@ -238,7 +261,7 @@ class ServoEnv(gym.Env):
         if len(cands) == 0 and not self.cross_manifold:
             raise ValueError(f"the {self.map.world} map has no stored view on a manifold")
         if len(cands) == 0:
-            given = {k: options[k] for k in sorted(options) if k in _TASK_OPTIONS}
+            given = {k: options[k] for k in sorted(options) if k in RESET_OPTIONS}
             raise ValueError(
                 f"the reset options {given} conflict with cross_manifold=True: no stored view "
                 f"{what} on another manifold; choose other options or pass "
@@ -293,12 +316,11 @@ class ServoEnv(gym.Env):
     # -- gymnasium API ----------------------------------------------------------------------
     def _obs(self, base_obs: dict, odometry: np.ndarray) -> dict:
         return {
-            "image": base_obs["image"],
-            "scan": base_obs["scan"],
+            **base_obs,
             "odometry": se2_relative(self._odo0, odometry),
             # Copies: a caller may keep or modify what it gets (check_env tests this).
             "target_image": self.map.images[self._target].copy(),
-            "target_scan": self.map.scans[self._target].copy(),
+            **self.base.scan_observation(self.map.scans[self._target], "target_scan"),
         }
 
     def _progress(self, info: dict) -> dict:
@@ -320,7 +342,7 @@ class ServoEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start an episode: start and target as ``options`` say (see the class), from ``seed``."""
         super().reset(seed=seed)
-        options = _check_options(options)
+        options = check_keys(options, RESET_OPTIONS, "options")
         task_rng, base_seed = self.np_random.spawn(1)[0], int(self.np_random.integers(2**31))
         pose, self._target = self._sample_task(task_rng, options)
         obs, info = self.base.reset(seed=base_seed, options={"pose": pose})

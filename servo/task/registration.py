@@ -1,6 +1,13 @@
-"""Gymnasium registration of the servo tasks with string entry points."""
+"""Gymnasium registration of the servo tasks with string entry points, and the wrapper that
+names the reason of a truncation by an outer ``TimeLimit``."""
 
 from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import gymnasium as gym
+from gymnasium.envs.registration import WrapperSpec
 
 from sim.registration import register_per_world
 
@@ -8,11 +15,95 @@ from sim.registration import register_per_world
 MAX_EPISODE_STEPS = 600
 
 
+class TruncationReason(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Say why an episode was truncated when a ``TimeLimit`` below cut it.
+
+    A :class:`~servo.task.ServoEnv` names the end of its episodes in ``info["reason"]``
+    ("success", "stuck", "time limit"), but a ``gymnasium.wrappers.TimeLimit`` around it (what
+    ``gym.make(..., max_episode_steps=n)`` adds) truncates without the env knowing, which left
+    the reason None. This wrapper, put on top of the ``TimeLimit``, sets ``info["reason"]`` to
+    "time limit" on a truncated step whose reason is None; every other step passes unchanged.
+    The registered servo ids carry it (``gym.make`` adds it above any ``TimeLimit``); wrap it
+    yourself over a ``TimeLimit`` of your own.
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        The env (with its ``TimeLimit``) whose truncations to name.
+
+    Attributes
+    ----------
+    env : gymnasium.Env
+        The wrapped env.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> from gymnasium.wrappers import TimeLimit
+    >>> from servo.task import TruncationReason
+    >>> class Idle(gym.Env):
+    ...     observation_space = action_space = gym.spaces.Discrete(1)
+    ...     def reset(self, *, seed=None, options=None):
+    ...         return 0, {"reason": None}
+    ...     def step(self, action):
+    ...         return 0, 0.0, False, False, {"reason": None}
+    >>> env = TruncationReason(TimeLimit(Idle(), max_episode_steps=2))
+    >>> _ = env.reset()
+    >>> env.step(0)[3:], env.step(0)[3:]
+    ((False, {'reason': None}), (True, {'reason': 'time limit'}))
+
+    See Also
+    --------
+    servo.task.ServoEnv : The env whose truncations it names.
+    gymnasium.wrappers.TimeLimit : The clock it names.
+    """
+
+    def __init__(self, env: gym.Env):
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.Wrapper.__init__(self, env)
+
+    def step(self, action):
+        """The wrapped env's step, with ``info["reason"] = "time limit"`` on a truncation
+        that had no reason."""
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        if truncated and not terminated and info.get("reason") is None:
+            info = {**info, "reason": "time limit"}
+        return obs, reward, terminated, truncated, info
+
+
+def spec_with_own_limit(spec, max_steps: int):
+    """``ServoEnv.spec``: the spec ``gym.make`` gave with ``max_episode_steps`` the env's own
+    limit where the registry set none (the servo ids add no ``TimeLimit``: one clock, which
+    names its reason), so tools that read the limit from the spec see it."""
+    if spec is None or spec.max_episode_steps is not None:
+        return spec
+    return dataclasses.replace(spec, max_episode_steps=max_steps)
+
+
+def warn_of_map_object(spec):
+    """``spec``, after a warning if its ``servo_map`` is a map object rather than a path."""
+    from servo.maps import ServoMap
+
+    if spec is not None and isinstance(spec.kwargs.get("servo_map"), ServoMap):
+        warnings.warn(
+            "servo_map was given to gym.make as a ServoMap object: the env's spec now holds "
+            "the map's arrays (copied with every wrapper's spec, not writable as JSON); pass "
+            "the path of a saved map instead (servo.save_map(m, directory) returns it)",
+            UserWarning,
+            stacklevel=4,  # the caller of gym.make
+        )
+    return spec
+
+
 def register_envs() -> None:
     # No TimeLimit wrapper: ServoEnv keeps its own clock (max_steps), which also names the
-    # reason ("time limit"); a second clock would cut a longer max_steps short.
+    # reason ("time limit"); a second clock would cut a longer max_steps short. One that the
+    # user asks for (max_episode_steps=) gets its reason from TruncationReason above it.
     register_per_world(
         {"topomap/HallwayServo-v0": "hallway", "topomap/LawnServo-v0": "lawn"},
         "servo.task.env:ServoEnv",
         None,
+        additional_wrappers=(
+            WrapperSpec("TruncationReason", "servo.task.registration:TruncationReason", {}),
+        ),
     )

@@ -8,9 +8,9 @@ from gymnasium.utils.env_checker import check_env
 import sim  # noqa: F401  (registers the envs)
 from sim.camera import CameraConfig
 
-# check_env's advice we deliberately do not take: (v, omega) keep their physical units, and
-# a laser beam with no return is +inf (REP 117), so the scan box is unbounded above.
-EXPECTED_WARNINGS = ("symmetric and normalized space", "maximum value is infinity")
+# check_env's advice we deliberately do not take: (v, omega) keep their physical units. The
+# scan is bounded by the laser's range by default; no_return="inf" (REP 117) is unbounded.
+EXPECTED_WARNINGS = ("symmetric and normalized space",)
 SMALL = {"camera": CameraConfig(width=64, height=48)}
 
 
@@ -79,7 +79,7 @@ def test_bad_arguments_name_the_choices():
     with pytest.raises(ValueError, match="manifold must be one of"):
         env.reset(seed=0, options={"manifold": "attic"})
     obs, info = env.reset(seed=0, options={"manifold": "hallway-right"})
-    assert info["manifold"] == "hallway-right" and set(obs) == {"scan"}
+    assert info["manifold"] == "hallway-right" and set(obs) == {"scan", "scan_valid"}
     env.close()
 
 
@@ -136,3 +136,102 @@ def test_forked_vector_env_after_rendering_works_or_fails_at_once(threads):
         assert run.returncode != 0
         assert "forked after its parent created an OpenGL context" in run.stderr
         assert "'context': 'spawn'" in run.stderr
+
+
+@pytest.mark.parametrize("env_id", ["topomap/Hallway-v0", "topomap/Lawn-v0"])
+def test_observations_are_finite_and_inside_their_bounds(env_id):
+    """No return reads the laser's range, flagged by scan_valid; the raw ranges (+inf) agree
+    with both where the option keeps them."""
+    env = gym.make(env_id, **SMALL)
+    raw = gym.make(env_id, no_return="inf", **SMALL)
+    space, max_range = env.observation_space, env.unwrapped.laser_config.max_range
+    assert space["scan"].high.max() == np.float32(max_range)
+    assert isinstance(space["scan_valid"], gym.spaces.MultiBinary)
+    assert set(raw.observation_space) == {"image", "scan"}
+    misses = 0
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        obs_raw, _ = raw.reset(seed=seed)
+        env.action_space.seed(seed)
+        for step in range(10):
+            assert space.contains(obs), (seed, step)
+            assert all(np.isfinite(v).all() for v in obs.values())
+            returned = np.isfinite(obs_raw["scan"])
+            np.testing.assert_array_equal(obs["scan_valid"], returned)
+            np.testing.assert_array_equal(obs["scan"][~returned], max_range)
+            np.testing.assert_array_equal(
+                obs["scan"][returned], np.minimum(obs_raw["scan"][returned], max_range)
+            )
+            np.testing.assert_array_equal(obs["image"], obs_raw["image"])
+            misses += int((~returned).sum())
+            action = env.action_space.sample()
+            obs, *_ = env.step(action)
+            obs_raw, *_ = raw.step(action)
+    assert misses > 0  # the test saw beams with no return
+    env.close()
+    raw.close()
+
+
+def test_normalised_flattened_observations_hold_no_nan():
+    from gymnasium.wrappers import FlattenObservation, NormalizeObservation
+
+    env = NormalizeObservation(FlattenObservation(gym.make("topomap/Lawn-v0", **SMALL)))
+    obs, _ = env.reset(seed=0)
+    env.action_space.seed(0)
+    for _ in range(5):
+        assert np.isfinite(obs).all()
+        obs, reward, *_ = env.step(env.action_space.sample())
+    assert np.isfinite(obs).all() and np.isfinite(reward)
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        ({"collision_penalty": float("nan")}, ValueError, "collision_penalty must be a finite"),
+        ({"collision_penalty": "1"}, ValueError, "collision_penalty must be a finite"),
+        ({"randomize": "yes"}, ValueError, "randomize must be True or False"),
+        ({"sensors": "scan"}, ValueError, r"got the string 'scan'; write \('scan',\)"),
+        ({"sensors": ("scan", "scan")}, ValueError, "without repeats"),
+        ({"sensors": 3}, ValueError, "sensors must be a tuple of names"),
+        ({"camera": {"width": 64, "hight": 48}}, ValueError, "did you mean 'height'"),
+        ({"camera": (64, 48)}, TypeError, "camera must be a CameraConfig, a dict of its"),
+        ({"laser": "sick"}, TypeError, "laser must be a LaserConfig"),
+        ({"odometry": {"drift": 0.1}}, ValueError, "odometry has an unknown key 'drift'"),
+        ({"no_return": "nan"}, ValueError, r"no_return must be one of \('max_range', 'inf'\)"),
+        ({"world": "lawn"}, ValueError, "world='lawn' contradicts the env id"),
+        ({"world": 3}, ValueError, "world must be one of"),
+    ],
+)
+def test_every_argument_is_checked_and_named(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        gym.make("topomap/Hallway-v0", **kwargs)
+
+
+def test_configs_as_dicts_and_the_ids_own_world():
+    env = gym.make(
+        "topomap/Lawn-v0", world="lawn", camera={"width": 64, "height": 48},
+        laser={"beams": 91}, odometry={"translation": 0.0},
+    )  # fmt: skip
+    obs, _ = env.reset(seed=0)
+    assert obs["image"].shape == (48, 64, 3) and obs["scan"].shape == (91,)
+    assert env.unwrapped.world_name == "lawn"
+    assert env.spec.kwargs["camera"] == {"width": 64, "height": 48}  # a JSON spec
+    env.spec.to_json()
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "options, error, match",
+    [
+        ([("pose", (5.0, 0.0, 0.0))], TypeError, "options must be a dict with keys from"),
+        ({"poze": (5.0, 0.0, 0.0)}, ValueError, "unknown key 'poze'.*did you mean 'pose'"),
+        ({"manifld": "lawn"}, ValueError, "did you mean 'manifold'"),
+        ({"pose": (5.0, float("nan"), 0.0)}, ValueError, r"options\['pose'\] must be a finite"),
+    ],
+)
+def test_reset_options_are_checked_and_named(options, error, match):
+    env = gym.make("topomap/Lawn-v0", sensors=("scan",))
+    with pytest.raises(error, match=match):
+        env.reset(seed=0, options=options)
+    env.close()

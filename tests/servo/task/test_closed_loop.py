@@ -81,6 +81,31 @@ def test_controller_is_deterministic(envs):
     np.testing.assert_array_equal(actions(), actions())
 
 
+def test_controller_acts_alike_on_the_masked_and_the_raw_scans(envs, servo_maps):
+    """The default observation (no return at the maximum range, flagged by scan_valid) and
+    no_return="inf" drive the same actions, step for step, on the lawn's open ground."""
+    env = envs["lawn"]
+    raw = ServoEnv("lawn", servo_maps["lawn"], max_steps=500, no_return="inf")
+    try:
+        obs, info = env.reset(seed=5)
+        obs_raw, _ = raw.reset(seed=5)
+        a, b = ManifoldServo(env.map), ManifoldServo(env.map)
+        a.reset(info["target_view"])
+        b.reset(info["target_view"])
+        misses = 0
+        for _ in range(25):
+            misses += int(np.isinf(obs_raw["scan"]).sum())
+            action = a.act(obs)
+            np.testing.assert_array_equal(action, b.act(obs_raw))
+            obs, *_ = env.step(action)
+            obs_raw, *_ = raw.step(action)
+        assert misses > 0
+        with pytest.raises(ValueError, match=r"observation\['scan_valid'\] must have shape"):
+            a.act({**obs, "scan_valid": obs["scan_valid"][:10]})
+    finally:
+        raw.close()
+
+
 def test_controller_needs_no_truth(envs):
     """act() never reads info: poisoning it changes nothing."""
     env = envs["hallway"]

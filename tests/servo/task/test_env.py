@@ -120,20 +120,21 @@ def test_async_vector_env_spawn(servo_maps, tmp_path):
         venv.close()
 
 
-def test_registered_task_has_one_clock_and_takes_the_reward_weights(env, servo_maps):
+def test_registered_task_has_one_clock_and_takes_the_reward_weights(env, servo_maps, tmp_path):
     import gymnasium as gym
     from gymnasium.wrappers import TimeLimit
 
     made = gym.make(
         "topomap/HallwayServo-v0",
-        servo_map=servo_maps["hallway"],
+        servo_map=str(save_map(servo_maps["hallway"], tmp_path)),
         max_steps=70,
         signal_weight=2.0,
         collision_penalty=0.3,
     )
     try:
-        # no TimeLimit of the registry on top of the env's own max_steps
-        assert made.spec.max_episode_steps is None
+        # no TimeLimit of the registry on top of the env's own max_steps, which the spec says
+        assert made.spec.max_episode_steps == 70 == made.unwrapped.spec.max_episode_steps
+        made.spec.to_json()  # a map's path keeps the spec small and JSON
         wrapper = made
         while isinstance(wrapper, gym.Wrapper):
             assert not isinstance(wrapper, TimeLimit)
@@ -204,4 +205,125 @@ def test_a_malformed_pose_option_is_named(env, pose):
 @pytest.mark.parametrize("options", [[("pose", (2.3, 0.0, 0.1))], "target", 3])
 def test_options_must_be_a_mapping(env, options):
     with pytest.raises(TypeError, match="options must be a dict"):
+        env.reset(seed=0, options=options)
+
+
+@pytest.fixture(scope="module")
+def hallway_map_path(servo_maps, tmp_path_factory):
+    return str(save_map(servo_maps["hallway"], tmp_path_factory.mktemp("map")))
+
+
+def test_outer_time_limit_names_its_reason(hallway_map_path):
+    import gymnasium as gym
+
+    made = gym.make(
+        "topomap/HallwayServo-v0", servo_map=hallway_map_path, max_episode_steps=3
+    )  # a TimeLimit of 3 steps over the env's own 600
+    try:
+        assert made.spec.max_episode_steps == 3
+        made.reset(seed=0)
+        reasons = []
+        for _ in range(3):
+            *_, terminated, truncated, info = made.step(np.zeros(2, np.float32))
+            reasons.append((terminated, truncated, info["reason"]))
+        assert reasons == [(False, False, None)] * 2 + [(False, True, "time limit")]
+    finally:
+        made.close()
+
+
+def test_a_map_object_given_to_make_warns_and_names_the_path_form(servo_maps):
+    import gymnasium as gym
+
+    with pytest.warns(UserWarning, match="pass the path of a saved map instead"):
+        made = gym.make("topomap/HallwayServo-v0", servo_map=servo_maps["hallway"])
+    made.close()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a direct ServoEnv(map) has no spec: no warning
+        ServoEnv("hallway", servo_maps["hallway"], max_steps=5).close()
+
+
+@pytest.mark.parametrize("env_id", ["topomap/HallwayServo-v0", "topomap/LawnServo-v0"])
+def test_check_env_and_bounded_finite_observations(env_id, servo_maps, tmp_path):
+    import gymnasium as gym
+    from gymnasium.wrappers import FlattenObservation, NormalizeObservation
+
+    world = "hallway" if "Hallway" in env_id else "lawn"
+    path = str(save_map(servo_maps[world], tmp_path))
+    made = gym.make(env_id, servo_map=path, max_steps=8)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(made.unwrapped, skip_render_check=True)
+    assert not [w for w in caught if not any(e in str(w.message) for e in EXPECTED_WARNINGS)]
+    space, max_range = made.observation_space, made.unwrapped.base.laser_config.max_range
+    misses = 0
+    for seed in range(3):
+        obs, _ = made.reset(seed=seed)
+        made.action_space.seed(seed)
+        done = False
+        while not done:
+            assert space.contains(obs)
+            assert all(np.isfinite(v).all() for v in obs.values())
+            for key in ("scan", "target_scan"):
+                np.testing.assert_array_equal(obs[key][obs[f"{key}_valid"] == 0], max_range)
+                misses += int((obs[f"{key}_valid"] == 0).sum())
+            obs, _, terminated, truncated, _ = made.step(made.action_space.sample())
+            done = terminated or truncated
+    assert misses > 0
+    made.close()
+    flat = NormalizeObservation(FlattenObservation(gym.make(env_id, servo_map=path)))
+    obs, _ = flat.reset(seed=0)
+    for _ in range(3):
+        obs, reward, *_ = flat.step(np.array([0.5, 0.2], np.float32))
+        assert np.isfinite(obs).all() and np.isfinite(reward)
+    flat.close()
+
+
+def test_no_return_inf_keeps_the_raw_ranges(env, servo_maps):
+    raw = ServoEnv("hallway", servo_maps["hallway"], max_steps=50, no_return="inf")
+    try:
+        assert set(raw.observation_space) == {
+            "image", "scan", "odometry", "target_image", "target_scan"
+        }  # fmt: skip
+        assert raw.observation_space["scan"].high.max() == np.inf
+        obs_raw, _ = raw.reset(seed=4)
+        obs, _ = env.reset(seed=4)
+        for key in ("scan", "target_scan"):
+            returned = np.isfinite(obs_raw[key])
+            np.testing.assert_array_equal(obs[f"{key}_valid"], returned)
+            np.testing.assert_array_equal(obs[key][returned], obs_raw[key][returned])
+        np.testing.assert_array_equal(obs_raw["target_scan"], env.map.scans[env._target])
+    finally:
+        raw.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"world": "lawn", "registered_world": "hallway"}, "world='lawn' contradicts the env id"),
+        ({"cross_manifold": "no"}, "cross_manifold must be True or False"),
+        ({"odometry_noise": 0}, "odometry_noise must be True or False"),
+        ({"randomize": None}, "randomize must be True or False"),
+        ({"max_steps": 2.5}, "max_steps must be an integer"),
+        ({"no_return": None}, "no_return must be one of"),
+    ],
+)
+def test_every_argument_is_checked_and_named(servo_maps, kwargs, match):
+    kwargs = {"world": "hallway", **kwargs}
+    with pytest.raises(ValueError, match=match):
+        ServoEnv(servo_map=servo_maps["hallway"], **kwargs)
+
+
+def test_a_world_contradicting_the_id_is_refused(hallway_map_path):
+    import gymnasium as gym
+
+    with pytest.raises(ValueError, match="world='lawn' contradicts the env id"):
+        gym.make("topomap/HallwayServo-v0", world="lawn", servo_map=hallway_map_path)
+
+
+@pytest.mark.parametrize(
+    "options, match",
+    [({"targt": 3}, "did you mean 'target'"), ({"start_manifol": "x"}, "'start_manifold'")],
+)
+def test_unknown_reset_options_are_named(env, options, match):
+    with pytest.raises(ValueError, match=match):
         env.reset(seed=0, options=options)
