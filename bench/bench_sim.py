@@ -1,5 +1,6 @@
 """Speed of the simulator: env steps/s with and without the camera, camera frames/s at 320x240,
-laser scans/s, and the wall time to collect the default 900-frame dataset.
+laser scans/s, and the wall time to collect the default 900-frame dataset; the registered envs'
+steps/s under random actions as Gymnasium measures them (``gym_steps_per_s``).
 
 Run: ``.venv/bin/python bench/bench_sim.py [--skip-dataset]``. Prints a table with the machine's
 core count; the targets are for a 2-core CPU machine.
@@ -13,8 +14,10 @@ import platform
 import tempfile
 import time
 
+import gymnasium as gym
 import numpy as np
 
+import servo  # noqa: F401  (registers the servo envs)
 import sim  # noqa: F401  (headless GL before mujoco)
 from scenes import build_world
 from sim.camera import CameraConfig
@@ -56,6 +59,19 @@ def scans_per_s(world: str, n: int = 3000) -> float:
     s.reset((2.0, 0.0, 0.0), np.random.default_rng(0))
     rng = np.random.default_rng(1)
     return _rate(lambda: s.scan(rng), n)
+
+
+def gym_steps_per_s(env_id: str, seconds: float = 5.0, **kwargs) -> float:
+    """Steps/s of ``gym.make(env_id, **kwargs)`` under random actions, resets included, by
+    Gymnasium's own ``gymnasium.utils.performance.benchmark_step`` (what an RL library's
+    rollouts cost; the wrappers ``gym.make`` adds are timed too)."""
+    from gymnasium.utils.performance import benchmark_step
+
+    env = gym.make(env_id, **kwargs)
+    try:
+        return benchmark_step(env, target_duration=seconds, seed=0)
+    finally:
+        env.close()
 
 
 def dataset_seconds() -> float:

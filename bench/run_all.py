@@ -2,7 +2,8 @@
 
     .venv/bin/python bench/run_all.py [--quick] [--out bench/results.md]
 
-Runs the simulator (``bench_sim``), manifold clustering (``bench_manifold``), observation
+Runs the simulator (``bench_sim``; the registered envs under ``gymnasium.utils.performance``
+in group ``envs``), manifold clustering (``bench_manifold``), observation
 grouping (``bench_partition``) and servo (``bench_servo``) measurements by importing their
 functions, and writes a table with the machine (CPU model, core count, load) and each figure
 beside its target. ``--quick`` (about a minute) uses fewer repeats, skips the
@@ -108,6 +109,30 @@ def sim_rows(quick: bool) -> list[Row]:
         )
     if not quick:
         rows.append(_row("sim", "default dataset, 900 frames", bs.dataset_seconds(), "s", 30))
+    return rows
+
+
+def env_rows(quick: bool) -> list[Row]:
+    """The registered envs' steps/s under random actions (``gymnasium.utils.performance``), as
+    ``gym.make`` gives them: the laser-only navigation env is the fast path for RL on scans.
+    The servo envs read the default dataset's map (``out/dataset``, collected if missing)."""
+    import bench_sim as bs
+
+    from servo.maps import load_or_build, map_paths
+    from sim.collect import collect_dataset
+
+    seconds = 2.0 if quick else 5.0
+    dataset = collect_dataset(ROOT / "out" / "dataset", progress=False)  # reused when present
+    rows = []
+    for world, name in (("hallway", "Hallway"), ("lawn", "Lawn")):
+        for what, kwargs in (("camera + laser", {}), ("laser only", {"sensors": ("scan",)})):
+            rate = bs.gym_steps_per_s(f"topomap/{name}-v0", seconds, **kwargs)
+            rows.append(_row("envs", f"topomap/{name}-v0, {what}", rate, "steps/s"))
+        cache = ROOT / "out" / "servo-maps"
+        m = load_or_build(world, dataset, cache, progress=False)
+        path = str(map_paths(cache, world, m.key)[0])  # the cached map, passed by its path
+        rate = bs.gym_steps_per_s(f"topomap/{name}Servo-v0", seconds, servo_map=path)
+        rows.append(_row("envs", f"topomap/{name}Servo-v0", rate, "steps/s"))
     return rows
 
 
@@ -248,6 +273,7 @@ def servo_rows(quick: bool) -> list[Row]:
 
 GROUPS: dict[str, Callable[[bool], list[Row]]] = {
     "sim": sim_rows,
+    "envs": env_rows,
     "manifold": manifold_rows,
     "grouping": partition_rows,
     "servo": servo_rows,
