@@ -21,6 +21,11 @@ dataset imported from a robot's log (:mod:`sim.readers.rosbag`) has ``"ground_tr
 no ``poses`` or ``labels`` arrays and no manifolds. Schema version 1 (before that key existed)
 is still read, as a dataset with ground truth.
 
+Reading checks the values too, against :mod:`common.bounds`: finite poses, odometry, commands,
+times and angles within their bounds, times that never go backwards, ranges that are never NaN
+or negative (``+inf``: no return), labels within the manifolds, images and scans that are not
+empty. Anything else raises :class:`DatasetError` naming the file and the array.
+
 Every file is written to a temporary name and renamed, and ``meta.json`` lists a sequence only
 after its file is complete, so an interrupted collection never leaves a half-written sequence.
 """
@@ -36,7 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+from common import bounds
 from common.fileio import UnreadableJSON, atomic_path, read_json
+from common.npz import UnreadableNpz, read_arrays
 from sim.runs import Runs
 
 SCHEMA_VERSION = 2
@@ -64,8 +71,8 @@ SHAPES = {  # trailing shape per frame (angles: per dataset); -1: any size, chec
     "labels": (),
     "times": (),
 }
-_FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\.npz\Z")
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
+_FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\.npz\Z")  # the file system's limit
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
 GROUND_TRUTH = ("poses", "labels")  # absent from a dataset without ground truth
 
@@ -271,7 +278,8 @@ def read_meta(directory: str | os.PathLike) -> dict:
         raise DatasetError(f"{path} must hold a JSON object, got a {type(meta).__name__}")
     if meta.get("format") != FORMAT_NAME:
         raise DatasetError(f"{path} is not a {FORMAT_NAME} (format={meta.get('format')!r})")
-    if meta.get("schema_version") not in READABLE_VERSIONS:
+    version = meta.get("schema_version")
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:  # True == 1 in Python
         raise DatasetError(
             f"{directory} has schema version {meta.get('schema_version')!r}; this code reads "
             f"versions {READABLE_VERSIONS}: collect it again with this version"
@@ -346,17 +354,51 @@ def read_npz(
     if sha256 is not None and file_sha256(path) != sha256:
         raise error(f"{context}{path} is truncated or modified (checksum mismatch)")
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            return {k: npz[k] for k in npz.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
+        return read_arrays(path)
+    except UnreadableNpz as err:
         raise error(f"{context}{path} cannot be read ({err})") from err
 
 
+def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str | None:
+    """What is wrong with the values of a sequence's arrays (:mod:`common.bounds`), or None;
+    ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any."""
+    if 0 in arrays["images"].shape[1:3] or len(arrays["angles"]) == 0:
+        return (
+            f"images of shape {arrays['images'].shape[1:]} and scans of "
+            f"{len(arrays['angles'])} beams: neither may be empty"
+        )
+    labels = arrays.get("labels")
+    if labels is not None and manifolds is not None and len(labels):
+        low, high = int(labels.min()), int(labels.max())
+        if low < -1 or high >= manifolds:
+            return (
+                f"labels from {low} to {high}, but meta.json has {manifolds} manifolds: a label "
+                f"is -1 (on none) or in 0..{manifolds - 1}"
+            )
+    checks = [
+        ("scans", bounds.range_problem), ("angles", bounds.angle_problem),
+        ("odometry", bounds.pose_problem), ("poses", bounds.pose_problem),
+        ("commands", bounds.command_problem), ("times", bounds.time_problem),
+        ("depth", bounds.range_problem),
+    ]  # fmt: skip
+    for key, check in checks:
+        problem = check(arrays[key], key) if key in arrays else None
+        if problem:
+            return problem
+    return None
+
+
 def load_sequence(
-    directory: Path, name: str, entry: dict, verify: bool = True, ground_truth: bool = True
+    directory: Path,
+    name: str,
+    entry: dict,
+    verify: bool = True,
+    ground_truth: bool = True,
+    manifolds: int | None = None,
 ) -> Sequence:
     """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
-    whether ``poses`` and ``labels`` must be there (True) or must not (False)."""
+    whether ``poses`` and ``labels`` must be there (True) or must not (False); ``manifolds``
+    how many manifolds its labels may name (None: not checked)."""
     path = Path(directory) / entry["file"]
     arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
     expected = [k for k in ARRAYS if ground_truth or k not in GROUND_TRUTH]
@@ -395,6 +437,9 @@ def load_sequence(
             f"sequence {name!r}: scans have {arrays['scans'].shape[1]} beams but angles has "
             f"{len(arrays['angles'])}"
         )
+    problem = _value_problem(arrays, manifolds)
+    if problem:
+        raise DatasetError(f"sequence {name!r}: {path}: {problem}")
     return Sequence(
         name=name,
         world=entry["world"],
@@ -419,8 +464,9 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
             "done): rerun the same `topomap collect` command to resume it"
         )
     ground_truth = bool(meta.get("ground_truth", True))
+    manifolds = len(meta["manifolds"]) if "manifolds" in meta else None
     seqs = {
-        name: load_sequence(directory, name, entry, verify, ground_truth)
+        name: load_sequence(directory, name, entry, verify, ground_truth, manifolds)
         for name, entry in meta["sequences"].items()
     }
     return Dataset(directory, meta, seqs)
