@@ -19,6 +19,7 @@ import numpy as np
 
 ENCODINGS = {"rgb8": (3, None), "bgr8": (3, [2, 1, 0]), "rgba8": (4, None)}
 ENCODINGS |= {"bgra8": (4, [2, 1, 0]), "mono8": (1, None)}  # channels, reorder to RGB
+SPAN_TOLERANCE = 8 * float(np.finfo(np.float32).eps)  # relative, of a scan's span in beams
 
 
 class RosbagImportError(ValueError):
@@ -56,8 +57,10 @@ def scan_geometry(msg, where: str) -> tuple[int, float, float, float, float]:
     if n == 0 or not np.isfinite(inc) or inc == 0:
         raise RosbagImportError(f"{where}: {n} ranges with angle_increment {inc}")
     span = (float(msg.angle_max) - float(msg.angle_min)) / inc + 1
-    # drivers differ on whether angle_max is the last beam's angle or one increment beyond
-    if abs(span - n) > 1 + 1e-6:
+    # drivers differ on whether angle_max is the last beam's angle or one increment beyond;
+    # the angles are float32, so the span is exact only to a few float32 epsilons of itself
+    # (360 beams with angle_max one increment beyond give 361.000013)
+    if abs(span - n) > 1 + SPAN_TOLERANCE * max(abs(span), 1.0):
         raise RosbagImportError(
             f"{where}: {n} ranges, but angle_min {msg.angle_min:.6f}, angle_max "
             f"{msg.angle_max:.6f} and angle_increment {inc:.6f} rad give {span:.1f} beams"

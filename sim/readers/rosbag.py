@@ -129,7 +129,15 @@ class _Stream:
         self.where, self.stamps, self.values = f"{bag.name}: {topic}", [], []
 
     def add(self, index: int, stamp: int, value) -> None:
-        if self.stamps and stamp <= self.stamps[-1]:
+        if self.stamps and stamp == self.stamps[-1]:
+            raise RosbagImportError(
+                f"{self.where} message {index}: the same stamp {stamp / 1e9:.9f} s as the "
+                "previous message; two messages of one topic cannot share a stamp. If the bag "
+                "was written from a log with few digits (stamps rounded to microseconds or "
+                "coarser), write it again with full nanosecond stamps, or leave out the "
+                "repeated messages (e.g. `rosbag filter` / `ros2 bag convert`)"
+            )
+        if self.stamps and stamp < self.stamps[-1]:
             raise RosbagImportError(
                 f"{self.where} message {index}: stamp {stamp / 1e9:.9f} s is not after the "
                 f"previous message's {self.stamps[-1] / 1e9:.9f} s (timestamps out of order)"
