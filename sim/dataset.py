@@ -18,8 +18,9 @@ Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
 
 (*) ground truth: present when ``meta["ground_truth"]`` is true (collected in simulation); a
 dataset imported from a robot's log (:mod:`sim.readers.rosbag`) has ``"ground_truth": false``,
-no ``poses`` or ``labels`` arrays and no manifolds. Schema version 1 (before that key existed)
-is still read, as a dataset with ground truth.
+no ``poses`` or ``labels`` arrays and no manifolds. A dataset of a robot without a camera (a
+laser-only bag) has ``"camera": false`` and no ``images`` arrays (absent: true). Schema
+version 1 (before ``"ground_truth"`` existed) is still read, as a dataset with ground truth.
 
 Reading checks the values too, against :mod:`common.bounds`: finite poses, odometry, commands,
 times and angles within their bounds, times that never go backwards, ranges that are never NaN
@@ -92,7 +93,8 @@ class Sequence:
     name, world : str
         The sequence's name (e.g. ``"lawn-left"``) and the world (place) it was recorded in.
     images, scans, angles, odometry, commands, times : ndarray
-        The arrays of the dataset format, in its units (the module's description).
+        The arrays of the dataset format, in its units (the module's description); ``images``
+        is None in a dataset without a camera.
     poses, labels : ndarray or None, default None
         The true poses and manifold ids; None without ground truth.
     depth : ndarray or None, default None
@@ -122,7 +124,7 @@ class Sequence:
 
     name: str
     world: str
-    images: np.ndarray
+    images: np.ndarray | None  # None without a camera
     scans: np.ndarray
     angles: np.ndarray
     odometry: np.ndarray
@@ -159,6 +161,8 @@ class Dataset:
         The manifolds' names (label ``i`` is ``manifolds[i]``).
     has_ground_truth : bool
         True poses and manifold labels are recorded (simulated data, not imported logs).
+    has_camera : bool
+        Camera images are recorded (false for a laser-only import).
     max_range : float or None
         The laser's range from the settings, m.
     worlds : list of str
@@ -200,6 +204,11 @@ class Dataset:
         return bool(self.meta.get("ground_truth", True))
 
     @property
+    def has_camera(self) -> bool:
+        """Camera images are recorded (false for a dataset imported without a camera)."""
+        return bool(self.meta.get("camera", True))
+
+    @property
     def max_range(self) -> float | None:
         """The laser's maximum range (m) from the settings; readings at or beyond it are no
         return. None when the settings do not say."""
@@ -216,6 +225,11 @@ class Dataset:
         names = list(self.sequences) if names is None else names
         if field in GROUND_TRUTH and not self.has_ground_truth:
             raise DatasetError(f"{self.path} has no ground truth: no {field!r} to concatenate")
+        if field == "images" and not self.has_camera:
+            raise DatasetError(
+                f"{self.path} has no camera images (imported without an image topic): the "
+                "methods on images need a dataset with a camera; the laser scans are there"
+            )
         return np.concatenate([getattr(self.sequences[n], field) for n in names])
 
     def runs(self, world: str) -> Runs:
@@ -319,6 +333,8 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
     manifolds = meta.get("manifolds", [])
     if not (isinstance(manifolds, list) and all(isinstance(m, str) for m in manifolds)):
         raise DatasetError(f"{path}: 'manifolds' must be a list of names, got {manifolds!r}")
+    if not isinstance(meta.get("camera", True), bool):
+        raise DatasetError(f"{path}: 'camera' must be true or false, got {meta['camera']!r}")
     if not isinstance(meta.get("complete", False), bool):
         raise DatasetError(f"{path}: 'complete' must be true or false, got {meta['complete']!r}")
 
@@ -362,10 +378,11 @@ def read_npz(
 def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str | None:
     """What is wrong with the values of a sequence's arrays (:mod:`common.bounds`), or None;
     ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any."""
-    if 0 in arrays["images"].shape[1:3] or len(arrays["angles"]) == 0:
+    image_shape = arrays["images"].shape[1:] if "images" in arrays else (1, 1, 3)
+    if 0 in image_shape[:2] or len(arrays["angles"]) == 0:
         return (
-            f"images of shape {arrays['images'].shape[1:]} and scans of "
-            f"{len(arrays['angles'])} beams: neither may be empty"
+            f"images of shape {image_shape} and scans of {len(arrays['angles'])} beams: "
+            "neither may be empty"
         )
     labels = arrays.get("labels")
     if labels is not None and manifolds is not None and len(labels):
@@ -395,13 +412,17 @@ def load_sequence(
     verify: bool = True,
     ground_truth: bool = True,
     manifolds: int | None = None,
+    camera: bool = True,
 ) -> Sequence:
     """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
     whether ``poses`` and ``labels`` must be there (True) or must not (False); ``manifolds``
-    how many manifolds its labels may name (None: not checked)."""
+    how many manifolds its labels may name (None: not checked); ``camera`` whether ``images``
+    must be there (True) or must not (False)."""
     path = Path(directory) / entry["file"]
     arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
-    expected = [k for k in ARRAYS if ground_truth or k not in GROUND_TRUTH]
+    expected = [
+        k for k in ARRAYS if (ground_truth or k not in GROUND_TRUTH) and (camera or k != "images")
+    ]
     missing = [k for k in expected if k not in arrays]
     if missing:
         raise DatasetError(f"sequence {name!r}: arrays {missing} missing from {path}")
@@ -410,6 +431,9 @@ def load_sequence(
         raise DatasetError(
             f"sequence {name!r}: {path} holds {extra} but meta.json says ground_truth is false"
         )
+    if "images" in arrays and not camera:
+        raise DatasetError(f"sequence {name!r}: {path} holds images but meta.json says camera "
+                           "is false")  # fmt: skip
     n = entry["frames"]
     for k in [k for k in PER_FRAME if k in expected] + (["depth"] if "depth" in arrays else []):
         if arrays[k].ndim == 0 or len(arrays[k]) != n:
@@ -444,7 +468,8 @@ def load_sequence(
         name=name,
         world=entry["world"],
         depth=arrays.get("depth"),
-        **{k: arrays[k] for k in expected},
+        images=arrays.get("images"),
+        **{k: arrays[k] for k in expected if k != "images"},
     )
 
 
@@ -466,7 +491,9 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
     ground_truth = bool(meta.get("ground_truth", True))
     manifolds = len(meta["manifolds"]) if "manifolds" in meta else None
     seqs = {
-        name: load_sequence(directory, name, entry, verify, ground_truth, manifolds)
+        name: load_sequence(
+            directory, name, entry, verify, ground_truth, manifolds, meta.get("camera", True)
+        )
         for name, entry in meta["sequences"].items()
     }
     return Dataset(directory, meta, seqs)

@@ -14,6 +14,10 @@ The alignment rule: a scan at stamp ``t`` becomes a frame when an image lies wit
 bracket ``t`` at most ``odom_max_gap`` apart (the pose is interpolated linearly between them,
 yaw unwrapped; nothing is extrapolated). Of those, a frame is kept when the robot has moved
 ``min_travel`` or turned ``min_turn`` since the last kept frame (either at 0 keeps every one).
+Without an image topic (``image_topic=None``: a robot with a laser and wheel odometry only)
+every scan with odometry around it is a candidate frame, and the dataset has no images
+(``"camera": false`` in ``meta.json``); the laser grouping runs on it, the methods on images
+say that the camera is missing.
 ``odometry`` is the laser's pose: the robot's odometry composed with ``laser_offset``;
 ``commands`` are the odometry's measured velocity (v, omega) at ``t``; ``times`` are seconds
 since the sequence's first frame. There is no ground truth: no ``poses`` or ``labels``.
@@ -59,9 +63,11 @@ class ImportSettings:
 
     Parameters
     ----------
-    scan_topic, image_topic, odom_topic : str
-        The topics of the ``LaserScan``, ``Image`` (or ``CompressedImage``) and ``Odometry``
-        messages.
+    scan_topic, odom_topic : str
+        The topics of the ``LaserScan`` and ``Odometry`` messages.
+    image_topic : str or None
+        The topic of the ``Image`` (or ``CompressedImage``) messages; None: the robot has no
+        camera, the dataset holds scans and odometry only.
     world : str, default "robot"
         The name of the place the bags were recorded in (the dataset's world).
     image_tolerance : float, default 0.1
@@ -99,7 +105,7 @@ class ImportSettings:
     """
 
     scan_topic: str
-    image_topic: str
+    image_topic: str | None
     odom_topic: str
     world: str = "robot"
     image_tolerance: float = 0.1
@@ -110,8 +116,12 @@ class ImportSettings:
 
     def __post_init__(self):
         for name in ("scan_topic", "image_topic", "odom_topic", "world"):
-            if not isinstance(getattr(self, name), str) or not getattr(self, name):
-                raise ValueError(f"{name} must be a non-empty string, got {getattr(self, name)!r}")
+            value = getattr(self, name)
+            if name == "image_topic" and value is None:
+                continue
+            if not isinstance(value, str) or not value:
+                optional = " (or None: no camera)" if name == "image_topic" else ""
+                raise ValueError(f"{name} must be a non-empty string{optional}, got {value!r}")
         for name in ("image_tolerance", "odom_max_gap"):
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ValueError(f"{name} must be a number > 0, got {getattr(self, name)}")
@@ -155,6 +165,8 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
         ("image", settings.image_topic, IMAGE_TYPES, "--image-topic"),
         ("odom", settings.odom_topic, ODOM_TYPES, "--odom-topic"),
     ):
+        if topic is None:  # no camera
+            continue
         if topic not in topics:
             have = ", ".join(f"{t} ({i.msgtype})" for t, i in sorted(topics.items())) or "none"
             raise RosbagImportError(f"{bag}: no topic {topic!r} ({flag}); its topics: {have}")
@@ -190,7 +202,8 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
 
     bag = Path(bag)
     _check_bag_path(bag)
-    scans, images, odom = (_Stream(bag, t) for t in (settings.scan_topic, settings.image_topic,
+    scans, images, odom = (_Stream(bag, t) for t in (settings.scan_topic,
+                                                      settings.image_topic or "no camera",
                                                       settings.odom_topic))  # fmt: skip
     try:
         with AnyReader([bag], default_typestore=get_typestore(Stores.LATEST)) as reader:
@@ -225,13 +238,16 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
                     else:
                         odom.add(i, stamp_ns(msg), odometry_values(msg, where))
                     bar.update()
-            for stream, least in ((scans, 1), (images, 1), (odom, 2)):
+            camera = settings.image_topic is not None
+            for stream, least in ((scans, 1), (images, int(camera)), (odom, 2)):
                 if len(stream.stamps) < least:
                     raise RosbagImportError(
                         f"{stream.where}: {len(stream.stamps)} messages; at least {least} needed"
                     )
             frames, image_index, dropped = _align(scans, images, odom, settings)
-            pictures = _read_images(reader, conns["image"], image_index, bag, settings)
+            pictures = (
+                _read_images(reader, conns["image"], image_index, bag, settings) if camera else None
+            )
     except (AnyReaderError, OSError) as err:  # OSError: files missing or unreadable
         raise RosbagImportError(f"{bag}: cannot be read as a ROS bag ({err})") from err
     n_beams, angle_min, inc, range_max, angle_max = geometry
@@ -257,6 +273,9 @@ def _align(scans: _Stream, images: _Stream, odom: _Stream, settings: ImportSetti
     """Which scans become frames, their image (index into the image topic), odometry and
     velocity; and how many scans were dropped, by reason."""
     t = np.asarray(scans.stamps, dtype=np.int64)
+    if not images.stamps:  # no camera: every scan may be a frame
+        images = _Stream(Path("no camera"), "no camera")
+        images.stamps = scans.stamps
     t_img = np.asarray(images.stamps, dtype=np.int64)
     t_odo = np.asarray(odom.stamps, dtype=np.int64)
     o = np.asarray(odom.values, dtype=np.float64)
@@ -366,13 +385,12 @@ def import_rosbags(
         same_beams = arrays["angles"].shape == first["angles"].shape and np.allclose(
             arrays["angles"], first["angles"]
         )
-        same_size = arrays["images"].shape[1:] == first["images"].shape[1:]
-        if not (same_beams and same_size):
+        size, first_size = (_image_size(a) for a in (arrays, first))
+        if not (same_beams and size == first_size):
             raise RosbagImportError(
-                f"{bag}: its scans ({len(arrays['angles'])} beams) or images "
-                f"({arrays['images'].shape[1:]}) differ from {first_bag.name}'s "
-                f"({len(first['angles'])} beams, {first['images'].shape[1:]}); import the bags "
-                "of one robot setup together"
+                f"{bag}: its scans ({len(arrays['angles'])} beams) or images ({size}) differ "
+                f"from {first_bag.name}'s ({len(first['angles'])} beams, {first_size}); import "
+                "the bags of one robot setup together"
             )
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp"))
@@ -393,8 +411,12 @@ def import_rosbags(
     return out
 
 
+def _image_size(arrays: dict) -> tuple | None:
+    return None if arrays["images"] is None else arrays["images"].shape[1:]
+
+
 def _write(directory: Path, seqs: dict, settings: ImportSettings, first: dict) -> None:
-    h, w = first["images"].shape[1:3]
+    camera = first["images"] is not None
     angles = first["angles"]
     meta = {
         "format": ds.FORMAT_NAME,
@@ -409,17 +431,21 @@ def _write(directory: Path, seqs: dict, settings: ImportSettings, first: dict) -
                 "fov": float(angles[-1] - angles[0]),
                 "max_range": max(a["range_max"] for _, a in seqs.values()),
             },
-            "camera": {"width": int(w), "height": int(h)},
+            "camera": (
+                {"width": int(first["images"].shape[2]), "height": int(first["images"].shape[1])}
+                if camera
+                else None
+            ),
         },
+        "camera": camera,
         "manifolds": [],
         "sequences": {},
         "complete": False,
     }
     for name, (bag, arrays) in seqs.items():
         file = f"{name}.npz"
-        data = {
-            k: arrays[k] for k in ("images", "scans", "angles", "odometry", "commands", "times")
-        }
+        keys = ("images", "scans", "angles", "odometry", "commands", "times")
+        data = {k: arrays[k] for k in keys if arrays[k] is not None}
         meta["sequences"][name] = {
             "file": file,
             "world": settings.world,
