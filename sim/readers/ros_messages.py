@@ -10,12 +10,20 @@
   padded, ``step``) and ``sensor_msgs/CompressedImage`` (JPEG, PNG: whatever OpenCV decodes):
   RGB uint8, grey repeated in the three channels.
 - ``nav_msgs/Odometry``: x, y, yaw (from the quaternion, about z), v (twist linear x) and
-  omega (twist angular z), all finite (a NaN or infinite value is refused).
+  omega (twist angular z), all finite (a NaN or infinite value is refused), within
+  :mod:`common.bounds`, with an orientation quaternion that is not all zeros.
+
+Also here: :class:`Stream`, one topic's messages in stamp order, and :func:`damage_errors`,
+what a damaged bag raises beneath rosbags (each becomes a :class:`RosbagImportError`).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+
+from common.bounds import MAX_RANGE, angle_problem, command_problem, pose_problem
 
 ENCODINGS = {"rgb8": (3, None), "bgr8": (3, [2, 1, 0]), "rgba8": (4, None)}
 ENCODINGS |= {"bgra8": (4, [2, 1, 0]), "mono8": (1, None)}  # channels, reorder to RGB
@@ -48,6 +56,16 @@ def odometry_values(msg, where: str) -> tuple[float, float, float, float, float]
             f"{where}: odometry must be finite, got position ({p.position.x}, {p.position.y}), "
             f"orientation {quaternion}, velocity (linear.x {t.linear.x}, angular.z {t.angular.z})"
         )
+    if np.hypot.reduce(np.asarray(quaternion, dtype=float)) < 1e-6:  # no rotation at all
+        raise RosbagImportError(
+            f"{where}: the orientation quaternion is {quaternion}, of length 0; a rotation "
+            "has length 1 (identity: x = y = z = 0, w = 1)"
+        )
+    problem = pose_problem(values[:3], "odometry pose") or command_problem(
+        values[3:], "odometry velocity"
+    )
+    if problem:
+        raise RosbagImportError(f"{where}: {problem}")
     return values
 
 
@@ -65,8 +83,18 @@ def scan_geometry(msg, where: str) -> tuple[int, float, float, float, float]:
             f"{where}: {n} ranges, but angle_min {msg.angle_min:.6f}, angle_max "
             f"{msg.angle_max:.6f} and angle_increment {inc:.6f} rad give {span:.1f} beams"
         )
-    if not (np.isfinite(msg.range_max) and msg.range_max > 0):
-        raise RosbagImportError(f"{where}: range_max must be finite and > 0, got {msg.range_max}")
+    if not (np.isfinite(msg.range_max) and 0 < msg.range_max <= MAX_RANGE):
+        raise RosbagImportError(
+            f"{where}: range_max must be in (0, {MAX_RANGE:g}] m, got {msg.range_max}"
+        )
+    if not (np.isfinite(msg.range_min) and msg.range_min < msg.range_max):
+        raise RosbagImportError(
+            f"{where}: range_min {msg.range_min} is not below range_max {msg.range_max}, so "
+            "every reading would be invalid"
+        )
+    problem = angle_problem([msg.angle_min, msg.angle_max], "angle_min, angle_max")
+    if problem:
+        raise RosbagImportError(f"{where}: {problem}")
     return n, float(msg.angle_min), inc, float(msg.range_max), float(msg.angle_max)
 
 
@@ -103,3 +131,49 @@ def decode_image(msg, msgtype: str, where: str) -> np.ndarray:
     if channels == 1:
         return np.repeat(img, 3, axis=2)
     return np.ascontiguousarray(img[..., order or [0, 1, 2]])
+
+
+class Stream:
+    """One topic's stamps (checked to increase) and per-message values."""
+
+    def __init__(self, bag: Path, topic: str):
+        self.where, self.stamps, self.values = f"{bag.name}: {topic}", [], []
+
+    def add(self, index: int, stamp: int, value) -> None:
+        if self.stamps and stamp == self.stamps[-1]:
+            raise RosbagImportError(
+                f"{self.where} message {index}: the same stamp {stamp / 1e9:.9f} s as the "
+                "previous message; two messages of one topic cannot share a stamp. If the bag "
+                "was written from a log with few digits (stamps rounded to microseconds or "
+                "coarser), write it again with full nanosecond stamps, or leave out the "
+                "repeated messages (e.g. `rosbag filter` / `ros2 bag convert`)"
+            )
+        if self.stamps and stamp < self.stamps[-1]:
+            raise RosbagImportError(
+                f"{self.where} message {index}: stamp {stamp / 1e9:.9f} s is not after the "
+                f"previous message's {self.stamps[-1] / 1e9:.9f} s (timestamps out of order)"
+            )
+        self.stamps.append(stamp)
+        self.values.append(value)
+
+
+def damage_errors() -> tuple[type[BaseException], ...]:
+    """What rosbags and the libraries under it raise on a damaged bag: its readers' own
+    errors, SQLite's (ROS 2 ``.db3``), and the plain errors of a truncated record, a corrupt
+    index or a message definition whose type names are damaged."""
+    import sqlite3
+    import struct
+    import zlib
+
+    from rosbags.rosbag1 import ReaderError as Ros1Error
+    from rosbags.rosbag2 import ReaderError as Ros2Error
+
+    errors = [Ros1Error, Ros2Error, sqlite3.Error, OSError, EOFError, struct.error, zlib.error]
+    errors += [KeyError, IndexError, ValueError, AssertionError, TypeError, AttributeError]
+    try:
+        import apsw  # rosbags' SQLite binding, where installed
+    except ImportError:
+        pass
+    else:
+        errors.append(apsw.Error)
+    return tuple(errors)

@@ -44,6 +44,8 @@ from common.geometry import se2_compose, wrap_angle
 from sim import dataset as ds
 from sim.readers.ros_messages import (
     RosbagImportError,
+    Stream,
+    damage_errors,
     decode_image,
     odometry_values,
     scan_geometry,
@@ -132,30 +134,6 @@ class ImportSettings:
             raise ValueError(f"laser_offset must be 3 finite numbers, got {self.laser_offset}")
 
 
-class _Stream:
-    """One topic's stamps (checked to increase) and per-message values."""
-
-    def __init__(self, bag: Path, topic: str):
-        self.where, self.stamps, self.values = f"{bag.name}: {topic}", [], []
-
-    def add(self, index: int, stamp: int, value) -> None:
-        if self.stamps and stamp == self.stamps[-1]:
-            raise RosbagImportError(
-                f"{self.where} message {index}: the same stamp {stamp / 1e9:.9f} s as the "
-                "previous message; two messages of one topic cannot share a stamp. If the bag "
-                "was written from a log with few digits (stamps rounded to microseconds or "
-                "coarser), write it again with full nanosecond stamps, or leave out the "
-                "repeated messages (e.g. `rosbag filter` / `ros2 bag convert`)"
-            )
-        if self.stamps and stamp < self.stamps[-1]:
-            raise RosbagImportError(
-                f"{self.where} message {index}: stamp {stamp / 1e9:.9f} s is not after the "
-                f"previous message's {self.stamps[-1] / 1e9:.9f} s (timestamps out of order)"
-            )
-        self.stamps.append(stamp)
-        self.values.append(value)
-
-
 def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
     """The connection of each stream, checked for the expected message type."""
     topics = reader.topics
@@ -202,7 +180,7 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
 
     bag = Path(bag)
     _check_bag_path(bag)
-    scans, images, odom = (_Stream(bag, t) for t in (settings.scan_topic,
+    scans, images, odom = (Stream(bag, t) for t in (settings.scan_topic,
                                                       settings.image_topic or "no camera",
                                                       settings.odom_topic))  # fmt: skip
     try:
@@ -248,17 +226,28 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
             pictures = (
                 _read_images(reader, conns["image"], image_index, bag, settings) if camera else None
             )
-    except (AnyReaderError, OSError) as err:  # OSError: files missing or unreadable
-        raise RosbagImportError(f"{bag}: cannot be read as a ROS bag ({err})") from err
+    except RosbagImportError:
+        raise
+    except (AnyReaderError, *damage_errors()) as err:  # OSError: files missing or unreadable
+        raise RosbagImportError(
+            f"{bag}: cannot be read as a ROS bag ({type(err).__name__}: {err})"
+        ) from err
     n_beams, angle_min, inc, range_max, angle_max = geometry
     if abs((angle_max - angle_min) / inc + 1 - n_beams) < 0.5:  # both ends: float32 inc drifts
         angles = np.linspace(angle_min, angle_max, n_beams)
     else:
         angles = angle_min + inc * np.arange(n_beams)
     stamps = np.asarray(scans.stamps, dtype=np.int64)[frames["scan"]]
+    ranges = np.stack([scans.values[k] for k in frames["scan"]]).astype(np.float32)
+    if not np.isfinite(ranges).any():
+        raise RosbagImportError(
+            f"{scans.where}: no beam of any of the {len(ranges)} frames has a return (every "
+            "reading is NaN, infinite, below range_min or at or beyond range_max); check "
+            "range_min and range_max"
+        )
     return {
         "images": pictures,
-        "scans": np.stack([scans.values[k] for k in frames["scan"]]).astype(np.float32),
+        "scans": ranges,
         "angles": angles.astype(np.float32),
         "odometry": frames["odometry"],
         "commands": frames["commands"],
@@ -269,12 +258,12 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
     }
 
 
-def _align(scans: _Stream, images: _Stream, odom: _Stream, settings: ImportSettings):
+def _align(scans: Stream, images: Stream, odom: Stream, settings: ImportSettings):
     """Which scans become frames, their image (index into the image topic), odometry and
     velocity; and how many scans were dropped, by reason."""
     t = np.asarray(scans.stamps, dtype=np.int64)
     if not images.stamps:  # no camera: every scan may be a frame
-        images = _Stream(Path("no camera"), "no camera")
+        images = Stream(Path("no camera"), "no camera")
         images.stamps = scans.stamps
     t_img = np.asarray(images.stamps, dtype=np.int64)
     t_odo = np.asarray(odom.stamps, dtype=np.int64)
@@ -396,7 +385,13 @@ def import_rosbags(
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp"))
     try:
         _write(tmp, seqs, settings, first)
-        ds.load_dataset(tmp)  # the reader's own checks on what was written
+        try:
+            ds.load_dataset(tmp)  # the reader's own checks on what was written
+        except ds.DatasetError as err:
+            names = ", ".join(bag.name for bag, _ in seqs.values())
+            raise RosbagImportError(
+                f"{names}: imported data fail the dataset's checks: {err}"
+            ) from err
         if out.exists():
             old = out.with_name(f".{out.name}.old")
             shutil.rmtree(old, ignore_errors=True)
