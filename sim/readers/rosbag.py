@@ -168,6 +168,15 @@ def _check_bag_path(bag: Path) -> None:
             f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "
             ".bag file)"
         )
+    if bag.is_file() and bag.suffix != ".bag":
+        with open(bag, "rb") as f:
+            ros1 = f.read(13) == b"#ROSBAG V2.0\n"
+        raise RosbagImportError(
+            f"{bag}: "
+            + ("a ROS 1 bag, but" if ros1 else "a file, so not a ROS 2 bag (a directory), and")
+            + " without the .bag suffix, by which the reader knows a ROS 1 bag: rename it to "
+            f"{bag.name}.bag (or link it under that name)"
+        )
 
 
 def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = True) -> dict:

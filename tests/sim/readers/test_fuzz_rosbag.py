@@ -96,3 +96,9 @@ def test_settings_without_a_camera_still_need_a_laser():
     assert laser_only.image_topic is None
     with pytest.raises(ValueError, match="scan_topic must be a non-empty string"):
         dataclasses.replace(laser_only, scan_topic=None)
+
+
+def test_a_ros1_bag_without_its_suffix_says_to_rename_it(tmp_path):
+    bag = write_bag(tmp_path / "drive.bag", _tiny_drive(), ros=1)
+    renamed = bag.rename(tmp_path / "drive")
+    _refused(tmp_path, renamed, match=r"a ROS 1 bag, but without the .bag suffix.*drive.bag")
