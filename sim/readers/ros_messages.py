@@ -13,8 +13,9 @@
   omega (twist angular z), all finite (a NaN or infinite value is refused), within
   :mod:`common.bounds`, with an orientation quaternion that is not all zeros.
 
-Also here: :class:`Stream`, one topic's messages in stamp order, and :func:`damage_errors`,
-what a damaged bag raises beneath rosbags (each becomes a :class:`RosbagImportError`).
+Also here: :class:`Stream`, one topic's messages in stamp order, :func:`damage_errors`, what
+a damaged bag raises beneath rosbags (each becomes a :class:`RosbagImportError`),
+:func:`check_bag_path` and :func:`read_images`, the second pass over the image topic.
 """
 
 from __future__ import annotations
@@ -177,3 +178,44 @@ def damage_errors() -> tuple[type[BaseException], ...]:
     else:
         errors.append(apsw.Error)
     return tuple(errors)
+
+
+def check_bag_path(bag: Path) -> None:
+    """Refuse a path that is no bag: missing, or a directory without a ROS 2 bag's
+    ``metadata.yaml`` (an empty directory, say)."""
+    if not bag.exists():
+        raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
+    if bag.is_dir() and not (bag / "metadata.yaml").is_file():
+        raise RosbagImportError(
+            f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "
+            ".bag file)"
+        )
+    if bag.is_file() and bag.suffix != ".bag":
+        with open(bag, "rb") as f:
+            ros1 = f.read(13) == b"#ROSBAG V2.0\n"
+        raise RosbagImportError(
+            f"{bag}: "
+            + ("a ROS 1 bag, but" if ros1 else "a file, so not a ROS 2 bag (a directory), and")
+            + " without the .bag suffix, by which the reader knows a ROS 1 bag: rename it to "
+            f"{bag.name}.bag (or link it under that name)"
+        )
+
+
+def read_images(reader, conns, image_index: np.ndarray, bag: Path, settings) -> np.ndarray:
+    """Decode the images the frames use (a second pass over the image topic only)."""
+    needed = set(image_index.tolist())
+    decoded, shape = {}, None
+    for i, (conn, _, raw) in enumerate(reader.messages(connections=conns)):
+        if i not in needed:
+            continue
+        where = f"{bag.name}: {settings.image_topic} message {i}"
+        img = decode_image(reader.deserialize(raw, conn.msgtype), conn.msgtype, where)
+        if shape is None:
+            shape = img.shape
+        elif img.shape != shape:
+            raise RosbagImportError(
+                f"{where}: image is {img.shape[1]}x{img.shape[0]}, the earlier ones "
+                f"{shape[1]}x{shape[0]} (images of changing size)"
+            )
+        decoded[i] = img
+    return np.stack([decoded[i] for i in image_index.tolist()])

@@ -22,9 +22,11 @@ say that the camera is missing.
 ``commands`` are the odometry's measured velocity (v, omega) at ``t``; ``times`` are seconds
 since the sequence's first frame. There is no ground truth: no ``poses`` or ``labels``.
 
-Bad input is refused with an error naming the bag, topic and message: a missing topic (the bag's
-topics are listed), another message type, a scan whose range count disagrees with its angles,
-scans or images that change shape, stamps that go backwards. The dataset is built in a temporary
+Bad input is refused with an error naming the bag, topic and message: a damaged bag (whatever
+rosbags or SQLite raise becomes a ``RosbagImportError``), a missing topic (the bag's topics are
+listed), another message type, a scan whose range count disagrees with its angles, scans or
+images that change shape, stamps that repeat or go backwards, values beyond
+:mod:`common.bounds`, bags in which no beam has a return. The dataset is built in a temporary
 directory beside ``out`` and renamed into place when complete: nothing half-written is left.
 """
 
@@ -45,9 +47,10 @@ from sim import dataset as ds
 from sim.readers.ros_messages import (
     RosbagImportError,
     Stream,
+    check_bag_path,
     damage_errors,
-    decode_image,
     odometry_values,
+    read_images,
     scan_geometry,
     scan_ranges,
     stamp_ns,
@@ -158,27 +161,6 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
     return out
 
 
-def _check_bag_path(bag: Path) -> None:
-    """Refuse a path that is no bag: missing, or a directory without a ROS 2 bag's
-    ``metadata.yaml`` (an empty directory, say)."""
-    if not bag.exists():
-        raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
-    if bag.is_dir() and not (bag / "metadata.yaml").is_file():
-        raise RosbagImportError(
-            f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "
-            ".bag file)"
-        )
-    if bag.is_file() and bag.suffix != ".bag":
-        with open(bag, "rb") as f:
-            ros1 = f.read(13) == b"#ROSBAG V2.0\n"
-        raise RosbagImportError(
-            f"{bag}: "
-            + ("a ROS 1 bag, but" if ros1 else "a file, so not a ROS 2 bag (a directory), and")
-            + " without the .bag suffix, by which the reader knows a ROS 1 bag: rename it to "
-            f"{bag.name}.bag (or link it under that name)"
-        )
-
-
 def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = True) -> dict:
     """One bag's aligned frames: the arrays of one dataset sequence (see the module
     docstring), plus ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans left out, by
@@ -188,7 +170,7 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
     from tqdm.auto import tqdm
 
     bag = Path(bag)
-    _check_bag_path(bag)
+    check_bag_path(bag)
     scans, images, odom = (Stream(bag, t) for t in (settings.scan_topic,
                                                       settings.image_topic or "no camera",
                                                       settings.odom_topic))  # fmt: skip
@@ -233,7 +215,7 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
                     )
             frames, image_index, dropped = _align(scans, images, odom, settings)
             pictures = (
-                _read_images(reader, conns["image"], image_index, bag, settings) if camera else None
+                read_images(reader, conns["image"], image_index, bag, settings) if camera else None
             )
     except RosbagImportError:
         raise
@@ -325,26 +307,6 @@ def _spaced(pose: np.ndarray, min_travel: float, min_turn: float) -> np.ndarray:
         if moved >= min_travel or turned >= min_turn:
             keep.append(i)
     return np.asarray(keep, dtype=int)
-
-
-def _read_images(reader, conns, image_index: np.ndarray, bag: Path, settings) -> np.ndarray:
-    """Decode the images the frames use (a second pass over the image topic only)."""
-    needed = set(image_index.tolist())
-    decoded, shape = {}, None
-    for i, (conn, _, raw) in enumerate(reader.messages(connections=conns)):
-        if i not in needed:
-            continue
-        where = f"{bag.name}: {settings.image_topic} message {i}"
-        img = decode_image(reader.deserialize(raw, conn.msgtype), conn.msgtype, where)
-        if shape is None:
-            shape = img.shape
-        elif img.shape != shape:
-            raise RosbagImportError(
-                f"{where}: image is {img.shape[1]}x{img.shape[0]}, the earlier ones "
-                f"{shape[1]}x{shape[0]} (images of changing size)"
-            )
-        decoded[i] = img
-    return np.stack([decoded[i] for i in image_index.tolist()])
 
 
 def import_rosbags(
