@@ -56,6 +56,27 @@ def test_reads_flaser_plain_and_gzip(tmp_path, gz):
     assert read_carmen(write(tmp_path, lines[2:])).max_range == 6.0
 
 
+def test_the_three_maximum_range_sources_are_told_apart(tmp_path):
+    # The PARAM (8 m) is larger than every reading (at most 6 m, a log with no no-return):
+    # the PARAM wins; without it, the largest reading; ROBOTLASER1's own field beats both
+    scans = [flaser([1.0, 2.0, 6.0]), flaser([1.5, 2.5, 3.5], t=11.0)]
+    param = "PARAM robot_front_laser_max 8.0 nohost 0"
+    assert read_carmen(write(tmp_path, [param, *scans]), message="FLASER").max_range == 8.0
+    # a PARAM after the scans counts too; another PARAM's value does not
+    other = "PARAM robot_rear_laser_max 30.0 nohost 0"
+    assert read_carmen(write(tmp_path, [other, *scans, param])).max_range == 8.0
+    assert read_carmen(write(tmp_path, [other, *scans])).max_range == 6.0
+    # a PARAM smaller than a reading still names the sensor's range (the reading is then a
+    # no-return, whatever it says)
+    small = "PARAM robot_front_laser_max 5.0 nohost 0"
+    assert read_carmen(write(tmp_path, [small, *scans])).max_range == 5.0
+    # the override beats the PARAM
+    assert read_carmen(write(tmp_path, [param, *scans]), max_range=7.5).max_range == 7.5
+    # ROBOTLASER1 states its own (9 m), beating the PARAM and the largest reading (3 m)
+    lines = [param, robotlaser([1.0, 2.0, 3.0], max_range=9.0)]
+    assert read_carmen(write(tmp_path, lines)).max_range == 9.0
+
+
 def test_reads_robotlaser_with_its_own_geometry(tmp_path):
     lines = [flaser([1.0, 1.0, 1.0, 1.0]), robotlaser([1.0, 2.0, 3.0, 8.0])]
     log = read_carmen(write(tmp_path, lines))  # auto prefers ROBOTLASER1
