@@ -8,8 +8,8 @@ import numpy as np
 from scripts.grouping import local_maps as elm
 
 
-def test_local_maps_on_a_slice_of_a_real_log(tmp_path, aces_log):
-    ((tag, (scans, truth, odometry, groups)),) = elm.carmen_cases([aces_log]).items()
+def test_local_maps_on_a_slice_of_a_real_log(tmp_path, aces_slice_log):
+    ((tag, (scans, truth, odometry, groups)),) = elm.carmen_cases([aces_slice_log]).items()
     n = 90
     cases = {tag: (scans[:n], truth[:n], odometry[:n], groups[:n])}
     result = elm.evaluate_cases(cases, tmp_path, progress=False)

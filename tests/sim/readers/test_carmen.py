@@ -138,6 +138,35 @@ def test_the_radish_logs(aces_log, csail_log):
     np.testing.assert_array_equal(aces.poses, aces.odometry)
 
 
+def test_the_shipped_slice_of_a_real_log(aces_slice_log):
+    # every third scan of the ACES log: no robot_front_laser_max PARAM, so the largest reading
+    # (Carmen's no-return value) is the maximum range
+    log = read_carmen(aces_slice_log)
+    assert log.message == "FLASER" and log.ranges.shape == (147, 180)
+    assert log.max_range == 50.0 and log.ranges.max() == 50.0
+    assert 0.0 < np.median(log.ranges) < 50.0
+    np.testing.assert_allclose(log.angles[[0, -1]], [-np.pi / 2, np.pi / 2])
+    np.testing.assert_array_equal(log.poses, log.odometry)  # corrected: pose repeated
+    assert np.all(np.diff(log.timestamps) > 0)
+    # the route: about 300 m, in steps of at most a few metres between the kept scans
+    steps = np.hypot(*np.diff(log.poses[:, :2], axis=0).T)
+    assert steps.max() < 4.0 and 250.0 < steps.sum() < 400.0
+    np.testing.assert_array_equal(log.line_numbers[:2], [7, 8])  # 6 header lines
+
+
+def test_the_shipped_slice_is_the_full_log_thinned(aces_slice_log, aces_log):
+    with gzip.open(aces_log, "rt") as f:
+        full = f.read().splitlines()
+    with gzip.open(aces_slice_log, "rt") as f:
+        thin = f.read().splitlines()
+    scans = [line for line in full if line.startswith("FLASER")]
+    header = [line for line in full if line.startswith(("#", "PARAM"))]
+    assert thin == header + scans[::3]
+    np.testing.assert_array_equal(
+        read_carmen(aces_slice_log).ranges, read_carmen(aces_log).ranges[::3]
+    )
+
+
 def test_scans_without_beams_or_angle_step_are_refused(tmp_path):
     # FLASER 0 failed in numpy ("zero-size array"), ROBOTLASER1 0 gave ranges of shape (1, 0)
     with pytest.raises(CarmenError, match="line 1: FLASER with 0 ranges; need at least 1"):
