@@ -1,8 +1,10 @@
-"""How many cores this process may run on (its CPU affinity, not the machine's core count)."""
+"""How many cores this process may run on (its CPU affinity, not the machine's core count),
+and whether it can start worker processes at all."""
 
 from __future__ import annotations
 
 import os
+import sys
 
 
 def available_cores() -> int:
@@ -11,3 +13,21 @@ def available_cores() -> int:
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))
     return os.cpu_count() or 1
+
+
+def spawn_problem() -> str | None:
+    """Why worker processes started by ``multiprocessing``'s ``"spawn"`` could not run here, or
+    None. A spawned worker imports the main module again, by its module name or by its file:
+    a main module read from standard input (``python - <<EOF``, a notebook's ``%%bash`` cell
+    piping to Python) has the file ``"<stdin>"``, which no worker can import, and every worker
+    dies at start (``BrokenProcessPool``)."""
+    main = sys.modules.get("__main__")
+    if main is None or getattr(getattr(main, "__spec__", None), "name", None):
+        return None  # no main module, or one imported by name (python -m)
+    path = getattr(main, "__file__", None)
+    if path is not None and not os.path.isfile(path):
+        return (
+            f"the main module was read from {path!r}, not from a file, so worker processes "
+            "cannot import it again; save the script to a file and run that to use several"
+        )
+    return None

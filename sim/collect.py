@@ -11,6 +11,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import shutil
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 from functools import lru_cache
@@ -18,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.cores import spawn_problem
 from common.fileio import write_json
 from scenes import World, build_world, names
 from scenes.appearance import check_appearance_mode
@@ -309,6 +311,11 @@ def collect_dataset(
         disable=not progress,
     )
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(todo) or 1))
+    problem = spawn_problem() if jobs > 1 else None
+    if problem:
+        warnings.warn(f"collecting in this process, not in {jobs} workers: {problem}",
+                      stacklevel=2)  # fmt: skip
+        jobs = 1
     try:
         if jobs == 1:
             for index, world, route in todo:

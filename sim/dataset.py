@@ -18,8 +18,14 @@ Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
 
 (*) ground truth: present when ``meta["ground_truth"]`` is true (collected in simulation); a
 dataset imported from a robot's log (:mod:`sim.readers.rosbag`) has ``"ground_truth": false``,
-no ``poses`` or ``labels`` arrays and no manifolds. Schema version 1 (before that key existed)
-is still read, as a dataset with ground truth.
+no ``poses`` or ``labels`` arrays and no manifolds. A dataset of a robot without a camera (a
+laser-only bag) has ``"camera": false`` and no ``images`` arrays (absent: true). Schema
+version 1 (before ``"ground_truth"`` existed) is still read, as a dataset with ground truth.
+
+Reading checks the values too, against :mod:`common.bounds`: finite poses, odometry, commands,
+times and angles within their bounds, times that never go backwards, ranges that are never NaN
+or negative (``+inf``: no return), labels within the manifolds, images and scans that are not
+empty. Anything else raises :class:`DatasetError` naming the file and the array.
 
 Every file is written to a temporary name and renamed, and ``meta.json`` lists a sequence only
 after its file is complete, so an interrupted collection never leaves a half-written sequence.
@@ -36,7 +42,9 @@ from pathlib import Path
 
 import numpy as np
 
+from common import bounds
 from common.fileio import UnreadableJSON, atomic_path, read_json
+from common.npz import UnreadableNpz, read_arrays
 from sim.runs import Runs
 
 SCHEMA_VERSION = 2
@@ -64,8 +72,8 @@ SHAPES = {  # trailing shape per frame (angles: per dataset); -1: any size, chec
     "labels": (),
     "times": (),
 }
-_FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\.npz\Z")
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
+_FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\.npz\Z")  # the file system's limit
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
 GROUND_TRUTH = ("poses", "labels")  # absent from a dataset without ground truth
 
@@ -85,7 +93,8 @@ class Sequence:
     name, world : str
         The sequence's name (e.g. ``"lawn-left"``) and the world (place) it was recorded in.
     images, scans, angles, odometry, commands, times : ndarray
-        The arrays of the dataset format, in its units (the module's description).
+        The arrays of the dataset format, in its units (the module's description); ``images``
+        is None in a dataset without a camera.
     poses, labels : ndarray or None, default None
         The true poses and manifold ids; None without ground truth.
     depth : ndarray or None, default None
@@ -115,7 +124,7 @@ class Sequence:
 
     name: str
     world: str
-    images: np.ndarray
+    images: np.ndarray | None  # None without a camera
     scans: np.ndarray
     angles: np.ndarray
     odometry: np.ndarray
@@ -152,6 +161,8 @@ class Dataset:
         The manifolds' names (label ``i`` is ``manifolds[i]``).
     has_ground_truth : bool
         True poses and manifold labels are recorded (simulated data, not imported logs).
+    has_camera : bool
+        Camera images are recorded (false for a laser-only import).
     max_range : float or None
         The laser's range from the settings, m.
     worlds : list of str
@@ -193,6 +204,11 @@ class Dataset:
         return bool(self.meta.get("ground_truth", True))
 
     @property
+    def has_camera(self) -> bool:
+        """Camera images are recorded (false for a dataset imported without a camera)."""
+        return bool(self.meta.get("camera", True))
+
+    @property
     def max_range(self) -> float | None:
         """The laser's maximum range (m) from the settings; readings at or beyond it are no
         return. None when the settings do not say."""
@@ -209,6 +225,11 @@ class Dataset:
         names = list(self.sequences) if names is None else names
         if field in GROUND_TRUTH and not self.has_ground_truth:
             raise DatasetError(f"{self.path} has no ground truth: no {field!r} to concatenate")
+        if field == "images" and not self.has_camera:
+            raise DatasetError(
+                f"{self.path} has no camera images (imported without an image topic): the "
+                "methods on images need a dataset with a camera; the laser scans are there"
+            )
         return np.concatenate([getattr(self.sequences[n], field) for n in names])
 
     def runs(self, world: str) -> Runs:
@@ -271,7 +292,8 @@ def read_meta(directory: str | os.PathLike) -> dict:
         raise DatasetError(f"{path} must hold a JSON object, got a {type(meta).__name__}")
     if meta.get("format") != FORMAT_NAME:
         raise DatasetError(f"{path} is not a {FORMAT_NAME} (format={meta.get('format')!r})")
-    if meta.get("schema_version") not in READABLE_VERSIONS:
+    version = meta.get("schema_version")
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:  # True == 1 in Python
         raise DatasetError(
             f"{directory} has schema version {meta.get('schema_version')!r}; this code reads "
             f"versions {READABLE_VERSIONS}: collect it again with this version"
@@ -311,6 +333,8 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
     manifolds = meta.get("manifolds", [])
     if not (isinstance(manifolds, list) and all(isinstance(m, str) for m in manifolds)):
         raise DatasetError(f"{path}: 'manifolds' must be a list of names, got {manifolds!r}")
+    if not isinstance(meta.get("camera", True), bool):
+        raise DatasetError(f"{path}: 'camera' must be true or false, got {meta['camera']!r}")
     if not isinstance(meta.get("complete", False), bool):
         raise DatasetError(f"{path}: 'complete' must be true or false, got {meta['complete']!r}")
 
@@ -346,20 +370,59 @@ def read_npz(
     if sha256 is not None and file_sha256(path) != sha256:
         raise error(f"{context}{path} is truncated or modified (checksum mismatch)")
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            return {k: npz[k] for k in npz.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:
+        return read_arrays(path)
+    except UnreadableNpz as err:
         raise error(f"{context}{path} cannot be read ({err})") from err
 
 
+def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str | None:
+    """What is wrong with the values of a sequence's arrays (:mod:`common.bounds`), or None;
+    ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any."""
+    image_shape = arrays["images"].shape[1:] if "images" in arrays else (1, 1, 3)
+    if 0 in image_shape[:2] or len(arrays["angles"]) == 0:
+        return (
+            f"images of shape {image_shape} and scans of {len(arrays['angles'])} beams: "
+            "neither may be empty"
+        )
+    labels = arrays.get("labels")
+    if labels is not None and manifolds is not None and len(labels):
+        low, high = int(labels.min()), int(labels.max())
+        if low < -1 or high >= manifolds:
+            return (
+                f"labels from {low} to {high}, but meta.json has {manifolds} manifolds: a label "
+                f"is -1 (on none) or in 0..{manifolds - 1}"
+            )
+    checks = [
+        ("scans", bounds.range_problem), ("angles", bounds.angle_problem),
+        ("odometry", bounds.pose_problem), ("poses", bounds.pose_problem),
+        ("commands", bounds.command_problem), ("times", bounds.time_problem),
+        ("depth", bounds.range_problem),
+    ]  # fmt: skip
+    for key, check in checks:
+        problem = check(arrays[key], key) if key in arrays else None
+        if problem:
+            return problem
+    return None
+
+
 def load_sequence(
-    directory: Path, name: str, entry: dict, verify: bool = True, ground_truth: bool = True
+    directory: Path,
+    name: str,
+    entry: dict,
+    verify: bool = True,
+    ground_truth: bool = True,
+    manifolds: int | None = None,
+    camera: bool = True,
 ) -> Sequence:
     """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
-    whether ``poses`` and ``labels`` must be there (True) or must not (False)."""
+    whether ``poses`` and ``labels`` must be there (True) or must not (False); ``manifolds``
+    how many manifolds its labels may name (None: not checked); ``camera`` whether ``images``
+    must be there (True) or must not (False)."""
     path = Path(directory) / entry["file"]
     arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
-    expected = [k for k in ARRAYS if ground_truth or k not in GROUND_TRUTH]
+    expected = [
+        k for k in ARRAYS if (ground_truth or k not in GROUND_TRUTH) and (camera or k != "images")
+    ]
     missing = [k for k in expected if k not in arrays]
     if missing:
         raise DatasetError(f"sequence {name!r}: arrays {missing} missing from {path}")
@@ -368,6 +431,9 @@ def load_sequence(
         raise DatasetError(
             f"sequence {name!r}: {path} holds {extra} but meta.json says ground_truth is false"
         )
+    if "images" in arrays and not camera:
+        raise DatasetError(f"sequence {name!r}: {path} holds images but meta.json says camera "
+                           "is false")  # fmt: skip
     n = entry["frames"]
     for k in [k for k in PER_FRAME if k in expected] + (["depth"] if "depth" in arrays else []):
         if arrays[k].ndim == 0 or len(arrays[k]) != n:
@@ -395,11 +461,15 @@ def load_sequence(
             f"sequence {name!r}: scans have {arrays['scans'].shape[1]} beams but angles has "
             f"{len(arrays['angles'])}"
         )
+    problem = _value_problem(arrays, manifolds)
+    if problem:
+        raise DatasetError(f"sequence {name!r}: {path}: {problem}")
     return Sequence(
         name=name,
         world=entry["world"],
         depth=arrays.get("depth"),
-        **{k: arrays[k] for k in expected},
+        images=arrays.get("images"),
+        **{k: arrays[k] for k in expected if k != "images"},
     )
 
 
@@ -419,8 +489,11 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
             "done): rerun the same `topomap collect` command to resume it"
         )
     ground_truth = bool(meta.get("ground_truth", True))
+    manifolds = len(meta["manifolds"]) if "manifolds" in meta else None
     seqs = {
-        name: load_sequence(directory, name, entry, verify, ground_truth)
+        name: load_sequence(
+            directory, name, entry, verify, ground_truth, manifolds, meta.get("camera", True)
+        )
         for name, entry in meta["sequences"].items()
     }
     return Dataset(directory, meta, seqs)

@@ -43,8 +43,8 @@ class Runs:
         The laser's maximum range: the dataset's setting, else the longest return seen.
     odometry : ndarray of shape (N, 3)
         Odometry poses (x, y, yaw), each drive in its own odometry frame.
-    images : ndarray of uint8, shape (N, H, W, 3)
-        The RGB camera frames.
+    images : ndarray of uint8, shape (N, H, W, 3), or None
+        The RGB camera frames; None for drives recorded without a camera.
     times : ndarray of shape (N,)
         Seconds since each drive's start.
     poses : ndarray of shape (N, 3) or None
@@ -60,7 +60,7 @@ class Runs:
     scans: list[np.ndarray]
     max_range: float
     odometry: np.ndarray
-    images: np.ndarray
+    images: np.ndarray | None
     times: np.ndarray
     poses: np.ndarray | None = None
     labels: np.ndarray | None = None
@@ -74,7 +74,8 @@ class Runs:
         worlds = {s.world for s in sequences}
         if len(worlds) != 1:
             raise ValueError(f"sequences of several worlds given: {sorted(worlds)}")
-        for field in ("scans", "images"):
+        camera = all(s.images is not None for s in sequences)
+        for field in ("scans", "images") if camera else ("scans",):
             shapes = {s.name: getattr(s, field).shape[1:] for s in sequences}
             if len(set(shapes.values())) != 1:
                 raise ValueError(f"the sequences' {field} differ in shape: {shapes}")
@@ -94,7 +95,7 @@ class Runs:
             scans=[scan_to_points(r, s.angles, keep_below) for s in sequences for r in s.scans],
             max_range=max_range,
             odometry=np.concatenate([s.odometry for s in sequences]),
-            images=np.concatenate([s.images for s in sequences]),
+            images=np.concatenate([s.images for s in sequences]) if camera else None,
             times=np.concatenate([s.times for s in sequences]),
             poses=np.concatenate([s.poses for s in sequences]) if truth else None,
             labels=np.concatenate([s.labels for s in sequences]).astype(int) if truth else None,

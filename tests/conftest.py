@@ -1,7 +1,8 @@
 """Shared fixtures. Importing ``sim`` first chooses the headless GL backend.
 
 The default dataset is collected once per session into a temp dir, and the servo maps are built
-from it, so every test sees the same data on every machine, whatever lies in out/."""
+from it, so every test sees the same data on every machine, whatever lies in out/. A skip that
+is not on the list in ``tests/skip_policy.py`` fails the run."""
 
 from pathlib import Path
 
@@ -10,6 +11,12 @@ import pytest
 import sim  # noqa: F401  (must come before anything imports mujoco)
 from scenes import build_world
 from sim.datahome import DataHomeError, radish_log
+from tests.skip_policy import (  # noqa: F401  (hooks: a skip not on the list fails the run)
+    pytest_configure,
+    pytest_runtest_logreport,
+    pytest_sessionfinish,
+    pytest_terminal_summary,
+)
 
 
 def radish_or_skip(name: str) -> Path:
@@ -65,3 +72,14 @@ def servo_maps(servo_dataset, map_cache):
     from servo.maps.build import load_or_build
 
     return {w: load_or_build(w, servo_dataset, map_cache) for w in ("hallway", "lawn")}
+
+
+ACES_SLICE = Path(__file__).parent / "data" / "radish" / "aces-every-third-scan.log.gz"
+
+
+@pytest.fixture(scope="session")
+def aces_slice_log() -> Path:
+    """Every third scan of the ACES log, shipped with the tests (``tests/data/radish/``): the
+    real-log tests that need no full log run on it on a fresh clone, with no variable set."""
+    assert ACES_SLICE.is_file(), f"{ACES_SLICE} is missing: it ships with the tests"
+    return ACES_SLICE

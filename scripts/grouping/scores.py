@@ -87,7 +87,8 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
       ground-truth manifolds of the world (without ground truth: the number of groups the scan
       partition found) and Q = min(35, n // (2K)).
 
-    Each entry holds its ``labels`` (one per frame) beside the scores.
+    Each entry holds its ``labels`` (one per frame) beside the scores. Drives without a camera
+    (``runs.images`` None) give the two rows on scans only.
     """
 
     def score(labels):
@@ -102,22 +103,11 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
             "labels": scan_model.labels_,
         }
     }
-    # The image features that reproduce the paper's image result
-    # (docs/guides/manifold-clustering.md).
-    images = ColorHistogramFeatures().fit_transform(runs.images)
-    start = time.perf_counter()
-    W, sigma = knn_gaussian_affinity(images)
-    labels = ObservationGraphPartitioner(affinity="precomputed").fit(W).labels_
-    out["partition/images"] = {
-        **_brief(score(labels), time.perf_counter() - start),
-        "n_neighbors": default_n_neighbors(len(runs)),
-        "sigma": sigma,
-        "labels": labels,
-    }
-    features = {
-        "scans": ScanFeatures(max_range=runs.max_range).fit_transform(runs.ranges),
-        "images": images,
-    }
+    features = {"scans": ScanFeatures(max_range=runs.max_range).fit_transform(runs.ranges)}
+    if runs.images is not None:  # a laser-only robot: the methods on images have no input
+        # The image features that reproduce the paper's image result
+        # (docs/guides/manifold-clustering.md).
+        features["images"] = _partition_images(runs, score, out)
     if runs.has_ground_truth:
         k = len(np.unique(runs.labels[runs.labels >= 0]))
     else:
@@ -133,6 +123,21 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
             "labels": labels,
         }
     return out
+
+
+def _partition_images(runs: Runs, score, out: dict) -> np.ndarray:
+    """The min-Ncut partition of the images' colour histograms into ``out``; returns them."""
+    images = ColorHistogramFeatures().fit_transform(runs.images)
+    start = time.perf_counter()
+    W, sigma = knn_gaussian_affinity(images)
+    labels = ObservationGraphPartitioner(affinity="precomputed").fit(W).labels_
+    out["partition/images"] = {
+        **_brief(score(labels), time.perf_counter() - start),
+        "n_neighbors": default_n_neighbors(len(runs)),
+        "sigma": sigma,
+        "labels": labels,
+    }
+    return images
 
 
 def _brief(score: dict, seconds: float | None = None) -> dict:

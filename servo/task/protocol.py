@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from multiprocessing import get_context
@@ -28,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common.cores import available_cores
+from common.cores import available_cores, spawn_problem
 from common.validation import check_int
 from scenes import MANIFOLDS, WORLDS
 
@@ -268,6 +269,11 @@ def run_protocol(
         name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
         bar = tqdm(total=len(specs), disable=not progress, desc=name)
         records = []
+        problem = spawn_problem() if workers > 1 else None
+        if problem:
+            warnings.warn(f"running the episodes in this process, not in {workers} workers: "
+                          f"{problem}", stacklevel=2)  # fmt: skip
+            workers = 1
         if workers == 1:
             _init_worker(*args)
             try:

@@ -17,6 +17,11 @@ states its own geometry, else ``FLASER``). Every other message (``PARAM``, ``ODO
 comments, ...) carries no scan and is skipped, except ``PARAM robot_front_laser_max``, the
 sensor's maximum range for ``FLASER`` logs. Every line that is read is checked; a bad one stops
 the whole read with a ``CarmenError`` naming the file and the line, so nothing is half-loaded.
+Values no robot records are refused with the bound they break (:mod:`common.bounds`: positions
+within 10^6 m, finite ranges within 10^4 m, beam geometry within a full turn); readings above the
+sensor's maximum range are kept as no-returns (Carmen logs e.g. 81.91 m for a beam without a
+return of a laser whose range is 50 m). Lines are the file's ``\\n``-separated lines, so the
+line numbers are those of ``sed -n`` and editors, whatever other control characters a line holds.
 """
 
 from __future__ import annotations
@@ -24,11 +29,21 @@ from __future__ import annotations
 import gzip
 import math
 import os
+import warnings
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from common.bounds import (
+    FULL_TURN,
+    MAX_RANGE,
+    MAX_TIME,
+    angle_problem,
+    pose_problem,
+    range_problem,
+)
 from common.validation import is_real
 
 __all__ = ["CarmenError", "CarmenLog", "read_carmen"]
@@ -116,9 +131,13 @@ def _open_text(path: Path):
 def _read_lines(path: Path) -> list[str]:
     try:
         with _open_text(path) as f:
-            return f.read().splitlines()
-    except (OSError, EOFError, UnicodeDecodeError) as err:  # gzip errors are OSError/EOFError
+            text = f.read()
+    except (OSError, EOFError, UnicodeDecodeError, zlib.error) as err:  # gzip: all four
         raise CarmenError(f"{path}: cannot read as a (gzip) text Carmen log: {err}") from err
+    # not splitlines(): it also splits at form feeds, vertical tabs and \x1c-\x1e, which would
+    # shift every later line number away from the file's own
+    lines = text.split("\n")
+    return lines[:-1] if lines and lines[-1] == "" else lines
 
 
 def _numbers(path: Path, line_no: int, fields: list[str], what: str) -> np.ndarray:
@@ -167,7 +186,49 @@ def _parse_flaser(path: Path, line_no: int, fields: list[str]) -> dict:
         )
     ranges = _numbers(path, line_no, fields[2 : 2 + n], "range")
     tail = _numbers(path, line_no, fields[2 + n : 2 + n + 7], "pose")
-    return {"ranges": ranges, "pose": tail[:3], "odometry": tail[3:6], "time": tail[6]}
+    scan = {"ranges": ranges, "pose": tail[:3], "odometry": tail[3:6], "time": tail[6]}
+    return _checked(path, line_no, scan)
+
+
+def _checked(path: Path, line_no: int, scan: dict) -> dict:
+    """``scan`` once its ranges, poses and time are within :mod:`common.bounds`."""
+    problem = (
+        range_problem(scan["ranges"])
+        or pose_problem(scan["pose"], "laser pose")
+        or (scan["odometry"] is not None and pose_problem(scan["odometry"], "odometry pose"))
+    )
+    if not problem and abs(scan["time"]) > MAX_TIME:
+        problem = f"timestamp {float(scan['time'])!r} is beyond the bound of {MAX_TIME:g} s"
+    if problem:
+        raise CarmenError(f"{path}, line {line_no}: {problem}")
+    return scan
+
+
+def _check_geometry(path: Path, line_no: int, n: int, head: np.ndarray) -> None:
+    """A ``ROBOTLASER1`` header: start angle within a full turn, angular resolution in (0,
+    2 pi] (0 allowed for one beam), field of view in (0, 2 pi] (0 allowed for one beam) and
+    maximum range in (0, MAX_RANGE]."""
+    start, fov, resolution, max_range = (float(v) for v in head[1:5])
+    if n > 1 and resolution == 0:
+        raise CarmenError(
+            f"{path}, line {line_no}: ROBOTLASER1 angular_resolution is 0, so all {n} beams "
+            "would point the same way; need a non-zero angle between beams"
+        )
+    low = "[0" if n == 1 else "(0"
+    for name, value in (("angular_resolution", resolution), ("field_of_view", fov)):
+        if not (0 <= value <= FULL_TURN and (n == 1 or value > 0)):
+            raise CarmenError(
+                f"{path}, line {line_no}: ROBOTLASER1 {name} {value!r} rad is outside "
+                f"{low}, 2 pi]"
+            )
+    problem = angle_problem(start, "ROBOTLASER1 start_angle")
+    if problem:
+        raise CarmenError(f"{path}, line {line_no}: {problem}")
+    if not 0 < max_range <= MAX_RANGE:
+        raise CarmenError(
+            f"{path}, line {line_no}: ROBOTLASER1 maximum_range {max_range!r} m is outside "
+            f"(0, {MAX_RANGE:g}]"
+        )
 
 
 def _parse_robotlaser(path: Path, line_no: int, fields: list[str]) -> dict:
@@ -182,20 +243,17 @@ def _parse_robotlaser(path: Path, line_no: int, fields: list[str]) -> dict:
             "match its values)"
         )
     head = _numbers(path, line_no, fields[1 : 1 + _ROBOTLASER_HEAD], "header")
-    if n > 1 and head[3] == 0:
-        raise CarmenError(
-            f"{path}, line {line_no}: ROBOTLASER1 angular_resolution is 0, so all {n} beams "
-            "would point the same way; need a non-zero angle between beams"
-        )
+    _check_geometry(path, line_no, n, head)
     ranges = _numbers(path, line_no, fields[2 + _ROBOTLASER_HEAD : at], "range")
     tail = _numbers(path, line_no, fields[at + 1 + m : at + 1 + m + 12], "pose")
-    return {
+    scan = {
         "ranges": ranges,
         "geometry": head[1:5],  # start angle, field of view, resolution, max range
         "pose": tail[:3],
         "odometry": None,
         "time": tail[11],
     }
+    return _checked(path, line_no, scan)
 
 
 def read_carmen(
@@ -223,19 +281,27 @@ def read_carmen(
     Raises
     ------
     CarmenError
-        Naming the file and the line: no scans, a truncated line, a non-numeric field, NaN or
-        infinite ranges or poses, negative ranges, a count that does not match its values, a
-        scan without ranges, a ``ROBOTLASER1`` angular resolution of 0, scans with different
-        numbers of beams or different beam geometry.
+        Naming the file and the line: a damaged file (gzip or text), no scans, a truncated
+        line, a non-numeric field, NaN or infinite ranges, poses or times, negative ranges,
+        values beyond :mod:`common.bounds` (positions beyond 10^6 m, ranges beyond 10^4 m), a
+        count that does not match its values, a scan without ranges, a ``ROBOTLASER1`` angular
+        resolution or field of view outside (0, 2 pi], scans with different numbers of beams
+        or different beam geometry.
+
+    Warns
+    -----
+    UserWarning
+        When the timestamps go backwards somewhere (the scans are kept in file order).
     ValueError
         If ``message`` is unknown or ``max_range`` is not a positive finite number.
     """
     path = Path(path)
     if message not in ("auto", *MESSAGES):
         raise ValueError(f"message must be 'auto' or one of {MESSAGES}, got {message!r}")
-    if max_range is not None and not (is_real(max_range) and 0 < max_range < math.inf):
+    if max_range is not None and not (is_real(max_range) and 0 < max_range <= MAX_RANGE):
         raise ValueError(
-            f"max_range must be None or a positive finite number of metres, got {max_range!r}"
+            f"max_range must be None or a positive finite number of metres (at most "
+            f"{MAX_RANGE:g}), got {max_range!r}"
         )
     lines = _read_lines(path)
     firsts = [line.split(maxsplit=1)[0] if line.strip() else "" for line in lines]
@@ -251,6 +317,11 @@ def read_carmen(
             fields = line.split()
             if len(fields) >= 3 and fields[1] == _MAX_RANGE_PARAM and _is_float(fields[2]):
                 param_max = float(fields[2])
+                if not 0 < param_max <= MAX_RANGE:
+                    raise CarmenError(
+                        f"{path}, line {k}: {_MAX_RANGE_PARAM} {param_max!r} m is outside "
+                        f"(0, {MAX_RANGE:g}]"
+                    )
     if not scans:
         raise CarmenError(f"{path}: no {message} lines, so no scans (lines read: {len(lines)})")
     n_beams = len(scans[0]["ranges"])
@@ -260,8 +331,14 @@ def read_carmen(
                 f"{path}, line {k}: {len(scan['ranges'])} ranges, but line {numbers[0]} has "
                 f"{n_beams}; one log must keep one beam layout"
             )
-        if (scan["ranges"] < 0).any():
-            raise CarmenError(f"{path}, line {k}: negative range")
+    times = np.array([s["time"] for s in scans])
+    back = np.flatnonzero(np.diff(times) < 0)
+    if back.size:
+        warnings.warn(
+            f"{path}, line {numbers[back[0] + 1]}: the timestamp goes backwards ({back.size} "
+            "times in the log); the scans are kept in the order of the file",
+            stacklevel=2,
+        )
     ranges = np.stack([s["ranges"] for s in scans])
     if message == "FLASER":
         # README of the Radish logs: n beams spread evenly from -90 to +90 degrees
@@ -280,8 +357,10 @@ def read_carmen(
         angles = start + resolution * np.arange(n_beams)
         odometry = None
     max_range = float(log_max if max_range is None else max_range)
-    if not (math.isfinite(max_range) and max_range > 0):
-        raise CarmenError(f"{path}: maximum range {max_range!r} is not a positive distance")
+    if not (math.isfinite(max_range) and 0 < max_range <= MAX_RANGE):
+        raise CarmenError(
+            f"{path}: maximum range {max_range!r} is not a distance in (0, {MAX_RANGE:g}] m"
+        )
     return CarmenLog(
         path=path,
         message=message,
@@ -290,6 +369,6 @@ def read_carmen(
         max_range=max_range,
         poses=np.stack([s["pose"] for s in scans]),
         odometry=odometry,
-        timestamps=np.array([s["time"] for s in scans]),
+        timestamps=times,
         line_numbers=np.array(numbers),
     )

@@ -10,15 +10,25 @@
   padded, ``step``) and ``sensor_msgs/CompressedImage`` (JPEG, PNG: whatever OpenCV decodes):
   RGB uint8, grey repeated in the three channels.
 - ``nav_msgs/Odometry``: x, y, yaw (from the quaternion, about z), v (twist linear x) and
-  omega (twist angular z), all finite (a NaN or infinite value is refused).
+  omega (twist angular z), all finite (a NaN or infinite value is refused), within
+  :mod:`common.bounds`, with an orientation quaternion that is not all zeros.
+
+Also here: :class:`Stream`, one topic's messages in stamp order, :func:`damage_errors`, what
+a damaged bag raises beneath rosbags (each becomes a :class:`RosbagImportError`),
+:func:`check_bag_path` and :func:`read_images`, the second pass over the image topic.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+
+from common.bounds import MAX_RANGE, angle_problem, command_problem, pose_problem
 
 ENCODINGS = {"rgb8": (3, None), "bgr8": (3, [2, 1, 0]), "rgba8": (4, None)}
 ENCODINGS |= {"bgra8": (4, [2, 1, 0]), "mono8": (1, None)}  # channels, reorder to RGB
+SPAN_TOLERANCE = 8 * float(np.finfo(np.float32).eps)  # relative, of a scan's span in beams
 
 
 class RosbagImportError(ValueError):
@@ -47,6 +57,16 @@ def odometry_values(msg, where: str) -> tuple[float, float, float, float, float]
             f"{where}: odometry must be finite, got position ({p.position.x}, {p.position.y}), "
             f"orientation {quaternion}, velocity (linear.x {t.linear.x}, angular.z {t.angular.z})"
         )
+    if np.hypot.reduce(np.asarray(quaternion, dtype=float)) < 1e-6:  # no rotation at all
+        raise RosbagImportError(
+            f"{where}: the orientation quaternion is {quaternion}, of length 0; a rotation "
+            "has length 1 (identity: x = y = z = 0, w = 1)"
+        )
+    problem = pose_problem(values[:3], "odometry pose") or command_problem(
+        values[3:], "odometry velocity"
+    )
+    if problem:
+        raise RosbagImportError(f"{where}: {problem}")
     return values
 
 
@@ -56,14 +76,26 @@ def scan_geometry(msg, where: str) -> tuple[int, float, float, float, float]:
     if n == 0 or not np.isfinite(inc) or inc == 0:
         raise RosbagImportError(f"{where}: {n} ranges with angle_increment {inc}")
     span = (float(msg.angle_max) - float(msg.angle_min)) / inc + 1
-    # drivers differ on whether angle_max is the last beam's angle or one increment beyond
-    if abs(span - n) > 1 + 1e-6:
+    # drivers differ on whether angle_max is the last beam's angle or one increment beyond;
+    # the angles are float32, so the span is exact only to a few float32 epsilons of itself
+    # (360 beams with angle_max one increment beyond give 361.000013)
+    if abs(span - n) > 1 + SPAN_TOLERANCE * max(abs(span), 1.0):
         raise RosbagImportError(
             f"{where}: {n} ranges, but angle_min {msg.angle_min:.6f}, angle_max "
             f"{msg.angle_max:.6f} and angle_increment {inc:.6f} rad give {span:.1f} beams"
         )
-    if not (np.isfinite(msg.range_max) and msg.range_max > 0):
-        raise RosbagImportError(f"{where}: range_max must be finite and > 0, got {msg.range_max}")
+    if not (np.isfinite(msg.range_max) and 0 < msg.range_max <= MAX_RANGE):
+        raise RosbagImportError(
+            f"{where}: range_max must be in (0, {MAX_RANGE:g}] m, got {msg.range_max}"
+        )
+    if not (np.isfinite(msg.range_min) and msg.range_min < msg.range_max):
+        raise RosbagImportError(
+            f"{where}: range_min {msg.range_min} is not below range_max {msg.range_max}, so "
+            "every reading would be invalid"
+        )
+    problem = angle_problem([msg.angle_min, msg.angle_max], "angle_min, angle_max")
+    if problem:
+        raise RosbagImportError(f"{where}: {problem}")
     return n, float(msg.angle_min), inc, float(msg.range_max), float(msg.angle_max)
 
 
@@ -100,3 +132,90 @@ def decode_image(msg, msgtype: str, where: str) -> np.ndarray:
     if channels == 1:
         return np.repeat(img, 3, axis=2)
     return np.ascontiguousarray(img[..., order or [0, 1, 2]])
+
+
+class Stream:
+    """One topic's stamps (checked to increase) and per-message values."""
+
+    def __init__(self, bag: Path, topic: str):
+        self.where, self.stamps, self.values = f"{bag.name}: {topic}", [], []
+
+    def add(self, index: int, stamp: int, value) -> None:
+        if self.stamps and stamp == self.stamps[-1]:
+            raise RosbagImportError(
+                f"{self.where} message {index}: the same stamp {stamp / 1e9:.9f} s as the "
+                "previous message; two messages of one topic cannot share a stamp. If the bag "
+                "was written from a log with few digits (stamps rounded to microseconds or "
+                "coarser), write it again with full nanosecond stamps, or leave out the "
+                "repeated messages (e.g. `rosbag filter` / `ros2 bag convert`)"
+            )
+        if self.stamps and stamp < self.stamps[-1]:
+            raise RosbagImportError(
+                f"{self.where} message {index}: stamp {stamp / 1e9:.9f} s is not after the "
+                f"previous message's {self.stamps[-1] / 1e9:.9f} s (timestamps out of order)"
+            )
+        self.stamps.append(stamp)
+        self.values.append(value)
+
+
+def damage_errors() -> tuple[type[BaseException], ...]:
+    """What rosbags and the libraries under it raise on a damaged bag: its readers' own
+    errors, SQLite's (ROS 2 ``.db3``), and the plain errors of a truncated record, a corrupt
+    index or a message definition whose type names are damaged."""
+    import sqlite3
+    import struct
+    import zlib
+
+    from rosbags.rosbag1 import ReaderError as Ros1Error
+    from rosbags.rosbag2 import ReaderError as Ros2Error
+
+    errors = [Ros1Error, Ros2Error, sqlite3.Error, OSError, EOFError, struct.error, zlib.error]
+    errors += [KeyError, IndexError, ValueError, AssertionError, TypeError, AttributeError]
+    try:
+        import apsw  # rosbags' SQLite binding, where installed
+    except ImportError:
+        pass
+    else:
+        errors.append(apsw.Error)
+    return tuple(errors)
+
+
+def check_bag_path(bag: Path) -> None:
+    """Refuse a path that is no bag: missing, or a directory without a ROS 2 bag's
+    ``metadata.yaml`` (an empty directory, say)."""
+    if not bag.exists():
+        raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
+    if bag.is_dir() and not (bag / "metadata.yaml").is_file():
+        raise RosbagImportError(
+            f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "
+            ".bag file)"
+        )
+    if bag.is_file() and bag.suffix != ".bag":
+        with open(bag, "rb") as f:
+            ros1 = f.read(13) == b"#ROSBAG V2.0\n"
+        raise RosbagImportError(
+            f"{bag}: "
+            + ("a ROS 1 bag, but" if ros1 else "a file, so not a ROS 2 bag (a directory), and")
+            + " without the .bag suffix, by which the reader knows a ROS 1 bag: rename it to "
+            f"{bag.name}.bag (or link it under that name)"
+        )
+
+
+def read_images(reader, conns, image_index: np.ndarray, bag: Path, settings) -> np.ndarray:
+    """Decode the images the frames use (a second pass over the image topic only)."""
+    needed = set(image_index.tolist())
+    decoded, shape = {}, None
+    for i, (conn, _, raw) in enumerate(reader.messages(connections=conns)):
+        if i not in needed:
+            continue
+        where = f"{bag.name}: {settings.image_topic} message {i}"
+        img = decode_image(reader.deserialize(raw, conn.msgtype), conn.msgtype, where)
+        if shape is None:
+            shape = img.shape
+        elif img.shape != shape:
+            raise RosbagImportError(
+                f"{where}: image is {img.shape[1]}x{img.shape[0]}, the earlier ones "
+                f"{shape[1]}x{shape[0]} (images of changing size)"
+            )
+        decoded[i] = img
+    return np.stack([decoded[i] for i in image_index.tolist()])

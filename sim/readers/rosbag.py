@@ -14,13 +14,19 @@ The alignment rule: a scan at stamp ``t`` becomes a frame when an image lies wit
 bracket ``t`` at most ``odom_max_gap`` apart (the pose is interpolated linearly between them,
 yaw unwrapped; nothing is extrapolated). Of those, a frame is kept when the robot has moved
 ``min_travel`` or turned ``min_turn`` since the last kept frame (either at 0 keeps every one).
+Without an image topic (``image_topic=None``: a robot with a laser and wheel odometry only)
+every scan with odometry around it is a candidate frame, and the dataset has no images
+(``"camera": false`` in ``meta.json``); the laser grouping runs on it, the methods on images
+say that the camera is missing.
 ``odometry`` is the laser's pose: the robot's odometry composed with ``laser_offset``;
 ``commands`` are the odometry's measured velocity (v, omega) at ``t``; ``times`` are seconds
 since the sequence's first frame. There is no ground truth: no ``poses`` or ``labels``.
 
-Bad input is refused with an error naming the bag, topic and message: a missing topic (the bag's
-topics are listed), another message type, a scan whose range count disagrees with its angles,
-scans or images that change shape, stamps that go backwards. The dataset is built in a temporary
+Bad input is refused with an error naming the bag, topic and message: a damaged bag (whatever
+rosbags or SQLite raise becomes a ``RosbagImportError``), a missing topic (the bag's topics are
+listed), another message type, a scan whose range count disagrees with its angles, scans or
+images that change shape, stamps that repeat or go backwards, values beyond
+:mod:`common.bounds`, bags in which no beam has a return. The dataset is built in a temporary
 directory beside ``out`` and renamed into place when complete: nothing half-written is left.
 """
 
@@ -40,8 +46,11 @@ from common.geometry import se2_compose, wrap_angle
 from sim import dataset as ds
 from sim.readers.ros_messages import (
     RosbagImportError,
-    decode_image,
+    Stream,
+    check_bag_path,
+    damage_errors,
     odometry_values,
+    read_images,
     scan_geometry,
     scan_ranges,
     stamp_ns,
@@ -59,9 +68,11 @@ class ImportSettings:
 
     Parameters
     ----------
-    scan_topic, image_topic, odom_topic : str
-        The topics of the ``LaserScan``, ``Image`` (or ``CompressedImage``) and ``Odometry``
-        messages.
+    scan_topic, odom_topic : str
+        The topics of the ``LaserScan`` and ``Odometry`` messages.
+    image_topic : str or None
+        The topic of the ``Image`` (or ``CompressedImage``) messages; None: the robot has no
+        camera, the dataset holds scans and odometry only.
     world : str, default "robot"
         The name of the place the bags were recorded in (the dataset's world).
     image_tolerance : float, default 0.1
@@ -99,7 +110,7 @@ class ImportSettings:
     """
 
     scan_topic: str
-    image_topic: str
+    image_topic: str | None
     odom_topic: str
     world: str = "robot"
     image_tolerance: float = 0.1
@@ -110,8 +121,12 @@ class ImportSettings:
 
     def __post_init__(self):
         for name in ("scan_topic", "image_topic", "odom_topic", "world"):
-            if not isinstance(getattr(self, name), str) or not getattr(self, name):
-                raise ValueError(f"{name} must be a non-empty string, got {getattr(self, name)!r}")
+            value = getattr(self, name)
+            if name == "image_topic" and value is None:
+                continue
+            if not isinstance(value, str) or not value:
+                optional = " (or None: no camera)" if name == "image_topic" else ""
+                raise ValueError(f"{name} must be a non-empty string{optional}, got {value!r}")
         for name in ("image_tolerance", "odom_max_gap"):
             if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ValueError(f"{name} must be a number > 0, got {getattr(self, name)}")
@@ -120,22 +135,6 @@ class ImportSettings:
                 raise ValueError(f"{name} must be a number >= 0, got {getattr(self, name)}")
         if len(self.laser_offset) != 3 or not np.all(np.isfinite(self.laser_offset)):
             raise ValueError(f"laser_offset must be 3 finite numbers, got {self.laser_offset}")
-
-
-class _Stream:
-    """One topic's stamps (checked to increase) and per-message values."""
-
-    def __init__(self, bag: Path, topic: str):
-        self.where, self.stamps, self.values = f"{bag.name}: {topic}", [], []
-
-    def add(self, index: int, stamp: int, value) -> None:
-        if self.stamps and stamp <= self.stamps[-1]:
-            raise RosbagImportError(
-                f"{self.where} message {index}: stamp {stamp / 1e9:.9f} s is not after the "
-                f"previous message's {self.stamps[-1] / 1e9:.9f} s (timestamps out of order)"
-            )
-        self.stamps.append(stamp)
-        self.values.append(value)
 
 
 def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
@@ -147,6 +146,8 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
         ("image", settings.image_topic, IMAGE_TYPES, "--image-topic"),
         ("odom", settings.odom_topic, ODOM_TYPES, "--odom-topic"),
     ):
+        if topic is None:  # no camera
+            continue
         if topic not in topics:
             have = ", ".join(f"{t} ({i.msgtype})" for t, i in sorted(topics.items())) or "none"
             raise RosbagImportError(f"{bag}: no topic {topic!r} ({flag}); its topics: {have}")
@@ -160,18 +161,6 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
     return out
 
 
-def _check_bag_path(bag: Path) -> None:
-    """Refuse a path that is no bag: missing, or a directory without a ROS 2 bag's
-    ``metadata.yaml`` (an empty directory, say)."""
-    if not bag.exists():
-        raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
-    if bag.is_dir() and not (bag / "metadata.yaml").is_file():
-        raise RosbagImportError(
-            f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "
-            ".bag file)"
-        )
-
-
 def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = True) -> dict:
     """One bag's aligned frames: the arrays of one dataset sequence (see the module
     docstring), plus ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans left out, by
@@ -181,8 +170,9 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
     from tqdm.auto import tqdm
 
     bag = Path(bag)
-    _check_bag_path(bag)
-    scans, images, odom = (_Stream(bag, t) for t in (settings.scan_topic, settings.image_topic,
+    check_bag_path(bag)
+    scans, images, odom = (Stream(bag, t) for t in (settings.scan_topic,
+                                                      settings.image_topic or "no camera",
                                                       settings.odom_topic))  # fmt: skip
     try:
         with AnyReader([bag], default_typestore=get_typestore(Stores.LATEST)) as reader:
@@ -217,24 +207,38 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
                     else:
                         odom.add(i, stamp_ns(msg), odometry_values(msg, where))
                     bar.update()
-            for stream, least in ((scans, 1), (images, 1), (odom, 2)):
+            camera = settings.image_topic is not None
+            for stream, least in ((scans, 1), (images, int(camera)), (odom, 2)):
                 if len(stream.stamps) < least:
                     raise RosbagImportError(
                         f"{stream.where}: {len(stream.stamps)} messages; at least {least} needed"
                     )
             frames, image_index, dropped = _align(scans, images, odom, settings)
-            pictures = _read_images(reader, conns["image"], image_index, bag, settings)
-    except (AnyReaderError, OSError) as err:  # OSError: files missing or unreadable
-        raise RosbagImportError(f"{bag}: cannot be read as a ROS bag ({err})") from err
+            pictures = (
+                read_images(reader, conns["image"], image_index, bag, settings) if camera else None
+            )
+    except RosbagImportError:
+        raise
+    except (AnyReaderError, *damage_errors()) as err:  # OSError: files missing or unreadable
+        raise RosbagImportError(
+            f"{bag}: cannot be read as a ROS bag ({type(err).__name__}: {err})"
+        ) from err
     n_beams, angle_min, inc, range_max, angle_max = geometry
     if abs((angle_max - angle_min) / inc + 1 - n_beams) < 0.5:  # both ends: float32 inc drifts
         angles = np.linspace(angle_min, angle_max, n_beams)
     else:
         angles = angle_min + inc * np.arange(n_beams)
     stamps = np.asarray(scans.stamps, dtype=np.int64)[frames["scan"]]
+    ranges = np.stack([scans.values[k] for k in frames["scan"]]).astype(np.float32)
+    if not np.isfinite(ranges).any():
+        raise RosbagImportError(
+            f"{scans.where}: no beam of any of the {len(ranges)} frames has a return (every "
+            "reading is NaN, infinite, below range_min or at or beyond range_max); check "
+            "range_min and range_max"
+        )
     return {
         "images": pictures,
-        "scans": np.stack([scans.values[k] for k in frames["scan"]]).astype(np.float32),
+        "scans": ranges,
         "angles": angles.astype(np.float32),
         "odometry": frames["odometry"],
         "commands": frames["commands"],
@@ -245,10 +249,13 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
     }
 
 
-def _align(scans: _Stream, images: _Stream, odom: _Stream, settings: ImportSettings):
+def _align(scans: Stream, images: Stream, odom: Stream, settings: ImportSettings):
     """Which scans become frames, their image (index into the image topic), odometry and
     velocity; and how many scans were dropped, by reason."""
     t = np.asarray(scans.stamps, dtype=np.int64)
+    if not images.stamps:  # no camera: every scan may be a frame
+        images = Stream(Path("no camera"), "no camera")
+        images.stamps = scans.stamps
     t_img = np.asarray(images.stamps, dtype=np.int64)
     t_odo = np.asarray(odom.stamps, dtype=np.int64)
     o = np.asarray(odom.values, dtype=np.float64)
@@ -302,26 +309,6 @@ def _spaced(pose: np.ndarray, min_travel: float, min_turn: float) -> np.ndarray:
     return np.asarray(keep, dtype=int)
 
 
-def _read_images(reader, conns, image_index: np.ndarray, bag: Path, settings) -> np.ndarray:
-    """Decode the images the frames use (a second pass over the image topic only)."""
-    needed = set(image_index.tolist())
-    decoded, shape = {}, None
-    for i, (conn, _, raw) in enumerate(reader.messages(connections=conns)):
-        if i not in needed:
-            continue
-        where = f"{bag.name}: {settings.image_topic} message {i}"
-        img = decode_image(reader.deserialize(raw, conn.msgtype), conn.msgtype, where)
-        if shape is None:
-            shape = img.shape
-        elif img.shape != shape:
-            raise RosbagImportError(
-                f"{where}: image is {img.shape[1]}x{img.shape[0]}, the earlier ones "
-                f"{shape[1]}x{shape[0]} (images of changing size)"
-            )
-        decoded[i] = img
-    return np.stack([decoded[i] for i in image_index.tolist()])
-
-
 def import_rosbags(
     bags: SequenceOf[str | os.PathLike],
     out: str | os.PathLike,
@@ -358,19 +345,24 @@ def import_rosbags(
         same_beams = arrays["angles"].shape == first["angles"].shape and np.allclose(
             arrays["angles"], first["angles"]
         )
-        same_size = arrays["images"].shape[1:] == first["images"].shape[1:]
-        if not (same_beams and same_size):
+        size, first_size = (_image_size(a) for a in (arrays, first))
+        if not (same_beams and size == first_size):
             raise RosbagImportError(
-                f"{bag}: its scans ({len(arrays['angles'])} beams) or images "
-                f"({arrays['images'].shape[1:]}) differ from {first_bag.name}'s "
-                f"({len(first['angles'])} beams, {first['images'].shape[1:]}); import the bags "
-                "of one robot setup together"
+                f"{bag}: its scans ({len(arrays['angles'])} beams) or images ({size}) differ "
+                f"from {first_bag.name}'s ({len(first['angles'])} beams, {first_size}); import "
+                "the bags of one robot setup together"
             )
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp"))
     try:
         _write(tmp, seqs, settings, first)
-        ds.load_dataset(tmp)  # the reader's own checks on what was written
+        try:
+            ds.load_dataset(tmp)  # the reader's own checks on what was written
+        except ds.DatasetError as err:
+            names = ", ".join(bag.name for bag, _ in seqs.values())
+            raise RosbagImportError(
+                f"{names}: imported data fail the dataset's checks: {err}"
+            ) from err
         if out.exists():
             old = out.with_name(f".{out.name}.old")
             shutil.rmtree(old, ignore_errors=True)
@@ -385,8 +377,12 @@ def import_rosbags(
     return out
 
 
+def _image_size(arrays: dict) -> tuple | None:
+    return None if arrays["images"] is None else arrays["images"].shape[1:]
+
+
 def _write(directory: Path, seqs: dict, settings: ImportSettings, first: dict) -> None:
-    h, w = first["images"].shape[1:3]
+    camera = first["images"] is not None
     angles = first["angles"]
     meta = {
         "format": ds.FORMAT_NAME,
@@ -401,17 +397,21 @@ def _write(directory: Path, seqs: dict, settings: ImportSettings, first: dict) -
                 "fov": float(angles[-1] - angles[0]),
                 "max_range": max(a["range_max"] for _, a in seqs.values()),
             },
-            "camera": {"width": int(w), "height": int(h)},
+            "camera": (
+                {"width": int(first["images"].shape[2]), "height": int(first["images"].shape[1])}
+                if camera
+                else None
+            ),
         },
+        "camera": camera,
         "manifolds": [],
         "sequences": {},
         "complete": False,
     }
     for name, (bag, arrays) in seqs.items():
         file = f"{name}.npz"
-        data = {
-            k: arrays[k] for k in ("images", "scans", "angles", "odometry", "commands", "times")
-        }
+        keys = ("images", "scans", "angles", "odometry", "commands", "times")
+        data = {k: arrays[k] for k in keys if arrays[k] is not None}
         meta["sequences"][name] = {
             "file": file,
             "world": settings.world,

@@ -8,6 +8,7 @@ from mapping.metrics import (
     best_matching,
     clustering_error,
     contingency_matrix,
+    majority_merge_error,
     purity,
 )
 
@@ -16,6 +17,7 @@ def test_contingency_matrix_counts_pairs_in_sorted_label_order():
     counts = contingency_matrix(["b", "a", "a", "b", "b"], [1, 0, 1, 1, 1])
     # rows: a, b; columns: 0, 1
     np.testing.assert_array_equal(counts, [[1, 1], [0, 3]])
+    assert counts.dtype == np.int64  # counts, not floats (scikit-learn's dtype=None gives float64)
 
 
 @pytest.mark.parametrize(
@@ -75,8 +77,9 @@ def test_ari_known_values():
 def test_bad_input_raises(score):
     with pytest.raises(ValueError, match="same length"):
         score([0, 1, 1], [0, 1])
-    with pytest.raises(ValueError, match="empty"):
+    with pytest.raises(ValueError) as err:
         score([], [])
+    assert str(err.value) == "y_true and y_pred are empty; need at least one labelled point"
     with pytest.raises(ValueError, match="y_pred must be 1-D"):
         score([0, 1], [[0, 1]])
 
@@ -107,3 +110,18 @@ def test_missing_or_infinite_labels_are_refused(score):
     with pytest.raises(ValueError, match="y_true must hold a finite label .* got nan at index 1"):
         score(np.array(["a", np.nan, "b"], dtype=object), [0, 0, 1])
     score(y.astype(float), y)  # finite float labels are labels
+
+
+def test_majority_merge_error_gives_each_leaf_its_majority_label():
+    assert majority_merge_error([0, 0, 1, 1, 2, 2], [3, 3, 1, 1, 0, 0]) == 0.0  # pure leaves
+    # leaf 0 holds {0, 0, 1} -> 0, leaf 1 holds {1, 1, 2} -> 1: two points wrong of six
+    assert majority_merge_error([0, 0, 1, 1, 1, 2], [0, 0, 0, 1, 1, 1]) == pytest.approx(2 / 6)
+    # one leaf: everything takes the commonest label, string labels too
+    assert majority_merge_error(["a", "b", "b", "c"], [7, 7, 7, 7]) == pytest.approx(2 / 4)
+    # leaves merged into one cluster when they share a majority: the bound is not the
+    # leaves' own error (3 leaves, 2 classes)
+    y, leaves = [0, 0, 0, 1, 1, 1], [0, 0, 1, 1, 2, 2]
+    assert majority_merge_error(y, leaves) == pytest.approx(1 / 6)
+    assert clustering_error(y, leaves) == pytest.approx(2 / 6)
+    with pytest.raises(ValueError, match="same length"):
+        majority_merge_error([0, 1, 1], [0, 1])

@@ -35,11 +35,43 @@ def test_hand_computed_pair():
     np.testing.assert_allclose(W, [[1.0, 0.375], [0.375, 1.0]])
 
 
-def test_tolerance_is_inclusive():
-    # eq. 16 matches at ||p - q|| <= delta; 0.25 is exact in binary
+@pytest.mark.parametrize("method", ["global", "per_scan"])
+def test_tolerance_is_inclusive(method):
+    # eq. 16 matches at ||p - q|| <= delta; 0.25 is exact in binary. Both exact paths: the
+    # per-scan one (every real log takes it) bounds its KD-tree query, which is strict
     a, b = np.array([[0.0, 0.0]]), np.array([[0.25, 0.0]])
-    assert sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.25)[0, 1] == 1.0
-    assert sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.2499)[0, 1] == 0.0
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.25, method=method)
+    assert W[0, 1] == 1.0
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.2499, method=method)
+    assert W[0, 1] == 0.0
+    # one point at exactly delta in a scan of several, off both axes (the box filter of the
+    # per-scan path and its candidate pruning see the same edge): 3-4-5 scaled to 0.25
+    a = np.array([[0.0, 0.0], [-1.0, 0.0], [-2.0, 0.0]])
+    b = np.array([[0.15, 0.2], [5.0, 5.0]])
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.25, method=method)
+    assert W[0, 1] == pytest.approx((1 / 3 + 1 / 2) / 2)
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.2499, method=method)
+    assert W[0, 1] == 0.0
+
+
+@pytest.mark.parametrize("method", ["global", "per_scan"])
+def test_pairs_within_delta_whose_boxes_do_not_touch_are_kept(method):
+    # Two walls on one line, 0.05 m apart end to end: their bounding boxes do not touch (and
+    # their centres are 2 * box radius + 0.05 apart), yet one point of each lies within delta
+    # = 0.1 of the other, so the pair must survive the per-scan path's candidate pruning
+    a = np.column_stack([np.linspace(0.0, 1.0, 11), np.zeros(11)])
+    b = np.column_stack([np.linspace(1.05, 2.05, 11), np.zeros(11)])
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.1, method=method)
+    np.testing.assert_allclose(W, brute_force_overlap([a, b], np.zeros((2, 3)), 0.1))
+    assert W[0, 1] == pytest.approx(1 / 11)
+    # diagonal neighbours: boxes apart in x and in y, the corners 0.06 apart (< delta)
+    c = np.array([[0.0, 0.0], [1.0, 1.0]])
+    d = c + 1.0 + 0.06 / np.sqrt(2)
+    W = sensed_space_overlap([c, d], np.zeros((2, 3)), delta=0.1, method=method)
+    assert W[0, 1] == pytest.approx(0.5)
+    # and just beyond delta they share nothing
+    W = sensed_space_overlap([a, b + [0.06, 0.0]], np.zeros((2, 3)), delta=0.1, method=method)
+    assert W[0, 1] == 0.0
 
 
 def test_poses_place_scans_in_the_world():

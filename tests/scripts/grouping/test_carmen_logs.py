@@ -13,9 +13,10 @@ SCANS = 60
 
 
 @pytest.fixture(scope="module")
-def aces_slice(tmp_path_factory, aces_log):
-    """The first 60 scans of the ACES log, as a plain-text log of its own."""
-    with gzip.open(aces_log, "rt") as f:
+def aces_slice(tmp_path_factory, aces_slice_log):
+    """The first 60 scans of the shipped slice of the ACES log (every third scan), with its
+    header, as a plain-text log of its own."""
+    with gzip.open(aces_slice_log, "rt") as f:
         lines = [line for line in f if not line.startswith("FLASER")][:20]
         f.seek(0)
         lines += [line for line in f if line.startswith("FLASER")][:SCANS]

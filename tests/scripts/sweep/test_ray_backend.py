@@ -1,8 +1,9 @@
 """Sweeps on Ray (``scripts.sweep.ray_backend``): the same table as the local
 backend for the same seeds, whatever the number of workers; MuJoCo renders in Ray workers with the
 parent's GL backend; an unreachable or non-Ray address fails at once with a clear error. Ray runs
-locally with 2 CPUs and a small object store, and is shut down after. Skipped where Ray is
-missing."""
+locally with 2 CPUs and a small object store, and is shut down after. The tests that need Ray
+skip where it is missing (it is in the dev extra, so the suite's skip list fails them there);
+the probe of an address needs no Ray and always runs."""
 
 import os
 import socket
@@ -11,15 +12,19 @@ import time
 
 import pytest
 
-ray = pytest.importorskip("ray")
-
-from scripts.sweep.command import SWEEP_KEYS, TIME_KEYS, run_sweep  # noqa: E402
+from scripts.sweep.command import SWEEP_KEYS, TIME_KEYS, run_sweep
 
 MAX_STEPS = 12
 SEEDS = [0, 1]
 EPISODES = 2
 SETTINGS = ["default", "randomized"]
 HANG = 60  # s: far above the probe's 5 s; an unbounded ray.init retried for over 3 minutes
+
+
+@pytest.fixture(scope="module")
+def ray():
+    """The ``ray`` module, or a skip where it is not installed."""
+    return pytest.importorskip("ray")
 
 
 @pytest.fixture(scope="module")
@@ -45,11 +50,11 @@ def _table(rows):
 
 
 @pytest.fixture(scope="module")
-def local_rows(hallway_map):
+def local_rows(ray, hallway_map):
     return _sweep(hallway_map, "local", 2)
 
 
-def test_ray_starts_and_stops_its_own_local_instance(hallway_map, local_rows):
+def test_ray_starts_and_stops_its_own_local_instance(ray, hallway_map, local_rows):
     """Without an address the backend starts a 2-CPU Ray (2 workers) and shuts it down; the
     servo controller, which acts on the rendered images, drives exactly as on the local
     backend: the same table, episode by episode."""
@@ -63,7 +68,7 @@ def test_ray_starts_and_stops_its_own_local_instance(hallway_map, local_rows):
 
 
 @pytest.fixture(scope="module")
-def ray_session():
+def ray_session(ray):
     """A small local Ray the backend finds already running (and leaves running)."""
     ray.init(address="local", num_cpus=2, include_dashboard=False, object_store_memory=200 << 20,
              logging_level="warning")  # fmt: skip
@@ -72,6 +77,7 @@ def ray_session():
 
 
 def test_one_ray_worker_gives_the_same_table(ray_session, hallway_map, local_rows):
+    ray = ray_session
     rows = _sweep(hallway_map, "ray", 1, ["randomized"])
     assert ray.is_initialized()  # the caller's session is left alone
     assert rows[0]["num_envs"] == 1 and len({d["pid"] for d in rows[0]["episodes_detail"]}) == 1
@@ -79,6 +85,8 @@ def test_one_ray_worker_gives_the_same_table(ray_session, hallway_map, local_row
 
 
 def test_ray_workers_render_with_the_parents_gl_backend(ray_session):
+    ray = ray_session
+
     from scripts.sweep.ray_backend import runtime_env
 
     @ray.remote(num_cpus=1, runtime_env={"env_vars": runtime_env(None)["env_vars"]})
@@ -105,7 +113,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def test_unreachable_address_fails_at_once(hallway_map):
+def test_unreachable_address_fails_at_once(ray, hallway_map):
     """Nothing listening there: a ConnectionError naming the address, before any map is built
     or any worker started."""
     address = f"127.0.0.1:{_free_port()}"
@@ -140,7 +148,7 @@ def test_an_address_that_is_not_ray_fails_at_once():
     assert time.monotonic() - t0 < HANG
 
 
-def test_cli_unreachable_address(capsys):
+def test_cli_unreachable_address(ray, capsys):
     from scripts.cli import main
 
     address = f"127.0.0.1:{_free_port()}"

@@ -14,10 +14,10 @@ from servo.task.evaluation import episode_seeds, run_episode
 from servo.task.protocol import Protocol, episode_specs, reset_options
 
 EPISODES = 6  # per world and policy
-# Least successes of EPISODES asserted. Measured on the test split's first 6 seeds: servo 6/6
-# and oracle 6/6 in both worlds. 4/6 leaves room for machine-to-machine flips: at a true rate
-# of 0.9 the chance of 3 or fewer successes in 6 is 1.3%.
-MIN_SUCCESSES = {"servo": 4, "oracle": 5}
+# Least successes of EPISODES asserted: 5 of 6 for both policies (6 of 6 is measured on these
+# seeds in both worlds). The rates and the binomial chances behind the level are in the
+# docstrings of the two tests below.
+MIN_SUCCESSES = {"servo": 5, "oracle": 5}
 TEST_SEED = 11
 
 
@@ -38,6 +38,18 @@ def _policy(name, env):
 @pytest.mark.parametrize("policy", ["servo", "oracle"])
 @pytest.mark.parametrize("world", ["hallway", "lawn"])
 def test_success_rate_over_seeded_tasks(envs, world, policy):
+    """At least 5 of 6 seeded cross-manifold tasks reached, with an SPL above 0.5.
+
+    Measured rates, on this test's seeds extended to 30 (``episode_seeds(11, 30)``, the first 6
+    of which are the test's: 6/6 for both policies in both worlds): ``ManifoldServo`` 29/30 in
+    the hallway and 30/30 in the lawn, the oracle 30/30 in both; ``ManifoldServo`` on the
+    protocol's 100 test episodes of the same tier: 96/100 in the hallway, 100/100 in the lawn
+    (docs/results/servo.md). False alarm (binomial, 4 or fewer successes in 6 where the
+    episodes flip from machine to machine as draws at the measured rate): 2.0 % at the
+    hallway's pooled 125/130, 1.3 % at 31/32 (Laplace's estimate after 30/30, the oracle
+    and the lawn). A regression to a true rate of 0.7 passes one world with probability 0.42
+    and both with 0.18; at 0.5, 0.11 and 0.01 (4/6, the former level, passed 0.74 and 0.34).
+    """
     env = envs[world]
     pol = _policy(policy, env)
     records = [run_episode(env, pol, s) for s in episode_seeds(TEST_SEED, EPISODES)]
@@ -51,8 +63,13 @@ def test_success_rate_over_seeded_tasks(envs, world, policy):
 @pytest.mark.parametrize("world", ["hallway", "lawn"])
 def test_servo_from_anywhere(envs, world):
     """The protocol's ``anywhere`` tier (uniform in the start manifold's free space, any
-    heading), its test split's first episodes: measured 6/6 in both worlds
-    (docs/guides/servo.md)."""
+    heading), its test split's first 6 episodes: at least 5 reached.
+
+    Measured 6/6 in both worlds; on the tier's 100 test episodes, of which these are the first
+    (docs/results/servo.md), 96/100 in the hallway and 99/100 in the lawn. False alarm
+    (binomial, 4 or fewer in 6 at those rates): 2.2 % in the hallway, 0.15 % in the lawn. A
+    regression to a true rate of 0.7 passes one world with probability 0.42, both with 0.18.
+    """
     env = envs[world]
     env.max_steps = 600
     pol = ManifoldServo(env.map, world=world)

@@ -327,3 +327,40 @@ def test_a_world_contradicting_the_id_is_refused(hallway_map_path):
 def test_unknown_reset_options_are_named(env, options, match):
     with pytest.raises(ValueError, match=match):
         env.reset(seed=0, options=options)
+
+
+# The success test's two thresholds, SUCCESS_RADIUS = 0.5 m and SUCCESS_HEADING = 20 deg, each
+# probed just inside and just outside with the other condition met: dropping either condition or
+# moving either threshold by more than the margin fails one of these cases.
+@pytest.mark.parametrize(
+    "along, yaw_deg, success",
+    [
+        (0.48, 0.0, True),  # just inside the radius
+        (-0.48, 0.0, True),
+        (0.52, 0.0, False),  # just outside it
+        (-0.52, 0.0, False),
+        (0.0, 19.0, True),  # just inside the heading
+        (0.0, -19.0, True),
+        (0.0, 21.0, False),  # just outside it
+        (0.0, -21.0, False),
+        (0.48, 19.0, True),  # both just inside
+        (0.48, 21.0, False),  # in the radius, out of the heading
+    ],
+)
+def test_success_radius_and_heading_at_their_edges(env, along, yaw_deg, success):
+    from servo.task.env import SUCCESS_HEADING, SUCCESS_RADIUS
+
+    assert SUCCESS_RADIUS == 0.5 and SUCCESS_HEADING == pytest.approx(np.deg2rad(20.0))
+    target = 40
+    x, y, yaw = env.map.true_poses[target]
+    # along the target's heading (the corridor), so the start pose stays in free space
+    pose = np.array([x + along * np.cos(yaw), y + along * np.sin(yaw), yaw + np.deg2rad(yaw_deg)])
+    _, info = env.reset(seed=0, options={"target": target, "pose": pose})
+    assert info["distance"] == pytest.approx(abs(along), abs=1e-3)
+    assert info["heading_error"] == pytest.approx(np.deg2rad(abs(yaw_deg)), abs=1e-3)
+    assert info["success"] is success
+    _, reward, term, _, info = env.step(np.zeros(2, np.float32))
+    assert info["success"] is success and term is success
+    assert info["reward_success"] == (env.success_reward if success else 0.0)
+    assert reward == pytest.approx(info["reward_signal"] + info["reward_success"])
+    assert info["reason"] == ("success" if success else None)

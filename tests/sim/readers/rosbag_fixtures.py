@@ -8,6 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
@@ -119,9 +120,11 @@ def odom_msg(ts, ros1, ns, pose, velocity):
     )
 
 
-def write_bag(path: Path, drive: Drive, *, ros: int = 2, encoding: str = "rgb8") -> Path:
-    """Write ``drive`` as a ROS 1 ``.bag`` (``ros=1``) or a ROS 2 bag directory (``ros=2``),
-    messages in stamp order, each logged at its stamp."""
+def write_bag(
+    path: Path, drive: Drive, *, ros: int = 2, encoding: str = "rgb8", mcap: bool = False
+) -> Path:
+    """Write ``drive`` as a ROS 1 ``.bag`` (``ros=1``) or a ROS 2 bag directory (``ros=2``,
+    SQLite, or MCAP with ``mcap``), messages in stamp order, each logged at its stamp."""
     ros1 = ros == 1
     ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.LATEST)
 
@@ -139,7 +142,8 @@ def write_bag(path: Path, drive: Drive, *, ros: int = 2, encoding: str = "rgb8")
         msgs.append((ns(t), ODOM, odom_msg(ts, ros1, ns(t), p, v)))
     for topic, items in drive.extra:
         msgs += [(ns(t), topic, make(ts, ros1, ns(t))) for t, make in items]
-    writer = Writer1(path) if ros1 else Writer2(path, version=9)
+    storage = StoragePlugin.MCAP if mcap else StoragePlugin.SQLITE3
+    writer = Writer1(path) if ros1 else Writer2(path, version=9, storage_plugin=storage)
     with writer:
         conns = {}
         for _, topic, msg in msgs:

@@ -56,6 +56,27 @@ def test_reads_flaser_plain_and_gzip(tmp_path, gz):
     assert read_carmen(write(tmp_path, lines[2:])).max_range == 6.0
 
 
+def test_the_three_maximum_range_sources_are_told_apart(tmp_path):
+    # The PARAM (8 m) is larger than every reading (at most 6 m, a log with no no-return):
+    # the PARAM wins; without it, the largest reading; ROBOTLASER1's own field beats both
+    scans = [flaser([1.0, 2.0, 6.0]), flaser([1.5, 2.5, 3.5], t=11.0)]
+    param = "PARAM robot_front_laser_max 8.0 nohost 0"
+    assert read_carmen(write(tmp_path, [param, *scans]), message="FLASER").max_range == 8.0
+    # a PARAM after the scans counts too; another PARAM's value does not
+    other = "PARAM robot_rear_laser_max 30.0 nohost 0"
+    assert read_carmen(write(tmp_path, [other, *scans, param])).max_range == 8.0
+    assert read_carmen(write(tmp_path, [other, *scans])).max_range == 6.0
+    # a PARAM smaller than a reading still names the sensor's range (the reading is then a
+    # no-return, whatever it says)
+    small = "PARAM robot_front_laser_max 5.0 nohost 0"
+    assert read_carmen(write(tmp_path, [small, *scans])).max_range == 5.0
+    # the override beats the PARAM
+    assert read_carmen(write(tmp_path, [param, *scans]), max_range=7.5).max_range == 7.5
+    # ROBOTLASER1 states its own (9 m), beating the PARAM and the largest reading (3 m)
+    lines = [param, robotlaser([1.0, 2.0, 3.0], max_range=9.0)]
+    assert read_carmen(write(tmp_path, lines)).max_range == 9.0
+
+
 def test_reads_robotlaser_with_its_own_geometry(tmp_path):
     lines = [flaser([1.0, 1.0, 1.0, 1.0]), robotlaser([1.0, 2.0, 3.0, 8.0])]
     log = read_carmen(write(tmp_path, lines))  # auto prefers ROBOTLASER1
@@ -115,6 +136,35 @@ def test_the_radish_logs(aces_log, csail_log):
     np.testing.assert_allclose(np.diff(csail.angles), np.deg2rad(0.5))
     # the corrected logs repeat the corrected pose in the odometry fields
     np.testing.assert_array_equal(aces.poses, aces.odometry)
+
+
+def test_the_shipped_slice_of_a_real_log(aces_slice_log):
+    # every third scan of the ACES log: no robot_front_laser_max PARAM, so the largest reading
+    # (Carmen's no-return value) is the maximum range
+    log = read_carmen(aces_slice_log)
+    assert log.message == "FLASER" and log.ranges.shape == (147, 180)
+    assert log.max_range == 50.0 and log.ranges.max() == 50.0
+    assert 0.0 < np.median(log.ranges) < 50.0
+    np.testing.assert_allclose(log.angles[[0, -1]], [-np.pi / 2, np.pi / 2])
+    np.testing.assert_array_equal(log.poses, log.odometry)  # corrected: pose repeated
+    assert np.all(np.diff(log.timestamps) > 0)
+    # the route: about 300 m, in steps of at most a few metres between the kept scans
+    steps = np.hypot(*np.diff(log.poses[:, :2], axis=0).T)
+    assert steps.max() < 4.0 and 250.0 < steps.sum() < 400.0
+    np.testing.assert_array_equal(log.line_numbers[:2], [7, 8])  # 6 header lines
+
+
+def test_the_shipped_slice_is_the_full_log_thinned(aces_slice_log, aces_log):
+    with gzip.open(aces_log, "rt") as f:
+        full = f.read().splitlines()
+    with gzip.open(aces_slice_log, "rt") as f:
+        thin = f.read().splitlines()
+    scans = [line for line in full if line.startswith("FLASER")]
+    header = [line for line in full if line.startswith(("#", "PARAM"))]
+    assert thin == header + scans[::3]
+    np.testing.assert_array_equal(
+        read_carmen(aces_slice_log).ranges, read_carmen(aces_log).ranges[::3]
+    )
 
 
 def test_scans_without_beams_or_angle_step_are_refused(tmp_path):

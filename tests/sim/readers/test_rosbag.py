@@ -304,3 +304,27 @@ def test_directory_that_is_no_ros2_bag(tmp_path):
         if f.name != "metadata.yaml":
             f.unlink()  # the storage files are gone: rosbags' FileNotFoundError
     _refused(tmp_path, bag, match="nodata: cannot be read as a ROS bag")
+
+
+@pytest.mark.parametrize("beams", [360, 541, 720, 1081])
+def test_angle_max_one_float32_increment_beyond_the_last_beam_is_accepted(beams):
+    from types import SimpleNamespace
+
+    from sim.readers.ros_messages import scan_geometry
+
+    f = np.float32
+    angle_min, inc = f(-np.pi), f(2 * np.pi / beams)
+    msg = SimpleNamespace(
+        ranges=np.ones(beams, np.float32), angle_min=angle_min, angle_increment=inc,
+        angle_max=f(angle_min + f(beams) * inc), range_min=f(0.1), range_max=f(30.0),
+    )  # fmt: skip
+    assert scan_geometry(msg, "scan")[0] == beams  # the span: beams + 1.00001, not > beams + 1
+    msg.angle_max = f(angle_min + f(beams + 1) * inc)
+    with pytest.raises(RosbagImportError, match="give"):
+        scan_geometry(msg, "scan")
+
+
+def test_a_repeated_stamp_says_what_to_do(tmp_path):
+    stamps, logged = np.array([0.25, 0.5, 0.5]), np.array([0.25, 0.5, 0.6])
+    drive = _tiny_drive(t_scan=stamps, scan_log_times=logged)
+    _refused(tmp_path, drive, match=r"/scan message 2: the same stamp .* write it again with full")

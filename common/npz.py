@@ -1,0 +1,89 @@
+"""Reading an untrusted ``.npz`` without pickle, and without trusting what it says of itself.
+
+``numpy.load`` trusts each member's header: a damaged or hand-made file can make it raise
+``zlib.error``, ``AttributeError``, ``tokenize.TokenError`` or ``MemoryError`` (a header that
+declares a huge shape). :func:`read_arrays` checks every member before reading it (a plain
+``name.npy``, once; a version 1 or 2 header; no Python objects; a declared size that matches the
+member's size, which itself is bounded by its compressed size) and turns every failure into one
+:class:`UnreadableNpz` that says what is wrong.
+"""
+
+from __future__ import annotations
+
+import re
+import tokenize
+import zipfile
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["UnreadableNpz", "read_arrays"]
+
+_MEMBER = re.compile(r"(?!.*\.\./)[A-Za-z0-9_][A-Za-z0-9_./-]{0,250}\.npy\Z")  # no "../"
+_MAX_RATIO = 1100  # deflate expands at most ~1032 times; a member claiming more lies
+_HEADER_READERS = {
+    (1, 0): np.lib.format.read_array_header_1_0,
+    (2, 0): np.lib.format.read_array_header_2_0,
+}
+_FAILURES = (  # what numpy and zipfile raise on damaged input
+    zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, zlib.error, ValueError,
+    SyntaxError, tokenize.TokenError, TypeError, KeyError, AttributeError, OverflowError,
+    NotImplementedError, RuntimeError, MemoryError, IndexError,
+)  # fmt: skip
+
+
+class UnreadableNpz(ValueError):
+    """An ``.npz`` that is damaged, or holds something other than plain arrays."""
+
+
+def _check_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, size: int) -> None:
+    name = info.filename
+    if not _MEMBER.match(name):
+        raise UnreadableNpz(f"member {name!r} is not an array file ('name.npy', no '../')")
+    if info.compress_size > size or info.file_size > max(info.compress_size, 1) * _MAX_RATIO:
+        raise UnreadableNpz(f"member {name!r} claims sizes its file cannot hold")
+    with zf.open(info) as f:
+        version = np.lib.format.read_magic(f)
+        if version not in _HEADER_READERS:
+            raise UnreadableNpz(f"member {name!r} has .npy format version {version}")
+        shape, _, dtype = _HEADER_READERS[version](f)
+        if dtype.hasobject:
+            raise UnreadableNpz(f"member {name!r} holds Python objects (dtype {dtype})")
+        declared = int(np.prod(shape, dtype=object)) * dtype.itemsize
+        if declared != info.file_size - f.tell():
+            raise UnreadableNpz(
+                f"member {name!r} declares shape {shape} of {dtype} ({declared} bytes) but "
+                f"holds {info.file_size - f.tell()} bytes"
+            )
+
+
+def read_arrays(path: str | Path) -> dict[str, np.ndarray]:
+    """The arrays of the ``.npz`` at ``path`` by name (member name without ``.npy``).
+
+    Raises
+    ------
+    UnreadableNpz
+        Saying what is wrong: not a zip file, a damaged member, a member that is not a plain
+        ``.npy`` without Python objects, a name twice, a header that does not match the data.
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            names = [info.filename for info in infos]
+            twice = sorted({n for n in names if names.count(n) > 1})
+            if twice:
+                raise UnreadableNpz(f"members {twice} appear more than once")
+            for info in infos:
+                _check_member(zf, info, size)
+            arrays = {}
+            for info in infos:
+                with zf.open(info) as f:
+                    arrays[info.filename[:-4]] = np.lib.format.read_array(f, allow_pickle=False)
+            return arrays
+    except UnreadableNpz:
+        raise
+    except _FAILURES as err:
+        raise UnreadableNpz(f"{type(err).__name__}: {err}") from err

@@ -1,0 +1,100 @@
+"""Carmen logs with values no robot records, damaged files and odd line breaks: each refused
+with a CarmenError naming the file, the line and the bound; the unusual accepted with a warning."""
+
+import gzip
+
+import numpy as np
+import pytest
+
+from sim.readers.carmen import CarmenError, read_carmen
+from tests.sim.readers.test_carmen import flaser, robotlaser, write
+
+
+@pytest.mark.parametrize(
+    ("bad", "match"),
+    [
+        (flaser([1.0, 2.0, 3.0], pose=(1e308, 0.0, 0.0)), r"laser pose position 1e\+308"),
+        (flaser([1.0, 2.0, 3.0], pose=(0.0, -2e6, 0.0)), "beyond the bound of 1e.06 m"),
+        (flaser([1.0, 2.0, 3.0], pose=(0.0, 0.0, 1e9)), "laser pose heading"),
+        (flaser([1.0, 2.0, 3.0], odom=(0.0, 1e7, 0.0)), "odometry pose position"),
+        (flaser([1.0, 1e300, 3.0]), r"range 1e\+300 \(at row 1\) is beyond the bound of 10000"),
+        (flaser([1.0, 2.0, 3.0], t=1e12), "timestamp 1000000000000.0 is beyond"),
+        (flaser([1.0, 2.0, 3.0], t="inf"), "pose contains NaN or infinity"),
+    ],
+)
+def test_values_beyond_the_bounds_are_refused(tmp_path, bad, match):
+    path = write(tmp_path, [flaser([1.0, 2.0, 3.0]), bad])
+    with pytest.raises(CarmenError, match=match) as info:
+        read_carmen(path)
+    assert f"{path}, line 2:" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"res": 10.0}, r"angular_resolution 10.0 rad is outside \(0, 2 pi\]"),
+        ({"res": -0.5}, "angular_resolution -0.5 rad is outside"),
+        ({"start": 7.0}, "start_angle 7.0 is beyond the bound of 6.28319 rad"),
+        ({"max_range": 1e300}, r"maximum_range 1e\+300 m is outside \(0, 10000\]"),
+        ({"max_range": 0.0}, "maximum_range 0.0 m is outside"),
+    ],
+)
+def test_robotlaser_geometry_beyond_the_bounds_is_refused(tmp_path, kwargs, match):
+    path = write(tmp_path, [robotlaser([1.0, 2.0], **kwargs)])
+    with pytest.raises(CarmenError, match=f"line 1: ROBOTLASER1 {match}"):
+        read_carmen(path)
+
+
+def test_a_field_of_view_of_zero_is_refused_for_more_than_one_beam(tmp_path):
+    zero_fov = robotlaser([1.0, 2.0]).replace(" -1.5 0.5 0.5 ", " -1.5 0.0 0.5 ")
+    with pytest.raises(CarmenError, match=r"line 1: ROBOTLASER1 field_of_view 0.0 rad"):
+        read_carmen(write(tmp_path, [zero_fov]))
+    assert len(read_carmen(write(tmp_path, [robotlaser([1.0])]))) == 1  # one beam: fov 0
+
+
+def test_param_max_range_beyond_the_bound_is_refused(tmp_path):
+    lines = ["PARAM robot_front_laser_max 1e300 host 0", flaser([1.0, 2.0, 3.0])]
+    with pytest.raises(CarmenError, match="line 1: robot_front_laser_max"):
+        read_carmen(write(tmp_path, lines))
+    with pytest.raises(ValueError, match="at most 10000"):
+        read_carmen(write(tmp_path, [flaser([1.0, 2.0, 3.0])]), max_range=1e5)
+
+
+def test_readings_above_the_stated_maximum_are_kept_as_no_returns(tmp_path):
+    lines = ["PARAM robot_front_laser_max 50 host 0", flaser([1.0, 81.91, 3.0])]
+    log = read_carmen(write(tmp_path, lines))
+    assert log.max_range == 50.0 and log.ranges[0, 1] == np.float64(81.91)
+
+
+@pytest.mark.parametrize("char", ["\f", "\v", "\x1c", "\x1e"])
+def test_line_numbers_count_only_newlines(tmp_path, char):
+    # str.splitlines splits at form feeds, vertical tabs and \x1c-\x1e too
+    lines = [f"# a comment{char}with a control character", flaser([1.0, 2.0, 3.0]), "FLASER"]
+    with pytest.raises(CarmenError, match="line 3: truncated line"):
+        read_carmen(write(tmp_path, lines))
+    assert read_carmen(write(tmp_path, lines[:2])).line_numbers.tolist() == [2]
+
+
+def test_timestamps_going_backwards_warn_and_keep_file_order(tmp_path):
+    lines = [flaser([1.0, 2.0, 3.0], t=5.0), flaser([1.0, 2.0, 3.0], t=4.0)]
+    with pytest.warns(UserWarning, match="line 2: the timestamp goes backwards"):
+        log = read_carmen(write(tmp_path, lines))
+    assert log.timestamps.tolist() == [5.0, 4.0]
+
+
+def test_every_damaged_gzip_is_a_carmen_error(tmp_path):
+    data = gzip.compress(("\n".join([flaser([1.0, 2.0, 3.0])] * 40) + "\n").encode(), mtime=0)
+    rng = np.random.default_rng(7)
+    kinds = set()
+    for case in range(60):
+        damaged = bytearray(data)
+        at = int(rng.integers(10, len(damaged)))
+        damaged[at] ^= 1 << int(rng.integers(8))
+        path = tmp_path / f"flip{case}.log.gz"
+        path.write_bytes(bytes(damaged))
+        try:
+            read_carmen(path)
+        except CarmenError as err:
+            kinds.add(type(err.__cause__).__name__ if err.__cause__ else "CarmenError")
+            assert str(path) in str(err)
+    assert "error" in kinds  # zlib.error: escaped as itself before
