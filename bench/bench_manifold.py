@@ -154,7 +154,7 @@ def scaling(sizes: list[int], dense_up_to: int, n_jobs: int = 0) -> None:
         X, y = branching_sequences(n // 8, 2000, np.random.default_rng(1))
         q = min(35, n // 16)
         sk = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
-        theirs, theirs_cpu = _wall_and_cpu(lambda X=X, sk=sk: sk.fit(X))
+        theirs, theirs_cpu = wall_and_cpu(lambda X=X, sk=sk: sk.fit(X))
         err_sk = clustering_error(y, sk.labels_)
         kernels = ["auto"] + (["dense"] if n <= dense_up_to and n > 1000 else [])
         kernels += ["sparse"] if n <= 1000 else []
@@ -162,7 +162,7 @@ def scaling(sizes: list[int], dense_up_to: int, n_jobs: int = 0) -> None:
         runs += [("auto", n_jobs)] if n_jobs and n > 1000 else []
         for kernel, jobs in runs:
             model = ManifoldClustering(8, q, kernel=kernel, n_jobs=jobs)
-            ours, ours_cpu = _wall_and_cpu(lambda X=X, model=model: model.fit(X))
+            ours, ours_cpu = wall_and_cpu(lambda X=X, model=model: model.fit(X))
             label = kernel if jobs is None else f"{kernel}, n_jobs={jobs}"
             print(
                 f"| {n} | {label} | {ours:.2f} s ({ours_cpu:.2f} s) | "
@@ -172,7 +172,7 @@ def scaling(sizes: list[int], dense_up_to: int, n_jobs: int = 0) -> None:
             )
 
 
-def _wall_and_cpu(fn) -> tuple[float, float]:
+def wall_and_cpu(fn) -> tuple[float, float]:
     """Wall-clock and CPU seconds (``time.process_time``: every thread) of one call."""
     wall, cpu = time.perf_counter(), time.process_time()
     fn()

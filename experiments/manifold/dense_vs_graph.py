@@ -21,22 +21,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
 from pathlib import Path
 
 import numpy as np
 
 import mapping.manifold.split as split_module
+from bench.bench_manifold import wall_and_cpu
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import clustering_error, majority_merge_error
 from mapping.synthetic import branching_sequences
-
-
-def _wall_and_cpu(fn) -> tuple[float, float]:
-    """Wall-clock and CPU seconds (``time.process_time``: every thread) of one call."""
-    wall, cpu = time.perf_counter(), time.process_time()
-    fn()
-    return time.perf_counter() - wall, time.process_time() - cpu
 
 
 def image_split(dataset) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -109,7 +102,7 @@ def pooled(root: str, pools: list[list[int]]) -> None:
         cells = []
         for kernel in ("dense", "auto"):
             model = ManifoldClustering(8, 35, kernel=kernel)
-            wall, _ = _wall_and_cpu(lambda model=model, X=X_train: model.fit(X))
+            wall, _ = wall_and_cpu(lambda model=model, X=X_train: model.fit(X))
             err = clustering_error(y_test, model.predict(X_test))
             tests[kernel].append(err)
             train = clustering_error(y_train, model.labels_)
