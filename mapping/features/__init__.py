@@ -1,6 +1,6 @@
-"""Features both mapping methods cluster: images as vectors or colour histograms
-(``images``), laser scans as range vectors (``scans``) and as rotation-invariant statistics
-(``statistics``). Each is a scikit-learn transformer.
+"""Features both mapping methods cluster: images as vectors (``images``) or as per-cell HSV
+colour histograms (``hsv_histograms``), laser scans as range vectors (``scans``) and as
+rotation-invariant statistics (``statistics``). Each is a scikit-learn transformer.
 """
 
 from common.lazy import lazy_exports
@@ -9,9 +9,9 @@ __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     {
         "IMAGE_NORMALIZATIONS": "mapping.features.images",
-        "ColorHistogramFeatures": "mapping.features.images",
+        "ColorHistogramFeatures": "mapping.features.hsv_histograms",
         "ImageFeatures": "mapping.features.images",
-        "color_histograms": "mapping.features.images",
+        "color_histograms": "mapping.features.hsv_histograms",
         "images_to_vectors": "mapping.features.images",
         "normalize_rows": "mapping.features.images",
         "SCAN_REPRESENTATIONS": "mapping.features.scans",

@@ -1,7 +1,7 @@
 """Sensor readings to fixed-length feature vectors, so both sensors feed both mapping methods.
 
-Images: :mod:`mapping.features.images` (raw pixels as in the paper, or HSV colour histograms);
-its names are re-exported here.
+Images: :mod:`mapping.features.images` (raw pixels as in the paper) and
+:mod:`mapping.features.hsv_histograms` (per-cell HSV colour histograms).
 
 Laser scans: float32 range arrays of shape (n_beams,) or (n, n_beams), where ``+inf`` means
 "no return within max range" and NaN an invalid reading. :func:`scan_ranges` makes them finite
@@ -22,25 +22,10 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions, validate_params
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from mapping.features.images import (
-    IMAGE_NORMALIZATIONS,
-    ColorHistogramFeatures,
-    ImageFeatures,
-    color_histograms,
-    images_to_vectors,
-    normalize_rows,
-)
-
 __all__ = [
-    "IMAGE_NORMALIZATIONS",
     "SCAN_REPRESENTATIONS",
-    "ColorHistogramFeatures",
-    "ImageFeatures",
     "ScanFeatures",
     "ScanRangesInput",
-    "color_histograms",
-    "images_to_vectors",
-    "normalize_rows",
     "scan_ranges",
     "scan_vectors",
 ]

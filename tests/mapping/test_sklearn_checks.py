@@ -20,7 +20,8 @@ from sklearn.utils.validation import check_is_fitted
 from mapping import manifold
 from mapping.baselines import NormalizedCutClustering, SelfTuningSpectralClustering
 from mapping.features import ScanFeatures
-from mapping.features.images import ColorHistogramFeatures, ImageFeatures
+from mapping.features.hsv_histograms import ColorHistogramFeatures
+from mapping.features.images import ImageFeatures
 from mapping.features.statistics import ScanStatistics
 from mapping.manifold import ManifoldClustering
 
