@@ -5,7 +5,8 @@ the current image looks most like, plan the shortest route to the target over th
 graph (``servo_map.edges``, weighted by the scan-matched odometry between views), and follow
 it by image alignment alone: turn so that the next views' images line up with the camera's
 (the column shift that best matches them), drive on, and move along the route as the best
-matching view of the route's next few moves ahead. No metric localisation, no laser.
+matching view of the route's next few moves ahead. No metric localisation; the laser only
+with ``clearance`` (turn away from a wall ahead).
 
 Run by the benchmark as an outside policy::
 
@@ -25,6 +26,7 @@ FOV = np.deg2rad(57.8)  # rad: the camera's horizontal field of view (45 deg ver
 MAX_SHIFT = 16  # columns (at SIZE) the alignment searches either way
 WINDOW = 6  # route views ahead searched for the best match
 LOOKAHEAD = 2  # route views ahead of the matched one steered toward
+AHEAD = np.deg2rad(30.0)  # rad: the beams either side of straight ahead ``clearance`` watches
 
 
 def _features(images: np.ndarray) -> np.ndarray:
@@ -61,12 +63,17 @@ class RouteHoming:
         Forward speed, m/s.
     gain : float
         Turn rate per radian of misalignment, 1/s.
+    clearance : float
+        With a laser return nearer than this within 30 deg of straight ahead, m, stop and turn
+        toward the more open side (0: off, images only).
     """
 
-    def __init__(self, servo_map, speed: float = 0.6, gain: float = 2.0):
-        if not (0 < speed <= 1.5 and gain > 0):
-            raise ValueError(f"speed must be in (0, 1.5] and gain > 0, got {speed}, {gain}")
-        self.speed, self.gain = float(speed), float(gain)
+    def __init__(self, servo_map, speed: float = 0.6, gain: float = 2.0, clearance: float = 0.0):
+        if not (0 < speed <= 1.5 and gain > 0 and clearance >= 0):
+            raise ValueError(f"speed must be in (0, 1.5], gain > 0 and clearance >= 0, got "
+                             f"{speed}, {gain}, {clearance}")  # fmt: skip
+        self.speed, self.gain, self.clearance = float(speed), float(gain), float(clearance)
+        self.angles = np.asarray(servo_map.angles, float)
         self.features = _features(servo_map.images)
         e = np.asarray(servo_map.edges)
         length = np.linalg.norm(np.asarray(servo_map.edge_transforms)[:, :2], axis=1) + 1e-3
@@ -102,9 +109,17 @@ class RouteHoming:
         omega = float(np.clip(-self.gain * s * FOV / SIZE[0], -1.5, 1.5))
         last = self.k >= len(self.route) - 1
         v = (0.25 if last else self.speed) * max(0.0, 1.0 - abs(omega) / 1.5)
+        if self.clearance > 0:
+            scan = np.asarray(observation["scan"], float)
+            ahead = np.abs(self.angles) < AHEAD
+            if scan[ahead].min() < self.clearance:  # a wall ahead: turn to the open side
+                left = scan[ahead & (self.angles > 0)].min()
+                right = scan[ahead & (self.angles < 0)].min()
+                return np.array([0.0, 1.0 if left > right else -1.0], np.float32)
         return np.array([v, omega], np.float32)
 
 
-def make_policy(servo_map, rng: np.random.Generator, speed: float = 0.6, gain: float = 2.0):
+def make_policy(servo_map, rng: np.random.Generator, speed: float = 0.6, gain: float = 2.0,
+                clearance: float = 0.0):  # fmt: skip
     """The factory: ``--policy examples.nearest_view_homing:make_policy``."""
-    return RouteHoming(servo_map, speed=float(speed), gain=float(gain))
+    return RouteHoming(servo_map, speed=float(speed), gain=float(gain), clearance=float(clearance))

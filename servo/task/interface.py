@@ -87,6 +87,17 @@ class Policy(Protocol):
     ``target_image``, ``target_scan``, ``target_scan_valid``): ``(v, omega)`` in m/s and rad/s,
     finite, inside the env's action space ``[-0.5, 1.5] x [-1.5, 1.5]``.
 
+    Parameters
+    ----------
+    None
+        An interface: a policy's own constructor (called by its factory) takes what it needs.
+
+    Attributes
+    ----------
+    waypoint_ : int, optional
+        The stored view the policy is heading for, if it has one: the runner then records F
+        toward it along the trajectory.
+
     Examples
     --------
     >>> import numpy as np
@@ -105,9 +116,11 @@ class Policy(Protocol):
     servo.task.Target : What it is given of the target.
     """
 
-    def reset(self, target: Target) -> None: ...
+    def reset(self, target: Target) -> None:
+        """Start an episode toward ``target``."""
 
-    def act(self, observation: dict) -> np.ndarray: ...
+    def act(self, observation: dict) -> np.ndarray:
+        """The command ``(v, omega)`` for this observation."""
 
 
 class PolicyFactory(Protocol):
@@ -119,6 +132,40 @@ class PolicyFactory(Protocol):
     a seeded ``numpy.random.Generator``, the policy's only source of randomness; ``params``
     the ``--policy-arg`` values. A factory refuses unknown params (Python does for named
     keyword arguments).
+
+    Parameters
+    ----------
+    servo_map : ServoMap
+        The world's map as sensed.
+    rng : numpy.random.Generator
+        The policy's generator, set anew at every episode.
+    **params
+        The policy's settings.
+
+    Attributes
+    ----------
+    None
+        A callable; a module-level function is the usual form.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from servo.task import Policy, PolicyFactory
+    >>> def make_policy(servo_map, rng, speed=0.5):
+    ...     class Forward:
+    ...         def reset(self, target):
+    ...             pass
+    ...         def act(self, observation):
+    ...             return np.array([speed, 0.0], np.float32)
+    ...     return Forward()
+    >>> factory: PolicyFactory = make_policy
+    >>> isinstance(factory(None, np.random.default_rng(0), speed=0.3), Policy)
+    True
+
+    See Also
+    --------
+    servo.task.load_factory : Imports the factory a ``package.module:factory`` spec names.
+    servo.task.sensed_map : The map it is given.
     """
 
     def __call__(self, servo_map: ServoMap, rng: np.random.Generator, **params) -> Policy: ...
