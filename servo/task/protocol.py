@@ -255,7 +255,7 @@ def run_protocol(
     protocol: Protocol,
     servo_map,
     episodes: int,
-    policy: str = "servo",
+    policy="servo",
     *,
     workers: int | None = None,
     policy_options: dict | None = None,
@@ -274,10 +274,12 @@ def run_protocol(
     top-down map there (``servo.task.evaluation.plot_trajectories``; the result's ``plot``).
 
     ``policy``: one of ``servo.task.POLICIES`` or an outside factory ``package.module:factory``
-    (``servo.task.PolicyFactory``; its module is imported in each worker, running its code as
-    ``python -m`` would), made with ``policy_options`` as its params and
-    ``numpy.random.default_rng(policy_seed)`` in every worker. ``act_limit_s``: seconds a
-    policy's call may take before its episode fails (default ``servo.task.guard.ACT_LIMIT_S``).
+    (``servo.task.PolicyFactory``, or the factory itself if it is a module-level function; its
+    module is imported in each worker, running its code as ``python -m`` would), made with
+    ``policy_options`` as its params and a generator that is set anew for every episode from
+    the episode's seed and ``policy_seed`` (``servo.task.interface.reseed``; ours keep one
+    generator per worker, ``default_rng(policy_seed)``). ``act_limit_s``: seconds a policy's
+    call may take before its episode fails (default ``servo.task.guard.ACT_LIMIT_S``).
     The result records ``policy``, ``policy_params`` and ``policy_seed``.
     """
     from tqdm.auto import tqdm
@@ -287,6 +289,8 @@ def run_protocol(
 
     if not isinstance(protocol, Protocol):
         raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
+    if callable(policy):  # a factory object: by its import path, which every worker imports
+        policy = f"{policy.__module__}:{policy.__qualname__}"
     check_policy_name(policy)
     policy_seed = check_int(policy_seed, "policy_seed", minimum=0)
     if act_limit_s is not None and not check_finite(act_limit_s, "act_limit_s") > 0:

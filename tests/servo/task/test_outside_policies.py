@@ -187,7 +187,8 @@ def test_a_policy_that_cannot_be_made_is_named(env, spec, says):
 
 def test_the_run_goes_on_past_failing_episodes(servo_maps):
     protocol = Protocol("hallway", split="dev", max_steps=4)
-    r = run_protocol(protocol, servo_maps["hallway"], 3, f"{HERE}:faulty", workers=1,
+    # the factory itself, as its import path
+    r = run_protocol(protocol, servo_maps["hallway"], 3, faulty, workers=1,
                      progress=False, policy_options={"how": "nan", "at": 3})  # fmt: skip
     assert r["episodes"] == 3 and r["reasons"] == {INVALID_ACTION: 3}
     assert r["policy"] == f"{HERE}:faulty" and r["policy_params"] == {"how": "nan", "at": 3}
