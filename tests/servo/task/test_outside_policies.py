@@ -177,7 +177,6 @@ def test_a_failing_policy_fails_its_episode_with_the_reason(env, how, reason, sa
         (f"{HERE}:missing", "has no callable 'missing'"),
         (f"{HERE}:not_a_policy", "lacks reset(target) and act(observation)"),
         (f"{HERE}:failing_factory", "the factory raised KeyError"),
-        ("no colon", "package.module:factory"),
     ],
 )
 def test_a_policy_that_cannot_be_made_is_named(env, spec, says):
@@ -231,8 +230,11 @@ def test_an_outside_policy_draws_the_same_per_episode_whatever_ran_before(servo_
 
 def test_load_factory_imports_like_python_m():
     assert load_factory(f"{HERE}:spy") is spy
-    with pytest.raises(PolicyLoadError, match="package.module:factory"):
-        load_factory(":spy")
+    for spec in (":spy", "no colon", f"{HERE}:spy:twice", f"{HERE}:not an identifier"):
+        with pytest.raises(PolicyLoadError, match="package.module:factory"):
+            load_factory(spec)
+    with pytest.raises(ValueError, match="or package.module:factory"):
+        make_policy("no colon", None, np.random.default_rng(0))
 
 
 def test_servo_eval_runs_an_outside_policy_and_compares_it(servo_dataset, map_cache, tmp_path,
