@@ -50,6 +50,7 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
     waypoint view of the route (:class:`~servo.task.baseline_policies.GreedyFProbing`);
     ``greedy-target``: the earlier variant that probes toward the final target only (labelled
     as such: its cluster gives no signal from another manifold)."""
+    check_policy_name(name)
     if is_policy_spec(name):
         return make_outside_policy(name, env.map, rng, **options)
     if name == "oracle":  # the upper bound: the one policy given the truth
