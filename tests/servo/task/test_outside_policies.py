@@ -11,7 +11,7 @@ from scenes import NO_MANIFOLD
 from servo.task.env import ServoEnv
 from servo.task.evaluation import make_policy, run_episode
 from servo.task.guard import INVALID_ACTION, NOT_LOADED, RAISED, TOO_SLOW
-from servo.task.interface import Policy, PolicyLoadError, Target, load_factory, sensed_map
+from servo.task.interface import PolicyLoadError, Target, load_factory, sensed_map
 from servo.task.protocol import Protocol, run_protocol
 
 HERE = __name__  # this module, importable as the runner imports a user's module
@@ -196,15 +196,6 @@ def test_the_run_goes_on_past_failing_episodes(servo_maps):
                      workers=1, progress=False)  # fmt: skip
     assert r["reasons"] == {NOT_LOADED: 2}
     assert all("does not import" in e["failure"] for e in r["episodes_detail"])
-
-
-def test_the_examples_are_policies(env):
-    for spec in ("examples.my_policy:make_policy", "examples.nearest_view_homing:make_policy",
-                 "examples.image_descent:make_policy"):  # fmt: skip
-        policy = make_policy(spec, env, np.random.default_rng(0))
-        assert isinstance(policy, Policy)
-        record = run_episode(env, policy, seed=5)
-        assert "failure" not in record, record.get("failure")
 
 
 def test_an_outside_policy_draws_the_same_per_episode_whatever_ran_before(servo_maps, tmp_path):
