@@ -303,6 +303,8 @@ def evaluate(
 ) -> dict:
     """Run ``episodes`` servo episodes in ``world`` and summarise them (see :func:`summarise`).
 
+    ``policy``: one of :data:`POLICIES` or an outside factory ``package.module:factory``
+    (:func:`make_policy`; one that cannot be made fails every episode with the reason).
     Episode ``i`` is seeded with the ``i``-th child of ``SeedSequence(seed)``, so a run is
     reproducible and a longer run extends a shorter one. With ``out``, writes
     ``<world>-<policy>-trajectories.png`` and ``videos`` H.264 MP4s of the first episodes

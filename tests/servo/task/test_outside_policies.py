@@ -77,7 +77,7 @@ class Faulty:
         if self.how == "raise":
             raise RuntimeError("lost")
         if self.how == "slow":
-            time.sleep(5.0)  # interrupted by the limit, well before it ends
+            time.sleep(60.0)  # interrupted by the limit, long before it ends
         return {
             "nan": np.array([np.nan, 0.0]),
             "range": np.array([3.0, 0.0]),
@@ -165,7 +165,7 @@ def test_a_failing_policy_fails_its_episode_with_the_reason(env, how, reason, sa
     policy = make_policy(f"{HERE}:faulty", env, np.random.default_rng(0), how=how)
     t0 = time.perf_counter()
     record = run_episode(env, policy, seed=3, act_limit_s=0.2)
-    assert time.perf_counter() - t0 < 4.0  # a slow step is cut short, not waited out
+    assert time.perf_counter() - t0 < 30.0  # a slow step is cut short, not waited out
     assert record["reason"] == reason and says in record["failure"]
     assert not record["success"] and record["steps"] == 1  # the first act went through
 
