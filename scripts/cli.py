@@ -349,7 +349,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                    help=f"one of {', '.join(POLICIES)}, or package.module:factory (its module "
                    "is imported, running its code, as python -m does)")  # fmt: skip
     e.add_argument("--policy-arg", type=policy_arg, action="append", metavar="KEY=VALUE",
-                   help="a keyword argument of the factory (repeatable; JSON values)")
+                   help="a keyword argument of the factory (repeatable; JSON values)")  # fmt: skip
     e.add_argument("--max-steps", type=positive_int, default=600)
     e.add_argument("--workers", type=positive_int, default=None, help="default: the cores")
     e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")
