@@ -231,7 +231,8 @@ def partition_rows(quick: bool) -> list[Row]:
 
 def servo_rows(quick: bool) -> list[Row]:
     """``bench_servo.bench_world`` per world: controller step (the target), the episode's
-    one-off global localisation, the env step and the map build. Needs the default dataset
+    one-off global localisation, the env step and the map build; ``bench_runner``: the
+    evaluation runner's own time per step beside the env step. Needs the default dataset
     (``out/dataset``, collected here if missing)."""
     import bench_servo as bsv
 
@@ -261,6 +262,14 @@ def servo_rows(quick: bool) -> list[Row]:
             _row("servo", f"servo env step, {world}", r["env step (ms)"], "ms"),
             _row("servo", f"servo map build, {world}", r["map build (s)"], "s"),
         ]
+    import bench_runner as brn
+
+    r = brn.runner_overhead("hallway", episodes, dataset=dataset, cache=ROOT / "out" / "servo-maps")
+    measure = f"runner overhead per step, median, hallway, {r['steps']} steps (no F, no video)"
+    rows += [
+        _row("servo", measure, r["runner_ms"], "ms", 1),
+        _row("servo", "env step beside it, median, hallway", r["env_step_ms"], "ms"),
+    ]
     r = bsv.known_limitation(dataset, ROOT / "out" / "servo-maps")
     _, start, target, _ = bsv.KNOWN_LIMITATION
     measure = f"known limitation {start} -> {target} (docs/guides/servo.md): outcome"

@@ -5,6 +5,7 @@ parses one string or raises ``argparse.ArgumentTypeError`` naming the expected f
 from __future__ import annotations
 
 import argparse
+import math
 import tempfile
 from pathlib import Path
 
@@ -70,6 +71,38 @@ def policies(text: str) -> tuple[str, ...]:
     if bad:
         raise argparse.ArgumentTypeError(f"unknown policies {bad}; choose from {POLICIES}")
     return names
+
+
+def policy_name(text: str) -> str:
+    """A servo policy: one of ``servo.task.policies.POLICIES`` or an outside factory
+    ``package.module:factory`` (imported when the run starts, not here)."""
+    from servo.task import POLICIES
+
+    if text in POLICIES:
+        return text
+    module, _, attr = text.partition(":")
+    if not (module and attr.isidentifier() and all(p.isidentifier() for p in module.split("."))):
+        raise argparse.ArgumentTypeError(
+            f"expected one of {POLICIES} or package.module:factory, got {text!r}"
+        )
+    return text
+
+
+def policy_arg(text: str) -> tuple[str, object]:
+    """``KEY=VALUE``, a keyword argument of a policy's factory: the value as JSON if it reads
+    as JSON (``3``, ``0.5``, ``true``, ``"text"``), else as the text itself."""
+    import json
+
+    key, sep, value = text.partition("=")
+    if not sep or not key.isidentifier():
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE with KEY a name, got {text!r}")
+    try:
+        parsed = json.loads(value)
+    except ValueError:
+        parsed = value
+    if isinstance(parsed, float) and not math.isfinite(parsed):
+        raise argparse.ArgumentTypeError(f"{key} must be finite, got {value!r}")
+    return key, parsed
 
 
 def output_folder(value: str, option: str = "--out") -> Path:

@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import sys
 import time
 
@@ -11,6 +13,8 @@ from scripts.args import (
     non_negative_int,
     output_folder,
     policies,
+    policy_arg,
+    policy_name,
     positive_int,
     worlds,
 )
@@ -153,17 +157,20 @@ def servo_eval_name(args) -> str:
         args.no_odometry_noise
     )
     steps = "" if args.max_steps == 600 else f"-{args.max_steps}steps"
+    # an outside policy: its spec with ':' as '.', and its params' digest (runs differ by them)
+    params = dict(args.policy_arg or [])
+    digest = hashlib.sha256(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
+    tag = args.policy.replace(":", ".") + (f"-{digest}" if params else "")
     return (
-        f"servo-eval-{args.world}-{args.tier}-{args.split}-{args.policy}"
+        f"servo-eval-{args.world}-{args.tier}-{args.split}-{tag}"
         f"-{args.episodes}ep{extras}{steps}.json"
     )
 
 
 def cmd_servo_eval(args) -> int:
     """Closed-loop servo evaluation by the benchmark protocol (``servo.task.protocol``): one start
-    tier and split, in one world or both, episodes in parallel over the cores."""
-    import json
-
+    tier and split, in one world or both, episodes in parallel over the cores; ``--policy``
+    one of ours or an outside factory ``package.module:factory`` with ``--policy-arg``s."""
     from servo.maps import load_or_build, map_paths
     from servo.task import Protocol, run_protocol
 
@@ -176,7 +183,12 @@ def cmd_servo_eval(args) -> int:
         servo_map = load_or_build(world, dataset=args.data, cache=args.maps)
         path, _ = map_paths(args.maps, world, servo_map.key)
         r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
-                         args.policy, workers=args.workers, progress=not args.json)  # fmt: skip
+                         args.policy, workers=args.workers, progress=not args.json,
+                         policy_options=dict(args.policy_arg or []))  # fmt: skip
+        not_loaded = r["reasons"].get("policy not loaded", 0)
+        if not_loaded:  # every episode failed so: say why here too, not only in the records
+            why = next(e["failure"] for e in r["episodes_detail"] if "failure" in e)
+            print(f"topomap servo-eval: {why}", file=sys.stderr)
         results.append(r)
     if out is not None:
         from common.fileio import atomic_write_bytes
@@ -202,7 +214,6 @@ def cmd_servo_eval(args) -> int:
 def cmd_servo_compare(args) -> int:
     """Two ``servo-eval --out`` files compared episode by episode
     (``servo.task.paired_comparison``)."""
-    import json
     from dataclasses import asdict
 
     from servo.task import compare, load_results, markdown
@@ -334,7 +345,11 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     )
     e.add_argument("--tier", default="view", help="start tier: view or anywhere")
     e.add_argument("--split", default="dev", help="episode split: dev (tuning) or test")
-    e.add_argument("--policy", choices=POLICIES, default="servo")
+    e.add_argument("--policy", type=policy_name, default="servo",
+                   help=f"one of {', '.join(POLICIES)}, or package.module:factory (its module "
+                   "is imported, running its code, as python -m does)")  # fmt: skip
+    e.add_argument("--policy-arg", type=policy_arg, action="append", metavar="KEY=VALUE",
+                   help="a keyword argument of the factory (repeatable; JSON values)")  # fmt: skip
     e.add_argument("--max-steps", type=positive_int, default=600)
     e.add_argument("--workers", type=positive_int, default=None, help="default: the cores")
     e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")

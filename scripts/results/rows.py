@@ -119,6 +119,13 @@ class Section:
     sources: tuple[str, ...]
 
 
+# outside policies, by the same runner and episodes as ours (docs/guides/benchmark-your-policy.md)
+_OUTSIDE_SERVO = (
+    "servo/nearest_view_homing-all-view-test-20ep.json",
+    "servo/image_descent-all-view-test-20ep.json",
+)
+
+
 def _servo_sources(policy: str) -> tuple[str, ...]:
     files = [_servo_file(policy, w, t) for t in _TIERS for w in ("hallway", "lawn")]
     return tuple(dict.fromkeys(files))  # the two-world file once
@@ -137,4 +144,7 @@ SECTIONS: tuple[Section, ...] = (
               _servo_sources(policy)) for policy, name in _CONTROLLERS.items()),
     Section("servo", "The cells above rerun at the current code, first episodes",
             "servo-reruns", ("servo/reruns",)),
+    Section("servo", "Outside policies (examples/, run as package.module:factory), test split, "
+            "starts near a stored view, 20 episodes per world", "servo-summary",
+            _OUTSIDE_SERVO),
 )  # fmt: skip

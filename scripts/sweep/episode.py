@@ -95,13 +95,13 @@ class EpisodeRunner:
         ``wall_s``."""
         import numpy as np
 
-        from servo.task import episode_seeds, make_policy, run_episode
+        from servo.task import TRUTH_POLICY, episode_seeds, make_policy, run_episode
 
         t0 = time.perf_counter()
         env = self._env(task.world, task.setting)
         reset_seed = episode_seeds(task.seed, task.episode + 1)[task.episode]
         policy = make_policy(self._policy, env, np.random.default_rng(reset_seed))
-        record = run_episode(env, policy, reset_seed)
+        record = run_episode(env, policy, reset_seed, truth=self._policy == TRUTH_POLICY)
         record.update(seed=task.seed, episode=task.episode, reset_seed=reset_seed,
                       pid=os.getpid(), wall_s=time.perf_counter() - t0)  # fmt: skip
         return record

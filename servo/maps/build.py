@@ -94,14 +94,18 @@ def _world_sequences(dataset: Dataset, world: str) -> list[str]:
 
 
 def map_key(meta: dict, world: str, settings: MapSettings) -> str:
-    """Hash of what the map depends on: the world's sequence checksums, the settings, the
-    source of every module that builds or stores a map (the whole ``mapping`` package, the
-    servo map modules, the dataset reader) and the numeric libraries' versions."""
+    """Hash of what the map depends on: the world's sequence checksums, the settings (the
+    clustering's K among them, :meth:`MapSettings.clusters_for`), the source of every module
+    that builds or stores a map (the whole ``mapping`` package, the servo map modules, the
+    dataset reader) and the numeric libraries' versions."""
     h = hashlib.sha256()
     entries = {n: e["sha256"] for n, e in meta["sequences"].items() if e["world"] == world}
     if not entries:
         raise MapError(f"the dataset has no sequence of world {world!r}")
-    h.update(json.dumps([FORMAT_VERSION, world, entries, settings.to_json(), _versions()]).encode())
+    # the K the clustering is given (MapSettings.clusters_for), beside the settings that state it
+    k = settings.clusters_for(world)
+    settings_json = [settings.to_json(), k]
+    h.update(json.dumps([FORMAT_VERSION, world, entries, settings_json, _versions()]).encode())
     for name, p in _key_sources():
         h.update(name.encode() + b"\0" + p.read_bytes())
     return h.hexdigest()[:16]
@@ -266,15 +270,16 @@ def build_map(
     poses = np.concatenate(cols["poses"])
     seq = np.concatenate(seq_ids)
     true_labels = np.concatenate(cols["labels"]).astype(np.int16)
-    n_manifolds = len(np.unique(true_labels[true_labels >= 0]))
 
     image_features = ImageFeatures(size=tuple(settings.image_size), normalization="unit")
     feats = image_features.fit_transform(images).astype(np.float32)
     # The combination the servo tables (docs/guides/servo.md) were measured with; the estimator's
     # default, "spectral", changes the views' clusters. Switch when the servo evaluation is
     # re-run.
+    # K is a stated prior (MapSettings.n_clusters), never counted from the labels: the truth
+    # is kept for the evaluation only.
     clustering = ManifoldClustering(
-        n_clusters=max(2, n_manifolds),
+        n_clusters=settings.clusters_for(world),
         min_cluster_size=settings.min_cluster_size,
         combine="separability",
     ).fit(feats)

@@ -7,6 +7,7 @@ Building lives in ``servo.maps.build``, the file format in ``servo.maps.file``.
 from __future__ import annotations
 
 import dataclasses
+import operator
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -15,7 +16,11 @@ from common.geometry import scan_to_points
 from common.validation import check_int
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
-from scenes import MANIFOLDS
+from scenes import MANIFOLDS, WORLDS
+
+PRIOR_CLUSTERS = {w: sum(m == w or m.startswith(f"{w}-") for m in MANIFOLDS) for w in WORLDS}
+"""Manifolds per shipped world, as the worlds were designed (a main corridor or lawn and its
+branches): the default K of a map's clustering, a prior, not a count of labels."""
 
 
 class MapError(ValueError):
@@ -40,10 +45,15 @@ class MapSettings:
         Distance within which views of two recordings (aligned by sensing) may be linked, m.
     link_rmse : float, default 0.06
         Largest ICP residual accepted for a link, m.
+    n_clusters : int or None, default None
+        K of ``ManifoldClustering``: the number of manifolds the map is split into, a stated
+        prior. None: the world's prior, :data:`PRIOR_CLUSTERS` (a shipped world's main
+        corridor or lawn and its three branches: 4), else 2. Never read from the recordings'
+        labels.
 
     Attributes
     ----------
-    stride, image_size, min_cluster_size, link_radius, link_rmse
+    stride, image_size, min_cluster_size, link_radius, link_rmse, n_clusters
         The parameters (the object is frozen).
 
     Examples
@@ -66,10 +76,19 @@ class MapSettings:
     min_cluster_size: int = 8
     link_radius: float = 4.0
     link_rmse: float = 0.06
+    n_clusters: int | None = None
 
     def __post_init__(self):
         check_int(self.stride, "stride")
         check_int(self.min_cluster_size, "min_cluster_size")
+        if self.n_clusters is not None:
+            check_int(self.n_clusters, "n_clusters", minimum=2)
+
+    def clusters_for(self, world: str) -> int:
+        """K for a map of ``world``: ``n_clusters``, or the world's prior."""
+        if self.n_clusters is not None:
+            return int(self.n_clusters)
+        return PRIOR_CLUSTERS.get(world, 2)
 
     def to_json(self) -> dict:
         """The settings as the map's file stores them (``image_size`` as a list)."""
@@ -80,10 +99,16 @@ class MapSettings:
     @classmethod
     def from_json(cls, d) -> MapSettings:
         """The inverse of :meth:`to_json`, for untrusted input: exactly these keys, each of
-        the declared type; raises ``ValueError`` naming the field."""
+        the declared type (``n_clusters`` may be missing, as in a file written before it was
+        a setting: None); raises ``ValueError`` naming the field."""
         fields = {f.name for f in dataclasses.fields(cls)}
+        if isinstance(d, dict) and "n_clusters" not in d:
+            d = {**d, "n_clusters": None}
         if not isinstance(d, dict) or set(d) != fields:
             raise ValueError(f"settings must have exactly the keys {sorted(fields)}")
+        k = d["n_clusters"]
+        if k is not None and (not isinstance(k, int) or isinstance(k, bool) or k < 2):
+            raise ValueError(f"settings.n_clusters must be an integer >= 2 or null, got {k!r}")
         size = d["image_size"]
         if not (isinstance(size, list) and len(size) == 2
                 and all(isinstance(v, int) and v > 0 for v in size)):  # fmt: skip
@@ -231,9 +256,11 @@ class ServoMap:
         return None if label < 0 else MANIFOLDS[label]
 
     def check_view(self, view, name: str = "target") -> int:
-        """``view`` as a valid stored-view index, or a ``MapError`` naming ``name``."""
-        if isinstance(view, bool) or not isinstance(view, int | np.integer):
+        """``view`` as a valid stored-view index, or a ``MapError`` naming ``name``: an integer
+        or an object that is one (``__index__``, as ``servo.task.Target``)."""
+        if isinstance(view, bool | np.bool_) or not hasattr(type(view), "__index__"):
             raise MapError(f"{name} must be the integer index of a stored view, got {view!r}")
+        view = operator.index(view)
         if not 0 <= int(view) < len(self):
             raise MapError(
                 f"{name} must be a stored view in [0, {len(self)}) of the {self.world} map, "

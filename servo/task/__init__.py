@@ -1,8 +1,11 @@
 """The servo task and how it is measured: the env (``env``, registered by ``registration``),
 the closed-loop evaluation (``evaluation``), the frozen benchmark protocol (``protocol``), the
 policies it can run (``policies``: their names; ``baseline_policies``: random, greedy F
-probing and the oracle), two evaluations paired episode by episode (``paired_comparison``)
-and the Wilson interval of a success rate (``stats``).
+probing and the oracle), what a policy under evaluation is and is given (``interface``: the
+:class:`Policy` interface, its factory, the target and the map as sensed), its calls guarded
+(``guard``: an error, a bad action or a slow step fails the episode), two evaluations paired
+episode by episode (``paired_comparison``) and the Wilson interval of a success rate
+(``stats``).
 """
 
 from common.lazy import lazy_exports
@@ -20,11 +23,21 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "plot_trajectories": "servo.task.evaluation",
         "run_episode": "servo.task.evaluation",
         "summarise": "servo.task.evaluation",
+        "ACT_LIMIT_S": "servo.task.guard",
+        "FAILURES": "servo.task.guard",
+        "PolicyFailure": "servo.task.guard",
+        "Policy": "servo.task.interface",
+        "PolicyFactory": "servo.task.interface",
+        "PolicyLoadError": "servo.task.interface",
+        "Target": "servo.task.interface",
+        "load_factory": "servo.task.interface",
+        "sensed_map": "servo.task.interface",
         "PairedComparison": "servo.task.paired_comparison",
         "compare": "servo.task.paired_comparison",
         "load_results": "servo.task.paired_comparison",
         "markdown": "servo.task.paired_comparison",
         "POLICIES": "servo.task.policies",
+        "TRUTH_POLICY": "servo.task.policies",
         "SUCCESS_TARGETS": "servo.task.protocol",
         "TIERS": "servo.task.protocol",
         "EpisodeSpec": "servo.task.protocol",

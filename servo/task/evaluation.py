@@ -26,7 +26,15 @@ from servo.laser_image import ManifoldServo
 from servo.maps import ServoMap, load_or_build
 from servo.task.baseline_policies import GreedyFProbing, OraclePolicy, RandomPolicy
 from servo.task.env import ServoEnv
-from servo.task.policies import POLICIES
+from servo.task.guard import ACT_LIMIT_S, NOT_LOADED, PolicyFailure, call, check_action
+from servo.task.interface import (
+    PolicyLoadError,
+    Target,
+    is_policy_spec,
+    make_outside_policy,
+    sensed_map,
+)
+from servo.task.policies import POLICIES, TRUTH_POLICY
 from servo.task.stats import wilson_interval
 
 SIGNAL_LAG = 5  # steps between the two ends of a step pair in the F-vs-distance summary
@@ -34,26 +42,41 @@ SIGNAL_MIN_DROP = 0.1  # m of true (geodesic) distance a pair must fall to count
 
 
 def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
-    """The policy ``name`` of :data:`POLICIES` for ``env`` (``options``: its keyword
-    arguments). ``greedy`` probes toward the next waypoint view of the route
-    (:class:`~servo.task.baseline_policies.GreedyFProbing`); ``greedy-target``: the earlier variant
-    that probes toward the final target only (labelled as such: its cluster gives no signal from
-    another manifold)."""
+    """The policy ``name`` for ``env`` (``options``: its keyword arguments): one of
+    :data:`POLICIES`, or an outside factory ``package.module:factory``
+    (:class:`~servo.task.interface.PolicyFactory`; raises
+    :class:`~servo.task.interface.PolicyLoadError`). Every policy but the oracle is given the
+    map as sensed (:func:`~servo.task.interface.sensed_map`). ``greedy`` probes toward the next
+    waypoint view of the route (:class:`~servo.task.baseline_policies.GreedyFProbing`);
+    ``greedy-target``: the earlier variant that probes toward the final target only (labelled
+    as such: its cluster gives no signal from another manifold)."""
+    check_policy_name(name)
+    if is_policy_spec(name):
+        return make_outside_policy(name, env.map, rng, **options)
+    if name == "oracle":  # the upper bound: the one policy given the truth
+        return OraclePolicy(env.base.world, **options)
+    m = sensed_map(env.map)
     if name == "servo":
-        return ManifoldServo(env.map, world=env.map.world, **options)
+        return ManifoldServo(m, world=m.world, **options)
     if name == "signal":
         from servo.camera_only import SignalServo
 
-        return SignalServo(env.map, world=env.map.world, **options)
-    if name == "oracle":
-        return OraclePolicy(env.base.world, **options)
+        return SignalServo(m, world=m.world, **options)
     if name == "greedy":
-        return GreedyFProbing(env.map, **options)
+        return GreedyFProbing(m, **options)
     if name == "greedy-target":
-        return GreedyFProbing(env.map, waypoints=False, **options)
+        return GreedyFProbing(m, waypoints=False, **options)
     if name == "random":
         return RandomPolicy(rng, **options)
-    raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
+    raise ValueError(f"policy must be one of {POLICIES} or package.module:factory, got {name!r}")
+
+
+def check_policy_name(name) -> str:
+    """``name`` if it is one of :data:`POLICIES` or has the form ``package.module:factory``;
+    else ``ValueError``."""
+    if name in POLICIES or is_policy_spec(name):
+        return name
+    raise ValueError(f"policy must be one of {POLICIES} or package.module:factory, got {name!r}")
 
 
 _F_AT_VIEW: dict[tuple[str, int], float] = {}
@@ -80,49 +103,77 @@ def episode_seeds(seed: int, episodes: int) -> list[int]:
     return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
 
 
-def run_episode(env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None):
+def run_episode(
+    env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None, *,
+    truth: bool = False, act_limit_s: float = ACT_LIMIT_S, load_error: str | None = None,
+) -> dict:  # fmt: skip
     """One episode; returns its record (:func:`score_episode`; and appends video frames to
-    ``frames`` if given)."""
+    ``frames`` if given).
+
+    The policy is given the target as a :class:`~servo.task.interface.Target` and the env's
+    observations only: ``policy.reset(target)``, ``policy.act(observation)``. With ``truth``
+    (the oracle, by name), the env's info too: ``reset(target, info)``, ``act(observation,
+    info)``. A policy that raises, gives an action that is not two finite numbers inside the
+    action space, or takes over ``act_limit_s`` for a call ends the episode as a failure with
+    that reason (``servo.task.guard``); ``load_error``: the policy could not be made, and the
+    episode fails so at once.
+    """
     obs, info = env.reset(seed=seed, options=options)
     field = GeodesicField(env.base.world, info["target_pose"])
     shortest = field.distance(info["pose"][:2])
     if not np.isfinite(shortest):
         raise ValueError(f"episode {seed}: the target is unreachable from the start {info['pose']}")
-    policy.reset(info["target_view"], info)
     # poses copied: an env may update its info's arrays in place
     infos = [{**info, "pose": np.array(info["pose"])}]
     act_time, f_waypoint, true_dist = [], [], [shortest]
-    while True:
-        t0 = time.perf_counter()
-        action = policy.act(obs, info)
-        act_time.append(time.perf_counter() - t0)
-        waypoint = getattr(policy, "waypoint_", None)
-        obs, _, terminated, truncated, info = env.step(action)
-        infos.append({**info, "pose": np.array(info["pose"])})
-        true_dist.append(field.distance(info["pose"][:2]))
-        f_waypoint.append(
-            np.nan if waypoint is None else signal_toward(env.map, obs["image"], waypoint)
-        )
-        if frames is not None:
-            frames.append(np.concatenate([obs["image"], _fit(env.render(), obs["image"])], axis=1))
-        if terminated or truncated:
-            break
-    return score_episode(seed, infos, shortest, true_dist, act_time, f_waypoint)
+    low, high = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+    failure = None
+    try:
+        if load_error is not None:
+            raise PolicyFailure(NOT_LOADED, load_error)
+        view = int(info["target_view"])
+        target = Target(view, env.map.images[view])
+        extra = (info,) if truth else ()
+        call(policy.reset, target, *extra, limit=act_limit_s)
+        while True:
+            t0 = time.perf_counter()
+            action = call(policy.act, obs, *extra, limit=act_limit_s)
+            act_time.append(time.perf_counter() - t0)
+            check_action(action, low, high)
+            waypoint = getattr(policy, "waypoint_", None)
+            obs, _, terminated, truncated, info = env.step(action)
+            extra = (info,) if truth else ()
+            infos.append({**info, "pose": np.array(info["pose"])})
+            true_dist.append(field.distance(info["pose"][:2]))
+            f_waypoint.append(
+                np.nan if waypoint is None else signal_toward(env.map, obs["image"], waypoint)
+            )
+            if frames is not None:
+                frames.append(
+                    np.concatenate([obs["image"], _fit(env.render(), obs["image"])], axis=1)
+                )
+            if terminated or truncated:
+                break
+    except PolicyFailure as err:
+        failure = err
+    return score_episode(seed, infos, shortest, true_dist, act_time, f_waypoint, failure)
 
 
 def score_episode(
     seed: int, infos: Sequence[dict], shortest: float, true_distance: Sequence[float],
     act_s: Sequence[float], signal_waypoint: Sequence[float],
+    failure: PolicyFailure | None = None,
 ) -> dict:  # fmt: skip
     """An episode's record from what it produced, with no env or policy: ``infos`` (the
     reset's info, then every step's), the shortest free-space path from the start, the true
     (geodesic) distance to the target at every info, the policy's seconds per act, and F^j(k)
-    toward the policy's waypoint view after every step (NaN: none)."""
-    if len(infos) < 2:
+    toward the policy's waypoint view after every step (NaN: none). ``failure``: the policy
+    ended the episode (a failure whatever the pose; its reason, and ``failure`` its detail)."""
+    if len(infos) < (1 if failure is not None else 2):
         raise ValueError(f"infos must hold the reset's and at least one step's, got {len(infos)}")
     last = infos[-1]
     p = last["path_length"]
-    success = bool(last["success"])
+    success = bool(last["success"]) and failure is None
     trail = np.array([np.asarray(i["pose"], dtype=float) for i in infos])
     return {
         "seed": int(seed),
@@ -130,7 +181,7 @@ def score_episode(
         "target_manifold": last["target_manifold"],
         "target_view": int(last["target_view"]),
         "success": success,
-        "reason": last["reason"],
+        "reason": last["reason"] if failure is None else failure.reason,
         "spl": float(success * shortest / max(p, shortest, 1e-9)),
         "shortest_path": float(shortest),
         "path_length": float(p),
@@ -138,7 +189,7 @@ def score_episode(
         "final_heading_error_deg": float(np.rad2deg(last["heading_error"])),
         "steps": len(infos) - 1,
         "collisions": sum(int(i["collision"]) for i in infos[1:]),
-        "act_ms": float(1e3 * np.mean(act_s)),
+        "act_ms": float(1e3 * np.mean(act_s)) if len(act_s) else float("nan"),
         "trail": trail,
         "target_pose": np.asarray(last["target_pose"]),
         "start_pose": trail[0].copy(),
@@ -147,6 +198,7 @@ def score_episode(
         "signal_target": np.array([float(i["signal"]) for i in infos]),
         "signal_waypoint": np.asarray(signal_waypoint, dtype=float),
         "true_distance": np.asarray(true_distance, dtype=float),
+        **({} if failure is None else {"failure": failure.detail}),
     }
 
 
@@ -205,7 +257,8 @@ def summarise(records: list[dict]) -> dict:
     for r in records:
         pairs[f"{r['start_manifold']} -> {r['target_manifold']}"].append(r)
     out = agg(records)
-    out["act_ms"] = float(np.mean([r["act_ms"] for r in records]))
+    timed = [r["act_ms"] for r in records if np.isfinite(r["act_ms"])]
+    out["act_ms"] = float(np.mean(timed)) if timed else None
     out["signal"] = signal_agreement(records)
     out["per_pair"] = {k: agg(v) for k, v in sorted(pairs.items())}
     out["episodes_detail"] = [
@@ -250,6 +303,8 @@ def evaluate(
 ) -> dict:
     """Run ``episodes`` servo episodes in ``world`` and summarise them (see :func:`summarise`).
 
+    ``policy``: one of :data:`POLICIES` or an outside factory ``package.module:factory``
+    (:func:`make_policy`; one that cannot be made fails every episode with the reason).
     Episode ``i`` is seeded with the ``i``-th child of ``SeedSequence(seed)``, so a run is
     reproducible and a longer run extends a shorter one. With ``out``, writes
     ``<world>-<policy>-trajectories.png`` and ``videos`` H.264 MP4s of the first episodes
@@ -260,8 +315,7 @@ def evaluate(
     from tqdm.auto import tqdm
 
     check_int(episodes, "episodes")
-    if policy not in POLICIES:
-        raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
+    check_policy_name(policy)
     if world not in WORLDS:
         raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
     servo_map = servo_map or load_or_build(world, home=home, progress=progress)
@@ -275,22 +329,26 @@ def evaluate(
         render_mode="rgb_array" if videos else None,
     )
     seeds = episode_seeds(seed, episodes)
-    pol = make_policy(policy, env, np.random.default_rng(seed))
+    pol, load_error = None, None
+    try:
+        pol = make_policy(policy, env, np.random.default_rng(seed))
+    except PolicyLoadError as err:
+        load_error = str(err)
+    stem = f"{world}-{policy.replace(':', '.')}"
     records = []
     try:
         for i, s in enumerate(
             tqdm(seeds, desc=f"servo-eval {world}/{policy}", disable=not progress)
         ):
             frames = [] if out is not None and i < videos else None
-            records.append(run_episode(env, pol, s, frames=frames))
+            records.append(run_episode(env, pol, s, frames=frames, truth=policy == TRUTH_POLICY,
+                                       load_error=load_error))  # fmt: skip
             if frames:
-                write_mp4(Path(out) / f"{world}-{policy}-episode{i}.mp4", frames)
+                write_mp4(Path(out) / f"{stem}-episode{i}.mp4", frames)
         result = summarise(records)
         if out is not None:
             result["plot"] = str(
-                plot_trajectories(
-                    env.base.world, records, Path(out) / f"{world}-{policy}-trajectories.png"
-                )
+                plot_trajectories(env.base.world, records, Path(out) / f"{stem}-trajectories.png")
             )
     finally:
         env.close()

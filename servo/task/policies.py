@@ -3,3 +3,7 @@ kept apart from the policies so that a command line can offer them without impor
 (``topomap --help`` would load scikit-learn and the controllers)."""
 
 POLICIES = ("servo", "signal", "oracle", "greedy", "greedy-target", "random")
+
+TRUTH_POLICY = "oracle"
+"""The one policy the runner gives the env's truth (``info``: the true pose), by name: the
+upper bound. No other policy, and no outside one, is given it."""

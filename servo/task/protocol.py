@@ -30,8 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from common.cores import available_cores, spawn_problem
-from common.validation import check_int
+from common.validation import check_finite, check_int, check_keys
 from scenes import MANIFOLDS, WORLDS
+from servo.task.policies import TRUTH_POLICY
 
 TIERS = ("view", "anywhere")
 SPLITS = ("dev", "test")
@@ -191,10 +192,24 @@ def reset_options(env, spec: EpisodeSpec, tier: str) -> dict:
 _WORKER: dict = {}
 
 
-def _init_worker(protocol: Protocol, map_path: str, policy: str, options: dict) -> None:
+def _param_names(options) -> list[str]:
+    """The names a policy's params may have: identifiers (they become keyword arguments); the
+    values go to the policy, which checks them."""
+    if isinstance(options, dict):
+        bad = [k for k in options if not (isinstance(k, str) and k.isidentifier())]
+        if bad:
+            raise ValueError(f"policy_options keys must be identifiers, got {bad[0]!r}")
+        return list(options)
+    return []
+
+
+def _init_worker(protocol: Protocol, map_path: str, policy: str, options: dict,
+                 seed: int = 0, act_limit_s: float | None = None) -> None:  # fmt: skip
     import sim  # noqa: F401  (the GL backend before mujoco, in a spawned process)
     from servo.task.env import ServoEnv
     from servo.task.evaluation import make_policy
+    from servo.task.guard import ACT_LIMIT_S
+    from servo.task.interface import PolicyLoadError, is_policy_spec
 
     env = ServoEnv(
         protocol.world,
@@ -203,17 +218,35 @@ def _init_worker(protocol: Protocol, map_path: str, policy: str, options: dict) 
         randomize=protocol.randomize,
         odometry_noise=protocol.odometry_noise,
     )
-    pol = make_policy(policy, env, np.random.default_rng(0), **options)
-    # a slow policy (greedy probing) gets the steps to cover the route: it measures F then
-    env.max_steps = protocol.max_steps * int(getattr(pol, "budget_factor", 1))
-    _WORKER.update(env=env, protocol=protocol, policy=pol)
+    pol, load_error, rng = None, None, np.random.default_rng(seed)
+    try:
+        pol = make_policy(policy, env, rng, **options)
+    except PolicyLoadError as err:  # every episode fails with the reason; the run goes on
+        load_error = str(err)
+    # a slow policy of ours (greedy probing) gets the steps to cover the route: it measures F
+    # then. An outside policy gets the protocol's steps, whatever it claims.
+    if not is_policy_spec(policy):
+        env.max_steps = protocol.max_steps * int(getattr(pol, "budget_factor", 1))
+    limit = ACT_LIMIT_S if act_limit_s is None else float(act_limit_s)
+    # an outside policy's generator is set anew for every episode (interface.reseed); ours
+    # keep the one generator of the worker, as their published numbers were made with it
+    _WORKER.update(env=env, protocol=protocol, policy=pol, load_error=load_error,
+                   truth=policy == TRUTH_POLICY, act_limit_s=limit, policy_seed=seed,
+                   rng=rng if is_policy_spec(policy) else None)  # fmt: skip
 
 
 def _run_spec(spec: EpisodeSpec) -> dict:
     from servo.task.evaluation import run_episode
+    from servo.task.interface import reseed
 
     env, protocol = _WORKER["env"], _WORKER["protocol"]
-    record = run_episode(env, _WORKER["policy"], spec.seed, reset_options(env, spec, protocol.tier))
+    if _WORKER["rng"] is not None:
+        reseed(_WORKER["rng"], spec.seed, _WORKER["policy_seed"])
+    record = run_episode(
+        env, _WORKER["policy"], spec.seed, reset_options(env, spec, protocol.tier),
+        truth=_WORKER["truth"], act_limit_s=_WORKER["act_limit_s"],
+        load_error=_WORKER["load_error"],
+    )  # fmt: skip
     record["episode"] = spec.index
     return record
 
@@ -222,12 +255,14 @@ def run_protocol(
     protocol: Protocol,
     servo_map,
     episodes: int,
-    policy: str = "servo",
+    policy="servo",
     *,
     workers: int | None = None,
     policy_options: dict | None = None,
     progress: bool = True,
     plot: str | os.PathLike | None = None,
+    policy_seed: int = 0,
+    act_limit_s: float | None = None,
 ) -> dict:
     """Run the first ``episodes`` episodes of ``protocol`` and summarise them
     (``servo.task.evaluation.summarise``: success with its Wilson 95% interval, SPL, final errors,
@@ -237,17 +272,30 @@ def run_protocol(
     ``workers``: processes (spawned, each with its own env and policy); default: the cores
     this process may use; 1 runs in this process. ``plot``: write the trails over the world's
     top-down map there (``servo.task.evaluation.plot_trajectories``; the result's ``plot``).
+
+    ``policy``: one of ``servo.task.POLICIES`` or an outside factory ``package.module:factory``
+    (``servo.task.PolicyFactory``, or the factory itself if it is a module-level function; its
+    module is imported in each worker, running its code as ``python -m`` would), made with
+    ``policy_options`` as its params and a generator that is set anew for every episode from
+    the episode's seed and ``policy_seed`` (``servo.task.interface.reseed``; ours keep one
+    generator per worker, ``default_rng(policy_seed)``). ``act_limit_s``: seconds a policy's
+    call may take before its episode fails (default ``servo.task.guard.ACT_LIMIT_S``).
+    The result records ``policy``, ``policy_params`` and ``policy_seed``.
     """
     from tqdm.auto import tqdm
 
     from servo.maps import ServoMap, load_map, save_map
-    from servo.task.evaluation import summarise
-    from servo.task.policies import POLICIES
+    from servo.task.evaluation import check_policy_name, summarise
 
     if not isinstance(protocol, Protocol):
         raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
-    if policy not in POLICIES:
-        raise ValueError(f"policy must be one of {POLICIES}, got {policy!r}")
+    if callable(policy):  # a factory object: by its import path, which every worker imports
+        policy = f"{policy.__module__}:{policy.__qualname__}"
+    check_policy_name(policy)
+    policy_seed = check_int(policy_seed, "policy_seed", minimum=0)
+    if act_limit_s is not None and not check_finite(act_limit_s, "act_limit_s") > 0:
+        raise ValueError(f"act_limit_s must be a number > 0, got {act_limit_s!r}")
+    params = check_keys(policy_options, _param_names(policy_options), "policy_options")
     workers = available_cores() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
@@ -265,7 +313,7 @@ def run_protocol(
             )
         m.check_world(protocol.world)
         specs = episode_specs(protocol, m.true_labels, episodes)
-        args = (protocol, map_path, policy, dict(policy_options or {}))
+        args = (protocol, map_path, policy, params, policy_seed, act_limit_s)
         name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
         bar = tqdm(total=len(specs), disable=not progress, desc=name)
         records = []
@@ -291,7 +339,8 @@ def run_protocol(
                     bar.update()
         bar.close()
     result = summarise(records)
-    result.update(asdict(protocol), policy=policy, workers=workers)
+    result.update(asdict(protocol), policy=policy, workers=workers, policy_params=params,
+                  policy_seed=policy_seed)  # fmt: skip
     if plot is not None:
         from scenes import build_world
         from servo.task.evaluation import plot_trajectories

@@ -9,6 +9,8 @@ from scripts.args import (
     non_negative_float,
     non_negative_int,
     policies,
+    policy_arg,
+    policy_name,
     positive_int,
     worlds,
 )
@@ -52,3 +54,24 @@ def test_frame_count_is_at_least_two():
     assert frame_count("2") == 2
     with pytest.raises(argparse.ArgumentTypeError, match="integer >= 2, got 1"):
         frame_count("1")
+
+
+def test_policy_name_is_ours_or_a_factory_path():
+    assert policy_name("signal") == "signal"
+    assert policy_name("examples.my_policy:make_policy") == "examples.my_policy:make_policy"
+    for bad in ("nope", "examples.my_policy", "examples.my policy:f", ":f", "a.b:c.d", "a:b:c"):
+        with pytest.raises(argparse.ArgumentTypeError, match="package.module:factory"):
+            policy_name(bad)
+
+
+def test_policy_arg_reads_json_values_else_text():
+    assert policy_arg("speed=0.5") == ("speed", 0.5)
+    assert policy_arg("steps=3") == ("steps", 3)
+    assert policy_arg("fast=true") == ("fast", True)
+    assert policy_arg("mode=greedy") == ("mode", "greedy")
+    assert policy_arg("views=[1, 2]") == ("views", [1, 2])
+    for bad in ("speed", "=1", "two words=1"):
+        with pytest.raises(argparse.ArgumentTypeError, match="KEY=VALUE"):
+            policy_arg(bad)
+    with pytest.raises(argparse.ArgumentTypeError, match="finite"):
+        policy_arg("speed=NaN")

@@ -103,3 +103,55 @@ def test_map_does_not_depend_on_where_odometry_starts(servo_dataset):
     np.testing.assert_allclose(other.edge_transforms, base.edge_transforms, atol=1e-6)
     np.testing.assert_allclose(other.poses, base.poses, atol=1e-6)
     assert np.abs(other.poses[other.frame == 0]).max() < 1e-9  # each starts at its origin
+
+
+def test_map_does_not_depend_on_the_truth(servo_dataset, servo_maps):
+    """The true labels and poses are kept for the evaluation only: scrambling them (another
+    manifold per frame, poses anywhere) leaves every sensed array, the clusters and the key."""
+    import dataclasses
+
+    from servo.maps.build import build_map
+    from sim.dataset import load_dataset
+
+    ds = load_dataset(servo_dataset)
+    rng = np.random.default_rng(5)
+    scrambled = dict(ds.sequences)
+    for name, s in ds.sequences.items():
+        if s.world == "lawn":
+            labels = rng.integers(4, 8, len(s)).astype(s.labels.dtype)  # any lawn manifold
+            poses = s.poses + rng.normal(0, 5, s.poses.shape)
+            scrambled[name] = dataclasses.replace(s, labels=labels, poses=poses)
+    m = build_map(dataclasses.replace(ds, sequences=scrambled), "lawn")
+    base = servo_maps["lawn"]
+    assert not np.array_equal(m.true_labels, base.true_labels)
+    assert not np.allclose(m.true_poses, base.true_poses)
+    for f in dataclasses.fields(base):
+        if f.name in ("true_poses", "true_labels", "clustering", "image_features"):
+            continue
+        a, b = getattr(m, f.name), getattr(base, f.name)
+        if isinstance(a, np.ndarray):
+            np.testing.assert_array_equal(a, b, err_msg=f.name)
+        else:
+            assert a == b, f.name
+    x = base.features[:20]
+    np.testing.assert_array_equal(m.clustering.predict(x), base.clustering.predict(x))
+
+
+def test_the_number_of_clusters_is_a_stated_setting(servo_dataset):
+    from servo.maps import MapSettings, map_key
+    from servo.maps.types import PRIOR_CLUSTERS
+    from sim.dataset import read_meta
+
+    assert PRIOR_CLUSTERS == {"hallway": 4, "lawn": 4}
+    assert MapSettings().clusters_for("lawn") == 4 and MapSettings().clusters_for("robot") == 2
+    assert MapSettings(n_clusters=3).clusters_for("lawn") == 3
+    meta = read_meta(servo_dataset)
+    keys = {map_key(meta, "lawn", MapSettings(n_clusters=k)) for k in (None, 3, 5)}
+    assert len(keys) == 3  # the key records K
+    with pytest.raises(ValueError, match="n_clusters must be an integer >= 2"):
+        MapSettings(n_clusters=1)
+    d = MapSettings().to_json()
+    d.pop("n_clusters")  # a file written before K was a setting
+    assert MapSettings.from_json(d) == MapSettings()
+    with pytest.raises(ValueError, match="settings.n_clusters"):
+        MapSettings.from_json({**d, "n_clusters": True})
