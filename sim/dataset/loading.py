@@ -1,0 +1,189 @@
+"""Sequence files written and read: an ``.npz`` written atomically with its SHA-256, read
+without pickle, checked against its ``meta.json`` entry and :mod:`common.bounds`."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from common import bounds
+from common.fileio import atomic_path
+from common.npz import UnreadableNpz, read_arrays
+from sim.dataset.model import Dataset, Sequence
+from sim.dataset.schema import (
+    ARRAYS,
+    GROUND_TRUTH,
+    PER_FRAME,
+    SHAPES,
+    DatasetError,
+    read_meta,
+)
+
+
+def write_sequence(path: Path, arrays: dict[str, np.ndarray], compresslevel: int = 1) -> str:
+    """Write arrays as an ``.npz`` (deflate level 1: most of the size win at a fraction of the
+    time), atomically; return its SHA-256."""
+    with atomic_path(path) as tmp:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
+            for key in sorted(arrays):
+                info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                with zf.open(info, "w", force_zip64=True) as f:
+                    np.lib.format.write_array(
+                        f, np.ascontiguousarray(arrays[key]), allow_pickle=False
+                    )
+        digest = file_sha256(tmp)
+    return digest
+
+
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes, hex (read in 4 MiB chunks)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 22), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def read_npz(
+    path: Path, sha256: str | None, context: str = "", error: type[Exception] = DatasetError
+) -> dict[str, np.ndarray]:
+    """The arrays of an ``.npz`` (as :func:`write_sequence` writes them), read without pickle
+    after checking its SHA-256 when ``sha256`` is given; a missing, modified or unreadable file
+    raises ``error`` starting with ``context``."""
+    if not path.is_file():
+        raise error(f"{context}{path} is missing")
+    if sha256 is not None and file_sha256(path) != sha256:
+        raise error(f"{context}{path} is truncated or modified (checksum mismatch)")
+    try:
+        return read_arrays(path)
+    except UnreadableNpz as err:
+        raise error(f"{context}{path} cannot be read ({err})") from err
+
+
+def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str | None:
+    """What is wrong with the values of a sequence's arrays (:mod:`common.bounds`), or None;
+    ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any."""
+    image_shape = arrays["images"].shape[1:] if "images" in arrays else (1, 1, 3)
+    if 0 in image_shape[:2] or len(arrays["angles"]) == 0:
+        return (
+            f"images of shape {image_shape} and scans of {len(arrays['angles'])} beams: "
+            "neither may be empty"
+        )
+    labels = arrays.get("labels")
+    if labels is not None and manifolds is not None and len(labels):
+        low, high = int(labels.min()), int(labels.max())
+        if low < -1 or high >= manifolds:
+            return (
+                f"labels from {low} to {high}, but meta.json has {manifolds} manifolds: a label "
+                f"is -1 (on none) or in 0..{manifolds - 1}"
+            )
+    checks = [
+        ("scans", bounds.range_problem), ("angles", bounds.angle_problem),
+        ("odometry", bounds.pose_problem), ("poses", bounds.pose_problem),
+        ("commands", bounds.command_problem), ("times", bounds.time_problem),
+        ("depth", bounds.range_problem),
+    ]  # fmt: skip
+    for key, check in checks:
+        problem = check(arrays[key], key) if key in arrays else None
+        if problem:
+            return problem
+    return None
+
+
+def load_sequence(
+    directory: Path,
+    name: str,
+    entry: dict,
+    verify: bool = True,
+    ground_truth: bool = True,
+    manifolds: int | None = None,
+    camera: bool = True,
+) -> Sequence:
+    """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
+    whether ``poses`` and ``labels`` must be there (True) or must not (False); ``manifolds``
+    how many manifolds its labels may name (None: not checked); ``camera`` whether ``images``
+    must be there (True) or must not (False)."""
+    path = Path(directory) / entry["file"]
+    arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
+    expected = [
+        k for k in ARRAYS if (ground_truth or k not in GROUND_TRUTH) and (camera or k != "images")
+    ]
+    missing = [k for k in expected if k not in arrays]
+    if missing:
+        raise DatasetError(f"sequence {name!r}: arrays {missing} missing from {path}")
+    extra = [k for k in GROUND_TRUTH if k in arrays and not ground_truth]
+    if extra:
+        raise DatasetError(
+            f"sequence {name!r}: {path} holds {extra} but meta.json says ground_truth is false"
+        )
+    if "images" in arrays and not camera:
+        raise DatasetError(f"sequence {name!r}: {path} holds images but meta.json says camera "
+                           "is false")  # fmt: skip
+    n = entry["frames"]
+    for k in [k for k in PER_FRAME if k in expected] + (["depth"] if "depth" in arrays else []):
+        if arrays[k].ndim == 0 or len(arrays[k]) != n:
+            raise DatasetError(
+                f"sequence {name!r}: {k} has shape {arrays[k].shape}, meta says {n} frames"
+            )
+    for k in expected:
+        dtype = ARRAYS[k]
+        if arrays[k].dtype != dtype:
+            raise DatasetError(
+                f"sequence {name!r}: {k} has dtype {arrays[k].dtype}, expected {np.dtype(dtype)}"
+            )
+        trailing = arrays[k].shape[0 if k == "angles" else 1 :]
+        want = SHAPES[k]
+        if len(trailing) != len(want) or any(
+            w not in (-1, t) for w, t in zip(want, trailing, strict=True)
+        ):
+            lead = () if k == "angles" else ("frames",)
+            form = ", ".join([*lead, *("*" if w < 0 else str(w) for w in want)])
+            raise DatasetError(
+                f"sequence {name!r}: {k} has shape {arrays[k].shape}; expected ({form})"
+            )
+    if arrays["scans"].shape[1] != len(arrays["angles"]):
+        raise DatasetError(
+            f"sequence {name!r}: scans have {arrays['scans'].shape[1]} beams but angles has "
+            f"{len(arrays['angles'])}"
+        )
+    problem = _value_problem(arrays, manifolds)
+    if problem:
+        raise DatasetError(f"sequence {name!r}: {path}: {problem}")
+    return Sequence(
+        name=name,
+        world=entry["world"],
+        depth=arrays.get("depth"),
+        images=arrays.get("images"),
+        **{k: arrays[k] for k in expected if k != "images"},
+    )
+
+
+def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
+    """Load a complete dataset; refuse one that is partial, truncated or of another schema.
+
+    Parameters
+    ----------
+    verify : bool
+        Check each file's SHA-256 against ``meta.json`` (catches truncation; ~0.1 s per 100 MB).
+    """
+    directory = Path(directory)
+    meta = read_meta(directory)
+    if not meta.get("complete", False):
+        raise DatasetError(
+            f"{directory} is an incomplete collection ({len(meta.get('sequences', {}))} sequences "
+            "done): rerun the same `topomap collect` command to resume it"
+        )
+    ground_truth = bool(meta.get("ground_truth", True))
+    manifolds = len(meta["manifolds"]) if "manifolds" in meta else None
+    seqs = {
+        name: load_sequence(
+            directory, name, entry, verify, ground_truth, manifolds, meta.get("camera", True)
+        )
+        for name, entry in meta["sequences"].items()
+    }
+    return Dataset(directory, meta, seqs)
