@@ -240,6 +240,8 @@ def build_map(
     settings = settings or MapSettings()
     if not isinstance(dataset, Dataset):
         dataset = load_dataset(dataset)
+    for sensor in ("camera", "laser"):  # views are images; their links, scan matches
+        dataset.require(sensor, "the servo map")
     names = _world_sequences(dataset, world)
     first = dataset.sequences[names[0]]
     max_range = dataset.max_range

@@ -19,7 +19,9 @@ Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
 (*) ground truth: present when ``meta["ground_truth"]`` is true (collected in simulation); a
 dataset imported from a robot's log (:mod:`sim.readers.rosbag`) has ``"ground_truth": false``,
 no ``poses`` or ``labels`` arrays and no manifolds. A dataset of a robot without a camera (a
-laser-only bag) has ``"camera": false`` and no ``images`` arrays (absent: true). Schema
+laser-only bag) has ``"camera": false`` and no ``images`` arrays, one without a laser (a
+camera-only bag) ``"laser": false`` and no ``scans`` or ``angles`` arrays (both keys absent:
+true); a method that needs the missing sensor raises :class:`MissingSensorError`. Schema
 version 1 (before ``"ground_truth"`` existed) is still read, as a dataset with ground truth.
 
 Reading checks the values too, against :mod:`common.bounds`: finite poses, odometry, commands,
@@ -47,6 +49,8 @@ __getattr__, __dir__, __all__ = lazy_exports(
                 "SCHEMA_VERSION",
                 "SHAPES",
                 "DatasetError",
+                "MissingSensorError",
+                "SENSORS",
                 "check_entry",
                 "read_meta",
             ],

@@ -18,6 +18,7 @@ from sim.dataset.schema import (
     ARRAYS,
     GROUND_TRUTH,
     PER_FRAME,
+    SENSORS,
     SHAPES,
     DatasetError,
     read_meta,
@@ -69,11 +70,9 @@ def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str 
     """What is wrong with the values of a sequence's arrays (:mod:`common.bounds`), or None;
     ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any."""
     image_shape = arrays["images"].shape[1:] if "images" in arrays else (1, 1, 3)
-    if 0 in image_shape[:2] or len(arrays["angles"]) == 0:
-        return (
-            f"images of shape {image_shape} and scans of {len(arrays['angles'])} beams: "
-            "neither may be empty"
-        )
+    beams = len(arrays["angles"]) if "angles" in arrays else 1
+    if 0 in image_shape[:2] or beams == 0:
+        return f"images of shape {image_shape} and scans of {beams} beams: neither may be empty"
     labels = arrays.get("labels")
     if labels is not None and manifolds is not None and len(labels):
         low, high = int(labels.min()), int(labels.max())
@@ -103,16 +102,20 @@ def load_sequence(
     ground_truth: bool = True,
     manifolds: int | None = None,
     camera: bool = True,
+    laser: bool = True,
 ) -> Sequence:
     """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
     whether ``poses`` and ``labels`` must be there (True) or must not (False); ``manifolds``
     how many manifolds its labels may name (None: not checked); ``camera`` whether ``images``
-    must be there (True) or must not (False)."""
+    must be there (True) or must not (False), ``laser`` the same of ``scans`` and ``angles``."""
     path = Path(directory) / entry["file"]
     arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
-    expected = [
-        k for k in ARRAYS if (ground_truth or k not in GROUND_TRUTH) and (camera or k != "images")
-    ]
+    absent = (
+        (() if ground_truth else GROUND_TRUTH)
+        + (() if camera else SENSORS["camera"])
+        + (() if laser else SENSORS["laser"])
+    )
+    expected = [k for k in ARRAYS if k not in absent]
     missing = [k for k in expected if k not in arrays]
     if missing:
         raise DatasetError(f"sequence {name!r}: arrays {missing} missing from {path}")
@@ -121,9 +124,11 @@ def load_sequence(
         raise DatasetError(
             f"sequence {name!r}: {path} holds {extra} but meta.json says ground_truth is false"
         )
-    if "images" in arrays and not camera:
-        raise DatasetError(f"sequence {name!r}: {path} holds images but meta.json says camera "
-                           "is false")  # fmt: skip
+    for sensor, on in (("camera", camera), ("laser", laser)):
+        held = [k for k in SENSORS[sensor] if k in arrays]
+        if held and not on:
+            raise DatasetError(f"sequence {name!r}: {path} holds {held} but meta.json says "
+                               f"{sensor} is false")  # fmt: skip
     n = entry["frames"]
     for k in [k for k in PER_FRAME if k in expected] + (["depth"] if "depth" in arrays else []):
         if arrays[k].ndim == 0 or len(arrays[k]) != n:
@@ -146,7 +151,7 @@ def load_sequence(
             raise DatasetError(
                 f"sequence {name!r}: {k} has shape {arrays[k].shape}; expected ({form})"
             )
-    if arrays["scans"].shape[1] != len(arrays["angles"]):
+    if laser and arrays["scans"].shape[1] != len(arrays["angles"]):
         raise DatasetError(
             f"sequence {name!r}: scans have {arrays['scans'].shape[1]} beams but angles has "
             f"{len(arrays['angles'])}"
@@ -159,7 +164,9 @@ def load_sequence(
         world=entry["world"],
         depth=arrays.get("depth"),
         images=arrays.get("images"),
-        **{k: arrays[k] for k in expected if k != "images"},
+        scans=arrays.get("scans"),
+        angles=arrays.get("angles"),
+        **{k: arrays[k] for k in expected if k not in ("images", "scans", "angles")},
     )
 
 
@@ -182,7 +189,14 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
     manifolds = len(meta["manifolds"]) if "manifolds" in meta else None
     seqs = {
         name: load_sequence(
-            directory, name, entry, verify, ground_truth, manifolds, meta.get("camera", True)
+            directory,
+            name,
+            entry,
+            verify,
+            ground_truth,
+            manifolds,
+            meta.get("camera", True),
+            meta.get("laser", True),
         )
         for name, entry in meta["sequences"].items()
     }

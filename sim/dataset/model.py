@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.dataset.schema import GROUND_TRUTH, DatasetError
+from sim.dataset.schema import GROUND_TRUTH, SENSORS, DatasetError, MissingSensorError
 from sim.runs import Runs
 
 
@@ -24,7 +24,7 @@ class Sequence:
         The sequence's name (e.g. ``"lawn-left"``) and the world (place) it was recorded in.
     images, scans, angles, odometry, commands, times : ndarray
         The arrays of the dataset format, in its units (the module's description); ``images``
-        is None in a dataset without a camera.
+        is None in a dataset without a camera, ``scans`` and ``angles`` without a laser.
     poses, labels : ndarray or None, default None
         The true poses and manifold ids; None without ground truth.
     depth : ndarray or None, default None
@@ -55,8 +55,8 @@ class Sequence:
     name: str
     world: str
     images: np.ndarray | None  # None without a camera
-    scans: np.ndarray
-    angles: np.ndarray
+    scans: np.ndarray | None  # None without a laser
+    angles: np.ndarray | None
     odometry: np.ndarray
     commands: np.ndarray
     times: np.ndarray
@@ -93,6 +93,8 @@ class Dataset:
         True poses and manifold labels are recorded (simulated data, not imported logs).
     has_camera : bool
         Camera images are recorded (false for a laser-only import).
+    has_laser : bool
+        Laser scans are recorded (false for a camera-only import).
     max_range : float or None
         The laser's range from the settings, m.
     worlds : list of str
@@ -139,10 +141,23 @@ class Dataset:
         return bool(self.meta.get("camera", True))
 
     @property
+    def has_laser(self) -> bool:
+        """Laser scans are recorded (false for a dataset imported without a laser)."""
+        return bool(self.meta.get("laser", True))
+
+    def require(self, sensor: str, needed_by: str) -> None:
+        """Raise :class:`MissingSensorError` naming this dataset, ``sensor`` (``"camera"`` or
+        ``"laser"``) and ``needed_by`` (what needs it) unless the sensor was recorded."""
+        if sensor not in SENSORS:
+            raise ValueError(f"sensor must be one of {list(SENSORS)}, got {sensor!r}")
+        if not (self.has_camera if sensor == "camera" else self.has_laser):
+            raise MissingSensorError(self.path, sensor, needed_by)
+
+    @property
     def max_range(self) -> float | None:
         """The laser's maximum range (m) from the settings; readings at or beyond it are no
-        return. None when the settings do not say."""
-        value = self.meta.get("settings", {}).get("laser", {}).get("max_range")
+        return. None when the settings do not say (or there is no laser)."""
+        value = (self.meta.get("settings", {}).get("laser") or {}).get("max_range")
         return None if value is None else float(value)
 
     @property
@@ -155,19 +170,19 @@ class Dataset:
         names = list(self.sequences) if names is None else names
         if field in GROUND_TRUTH and not self.has_ground_truth:
             raise DatasetError(f"{self.path} has no ground truth: no {field!r} to concatenate")
-        if field == "images" and not self.has_camera:
-            raise DatasetError(
-                f"{self.path} has no camera images (imported without an image topic): the "
-                "methods on images need a dataset with a camera; the laser scans are there"
-            )
+        for sensor, fields in SENSORS.items():
+            if field in fields:
+                self.require(sensor, f"concatenating {field!r} (the methods on {fields[0]})")
         return np.concatenate([getattr(self.sequences[n], field) for n in names])
 
     def runs(self, world: str) -> Runs:
         """Every sequence (drive) of ``world`` together, in the form the mapping methods take.
 
         See :class:`Runs`; no-return beams (``inf``, and readings at or beyond the dataset's
-        :attr:`max_range`) are left out of the scan points.
+        :attr:`max_range`) are left out of the scan points. Needs the laser
+        (:class:`MissingSensorError` without one).
         """
+        self.require("laser", "the observation grouping (the drives' scans, Dataset.runs)")
         sequences = [s for s in self.sequences.values() if s.world == world]
         if not sequences:
             raise ValueError(

@@ -40,10 +40,27 @@ _FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\.npz\Z")  # the file 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
 GROUND_TRUTH = ("poses", "labels")  # absent from a dataset without ground truth
+SENSORS = {"camera": ("images",), "laser": ("scans", "angles")}  # absent without the sensor
 
 
 class DatasetError(ValueError):
     """A dataset that is missing, truncated, inconsistent or from another schema version."""
+
+
+class MissingSensorError(DatasetError):
+    """A dataset recorded without the sensor a method needs: the grouping needs the laser's
+    scans, the methods on images the camera's. ``path`` is the dataset's folder and ``sensor``
+    ``"camera"`` or ``"laser"``."""
+
+    def __init__(self, path, sensor: str, needed_by: str):
+        self.path, self.sensor = Path(path), sensor
+        arrays = " or ".join(SENSORS[sensor])
+        other = {"camera": "laser scans", "laser": "camera images"}[sensor]
+        super().__init__(
+            f"{path} has no {sensor} (no {arrays}: recorded or imported without one), and "
+            f"{needed_by} needs the {sensor}'s {arrays}; the dataset holds {other} and "
+            "odometry. Use a dataset with a " + sensor
+        )
 
 
 def read_meta(directory: str | os.PathLike) -> dict:
@@ -93,6 +110,8 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
     if not isinstance(settings, dict):
         raise DatasetError(f"{path}: 'settings' must be an object, got {settings!r}")
     laser = settings.get("laser", {})
+    if laser is None and meta.get("laser") is False:  # no laser: no laser settings
+        laser = {}
     if not isinstance(laser, dict):
         raise DatasetError(f"{path}: 'settings.laser' must be an object, got {laser!r}")
     r = laser.get("max_range", 1.0)
@@ -102,8 +121,12 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
     manifolds = meta.get("manifolds", [])
     if not (isinstance(manifolds, list) and all(isinstance(m, str) for m in manifolds)):
         raise DatasetError(f"{path}: 'manifolds' must be a list of names, got {manifolds!r}")
-    if not isinstance(meta.get("camera", True), bool):
-        raise DatasetError(f"{path}: 'camera' must be true or false, got {meta['camera']!r}")
+    for sensor in SENSORS:
+        if not isinstance(meta.get(sensor, True), bool):
+            raise DatasetError(f"{path}: '{sensor}' must be true or false, got {meta[sensor]!r}")
+    if not (meta.get("camera", True) or meta.get("laser", True)):
+        raise DatasetError(f"{path}: 'camera' and 'laser' are both false; a dataset records "
+                           "at least one of the two sensors")  # fmt: skip
     if not isinstance(meta.get("complete", False), bool):
         raise DatasetError(f"{path}: 'complete' must be true or false, got {meta['complete']!r}")
 
