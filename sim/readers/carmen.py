@@ -218,7 +218,8 @@ def _check_geometry(path: Path, line_no: int, n: int, head: np.ndarray) -> None:
     for name, value in (("angular_resolution", resolution), ("field_of_view", fov)):
         if not (0 <= value <= FULL_TURN and (n == 1 or value > 0)):
             raise CarmenError(
-                f"{path}, line {line_no}: ROBOTLASER1 {name} {value!r} rad is outside {low}, 2 pi]"
+                f"{path}, line {line_no}: ROBOTLASER1 {name} {value!r} rad is outside "
+                f"{low}, 2 pi]"
             )
     problem = angle_problem(start, "ROBOTLASER1 start_angle")
     if problem:

@@ -28,7 +28,9 @@ def aces(aces_log):
 def _drive(log, part, camera: bool) -> Drive:
     t = log.timestamps[part] - log.timestamps[0] + 0.5
     n = len(t)
-    images = (np.arange(n)[:, None, None, None] * 4 % 256 * np.ones((1, 4, 6, 3))).astype(np.uint8)
+    images = (np.arange(n)[:, None, None, None] * 4 % 256 * np.ones((1, 4, 6, 3))).astype(
+        np.uint8
+    )
     return Drive(
         t_scan=t, ranges=log.ranges[part], angles=log.angles,
         t_image=t if camera else t[:0], images=images if camera else images[:0],
