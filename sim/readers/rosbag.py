@@ -86,8 +86,8 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
 
 def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = True) -> dict:
     """One bag's aligned frames: the arrays of one dataset sequence (see the module
-    docstring), plus ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans left out, by
-    reason)."""
+    docstring), plus ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans, or images
+    without a laser, left out, by reason)."""
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
     from tqdm.auto import tqdm
@@ -148,8 +148,9 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
         ) from err
     clock = scans if laser else images
     stamps = np.asarray(clock.stamps, dtype=np.int64)[frames["clock"]]
-    ranges, angles, range_max = _laser_arrays(scans, frames["clock"], geometry) if laser else (
-        None, None, None)  # fmt: skip
+    ranges = angles = range_max = None  # without a laser
+    if laser:
+        ranges, angles, range_max = _laser_arrays(scans, frames["clock"], geometry)
     return {
         "images": pictures,
         "scans": ranges,
