@@ -256,7 +256,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
     i = sub.add_parser("import", help="a robot's ROS 1 / ROS 2 bags as a dataset (own data)")
     i.add_argument("--rosbag", nargs="+", required=True, help="bags: drives through one place")
-    i.add_argument("--scan-topic", required=True, help="sensor_msgs/LaserScan topic")
+    i.add_argument("--scan-topic", default=None,
+                   help="sensor_msgs/LaserScan topic; leave out for a robot without a laser "
+                   "(camera and odometry only)")  # fmt: skip
     i.add_argument("--image-topic", default=None,
                    help="sensor_msgs/Image or CompressedImage; leave out for a robot without a "
                    "camera (laser and odometry only)")  # fmt: skip

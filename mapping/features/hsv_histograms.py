@@ -124,7 +124,7 @@ class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
         """Check the parameters and images; remember the feature count."""
         arr = np.asarray(images)
         # the first image checks the lot: one (H, W, 3) image is a batch of one, not H rows
-        first = arr if arr.ndim == 3 else arr[:1]
+        first = arr if arr.ndim <= 3 else arr[:1]  # fewer axes: refused, naming the form
         self.n_features_in_ = color_histograms(first, self.bins, self.grid).shape[1]
         return self
 

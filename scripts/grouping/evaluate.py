@@ -136,6 +136,7 @@ def evaluate_grouping(
 
     if not isinstance(dataset, ds.Dataset):
         dataset = ds.load_dataset(dataset)
+    dataset.require("laser", "the observation grouping (group-eval)")  # before any output
     icp = tuple(bool(flag) for flag in icp)
     true_poses = true_poses and dataset.has_ground_truth  # imported logs have none
     if not icp and not true_poses:

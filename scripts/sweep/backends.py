@@ -11,12 +11,13 @@ complete, with their task's index).
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from multiprocessing import get_context
 
-from common.cores import available_cores
+from common.cores import available_cores, spawn_problem
 from common.validation import check_int
 from scripts.sweep.episode import ONE_THREAD, EpisodeRunner, EpisodeTask
 from scripts.sweep.ray_backend import RayBackend, parse_address  # imports Ray only when used
@@ -38,17 +39,30 @@ class LocalBackend:
     """``workers`` spawned processes (``spawn``: a forked worker hangs on its first render once
     the parent has had a GL context), each an :class:`EpisodeRunner` with its own copy of the
     maps (pickled from this process's, already checked: loading and re-checking the saved files
-    in every worker took longer than the episodes of a small sweep)."""
+    in every worker took longer than the episodes of a small sweep).
+
+    Where no worker process can start (a script piped to Python: ``common.cores.spawn_problem``)
+    the episodes run one after another in the calling process, with a warning saying why, and
+    ``workers`` becomes 1; the records are the same (each episode depends on its task alone)."""
 
     name = "local"
 
     def __init__(self, workers: int):
         self.workers = int(workers)
         self._pool: ProcessPoolExecutor | None = None
+        self._runner: EpisodeRunner | None = None  # the calling process's, when none can start
 
     def start(self, maps: dict, policy: str, max_steps: int) -> None:
         """``maps``: ``{world: ServoMap}``."""
         args = (dict(maps), policy, int(max_steps))
+        problem = spawn_problem()
+        if problem:
+            warnings.warn(f"sweeping in this process, not in {self.workers} worker processes: "
+                          f"{problem}", RuntimeWarning, stacklevel=3)  # fmt: skip
+            self.workers = 1
+            # the caller's thread settings stay its own: one thread is for a pool's workers
+            self._runner = EpisodeRunner(*args, one_thread=False)
+            return
         self._pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"),
                                          initializer=_init_pool_worker, initargs=args)  # fmt: skip
         # start the processes now (a spawned pool starts them all on its first task), so that
@@ -64,11 +78,18 @@ class LocalBackend:
             os.environ.update(saved)
 
     def run(self, tasks: list[EpisodeTask]) -> Iterator[tuple[int, dict]]:
+        if self._runner is not None:
+            for i, task in enumerate(tasks):
+                yield i, self._runner.run(task)
+            return
         futures = {self._pool.submit(_run_in_pool, t): i for i, t in enumerate(tasks)}
         for f in as_completed(futures):
             yield futures[f], f.result()
 
     def close(self) -> None:
+        if self._runner is not None:
+            self._runner.close()
+            self._runner = None
         if self._pool is not None:
             self._pool.shutdown(cancel_futures=True)
             self._pool = None

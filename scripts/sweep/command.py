@@ -158,6 +158,7 @@ def run_sweep(
                 records[i] = record
                 bar.update(1)
         t2 = time.perf_counter()
+        n = workers.workers  # fewer where none could start (a script piped to Python)
     sweep = {"backend": backend, "num_envs": n, "startup_s": t1 - t0, "run_s": t2 - t1,
              "episodes_per_min": 60.0 * len(tasks) / (t2 - t1)}  # fmt: skip
     rows = []

@@ -71,11 +71,13 @@ class EpisodeRunner:
     first use, so a worker pays for imports, maps and renderers once per sweep.
 
     ``maps``: ``{world: ServoMap}``; ``policy``: a name of ``servo.task.policies.POLICIES``. The
-    process is set to one thread (:func:`configure_worker`).
+    process is set to one thread (:func:`configure_worker`) unless ``one_thread`` is false (the
+    episodes run in the calling process, whose threads are its own).
     """
 
-    def __init__(self, maps: dict, policy: str, max_steps: int):
-        configure_worker()
+    def __init__(self, maps: dict, policy: str, max_steps: int, one_thread: bool = True):
+        if one_thread:
+            configure_worker()
         self._maps = dict(maps)
         self._policy, self._max_steps = policy, int(max_steps)
         self._envs: dict = {}

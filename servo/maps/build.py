@@ -70,8 +70,8 @@ def _key_sources() -> list[tuple[str, Path]]:
     maps_dir = Path(__file__).resolve().parent
     mapping_dir = Path(mapping.__file__).resolve().parent
     root = mapping_dir.parent
-    dataset_reader = Path(datahome.__file__).resolve().parent / "dataset.py"
-    files = [*mapping_dir.rglob("*.py"), *maps_dir.glob("*.py"), dataset_reader]
+    dataset_reader = Path(datahome.__file__).resolve().parent / "dataset"
+    files = [*mapping_dir.rglob("*.py"), *maps_dir.glob("*.py"), *dataset_reader.glob("*.py")]
     return sorted((p.relative_to(root).as_posix(), p) for p in files)
 
 
@@ -244,6 +244,8 @@ def build_map(
     settings = settings or MapSettings()
     if not isinstance(dataset, Dataset):
         dataset = load_dataset(dataset)
+    for sensor in ("camera", "laser"):  # views are images; their links, scan matches
+        dataset.require(sensor, "the servo map")
     names = _world_sequences(dataset, world)
     first = dataset.sequences[names[0]]
     max_range = dataset.max_range

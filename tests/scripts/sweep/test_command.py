@@ -188,3 +188,37 @@ def test_ray_backend_without_ray_says_how_to_install(monkeypatch, capsys):
 
     assert main(["sweep", "--world", "hallway", "--backend", "ray", "--quiet"]) == 2
     assert "needs Ray: pip install" in capsys.readouterr().err
+
+
+PIPED = """
+import json, warnings
+warnings.simplefilter("always")
+from scripts.sweep.command import TIME_KEYS, run_sweep
+(row,) = run_sweep(["hallway"], {seeds}, ["randomized"], policy="random",
+                   episodes_per_seed={episodes}, num_envs=2, progress=False,
+                   max_steps={max_steps}, dataset={dataset!r}, cache={cache!r})
+detail = [{{k: v for k, v in d.items() if k not in TIME_KEYS}} for d in row["episodes_detail"]]
+print(json.dumps({{"num_envs": row["num_envs"], "detail": detail}}))
+"""
+
+
+def test_a_sweep_runs_from_a_script_piped_to_python(rows, hallway_map, servo_dataset, cache):
+    """No worker process can import a main module read from stdin: the episodes run in the
+    calling process, with a warning saying why, and are those the worker processes ran."""
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[3]
+    script = PIPED.format(seeds=SEEDS, episodes=EPISODES, max_steps=MAX_STEPS,
+                          dataset=str(servo_dataset), cache=str(cache))  # fmt: skip
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONPATH": str(root)}
+    done = subprocess.run([sys.executable, "-"], input=script, text=True, capture_output=True,
+                          cwd=root, env=env, timeout=300)  # fmt: skip
+    if done.returncode != 0:
+        pytest.fail(f"exit {done.returncode}: {done.stderr[-2000:]}")
+    assert "sweeping in this process, not in 2 worker processes" in done.stderr
+    assert "save the script to a file" in done.stderr
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    want = [{k: v for k, v in d.items() if k not in TIME_KEYS} for d in rows[1]["episodes_detail"]]
+    assert got["num_envs"] == 1
+    assert got["detail"] == json.loads(json.dumps(want))

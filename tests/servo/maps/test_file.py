@@ -170,7 +170,8 @@ def test_the_cache_key_covers_the_code_that_builds_a_map(servo_dataset, monkeypa
     names = {name for name, _ in sources}
     assert {"mapping/icp_solver.py", "mapping/features/images.py", "mapping/persistence.py",
             "mapping/manifold/clustering.py", "mapping/manifold/kernel.py",
-            "servo/maps/build.py", "servo/maps/file.py", "sim/dataset.py"} <= names  # fmt: skip
+            "servo/maps/build.py", "servo/maps/file.py", "sim/dataset/loading.py",
+            "sim/dataset/schema.py"} <= names  # fmt: skip
     key = map_store.map_key(meta, "hallway", settings)
     extra = tmp_path / "topology.py"
     extra.write_text("# one more line of code\n")

@@ -94,7 +94,7 @@ def test_range_min_above_range_max_is_refused(tmp_path, monkeypatch):
 def test_settings_without_a_camera_still_need_a_laser():
     laser_only = dataclasses.replace(ImportSettings(SCAN, IMAGE, ODOM), image_topic=None)
     assert laser_only.image_topic is None
-    with pytest.raises(ValueError, match="scan_topic must be a non-empty string"):
+    with pytest.raises(ValueError, match="scan_topic and image_topic are both None"):
         dataclasses.replace(laser_only, scan_topic=None)
 
 

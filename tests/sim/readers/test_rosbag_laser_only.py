@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mapping import ObservationGraphPartitioner
-from sim.dataset import DatasetError, Sequence, load_dataset
+from sim.dataset import DatasetError, MissingSensorError, Sequence, load_dataset
 from sim.readers.rosbag import ImportSettings, import_rosbags
 from tests.sim.dataset_fixtures import sequence_arrays
 from tests.sim.readers.rosbag_fixtures import IMAGE, ODOM, SCAN, drive_from_sequence, write_bag
@@ -54,8 +54,9 @@ def test_a_laser_only_bag_imports_as_the_same_scans_without_images(tmp_path, ros
         for r in (ra, rb)
     ]
     np.testing.assert_array_equal(groups[0], groups[1])  # the same groups
-    with pytest.raises(DatasetError, match="has no camera images"):
+    with pytest.raises(MissingSensorError, match="has no camera") as caught:
         b.concat("images")
+    assert caught.value.sensor == "camera" and caught.value.path == b.path
 
 
 def test_the_comparison_on_laser_only_drives_runs_the_methods_on_scans():
