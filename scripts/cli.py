@@ -16,6 +16,7 @@ from scripts.args import (
 )
 
 DEFAULT_OUT = "out"
+MANIFOLD_EVAL_HELP = "any scikit-learn clusterer through the manifold-clustering protocol"
 SUMMARY = (
     "Simulated robot worlds and datasets, two topological mapping methods (Grudic &\n"
     "Mulligan's visual manifold clustering, Blanco et al.'s laser observation grouping)\n"
@@ -132,6 +133,12 @@ def cmd_group_eval(args) -> int:
     output_folder(args.out)
     from scripts.grouping import carmen_eval, group_eval, local_maps_eval
 
+    if args.method:
+        return group_eval(args)  # the outside estimator (scripts.grouping.outside)
+    if args.data is not None:
+        from scripts.grouping.evaluate import one_dataset
+
+        one_dataset(args)
     if args.local_maps:
         return local_maps_eval(args)
     if args.carmen:
@@ -327,6 +334,13 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
         group_eval_parser(g).set_defaults(func=cmd_group_eval)
 
+    if command in (None, "manifold-eval"):
+        from scripts.manifold import manifold_eval_parser
+
+        manifold_eval_parser(sub, MANIFOLD_EVAL_HELP)
+    else:
+        sub.add_parser("manifold-eval", help=MANIFOLD_EVAL_HELP)
+
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
     e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
     e.add_argument(
@@ -354,6 +368,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     from scripts.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub, default_out=DEFAULT_OUT)
+    from scripts.leaderboard import leaderboard_parser
+
+    leaderboard_parser(sub, "rank result files per task and protocol, paired against a reference")
     p.description = f"{SUMMARY}\n\ncommands:\n{command_listing(sub)}"
     return p
 
