@@ -186,9 +186,13 @@ def cmd_servo_eval(args) -> int:
                          args.policy, workers=args.workers, progress=not args.json)  # fmt: skip
         results.append(r)
     if out is not None:
-        from common.fileio import atomic_write_bytes
+        from scripts.leaderboard import write_result
+        from scripts.leaderboard.servo_file import servo_result_file
 
-        atomic_write_bytes(out / servo_eval_name(args), json.dumps(results, indent=2).encode())
+        # the results inside the envelope every evaluation writes (scripts.leaderboard)
+        write_result(
+            out / servo_eval_name(args), servo_result_file(results, args.policy, args.split)
+        )
     if args.json:
         print(json.dumps(results if len(results) > 1 else results[0], indent=2))
         return 0

@@ -23,5 +23,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "leaderboard_parser": "scripts.leaderboard.ranking:add_parser",
         "load_results": "scripts.leaderboard.ranking",
         "rank": "scripts.leaderboard.ranking",
+        "servo_result_file": "scripts.leaderboard.servo_file",
     },
 )
