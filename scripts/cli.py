@@ -16,6 +16,7 @@ from scripts.args import (
 )
 
 DEFAULT_OUT = "out"
+LEADERBOARD_HELP = "rank result files per task and protocol, paired against a reference"
 MANIFOLD_EVAL_HELP = "any scikit-learn clusterer through the manifold-clustering protocol"
 SUMMARY = (
     "Simulated robot worlds and datasets, two topological mapping methods (Grudic &\n"
@@ -372,9 +373,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     from scripts.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub, default_out=DEFAULT_OUT)
-    from scripts.leaderboard import leaderboard_parser
+    if command in (None, "leaderboard"):  # scipy loads only for this command
+        from scripts.leaderboard import leaderboard_parser
 
-    leaderboard_parser(sub, "rank result files per task and protocol, paired against a reference")
+        leaderboard_parser(sub, LEADERBOARD_HELP)
+    else:
+        sub.add_parser("leaderboard", help=LEADERBOARD_HELP)
     p.description = f"{SUMMARY}\n\ncommands:\n{command_listing(sub)}"
     return p
 
