@@ -137,7 +137,7 @@ def cmd_group_eval(args) -> int:
     if args.method:
         return group_eval(args)  # the outside estimator (scripts.grouping.outside)
     if args.data is not None:
-        from scripts.grouping.evaluate import one_dataset
+        from scripts.grouping import one_dataset
 
         one_dataset(args)
     if args.local_maps:
@@ -187,8 +187,7 @@ def cmd_servo_eval(args) -> int:
                          args.policy, workers=args.workers, progress=not args.json)  # fmt: skip
         results.append(r)
     if out is not None:
-        from scripts.leaderboard import write_result
-        from scripts.leaderboard.servo_file import servo_result_file
+        from scripts.leaderboard import servo_result_file, write_result
 
         # the results inside the envelope every evaluation writes (scripts.leaderboard)
         write_result(

@@ -24,5 +24,6 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "load_results": "scripts.leaderboard.ranking",
         "rank": "scripts.leaderboard.ranking",
         "servo_result_file": "scripts.leaderboard.servo_file",
+        "servo_results_of": "scripts.leaderboard.servo_file",
     },
 )

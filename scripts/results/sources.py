@@ -39,7 +39,7 @@ class Estimate:
 
 def servo_results(path: Path) -> list[dict]:
     """The entries of a ``topomap servo-eval --out`` file (one per world)."""
-    from scripts.leaderboard.servo_file import servo_results_of
+    from scripts.leaderboard import servo_results_of
 
     data = servo_results_of(read_json(path))
     if not isinstance(data, list) or not all(isinstance(e, dict) for e in data):

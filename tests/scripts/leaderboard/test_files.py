@@ -10,10 +10,14 @@ from scripts.leaderboard import files as rf
 
 
 def _result(records=None, kind="error", **extra):
-    records = records if records is not None else [
-        {"group": "g", "unit": "seed 1", "value": 0.1, "failure": None},
-        {"group": "g", "unit": "seed 2", "value": None, "failure": "ValueError: no"},
-    ]
+    records = (
+        records
+        if records is not None
+        else [
+            {"group": "g", "unit": "seed 1", "value": 0.1, "failure": None},
+            {"group": "g", "unit": "seed 2", "value": None, "failure": "ValueError: no"},
+        ]
+    )
     method = {"name": "M", "spec": "pkg.mod:M", "params": {"k": 3}}
     return envelope("task", ("proto", 2), "test", method, ("err", kind), records, **extra)
 

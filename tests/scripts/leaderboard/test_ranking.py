@@ -41,6 +41,7 @@ def test_rates_get_wilson_intervals_and_mcnemar(tmp_path):
     _write(tmp_path, "half", [i % 2 == 0 for i in range(20)], kind="rate")
     (rows,) = rank(load_results([tmp_path]), reference="half").values()
     always, half = rows["g"]
+    assert half.mean == 0.5 and half.paired == {}
     assert always.mean == 1.0 and 0.8 < always.lo < 1.0 and always.hi == pytest.approx(1.0)
     assert "McNemar" in always.paired["test"]
     assert always.paired["p"] == pytest.approx(2 * 0.5**10)  # 10 discordant, all one way
