@@ -80,9 +80,11 @@ class OutsideMethod:
         return self.cls(**given, **self.params)
 
     def describe(self, **defaults) -> dict:
-        """The method block of a result file: name, spec, every parameter passed."""
+        """The method block of a result file: name, spec, every parameter passed, and which
+        of them the protocol chose (``protocol_params``: left out of the method's label)."""
         given = {k: v for k, v in defaults.items() if k not in self.params and self.accepts(k)}
-        return {"name": self.name, "spec": self.spec, "params": {**given, **self.params}}
+        return {"name": self.name, "spec": self.spec, "params": {**given, **self.params},
+                "protocol_params": sorted(given)}  # fmt: skip
 
 
 def load_method(spec: str, required: tuple[str, ...] = ("fit",)):

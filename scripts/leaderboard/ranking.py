@@ -63,8 +63,11 @@ def _looks_like_result(path: Path) -> bool:
 
 
 def method_label(method: dict) -> str:
-    """``name`` with the parameters the user chose (``n_clusters`` is the protocol's)."""
-    params = {k: v for k, v in method.get("params", {}).items() if k != "n_clusters"}
+    """``name`` with the parameters the user chose (those the protocol chose, such as the
+    manifold protocol's ``n_clusters``, are left out)."""
+    chosen = method.get("protocol_params", ["n_clusters"])
+    chosen = chosen if isinstance(chosen, list) else []
+    params = {k: v for k, v in method.get("params", {}).items() if k not in chosen}
     inner = ", ".join(f"{k}={v!r}" for k, v in sorted(params.items()))
     return f"{method['name']}({inner})" if inner else method["name"]
 

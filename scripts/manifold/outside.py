@@ -132,7 +132,8 @@ def evaluate_method(
                 record.update(value=None, failure=f"{type(err).__name__}: {err}"[:500])
         records.append(record)
     if builtin:
-        described = {"name": method, "spec": f"scripts.manifold.methods:{method}", "params": {}}
+        described = {"name": method, "spec": f"scripts.manifold.methods:{method}", "params": {},
+                     "protocol_params": []}  # fmt: skip
     else:
         described = method.describe(n_clusters=K)
     assignments = sorted({r["assignment"] for r in records if r.get("failure") is None})
@@ -147,7 +148,8 @@ def evaluate_method(
 
 def file_name(method: dict) -> str:
     """``manifold-<name>[-<params>].json``, safe on every file system."""
-    params = "-".join(f"{k}={v}" for k, v in sorted(method["params"].items()) if k != "n_clusters")
+    chosen = method.get("protocol_params", [])
+    params = "-".join(f"{k}={v}" for k, v in sorted(method["params"].items()) if k not in chosen)
     stem = f"manifold-{method['name']}" + (f"-{params}" if params else "")
     return re.sub(r"[^A-Za-z0-9=.,_-]+", "_", stem)[:150] + ".json"
 

@@ -56,6 +56,7 @@ def test_n_clusters_is_passed_only_where_taken_and_never_over_the_users():
                          {"n_clusters": 3}).make(n_clusters=8).n_clusters == 3  # fmt: skip
     hdbscan = OutsideMethod("sklearn.cluster:HDBSCAN", ("fit",))
     assert hdbscan.describe(n_clusters=8)["params"] == {}
+    assert spectral.describe(n_clusters=8)["protocol_params"] == ["n_clusters"]
     assert hdbscan.make(n_clusters=8).min_cluster_size == 5
     with pytest.raises(ValueError, match="takes no parameter 'n_neighbours'"):
         OutsideMethod("sklearn.cluster:HDBSCAN", ("fit",), {"n_neighbours": 3})

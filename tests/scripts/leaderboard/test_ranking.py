@@ -85,3 +85,12 @@ def test_the_command_writes_markdown_and_html(tmp_path, capsys):
     assert leaderboard_html(load_results([tmp_path])).startswith("<!doctype html>")
     assert cli_main(["leaderboard", str(tmp_path / "out")]) == 2  # no result files there
     assert "no result files" in capsys.readouterr().err
+
+
+def test_a_label_shows_the_users_parameters_not_the_protocols():
+    from scripts.leaderboard.ranking import method_label
+
+    ours = {"name": "C", "params": {"n_clusters": 8, "eps": 0.5}, "protocol_params": ["n_clusters"]}
+    theirs = {"name": "C", "params": {"n_clusters": None}, "protocol_params": []}
+    assert method_label(ours) == "C(eps=0.5)"
+    assert method_label(theirs) == "C(n_clusters=None)"
