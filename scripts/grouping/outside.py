@@ -201,7 +201,8 @@ def add_arguments(p) -> None:
     """The ``--method`` options of ``topomap group-eval``."""
     p.add_argument("--method", default=None, metavar="MODULE:CLASS",
                    help="score this estimator (fit(scans, poses), labels_) instead of running "
-                   "the built-in evaluation (scripts.grouping.outside)")  # fmt: skip
+                   "the built-in evaluation; its module is imported like python -m, so its "
+                   "code runs (docs/guides/benchmark-your-method.md)")  # fmt: skip
     p.add_argument(
         "--param",
         action="append",

@@ -154,10 +154,21 @@ def file_name(method: dict) -> str:
     return re.sub(r"[^A-Za-z0-9=.,_-]+", "_", stem)[:150] + ".json"
 
 
+_DESCRIPTION = """Run any scikit-learn-style clusterer (fit, labels_, optional predict) through the
+frozen manifold-clustering protocol; one result file per method in --out, then the
+leaderboard of that folder.
+
+n_clusters=8 is passed when the constructor takes it and --param does not set it. Without
+predict, each test frame takes the cluster of its nearest training frame (recorded as such).
+A cell where the method raises is recorded with the reason and the run goes on. Loading a
+method imports its module like python -m: its code runs. See
+docs/guides/benchmark-your-method.md."""
+
+
 def add_parser(sub, help_text: str):
     """Register ``manifold-eval`` on the subparsers action ``sub``."""
     p = sub.add_parser("manifold-eval", help=help_text,
-                       description=__doc__.split("\n\n")[0].strip(),
+                       description=_DESCRIPTION,
                        formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     p.add_argument("--root", type=Path, required=True, help="folder of the m-data-* datasets")
     p.add_argument("--out", type=Path, required=True, help="folder for the result files")
