@@ -5,9 +5,9 @@ board, by each record's ``group`` (a condition, a world, a pose variant). Each m
 is the mean over its units with a 95 % interval: bootstrap (percentile, ``scipy.stats.bootstrap``)
 for errors and scores, Wilson (``scipy.stats.binomtest``) for rates. Against the ``reference``
 method the comparison is paired on the units both have a value for: the mean difference with
-its bootstrap interval and the Wilcoxon signed-rank test for errors and scores, the exact
-McNemar test (a binomial test on the discordant units) for rates. A failed unit counts in
-``failed`` and in no mean or test.
+its bootstrap interval over the shared units, with the Wilcoxon signed-rank test for errors
+and scores, the exact McNemar test (a binomial test on the discordant units) for rates. A
+failed unit counts in ``failed`` and in no mean or test.
 
 Files of the same protocol name but another version are refused, never mixed; files of one
 method (same name, spec and parameters) are joined, so that seeds or logs run apart rank
@@ -218,11 +218,10 @@ def _paired(row: Row, ref: Row, kind: str, rng) -> dict:
         wins, losses = int(np.sum(d > 0)), int(np.sum(d < 0))
         p = stats.binomtest(min(wins, losses), wins + losses).pvalue if wins + losses else 1.0
         test = f"McNemar exact ({wins} better, {losses} worse)"
-        lo = hi = float("nan")
     else:
         p = float(stats.wilcoxon(d).pvalue) if np.any(d != 0) and d.size > 1 else 1.0
         test = "Wilcoxon signed-rank"
-        lo, hi = _bootstrap(d, rng)
+    lo, hi = _bootstrap(d, rng)  # over the shared units, for rates too (differences of 0/1)
     return {"n": len(units), "diff": float(d.mean()), "lo": lo, "hi": hi, "p": float(p),
             "test": test}  # fmt: skip
 

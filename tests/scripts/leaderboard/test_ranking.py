@@ -45,6 +45,7 @@ def test_rates_get_wilson_intervals_and_mcnemar(tmp_path):
     assert always.mean == 1.0 and 0.8 < always.lo < 1.0 and always.hi == pytest.approx(1.0)
     assert "McNemar" in always.paired["test"]
     assert always.paired["p"] == pytest.approx(2 * 0.5**10)  # 10 discordant, all one way
+    assert always.paired["lo"] <= always.paired["diff"] == 0.5 <= always.paired["hi"]
 
 
 def test_other_protocol_versions_are_refused_not_mixed(tmp_path):
