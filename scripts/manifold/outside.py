@@ -7,7 +7,9 @@
 The method is fitted on each cell's training frames exactly as ours is
 (``scripts.manifold.protocol.cell_data``: same datasets, seeds, conditions, features). The
 protocol passes ``n_clusters=K`` (8, the number of manifolds) when the class's constructor
-takes ``n_clusters`` and ``--param`` does not set it, as it does for the baselines; a class
+takes ``n_clusters`` and ``--param`` does not set it, as it does for the baselines, and
+``random_state=S`` (the cell's dataset seed) when it takes ``random_state``, so that a run is
+repeated exactly; a class
 without it (HDBSCAN, DBSCAN) finds its own number of clusters, and every cluster beyond the
 K matched ones counts as error (``mapping.clustering_error``). The test frames are labelled by
 the method's ``predict`` where it has one; otherwise each takes the cluster of its nearest
@@ -50,10 +52,10 @@ METRIC = ("test_error", "error")
 NEAREST = "nearest training neighbour"
 
 
-def _fit_outside(method: OutsideMethod, X_train, y_train, X_test, y_test) -> dict:
+def _fit_outside(method: OutsideMethod, X_train, y_train, X_test, y_test, seed: int) -> dict:
     """One cell of an outside method: its errors, or the reason it has none."""
     start = time.perf_counter()
-    model = method.make(n_clusters=K)
+    model = method.make(n_clusters=K, random_state=seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a method's warnings are its own business here
         model.fit(X_train)
@@ -126,7 +128,7 @@ def evaluate_method(
                           **{k: v for k, v in row.items() if k != "method"})  # fmt: skip
         else:
             try:
-                record.update(_fit_outside(method, X_train, y_train, X_test, y_test))
+                record.update(_fit_outside(method, X_train, y_train, X_test, y_test, seed))
                 record["failure"] = None
             except Exception as err:  # an outside method may raise anything
                 record.update(value=None, failure=f"{type(err).__name__}: {err}"[:500])
@@ -135,7 +137,7 @@ def evaluate_method(
         described = {"name": method, "spec": f"scripts.manifold.methods:{method}", "params": {},
                      "protocol_params": []}  # fmt: skip
     else:
-        described = method.describe(n_clusters=K)
+        described = method.describe(n_clusters=K, random_state="the dataset seed")
     assignments = sorted({r["assignment"] for r in records if r.get("failure") is None})
     if NEAREST in assignments:
         described["notes"] = f"test frames: {NEAREST} (the class has no predict)"
@@ -158,7 +160,8 @@ _DESCRIPTION = """Run any scikit-learn-style clusterer (fit, labels_, optional p
 frozen manifold-clustering protocol; one result file per method in --out, then the
 leaderboard of that folder.
 
-n_clusters=8 is passed when the constructor takes it and --param does not set it. Without
+n_clusters=8 and random_state=S (the dataset seed) are passed when the constructor takes
+them and --param does not set them. Without
 predict, each test frame takes the cluster of its nearest training frame (recorded as such).
 A cell where the method raises is recorded with the reason and the run goes on. Loading a
 method imports its module like python -m: its code runs. See

@@ -46,10 +46,13 @@ def small_k(monkeypatch):
 
 
 def test_a_clusterer_without_predict_is_scored_by_nearest_neighbour(root, small_k):
-    method = OutsideMethod("sklearn.cluster:SpectralClustering", ("fit",), {"random_state": 0})
+    method = OutsideMethod("sklearn.cluster:SpectralClustering", ("fit",), {"n_init": 2})
     result = outside.evaluate_method(root, method, ("interleaved", "held-out"), ("hsv",),
                                      (1, 2), progress=False)  # fmt: skip
-    assert result["method"]["params"] == {"n_clusters": 3, "random_state": 0}
+    assert result["method"]["params"] == {
+        "n_clusters": 3, "random_state": "the dataset seed", "n_init": 2
+    }  # fmt: skip
+    assert result["method"]["protocol_params"] == ["n_clusters", "random_state"]
     assert result["protocol"] == {"name": mp.PROTOCOL[0], "version": mp.PROTOCOL[1]}
     assert result["split"] == "test"
     assert [(r["group"], r["unit"]) for r in result["records"]] == [
