@@ -50,6 +50,7 @@ PROTOCOLS = {
 INPUTS = ("scans", "positions")
 HOLD_EVERY = 5
 POSES = ("true", "odometry")
+DEV_SEED = 0  # the dataset the partitioner's settings were chosen on
 
 
 def _fit(method: OutsideMethod, scans, poses, groups, given: str) -> np.ndarray:
@@ -118,9 +119,19 @@ def evaluate_worlds_method(method: OutsideMethod, datasets, given="scans", local
     rng = np.random.default_rng(seed)
     scores, maps = [], []
     loaded = [load_dataset(d) for d in datasets]  # read (and check) all before any work
+    seeds = {}
     for data in loaded:
         if not data.has_ground_truth:
             raise ValueError(f"{data.path}: scoring groups needs a simulated dataset")
+        seed = data.meta["settings"]["seed"]
+        if seed in seeds:
+            raise ValueError(f"{data.path} and {seeds[seed]} are both of seed {seed}: "
+                             "give each dataset seed once")  # fmt: skip
+        seeds[seed] = data.path
+    if DEV_SEED in seeds and len(seeds) > 1:
+        raise ValueError(f"seed {DEV_SEED} is the dev seed (the settings were chosen on it): "
+                         "evaluate it apart from fresh seeds")  # fmt: skip
+    split = "dev" if DEV_SEED in seeds else "test"
     cases = [(d, w, v) for d in loaded for w in d.worlds for v in POSES]
     for data, world, variant in tqdm(cases, disable=not progress, desc="group-eval"):
         runs = data.runs(world)
@@ -144,14 +155,14 @@ def evaluate_worlds_method(method: OutsideMethod, datasets, given="scans", local
                                        given, variant, unit)  # fmt: skip
     described = {**method.describe(), "input": given}
     settings = {"datasets": [str(d.path) for d in loaded], "poses": list(POSES)}
-    out = [envelope(TASK, PROTOCOLS["worlds"], "test", described, ("ari", "score"), scores,
+    out = [envelope(TASK, PROTOCOLS["worlds"], split, described, ("ari", "score"), scores,
                     settings=settings)]  # fmt: skip
     if local_maps:
         out.append(
             envelope(
                 TASK,
                 PROTOCOLS["local-maps"],
-                "test",
+                split,
                 described,
                 ("localised", "rate"),
                 maps,

@@ -55,6 +55,7 @@ def test_an_estimator_gets_scans_poses_and_drives_and_is_scored_on_the_truth(dat
         assert r["value"] == pytest.approx(expected["ari"])
         assert r["purity"] == pytest.approx(expected["purity"])
     assert scores["protocol"]["name"] == outside.PROTOCOLS["worlds"][0]
+    assert scores["split"] == "dev"  # seed 0: the dev seed
 
 
 def test_a_plain_clusterer_on_positions_and_the_local_maps(data):
@@ -97,5 +98,7 @@ def test_bad_input_is_one_clear_line(data, tmp_path, capsys):
     argv = ["group-eval", "--data", str(data), "--data", str(data), "--out", str(tmp_path)]
     assert cli_main(argv) == 2
     assert "--data is given once, except with --method" in capsys.readouterr().err
+    assert cli_main([*argv, "--method", "sklearn.cluster:DBSCAN"]) == 2
+    assert "are both of seed 0: give each dataset seed once" in capsys.readouterr().err
     assert cli_main([*argv, "--method", "sklearn.cluster:DBSCAN", "--param", "eps"]) == 2
     assert "KEY=VALUE" in capsys.readouterr().err
