@@ -20,6 +20,8 @@ from scripts.args import (
 )
 
 DEFAULT_OUT = "out"
+LEADERBOARD_HELP = "rank result files per task and protocol, paired against a reference"
+MANIFOLD_EVAL_HELP = "any scikit-learn clusterer through the manifold-clustering protocol"
 SUMMARY = (
     "Simulated robot worlds and datasets, two topological mapping methods (Grudic &\n"
     "Mulligan's visual manifold clustering, Blanco et al.'s laser observation grouping)\n"
@@ -136,6 +138,12 @@ def cmd_group_eval(args) -> int:
     output_folder(args.out)
     from scripts.grouping import carmen_eval, group_eval, local_maps_eval
 
+    if args.method:
+        return group_eval(args)  # the outside estimator (scripts.grouping.outside)
+    if args.data is not None:
+        from scripts.grouping import one_dataset
+
+        one_dataset(args)
     if args.local_maps:
         return local_maps_eval(args)
     if args.carmen:
@@ -191,9 +199,12 @@ def cmd_servo_eval(args) -> int:
             print(f"topomap servo-eval: {why}", file=sys.stderr)
         results.append(r)
     if out is not None:
-        from common.fileio import atomic_write_bytes
+        from scripts.leaderboard import servo_result_file, write_result
 
-        atomic_write_bytes(out / servo_eval_name(args), json.dumps(results, indent=2).encode())
+        # the results inside the envelope every evaluation writes (scripts.leaderboard)
+        write_result(
+            out / servo_eval_name(args), servo_result_file(results, args.policy, args.split)
+        )
     if args.json:
         print(json.dumps(results if len(results) > 1 else results[0], indent=2))
         return 0
@@ -340,6 +351,13 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
         group_eval_parser(g).set_defaults(func=cmd_group_eval)
 
+    if command in (None, "manifold-eval"):
+        from scripts.manifold import manifold_eval_parser
+
+        manifold_eval_parser(sub, MANIFOLD_EVAL_HELP)
+    else:
+        sub.add_parser("manifold-eval", help=MANIFOLD_EVAL_HELP)
+
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
     e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
     e.add_argument(
@@ -371,6 +389,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     from scripts.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub, default_out=DEFAULT_OUT)
+    if command in (None, "leaderboard"):  # scipy loads only for this command
+        from scripts.leaderboard import leaderboard_parser
+
+        leaderboard_parser(sub, LEADERBOARD_HELP)
+    else:
+        sub.add_parser("leaderboard", help=LEADERBOARD_HELP)
     p.description = f"{SUMMARY}\n\ncommands:\n{command_listing(sub)}"
     return p
 

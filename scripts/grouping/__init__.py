@@ -16,6 +16,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "evaluate_grouping": "scripts.grouping.evaluate",
         "group_eval": "scripts.grouping.evaluate:run",
         "group_eval_parser": "scripts.grouping.evaluate:build_parser",
+        "one_dataset": "scripts.grouping.evaluate",
         "local_maps_eval": "scripts.grouping.local_maps:run",
         "collect_loop": "scripts.grouping.loop_recordings",
         "agg_pyplot": "scripts.grouping.plots",

@@ -239,7 +239,9 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     """The command line (shared with ``topomap group-eval``)."""
     p = parser or argparse.ArgumentParser(description=__doc__.splitlines()[0])
     source = p.add_mutually_exclusive_group(required=True)
-    source.add_argument("--data", help="dataset directory")
+    source.add_argument(
+        "--data", action="append", help="dataset directory (repeat for several with --method)"
+    )
     source.add_argument(
         "--carmen",
         action="append",
@@ -258,10 +260,27 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
         help="test the local maps' consistency against submap baselines "
         "(scripts.grouping.local_maps)",
     )
+    from scripts.grouping.outside import add_arguments
+
+    add_arguments(p)
     return p
 
 
+def one_dataset(args) -> None:
+    """``args.data`` as the one dataset the built-in evaluations read (several only with
+    ``--method``)."""
+    if isinstance(args.data, list):
+        if len(args.data) > 1:
+            raise ValueError("--data is given once, except with --method")
+        args.data = args.data[0]
+
+
 def run(args) -> int:
+    if getattr(args, "method", None):
+        from scripts.grouping.outside import run as run_method
+
+        return run_method(args)
+    one_dataset(args)
     if getattr(args, "local_maps", False):
         from scripts.grouping import local_maps as eval_local_maps
 

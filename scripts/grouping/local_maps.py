@@ -51,6 +51,7 @@ __all__ = [
     "score_submaps",
     "simulated_odometry",
     "split",
+    "submap_errors",
 ]
 
 JSON_FILE = "local_maps.json"
@@ -156,6 +157,19 @@ def score_submaps(
     ``labels`` gives the submap of each *training* scan (``split(groups, hold_every)[0]``);
     each submap is rebuilt by scan-to-map ICP (unless ``align`` is False) and scored.
     """
+    errors, aligned, train = submap_errors(scans, truth, poses, groups, labels, rng,
+                                           hold_every=hold_every, align=align)  # fmt: skip
+    labels = np.asarray(labels)
+    return {
+        "submaps": len(np.unique(labels)),
+        "residuals": map_residuals([scans[i] for i in train], aligned, labels),
+        "localisation": _rates(errors, rng),
+    }
+
+
+def submap_errors(scans, truth, poses, groups, labels, rng, *, hold_every=5, align=True):
+    """``(errors, aligned training poses, training indices)`` of :func:`score_submaps`:
+    each held-out scan's translation and heading error (``inf``: ICP did not converge)."""
     train, held, anchor = split(groups, hold_every)
     labels = np.asarray(labels)
     if labels.shape != (len(train),):
@@ -176,11 +190,7 @@ def score_submaps(
     # held-out scan -> position of its anchor among the training scans
     anchor_pos = np.searchsorted(train, anchor)
     errors = localise_held_out(scans, full, truth, held, anchor, maps, labels[anchor_pos], rng)
-    return {
-        "submaps": len(np.unique(labels)),
-        "residuals": map_residuals(tscans, aligned, labels),
-        "localisation": _rates(errors, rng),
-    }
+    return errors, aligned, train
 
 
 def evaluate_cases(cases: dict, out_dir: str | os.PathLike, *, seed: int = 0, progress=True):

@@ -53,6 +53,9 @@ from mapping import ColorHistogramFeatures, ImageFeatures, ScanFeatures, ScanSta
 from scripts.manifold.methods import METHODS, bootstrap_mean, score_methods
 
 K, Q = 8, 35  # the paper's Section III-B
+# name and version of this protocol in result files (scripts.leaderboard); the version goes up
+# whenever a change alters the numbers a method gets (datasets, splits, features, K, scoring)
+PROTOCOL = ("manifold-clustering-datasets", 1)
 DEV_SEED = 0
 CONDITIONS = ("interleaved", "held-out", "randomized", "hard")
 # condition -> (folder prefix, the collection settings its datasets must have been made with)
@@ -110,11 +113,9 @@ def load_for(path: Path, condition: str):
     return data
 
 
-def cell(
-    root: Path, condition: str, features: str, seed: int, methods: tuple[str, ...] = METHODS
-) -> dict:
-    """Errors of ``methods`` (default: every method) in one (condition, features, seed) cell of
-    the protocol."""
+def cell_data(root: Path, condition: str, features: str, seed: int):
+    """``(X_train, y_train, X_test, y_test)`` of one (condition, features, seed) cell: the
+    features fitted on the training frames, the labels of both splits."""
     _check_condition(condition)
     if features not in ALL_FEATURES:
         raise ValueError(f"features must be one of {ALL_FEATURES}, got {features!r}")
@@ -139,6 +140,15 @@ def cell(
     del readings_train, readings_test
     y_train = train_data.concat("labels")[train]
     y_test = test_data.concat("labels")[test]
+    return X_train, y_train, X_test, y_test
+
+
+def cell(
+    root: Path, condition: str, features: str, seed: int, methods: tuple[str, ...] = METHODS
+) -> dict:
+    """Errors of ``methods`` (default: every method) in one (condition, features, seed) cell of
+    the protocol."""
+    X_train, y_train, X_test, y_test = cell_data(root, condition, features, seed)
     rows = score_methods(X_train, y_train, K, Q, X_test, y_test, methods=tuple(methods))
     return {
         "condition": condition,

@@ -192,7 +192,18 @@ def _servo_reruns(root: Path, sources) -> str:
     return Table.of(columns, rows, notes=note).to_markdown()
 
 
+def _leaderboard(root: Path, sources) -> str:
+    """``topomap leaderboard`` of the result files in the folder, paired against the method
+    its ``meta.json`` names as ``reference``."""
+    from scripts.leaderboard import leaderboard_markdown, load_results
+
+    folder = root / DATA / sources[0]
+    reference = read_json(folder / "meta.json").get("reference")
+    return leaderboard_markdown(load_results([folder]), reference=reference)
+
+
 RENDERERS: dict[str, Callable[[Path, tuple[str, ...]], str]] = {
+    "leaderboard": _leaderboard,
     "servo-reruns": _servo_reruns,
     "protocol-summary": _protocol_summary,
     "grouping-tables": _grouping_tables,

@@ -39,7 +39,9 @@ class Estimate:
 
 def servo_results(path: Path) -> list[dict]:
     """The entries of a ``topomap servo-eval --out`` file (one per world)."""
-    data = read_json(path)
+    from scripts.leaderboard import servo_results_of
+
+    data = servo_results_of(read_json(path))
     if not isinstance(data, list) or not all(isinstance(e, dict) for e in data):
         raise ValueError(f"{path}: a servo-eval result (a list of one entry per world) expected")
     return data

@@ -109,6 +109,8 @@ def load_results(path: str | Path, name: str = "results") -> list[dict]:
         data = read_json(path)
     except UnreadableJSON as err:
         raise ValueError(f"{name}: {path} is not JSON ({err})") from None
+    if isinstance(data, dict) and data.get("format") == "topomap-result":
+        data = data.get("results")  # the envelope of scripts.leaderboard around the results
     if isinstance(data, dict):
         data = [data]
     if not isinstance(data, list) or not data:

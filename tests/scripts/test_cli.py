@@ -57,7 +57,9 @@ def test_help_lists_every_subcommand_with_its_one_line_help(capsys):
     listed = _listed(capsys.readouterr().out)
     sub = next(a for a in build_parser("")._actions if a.dest == "command")
     assert list(listed) == list(sub.choices)  # every one, in the order registered
-    assert len(listed) == 10
+    assert len(listed) == 12
+    assert listed["manifold-eval"].startswith("any scikit-learn clusterer")
+    assert listed["leaderboard"].startswith("rank result files per task and protocol")
     assert listed["run"] == "the main job end to end on the default worlds"
     assert listed["sweep"] == "evaluation sweep over worlds, seeds and settings, in parallel"
     assert listed["servo-compare"] == "two servo-eval results, episode by episode"

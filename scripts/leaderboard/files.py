@@ -1,0 +1,227 @@
+"""Self-describing result files: every evaluation's numbers with what produced them.
+
+A result file is one JSON object (``FORMAT``, ``FORMAT_VERSION``; see
+``docs/decisions/070-result-files-and-protocol-versions.md``)::
+
+    {"format": "topomap-result", "format_version": 1,
+     "task": "manifold-clustering", "protocol": {"name": ..., "version": 1},
+     "split": "test", "metric": {"name": "test_error", "kind": "error"},
+     "method": {"name": ..., "spec": "package.module:Class", "params": {...}, "notes": ...},
+     "code_version": {"package": "0.2.0", "commit": "9863b14"},
+     "machine": {"cores": 2, "platform": "Linux-...-x86_64", "python": "3.11.9"},
+     "records": [{"group": "interleaved/hsv", "unit": "seed 3", "value": 0.03,
+                  "failure": null, ...}, ...],
+     ...}
+
+A record is one independent unit (a dataset seed, a world, a log, an episode) of one group
+(the condition the leaderboard ranks within); ``value`` is the metric (a number, or a bool
+for a ``rate``), ``failure`` the reason the method gave no value (None when it did). Other
+top-level keys are the evaluation's own (``servo-eval`` keeps its ``results`` there).
+
+The reader treats a file as untrusted: it is refused before parsing when larger than
+``MAX_BYTES``, never unpickled, and every field is checked; :class:`ResultFileError` names the
+file and the field.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import subprocess
+from pathlib import Path
+
+from common.fileio import UnreadableJSON, read_json, write_json
+
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "KINDS",
+    "MAX_BYTES",
+    "ResultFileError",
+    "code_version",
+    "envelope",
+    "machine",
+    "read_result",
+    "write_result",
+]
+
+FORMAT = "topomap-result"
+FORMAT_VERSION = 1
+MAX_BYTES = 64 << 20  # a servo file of 1000 episodes is ~5 MB
+MAX_RECORDS = 100_000
+# metric kind -> whether higher is better; "rate" values are bools (Wilson interval)
+KINDS = {"error": False, "score": True, "rate": True}
+_ROOT = Path(__file__).resolve().parents[2]
+
+
+class ResultFileError(ValueError):
+    """A result file that cannot be used; the message names the file and the field."""
+
+    def __init__(self, path, field: str, problem: str):
+        self.path, self.field = Path(path), field
+        super().__init__(f"{path}: {field}: {problem}")
+
+
+def code_version() -> dict:
+    """The package version and, in a git checkout, the commit (with ``+dirty`` when the tree
+    has uncommitted changes); ``commit`` is None outside a checkout."""
+    from importlib import metadata
+
+    try:
+        package = metadata.version("topomap-testbed")
+    except metadata.PackageNotFoundError:
+        package = None
+    try:
+        commit = subprocess.run(["git", "-C", str(_ROOT), "rev-parse", "--short", "HEAD"],
+                                capture_output=True, text=True, timeout=10, check=True)  # fmt: skip
+        dirty = subprocess.run(["git", "-C", str(_ROOT), "status", "--porcelain", "-uno"],
+                               capture_output=True, text=True, timeout=10, check=True)  # fmt: skip
+        sha = commit.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
+    except (OSError, subprocess.SubprocessError):
+        sha = None
+    return {"package": package, "commit": sha}
+
+
+def machine() -> dict:
+    """Cores, platform and Python of this machine (what the timings ran on)."""
+    return {
+        "cores": os.cpu_count(),
+        "platform": platform.platform(),
+        "processor": platform.machine(),
+        "python": platform.python_version(),
+    }
+
+
+def envelope(
+    task: str,
+    protocol: tuple[str, int],
+    split: str,
+    method: dict,
+    metric: tuple[str, str],
+    records: list[dict],
+    **extra,
+) -> dict:
+    """A result file's object: ``task``, ``protocol`` (name, version), ``split``, ``method``
+    (``name``, ``spec``, ``params``, optional ``notes``), ``metric`` (name, kind of
+    ``KINDS``), the ``records`` and the evaluation's own ``extra`` keys; the code version and
+    machine are added here."""
+    name, kind = metric
+    if kind not in KINDS:
+        raise ValueError(f"metric kind must be one of {tuple(KINDS)}, got {kind!r}")
+    clash = set(extra) & set(_REQUIRED)
+    if clash:
+        raise ValueError(f"extra keys {sorted(clash)} would replace the envelope's own")
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "task": task,
+        "protocol": {"name": protocol[0], "version": int(protocol[1])},
+        "split": split,
+        "metric": {"name": name, "kind": kind},
+        "method": method,
+        "code_version": code_version(),
+        "machine": machine(),
+        "records": records,
+        **extra,
+    }
+
+
+def write_result(path: str | os.PathLike, result: dict) -> Path:
+    """Write ``result`` (an :func:`envelope`) to ``path`` atomically, after checking it as the
+    reader will (a writer must not produce a file its own reader refuses)."""
+    path = Path(path)
+    check_result(result, path)
+    write_json(path, result)
+    return path
+
+
+def read_result(path: str | os.PathLike) -> dict:
+    """The checked result file at ``path``; :class:`ResultFileError` naming the file and the
+    field when it is too large, not JSON, or a field is missing or malformed."""
+    path = Path(path)
+    if not path.is_file():
+        raise ResultFileError(path, "file", "not a file")
+    size = path.stat().st_size
+    if size > MAX_BYTES:
+        raise ResultFileError(path, "file", f"{size} bytes, more than the {MAX_BYTES} allowed")
+    try:
+        data = read_json(path)
+    except UnreadableJSON as err:
+        raise ResultFileError(path, "file", f"not JSON ({err})") from None
+    return check_result(data, path)
+
+
+_REQUIRED = ("format", "format_version", "task", "protocol", "split", "metric", "method",
+             "code_version", "machine", "records")  # fmt: skip
+
+
+def check_result(data, path) -> dict:
+    """``data`` if it is a well-formed result of this format version, else
+    :class:`ResultFileError` for ``path``."""
+
+    def fail(field, problem):
+        raise ResultFileError(path, field, problem)
+
+    if not isinstance(data, dict):
+        fail("file", f"expected a JSON object, got {type(data).__name__}")
+    for key in _REQUIRED:
+        if key not in data:
+            fail(key, "missing")
+    if data["format"] != FORMAT:
+        fail("format", f"expected {FORMAT!r}, got {data['format']!r}")
+    if data["format_version"] != FORMAT_VERSION or isinstance(data["format_version"], bool):
+        fail("format_version", f"this reader reads version {FORMAT_VERSION}, "
+                               f"got {data['format_version']!r}")  # fmt: skip
+    for key in ("task", "split"):
+        if not _short_str(data[key]):
+            fail(key, f"expected a non-empty string, got {data[key]!r}")
+    p = data["protocol"]
+    if not (isinstance(p, dict) and _short_str(p.get("name")) and _int(p.get("version"))):
+        fail("protocol", f"expected {{'name': str, 'version': int}}, got {p!r}")
+    m = data["metric"]
+    if not (isinstance(m, dict) and _short_str(m.get("name")) and m.get("kind") in KINDS):
+        fail("metric", f"expected {{'name': str, 'kind': one of {tuple(KINDS)}}}, got {m!r}")
+    method = data["method"]
+    if not (isinstance(method, dict) and _short_str(method.get("name"))):
+        fail("method", f"expected an object with a 'name', got {method!r}")
+    if not isinstance(method.get("params", {}), dict):
+        fail("method.params", "expected an object")
+    for key in ("code_version", "machine"):
+        if not isinstance(data[key], dict):
+            fail(key, "expected an object")
+    records = data["records"]
+    if not isinstance(records, list) or len(records) > MAX_RECORDS:
+        fail("records", f"expected a list of at most {MAX_RECORDS} records")
+    rate = m["kind"] == "rate"
+    seen = set()
+    for i, r in enumerate(records):
+        where = f"records[{i}]"
+        if not isinstance(r, dict):
+            fail(where, "expected an object")
+        if not (_short_str(r.get("group")) and _short_str(r.get("unit"))):
+            fail(where, "'group' and 'unit' must be non-empty strings")
+        if (r["group"], r["unit"]) in seen:
+            fail(where, f"unit {r['unit']!r} appears twice in group {r['group']!r}")
+        seen.add((r["group"], r["unit"]))
+        failure, value = r.get("failure"), r.get("value")
+        if failure is not None:
+            if not isinstance(failure, str) or value is not None:
+                fail(where, "a failed record has a 'failure' string and 'value' null")
+        elif rate and not isinstance(value, bool):
+            fail(f"{where}.value", f"a rate's record is true or false, got {value!r}")
+        elif not rate and not _finite(value):
+            fail(f"{where}.value", f"expected a finite number, got {value!r}")
+    return data
+
+
+def _short_str(value, limit: int = 500) -> bool:
+    return isinstance(value, str) and 0 < len(value) <= limit
+
+
+def _int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _finite(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)

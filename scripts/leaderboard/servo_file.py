@@ -1,0 +1,44 @@
+"""The result file of ``topomap servo-eval --out``: the evaluation's own results (``results``,
+one entry per world, unchanged) inside the envelope of ``scripts.leaderboard.files``, with
+one record per episode (success or not) for the leaderboard."""
+
+from __future__ import annotations
+
+from scripts.leaderboard.files import envelope
+
+__all__ = ["PROTOCOL", "TASK", "servo_result_file", "servo_results_of"]
+
+TASK = "servo"
+# name and version of the closed-loop protocol (servo.task.Protocol) in result files; the
+# version goes up whenever a change alters the episodes or their success test
+PROTOCOL = ("servo-closed-loop", 1)
+
+
+def _group(result: dict) -> str:
+    extras = [name for name, on in (("randomize", result.get("randomize")),
+                                    ("no odometry noise", result.get("odometry_noise") is False))
+              if on]  # fmt: skip
+    steps = result.get("max_steps")
+    return "/".join([str(result["world"]), str(result["tier"]), *extras,
+                     *([f"{steps} steps"] if steps not in (None, 600) else [])])  # fmt: skip
+
+
+def servo_result_file(results: list[dict], policy: str, split: str) -> dict:
+    """The envelope of ``results`` (``servo.task.run_protocol``'s dicts, one per world), which
+    it keeps as they are under ``results``."""
+    records = [
+        {"group": _group(r), "unit": f"episode {e['episode']}", "seed": e.get("seed"),
+         "value": bool(e["success"]), "failure": None}
+        for r in results
+        for e in r.get("episodes_detail", [])
+    ]  # fmt: skip
+    method = {"name": str(policy), "spec": f"servo.task.POLICIES:{policy}", "params": {}}
+    return envelope(TASK, PROTOCOL, split, method, ("success", "rate"), records, results=results)
+
+
+def servo_results_of(data):
+    """The servo-eval results in ``data`` as read from a file: a result file's ``results``,
+    or ``data`` itself (files written before the envelope: a list, or one object)."""
+    if isinstance(data, dict) and data.get("format") == "topomap-result":
+        return data.get("results")
+    return data
