@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from scripts.leaderboard.files import envelope
 
-__all__ = ["PROTOCOL", "TASK", "servo_result_file", "servo_results_of"]
+__all__ = ["PROTOCOL", "TASK", "servo_method", "servo_result_file", "servo_results_of"]
 
 TASK = "servo"
 # name and version of the closed-loop protocol (servo.task.Protocol) in result files; the
@@ -32,8 +32,21 @@ def servo_result_file(results: list[dict], policy: str, split: str) -> dict:
         for r in results
         for e in r.get("episodes_detail", [])
     ]  # fmt: skip
-    method = {"name": str(policy), "spec": f"servo.task.POLICIES:{policy}", "params": {}}
-    return envelope(TASK, PROTOCOL, split, method, ("success", "rate"), records, results=results)
+    return envelope(TASK, PROTOCOL, split, servo_method(results, policy), ("success", "rate"),
+                    records, results=results)  # fmt: skip
+
+
+def servo_method(results: list[dict], policy: str) -> dict:
+    """The ``method`` of a servo result file: a built-in policy by its name
+    (``servo.task.POLICIES``), an outside one by its ``package.module:factory`` spec, named
+    by its module's last part, with the ``--policy-arg`` parameters its results record."""
+    policy = str(policy)
+    params = next((r["policy_params"] for r in results if isinstance(r.get("policy_params"), dict)),
+                  {})  # fmt: skip
+    if ":" not in policy:
+        return {"name": policy, "spec": f"servo.task.POLICIES:{policy}", "params": params}
+    module = policy.split(":", 1)[0]
+    return {"name": module.rsplit(".", 1)[-1], "spec": policy, "params": params}
 
 
 def servo_results_of(data):

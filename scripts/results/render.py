@@ -193,13 +193,17 @@ def _servo_reruns(root: Path, sources) -> str:
 
 
 def _leaderboard(root: Path, sources) -> str:
-    """``topomap leaderboard`` of the result files in the folder, paired against the method
-    its ``meta.json`` names as ``reference``."""
+    """``topomap leaderboard`` of the result files in a folder, paired against the method
+    its ``meta.json`` names as ``reference``; or of the result files ``sources`` names, paired
+    against the first file's method."""
     from scripts.leaderboard import leaderboard_markdown, load_results
 
-    folder = root / DATA / sources[0]
-    reference = read_json(folder / "meta.json").get("reference")
-    return leaderboard_markdown(load_results([folder]), reference=reference)
+    paths = [root / DATA / source for source in sources]
+    if paths[0].is_dir():
+        reference = read_json(paths[0] / "meta.json").get("reference")
+        return leaderboard_markdown(load_results(paths[:1]), reference=reference)
+    results = load_results(paths)
+    return leaderboard_markdown(results, reference=results[0]["method"]["name"])
 
 
 RENDERERS: dict[str, Callable[[Path, tuple[str, ...]], str]] = {

@@ -151,4 +151,9 @@ SECTIONS: tuple[Section, ...] = (
     Section("servo", "Outside policies (examples/, run as package.module:factory), test split, "
             "starts near a stored view, 20 episodes per world", "servo-summary",
             _OUTSIDE_SERVO),
+    Section("servo", "Leaderboard: success per episode, starts near a stored view, test split "
+            "(topomap leaderboard, paired against ManifoldServo on the episodes both ran)",
+            "leaderboard", ("servo/servo-all-view-test-100ep.json",
+                            "servo/signal-hallway-view-test-100ep.json",
+                            "servo/signal-lawn-view-test-100ep.json", *_OUTSIDE_SERVO)),
 )  # fmt: skip

@@ -35,3 +35,13 @@ def test_settings_other_than_the_defaults_make_their_own_group():
     r[0].update(randomize=True, max_steps=300)
     (record,) = servo_result_file(r, "servo", "dev")["records"]
     assert record["group"] == "hallway/anywhere/randomize/300 steps"
+
+
+def test_an_outside_policy_is_named_by_its_spec_with_its_parameters():
+    r = _results([1, 0], "examples.nearest_view_homing:make_policy")
+    r[0]["policy_params"] = {"clearance": 0.6}
+    method = servo_result_file(r, "examples.nearest_view_homing:make_policy", "test")["method"]
+    assert method == {"name": "nearest_view_homing", "params": {"clearance": 0.6},
+                      "spec": "examples.nearest_view_homing:make_policy"}  # fmt: skip
+    builtin = servo_result_file(_results([1], "signal"), "signal", "test")["method"]
+    assert (builtin["name"], builtin["params"]) == ("signal", {})
