@@ -20,6 +20,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "parse_params": "scripts.leaderboard.outside",
         "leaderboard_html": "scripts.leaderboard.ranking",
         "leaderboard_markdown": "scripts.leaderboard.ranking",
+        "leaderboard_tables": "scripts.leaderboard.ranking",
         "leaderboard_parser": "scripts.leaderboard.ranking:add_parser",
         "load_results": "scripts.leaderboard.ranking",
         "rank": "scripts.leaderboard.ranking",

@@ -230,8 +230,9 @@ def _fmt(value: float, kind: str) -> str:
     return "--" if np.isnan(value) else f"{100 * value:.1f}%" if kind != "score" else f"{value:.3f}"
 
 
-def _tables(boards: dict, reference: str | None):
-    """(heading, header, rows of cells) per board and group."""
+def leaderboard_tables(boards: dict, reference: str | None):
+    """(heading, header, rows of cells) per board of :func:`rank` and group: what the
+    markdown and HTML forms show."""
     for (task, protocol, version, split, metric, kind), groups in boards.items():
         for group, rows in groups.items():
             heading = f"{task}: {protocol} v{version}, split {split}, {group} ({metric}, " + (
@@ -269,7 +270,7 @@ def leaderboard_markdown(results: list[dict], reference: str | None = None) -> s
     """The ranking of :func:`rank` as markdown: a heading and a table per board and group."""
     boards = rank(results, reference)
     parts = []
-    for heading, header, body in _tables(boards, reference):
+    for heading, header, body in leaderboard_tables(boards, reference):
         lines = [f"### {heading}", "", "| " + " | ".join(header) + " |",
                  "|" + "---|" * len(header)]  # fmt: skip
         lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in body]
@@ -283,7 +284,7 @@ def leaderboard_html(results: list[dict], reference: str | None = None) -> str:
     out = ["<!doctype html><html><head><meta charset='utf-8'><title>leaderboard</title>",
            "<style>table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px}"
            "</style></head><body><h1>Leaderboard</h1>"]  # fmt: skip
-    for heading, header, body in _tables(boards, reference):
+    for heading, header, body in leaderboard_tables(boards, reference):
         out.append(f"<h2>{html.escape(heading)}</h2><table><tr>")
         out += [f"<th>{html.escape(h)}</th>" for h in header]
         out.append("</tr>")

@@ -26,6 +26,7 @@ from scripts.report.html import build_html, esc, write_report
 from scripts.report.provenance import git_commit, machine, versions
 from scripts.report.sections import (
     section_grouping,
+    section_leaderboards,
     section_manifold,
     section_protocol,
     section_reproduce,
@@ -36,6 +37,7 @@ from scripts.report.sections import (
 from scripts.report.settings import REPORT_DIR, OutputError, RunSettings, StageError
 from scripts.report.stages import (
     stage_grouping,
+    stage_leaderboards,
     stage_manifold,
     stage_protocol,
     stage_servo,
@@ -170,6 +172,13 @@ STAGES: tuple[Stage, ...] = (
             ctx.progress,
         ),
         section=lambda result, ctx: section_servo(result["results"], result["videos"]),
+    ),
+    Stage(
+        "leaderboards",
+        lambda ctx: stage_leaderboards(),
+        section=lambda result, ctx: section_leaderboards(result),
+        folder=False,
+        recorded=False,
     ),
 )
 """The stages of ``topomap run``, in order (see :mod:`scripts.report`)."""

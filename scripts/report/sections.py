@@ -15,6 +15,7 @@ from scripts.servo_tables import pair_table, summary_table
 __all__ = [
     "PAPER",
     "section_grouping",
+    "section_leaderboards",
     "section_manifold",
     "section_protocol",
     "section_reproduce",
@@ -272,3 +273,21 @@ def section_reproduce(info: dict) -> str:
         table("Machine", ("what", "value"), info["machine"].items()),
         table("Stage timings (s)", ("stage", "seconds"), timings),
     )
+
+
+def section_leaderboards(result: dict) -> str:
+    """The committed leaderboards of :func:`scripts.report.stages.stage_leaderboards`: per
+    task, ours beside the methods from outside, from the result files named under each."""
+    if not result["boards"]:
+        return section("leaderboards", "Leaderboards", f"<p>{esc(result['missing'])}</p>")
+    parts = [
+        "<p>Read from the committed result files, not run here: each ran through its frozen "
+        "protocol (docs/guides/benchmark-your-method.md, docs/guides/benchmark-your-policy.md); "
+        "<code>topomap leaderboard FILE...</code> ranks any set of them.</p>"
+    ]
+    for board in result["boards"]:
+        parts.append(f"<h3>{esc(board['heading'])}</h3>")
+        parts += [table(heading, header, rows) for heading, header, rows in board["tables"]]
+        files = ", ".join(f"<code>{esc(f)}</code>" for f in board["files"])
+        parts.append(f"<p>Files: {files}</p>")
+    return section("leaderboards", "Leaderboards: ours beside methods from outside", *parts)

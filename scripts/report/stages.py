@@ -14,7 +14,14 @@ from scripts.report.drawing import laser_crop, manifold_samples, sample_sheet
 from scripts.report.provenance import REPO_ROOT
 from scripts.report.settings import RunSettings
 
-__all__ = ["stage_grouping", "stage_manifold", "stage_protocol", "stage_servo", "stage_worlds"]
+__all__ = [
+    "stage_grouping",
+    "stage_leaderboards",
+    "stage_manifold",
+    "stage_protocol",
+    "stage_servo",
+    "stage_worlds",
+]
 
 
 def _rel(path, root: Path) -> str:
@@ -146,3 +153,23 @@ def stage_servo(
             if found:
                 videos[f"{world}/{policy}"] = [_rel(p, root) for p in found]
     return {"results": results, "videos": videos}
+
+
+def stage_leaderboards(repo: Path = REPO_ROOT) -> dict:
+    """The committed leaderboards (``docs/results/data``: ours beside methods from outside,
+    each run by its protocol and kept as result files), ranked as ``topomap leaderboard``
+    ranks them; nothing is run. ``missing`` says why there are none (an installed package
+    without the repository's docs)."""
+    from scripts.leaderboard import leaderboard_tables, rank
+    from scripts.results import SECTIONS, leaderboard_inputs
+
+    data = Path(repo) / "docs" / "results" / "data"
+    if not data.is_dir():
+        return {"boards": [], "missing": f"no committed result files (no folder {data})"}
+    boards = []
+    for s in (s for s in SECTIONS if s.renderer == "leaderboard"):
+        results, reference = leaderboard_inputs(repo, s.sources)
+        tables = [list(t) for t in leaderboard_tables(rank(results, reference), reference)]
+        files = sorted({Path(r["_path"]).relative_to(repo).as_posix() for r in results})
+        boards.append({"task": s.task, "heading": s.heading, "tables": tables, "files": files})
+    return {"boards": boards, "missing": None}

@@ -14,6 +14,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "Estimate": "scripts.results.sources",
         "read_estimate": "scripts.results.sources",
         "generate": "scripts.results.render",
+        "leaderboard_inputs": "scripts.results.render",
         "main": "scripts.results.render",
         "readme_table": "scripts.results.render",
     },

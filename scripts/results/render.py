@@ -166,8 +166,13 @@ def _servo_reruns(root: Path, sources) -> str:
             same_policy = [e for e in cells if e["policy"] == rerun["policy"]]
             for c in compare(same_policy, [rerun]):
                 ends = {e["episode"]: (e["success"], e["reason"]) for e in rerun["episodes_detail"]}
-                base = next(e for e in same_policy if e["world"] == rerun["world"]
-                            and e["tier"] == rerun["tier"] and e["randomize"] == rerun["randomize"])
+                base = next(
+                    e
+                    for e in same_policy
+                    if e["world"] == rerun["world"]
+                    and e["tier"] == rerun["tier"]
+                    and e["randomize"] == rerun["randomize"]
+                )
                 same = sum(ends.get(e["episode"]) == (e["success"], e["reason"])
                            for e in base["episodes_detail"])  # fmt: skip
                 rows.append({
@@ -192,18 +197,26 @@ def _servo_reruns(root: Path, sources) -> str:
     return Table.of(columns, rows, notes=note).to_markdown()
 
 
-def _leaderboard(root: Path, sources) -> str:
-    """``topomap leaderboard`` of the result files in a folder, paired against the method
-    its ``meta.json`` names as ``reference``; or of the result files ``sources`` names, paired
-    against the first file's method."""
-    from scripts.leaderboard import leaderboard_markdown, load_results
+def leaderboard_inputs(root: Path, sources) -> tuple[list[dict], str | None]:
+    """The result files of a leaderboard section and its reference method: the files in a
+    folder, paired against the method its ``meta.json`` names as ``reference``; or the files
+    ``sources`` names, paired against the first file's method."""
+    from scripts.leaderboard import load_results
 
     paths = [root / DATA / source for source in sources]
     if paths[0].is_dir():
         reference = read_json(paths[0] / "meta.json").get("reference")
-        return leaderboard_markdown(load_results(paths[:1]), reference=reference)
+        return load_results(paths[:1]), reference
     results = load_results(paths)
-    return leaderboard_markdown(results, reference=results[0]["method"]["name"])
+    return results, results[0]["method"]["name"]
+
+
+def _leaderboard(root: Path, sources) -> str:
+    """``topomap leaderboard`` of a section's result files (:func:`leaderboard_inputs`)."""
+    from scripts.leaderboard import leaderboard_markdown
+
+    results, reference = leaderboard_inputs(root, sources)
+    return leaderboard_markdown(results, reference=reference)
 
 
 RENDERERS: dict[str, Callable[[Path, tuple[str, ...]], str]] = {
@@ -254,8 +267,10 @@ def generate(root: Path) -> dict[Path, str]:
     """Every generated file (relative path -> text) for the repository at ``root``."""
     readme_path = root / "README.md"
     readme = readme_path.read_text(encoding="utf-8")
-    if readme.count(START) != 1 or readme.count(END) != 1 or readme.index(START) > readme.index(
-        END
+    if (
+        readme.count(START) != 1
+        or readme.count(END) != 1
+        or readme.index(START) > readme.index(END)
     ):
         raise ValueError(f"{readme_path}: needs one {START} before one {END}")
     head, rest = readme.split(START)
@@ -272,8 +287,11 @@ def main(argv: list[str] | None = None) -> int:
         prog=COMMAND, description="README's Results table and docs/results/*.md, from the "
         "committed result files under docs/results/data/."
     )  # fmt: skip
-    parser.add_argument("--check", action="store_true",
-                        help="write nothing; exit 1 if a generated file is out of date")
+    parser.add_argument(
+        "--check",
+        action="store_true",
+        help="write nothing; exit 1 if a generated file is out of date",
+    )
     parser.add_argument("--root", type=Path, default=REPO_ROOT, help="the repository")
     args = parser.parse_args(argv)
     stale = []

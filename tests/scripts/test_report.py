@@ -276,7 +276,7 @@ def test_run_pipeline_writes_a_complete_report(tmp_path):
     data = json.loads((index.parent / "report.json").read_text())
     assert data["info"]["settings"]["seed"] == 3
     assert data["info"]["settings"]["dataset"].endswith("(1 sequences, 8 frames)")
-    stages = {"dataset", "worlds", "manifold", "seeds", "grouping", "servo"}
+    stages = {"dataset", "worlds", "manifold", "seeds", "grouping", "servo", "leaderboards"}
     assert set(data["info"]["timings"]) == stages
     assert "numpy" in data["info"]["versions"]
     assert list(data) == ["summary", "worlds", "manifold", "seeds", "servo", "grouping", "info"]
@@ -288,6 +288,36 @@ def test_run_pipeline_writes_a_complete_report(tmp_path):
     assert "Not part of this run" in page and "topomap run --protocol DIR" in page
     assert data["grouping"] == "grouping/grouping.json"
     assert "<h2>Reproducing this report</h2>" in page
+    # the committed leaderboards, read and not run: ours beside outside methods on each task
+    assert page.index('<section id="servo">') < page.index('<section id="leaderboards">')
+    assert "HDBSCAN" in page and "DBSCAN" in page and "nearest_view_homing" in page
+
+
+def test_the_leaderboards_section_ranks_the_committed_files_per_task():
+    from scripts.report.provenance import REPO_ROOT
+    from scripts.report.sections import section_leaderboards
+    from scripts.report.stages import stage_leaderboards
+
+    result = stage_leaderboards()
+    assert result["missing"] is None
+    assert [b["task"] for b in result["boards"]] == ["manifold", "grouping", "servo"]
+    for board in result["boards"]:
+        methods = {row[1] for _, _, rows in board["tables"] for row in rows}
+        assert len(methods) >= 3, (board["task"], methods)  # ours and at least two outside
+        assert all((REPO_ROOT / f).is_file() for f in board["files"])
+    servo = result["boards"][2]["tables"][0]
+    assert servo[1][5].startswith("paired vs servo") and servo[2][1][5] == "reference"
+    html = section_leaderboards(result)
+    assert html.count("<table>") == sum(len(b["tables"]) for b in result["boards"])
+
+
+def test_without_the_committed_files_the_leaderboards_section_says_so(tmp_path):
+    from scripts.report.sections import section_leaderboards
+    from scripts.report.stages import stage_leaderboards
+
+    result = stage_leaderboards(tmp_path)
+    assert result["boards"] == [] and "no committed result files" in result["missing"]
+    assert "no committed result files" in section_leaderboards(result)
 
 
 def test_a_failing_stage_fails_the_run_and_names_the_stage(tmp_path):
