@@ -13,7 +13,9 @@ train error of its grouping is printed beside:
   best grid sigma (chosen on the labels: a ceiling for a better choice of sigma):
 
   - ``spectral``: the normalised cut of ``M`` (``spectral_combine.spectral_groups``), the
-    sigma of the largest total group-vs-rest Omega(2) (eq. 9), as the default;
+    sigma of the largest total group-vs-rest Omega(2) (eq. 9), as the default but without its
+    skipping of sigmas at which two kNN-adjacent leaves have no affinity (so it may differ from
+    ``fit``);
   - ``spectral+eigengap``: the same cut, the sigma of the largest eigengap
     ``lam_K - lam_{K+1}`` of ``M v = lam diag(M 1) v`` (the affinity that holds K groups
     most clearly);
