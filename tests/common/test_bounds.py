@@ -35,3 +35,18 @@ def test_values_beyond_the_bounds_are_named(check, values, match):
     problem = check(np.array(values))
     assert problem is not None
     assert re.search(match, problem), problem
+
+
+def test_messages_name_the_default_subject_and_the_unit():
+    assert bounds.time_problem([0.0, np.nan]).startswith("time holds NaN or infinity")
+    assert bounds.command_problem([[2e3, 0.0]]) == (
+        "command 2000.0 at element (0, 0) is beyond the bound of 1000 m/s or rad/s"
+    )
+    assert bounds.time_problem([2.0, 1.0], "stamp") == (
+        "stamp goes backwards at row 1 (1.0 after 2.0); the frames must be in recording order"
+    )
+
+
+def test_unsigned_stamps_going_backwards_are_caught():
+    # integer stamps (nanoseconds) as unsigned integers: their difference must not wrap around
+    assert "goes backwards at row 1" in bounds.time_problem(np.array([5, 3], dtype=np.uint64))

@@ -237,3 +237,20 @@ def test_spectral_basis_falls_back_when_divide_and_conquer_fails(monkeypatch):
     # eigenvectors up to sign: the projector onto the top one is the same
     np.testing.assert_allclose(np.abs(got.vectors[:, -1]), np.abs(expected.vectors[:, -1]),
                                atol=1e-8)  # fmt: skip
+
+
+def test_manifold_kernel_takes_a_given_beta():
+    S = normalized_affinity(squared_distances(np.arange(5.0)[:, None]), 1.0)
+    inverse = np.linalg.inv(np.eye(5) - 0.9 * S)
+    np.testing.assert_allclose(manifold_kernel(S, 0.9, beta=1.0), inverse, rtol=1e-12)
+    np.testing.assert_allclose(manifold_kernel(S, 0.9), 0.1 * inverse, rtol=1e-12)
+
+
+def test_parallel_columns_are_at_distance_zero_not_below():
+    # u and 3u point the same way: 1 - cos rounds to +-2e-16, and the result may not go below 0
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        u = rng.uniform(0.1, 1.0, size=7)
+        D = manifold_distances(np.column_stack([u, 3.0 * u, rng.uniform(size=7)]))
+        assert D.min() >= 0.0 and D.max() <= 1.0
+        assert D[0, 1] == pytest.approx(0.0, abs=1e-15)
