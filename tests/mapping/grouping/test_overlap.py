@@ -265,3 +265,20 @@ def test_voxel_far_finer_than_delta_is_refused_at_once():
 def test_scans_that_are_no_sequence_are_refused(scans):
     with pytest.raises(ValueError, match="scans must be a sequence of"):
         sensed_space_overlap(scans, np.zeros((1, 3)), 0.1)
+
+
+@pytest.mark.parametrize("method", ["global", "per_scan"])
+def test_tolerance_is_inclusive_along_y(method):
+    # the per-scan path's box filter has a lower and an upper y edge: one pair meets both
+    a, b = np.array([[0.0, 0.0]]), np.array([[0.0, 0.25]])
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.25, method=method)
+    assert W[0, 1] == 1.0
+
+
+@pytest.mark.parametrize("method", ["global", "per_scan"])
+def test_a_scan_overlapping_nothing_does_not_hide_the_later_pairs(method):
+    far = np.array([[100.0, 100.0]])
+    a = np.array([[0.0, 0.0], [1.0, 0.0]])
+    b = np.array([[0.05, 0.0], [5.0, 5.0], [6.0, 6.0], [7.0, 7.0]])
+    W = sensed_space_overlap([far, a, b], np.zeros((3, 3)), delta=0.1, method=method)
+    np.testing.assert_allclose(W, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.375], [0.0, 0.375, 1.0]])

@@ -370,3 +370,73 @@ def test_fit_without_x_names_it():
         ObservationGraphPartitioner(affinity="precomputed").fit(None)
     with pytest.raises(ValueError, match=r"X must be the scans.*got None"):
         ObservationGraphPartitioner().partial_fit(None, np.zeros((1, 3)))
+
+
+# --------------------------------------------------------------------------- boundaries
+
+
+def test_ncut_and_bisection_errors_name_the_argument():
+    with pytest.raises(ValueError, match=r"^assoc must be one of \('mrpt', 'paper'\), got 'x'$"):
+        ncut(two_cliques(), MASK, assoc="x")
+    with pytest.raises(ValueError, match="^mask must put at least one node on each side of the "):
+        ncut(two_cliques(), np.ones(6, bool))
+    with pytest.raises(ValueError, match="^laplacian must be one of .*, got 'x'$"):
+        spectral_bisection(two_cliques(), laplacian="x")
+
+
+def test_a_mask_is_read_as_truth_values():
+    assert ncut(two_cliques(), [2, 2, 5, 0, 0, 0]) == ncut(two_cliques(), MASK)
+
+
+def test_two_nodes_are_bisected():
+    mask, _ = spectral_bisection(np.array([[0.0, 1.0], [1.0, 0.0]]))
+    np.testing.assert_array_equal(mask, [True, False])
+
+
+def test_the_normalized_bisection_solves_eq_10():
+    # a path with unequal degrees: (D - W) y = lambda D y holds, (D - W) y = lambda y does not
+    W = np.diag([1.0, 3.0, 0.5, 2.0], 1)  # 5 nodes
+    W = W + W.T
+    D = np.diag(W.sum(axis=1))
+    for laplacian, B in (("normalized", D), ("unnormalized", np.eye(5))):
+        _, y = spectral_bisection(W, laplacian=laplacian)
+        lam = y @ (D - W) @ y / (y @ B @ y)
+        np.testing.assert_allclose((D - W) @ y, lam * B @ y, atol=1e-9)
+
+
+def test_precomputed_fit_boundaries():
+    model = ObservationGraphPartitioner(affinity="precomputed")
+    with pytest.raises(ValueError) as info:
+        model.fit(two_cliques(), groups=np.zeros(6))
+    assert str(info.value) == (
+        "poses and groups are not used with affinity='precomputed'; pass only the weight "
+        "matrix: fit(W)"
+    )
+    with pytest.raises(ValueError, match=r"^X \(the precomputed affinity\) has no nodes$"):
+        model.fit(np.zeros((0, 0)))
+    with pytest.raises(ValueError, match=r"^X \(the precomputed affinity\)"):
+        model.fit(-two_cliques())
+    np.testing.assert_array_equal(model.fit_predict(np.ones((1, 1))), [0])
+    W = two_cliques()
+    np.testing.assert_array_equal(model.fit(W).affinity_matrix_.toarray(), W)
+
+
+def test_tags_follow_the_affinity():
+    tags = ObservationGraphPartitioner(affinity="precomputed").__sklearn_tags__().input_tags
+    assert (tags.pairwise, tags.sparse, tags.two_d_array) == (True, True, True)
+    tags = ObservationGraphPartitioner().__sklearn_tags__().input_tags
+    assert (tags.pairwise, tags.sparse, tags.two_d_array) == (False, False, False)
+
+
+def test_a_precomputed_refit_forgets_the_scans_fit(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)
+    assert hasattr(model, "poses_") and hasattr(model, "topology_")
+    model.set_params(affinity="precomputed").fit(two_cliques())
+    assert not any(hasattr(model, a) for a in ("poses_", "local_maps_", "topology_"))
+    groups = np.repeat([0, 1], [len(scans) // 2, len(scans) - len(scans) // 2])
+    model.set_params(affinity="sso")
+    np.testing.assert_array_equal(
+        model.fit_predict(scans, poses, groups=groups),
+        model.fit(scans, poses, groups=groups).labels_,
+    )

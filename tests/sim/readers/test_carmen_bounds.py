@@ -98,3 +98,50 @@ def test_every_damaged_gzip_is_a_carmen_error(tmp_path):
             kinds.add(type(err.__cause__).__name__ if err.__cause__ else "CarmenError")
             assert str(path) in str(err)
     assert "error" in kinds  # zlib.error: escaped as itself before
+
+
+def test_robotlaser_geometry_at_its_bounds_is_read(tmp_path):
+    # one beam: resolution and field of view 0 are fine, and a negative one names [0, 2 pi]
+    log = read_carmen(write(tmp_path, [robotlaser([1.0], res=0.0)]))
+    np.testing.assert_array_equal(log.angles, [-1.5])
+    with pytest.raises(CarmenError, match=r"angular_resolution -0.5 rad is outside \[0, 2 pi\]$"):
+        read_carmen(write(tmp_path, [robotlaser([1.0], res=-0.5)]))
+    # a resolution and field of view of a full turn, maximum ranges just above 0 and at 10^4 m
+    assert len(read_carmen(write(tmp_path, [robotlaser([1.0, 2.0], res=2 * np.pi)]))) == 1
+    for max_range in (0.5, 1e4):
+        assert read_carmen(write(tmp_path, [robotlaser([0.1], max_range=max_range)])).max_range == (
+            max_range
+        )
+
+
+def test_zero_resolution_message_says_why(tmp_path):
+    with pytest.raises(CarmenError) as info:
+        read_carmen(write(tmp_path, [robotlaser([1.0, 2.0], res=0.0)]))
+    assert str(info.value).endswith(
+        "line 1: ROBOTLASER1 angular_resolution is 0, so all 2 beams would point the same way; "
+        "need a non-zero angle between beams"
+    )
+
+
+_RL = robotlaser([1.0, 2.0])
+
+
+@pytest.mark.parametrize(
+    ("bad", "match"),
+    [
+        (_RL.replace("ROBOTLASER1 0 -1.5", "ROBOTLASER1 0 x"), "non-numeric header field 'x'$"),
+        (_RL.replace(" 2 1.0 2.0 ", " 2 1.0 y "), "non-numeric range field 'y'$"),
+        (_RL.replace("2 7 8 3.0 4.0", "2 7 8 3.0 z"), "non-numeric pose field 'z'$"),
+        (_RL.replace("2 7 8 ", "q 7 8 "), "remission count must be an integer, got 'q'$"),
+        (_RL.rsplit(" 2 7 8 ", 1)[0], "truncated line, no remission count$"),
+        (_RL.replace("2 7 8 ", "3 7 8 "), "a count that does not match its values\\)$"),
+        (robotlaser([1.0, -2.0]), "negative range -2.0 \\(at row 1\\)$"),
+        (robotlaser([]), "ROBOTLASER1 with 0 ranges; need at least 1$"),
+        (robotlaser([1.0, 2.0], max_range=-1.0), "maximum_range -1.0 m is outside"),
+    ],
+)
+def test_bad_robotlaser_lines_name_file_and_line(tmp_path, bad, match):
+    path = write(tmp_path, [_RL, bad])
+    with pytest.raises(CarmenError, match=match) as info:
+        read_carmen(path)
+    assert str(info.value).startswith(f"{path}, line 2: ")
