@@ -145,3 +145,55 @@ def test_bad_robotlaser_lines_name_file_and_line(tmp_path, bad, match):
     with pytest.raises(CarmenError, match=match) as info:
         read_carmen(path)
     assert str(info.value).startswith(f"{path}, line 2: ")
+
+
+def test_the_backwards_warning_names_the_first_line_and_points_at_the_caller(tmp_path):
+    times = (1.0, 3.0, 2.0, 2.0, 2.5, 0.0)  # back at lines 3 and 6; equal and small steps are fine
+    path = write(tmp_path, [flaser([1.0, 2.0, 3.0], t=t) for t in times])
+    with pytest.warns(UserWarning) as record:
+        read_carmen(path)
+    (warning,) = record
+    assert str(warning.message) == (
+        f"{path}, line 3: the timestamp goes backwards (2 times in the log); the scans are kept "
+        "in the order of the file"
+    )
+    assert warning.filename == __file__
+
+
+def test_equal_or_small_time_steps_do_not_warn(tmp_path, recwarn):
+    path = write(tmp_path, [flaser([1.0, 2.0, 3.0], t=t) for t in (1.0, 1.0, 1.5, 1e10)])
+    assert read_carmen(path).timestamps[-1] == 1e10  # the bound itself is a time
+    assert not recwarn.list
+
+
+def test_lines_are_the_files_lines(tmp_path):
+    scan = flaser([1.0, 2.0, 3.0])
+    path = tmp_path / "log.txt"
+    path.write_text(f"{scan}\n\n{scan}")  # a blank line, and no newline at the end
+    assert read_carmen(path).line_numbers.tolist() == [1, 3]
+    path.write_text("# a comment\n\n")
+    with pytest.raises(CarmenError, match=r"no FLASER lines, so no scans \(lines read: 2\)$"):
+        read_carmen(path)
+
+
+@pytest.mark.parametrize("gz", [False, True])
+def test_text_that_is_not_ascii_is_refused(tmp_path, gz):
+    path = write(tmp_path, ["# caf\u00e9", flaser([1.0, 2.0, 3.0])], gz=gz)
+    with pytest.raises(CarmenError, match="cannot read as a .gzip. text Carmen log"):
+        read_carmen(path)
+
+
+def test_maximum_ranges_at_their_bounds(tmp_path):
+    scans = [flaser([1.0, 2.0, 3.0])]
+    for value in (0.5, 1e4):
+        assert read_carmen(write(tmp_path, scans), max_range=value).max_range == value
+        param = [f"PARAM robot_front_laser_max {value}", *scans]  # no host and time: still read
+        assert read_carmen(write(tmp_path, param)).max_range == value
+    with pytest.raises(CarmenError, match="line 1: robot_front_laser_max 0.0 m is outside"):
+        read_carmen(write(tmp_path, ["PARAM robot_front_laser_max 0", *scans]))
+
+
+def test_count_errors_name_the_count(tmp_path):
+    bad = flaser([1.0, 2.0, 3.0]).replace("FLASER 3", "FLASER x")
+    with pytest.raises(CarmenError, match=r"line 1: range count must be an integer, got 'x'$"):
+        read_carmen(write(tmp_path, [bad]))
