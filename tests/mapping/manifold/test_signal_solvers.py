@@ -81,6 +81,8 @@ def test_sparse_solver_matches_dense_solver_on_random_affinities():
     w = rng.random((60, m)) * (rng.random((60, m)) < np.linspace(0, 1, 60)[:, None])
     w[:3] = 0.0
     w[3, 4] = 1e-310  # a single subnormal affinity: unreachable (total below _TINY), F = 0
+    w[4] = 0.0
+    w[4, 5] = TINY  # exactly TINY: unreachable too
     for target in (0, 7, m - 1):
         dense = dense_signal(model.weights, model.degrees, model.alpha, w, target)
         sparse = sparse_signal(
@@ -89,7 +91,7 @@ def test_sparse_solver_matches_dense_solver_on_random_affinities():
         )  # fmt: skip
         np.testing.assert_allclose(sparse, dense, rtol=1e-10, atol=0)
         reachable = w.sum(axis=1) > 1e-300
-        assert not reachable[:4].any() and reachable.sum() > 40
+        assert not reachable[:5].any() and reachable.sum() > 40
         np.testing.assert_array_equal(sparse > 0, reachable)
 
 
