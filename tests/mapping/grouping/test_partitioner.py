@@ -440,3 +440,72 @@ def test_a_precomputed_refit_forgets_the_scans_fit(office):
         model.fit_predict(scans, poses, groups=groups),
         model.fit(scans, poses, groups=groups).labels_,
     )
+
+
+# a weighted graph whose normalized and unnormalized bisections differ
+UNEVEN = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.8, 0.9],
+    [0.0, 0.0, 0.5, 0.0, 0.8, 0.0],
+    [0.0, 0.5, 0.0, 0.2, 0.0, 0.5],
+    [0.0, 0.0, 0.2, 0.0, 0.7, 0.6],
+    [0.8, 0.8, 0.0, 0.7, 0.0, 0.0],
+    [0.9, 0.0, 0.5, 0.6, 0.0, 0.0],
+])  # fmt: skip
+
+
+def test_the_recursion_bisects_with_the_chosen_laplacian():
+    splits = {}
+    for laplacian in ("normalized", "unnormalized"):
+        mask, _ = spectral_bisection(UNEVEN, laplacian=laplacian)
+        _, tree = recursive_ncut_partition(UNEVEN, threshold=2.0, laplacian=laplacian)
+        np.testing.assert_array_equal(tree.children[0].indices, np.flatnonzero(mask))
+        splits[laplacian] = tuple(mask)
+    assert splits["normalized"] != splits["unnormalized"]
+
+
+def test_a_bisection_holds_node_0_and_its_side_of_the_eigenvector():
+    order = [3, 0, 4, 1, 5, 2]  # node 0 of this graph is in the second clique, node 1 in the first
+    W = two_cliques()[np.ix_(order, order)]
+    mask, y = spectral_bisection(W)
+    np.testing.assert_array_equal(mask, [True, False, True, False, True, False])
+    np.testing.assert_array_equal(mask, y >= y.mean())
+    # disconnected: y is the indicator of node 0's component
+    order = [0, 2, 1, 3]
+    W = sp.block_diag([clique(2, 0.5), clique(2, 0.5)]).toarray()[np.ix_(order, order)]
+    mask, y = spectral_bisection(W)
+    np.testing.assert_array_equal(y, [1.0, 0.0, 1.0, 0.0])
+    two = sp.block_diag([clique(3, 0.5), clique(3, 0.5)]).toarray()
+    np.testing.assert_array_equal(spectral_bisection(two)[1], [1, 1, 1, 0, 0, 0])
+
+
+def test_a_singleton_group_does_not_stop_the_recursion():
+    W = sp.block_diag([np.ones((1, 1)), clique(3, 0.5), clique(3, 0.5)]).toarray()
+    labels, _ = recursive_ncut_partition(W)
+    np.testing.assert_array_equal(labels, [0, 1, 1, 1, 2, 2, 2])
+
+
+def test_threshold_and_min_size_at_their_edges():
+    at = ncut(two_cliques(), MASK)
+    assert recursive_ncut_partition(two_cliques(), threshold=at)[0].max() == 0  # Ncut < threshold
+    assert recursive_ncut_partition(two_cliques(), threshold=np.nextafter(at, 1))[0].max() == 1
+    assert recursive_ncut_partition(two_cliques(), threshold=2.0)[0].max() >= 1
+    # a clique of 4 (node 0's) and one of 2: the smaller side decides
+    W = np.zeros((6, 6))
+    W[:4, :4] = W[4:, 4:] = 1.0
+    W[3, 4] = W[4, 3] = EPS
+    assert recursive_ncut_partition(W, min_size=2)[0].max() == 1
+    assert recursive_ncut_partition(W, min_size=3)[0].max() == 0
+    with pytest.raises(ValueError, match="^min_size must be a positive integer, got 0$"):
+        recursive_ncut_partition(W, min_size=0)
+    with pytest.raises(ValueError, match="^laplacian must be one of"):
+        recursive_ncut_partition(W, laplacian="x")
+    with pytest.raises(ValueError, match="^W has no nodes$"):
+        recursive_ncut_partition(np.zeros((0, 0)))
+
+
+def test_small_blocks_of_a_large_sparse_graph_are_solved_dense(monkeypatch):
+    W, _ = block_graph(np.random.default_rng(2))
+    dense, _ = recursive_ncut_partition(W)
+    monkeypatch.setattr("mapping.grouping.normalized_cut.DENSE_INDEX_MAX_NODES", 10)
+    monkeypatch.setattr("mapping.grouping.normalized_cut.DENSE_MAX_NODES", 100)
+    np.testing.assert_array_equal(recursive_ncut_partition(sp.csr_array(W))[0], dense)
