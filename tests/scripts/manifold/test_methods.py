@@ -16,8 +16,13 @@ def test_the_interval_is_scipys_percentile_interval_from_the_given_generator():
     ref = bootstrap((ERRORS,), np.mean, n_resamples=500, method="percentile", random_state=rng)
     ref = ref.confidence_interval
     assert got == {"mean": ERRORS.mean(), "lo": ref.low, "hi": ref.high, "n": 30}
+    # 4000 resamples unless told
+    rng = np.random.default_rng(3)
+    ref = bootstrap((ERRORS,), np.mean, n_resamples=4000, method="percentile", random_state=rng)
+    got = bootstrap_mean(ERRORS, np.random.default_rng(3))
+    assert (got["lo"], got["hi"]) == (ref.confidence_interval.low, ref.confidence_interval.high)
     # another seed, another interval: the draw comes from ``rng`` and nowhere else
-    other = bootstrap_mean(ERRORS, np.random.default_rng(4), n_resamples=500)
+    other = bootstrap_mean(ERRORS, np.random.default_rng(4))
     assert (other["lo"], other["hi"]) != (got["lo"], got["hi"])
 
 

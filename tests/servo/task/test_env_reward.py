@@ -69,6 +69,7 @@ class _Robot:
     def __init__(self, script):
         self.script = list(script)
         self.sim = _Sim()
+        self.actions = []
 
     def _info(self, pose, collision):
         return {"pose": pose, "odometry": pose.copy(), "collision": collision,
@@ -80,6 +81,7 @@ class _Robot:
         return {"image": _image(40)}, self._info(self.sim.pose, False)
 
     def step(self, action):
+        self.actions.append(action)
         pose, collision, level = self.script[self.k]
         self.k += 1
         self.sim.pose = np.asarray(pose, float)
@@ -102,8 +104,10 @@ def _env(script, max_steps=50, **weights):
 def _run(env, start):
     _, info = env.reset(seed=0, options={"pose": np.asarray(start, float), "target": 1})
     steps = []
-    for _ in env.base.script:
-        steps.append(env.step(np.zeros(2, np.float32)))
+    for k, _ in enumerate(env.base.script):
+        action = np.array([0.1, 0.01 * k], np.float32)
+        steps.append(env.step(action))
+        assert env.base.actions[-1] is action  # the robot is given the action
         if steps[-1][2] or steps[-1][3]:
             break
     return info, steps
@@ -186,3 +190,14 @@ def test_the_step_limit_truncates_unless_the_last_step_arrives():
     arrive = far[:2] + [((0.0, 0.0, 0.0), False, 200)]
     _, steps = _run(_env(arrive, max_steps=3), (3.0, 0.0, 0.0))
     assert (steps[-1][2], steps[-1][3], steps[-1][4]["reason"]) == (True, False, "success")
+
+
+def test_the_stuck_test_spans_the_whole_window():
+    # in contact throughout; moving exactly STUCK_DISTANCE over the window is moving
+    still = [((3.0, 0.0, 0.0), True, 40)] * (STUCK_WINDOW - 1)
+    _, steps = _run(_env([*still, ((3.0, STUCK_DISTANCE, 0.0), True, 40)]), (3.0, 0.0, 0.0))
+    assert not steps[-1][4]["stuck"]
+    # a move at the second step is in the window until the window has passed it
+    moved = [((3.0, 0.0, 0.0), True, 40)] + [((3.0, 0.15, 0.0), True, 40)] * 40
+    _, steps = _run(_env(moved), (3.0, 0.0, 0.0))
+    assert [k for k, s in enumerate(steps, start=1) if s[4]["stuck"]] == [STUCK_WINDOW + 1]
