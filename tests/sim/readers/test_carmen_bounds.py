@@ -196,3 +196,18 @@ def test_count_errors_name_the_count(tmp_path):
     bad = flaser([1.0, 2.0, 3.0]).replace("FLASER 3", "FLASER x")
     with pytest.raises(CarmenError, match=r"line 1: range count must be an integer, got 'x'$"):
         read_carmen(write(tmp_path, [bad]))
+
+
+def test_a_log_of_zero_readings_has_no_maximum_range(tmp_path):
+    path = write(tmp_path, [flaser([0.0, 0.0, 0.0])] * 2)
+    with pytest.raises(CarmenError) as info:
+        read_carmen(path)
+    assert str(info.value) == f"{path}: maximum range 0.0 is not a distance in (0, 10000] m"
+    assert read_carmen(path, max_range=5.0).path == path
+
+
+def test_changed_geometry_names_the_first_line(tmp_path):
+    ok = robotlaser([1.0, 2.0])
+    path = write(tmp_path, [ok, ok, robotlaser([1.0, 2.0], res=0.25)])
+    with pytest.raises(CarmenError, match=r"line 3: beam geometry .* differs from line 1$"):
+        read_carmen(path)
