@@ -434,12 +434,19 @@ def test_a_precomputed_refit_forgets_the_scans_fit(office):
     assert hasattr(model, "poses_") and hasattr(model, "topology_")
     model.set_params(affinity="precomputed").fit(two_cliques())
     assert not any(hasattr(model, a) for a in ("poses_", "local_maps_", "topology_"))
-    groups = np.repeat([0, 1], [len(scans) // 2, len(scans) - len(scans) // 2])
-    model.set_params(affinity="sso")
-    np.testing.assert_array_equal(
-        model.fit_predict(scans, poses, groups=groups),
-        model.fit(scans, poses, groups=groups).labels_,
-    )
+
+
+def test_fit_predict_passes_the_groups_on(office):
+    # as in test_groups_keep_runs_apart: with the runs given, the second run's empty first
+    # scan joins its own run, without them the end of the first
+    _, scans, poses = office
+    n = len(scans)
+    both_scans = list(scans) + list(scans)
+    both_scans[n] = np.empty((0, 2))
+    groups = np.repeat(["first", "second"], n)
+    model = ObservationGraphPartitioner(scan_matching=True)
+    labels = model.fit_predict(both_scans, np.concatenate([poses, poses]), groups=groups)
+    assert labels[n] == labels[n + 1] != labels[n - 1]
 
 
 # a weighted graph whose normalized and unnormalized bisections differ
