@@ -516,3 +516,49 @@ def test_small_blocks_of_a_large_sparse_graph_are_solved_dense(monkeypatch):
     monkeypatch.setattr("mapping.grouping.normalized_cut.DENSE_INDEX_MAX_NODES", 10)
     monkeypatch.setattr("mapping.grouping.normalized_cut.DENSE_MAX_NODES", 100)
     np.testing.assert_array_equal(recursive_ncut_partition(sp.csr_array(W))[0], dense)
+
+
+def test_defaults_labels_and_messages_of_the_estimator(office):
+    _, scans, poses = office
+    params = ObservationGraphPartitioner().get_params()
+    assert (params["min_size"], params["scan_matching"]) == (1, True)
+    model = ObservationGraphPartitioner(scan_matching=False, min_size=len(scans))
+    assert model.fit(scans, poses).n_groups_ == 1  # min_size reaches the recursion
+    assert model.labels_.dtype == np.intp
+    with pytest.raises(ValueError, match=r"^poses is required with affinity='sso': fit\(scans, "):
+        ObservationGraphPartitioner().fit(scans)
+    with pytest.raises(ValueError, match=r"^X must be the scans, a sequence of \(M_i, 2\) point"):
+        ObservationGraphPartitioner().fit(None, poses)
+    with pytest.raises(ValueError, match="^solver must be one of"):
+        spectral_bisection(two_cliques(), solver="x")
+    with pytest.raises(ValueError, match="^W must be a square matrix"):
+        ncut(np.ones((2, 3)), [True, False])
+    labels, _ = recursive_ncut_partition(two_cliques())
+    assert labels.dtype == np.intp
+
+
+def test_a_fit_ends_a_partial_fit_sequence(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(scan_matching=False).partial_fit(scans[:5], poses[:5])
+    model.fit(scans, poses)
+    with pytest.raises(ValueError, match="fitted with fit"):
+        model.partial_fit(scans[:5], poses[:5])
+
+
+def test_voxel_size_at_the_match_distance_and_far_below(office):
+    _, scans, poses = office
+    ObservationGraphPartitioner(scan_matching=False, match_distance=0.1, voxel_size=0.1).fit(
+        scans, poses
+    )
+    with pytest.raises(ValueError, match="must not exceed match_distance .*tells apart$"):
+        ObservationGraphPartitioner(match_distance=0.1, voxel_size=0.2).fit(scans, poses)
+    with pytest.raises(ValueError):
+        ObservationGraphPartitioner(match_distance=0.1, voxel_size=1e-9).fit(scans, poses)
+
+
+def test_one_point_scans_are_nodes_and_the_tree_counts_scans(office):
+    _, scans, poses = office
+    scans = [s[:1] for s in scans[:6]] + [np.empty((0, 2))] + list(scans[7:])
+    model = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)
+    covered = np.sort(np.concatenate([leaf.indices for leaf in model.split_tree_.leaves()]))
+    np.testing.assert_array_equal(covered, np.delete(np.arange(len(scans)), 6))
