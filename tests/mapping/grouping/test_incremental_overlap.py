@@ -194,3 +194,11 @@ def test_auto_voxel_is_a_quarter_of_the_match_distance(office):
     np.testing.assert_array_equal(
         auto.affinity_matrix_.toarray(), given.fit(scans, poses).affinity_matrix_.toarray()
     )
+
+
+def test_partial_fit_rebuilds_the_topology_read_first(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(scan_matching=False).partial_fit(scans[:6], poses[:6])
+    assert model.topology_.frames.shape[0] == model.n_groups_
+    model.partial_fit(scans[6:], poses[6:])
+    assert model.topology_.frames.shape[0] == model.n_groups_

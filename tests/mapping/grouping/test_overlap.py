@@ -313,3 +313,10 @@ def test_sparse_output_stores_only_overlaps():
     a, b = np.array([[0.0, 0.0], [0.0, 1.0]]), np.array([[0.15, 0.5], [5.0, 5.0]])
     W = sensed_space_overlap([a, b], np.zeros((2, 3)), 0.1, sparse=True, method="per_scan")
     assert W.toarray()[0, 1] == 0.0 and (W.data > 0).all() and W.nnz == 2
+
+
+def test_a_candidate_pair_without_matches_stores_nothing():
+    # boxes 0.05 apart (a candidate pair for delta 0.1), points at least 0.4 apart
+    a, b = np.array([[0.0, 0.0], [0.0, 1.0]]), np.array([[0.05, 0.45], [0.05, 0.55]])
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), 0.1, sparse=True, method="per_scan")
+    assert W.nnz == 2 and W.toarray()[0, 1] == 0.0

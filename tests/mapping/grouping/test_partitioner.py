@@ -562,3 +562,18 @@ def test_one_point_scans_are_nodes_and_the_tree_counts_scans(office):
     model = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)
     covered = np.sort(np.concatenate([leaf.indices for leaf in model.split_tree_.leaves()]))
     np.testing.assert_array_equal(covered, np.delete(np.arange(len(scans)), 6))
+
+
+def test_every_ordering_puts_node_0_in_a():
+    rng = np.random.default_rng(3)
+    for _ in range(8):  # some orderings give the eigenvector with node 0 below its mean
+        order = rng.permutation(6)
+        mask, y = spectral_bisection(two_cliques()[np.ix_(order, order)])
+        assert mask[0] and mask.sum() == 3
+        np.testing.assert_array_equal(mask, y >= y.mean())
+
+
+def test_all_empty_scans_leave_an_empty_split_tree():
+    model = ObservationGraphPartitioner(scan_matching=False)
+    model.fit([np.empty((0, 2))] * 3, np.zeros((3, 3)))
+    assert model.split_tree_.indices.tolist() == []
