@@ -152,3 +152,53 @@ def test_voxel_overlap_index_refuses_bad_scans(points, pose, match):
     with pytest.raises(ValueError, match=match):
         index.add(points, pose)
     assert len(index) == 0  # nothing half-added
+
+
+def test_partial_fit_rebuilds_what_it_read_and_keeps_no_tree(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(scan_matching=False)
+    model.partial_fit(scans[:6], poses[:6])
+    first = (model.n_groups_, len(model.local_maps_), model.topology_.frames.shape[0])
+    assert first == (model.n_groups_,) * 3
+    more = [*scans[6:], np.empty((0, 2))]  # the last scan saw nothing: still a node
+    model.partial_fit(more, np.concatenate([poses[6:], poses[-1:]]))
+    n = len(scans) + 1
+    assert model.affinity_matrix_.shape == (n, n) and model.n_groups_ > first[0]
+    assert len(model.local_maps_) == model.topology_.frames.shape[0] == model.n_groups_
+    assert not hasattr(model, "split_tree_")
+    with pytest.raises(AttributeError, match="^'ObservationGraphPartitioner' object has no "
+                       "attribute 'nothing_'$"):  # fmt: skip
+        _ = model.nothing_
+
+
+def test_partial_fit_topology_nodes_are_its_groups(office):
+    _, scans, poses = office
+    inc = ObservationGraphPartitioner(scan_matching=False).partial_fit(scans, poses)
+    ref = inc.topology_.reference_scans
+    np.testing.assert_array_equal(inc.labels_[ref], np.arange(inc.n_groups_))
+
+
+def test_partial_fit_needs_the_scans_overlap():
+    model = ObservationGraphPartitioner(affinity="precomputed")
+    with pytest.raises(ValueError, match=r"^partial_fit needs affinity='sso' and a voxel_size "
+                       r"\(not None\)$"):  # fmt: skip
+        model.partial_fit([np.ones((3, 2))], np.zeros((1, 3)))
+    with pytest.raises(ValueError, match=r"^X must be the scans, .* \(affinity='sso'\), got None$"):
+        ObservationGraphPartitioner().partial_fit(None, np.zeros((1, 3)))
+
+
+def test_auto_voxel_is_a_quarter_of_the_match_distance(office):
+    _, scans, poses = office
+    auto = ObservationGraphPartitioner(scan_matching=False, match_distance=0.2).fit(scans, poses)
+    given = ObservationGraphPartitioner(scan_matching=False, match_distance=0.2, voxel_size=0.05)
+    np.testing.assert_array_equal(
+        auto.affinity_matrix_.toarray(), given.fit(scans, poses).affinity_matrix_.toarray()
+    )
+
+
+def test_partial_fit_rebuilds_the_topology_read_first(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(scan_matching=False).partial_fit(scans[:6], poses[:6])
+    assert model.topology_.frames.shape[0] == model.n_groups_
+    model.partial_fit(scans[6:], poses[6:])
+    assert model.topology_.frames.shape[0] == model.n_groups_

@@ -265,3 +265,58 @@ def test_voxel_far_finer_than_delta_is_refused_at_once():
 def test_scans_that_are_no_sequence_are_refused(scans):
     with pytest.raises(ValueError, match="scans must be a sequence of"):
         sensed_space_overlap(scans, np.zeros((1, 3)), 0.1)
+
+
+@pytest.mark.parametrize("method", ["global", "per_scan"])
+def test_tolerance_is_inclusive_along_y(method):
+    # the per-scan path's box filter has a lower and an upper y edge: one pair meets both
+    a, b = np.array([[0.0, 0.0]]), np.array([[0.0, 0.25]])
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), delta=0.25, method=method)
+    assert W[0, 1] == 1.0
+
+
+@pytest.mark.parametrize("method", ["global", "per_scan"])
+def test_a_scan_overlapping_nothing_does_not_hide_the_later_pairs(method):
+    far = np.array([[100.0, 100.0]])
+    a = np.array([[0.0, 0.0], [1.0, 0.0]])
+    b = np.array([[0.05, 0.0], [5.0, 5.0], [6.0, 6.0], [7.0, 7.0]])
+    W = sensed_space_overlap([far, a, b], np.zeros((3, 3)), delta=0.1, method=method)
+    np.testing.assert_allclose(W, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.375], [0.0, 0.375, 1.0]])
+
+
+def test_scans_in_other_forms_and_their_errors():
+    pts = np.array([[0.0, 0.0], [1.0, 0.0]])
+    ref = sensed_space_overlap([pts, pts + 0.05], np.zeros((2, 3)), 0.1)
+    stacked = np.stack([pts, pts + 0.05])  # one (N, M, 2) array
+    np.testing.assert_array_equal(sensed_space_overlap(stacked, np.zeros((2, 3)), 0.1), ref)
+    # an empty scan as a bare empty array, and the scans after it still checked
+    W = sensed_space_overlap([np.array([]), pts, pts], np.zeros((3, 3)), 0.1)
+    assert W[0, 0] == 0.0 and W[1, 2] == 1.0
+    with pytest.raises(ValueError, match=r"^scans\[2\] must have shape \(M, 2\)"):
+        sensed_space_overlap([np.array([]), pts, np.zeros((2, 3))], np.zeros((3, 3)), 0.1)
+    with pytest.raises(ValueError, match=r"drop missed beams before calling \(an all-missed scan "
+                       r"is an empty \(0, 2\) array\)$"):  # fmt: skip
+        sensed_space_overlap([pts, [[0.0, np.inf]]], np.zeros((2, 3)), 0.1)
+    with pytest.raises(ValueError, match="^scans must be a sequence of .* got ndarray$"):
+        sensed_space_overlap(np.array(3.0), np.zeros((1, 3)), 0.1)
+    with pytest.raises(ValueError, match="^scans is empty; need at least one scan$"):
+        sensed_space_overlap([], np.zeros((0, 3)), 0.1)
+    with pytest.raises(ValueError, match="got 4 poses and 2 scans$"):
+        sensed_space_overlap([pts, pts], np.zeros((4, 3)), 0.1)
+    poses = np.full((7, 3), np.nan)
+    with pytest.raises(ValueError, match=r"\(rows \[0, 1, 2, 3, 4\]\)$"):
+        sensed_space_overlap([pts] * 7, poses, 0.1)
+
+
+def test_sparse_output_stores_only_overlaps():
+    # the middle pair is a candidate (boxes within delta) whose points match nothing
+    a, b = np.array([[0.0, 0.0], [0.0, 1.0]]), np.array([[0.15, 0.5], [5.0, 5.0]])
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), 0.1, sparse=True, method="per_scan")
+    assert W.toarray()[0, 1] == 0.0 and (W.data > 0).all() and W.nnz == 2
+
+
+def test_a_candidate_pair_without_matches_stores_nothing():
+    # boxes 0.05 apart (a candidate pair for delta 0.1), points at least 0.4 apart
+    a, b = np.array([[0.0, 0.0], [0.0, 1.0]]), np.array([[0.05, 0.45], [0.05, 0.55]])
+    W = sensed_space_overlap([a, b], np.zeros((2, 3)), 0.1, sparse=True, method="per_scan")
+    assert W.nnz == 2 and W.toarray()[0, 1] == 0.0

@@ -370,3 +370,210 @@ def test_fit_without_x_names_it():
         ObservationGraphPartitioner(affinity="precomputed").fit(None)
     with pytest.raises(ValueError, match=r"X must be the scans.*got None"):
         ObservationGraphPartitioner().partial_fit(None, np.zeros((1, 3)))
+
+
+# --------------------------------------------------------------------------- boundaries
+
+
+def test_ncut_and_bisection_errors_name_the_argument():
+    with pytest.raises(ValueError, match=r"^assoc must be one of \('mrpt', 'paper'\), got 'x'$"):
+        ncut(two_cliques(), MASK, assoc="x")
+    with pytest.raises(ValueError, match="^mask must put at least one node on each side of the "):
+        ncut(two_cliques(), np.ones(6, bool))
+    with pytest.raises(ValueError, match="^laplacian must be one of .*, got 'x'$"):
+        spectral_bisection(two_cliques(), laplacian="x")
+
+
+def test_a_mask_is_read_as_truth_values():
+    assert ncut(two_cliques(), [2, 2, 5, 0, 0, 0]) == ncut(two_cliques(), MASK)
+
+
+def test_two_nodes_are_bisected():
+    mask, _ = spectral_bisection(np.array([[0.0, 1.0], [1.0, 0.0]]))
+    np.testing.assert_array_equal(mask, [True, False])
+
+
+def test_the_normalized_bisection_solves_eq_10():
+    # a path with unequal degrees: (D - W) y = lambda D y holds, (D - W) y = lambda y does not
+    W = np.diag([1.0, 3.0, 0.5, 2.0], 1)  # 5 nodes
+    W = W + W.T
+    D = np.diag(W.sum(axis=1))
+    for laplacian, B in (("normalized", D), ("unnormalized", np.eye(5))):
+        _, y = spectral_bisection(W, laplacian=laplacian)
+        lam = y @ (D - W) @ y / (y @ B @ y)
+        np.testing.assert_allclose((D - W) @ y, lam * B @ y, atol=1e-9)
+
+
+def test_precomputed_fit_boundaries():
+    model = ObservationGraphPartitioner(affinity="precomputed")
+    with pytest.raises(ValueError) as info:
+        model.fit(two_cliques(), groups=np.zeros(6))
+    assert str(info.value) == (
+        "poses and groups are not used with affinity='precomputed'; pass only the weight "
+        "matrix: fit(W)"
+    )
+    with pytest.raises(ValueError, match=r"^X \(the precomputed affinity\) has no nodes$"):
+        model.fit(np.zeros((0, 0)))
+    with pytest.raises(ValueError, match=r"^X \(the precomputed affinity\)"):
+        model.fit(-two_cliques())
+    np.testing.assert_array_equal(model.fit_predict(np.ones((1, 1))), [0])
+    W = two_cliques()
+    np.testing.assert_array_equal(model.fit(W).affinity_matrix_.toarray(), W)
+
+
+def test_tags_follow_the_affinity():
+    tags = ObservationGraphPartitioner(affinity="precomputed").__sklearn_tags__().input_tags
+    assert (tags.pairwise, tags.sparse, tags.two_d_array) == (True, True, True)
+    tags = ObservationGraphPartitioner().__sklearn_tags__().input_tags
+    assert (tags.pairwise, tags.sparse, tags.two_d_array) == (False, False, False)
+
+
+def test_a_precomputed_refit_forgets_the_scans_fit(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)
+    assert hasattr(model, "poses_") and hasattr(model, "topology_")
+    model.set_params(affinity="precomputed").fit(two_cliques())
+    assert not any(hasattr(model, a) for a in ("poses_", "local_maps_", "topology_"))
+
+
+def test_fit_predict_passes_the_groups_on(office):
+    # as in test_groups_keep_runs_apart: with the runs given, the second run's empty first
+    # scan joins its own run, without them the end of the first
+    _, scans, poses = office
+    n = len(scans)
+    both_scans = list(scans) + list(scans)
+    both_scans[n] = np.empty((0, 2))
+    groups = np.repeat(["first", "second"], n)
+    model = ObservationGraphPartitioner(scan_matching=True)
+    labels = model.fit_predict(both_scans, np.concatenate([poses, poses]), groups=groups)
+    assert labels[n] == labels[n + 1] != labels[n - 1]
+
+
+# a weighted graph whose normalized and unnormalized bisections differ
+UNEVEN = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.8, 0.9],
+    [0.0, 0.0, 0.5, 0.0, 0.8, 0.0],
+    [0.0, 0.5, 0.0, 0.2, 0.0, 0.5],
+    [0.0, 0.0, 0.2, 0.0, 0.7, 0.6],
+    [0.8, 0.8, 0.0, 0.7, 0.0, 0.0],
+    [0.9, 0.0, 0.5, 0.6, 0.0, 0.0],
+])  # fmt: skip
+
+
+def test_the_recursion_bisects_with_the_chosen_laplacian():
+    splits = {}
+    for laplacian in ("normalized", "unnormalized"):
+        mask, _ = spectral_bisection(UNEVEN, laplacian=laplacian)
+        _, tree = recursive_ncut_partition(UNEVEN, threshold=2.0, laplacian=laplacian)
+        np.testing.assert_array_equal(tree.children[0].indices, np.flatnonzero(mask))
+        splits[laplacian] = tuple(mask)
+    assert splits["normalized"] != splits["unnormalized"]
+
+
+def test_a_bisection_holds_node_0_and_its_side_of_the_eigenvector():
+    order = [3, 0, 4, 1, 5, 2]  # node 0 of this graph is in the second clique, node 1 in the first
+    W = two_cliques()[np.ix_(order, order)]
+    mask, y = spectral_bisection(W)
+    np.testing.assert_array_equal(mask, [True, False, True, False, True, False])
+    np.testing.assert_array_equal(mask, y >= y.mean())
+    # disconnected: y is the indicator of node 0's component
+    order = [0, 2, 1, 3]
+    W = sp.block_diag([clique(2, 0.5), clique(2, 0.5)]).toarray()[np.ix_(order, order)]
+    mask, y = spectral_bisection(W)
+    np.testing.assert_array_equal(y, [1.0, 0.0, 1.0, 0.0])
+    two = sp.block_diag([clique(3, 0.5), clique(3, 0.5)]).toarray()
+    np.testing.assert_array_equal(spectral_bisection(two)[1], [1, 1, 1, 0, 0, 0])
+
+
+def test_a_singleton_group_does_not_stop_the_recursion():
+    W = sp.block_diag([np.ones((1, 1)), clique(3, 0.5), clique(3, 0.5)]).toarray()
+    labels, _ = recursive_ncut_partition(W)
+    np.testing.assert_array_equal(labels, [0, 1, 1, 1, 2, 2, 2])
+
+
+def test_threshold_and_min_size_at_their_edges():
+    at = ncut(two_cliques(), MASK)
+    assert recursive_ncut_partition(two_cliques(), threshold=at)[0].max() == 0  # Ncut < threshold
+    assert recursive_ncut_partition(two_cliques(), threshold=np.nextafter(at, 1))[0].max() == 1
+    assert recursive_ncut_partition(two_cliques(), threshold=2.0)[0].max() >= 1
+    # a clique of 4 (node 0's) and one of 2: the smaller side decides
+    W = np.zeros((6, 6))
+    W[:4, :4] = W[4:, 4:] = 1.0
+    W[3, 4] = W[4, 3] = EPS
+    assert recursive_ncut_partition(W, min_size=2)[0].max() == 1
+    assert recursive_ncut_partition(W, min_size=3)[0].max() == 0
+    with pytest.raises(ValueError, match="^min_size must be a positive integer, got 0$"):
+        recursive_ncut_partition(W, min_size=0)
+    with pytest.raises(ValueError, match="^laplacian must be one of"):
+        recursive_ncut_partition(W, laplacian="x")
+    with pytest.raises(ValueError, match="^W has no nodes$"):
+        recursive_ncut_partition(np.zeros((0, 0)))
+
+
+def test_small_blocks_of_a_large_sparse_graph_are_solved_dense(monkeypatch):
+    W, _ = block_graph(np.random.default_rng(2))
+    dense, _ = recursive_ncut_partition(W)
+    monkeypatch.setattr("mapping.grouping.normalized_cut.DENSE_INDEX_MAX_NODES", 10)
+    monkeypatch.setattr("mapping.grouping.normalized_cut.DENSE_MAX_NODES", 100)
+    np.testing.assert_array_equal(recursive_ncut_partition(sp.csr_array(W))[0], dense)
+
+
+def test_defaults_labels_and_messages_of_the_estimator(office):
+    _, scans, poses = office
+    params = ObservationGraphPartitioner().get_params()
+    assert (params["min_size"], params["scan_matching"]) == (1, True)
+    model = ObservationGraphPartitioner(scan_matching=False, min_size=len(scans))
+    assert model.fit(scans, poses).n_groups_ == 1  # min_size reaches the recursion
+    assert model.labels_.dtype == np.intp
+    with pytest.raises(ValueError, match=r"^poses is required with affinity='sso': fit\(scans, "):
+        ObservationGraphPartitioner().fit(scans)
+    with pytest.raises(ValueError, match=r"^X must be the scans, a sequence of \(M_i, 2\) point"):
+        ObservationGraphPartitioner().fit(None, poses)
+    with pytest.raises(ValueError, match="^solver must be one of"):
+        spectral_bisection(two_cliques(), solver="x")
+    with pytest.raises(ValueError, match="^W must be a square matrix"):
+        ncut(np.ones((2, 3)), [True, False])
+    labels, _ = recursive_ncut_partition(two_cliques())
+    assert labels.dtype == np.intp
+
+
+def test_a_fit_ends_a_partial_fit_sequence(office):
+    _, scans, poses = office
+    model = ObservationGraphPartitioner(scan_matching=False).partial_fit(scans[:5], poses[:5])
+    model.fit(scans, poses)
+    with pytest.raises(ValueError, match="fitted with fit"):
+        model.partial_fit(scans[:5], poses[:5])
+
+
+def test_voxel_size_at_the_match_distance_and_far_below(office):
+    _, scans, poses = office
+    ObservationGraphPartitioner(scan_matching=False, match_distance=0.1, voxel_size=0.1).fit(
+        scans, poses
+    )
+    with pytest.raises(ValueError, match="must not exceed match_distance .*tells apart$"):
+        ObservationGraphPartitioner(match_distance=0.1, voxel_size=0.2).fit(scans, poses)
+    with pytest.raises(ValueError):
+        ObservationGraphPartitioner(match_distance=0.1, voxel_size=1e-9).fit(scans, poses)
+
+
+def test_one_point_scans_are_nodes_and_the_tree_counts_scans(office):
+    _, scans, poses = office
+    scans = [s[:1] for s in scans[:6]] + [np.empty((0, 2))] + list(scans[7:])
+    model = ObservationGraphPartitioner(scan_matching=False).fit(scans, poses)
+    covered = np.sort(np.concatenate([leaf.indices for leaf in model.split_tree_.leaves()]))
+    np.testing.assert_array_equal(covered, np.delete(np.arange(len(scans)), 6))
+
+
+def test_every_ordering_puts_node_0_in_a():
+    rng = np.random.default_rng(3)
+    for _ in range(8):  # some orderings give the eigenvector with node 0 below its mean
+        order = rng.permutation(6)
+        mask, y = spectral_bisection(two_cliques()[np.ix_(order, order)])
+        assert mask[0] and mask.sum() == 3
+        np.testing.assert_array_equal(mask, y >= y.mean())
+
+
+def test_all_empty_scans_leave_an_empty_split_tree():
+    model = ObservationGraphPartitioner(scan_matching=False)
+    model.fit([np.empty((0, 2))] * 3, np.zeros((3, 3)))
+    assert model.split_tree_.indices.tolist() == []

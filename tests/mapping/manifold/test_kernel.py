@@ -8,6 +8,7 @@ from mapping.manifold import stacked_signal as _manifold_stack
 from mapping.manifold.cluster_model import ClusterModel
 from mapping.manifold.kernel import (
     SpectralBasis,
+    alpha_from_t,
     manifold_distances,
     manifold_kernel,
     normalized_affinity,
@@ -237,3 +238,40 @@ def test_spectral_basis_falls_back_when_divide_and_conquer_fails(monkeypatch):
     # eigenvectors up to sign: the projector onto the top one is the same
     np.testing.assert_allclose(np.abs(got.vectors[:, -1]), np.abs(expected.vectors[:, -1]),
                                atol=1e-8)  # fmt: skip
+
+
+def test_manifold_kernel_takes_a_given_beta():
+    S = normalized_affinity(squared_distances(np.arange(5.0)[:, None]), 1.0)
+    inverse = np.linalg.inv(np.eye(5) - 0.9 * S)
+    np.testing.assert_allclose(manifold_kernel(S, 0.9, beta=1.0), inverse, rtol=1e-12)
+    np.testing.assert_allclose(manifold_kernel(S, 0.9), 0.1 * inverse, rtol=1e-12)
+
+
+def test_parallel_columns_are_at_distance_zero_not_below():
+    # u and 3u point the same way: 1 - cos rounds to +-2e-16, and the result may not go below 0
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        u = rng.uniform(0.1, 1.0, size=7)
+        D = manifold_distances(np.column_stack([u, 3.0 * u, rng.uniform(size=7)]))
+        assert D.min() >= 0.0 and D.max() <= 1.0
+        assert D[0, 1] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_alpha_from_t_spreads_alpha_toward_one():
+    np.testing.assert_allclose(alpha_from_t([0.0, 1.0, 3.0]), [0.0, 0.9, 0.999], rtol=1e-15)
+    assert alpha_from_t(2) == pytest.approx(0.99)  # an integer t is a number like any other
+
+
+def test_group_gram_is_the_gram_matrix_of_the_group_sums():
+    X = np.random.default_rng(5).normal(size=(9, 2))
+    basis = SpectralBasis.from_sq_distances(squared_distances(X), 1.0)
+    alphas = np.array([0.5, 0.9])
+    g = basis.gains(alphas)
+    member = np.zeros((9, 2))
+    member[:4, 0] = member[4:, 1] = 1.0
+    inv_nu = np.random.default_rng(6).uniform(0.5, 2.0, 9)
+    for a, alpha in enumerate(alphas):
+        U = basis.dense_kernel(alpha) / (1.0 - alpha)  # (I - alpha S)^-1
+        sums = U @ (member * inv_nu[:, None])
+        np.testing.assert_allclose(basis.group_gram(g, a, member, inv_nu), sums.T @ sums,
+                                   rtol=1e-10)  # fmt: skip

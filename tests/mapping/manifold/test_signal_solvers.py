@@ -8,7 +8,7 @@ several clusters of different sizes, widths and alphas.
 import numpy as np
 import pytest
 
-from mapping.distances import squared_distances
+from mapping.distances import TINY, squared_distances
 from mapping.manifold.cluster_model import ClusterModel
 from mapping.manifold.kernel import affinity, normalized_affinity
 from mapping.manifold.signal_solvers import dense_signal, sparse_signal
@@ -81,6 +81,8 @@ def test_sparse_solver_matches_dense_solver_on_random_affinities():
     w = rng.random((60, m)) * (rng.random((60, m)) < np.linspace(0, 1, 60)[:, None])
     w[:3] = 0.0
     w[3, 4] = 1e-310  # a single subnormal affinity: unreachable (total below _TINY), F = 0
+    w[4] = 0.0
+    w[4, 5] = TINY  # exactly TINY: unreachable too
     for target in (0, 7, m - 1):
         dense = dense_signal(model.weights, model.degrees, model.alpha, w, target)
         sparse = sparse_signal(
@@ -89,5 +91,34 @@ def test_sparse_solver_matches_dense_solver_on_random_affinities():
         )  # fmt: skip
         np.testing.assert_allclose(sparse, dense, rtol=1e-10, atol=0)
         reachable = w.sum(axis=1) > 1e-300
-        assert not reachable[:4].any() and reachable.sum() > 40
+        assert not reachable[:5].any() and reachable.sum() > 40
         np.testing.assert_array_equal(sparse > 0, reachable)
+
+
+def _chain_cluster(m):
+    """W and d of m points on a line (unit spacing, sigma 1), its diagonal 0 as the model's."""
+    W = affinity(squared_distances(np.arange(float(m))[:, None]), 1.0)
+    np.fill_diagonal(W, 0.0)
+    return W, W.sum(axis=1)
+
+
+def test_dense_signal_is_the_same_for_rows_solved_together_or_one_by_one():
+    # 200 points: more query rows (150) than one batch of m x m systems holds (100)
+    W, d = _chain_cluster(200)
+    rng = np.random.default_rng(0)
+    queries = rng.uniform(0, 199, size=(150, 1))
+    w = affinity(squared_distances(queries, np.arange(200.0)[:, None]), 1.0)
+    together = dense_signal(W, d, 0.9, w, 7)
+    alone = np.concatenate([dense_signal(W, d, 0.9, w[i : i + 1], 7) for i in range(150)])
+    np.testing.assert_allclose(together, alone, rtol=1e-12)
+    assert np.all(together[np.abs(w.argmax(axis=1) - 7) < 20] > 0)
+
+
+def test_a_row_whose_affinities_sum_to_tiny_has_signal_zero():
+    # exactly TINY counts as underflowed, like the sparse solver's support (total > TINY)
+    W, d = _chain_cluster(6)
+    w = np.zeros((2, 6))
+    w[0, 2] = TINY
+    w[1, 2] = 2 * TINY
+    out = dense_signal(W, d, 0.9, w, 2)
+    assert out[0] == 0.0 and out[1] > 0.0

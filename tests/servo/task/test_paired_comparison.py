@@ -124,3 +124,68 @@ def test_result_files_nested_past_the_parser_are_refused(tmp_path):
     path.write_text("[" * 100_000)
     with pytest.raises(ValueError, match=r"B: .*deep\.json is not JSON"):
         cmp.load_results(path, "B")
+
+
+def test_no_discordant_pair_has_sign_test_p_one():
+    (row,) = cmp.compare([_result([1, 0])], [_result([1, 0])])
+    assert (row.gained, row.lost, row.sign_test_p) == (0, 0, 1.0)
+    assert row.difference_ci95 == (0.0, 0.0)
+
+
+def test_the_default_generator_is_seed_zero():
+    # 41 episodes and 50 resamples: the interval's ends fall between resample means
+    a = [_result([i % 3 == 0 for i in range(41)])]
+    b = [_result([i % 2 == 0 for i in range(41)])]
+    given = cmp.compare(a, b, np.random.default_rng(0), resamples=50)[0].difference_ci95
+    assert cmp.compare(a, b, resamples=50)[0].difference_ci95 == given
+    assert cmp.compare(a, b, np.random.default_rng(1), resamples=50)[0].difference_ci95 != given
+
+
+def test_argument_and_seed_errors_say_what_is_wrong():
+    a = [_result([1, 0])]
+    with pytest.raises(TypeError, match="^rng must be a numpy.random.Generator, got int$"):
+        cmp.compare(a, a, rng=0)
+    with pytest.raises(ValueError, match="^resamples must be an integer"):
+        cmp.compare(a, a, resamples=0)
+    with pytest.raises(ValueError, match=r"not the same episodes \(another protocol version\?\)$"):
+        cmp.compare(a, [_result([1, 0], seeds=[100, 7])])
+
+
+def test_malformed_results_are_named(tmp_path):
+    with pytest.raises(ValueError, match="^results: .* is not a file$"):
+        cmp.load_results(tmp_path / "missing.json")
+    cases = [
+        ([3], r"^R\[0\]: expected an object, got int$"),
+        ([_result([1], tier=7)], r"^R\[0\]: 'world' and 'tier' must be strings$"),
+        ([{**_result([1]), "episodes_detail": {}}], r"^R\[0\]: 'episodes_detail' must be a list"),
+        ([{**_result([1]), "episodes_detail": [5]}], r"^R\[0\]\.episodes_detail\[0\]: expected an"),
+    ]  # fmt: skip
+    for data, match in cases:
+        with pytest.raises(ValueError, match=match):
+            cmp.load_results(_write(tmp_path / "r.json", data), "R")
+
+
+def test_a_file_of_exactly_the_size_limit_is_read(tmp_path, monkeypatch):
+    monkeypatch.setattr(cmp, "MAX_BYTES", 2 << 20)
+    text = json.dumps([_result([1, 0])])
+    path = tmp_path / "a.json"
+    path.write_text(text + " " * ((2 << 20) - len(text)))
+    assert len(cmp.load_results(path)) == 1
+    path.write_text(text + " " * ((2 << 20) - len(text) + 1))
+    with pytest.raises(ValueError, match="is larger than 2 MB$"):
+        cmp.load_results(path)
+
+
+def test_markdown_table():
+    a = [_result([1, 0, 0], starts=["m", "b", "b"], randomize=True, odometry_noise=False)]
+    b = [_result([1, 1, 0], starts=["m", "b", "b"], randomize=True, odometry_noise=False)]
+    rows = cmp.compare(a, b)
+    lo, hi = rows[0].difference_ci95
+    assert cmp.markdown(rows).split("\n") == [
+        "| world | tier | split | settings | episodes | A | B | gained / lost by B | "
+        "sign test p | B - A [95% bootstrap] | by start manifold (A / B) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| hallway | anywhere | test | 600 steps, randomize, no odometry noise | 3 | 1 | 2 | "
+        f"+1 / -0 | 1 | +0.333 [{lo:+.3f}, {hi:+.3f}] | b 0/1 of 2; m 1/1 of 1 |",
+    ]
+    assert lo < hi
