@@ -33,6 +33,7 @@ import numpy as np
 from sklearn.metrics import adjusted_rand_score
 
 from common.fileio import atomic_write_bytes
+from experiments.manifold.split_manifold import normalised_cut
 from mapping import ManifoldClustering, clustering_error
 from mapping.baselines.label_free import KNNSpectralClustering
 from mapping.manifold.geometry import training_geometry
@@ -44,16 +45,6 @@ from mapping.synthetic import branching_sequences
 K, D = 8, 2000
 #: labels of the trunks in :func:`mapping.synthetic.branching_sequences` (0..3 world one)
 TRUNKS = (0, 4)
-
-
-def _normalised_cut(affinity: np.ndarray, groups: np.ndarray) -> float:
-    """sum_k cut(A_k, rest) / vol(A_k) of a leaf grouping in a C x C leaf affinity."""
-    member = np.zeros((len(groups), int(groups.max()) + 1))
-    member[np.arange(len(groups)), groups] = 1.0
-    Mg = member.T @ np.maximum(affinity, 0.0) @ member
-    volume = Mg.sum(axis=1)
-    keep = volume > 0
-    return float(((volume - np.diag(Mg))[keep] / volume[keep]).sum())
 
 
 def branch_start_ratios(
@@ -128,7 +119,7 @@ def diagnose(n: int, draw: int, Q: int = 35, every_alpha: bool = True) -> dict:
         ],
         "grid alphas": scores.alphas.tolist(),
         "combination's sigma": float(scores.sigmas[s_fit]),
-        "Ncut(bound) / Ncut(chosen)": _normalised_cut(M, majority) / _normalised_cut(M, chosen),
+        "Ncut(bound) / Ncut(chosen)": normalised_cut(M, majority) / normalised_cut(M, chosen),
         "branch-start ratios": ratios,
     }
 
