@@ -2,7 +2,8 @@
 
 import pytest
 
-from scripts.cli import build_parser, servo_eval_name
+from scripts.cli import build_parser
+from scripts.servo_commands import servo_eval_name
 
 
 def _name(*argv: str) -> str:

@@ -1,0 +1,131 @@
+"""``topomap servo-eval`` (the closed-loop benchmark protocol, ours or an outside policy) and
+``topomap servo-compare`` (two of its result files, episode by episode)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+
+from scripts.args import output_folder, policy_arg, policy_name, positive_int, worlds
+
+
+def servo_eval_name(args) -> str:
+    """The results file of ``servo-eval --out``: every setting that changes the episodes is in
+    the name, so runs of other worlds or settings into one folder do not overwrite each other."""
+    extras = "-randomize" * bool(args.randomize) + "-no-odometry-noise" * bool(
+        args.no_odometry_noise
+    )
+    steps = "" if args.max_steps == 600 else f"-{args.max_steps}steps"
+    # an outside policy: its spec with ':' as '.', and its params' digest (runs differ by them)
+    params = dict(args.policy_arg or [])
+    digest = hashlib.sha256(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
+    tag = args.policy.replace(":", ".") + (f"-{digest}" if params else "")
+    return (
+        f"servo-eval-{args.world}-{args.tier}-{args.split}-{tag}"
+        f"-{args.episodes}ep{extras}{steps}.json"
+    )
+
+
+def cmd_servo_eval(args) -> int:
+    """Closed-loop servo evaluation by the benchmark protocol (``servo.task.protocol``): one start
+    tier and split, in one world or both, episodes in parallel over the cores; ``--policy``
+    one of ours or an outside factory ``package.module:factory`` with ``--policy-arg``s."""
+    from servo.maps import load_or_build, map_paths
+    from servo.task import Protocol, run_protocol
+
+    out = output_folder(args.out) if args.out else None
+    results = []
+    for world in worlds(args.world):
+        protocol = Protocol(world, args.tier, args.split, randomize=args.randomize,
+                            odometry_noise=not args.no_odometry_noise,
+                            max_steps=args.max_steps)  # fmt: skip
+        servo_map = load_or_build(world, dataset=args.data, cache=args.maps)
+        path, _ = map_paths(args.maps, world, servo_map.key)
+        r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
+                         args.policy, workers=args.workers, progress=not args.json,
+                         policy_options=dict(args.policy_arg or []))  # fmt: skip
+        not_loaded = r["reasons"].get("policy not loaded", 0)
+        if not_loaded:  # every episode failed so: say why here too, not only in the records
+            why = next(e["failure"] for e in r["episodes_detail"] if "failure" in e)
+            print(f"topomap servo-eval: {why}", file=sys.stderr)
+        results.append(r)
+    if out is not None:
+        from scripts.leaderboard import servo_result_file, write_result
+
+        # the results inside the envelope every evaluation writes (scripts.leaderboard)
+        write_result(
+            out / servo_eval_name(args), servo_result_file(results, args.policy, args.split)
+        )
+    if args.json:
+        print(json.dumps(results if len(results) > 1 else results[0], indent=2))
+        return 0
+    from scripts.servo_tables import pair_table, summary_table
+
+    print(summary_table(results).to_markdown())
+    for r in results:
+        sig = r["signal"]
+        if sig["pairs"]:
+            print(f"{r['world']} {r['policy']}: F toward the target rises as the true "
+                  f"distance falls in {sig['rises']:.2f} of {sig['pairs']} step pairs "
+                  f"({sig['flat_zero']:.2f}: F = 0 at both ends)")  # fmt: skip
+    print()
+    print(pair_table(results).to_markdown())
+    return 0
+
+
+def cmd_servo_compare(args) -> int:
+    """Two ``servo-eval --out`` files compared episode by episode
+    (``servo.task.paired_comparison``)."""
+    from dataclasses import asdict
+
+    from servo.task import compare, load_results, markdown
+
+    a, b = load_results(args.a, "A"), load_results(args.b, "B")
+    rows = compare(a, b)
+    if not rows:
+        raise ValueError("A and B share no world and setting (world, tier, split, randomize, "
+                         "odometry noise, max steps)")  # fmt: skip
+    if args.json:
+        print(json.dumps([asdict(r) for r in rows], indent=2))
+        return 0
+    for name, path, results in (("A", args.a, a), ("B", args.b, b)):
+        print(f"{name}: {path} (policy {results[0].get('policy', 'not recorded')})")
+    print()
+    print(markdown(rows))
+    return 0
+
+
+def add_parsers(sub, default_out: str) -> None:
+    """The ``servo-eval`` and ``servo-compare`` subcommands on the ``topomap`` parser's
+    subparsers ``sub`` (``default_out``: the folder of the data and maps by default)."""
+    from scenes import WORLDS
+    from servo.task import POLICIES
+
+    e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
+    e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
+    e.add_argument(
+        "--episodes", type=positive_int, default=100, help="per world (the headline tables: 100)"
+    )
+    e.add_argument("--tier", default="view", help="start tier: view or anywhere")
+    e.add_argument("--split", default="dev", help="episode split: dev (tuning) or test")
+    e.add_argument("--policy", type=policy_name, default="servo",
+                   help=f"one of {', '.join(POLICIES)}, or package.module:factory (its module "
+                   "is imported, running its code, as python -m does)")  # fmt: skip
+    e.add_argument("--policy-arg", type=policy_arg, action="append", metavar="KEY=VALUE",
+                   help="a keyword argument of the factory (repeatable; JSON values)")  # fmt: skip
+    e.add_argument("--max-steps", type=positive_int, default=600)
+    e.add_argument("--workers", type=positive_int, default=None, help="default: the cores")
+    e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")
+    e.add_argument("--no-odometry-noise", action="store_true", help="perfect wheel odometry")
+    e.add_argument("--data", default=f"{default_out}/dataset", help="dataset the map is built from")
+    e.add_argument("--maps", default=f"{default_out}/servo-maps", help="servo map cache")
+    e.add_argument("--out", default=None, help="write the results' JSON here")
+    e.add_argument("--json", action="store_true", help="print the results as JSON")
+    e.set_defaults(func=cmd_servo_eval)
+
+    sc = sub.add_parser("servo-compare", help="two servo-eval results, episode by episode")
+    sc.add_argument("a", help="results JSON of servo-eval --out (the reference)")
+    sc.add_argument("b", help="results JSON of servo-eval --out (compared with A)")
+    sc.add_argument("--json", action="store_true", help="print the comparison as JSON")
+    sc.set_defaults(func=cmd_servo_compare)
