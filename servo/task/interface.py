@@ -87,10 +87,7 @@ class Policy(Protocol):
     ``target_image``, ``target_scan``, ``target_scan_valid``): ``(v, omega)`` in m/s and rad/s,
     finite, inside the env's action space ``[-0.5, 1.5] x [-1.5, 1.5]``.
 
-    Parameters
-    ----------
-    None
-        An interface: a policy's own constructor (called by its factory) takes what it needs.
+    An interface: a policy's own constructor (called by its factory) takes what it needs.
 
     Attributes
     ----------
@@ -133,19 +130,7 @@ class PolicyFactory(Protocol):
     the ``--policy-arg`` values. A factory refuses unknown params (Python does for named
     keyword arguments).
 
-    Parameters
-    ----------
-    servo_map : ServoMap
-        The world's map as sensed.
-    rng : numpy.random.Generator
-        The policy's generator, set anew at every episode.
-    **params
-        The policy's settings.
-
-    Attributes
-    ----------
-    None
-        A callable; a module-level function is the usual form.
+    A callable; a module-level function is the usual form.
 
     Examples
     --------
@@ -168,7 +153,22 @@ class PolicyFactory(Protocol):
     servo.task.sensed_map : The map it is given.
     """
 
-    def __call__(self, servo_map: ServoMap, rng: np.random.Generator, **params) -> Policy: ...
+    def __call__(self, servo_map: ServoMap, rng: np.random.Generator, **params) -> Policy:
+        """A policy for ``servo_map``.
+
+        Parameters
+        ----------
+        servo_map : ServoMap
+            The world's map as sensed.
+        rng : numpy.random.Generator
+            The policy's generator, set anew at every episode.
+        **params
+            The policy's settings.
+
+        Returns
+        -------
+        Policy
+        """
 
 
 def sensed_map(m: ServoMap) -> ServoMap:
