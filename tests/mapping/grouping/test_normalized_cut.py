@@ -5,10 +5,15 @@ The eigensolver is replaced where a case needs an eigenvector that no small grap
 in floating point; the rest of the recursion runs as it is."""
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from mapping.grouping import normalized_cut
-from mapping.grouping.normalized_cut import recursive_ncut_partition, spectral_bisection
+from mapping.grouping.normalized_cut import (
+    check_weights,
+    recursive_ncut_partition,
+    spectral_bisection,
+)
 
 
 def chain(n: int) -> np.ndarray:
@@ -86,3 +91,18 @@ def test_small_graphs_bisect_with_every_solver():
     sparse, _ = recursive_ncut_partition(chain(5), threshold=2.0, solver="sparse")
     np.testing.assert_array_equal(sparse, dense)
     assert dense.max() >= 1
+
+
+def test_symmetry_is_checked_to_1e_9_of_the_largest_weight_or_of_1():
+    # weights below 1: the tolerance is 1e-9 itself, and an asymmetry of exactly that passes
+    at = np.array([[0.0, 0.0], [1e-9, 0.0]])
+    np.testing.assert_array_equal(check_weights(at), at)
+    for W in (1.5 * at, sp.csr_array(1.5 * at)):
+        with pytest.raises(
+            ValueError, match=r"^W must be symmetric \(max \|W - W.T\| = 1.5e-09\)$"
+        ):
+            check_weights(W)
+    # weights of 1e6: relative to the largest, 1e-4 passes (1e-10 of it) and 1e-2 does not
+    check_weights(np.array([[0.0, 1e6], [1e6 + 1e-4, 0.0]]))
+    with pytest.raises(ValueError, match="must be symmetric"):
+        check_weights(np.array([[0.0, 1e6], [1e6 + 1e-2, 0.0]]))
