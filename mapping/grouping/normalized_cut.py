@@ -155,7 +155,8 @@ def spectral_bisection(
         ``"dense"``: LAPACK on the full matrix; ``"sparse"``: LOBPCG on the sparse Laplacian,
         constrained orthogonal to its known null vector (``D^1/2 1``), falling back to ARPACK's
         shift-invert Lanczos if LOBPCG does not converge; ``"auto"``: dense up to
-        ``DENSE_MAX_NODES`` nodes.
+        ``DENSE_MAX_NODES`` nodes. Graphs of fewer than 6 nodes are solved dense whatever the
+        choice.
 
     Returns
     -------
@@ -191,7 +192,9 @@ def _bisect(W, laplacian: str, solver: str) -> tuple[np.ndarray, np.ndarray]:
 def _second_eigenvector(W, deg: np.ndarray, laplacian: str, solver: str) -> np.ndarray:
     n = W.shape[0]
     scale = 1.0 / np.sqrt(deg) if laplacian == "normalized" else np.ones(n)
-    use_dense = solver == "dense" or (solver == "auto" and n <= DENSE_MAX_NODES) or n < 4
+    # LOBPCG with one vector and one constraint needs n - 1 >= 5 nodes: below that scipy
+    # switches to a dense solve that refuses constraints (NotImplementedError)
+    use_dense = solver == "dense" or (solver == "auto" and n <= DENSE_MAX_NODES) or n < 6
     if use_dense:
         Wd = W.toarray() if sp.issparse(W) else W
         L = np.diag(deg) - Wd

@@ -41,7 +41,8 @@ GLOBAL_MAX_POINTS = 25_000
 def check_scans_and_poses(
     scans: Sequence[ArrayLike], poses: ArrayLike
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """Validate scans and poses, returning float arrays.
+    """Validate scans and poses, returning float arrays: each scan ``(M, 2)``, an empty one
+    (``[]``, or any array without elements) ``(0, 2)``, and the poses ``(N, 3)``.
 
     Raises
     ------

@@ -38,10 +38,6 @@ __all__ = [
 ]
 
 
-
-
-
-
 def _check_labels(labels: ArrayLike, n: int | None = None) -> np.ndarray:
     """``labels`` as a 1-D integer array (one per scan when ``n`` is given) of group labels
     ``>= -1`` (-1: no group), or a ValueError naming ``labels``."""

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.distance import cdist
 
-from mapping.grouping.overlap import sensed_space_overlap, world_points
+from mapping.grouping.overlap import check_scans_and_poses, sensed_space_overlap, world_points
 from mapping.synthetic_scans import office_path, office_world, raycast
 
 
@@ -320,3 +320,12 @@ def test_a_candidate_pair_without_matches_stores_nothing():
     a, b = np.array([[0.0, 0.0], [0.0, 1.0]]), np.array([[0.05, 0.45], [0.05, 0.55]])
     W = sensed_space_overlap([a, b], np.zeros((2, 3)), 0.1, sparse=True, method="per_scan")
     assert W.nnz == 2 and W.toarray()[0, 1] == 0.0
+
+
+def test_an_empty_scan_in_any_form_comes_back_as_0_by_2():
+    # callers stack and transform the checked scans as (M, 2) arrays, empty ones included
+    empties = [[], np.array([]), np.empty((0, 2)), np.empty((2, 0)), np.empty((0, 3))]
+    scans, poses = check_scans_and_poses([*empties, [[1, 2]]], np.zeros((6, 3), dtype=int))
+    assert [s.shape for s in scans] == [(0, 2)] * 5 + [(1, 2)]
+    assert all(s.dtype == float for s in scans) and poses.dtype == float
+    np.testing.assert_array_equal(np.concatenate(scans), [[1.0, 2.0]])
