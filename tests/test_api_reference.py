@@ -87,8 +87,10 @@ def public_classes() -> dict[str, type]:
 def test_a_public_class_is_documented_like_an_estimator(path):
     cls = public_classes()[path]
     doc = inspect.getdoc(cls) or ""
-    # a class built without arguments (a mixin) has neither parameters nor state to describe
-    sections = SECTIONS if inspect.signature(cls).parameters else ("Examples", "See Also")
+    # a class built without arguments (a mixin), or never built (an interface, a
+    # typing.Protocol), has neither parameters nor state to describe
+    built = inspect.signature(cls).parameters and not getattr(cls, "_is_protocol", False)
+    sections = SECTIONS if built else ("Examples", "See Also")
     absent = [s for s in sections if not re.search(rf"^{s}\n-{{{len(s)}}}$", doc, re.M)]
     assert not absent, f"{path}: its docstring lacks the numpydoc sections {absent}"
 

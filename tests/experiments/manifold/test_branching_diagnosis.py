@@ -5,14 +5,15 @@ import json
 import numpy as np
 import pytest
 
-from experiments.manifold.branching_diagnosis import _normalised_cut, branch_start_ratios, main
+from experiments.manifold.branching_diagnosis import branch_start_ratios, main
+from experiments.manifold.split_manifold import normalised_cut
 
 
 def test_normalised_cut_of_a_leaf_grouping():
     # two blocks of two leaves, weakly joined: cutting between the blocks is cheap
     A = np.array([[4.0, 3, 0.1, 0.1], [3, 4, 0.1, 0.1], [0.1, 0.1, 4, 3], [0.1, 0.1, 3, 4]])
-    good = _normalised_cut(A, np.array([0, 0, 1, 1]))
-    bad = _normalised_cut(A, np.array([0, 1, 0, 1]))
+    good = normalised_cut(A, np.array([0, 0, 1, 1]))
+    bad = normalised_cut(A, np.array([0, 1, 0, 1]))
     assert good == pytest.approx(2 * 0.2 / 7.2)
     assert bad > 5 * good
 

@@ -240,7 +240,7 @@ def test_servo_eval_runs_an_outside_policy_and_compares_it(servo_dataset, map_ca
                  "--out", str(tmp_path / "b")]) == 0  # fmt: skip
     (a,) = (tmp_path / "a").glob("*.json")
     (b,) = (tmp_path / "b").glob("*.json")
-    result = json.loads(b.read_text())[0]
+    result = json.loads(b.read_text())["results"][0]  # inside the result file's envelope
     assert result["policy"] == "examples.image_descent:make_policy"
     assert result["policy_params"] == {"speed": 0.4, "patience": 3}
     assert "image_descent" in b.name and ":" not in b.name
