@@ -3,6 +3,7 @@ toward the target view (Grudic & Mulligan, Section II-G), and what only it uses:
 
 * ``controller`` and ``config`` -- the controller and its settings;
 * ``route_belief`` -- the robot's pose on its route, from odometry and image fixes;
+  ``route_image_fix`` -- those fixes, from the route view the image matches best;
 * ``view_pose`` -- the camera's metric pose against a stored view (keypoints at the view's
   depths, PnP); ``metric_pose_fixes`` -- such poses taken along the route;
 * ``turn_global_fix`` -- the global position fix of an observing turn, checked across the turn;

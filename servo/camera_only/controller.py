@@ -14,9 +14,10 @@
    view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
    into waypoint views about ``spacing`` apart.
 3. *Servo.* Toward the waypoints along the route: the pose in the route frame is carried by
-   odometry and fixed by the images (:class:`~servo.camera_only.route_belief.RouteBelief`): the
-   heading from the best horizontal shift against the route views the camera faces, the position
-   along the route from which of them matches best; every few steps a metric pose against
+   odometry and fixed by the images (:class:`~servo.camera_only.route_belief.RouteBelief`,
+   :class:`~servo.camera_only.route_image_fix.RouteImageFix`): the heading from the best
+   horizontal shift against the route views the camera faces, the position along the route
+   from which of them matches best; every few steps a metric pose against
    the best of them (:class:`~servo.camera_only.metric_pose_fixes.PoseFixes`: keypoints at the
    view's map-time depths) corrects position and heading at once. :class:`WaypointTracker` moves on
    when F toward the next waypoint overtakes F toward the current one (view-sequence navigation),
@@ -49,7 +50,8 @@ from servo.camera_only.metric_pose_fixes import PoseFixes
 from servo.camera_only.peak_arrival import PeakArrival
 from servo.camera_only.rear_view_heading import LookBack
 from servo.camera_only.route_belief import RouteBelief
-from servo.camera_only.turn_global_fix import consistent_fix, contrast_fix, neighbourhood
+from servo.camera_only.route_image_fix import RouteImageFix
+from servo.camera_only.turn_global_fix import TurnSamples, exclude_near
 from servo.camera_only.view_pose import ViewPose
 from servo.localise import ImageLocaliser, check_observation, check_odometry
 from servo.maps import ServoMap
@@ -61,7 +63,6 @@ from sim.simulator import CONTROL_DT
 __all__ = ["SignalServo", "SignalServoConfig", "WaypointTracker"]
 
 MIN_PARALLAX = 0.02  # rad/m: a floor (the reversing fix's cross gain grows as 1 / parallax)
-EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalisation skips
 
 
 class SignalServo:
@@ -164,6 +165,9 @@ class SignalServo:
         # measure the offset across apart from the heading, in both worlds
         self.poses = (PoseFixes(ViewPose(servo_map), self.config) if self.config.pose_every
                       else None)  # fmt: skip
+        self.fixes = RouteImageFix(self.localiser, self.config, self.poses,
+                                   far_scene=self.far_scene, parallax=self.parallax,
+                                   cross_parallax=self.cross_parallax)  # fmt: skip
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
@@ -194,10 +198,7 @@ class SignalServo:
         self._turned = 0.0
         self._travel = 0.0  # m driven since the last look back (``look_back``)
         self._look: LookBack | None = None
-        # the turn's localisations: aligned distance, view, odometry heading facing it
-        self._samples: list[tuple[float, int, float]] = []
-        # with ``contrast_fix``: each sample's aligned distances and yaws to every view
-        self._rows: list[tuple[np.ndarray, np.ndarray, float]] = []
+        self._turn = TurnSamples(self.localiser, self.config, self.poses)  # the turn's samples
 
     def _check(self, observation) -> tuple[np.ndarray, np.ndarray]:
         check_observation(observation, ("image", "odometry"))
@@ -260,17 +261,8 @@ class SignalServo:
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
         c = self.config
         if self._steps % c.observe_every == 0 or c.observe_every == 1:
-            if c.contrast_fix:
-                d_all, yaw_all = self.localiser.align(x)
-                self._rows.append((d_all, yaw_all, float(odo[2])))
-                if self.poses is not None:
-                    self.poses.observe(self._image, odo)
-                k = int(np.argmin(d_all))
-                self._samples.append((float(d_all[k]), k, float(odo[2] + yaw_all[k])))
-            else:
-                view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
-                self._samples.append((d, view, float(odo[2] + yaw)))
-        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT or not self._samples:
+            self._turn.observe(x, self._image, odo)
+        if self._turned < 2 * np.pi - c.turn_rate * CONTROL_DT or not self._turn.samples:
             return np.array([0.0, c.turn_rate])
         self._plan(odo)
         return np.zeros(2)
@@ -278,15 +270,7 @@ class SignalServo:
     def _plan(self, odo: np.ndarray) -> None:
         """Route from the global fix's view to the target and start following it."""
         c = self.config
-        if c.contrast_fix:
-            d, yaw, h = (np.array(a) for a in zip(*self._rows, strict=True))
-            verify = None if self.poses is None else (lambda v: self.poses.supports(v, d[:, v]))
-            view, heading = contrast_fix(d, yaw, h, far=c.fix_far, exclude=self._exclude,
-                                         verify=verify, candidates=c.fix_check)  # fmt: skip
-        elif c.consistent_fix:
-            view, heading = consistent_fix(self._samples, self.routes)
-        else:
-            _, view, heading = min(self._samples)
+        view, heading = self._turn.fix(self.routes, self._exclude)
         self._fix_view, self._fix_odo = view, odo.copy()
         self.manifold_ = int(self.map.clusters[view])
         self.route_ = self.routes.route(view, self.target)
@@ -300,7 +284,7 @@ class SignalServo:
         # odometry carries it, images correct it.
         start = None
         if self.poses is not None:
-            start = self.poses.start(view, np.array([r[0][view] for r in self._rows]), path, odo)
+            start = self.poses.start(view, self._turn.distances(view), path, odo)
         if start is None:
             start = [0.0, 0.0, wrap_angle(odo[2] - heading)]
         self.belief_ = RouteBelief(path, start, c.window)
@@ -311,81 +295,14 @@ class SignalServo:
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
 
-    def _exclude_fix(self) -> None:
-        """Lost on the route: with ``exclude_fix``, the relocalisation may not fix on the views
-        near the last fix's (a look-alike that won once wins again from nearby). Only once
-        the robot has driven farther from where it fixed than that neighbourhood's radius:
-        then the robot is not there even if the fix was right."""
-        c = self.config
-        moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
-        if c.exclude_fix and self._fix_view >= 0 and moved > EXCLUDE_RADIUS:
-            near = neighbourhood(self.routes, self._fix_view, EXCLUDE_RADIUS)
-            self._exclude = sorted(set(self._exclude) | set(near))
-
     def _image_fix(self, x: np.ndarray) -> None:
-        """Correct the belief by the route view the image matches best among those about the
-        current progress that look the way the robot faces (none: odometry alone).
-
-        The image's shift mixes the heading with the offset across the route (a robot right
-        of a view must turn left to line up with it). Driving forward, correcting the heading
-        by it steers the robot back onto the route (a funnel); reversing, the same correction
-        would push it away, so a reversing robot takes the reverse-stable fix
-        (:meth:`~servo.camera_only.route_belief.RouteBelief.fix_reversing`), and none in the
-        arrival's sweep. At the target only the heading is fixed: the route ends there, so beyond it
-        the best view is always the last, and the F peak places the robot along the view's
-        sight."""
-        c, b = self.config, self.belief_
-        near = b.facing(b.path.within(b.s, c.behind, c.ahead), c.facing)
-        reversing = self._reversing and self.phase_ == "follow"
-        if len(near) == 0:
-            return
-        if self._reversing and not reversing:
-            self._pose_fix(x, near)
-            return
-        d, yaw, contrast = self.localiser.align_contrast(x, [self.route_[i] for i in near])
-        if self.far_scene:
-            # grass and sky match a view turned 0.7 rad away almost equally at every shift
-            # (a dev trace: after the arrival's turn on the spot such fixes turned the
-            # belief's heading 0.45 rad the wrong way); only a sharp minimum gives a heading
-            d = np.where(contrast <= c.fix_contrast, d, np.inf)
-        k = int(np.argmin(d))
-        if d[k] <= c.image_trust and self._pose_fix(x, near[k:k + 1]):
-            self._lost = 0
-        elif d[k] <= c.image_trust:
-            # "Best among its neighbours" places the robot at the view only if there are
-            # neighbours on both sides: past the last view that faces its way (a junction
-            # where the route turns) the end view stays the best and would pin the belief
-            # there while the robot drives on.
-            interior = 0 < k < len(near) - 1
-            along = c.along_gain if self.phase_ == "follow" and interior else 0.0
-            if reversing:
-                metres = c.reverse_speed * CONTROL_DT  # the gains are per metre reversed
-                # no fix along the route (see fix_reversing); odometry's distance is good
-                # over a route's length
-                g1, g2 = b.reverse_gains(c.reverse_heading_gain, self.parallax)
-                b.fix_reversing(int(near[k]), float(yaw[k]), self.parallax, g1 * metres,
-                                g2 * metres)  # fmt: skip
-            else:
-                b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
-            if self.cross_parallax > 0 and c.cross_gain > 0:
-                across = self.localiser.cross_offset(x, self.route_[near[k]], self.cross_parallax)
-                if np.isfinite(across):
-                    b.fix_across(int(near[k]), across, c.cross_gain, c.cross_gate)
-            self._lost = 0
-        else:
-            self._lost += 1
-
-    def _pose_fix(self, x: np.ndarray, near: np.ndarray) -> bool:
-        """Every ``pose_every`` steps, the metric pose against the best-aligned of the route
-        views ``near`` (:class:`~servo.camera_only.metric_pose_fixes.PoseFixes`). Whether it moved
-        the belief."""
-        if self.poses is None or self._steps % self.config.pose_every or len(near) == 0:
-            return False
-        if len(near) > 1:
-            d = self.localiser.align(x, [self.route_[i] for i in near])[0]
-            near = near[[int(np.argmin(d))]]
-        k = int(near[0])
-        return self.poses.fix(self.belief_, self.route_[k], k, self._image, self._odo)
+        """Correct the belief by the image; count the steps no route view matched
+        (:meth:`~servo.camera_only.route_image_fix.RouteImageFix.fix`)."""
+        fixed = self.fixes.fix(self.belief_, self.route_, x, self._image, self._odo, self._steps,
+                               reversing=self._reversing,
+                               following=self.phase_ == "follow")  # fmt: skip
+        if fixed is not None:
+            self._lost = 0 if fixed else self._lost + 1
 
     def _advance(self, x: np.ndarray) -> None:
         """Next waypoint when F toward it overtakes F toward the current one (then the robot
@@ -432,7 +349,9 @@ class SignalServo:
                 and (self._lost > c.relocalise_after or walled or unpeaked)
                 and self.relocalised_ < c.max_relocalise):  # fmt: skip
             self.relocalised_ += 1
-            self._exclude_fix()
+            if c.exclude_fix:  # a fix found wrong (:func:`~.turn_global_fix.exclude_near`)
+                moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
+                self._exclude = exclude_near(self.routes, self._exclude, self._fix_view, moved)
             self._observe_start()
             return np.zeros(2)
         self._advance(x)

@@ -14,6 +14,9 @@ candidates by that support and keeps the best supported (ties: the best match).
 sample is aligned with every stored view, and a view counts by how sharply its distance
 profile over the turn dips (a real place is seen only facing one way; a look-alike that
 matches at every heading is not).
+
+:class:`TurnSamples` collects a turn's localisations and gives its fix;
+:func:`exclude_near` keeps a relocalisation off the views about a fix found wrong.
 """
 
 from __future__ import annotations
@@ -22,7 +25,12 @@ import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
 from common.geometry import se2_compose, wrap_angle
+from servo.camera_only.config import SignalServoConfig
+from servo.camera_only.metric_pose_fixes import PoseFixes
+from servo.localise import ImageLocaliser
 from servo.route import RouteGraph
+
+EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalisation skips
 
 
 def neighbourhood(routes: RouteGraph, view: int, radius: float) -> dict[int, np.ndarray]:
@@ -141,3 +149,76 @@ def contrast_scores(
     # no sample far enough (a short turn): fall back on the distance alone
     score = np.where(np.isfinite(d_far), d_best / np.maximum(d_far, 1e-9), d_best)
     return score, h[best] + y[best, cols]
+
+
+class TurnSamples:
+    """The localisations of one observing turn and the global fix they give.
+
+    Parameters
+    ----------
+    localiser : ImageLocaliser
+        Aligns the turn's images with the map's stored views.
+    config : SignalServoConfig
+        The controller's settings (``contrast_fix``, ``consistent_fix``, ``fix_clusters``,
+        ``fix_far``, ``fix_check``).
+    poses : PoseFixes or None
+        The metric pose fixes, which keep the turn's images to check a fix (None: no check).
+
+    Attributes
+    ----------
+    samples : list of (float, int, float)
+        Each localisation's aligned distance, view and the odometry heading facing it.
+    rows : list of (numpy.ndarray, numpy.ndarray, float)
+        With ``contrast_fix``: each sample's aligned distances and yaws to every view and its
+        odometry heading.
+    """
+
+    def __init__(self, localiser: ImageLocaliser, config: SignalServoConfig,
+                 poses: PoseFixes | None):  # fmt: skip
+        self.localiser, self.config, self.poses = localiser, config, poses
+        self.samples: list[tuple[float, int, float]] = []
+        self.rows: list[tuple[np.ndarray, np.ndarray, float]] = []
+
+    def observe(self, x: np.ndarray, image: np.ndarray, odometry: np.ndarray) -> None:
+        """Localise the image (features ``x``) taken at odometry pose ``odometry``."""
+        c = self.config
+        if c.contrast_fix:
+            d_all, yaw_all = self.localiser.align(x)
+            self.rows.append((d_all, yaw_all, float(odometry[2])))
+            if self.poses is not None:
+                self.poses.observe(image, odometry)
+            k = int(np.argmin(d_all))
+            self.samples.append((float(d_all[k]), k, float(odometry[2] + yaw_all[k])))
+        else:
+            view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
+            self.samples.append((d, view, float(odometry[2] + yaw)))
+
+    def fix(self, routes: RouteGraph, exclude=()) -> tuple[int, float]:
+        """The global fix (view, odometry heading facing it): :func:`contrast_fix` (views in
+        ``exclude`` only if every view is), :func:`consistent_fix`, or the best match."""
+        c = self.config
+        if c.contrast_fix:
+            d, yaw, h = (np.array(a) for a in zip(*self.rows, strict=True))
+            verify = None if self.poses is None else (lambda v: self.poses.supports(v, d[:, v]))
+            return contrast_fix(d, yaw, h, far=c.fix_far, exclude=exclude, verify=verify,
+                                candidates=c.fix_check)  # fmt: skip
+        if c.consistent_fix:
+            return consistent_fix(self.samples, routes)
+        _, view, heading = min(self.samples)
+        return view, heading
+
+    def distances(self, view: int) -> np.ndarray:
+        """Each ``contrast_fix`` sample's aligned distance to ``view``."""
+        return np.array([r[0][view] for r in self.rows])
+
+
+def exclude_near(routes: RouteGraph, exclude: list[int], view: int, moved: float) -> list[int]:
+    """Lost on the route: the relocalisation may not fix on the views near the last fix's
+    ``view`` (a look-alike that won once wins again from nearby), added to ``exclude``. Only
+    once the robot has driven farther (``moved`` m) from where it fixed than that
+    neighbourhood's radius: then the robot is not there even if the fix was right. A
+    ``view`` below 0 (no fix yet) excludes nothing more."""
+    if view >= 0 and moved > EXCLUDE_RADIUS:
+        near = neighbourhood(routes, view, EXCLUDE_RADIUS)
+        return sorted(set(exclude) | set(near))
+    return exclude
