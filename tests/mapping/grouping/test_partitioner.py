@@ -13,6 +13,7 @@ from mapping.grouping.normalized_cut import ncut, recursive_ncut_partition, spec
 from mapping.grouping.partitioner import ObservationGraphPartitioner
 from mapping.metrics import purity
 from mapping.synthetic_scans import office_path, office_world, raycast
+from tests.mapping.grouping.weighted_graphs import UNEVEN
 
 EPS = 0.1  # the weak edge between the cliques
 
@@ -449,15 +450,6 @@ def test_fit_predict_passes_the_groups_on(office):
     assert labels[n] == labels[n + 1] != labels[n - 1]
 
 
-# a weighted graph whose normalized and unnormalized bisections differ
-UNEVEN = np.array([
-    [0.0, 0.0, 0.0, 0.0, 0.8, 0.9],
-    [0.0, 0.0, 0.5, 0.0, 0.8, 0.0],
-    [0.0, 0.5, 0.0, 0.2, 0.0, 0.5],
-    [0.0, 0.0, 0.2, 0.0, 0.7, 0.6],
-    [0.8, 0.8, 0.0, 0.7, 0.0, 0.0],
-    [0.9, 0.0, 0.5, 0.6, 0.0, 0.0],
-])  # fmt: skip
 
 
 def test_the_recursion_bisects_with_the_chosen_laplacian():

@@ -9,6 +9,7 @@ from mapping.grouping.normalized_cut import recursive_ncut_partition
 from mapping.grouping.partitioner import ObservationGraphPartitioner
 from mapping.scan_matching import refine_poses
 from mapping.synthetic_scans import office_path, office_world, raycast
+from tests.mapping.grouping.weighted_graphs import UNEVEN
 
 
 @pytest.fixture(scope="module")
@@ -53,15 +54,7 @@ def test_assoc_reaches_the_recursion():
 
 
 def test_laplacian_reaches_the_recursion():
-    # a weighted graph whose normalized and unnormalized bisections differ
-    W = np.array([
-        [0.0, 0.0, 0.0, 0.0, 0.8, 0.9],
-        [0.0, 0.0, 0.5, 0.0, 0.8, 0.0],
-        [0.0, 0.5, 0.0, 0.2, 0.0, 0.5],
-        [0.0, 0.0, 0.2, 0.0, 0.7, 0.6],
-        [0.8, 0.8, 0.0, 0.7, 0.0, 0.0],
-        [0.9, 0.0, 0.5, 0.6, 0.0, 0.0],
-    ])  # fmt: skip
+    W = UNEVEN  # its normalized and unnormalized bisections differ
     first = {}
     for laplacian in ("normalized", "unnormalized"):
         model = ObservationGraphPartitioner(affinity="precomputed", threshold=2.0,
