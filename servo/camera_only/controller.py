@@ -124,8 +124,8 @@ class SignalServo:
     >>> env = ServoEnv("lawn", servo_map, max_steps=20)
     >>> obs, info = env.reset(seed=1)
     >>> policy = SignalServo(servo_map, world="lawn")
-    >>> policy.reset(info["target_view"], info)
-    >>> action = policy.act(obs, info)
+    >>> policy.reset(info["target_view"])
+    >>> action = policy.act(obs)
     >>> policy.phase_, bool(np.allclose(action, [0.0, policy.config.turn_rate]))
     ('observe', True)
 

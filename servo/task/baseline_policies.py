@@ -140,8 +140,8 @@ class GreedyFProbing:
     >>> env = ServoEnv("lawn", servo_map, max_steps=5)
     >>> obs, info = env.reset(seed=1)
     >>> policy = GreedyFProbing(servo_map)
-    >>> policy.reset(info["target_view"], info)
-    >>> policy.budget_factor, policy.act(obs, info).shape
+    >>> policy.reset(info["target_view"])
+    >>> policy.budget_factor, policy.act(obs).shape
     (3, (2,))
 
     See Also
@@ -250,7 +250,7 @@ class OraclePolicy:
     >>> env = ServoEnv("lawn", servo_map, max_steps=200, odometry_noise=False)
     >>> obs, info = env.reset(seed=1)
     >>> policy = OraclePolicy(build_world("lawn"))
-    >>> policy.reset(info["target_view"], info)
+    >>> policy.reset(info["target_view"], info)  # the one policy given the truth
     >>> start = info["distance"]
     >>> for _ in range(20):
     ...     obs, reward, terminated, truncated, info = env.step(policy.act(obs, info))
