@@ -7,12 +7,11 @@ runs, with the current directory on the import path. Name only code you trust.
 from __future__ import annotations
 
 import ast
-import importlib
 import inspect
 import math
 import re
-import sys
-from pathlib import Path
+
+from common.user_modules import UserModuleError, import_user_module
 
 __all__ = ["OutsideMethod", "load_method", "parse_params"]
 
@@ -95,14 +94,10 @@ def load_method(spec: str, required: tuple[str, ...] = ("fit",)):
     if not isinstance(spec, str) or not _SPEC.match(spec):
         raise ValueError(f"--method must be package.module:Class, got {spec!r}")
     module_name, _, qualname = spec.partition(":")
-    cwd = str(Path.cwd())
-    if cwd not in sys.path:  # what ``python -m`` does, so a user's own module is found
-        sys.path.insert(0, cwd)
     try:
-        obj = importlib.import_module(module_name)
-    except Exception as err:  # whatever the module raises on import is the user's to see
-        raise ValueError(f"--method {spec}: module {module_name!r} does not import "
-                         f"({type(err).__name__}: {err})") from err  # fmt: skip
+        obj = import_user_module(module_name)
+    except UserModuleError as err:
+        raise ValueError(f"--method {spec}: {err}") from err
     for part in qualname.split("."):
         if not hasattr(obj, part):
             raise ValueError(f"--method {spec}: {module_name} has no {qualname!r}")

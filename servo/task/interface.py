@@ -13,14 +13,12 @@ blanked) and a seeded ``numpy.random.Generator``. Only the oracle, by name, read
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import os
-import sys
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from common.user_modules import UserModuleError, import_user_module
 from scenes import NO_MANIFOLD
 from servo.maps import ServoMap
 
@@ -213,15 +211,10 @@ def load_factory(spec: str):
     module_name, attr = spec.split(":")
     if not module_name or not attr.isidentifier():
         raise PolicyLoadError(f"policy must be package.module:factory, got {spec!r}")
-    # as `python -m`: a module beside the user's working directory imports
-    if os.getcwd() not in sys.path:
-        sys.path.insert(0, os.getcwd())
     try:
-        module = importlib.import_module(module_name)
-    except Exception as err:  # the user's module: any error there is a load failure
-        raise PolicyLoadError(
-            f"policy {spec!r}: module {module_name!r} does not import ({type(err).__name__}: {err})"
-        ) from err
+        module = import_user_module(module_name)
+    except UserModuleError as err:
+        raise PolicyLoadError(f"policy {spec!r}: {err}") from err
     factory = getattr(module, attr, None)
     if not callable(factory):
         raise PolicyLoadError(f"policy {spec!r}: {module_name} has no callable {attr!r}")
