@@ -59,7 +59,8 @@ def _regions() -> ManifoldMap:
         "hallway-straight": [(x1, _HW), c, (x1, -_HW), (far, -_HW), (far, _HW)],
         "hallway-right": [(x0, -_HW), (x0, bottom), (x1, bottom), (x1, -_HW), c],
     }
-    return ManifoldMap(tuple(Region(k, np.asarray(v, float)) for k, v in poly.items()))
+    regions = tuple(Region(k, np.asarray(v, float)) for k, v in poly.items())
+    return ManifoldMap(regions, {k: names.MANIFOLD_IDS[k] for k in poly})
 
 
 def _routes() -> dict[str, Route]:

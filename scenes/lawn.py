@@ -60,7 +60,8 @@ def _regions() -> ManifoldMap:
         "lawn-straight": [(_X1, _HL), c, (_X1, -_HL), (_FAR, -_HL), (_FAR, _HL)],
         "lawn-right": [(_X0, -_HL), (_X0, -_TOP), (_X1, -_TOP), (_X1, -_HL), c],
     }
-    return ManifoldMap(tuple(Region(k, np.asarray(v, float)) for k, v in poly.items()))
+    regions = tuple(Region(k, np.asarray(v, float)) for k, v in poly.items())
+    return ManifoldMap(regions, {k: names.MANIFOLD_IDS[k] for k in poly})
 
 
 def _routes() -> dict[str, Route]:

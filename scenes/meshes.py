@@ -25,12 +25,18 @@ class Mesh:
 
     vertices: np.ndarray
     faces: np.ndarray
+    texcoords: np.ndarray | None = None  # (V, 2): where a texture is laid on each vertex
 
     def vertex_attr(self) -> str:
         return " ".join(f"{v:.4f}" for v in self.vertices.ravel())
 
     def face_attr(self) -> str:
         return " ".join(str(int(f)) for f in self.faces.ravel())
+
+    def texcoord_attr(self) -> str | None:
+        if self.texcoords is None:
+            return None
+        return " ".join(f"{v:.4f}" for v in self.texcoords.ravel())
 
 
 def _from_trimesh(mesh: trimesh.Trimesh) -> Mesh:
@@ -105,3 +111,22 @@ def gable_roof(length: float, depth: float, height: float) -> Mesh:
         np.float64,
     )
     return _from_trimesh(trimesh.convex.convex_hull(v))
+
+
+def floor_slab(ring: np.ndarray, centre, thickness: float, texture_scale: float = 1.0) -> Mesh:
+    """A flat prism over a polygon ``ring`` (counter-clockwise) that is star-shaped from
+    ``centre`` (a junction's hub), top face at z = 0, with texture coordinates in metres /
+    ``texture_scale`` so that it tiles like the floor slabs around it."""
+    ring = np.asarray(ring, np.float64)
+    m = len(ring)
+    p = np.vstack([np.asarray(centre, np.float64), ring])
+    n = m + 1
+    top = np.column_stack([p, np.zeros(n)])
+    bottom = np.column_stack([p, np.full(n, -thickness)])
+    fan = [(0, 1 + k, 1 + (k + 1) % m) for k in range(m)]
+    faces = fan + [(n + a, n + c, n + b) for a, b, c in fan]
+    for k in range(m):
+        a, b = 1 + k, 1 + (k + 1) % m
+        faces += [(a, n + a, n + b), (a, n + b, b)]
+    uv = np.concatenate([p, p]) / texture_scale
+    return Mesh(np.concatenate([top, bottom]), np.asarray(faces, np.int64), uv)

@@ -83,12 +83,14 @@ class SceneBuilder:
         return name
 
     def mesh(self, name: str, mesh: Mesh) -> str:
+        attrs = {"texcoord": mesh.texcoord_attr()} if mesh.texcoords is not None else {}
         ET.SubElement(
             self.asset,
             "mesh",
             name=self._claim(name),
             vertex=mesh.vertex_attr(),
             face=mesh.face_attr(),
+            **attrs,
         )
         return name
 

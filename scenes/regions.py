@@ -13,7 +13,7 @@ from functools import cached_property
 import numpy as np
 from scipy import ndimage
 
-from scenes.names import MANIFOLD_IDS, MANIFOLDS, NO_MANIFOLD
+from scenes.names import NO_MANIFOLD
 
 
 def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
@@ -42,23 +42,54 @@ class Region:
     polygon: np.ndarray
 
     def __post_init__(self):
-        if self.manifold not in MANIFOLD_IDS:
-            raise ValueError(f"manifold must be one of {MANIFOLDS}, got {self.manifold!r}")
+        if not isinstance(self.manifold, str) or not self.manifold:
+            raise ValueError(f"manifold must be a non-empty name, got {self.manifold!r}")
 
 
 @dataclass(frozen=True)
 class ManifoldMap:
-    """The named manifolds of a world as floor regions, queryable at any (x, y)."""
+    """The named manifolds of a world as floor regions, queryable at any (x, y).
+
+    Parameters
+    ----------
+    regions : tuple of Region
+        A manifold may own several regions; where regions overlap, the first wins.
+    ids : dict of str to int, optional
+        The label id of each manifold. Default: their order of first appearance in
+        ``regions``, from 0. The canonical worlds pass the paper's ids
+        (:data:`scenes.names.MANIFOLD_IDS`: the lawn's manifolds are 4 to 7).
+    """
 
     regions: tuple[Region, ...]
+    ids: dict = field(default=None, compare=False)
+
+    def __post_init__(self):
+        names = tuple(dict.fromkeys(r.manifold for r in self.regions))
+        ids = dict(self.ids) if self.ids is not None else {n: i for i, n in enumerate(names)}
+        if set(ids) != set(names):
+            raise ValueError(f"ids must name exactly the regions' manifolds {names}, got {ids}")
+        values = list(ids.values())
+        if any(not isinstance(v, int) or v < 0 for v in values) or len(set(values)) != len(ids):
+            raise ValueError(f"ids must be distinct integers >= 0, got {ids}")
+        object.__setattr__(self, "ids", ids)
 
     @property
     def names(self) -> tuple[str, ...]:
-        return tuple(dict.fromkeys(r.manifold for r in self.regions))
+        """The manifolds' names, in the order of their ids."""
+        return tuple(sorted(self.ids, key=self.ids.get))
+
+    def name_of(self, label: int) -> str | None:
+        """The name of label id ``label``; None for :data:`~scenes.names.NO_MANIFOLD`."""
+        for name, i in self.ids.items():
+            if i == label:
+                return name
+        if label == NO_MANIFOLD:
+            return None
+        raise ValueError(f"label must be one of {sorted(self.ids.values())} or {NO_MANIFOLD}, "
+                         f"got {label!r}")  # fmt: skip
 
     def label_at(self, xy) -> np.ndarray:
-        """Manifold ids (:data:`scenes.names.MANIFOLD_IDS`) of points (..., 2); -1 off every
-        manifold."""
+        """Manifold ids (:attr:`ids`) of points (..., 2); -1 off every manifold."""
         xy = np.asarray(xy, np.float64)
         if xy.shape[-1] != 2:
             raise ValueError(f"xy must have shape (..., 2), got {xy.shape}")
@@ -69,13 +100,12 @@ class ManifoldMap:
             if not todo.any():
                 break
             inside = points_in_polygon(flat[todo], region.polygon)
-            labels[np.flatnonzero(todo)[inside]] = MANIFOLD_IDS[region.manifold]
+            labels[np.flatnonzero(todo)[inside]] = self.ids[region.manifold]
         return labels.reshape(xy.shape[:-1])
 
     def name_at(self, x: float, y: float) -> str | None:
         """Name of the manifold at one point, or None off every manifold."""
-        label = int(self.label_at((x, y)))
-        return None if label == NO_MANIFOLD else MANIFOLDS[label]
+        return self.name_of(int(self.label_at((x, y))))
 
 
 @dataclass(frozen=True)

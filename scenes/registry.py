@@ -12,6 +12,7 @@ import numpy as np
 
 from scenes import names
 from scenes.appearance import Appearance, draw_appearance
+from scenes.families import build_family_world, parse_world_name
 from scenes.hallway import build_hallway
 from scenes.lawn import build_lawn
 from scenes.world import World
@@ -32,7 +33,11 @@ def build_world(
 
     Parameters
     ----------
-    name : {"hallway", "lawn"}
+    name : str
+        ``"hallway"`` or ``"lawn"`` (the canonical worlds), or ``FAMILY:SEED`` for a
+        generated world of that family (``"hallway:17"``, ``"lawn:3"``; seeds 0 to
+        :data:`~scenes.families.naming.MAX_SEED`, seed 0 being the canonical world); see
+        :mod:`scenes.families`.
     rng : numpy.random.Generator, optional
         Without one, the canonical world (fixed textures, default lights and clutter). With one,
         a domain-randomised variant (textures, colours, lighting, clutter placement), the same
@@ -42,6 +47,7 @@ def build_world(
         (see :data:`~scenes.appearance.APPEARANCE_MODES`); the geometry is that of the default
         world.
     """
-    if name not in names.WORLDS:
-        raise ValueError(f"world must be one of {names.WORLDS}, got {name!r}")
-    return BUILDERS[name](draw_appearance(rng, appearance))
+    world = parse_world_name(name)
+    if not world.canonical:
+        return build_family_world(world, rng, appearance)
+    return BUILDERS[world.family](draw_appearance(rng, appearance))

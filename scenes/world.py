@@ -6,6 +6,7 @@ The builders (:mod:`scenes.hallway`, :mod:`scenes.lawn`) make one; :func:`scenes
 
 from __future__ import annotations
 
+import hashlib
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,25 +25,33 @@ class World:
     Attributes
     ----------
     name : str
-        ``"hallway"`` or ``"lawn"``.
+        ``"hallway"``, ``"lawn"`` or a generated world's ``FAMILY:SEED``
+        (:mod:`scenes.families`).
     xml : str
         The MJCF model (robot included).
     assets : dict[str, bytes]
         Texture PNGs the MJCF refers to, for ``MjModel.from_xml_string(xml, assets)``.
     manifolds : ManifoldMap
-        The 4 named manifolds as floor regions.
+        The world's named manifolds as floor regions, with their label ids (4 in each
+        canonical world, 2 to 12 in a generated one).
     footprints : list[Footprint]
         Floor shadow of every colliding geom.
     bounds : tuple
         ``(xmin, xmax, ymin, ymax)`` of the walkable area, metres.
     routes : dict[str, Route]
-        Teleop routes, one per branch: main manifold, then the branch.
+        Teleop routes, one per leaf manifold: from the main manifold's start through every
+        junction on the way to the leaf's end.
     appearance : dict
         The randomisation parameters this world was built with.
     randomized : bool
         Whether those were drawn (else the defaults).
     appearance_mode : str
         One of :data:`APPEARANCE_MODES`.
+    parents : dict[str, str or None]
+        Each manifold's parent in the world's tree of stretches (None for the main one).
+    digest : str
+        SHA-256 of the floor plan (the manifold regions, their names and ids): two worlds
+        with the same digest have the same layout, whatever they look like.
 
     Parameters
     ----------
@@ -52,14 +61,21 @@ class World:
         Whether the appearance was drawn.
     appearance_mode : str, default "default"
         One of :data:`APPEARANCE_MODES`.
+    parents : dict, optional
+        Default: the first manifold is the main one and every other leaves from it (the
+        canonical worlds' single junction).
+    digest : str, optional
+        Default: computed from ``manifolds``.
 
     Examples
     --------
-    >>> from scenes import MANIFOLDS, build_world
+    >>> from scenes import build_world
     >>> world = build_world("lawn")
     >>> world.name, list(world.routes)
     ('lawn', ['lawn-left', 'lawn-straight', 'lawn-right'])
-    >>> MANIFOLDS[world.manifold_at([[8.0, 2.0]])[0]]
+    >>> world.manifold_names[:2], world.manifold_ids["lawn"]
+    (('lawn', 'lawn-left'), 4)
+    >>> world.manifolds.name_of(world.manifold_at([[8.0, 2.0]])[0])
     'lawn'
 
     See Also
@@ -78,9 +94,20 @@ class World:
     appearance: dict
     randomized: bool = False
     appearance_mode: str = "default"
+    parents: dict = None
+    digest: str = None
     # Free-space grids already rasterised, per (resolution, inflation). A World compares by
     # value and is mutable, so it is not hashable; the cache lives on the instance instead.
     _free_space: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        names = self.manifolds.names
+        if self.parents is None:
+            self.parents = {n: (None if k == 0 else names[0]) for k, n in enumerate(names)}
+        if set(self.parents) != set(names):
+            raise ValueError(f"parents must name exactly the manifolds {names}")
+        if self.digest is None:
+            self.digest = layout_digest(self.manifolds)
 
     @classmethod
     def from_scene(
@@ -91,6 +118,8 @@ class World:
         manifolds: ManifoldMap,
         bounds: tuple[float, float, float, float],
         routes: dict[str, Route],
+        parents: dict | None = None,
+        digest: str | None = None,
     ) -> World:
         """The finished world of a built :class:`~scenes.mjcf.SceneBuilder` scene."""
         return cls(
@@ -104,7 +133,37 @@ class World:
             appearance=dict(app.params),
             randomized=app.rng is not None,
             appearance_mode=app.mode,
+            parents=parents,
+            digest=digest,
         )
+
+    @property
+    def manifold_names(self) -> tuple[str, ...]:
+        """The world's manifolds in the order of their label ids."""
+        return self.manifolds.names
+
+    @property
+    def manifold_ids(self) -> dict[str, int]:
+        """Label id of each manifold (the canonical lawn's are 4 to 7, as the paper's rows)."""
+        return dict(self.manifolds.ids)
+
+    def junctions_between(self, a: str, b: str) -> int:
+        """How many junctions lie between manifolds ``a`` and ``b`` (0 for one manifold; two
+        branches of one junction are 1 apart)."""
+        def up(m):
+            if m not in self.parents:
+                raise ValueError(f"manifold must be one of {self.manifold_names}, got {m!r}")
+            path = [m]
+            while self.parents[path[-1]] is not None:
+                path.append(self.parents[path[-1]])
+            return path[::-1]
+
+        pa, pb = up(a), up(b)
+        common = 0
+        while common < min(len(pa), len(pb)) and pa[common] == pb[common]:
+            common += 1
+        up_a, up_b = len(pa) - common, len(pb) - common
+        return up_a + up_b - (1 if up_a and up_b else 0)
 
     def manifold_at(self, xy) -> np.ndarray:
         """Manifold ids at points (..., 2): indices into :data:`scenes.names.MANIFOLDS`, -1 off."""
@@ -128,3 +187,14 @@ class World:
         path = directory / f"{self.name}.xml"
         atomic_write_bytes(path, self.xml.encode())
         return path
+
+
+def layout_digest(manifolds: ManifoldMap) -> str:
+    """SHA-256 of a world's manifold regions (names, ids, polygons to a micrometre)."""
+    h = hashlib.sha256()
+    for name in manifolds.names:
+        h.update(f"{name}:{manifolds.ids[name]};".encode())
+    for region in manifolds.regions:
+        h.update(region.manifold.encode())
+        h.update(np.round(np.asarray(region.polygon, np.float64), 6).tobytes())
+    return h.hexdigest()

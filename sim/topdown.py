@@ -7,7 +7,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from scenes import MANIFOLD_IDS, World
+from scenes import World
 
 # One colour per manifold (RGB), main manifolds darker than their branches.
 MANIFOLD_COLOURS = {
@@ -20,6 +20,20 @@ MANIFOLD_COLOURS = {
     "lawn-straight": (225, 210, 170),
     "lawn-right": (235, 235, 200),
 }
+# A generated world's manifolds take these in the order of their ids (pale, tellable apart).
+GENERATED_COLOURS = (
+    (190, 190, 215), (240, 190, 170), (170, 205, 240), (175, 225, 185), (235, 215, 160),
+    (215, 180, 225), (160, 220, 215), (230, 230, 190), (205, 205, 205), (240, 200, 210),
+    (190, 215, 160), (200, 185, 160),
+)  # fmt: skip
+
+
+def manifold_colours(world: World) -> dict[str, tuple[int, int, int]]:
+    """The colour of each of ``world``'s manifolds on a map (RGB)."""
+    return {
+        name: MANIFOLD_COLOURS.get(name, GENERATED_COLOURS[i % len(GENERATED_COLOURS)])
+        for name, i in world.manifold_ids.items()
+    }
 
 
 class TopDownView:
@@ -48,8 +62,9 @@ class TopDownView:
         xy = np.stack([self.origin[0] + u / self.scale, self.origin[1] - v / self.scale], axis=-1)
         labels = self.world.manifold_at(xy)
         img = np.full((h, w, 3), 60, np.uint8)
-        for name, colour in MANIFOLD_COLOURS.items():
-            img[labels == MANIFOLD_IDS[name]] = colour
+        ids = self.world.manifold_ids
+        for name, colour in manifold_colours(self.world).items():
+            img[labels == ids[name]] = colour
         for fp in self.world.footprints:
             img[fp.covers(xy)] = (90, 80, 70)
         return img

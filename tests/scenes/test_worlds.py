@@ -45,8 +45,9 @@ def test_world_compiles_with_every_element_named(worlds, name):
 
 
 def test_unknown_world_names_the_choices():
-    with pytest.raises(ValueError, match=r"world must be one of \('hallway', 'lawn'\)"):
-        build_world("garden")
+    for bad in ("garden", "maze:3", "hallway:x", "hallway:-1", "hallway:1000000", 3):
+        with pytest.raises(ValueError, match=r"world must be 'hallway' or 'lawn' .* FAMILY:SEED"):
+            build_world(bad)
     with pytest.raises(TypeError, match="numpy.random.Generator"):
         build_world("hallway", rng=3)
 
