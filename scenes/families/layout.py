@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from itertools import pairwise
 
 import numpy as np
 
@@ -338,7 +339,7 @@ class Layout:
             path = self.path(leaf)
             root = self.stretches[path[0]]
             points = [np.asarray(root.start) + self.route_start * _unit(root.heading)]
-            for prev, nxt in zip(path[:-1], path[1:], strict=True):
+            for prev, nxt in pairwise(path):
                 c = self.stretches[prev].end
                 heading_in = self.stretches[prev].heading
                 heading_out = self.stretches[nxt].heading
