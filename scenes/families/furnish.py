@@ -51,12 +51,16 @@ def look_materials(
     per distinct look, its colours jittered by ``rng`` (this world's) and by the appearance
     draw. In the hard mode every stretch gets the main stretch's pair."""
     made: dict[str, tuple[str, str]] = {}
-    for look in looks if not app.shared_materials else looks[:1]:
+    # one jitter per look and part, drawn whichever looks are made, so that the hard mode
+    # leaves the generator where the default mode does (the furnishing draws from it next)
+    jitters = rng.uniform(-0.06, 0.06, (len(looks), 2, 3))
+    for k, look in enumerate(looks if not app.shared_materials else looks[:1]):
         if look.name in made:
             continue
         pair = []
-        for part, (kind, colours) in (("wall", look.wall), ("floor", look.floor)):
-            jitter = rng.uniform(-0.06, 0.06, 3)
+        for part, (kind, colours), jitter in zip(
+            ("wall", "floor"), (look.wall, look.floor), jitters[k], strict=True
+        ):
             cols = [app.colour(np.clip(np.asarray(c) + jitter, 0, 1)) for c in colours]
             name = f"{look.name}_{part}"
             scene.texture(f"tex_{name}", _texture(kind, app.texture_rng, cols))

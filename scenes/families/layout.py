@@ -102,15 +102,8 @@ class Junction:
         direction = self.exits[i][1]
         u, n = _unit(direction), _left(direction)
         mouth = self.centre + self.mouths[i] * u
-        return np.array(
-            [
-                self.centre,
-                self.corners[(i - 1) % k],
-                mouth - half_width * n,
-                mouth + half_width * n,
-                self.corners[i],
-            ]
-        )
+        ring = [self.centre, self.corners[(i - 1) % k], mouth - half_width * n]
+        return _simplify(np.array(ring + [mouth + half_width * n, self.corners[i]]))
 
     def polygon(self, half_width: float) -> np.ndarray:
         """The hub: every exit's sector together, counter-clockwise."""
@@ -119,12 +112,23 @@ class Junction:
             u, n = _unit(direction), _left(direction)
             mouth = self.centre + self.mouths[i] * u
             points += [mouth - half_width * n, mouth + half_width * n, self.corners[i]]
-        return _dedupe(np.array(points))
+        return _simplify(np.array(points))
 
 
-def _dedupe(points: np.ndarray) -> np.ndarray:
-    keep = np.linalg.norm(points - np.roll(points, 1, axis=0), axis=1) > 1e-7
-    return points[keep]
+def _simplify(ring: np.ndarray) -> np.ndarray:
+    """``ring`` without repeated points and without vertices on a straight line between their
+    neighbours (a bend's centre lies on its sectors' edge): rounding there would make the
+    polygon cross itself by a hair."""
+    ring = ring[np.linalg.norm(ring - np.roll(ring, 1, axis=0), axis=1) > 1e-7]
+    while len(ring) > 3:
+        prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
+        a, b = ring - prev, nxt - ring
+        cross = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        flat = cross < 1e-9 * np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1) + 1e-12
+        if not flat.any():
+            break
+        ring = np.delete(ring, int(np.argmax(flat)), axis=0)
+    return ring
 
 
 def junction(centre, exits: list[tuple[int, float]], half_width: float) -> Junction:
