@@ -72,11 +72,11 @@ def structure(layout: Layout) -> tuple:
     """A floor plan quantised to what tells two worlds apart: per stretch its branch, its
     turn from its parent (15 degree steps) and its length (2 m steps), and the width (0.4 m
     steps). Equal structures are one world for the methods; different ones are not."""
-    out = [int(round(2 * layout.half_width / WIDTH_STEP))]
+    out = [round(2 * layout.half_width / WIDTH_STEP)]
     for s in layout.stretches:
         parent = 0.0 if s.parent is None else layout.stretches[s.parent].heading
         turn = np.rad2deg((s.heading - parent + np.pi) % (2 * np.pi) - np.pi)
-        out.append((s.branch, int(round(turn / ANGLE_STEP)), int(round(s.length / LENGTH_STEP))))
+        out.append((s.branch, round(turn / ANGLE_STEP), round(s.length / LENGTH_STEP)))
     return tuple(out)
 
 
