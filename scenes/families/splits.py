@@ -7,8 +7,8 @@ generator, makes every held-out number incomparable (the version below says whic
 Two worlds can differ only below what a method could tell apart (a few centimetres of
 length, a degree of angle). :func:`structure` quantises a floor plan, and
 :func:`held_out_worlds` skips test seeds whose structure also occurs among the train seeds
-(Procgen's mazes repeated 20% of their test levels in training); ``topomap world-splits``
-counts them over the whole train range.
+(Procgen's mazes repeated 20% of their test levels in training);
+``python -m scripts.world_splits`` counts them over the whole train range.
 """
 
 from __future__ import annotations
@@ -83,7 +83,7 @@ def structure(layout: Layout) -> tuple:
 def held_out_worlds(family: str, count: int, train_structures: set | None = None) -> list[str]:
     """The first ``count`` test worlds of ``family`` whose structure is not a training
     world's. ``train_structures``: the set of :func:`structure` over the train seeds (slow to
-    make: ``topomap world-splits`` computes it); without it no test seed is skipped."""
+    make: ``python -m scripts.world_splits`` computes it); without it no test seed is skipped."""
     from scenes.families.build import family_layout
 
     out = []

@@ -1,0 +1,50 @@
+"""How many test worlds repeat a training world's structure, per family.
+
+``python -m scripts.world_splits [--out FILE]`` draws the floor plan of every train and test
+seed (:data:`scenes.families.splits.SPLITS`; about 100 s per family on one core), counts the
+test worlds whose :func:`~scenes.families.splits.structure` occurs among the train worlds
+(:func:`~scenes.families.splits.held_out_worlds` skips them) and writes the counts as JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from tqdm.auto import tqdm
+
+from common.fileio import atomic_write_bytes
+from scenes.families import FAMILIES, family_layout
+from scenes.families.splits import SPLITS, SPLITS_VERSION, split_worlds, structure
+
+
+def repeats(family: str, progress: bool = True) -> dict:
+    """The counts of one family: distinct train structures, test worlds, repeated ones."""
+    train = {
+        structure(family_layout(n))
+        for n in tqdm(split_worlds(family, "train"), desc=f"{family} train", disable=not progress)
+    }
+    test = [structure(family_layout(n)) for n in split_worlds(family, "test")]
+    return {
+        "train_worlds": SPLITS["train"][1],
+        "distinct_train_structures": len(train),
+        "test_worlds": len(test),
+        "test_worlds_repeating_a_train_structure": sum(s in train for s in test),
+    }
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", help="write the counts here as JSON")
+    args = parser.parse_args(argv)
+    counts = {"splits_version": SPLITS_VERSION, "splits": SPLITS}
+    counts["families"] = {f: repeats(f) for f in FAMILIES}
+    text = json.dumps(counts, indent=2) + "\n"
+    print(text, end="")
+    if args.out:
+        atomic_write_bytes(args.out, text.encode())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
