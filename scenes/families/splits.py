@@ -95,4 +95,3 @@ def held_out_worlds(family: str, count: int, train_structures: set | None = None
     if len(out) < count:
         raise ValueError(f"count must be at most {len(out)} for {family}'s test worlds")
     return out
-

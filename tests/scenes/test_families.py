@@ -183,8 +183,9 @@ def test_an_unsound_plan_is_named():
     s = (
         Stretch("w", "", None, (0.0, 0.0), 0.0, 12.0),
         Stretch("w-right", "right", 0, (12.0, 0.0), -2.0, 8.0),
-        Stretch("w-right-left", "right-left", 1, (12 + 8 * np.cos(-2.0), 8 * np.sin(-2.0)),
-                2.0, 14.0),
+        Stretch(
+            "w-right-left", "right-left", 1, (12 + 8 * np.cos(-2.0), 8 * np.sin(-2.0)), 2.0, 14.0
+        ),
     )
     problems = layout_problems(Layout(s, 1.2), clearance=0.8)
     assert any("apart" in p or "overlaps" in p for p in problems)
