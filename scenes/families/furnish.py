@@ -66,6 +66,9 @@ def look_materials(
             scene.texture(f"tex_{name}", _texture(kind, app.texture_rng, cols))
             repeat = (floor_repeat, floor_repeat) if part == "floor" else (1.0, 1.0)
             scene.material(f"mat_{name}", f"tex_{name}", texrepeat=repeat, texuniform=True)
+            if part == "floor":  # the hubs are meshes with their own texture coordinates,
+                # which MuJoCo's uniform mapping would smear into streaks
+                scene.material(f"mat_{name}_hub", f"tex_{name}", texrepeat=repeat, texuniform=False)
             pair.append(f"mat_{name}")
         made[look.name] = (pair[0], pair[1])
     if app.shared_materials:
@@ -94,7 +97,8 @@ def add_floors(
         polygon = junction.polygon(layout.half_width)
         slab = meshes.floor_slab(polygon, junction.centre, 2 * FLOOR_THICKNESS)
         scene.mesh(f"hub{owner}_mesh", slab)
-        scene.mesh_geom(f"hub{owner}_floor", f"hub{owner}_mesh", (0, 0, z), floor_materials[owner])
+        material = f"{floor_materials[owner]}_hub"  # see look_materials
+        scene.mesh_geom(f"hub{owner}_floor", f"hub{owner}_mesh", (0, 0, z), material)
 
 
 def add_walls(

@@ -140,6 +140,7 @@ def _shared_materials(scene: SceneBuilder, app: Appearance) -> None:
     rng, c = app.texture_rng, app.colour
     scene.texture("tex_ceiling", textures.ceiling_tiles(rng))
     scene.material("mat_ceiling", "tex_ceiling", texrepeat=(0.5, 0.5))
+    scene.material("mat_ceiling_hub", "tex_ceiling", texrepeat=(0.5, 0.5), texuniform=False)
     scene.texture("tex_door", textures.panelled_door(rng))
     scene.material("mat_door", "tex_door", texuniform=False)
     scene.texture("tex_window", textures.window_facade(rng, c((0.9, 0.88, 0.82))))
@@ -191,18 +192,23 @@ def build_indoor(name: str, layout: Layout, app: Appearance, rng: np.random.Gene
 
 
 def add_floors_ceiling(scene: SceneBuilder, layout: Layout) -> None:
-    """The ceiling: the floor plan again, flipped up to the top of the walls."""
+    """The ceiling: the floor plan again (the hubs' floor meshes reused), at the walls' top."""
+    top = WALL_HEIGHT + 0.05
     for i in range(len(layout.stretches)):
         s0, s1 = layout.extent(i)
         x, y, heading = along(layout, i, (s0 + s1) / 2, 0.0, 0.0)
         scene.box(
             f"ceiling{i}",
-            (x, y, WALL_HEIGHT + 0.1),
+            (x, y, top + 0.05),
             ((s1 - s0) / 2, layout.half_width, 0.05),
             "mat_ceiling",
             yaw=heading,
             collide=False,
             group=names.GROUP_DECOR,
+        )
+    for owner in layout.junctions:  # the slab's top face is at its origin, 0.1 m thick
+        scene.mesh_geom(
+            f"hub{owner}_ceiling", f"hub{owner}_mesh", (0, 0, top + 0.1), "mat_ceiling_hub"
         )
 
 
