@@ -3,7 +3,9 @@
 ``python -m scripts.world_splits [--out FILE]`` draws the floor plan of every train and test
 seed (:data:`scenes.families.splits.SPLITS`; about 100 s per family on one core), counts the
 test worlds whose :func:`~scenes.families.splits.structure` occurs among the train worlds
-(:func:`~scenes.families.splits.held_out_worlds` skips them) and writes the counts as JSON.
+(:func:`~scenes.families.splits.held_out_worlds` skips them, by the list in
+:data:`~scenes.families.splits.REPEATED_TEST_SEEDS` that this script's output fills) and writes
+the counts, and which train world each repeat copies, as JSON.
 """
 
 from __future__ import annotations
@@ -20,16 +22,17 @@ from scenes.families.splits import SPLITS, SPLITS_VERSION, split_worlds, structu
 
 def repeats(family: str, progress: bool = True) -> dict:
     """The counts of one family: distinct train structures, test worlds, repeated ones."""
-    train = {
-        structure(family_layout(n))
-        for n in tqdm(split_worlds(family, "train"), desc=f"{family} train", disable=not progress)
-    }
-    test = [structure(family_layout(n)) for n in split_worlds(family, "test")]
+    train: dict[tuple, str] = {}  # structure -> the first train world that has it
+    for name in tqdm(split_worlds(family, "train"), desc=f"{family} train", disable=not progress):
+        train.setdefault(structure(family_layout(name)), name)
+    test = {n: structure(family_layout(n)) for n in split_worlds(family, "test")}
+    repeats = {n: train[s] for n, s in test.items() if s in train}
     return {
         "train_worlds": SPLITS["train"][1],
         "distinct_train_structures": len(train),
         "test_worlds": len(test),
-        "test_worlds_repeating_a_train_structure": sum(s in train for s in test),
+        "test_worlds_repeating_a_train_structure": len(repeats),
+        "repeats": repeats,
     }
 
 

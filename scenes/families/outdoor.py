@@ -17,7 +17,6 @@ from scenes.appearance import Appearance
 from scenes.families.furnish import add_floors, add_walls, along, look_materials
 from scenes.families.layout import Layout
 from scenes.families.palette import OUTDOOR_LOOKS, draw_looks
-from scenes.furnish import tree
 from scenes.layout import Rect, add_floor
 from scenes.mjcf import SceneBuilder
 
@@ -54,12 +53,46 @@ def _materials(scene: SceneBuilder, app: Appearance) -> None:
     scene.material("mat_mailbox", rgba=c((0.15, 0.15, 0.15)) + (1,))
 
 
-def _trees_along(scene, layout, i, marks, sides, app, tag, height=None):
+class _TreePool:
+    """A few tree shapes made once per world and planted many times: a lumpy crown costs
+    ~15 ms to make, and a world plants up to ~40 trees. Collision is the trunk's cylinder."""
+
+    def __init__(self, scene: SceneBuilder, rng: np.random.Generator, shapes: int = 4):
+        self.scene, self.shapes = scene, []
+        for k in range(shapes):
+            height, radius = float(rng.uniform(3.5, 6.0)), float(rng.uniform(0.15, 0.28))
+            crown = float(rng.uniform(1.2, 2.0))
+            scene.mesh(f"tree{k}_trunk_mesh", meshes.trunk(rng, radius, height * 0.75))
+            scene.mesh(f"tree{k}_crown_mesh", meshes.canopy(rng, crown))
+            self.shapes.append((height, radius, crown))
+
+    def plant(self, name: str, x: float, y: float, k: int) -> None:
+        height, radius, crown = self.shapes[k % len(self.shapes)]
+        s = self.scene
+        s.cylinder(
+            f"{name}_trunk_collider",
+            (x, y, 1.0),
+            radius,
+            1.0,
+            None,
+            group=names.GROUP_COLLIDER,
+            rgba=(0.4, 0.3, 0.2, 1),
+        )
+        s.mesh_geom(
+            f"{name}_trunk", f"tree{k % len(self.shapes)}_trunk_mesh", (x, y, 0.0), "mat_bark"
+        )
+        s.mesh_geom(
+            f"{name}_crown",
+            f"tree{k % len(self.shapes)}_crown_mesh",
+            (x, y, height * 0.75 + 0.4 * crown),
+            "mat_leaves",
+        )
+
+
+def _trees_along(trees, layout, i, marks, sides, tag, rng):
     for k, (s, side) in enumerate(zip(marks, sides, strict=True)):
         x, y, _ = along(layout, i, s, side, TREE_INSET)
-        tree(
-            scene, f"{tag}_tree{k}", x, y, app.texture_rng, "mat_bark", "mat_leaves", height=height
-        )
+        trees.plant(f"{tag}_tree{k}", x, y, int(rng.integers(len(trees.shapes))))
 
 
 def _furnish(
@@ -69,6 +102,7 @@ def _furnish(
     kind: str,
     app: Appearance,
     rng: np.random.Generator,
+    trees: _TreePool,
 ) -> None:
     s0, s1 = layout.extent(i)
     shift = app.shift("clutter_shift")
@@ -76,10 +110,10 @@ def _furnish(
     if kind == "orchard":
         marks = np.arange(s0 + 2.5, s1 - 2.0, rng.uniform(4.0, 5.0)) + shift
         marks = np.repeat(marks[(marks > s0 + 1.5) & (marks < s1 - 1.5)], 2)
-        _trees_along(scene, layout, i, marks, [1.0, -1.0] * (len(marks) // 2), app, tag, 3.5)
+        _trees_along(trees, layout, i, marks, [1.0, -1.0] * (len(marks) // 2), tag, rng)
     elif kind == "garden":
         marks = np.sort(rng.uniform(s0 + 2.0, s1 - 2.0, int(rng.integers(2, 5))))
-        _trees_along(scene, layout, i, marks, rng.choice([-1.0, 1.0], len(marks)), app, tag)
+        _trees_along(trees, layout, i, marks, rng.choice([-1.0, 1.0], len(marks)), tag, rng)
     elif kind == "street":
         side = float(rng.choice([-1.0, 1.0]))
         s = float(rng.uniform(s0 + 3.0, max(s0 + 3.0, s1 - 3.0)))
@@ -154,8 +188,9 @@ def build_outdoor(name: str, layout: Layout, app: Appearance, rng: np.random.Gen
     add_floor(scene, "apron_floor", apron, "mat_apron", z=-0.01)
     add_floors(scene, layout, [f for _, f in pairs])
     add_walls(scene, layout, [w for w, _ in pairs], FENCE_HEIGHT, FENCE_THICKNESS, prefix="fence")
+    trees = _TreePool(scene, app.texture_rng)
     for i, look in enumerate(looks):
-        _furnish(scene, layout, i, look.furnishing, app, rng)
+        _furnish(scene, layout, i, look.furnishing, app, rng, trees)
     for i in layout.leaves():
         _building(scene, layout, i, rng)
     return scene, layout.bounds()

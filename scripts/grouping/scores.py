@@ -23,8 +23,11 @@ TARGETS = {"purity_min": 0.9, "max_groups_per_manifold": 3}
 MC_MIN_CLUSTER_SIZE = 35  # Q of docs/guides/manifold-clustering.md on the same sequences
 
 
-def score_groups(truth: np.ndarray, labels: np.ndarray) -> dict:
+def score_groups(truth: np.ndarray, labels: np.ndarray, names=None) -> dict:
     """Groups against ground-truth manifold ids (frames on no manifold, -1, are left out).
+
+    ``names``: the manifold of each id (a dataset's ``meta["manifolds"]``); default the
+    canonical worlds' :data:`scenes.MANIFOLDS`.
 
     ``groups_per_manifold``: for each manifold, the groups whose majority manifold it is (every
     group counts for exactly one manifold; frames of a group that belong elsewhere are what
@@ -39,8 +42,9 @@ def score_groups(truth: np.ndarray, labels: np.ndarray) -> dict:
     groups = np.unique(labels)
     # The contingency matrix purity is computed from: rows manifolds, columns groups.
     majority = manifolds[contingency_matrix(truth, labels).argmax(axis=0)]
-    per = {MANIFOLDS[m]: int(np.sum(majority == m)) for m in manifolds}
-    touching = {MANIFOLDS[m]: len(np.unique(labels[truth == m])) for m in manifolds}
+    names = MANIFOLDS if names is None else names
+    per = {names[m]: int(np.sum(majority == m)) for m in manifolds}
+    touching = {names[m]: len(np.unique(labels[truth == m])) for m in manifolds}
     return {
         "frames": int(on.sum()),
         "groups": len(groups),

@@ -1,0 +1,142 @@
+"""One cell of the held-out evaluation: one world and one dataset seed, every mapping task.
+
+A cell collects the world's dataset (one teleop drive per leaf manifold), then scores
+
+* **manifold clustering** on the camera images (HSV histograms, the paper's interleaved split:
+  even frames build the map, odd frames test it), ours (``ManifoldClustering``, Q = 35) beside
+  scikit-learn's k-NN spectral clustering (k = 10), both told K = the world's manifold count;
+* **observation grouping** of the laser scans (``ObservationGraphPartitioner`` with odometry
+  and ICP, every drive in one graph): purity and groups per manifold.
+
+A cell is a function of (world, seed, frames) alone and is cached as JSON, so an evaluation
+resumes where it stopped and any backend gives the same numbers.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from common.fileio import read_json, write_json
+from scenes.families import check_world_name, parse_world_name
+
+__all__ = ["MANIFOLD_Q", "TASKS", "cell_path", "run_cell"]
+
+TASKS = ("manifold", "grouping")
+MANIFOLD_Q = 35  # the manifold protocol's Q, chosen on the canonical worlds' dev seed
+CELL_VERSION = 1  # goes up whenever a change alters a cell's numbers
+
+
+def cell_path(out: Path, world: str, seed: int, frames: int) -> Path:
+    stem = parse_world_name(world).file_stem
+    return Path(out) / "cells" / f"{stem}-s{seed}-f{frames}.json"
+
+
+def dataset_dir(data_root: Path, world: str, seed: int, frames: int) -> Path:
+    return Path(data_root) / f"{parse_world_name(world).file_stem}-s{seed}-f{frames}"
+
+
+def _manifold(data, world) -> dict:
+    from mapping import ColorHistogramFeatures
+    from scripts.manifold.methods import OURS, SKLEARN_DEFAULT, score_methods
+
+    train, test = data.paper_split()
+    images = data.concat("images")
+    features = ColorHistogramFeatures().fit(images[train])
+    X_train, X_test = features.transform(images[train]), features.transform(images[test])
+    del images
+    labels = data.concat("labels")
+    k = len(world.manifold_names)
+    rows = score_methods(
+        X_train, labels[train], k, MANIFOLD_Q, X_test, labels[test], methods=(OURS, SKLEARN_DEFAULT)
+    )
+    return {"k": k, "n_train": int(train.sum()), "n_test": int(test.sum()), "rows": rows}
+
+
+def _grouping(data, world) -> dict:
+    from mapping.grouping import ObservationGraphPartitioner
+    from scripts.grouping.scores import score_groups
+
+    runs = data.runs(world.name)
+    model = ObservationGraphPartitioner(scan_matching=True)
+    model.fit(runs.scans, runs.odometry, groups=runs.groups)
+    score = score_groups(runs.labels, model.labels_, names=data.meta["manifolds"])
+    keep = ("frames", "groups", "purity", "ari", "groups_per_manifold", "max_groups_per_manifold")
+    return {k: score[k] for k in keep}
+
+
+def run_cell(
+    world: str, seed: int, out: Path, data_root: Path, frames: int = 150, tasks=TASKS
+) -> dict:
+    """Score ``tasks`` on ``world``'s dataset of ``seed``; cached in ``out/cells``.
+
+    Returns the cell: world, family, seed, frames, the world's manifolds and, per manifold,
+    the junctions from the main one, then one entry per task.
+    """
+    from scenes import build_world
+    from sim.collect import CollectionSettings, collect_dataset
+    from sim.dataset import load_dataset
+
+    world = check_world_name(world)
+    unknown = [t for t in tasks if t not in TASKS]
+    if unknown:
+        raise ValueError(f"tasks must be a subset of {TASKS}, got {list(tasks)}")
+    path = cell_path(out, world, seed, frames)
+    cell = _cached(path)
+    todo = [t for t in tasks if t not in cell.get("tasks", {})]
+    if not todo:
+        return cell
+    built = build_world(world)
+    directory = dataset_dir(data_root, world, seed, frames)
+    start = time.perf_counter()
+    settings = CollectionSettings(worlds=(world,), frames=frames, seed=seed)
+    collect_dataset(directory, settings, progress=False, jobs=1)
+    collect_s = time.perf_counter() - start
+    data = load_dataset(directory)
+    main = built.manifold_names[0]
+    cell.update(
+        version=CELL_VERSION,
+        world=world,
+        family=parse_world_name(world).family,
+        seed=seed,
+        frames=frames,
+        manifolds=list(built.manifold_names),
+        junctions={m: built.junctions_between(main, m) for m in built.manifold_names},
+        digest=built.digest,
+    )
+    cell.setdefault("tasks", {})
+    cell.setdefault("seconds", {})["collect"] = collect_s
+    for task in todo:
+        start = time.perf_counter()
+        cell["tasks"][task] = (
+            _manifold(data, built) if task == "manifold" else _grouping(data, built)
+        )
+        cell["seconds"][task] = time.perf_counter() - start
+    write_json(path, cell)
+    return cell
+
+
+def _cached(path: Path) -> dict:
+    """A cached cell of the current version, or an empty one (a stale or unreadable file is
+    recomputed, not trusted)."""
+    if not path.is_file():
+        return {}
+    try:
+        cell = read_json(path)
+    except (OSError, ValueError, json.JSONDecodeError):
+        return {}
+    if not isinstance(cell, dict) or cell.get("version") != CELL_VERSION:
+        return {}
+    return cell
+
+
+def manifold_errors(cells: list[dict], method: str) -> np.ndarray:
+    """Test error of ``method`` per cell (cells without the manifold task are left out)."""
+    out = []
+    for c in cells:
+        rows = c.get("tasks", {}).get("manifold", {}).get("rows", [])
+        out += [r["test_error"] for r in rows if r["method"] == method]
+    return np.asarray(out, float)
