@@ -73,6 +73,13 @@ def section_worlds(result: dict) -> str:
     for name, entry in result["manifolds"].items():
         frames = ", ".join(f"{s} #{i}" for s, i in entry["frames"])
         parts.append(figure(entry["image"], f"{name}: frames {frames}; laser on the map"))
+    if result.get("gallery"):
+        parts.append(
+            "<p>Generated worlds (<code>FAMILY:SEED</code>, the first 12 training worlds of "
+            "each family): manifolds in colour, obstacles dark, the teleop routes red. The "
+            "methods are scored on held-out test worlds of the same families.</p>"
+        )
+        parts += [figure(p, f"{f} family: generated worlds") for f, p in result["gallery"].items()]
     return section("worlds", "The worlds", *parts)
 
 

@@ -62,7 +62,24 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
         }
         rows.setdefault(seq.world, []).append((MANIFOLDS[m], row))
     result["sheet"] = _rel(write_png(out_dir / "samples.png", sample_sheet(rows)), root)
+    result["gallery"] = _gallery(out_dir, root)
     return result
+
+
+def _gallery(out_dir: Path, root: Path) -> dict:
+    """The committed galleries of generated worlds (``docs/img/gallery_*.png``, drawn by
+    ``python -m scripts.world_gallery``; a test checks they match the generator), copied beside
+    the report: drawing 24 worlds would add ~12 s to the run."""
+    import shutil
+
+    out = {}
+    for family in ("hallway", "lawn"):
+        source = REPO_ROOT / "docs" / "img" / f"gallery_{family}.png"
+        if source.is_file():
+            target = out_dir / source.name
+            shutil.copyfile(source, target)
+            out[family] = _rel(target, root)
+    return out
 
 
 def stage_manifold(dataset_dir: Path, out_dir: Path, root: Path, progress: bool) -> dict:

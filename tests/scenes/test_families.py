@@ -2,6 +2,7 @@
 built and compiled on a sample, named and refused as documented."""
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,7 +14,14 @@ from scenes import build_world
 from scenes.families import FAMILY_SPECS, family_layout, parse_world_name
 from scenes.families.draw import branch_names, layout_problems
 from scenes.families.layout import Layout, Stretch, junction
-from scenes.families.splits import SPLITS, held_out_worlds, split_of, split_worlds, structure
+from scenes.families.splits import (
+    REPEATED_TEST_SEEDS,
+    SPLITS,
+    held_out_worlds,
+    split_of,
+    split_worlds,
+    structure,
+)
 from scenes.robot import RADIUS
 from sim.simulator import compile_world
 from sim.teleop import ScriptedTeleop, TeleopConfig
@@ -212,10 +220,22 @@ def test_splits_are_disjoint_ranges_and_listed_in_order():
         split_worlds("lawn", "dev", 5000)
 
 
+def test_listed_repeats_copy_a_training_structure_and_are_skipped():
+    for family in ("hallway", "lawn"):
+        repeats = REPEATED_TEST_SEEDS[family]
+        for test_seed, train_seed in list(repeats.items())[:3]:
+            a = structure(family_layout(f"{family}:{test_seed}"))
+            assert a == structure(family_layout(f"{family}:{train_seed}"))
+            assert split_of(f"{family}:{train_seed}") == "train"
+        held = held_out_worlds(family, 60)
+        assert not {int(n.split(":")[1]) for n in held} & set(repeats)
+        assert len(held) == 60 and held == sorted(held, key=lambda n: int(n.split(":")[1]))
+
+
 def test_held_out_worlds_skip_a_training_structure():
     first = split_worlds("hallway", "test", 2)
     skip = {structure(family_layout(first[0]))}
-    assert held_out_worlds("hallway", 2) == first
+    assert held_out_worlds("hallway", 2, set()) == first
     assert held_out_worlds("hallway", 2, skip) == [first[1], "hallway:11002"]
 
 
@@ -225,3 +245,17 @@ def test_held_out_worlds_skip_a_training_structure():
 def test_malformed_world_names_name_the_accepted_forms(bad):
     with pytest.raises(ValueError, match="FAMILY:SEED with FAMILY one of"):
         parse_world_name(bad)
+
+
+def test_the_committed_galleries_show_the_current_generator():
+    """The docs' and the report's galleries are committed figures: their first tile must be
+    what the generator draws now (``python -m scripts.world_gallery`` redraws them)."""
+    import cv2
+
+    from scripts.world_gallery import CAPTION, TILE, world_tile
+
+    for family in ("hallway", "lawn"):
+        path = Path(__file__).resolve().parents[2] / "docs" / "img" / f"gallery_{family}.png"
+        committed = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)
+        first = committed[: TILE + CAPTION, :TILE]
+        np.testing.assert_array_equal(first, world_tile(f"{family}:1"), err_msg=str(path))
