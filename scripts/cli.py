@@ -16,6 +16,7 @@ from scripts.args import (
 )
 
 DEFAULT_OUT = "out"
+HELDOUT_HELP = "clustering and grouping on held-out generated worlds beside the canonical"
 LEADERBOARD_HELP = "rank result files per task and protocol, paired against a reference"
 MANIFOLD_EVAL_HELP = "any scikit-learn clusterer through the manifold-clustering protocol"
 SUMMARY = (
@@ -273,6 +274,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     from scripts.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub, default_out=DEFAULT_OUT)
+    h = sub.add_parser("heldout", help=HELDOUT_HELP)
+    if command in (None, "heldout"):
+        from scripts.heldout.evaluate import build_parser as heldout_parser
+        from scripts.heldout.evaluate import run as run_heldout
+
+        heldout_parser(h).set_defaults(func=run_heldout)
     if command in (None, "leaderboard"):  # scipy loads only for this command
         from scripts.leaderboard import leaderboard_parser
 
