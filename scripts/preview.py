@@ -10,15 +10,21 @@ import numpy as np
 from common.fileio import write_png
 from scenes import MANIFOLDS, build_world
 from sim.dataset import Dataset
-from sim.topdown import MANIFOLD_COLOURS, TopDownView
+from sim.topdown import MANIFOLD_COLOURS, TopDownView, manifold_colours
 
 THUMB = (160, 120)
 
 
 def contact_sheet(
-    images: np.ndarray, labels: np.ndarray, every: int = 10, columns: int = 5
+    images: np.ndarray,
+    labels: np.ndarray,
+    every: int = 10,
+    columns: int = 5,
+    names=MANIFOLDS,
+    colours=MANIFOLD_COLOURS,
 ) -> np.ndarray:
-    """Thumbnails of every ``every``-th frame, each captioned with its index and manifold."""
+    """Thumbnails of every ``every``-th frame, each captioned with its index and manifold
+    (``names`` of the label ids, ``colours`` of the names)."""
     idx = np.arange(0, len(images), every)
     rows = int(np.ceil(len(idx) / columns))
     w, h = THUMB
@@ -27,8 +33,8 @@ def contact_sheet(
         r, c = divmod(k, columns)
         y0, x0 = r * (h + 18), c * w
         sheet[y0 : y0 + h, x0 : x0 + w] = cv2.resize(images[i], THUMB, interpolation=cv2.INTER_AREA)
-        name = MANIFOLDS[labels[i]] if labels[i] >= 0 else "none"
-        colour = MANIFOLD_COLOURS.get(name, (0, 0, 0))
+        name = names[labels[i]] if labels[i] >= 0 else "none"
+        colour = colours.get(name, (0, 0, 0))
         sheet[y0 + h : y0 + h + 18, x0 : x0 + w] = colour
         cv2.putText(
             sheet,
@@ -49,17 +55,21 @@ def write_previews(dataset: Dataset, out: str | Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     written = []
     by_world: dict[str, list] = {}
+    names = dataset.meta.get("manifolds", MANIFOLDS)
+    worlds = {w: build_world(w) for w in dict.fromkeys(s.world for s in dataset.sequences.values())}
+    colours = {n: c for w in worlds.values() for n, c in manifold_colours(w).items()}
     for name, seq in dataset.sequences.items():
         by_world.setdefault(seq.world, []).append(seq)
-        path = out / f"{name}_contact_sheet.png"
-        write_png(path, contact_sheet(seq.images, seq.labels))
+        stem = name.replace(":", "-")  # a generated world's name holds a colon
+        path = out / f"{stem}_contact_sheet.png"
+        write_png(path, contact_sheet(seq.images, seq.labels, names=names, colours=colours))
         written.append(path)
         frames = [seq.images[i] for i in (0, len(seq) // 2, len(seq) - 1)]
-        path = out / f"{name}_frames.png"
+        path = out / f"{stem}_frames.png"
         write_png(path, np.concatenate(frames, axis=1))
         written.append(path)
     for world_name, seqs in by_world.items():
-        view = TopDownView(build_world(world_name), max_size=640)
+        view = TopDownView(worlds[world_name], max_size=640)
         img = view.draw()
         for seq in seqs:
             pts = np.round(view.to_pixels(seq.poses[:, :2])).astype(np.int32)
@@ -69,10 +79,10 @@ def write_previews(dataset: Dataset, out: str | Path) -> list[Path]:
                 colour = (
                     (40, 40, 40)
                     if lab < 0
-                    else tuple(int(v * 0.6) for v in MANIFOLD_COLOURS[MANIFOLDS[lab]])
+                    else tuple(int(v * 0.6) for v in colours.get(names[lab], (90, 90, 90)))
                 )
                 cv2.circle(img, tuple(int(v) for v in p), 2, colour, -1, cv2.LINE_AA)
-        path = out / f"{world_name}_trajectories.png"
+        path = out / f"{world_name.replace(':', '-')}_trajectories.png"
         write_png(path, img)
         written.append(path)
     return written

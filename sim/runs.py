@@ -51,6 +51,9 @@ class Runs:
         The true poses; None without ground truth (imported robot logs).
     labels : ndarray of int, shape (N,) or None
         The ground-truth manifold ids (-1: on none); None without ground truth.
+    manifold_names : tuple of str or None
+        The manifold of each id (the dataset's ``meta["manifolds"]``); None: the canonical
+        worlds' :data:`scenes.MANIFOLDS`.
     """
 
     world: str
@@ -64,11 +67,15 @@ class Runs:
     times: np.ndarray
     poses: np.ndarray | None = None
     labels: np.ndarray | None = None
+    manifold_names: tuple[str, ...] | None = None
 
     @classmethod
-    def from_sequences(cls, sequences: SequenceOf[Sequence], max_range: float | None) -> Runs:
+    def from_sequences(
+        cls, sequences: SequenceOf[Sequence], max_range: float | None, manifold_names=None
+    ) -> Runs:
         """Concatenate ``sequences`` (all of one world, with the same beam count and image
-        size); ``max_range`` is the laser's (None: the longest return seen stands for it)."""
+        size); ``max_range`` is the laser's (None: the longest return seen stands for it);
+        ``manifold_names`` names the label ids."""
         if not sequences:
             raise ValueError("sequences is empty")
         worlds = {s.world for s in sequences}
@@ -99,6 +106,7 @@ class Runs:
             times=np.concatenate([s.times for s in sequences]),
             poses=np.concatenate([s.poses for s in sequences]) if truth else None,
             labels=np.concatenate([s.labels for s in sequences]).astype(int) if truth else None,
+            manifold_names=None if manifold_names is None else tuple(manifold_names),
         )
 
     @property

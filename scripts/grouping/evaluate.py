@@ -64,7 +64,7 @@ def group_scans(runs: Runs, poses: str) -> tuple[ObservationGraphPartitioner, di
     model.fit(runs.scans, given, groups=runs.groups)
     seconds = time.perf_counter() - start
     if runs.has_ground_truth:
-        score = score_groups(runs.labels, model.labels_)
+        score = score_groups(runs.labels, model.labels_, runs.manifold_names)
         err = model.poses_[:, :2] - runs.poses[:, :2]
         drift, met = float(np.hypot(err[:, 0], err[:, 1]).max()), meets_targets(score)
     else:

@@ -144,7 +144,7 @@ def evaluate_worlds_method(method: OutsideMethod, datasets, given="scans", local
         except Exception as err:  # an outside estimator may raise anything
             record.update(value=None, failure=_failure(err))
         else:
-            score = score_groups(runs.labels, labels)
+            score = score_groups(runs.labels, labels, runs.manifold_names)
             record.update(value=score["ari"], failure=None, purity=score["purity"],
                           groups=score["groups"], meets_targets=meets_targets(score),
                           max_groups_per_manifold=score["max_groups_per_manifold"],

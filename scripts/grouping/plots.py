@@ -195,9 +195,12 @@ def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
 def _map_background(world_name: str) -> Callable[[object], None] | None:
     """A function drawing the top-down map of one of our worlds into an axis; None for a
     world that is not ours (an imported dataset)."""
-    from scenes import WORLDS, build_world
+    from scenes import build_world
+    from scenes.families import parse_world_name
 
-    if world_name not in WORLDS:
+    try:
+        parse_world_name(world_name)
+    except ValueError:
         return None
     from sim.topdown import TopDownView
 

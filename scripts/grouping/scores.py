@@ -97,7 +97,7 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
 
     def score(labels):
         if runs.has_ground_truth:
-            return score_groups(runs.labels, labels)
+            return score_groups(runs.labels, labels, runs.manifold_names)
         return unscored(len(runs), labels)
 
     out = {

@@ -63,7 +63,7 @@ def _grouping(data, world) -> dict:
     runs = data.runs(world.name)
     model = ObservationGraphPartitioner(scan_matching=True)
     model.fit(runs.scans, runs.odometry, groups=runs.groups)
-    score = score_groups(runs.labels, model.labels_, names=data.meta["manifolds"])
+    score = score_groups(runs.labels, model.labels_, runs.manifold_names)
     keep = ("frames", "groups", "purity", "ari", "groups_per_manifold", "max_groups_per_manifold")
     return {k: score[k] for k in keep}
 

@@ -188,7 +188,8 @@ class Dataset:
             raise ValueError(
                 f"{self.path} has no sequence in world {world!r}: it has {self.worlds}"
             )
-        return Runs.from_sequences(sequences, self.max_range)
+        names = self.meta.get("manifolds") if self.has_ground_truth else None
+        return Runs.from_sequences(sequences, self.max_range, names)
 
     def paper_split(self) -> tuple[np.ndarray, np.ndarray]:
         """Boolean masks (train, test) over :meth:`concat` order: every second frame of each
