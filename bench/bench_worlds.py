@@ -19,7 +19,7 @@ import numpy as np
 
 import sim  # noqa: F401  (headless GL before mujoco)
 from scenes import build_world
-from scenes.families.splits import split_worlds
+from scenes.families import split_worlds
 from sim.camera import CameraConfig
 from sim.laser import LaserConfig
 from sim.simulator import Simulator

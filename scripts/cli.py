@@ -276,8 +276,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     add_sweep_parser(sub, default_out=DEFAULT_OUT)
     h = sub.add_parser("heldout", help=HELDOUT_HELP)
     if command in (None, "heldout"):
-        from scripts.heldout.evaluate import build_parser as heldout_parser
-        from scripts.heldout.evaluate import run as run_heldout
+        from scripts.heldout import heldout_parser, run_heldout
 
         heldout_parser(h).set_defaults(func=run_heldout)
     if command in (None, "leaderboard"):  # scipy loads only for this command

@@ -15,7 +15,7 @@ import numpy as np
 
 from common.fileio import write_png
 from scenes import build_world
-from scenes.families.splits import split_worlds
+from scenes.families import split_worlds
 from sim.topdown import TopDownView
 
 TILE = 300  # pixels per side of one world's drawing

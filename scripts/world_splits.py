@@ -16,8 +16,7 @@ import json
 from tqdm.auto import tqdm
 
 from common.fileio import atomic_write_bytes
-from scenes.families import FAMILIES, family_layout
-from scenes.families.splits import SPLITS, SPLITS_VERSION, split_worlds, structure
+from scenes.families import FAMILIES, SPLITS, SPLITS_VERSION, family_layout, split_worlds, structure
 
 
 def repeats(family: str, progress: bool = True) -> dict:

@@ -13,16 +13,32 @@ from scenes.families.build import build_family_world, family_layout
 from scenes.families.draw import FAMILY_SPECS, FamilySpec
 from scenes.families.layout import Layout
 from scenes.families.naming import FAMILIES, MAX_SEED, WorldName, check_world_name, parse_world_name
+from scenes.families.splits import (
+    REPEATED_TEST_SEEDS,
+    SPLITS,
+    SPLITS_VERSION,
+    held_out_worlds,
+    split_of,
+    split_worlds,
+    structure,
+)
 
 __all__ = [
     "FAMILIES",
     "FAMILY_SPECS",
     "MAX_SEED",
+    "REPEATED_TEST_SEEDS",
+    "SPLITS",
+    "SPLITS_VERSION",
     "FamilySpec",
     "Layout",
     "WorldName",
     "build_family_world",
     "check_world_name",
     "family_layout",
+    "held_out_worlds",
     "parse_world_name",
+    "split_of",
+    "split_worlds",
+    "structure",
 ]

@@ -41,7 +41,7 @@ def dataset_dir(data_root: Path, world: str, seed: int, frames: int) -> Path:
 
 def _manifold(data, world) -> dict:
     from mapping import ColorHistogramFeatures
-    from scripts.manifold.methods import OURS, SKLEARN_DEFAULT, score_methods
+    from scripts.manifold import OURS, SKLEARN_DEFAULT, score_methods
 
     train, test = data.paper_split()
     images = data.concat("images")
@@ -58,7 +58,7 @@ def _manifold(data, world) -> dict:
 
 def _grouping(data, world) -> dict:
     from mapping.grouping import ObservationGraphPartitioner
-    from scripts.grouping.scores import score_groups
+    from scripts.grouping import score_groups
 
     runs = data.runs(world.name)
     model = ObservationGraphPartitioner(scan_matching=True)

@@ -22,8 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from common.fileio import atomic_write_bytes, write_json
-from scenes.families import FAMILIES
-from scenes.families.splits import SPLITS_VERSION, held_out_worlds
+from scenes.families import FAMILIES, SPLITS_VERSION, held_out_worlds
 from scripts.heldout.cells import MANIFOLD_Q, TASKS, manifold_errors, run_cell
 
 __all__ = ["evaluate_heldout", "summarise"]
@@ -87,14 +86,14 @@ def evaluate_heldout(
 
 
 def _interval(values, seed: int = 0) -> dict:
-    from scripts.manifold.methods import bootstrap_mean
+    from scripts.manifold import bootstrap_mean
 
     return bootstrap_mean(np.asarray(values, float), np.random.default_rng(seed))
 
 
 def summarise(cells: list[dict], frames: int) -> dict:
     """Per family: each task on the canonical world and over the held-out worlds."""
-    from scripts.manifold.methods import OURS, SKLEARN_DEFAULT
+    from scripts.manifold import OURS, SKLEARN_DEFAULT
 
     out = {"splits_version": SPLITS_VERSION, "frames": frames, "q": MANIFOLD_Q, "families": {}}
     for family in sorted({c["family"] for c in cells}):

@@ -10,6 +10,8 @@ __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     {
         "METHODS": "scripts.manifold.methods",
+        "OURS": "scripts.manifold.methods",
+        "SKLEARN_DEFAULT": "scripts.manifold.methods",
         "bootstrap_mean": "scripts.manifold.methods",
         "score_methods": "scripts.manifold.methods",
         "FEATURES": "scripts.manifold.protocol",

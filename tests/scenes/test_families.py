@@ -258,4 +258,6 @@ def test_the_committed_galleries_show_the_current_generator():
         path = Path(__file__).resolve().parents[2] / "docs" / "img" / f"gallery_{family}.png"
         committed = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)
         first = committed[: TILE + CAPTION, :TILE]
-        np.testing.assert_array_equal(first, world_tile(f"{family}:1"), err_msg=str(path))
+        # anti-aliased lines and text differ by OpenCV version; a changed plan moves most pixels
+        differ = np.any(first != world_tile(f"{family}:1"), axis=-1).mean()
+        assert differ < 0.05, (str(path), differ)

@@ -57,7 +57,8 @@ def test_help_lists_every_subcommand_with_its_one_line_help(capsys):
     listed = _listed(capsys.readouterr().out)
     sub = next(a for a in build_parser("")._actions if a.dest == "command")
     assert list(listed) == list(sub.choices)  # every one, in the order registered
-    assert len(listed) == 12
+    assert len(listed) == 13
+    assert listed["heldout"].startswith("clustering and grouping on held-out")
     assert listed["manifold-eval"].startswith("any scikit-learn clusterer")
     assert listed["leaderboard"].startswith("rank result files per task and protocol")
     assert listed["run"] == "the main job end to end on the default worlds"
