@@ -23,6 +23,7 @@ __all__ = [
     "label_space",
     "randomisation_key",
     "sequence_file",
+    "world_digest",
     "world_manifold_names",
     "world_sequences",
 ]
@@ -41,6 +42,13 @@ def check_worlds(worlds, argument: str = "worlds") -> tuple[str, ...]:
     if len(set(out)) != len(out):
         raise ValueError(f"{argument} must name each world once, got {worlds!r}")
     return out
+
+
+@lru_cache(maxsize=64)
+def world_digest(name: str) -> str:
+    """The floor plan's SHA-256 of world ``name`` (:attr:`scenes.World.digest`), built once
+    per process; ValueError naming the accepted forms for a name that is no world."""
+    return build_world(check_world_name(name)).digest
 
 
 @lru_cache(maxsize=64)
