@@ -1,5 +1,6 @@
 """Scripted-teleop data collection: the paper's 6 sequences (3 per world: main manifold, then
-left / straight / right), written as a resumable dataset (see :mod:`sim.dataset`).
+left / straight / right), written as a resumable dataset (see :mod:`sim.dataset`); a generated
+world (``FAMILY:SEED``) records one sequence per route (:mod:`sim.collect_worlds`).
 
 Frames are taken at equal steps of progress along the route, so every sequence covers its
 whole route with the requested number of frames whatever the driver's speed jitter; the

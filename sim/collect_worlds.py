@@ -15,7 +15,6 @@ import numpy as np
 
 from scenes import build_world, names
 from scenes.families import check_world_name, parse_world_name
-from scenes.families.naming import ACCEPTED
 
 __all__ = [
     "check_worlds",
@@ -36,7 +35,8 @@ def check_worlds(worlds, argument: str = "worlds") -> tuple[str, ...]:
     ValueError naming ``argument`` and the accepted forms otherwise."""
     if isinstance(worlds, str) or not isinstance(worlds, tuple | list) or not worlds:
         raise ValueError(
-            f"{argument} must be a non-empty tuple of world names, each {ACCEPTED}; got {worlds!r}"
+            f"{argument} must be a non-empty tuple of world names, each 'hallway', 'lawn' or "
+            f"FAMILY:SEED (for example 'hallway:17'); got {worlds!r}"
         )
     out = tuple(check_world_name(w, argument) for w in worlds)
     if len(set(out)) != len(out):

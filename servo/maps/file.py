@@ -24,7 +24,6 @@ from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
 from scenes import NO_MANIFOLD
 from scenes.families import check_world_name, parse_world_name
-from scenes.families.naming import ACCEPTED
 from servo.maps.types import MapError, MapSettings, ServoMap
 from sim.collect_worlds import world_digest
 from sim.dataset import read_npz, write_sequence
@@ -126,7 +125,7 @@ def _read_meta(path: Path, world: str | None) -> dict:
         named = check_world_name(meta["world"]) == meta["world"]  # the normalised spelling
     except ValueError:
         named = False
-    _check(named, path, f"world must be {ACCEPTED}")
+    _check(named, path, "world must be 'hallway', 'lawn' or FAMILY:SEED such as 'hallway:17'")
     _check(isinstance(meta["world_digest"], str) and bool(_SHA.match(meta["world_digest"])),
            path, "world_digest must be 64 hex digits")  # fmt: skip
     manifolds = meta["manifolds"]
@@ -206,10 +205,7 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
     """
     if world is not None:
         # an argument error, not a damaged file: no MapError (load_or_build would rebuild)
-        try:
-            world = check_world_name(world)
-        except ValueError:
-            raise ValueError(f"world must be {ACCEPTED}, or None; got {world!r}") from None
+        world = check_world_name(world, "world")  # its ValueError names the accepted forms
     path = Path(path).with_suffix(".json")
     npz_path = path.with_suffix(".npz")
     if not path.is_file():

@@ -78,8 +78,8 @@ def test_a_crafted_map_cannot_run_code(copy, tmp_path):
     [
         (lambda m: m.update(version=FORMAT_VERSION + 1), "format version"),
         (lambda m: m.update(format="something-else"), "format must be"),
-        (lambda m: m.update(world="mars"), "world must be 'hallway' or 'lawn'"),
-        (lambda m: m.update(world="hallway:0"), "world must be 'hallway' or 'lawn'"),
+        (lambda m: m.update(world="mars"), "world must be 'hallway', 'lawn' or FAMILY:SEED"),
+        (lambda m: m.update(world="hallway:0"), "world must be 'hallway', 'lawn' or FAMILY"),
         (lambda m: m.update(world_digest="x"), "world_digest must be 64 hex digits"),
         (lambda m: m.update(manifolds=[1]), "manifolds must be a list of names"),
         (lambda m: m.update(extra=1), "exactly the keys"),
