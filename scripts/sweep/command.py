@@ -69,7 +69,7 @@ def _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps):
 
     worlds, settings, seeds = list(worlds), list(settings), list(seeds)
     if not worlds:
-        raise ValueError("worlds must name at least one world ('hallway', 'lawn' or FAMILY:SEED)")
+        raise ValueError("worlds must be a non-empty list of 'hallway', 'lawn' or FAMILY:SEED")
     worlds = [check_world_name(w, "worlds") for w in worlds]
     if not settings or any(s not in SETTINGS for s in settings):
         raise ValueError(
