@@ -320,8 +320,8 @@ class ServoEnv(gym.Env):
     def _junctions_between(self, start: str | None, target: int) -> int | None:
         """Junctions between the start's manifold and the target view's (evaluation only);
         None where either is on no manifold of the world."""
-        world, end = self.base.world, self.map.true_manifold(target)
-        if start is None or end not in world.manifold_ids:
+        world, end = getattr(self.base, "world", None), self.map.true_manifold(target)
+        if world is None or start is None or end not in world.manifold_ids:  # None: a stand-in
             return None
         return world.junctions_between(start, end)
 
