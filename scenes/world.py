@@ -150,6 +150,7 @@ class World:
     def junctions_between(self, a: str, b: str) -> int:
         """How many junctions lie between manifolds ``a`` and ``b`` (0 for one manifold; two
         branches of one junction are 1 apart)."""
+
         def up(m):
             if m not in self.parents:
                 raise ValueError(f"manifold must be one of {self.manifold_names}, got {m!r}")
@@ -184,7 +185,7 @@ class World:
         directory.mkdir(parents=True, exist_ok=True)
         for file, data in self.assets.items():
             atomic_write_bytes(directory / file, data)
-        path = directory / f"{self.name}.xml"
+        path = directory / f"{self.name.replace(':', '-')}.xml"  # no ':' in a file name
         atomic_write_bytes(path, self.xml.encode())
         return path
 

@@ -16,8 +16,11 @@ __all__ = [
     "output_folder",
     "policies",
     "positive_int",
+    "world_choice",
     "worlds",
 ]
+
+WORLD_HELP = "all (the canonical worlds), hallway, lawn or FAMILY:SEED such as hallway:17"
 
 
 def _int_at_least(text: str, minimum: int) -> int:
@@ -53,6 +56,20 @@ def non_negative_float(text: str) -> float:
     if not (value >= 0 and value != float("inf")):
         raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
     return value
+
+
+def world_choice(text: str) -> str:
+    """A ``--world`` value: ``all``, or a world name (``hallway``, ``lawn`` or
+    ``FAMILY:SEED``), normalised (``hallway:0`` is ``hallway``); an ArgumentTypeError naming
+    the accepted forms otherwise, which argparse prints as a usage error."""
+    from scenes.families import check_world_name
+
+    if text == "all":
+        return text
+    try:
+        return check_world_name(text, "--world")
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"{err}; or 'all' for the canonical worlds") from None
 
 
 def worlds(choice: str) -> tuple[str, ...]:

@@ -8,10 +8,12 @@ import sys
 import time
 
 from scripts.args import (
+    WORLD_HELP,
     non_negative_int,
     output_folder,
     policies,
     positive_int,
+    world_choice,
     worlds,
 )
 
@@ -160,7 +162,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     by a heavy module (``reproduce``, ``group-eval``: scikit-learn, the experiments) get
     them only if they are ``command`` ("": neither); the others list them all, so ``topomap
     --help`` need not import every experiment (it took ~3 s)."""
-    from scenes import WORLDS
     from scripts.collect_command import add_parser as add_collect_parser
     from scripts.servo_commands import add_parsers as add_servo_parsers
 
@@ -209,7 +210,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     v.set_defaults(func=cmd_preview)
 
     w = sub.add_parser("worlds", help="write the worlds' MJCF and textures (for MuJoCo's viewer)")
-    w.add_argument("--world", choices=(*WORLDS, "all"), default="all")
+    w.add_argument("--world", type=world_choice, default="all", metavar="WORLD", help=WORLD_HELP)
     w.add_argument("--out", required=True)
     w.set_defaults(func=cmd_worlds)
 

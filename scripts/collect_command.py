@@ -6,11 +6,13 @@ import sys
 import time
 
 from scripts.args import (
+    WORLD_HELP,
     frame_count,
     non_negative_float,
     non_negative_int,
     output_folder,
     positive_int,
+    world_choice,
     worlds,
 )
 
@@ -50,11 +52,10 @@ def cmd_collect(args) -> int:
 
 def add_parser(sub) -> None:
     """The ``collect`` subcommand on the ``topomap`` parser's subparsers ``sub``."""
-    from scenes import WORLDS
     from scenes.appearance import APPEARANCE_MODES
 
     c = sub.add_parser("collect", help="collect a teleop dataset (resumable)")
-    c.add_argument("--world", choices=(*WORLDS, "all"), required=True)
+    c.add_argument("--world", type=world_choice, required=True, metavar="WORLD", help=WORLD_HELP)
     c.add_argument("--out", required=True, help="dataset directory")
     c.add_argument(
         "--seed",

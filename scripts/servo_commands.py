@@ -7,7 +7,15 @@ import hashlib
 import json
 import sys
 
-from scripts.args import output_folder, policy_arg, policy_name, positive_int, worlds
+from scripts.args import (
+    WORLD_HELP,
+    output_folder,
+    policy_arg,
+    policy_name,
+    positive_int,
+    world_choice,
+    worlds,
+)
 
 
 def servo_eval_name(args) -> str:
@@ -22,7 +30,7 @@ def servo_eval_name(args) -> str:
     digest = hashlib.sha256(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8]
     tag = args.policy.replace(":", ".") + (f"-{digest}" if params else "")
     return (
-        f"servo-eval-{args.world}-{args.tier}-{args.split}-{tag}"
+        f"servo-eval-{args.world.replace(':', '-')}-{args.tier}-{args.split}-{tag}"
         f"-{args.episodes}ep{extras}{steps}.json"
     )
 
@@ -99,11 +107,10 @@ def cmd_servo_compare(args) -> int:
 def add_parsers(sub, default_out: str) -> None:
     """The ``servo-eval`` and ``servo-compare`` subcommands on the ``topomap`` parser's
     subparsers ``sub`` (``default_out``: the folder of the data and maps by default)."""
-    from scenes import WORLDS
     from servo.task import POLICIES
 
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")
-    e.add_argument("--world", choices=(*WORLDS, "all"), default="all")
+    e.add_argument("--world", type=world_choice, default="all", metavar="WORLD", help=WORLD_HELP)
     e.add_argument(
         "--episodes", type=positive_int, default=100, help="per world (the headline tables: 100)"
     )

@@ -1,5 +1,6 @@
 """Scripted-teleop data collection: the paper's 6 sequences (3 per world: main manifold, then
-left / straight / right), written as a resumable dataset (see :mod:`sim.dataset`).
+left / straight / right), written as a resumable dataset (see :mod:`sim.dataset`); a generated
+world (``FAMILY:SEED``) records one sequence per route (:mod:`sim.collect_worlds`).
 
 Frames are taken at equal steps of progress along the route, so every sequence covers its
 whole route with the requested number of frames whatever the driver's speed jitter; the
@@ -25,6 +26,15 @@ from scenes import World, build_world, names
 from scenes.appearance import check_appearance_mode
 from sim import dataset as ds
 from sim.camera import CameraConfig
+from sim.collect_worlds import (
+    check_worlds,
+    label_lookup,
+    label_space,
+    randomisation_key,
+    sequence_entropy,
+    sequence_file,
+    world_sequences,
+)
 from sim.laser import LaserConfig
 from sim.odometry import OdometryConfig
 from sim.simulator import Simulator
@@ -47,7 +57,9 @@ class CollectionSettings:
     Parameters
     ----------
     worlds : tuple of str, default ("hallway", "lawn")
-        The worlds to record; each has its three teleop routes, one per branch.
+        The worlds to record, each named once: a canonical world (three teleop routes, one
+        per branch) or a generated one, ``FAMILY:SEED`` (one route per leaf manifold);
+        ``"hallway:0"`` is stored as ``"hallway"``.
     frames : int, default 150
         Frames per recording (the paper's count); at least 2.
     seed : int, default 0
@@ -99,11 +111,7 @@ class CollectionSettings:
     teleop: TeleopConfig = field(default_factory=TeleopConfig)
 
     def __post_init__(self):
-        bad = [w for w in self.worlds if w not in names.WORLDS]
-        if bad or not self.worlds:
-            raise ValueError(
-                f"worlds must be a non-empty subset of {names.WORLDS}, got {self.worlds}"
-            )
+        object.__setattr__(self, "worlds", check_worlds(self.worlds))
         if int(self.frames) != self.frames or self.frames < 2:
             raise ValueError(f"frames must be an integer >= 2, got {self.frames}")
         check_sequence_size(self.frames, self.camera, self.laser)
@@ -124,13 +132,14 @@ class CollectionSettings:
 
     def sequences(self) -> list[tuple[int, str, str]]:
         """(stable index, world, route name); the index seeds the sequence, so collecting one
-        world gives the same sequences as collecting all."""
-        out = []
-        for w in self.worlds:
-            for b in names.BRANCHES:
-                index = names.WORLDS.index(w) * len(names.BRANCHES) + names.BRANCHES.index(b)
-                out.append((index, w, names.manifold_name(w, b)))
-        return out
+        world gives the same sequences as collecting all (see
+        :func:`sim.collect_worlds.world_sequences`)."""
+        return [s for w in self.worlds for s in world_sequences(w)]
+
+    def manifolds(self) -> list[str]:
+        """The dataset's manifold names, which its labels index
+        (:func:`sim.collect_worlds.label_space`)."""
+        return label_space(self.worlds)
 
 
 def frame_bytes(camera: CameraConfig, laser: LaserConfig) -> int:
@@ -161,16 +170,19 @@ def collection_world(name: str, seed: int, randomize: bool, appearance: str = "d
     """The world a collection of ``seed`` drives in: canonical, or (``randomize``) the
     randomised draw of that seed and world, in the ``appearance`` mode; built once per
     process."""
-    rng = np.random.default_rng([seed, 1000 + names.WORLDS.index(name)]) if randomize else None
+    rng = np.random.default_rng(randomisation_key(name, seed)) if randomize else None
     return build_world(name, rng, appearance)
 
 
 def collect_sequence(
-    settings: CollectionSettings, index: int, world_name: str, route_name: str, tick=None
+    settings: CollectionSettings, index, world_name: str, route_name: str, tick=None
 ) -> dict[str, np.ndarray]:
-    """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays."""
+    """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays.
+    ``index`` is the sequence's seeding index (:meth:`CollectionSettings.sequences`)."""
     world = collection_world(world_name, settings.seed, settings.randomize, settings.appearance)
-    teleop_rng, noise_rng, odo_rng = np.random.default_rng([settings.seed, index]).spawn(3)
+    entropy = sequence_entropy(settings.seed, index)
+    teleop_rng, noise_rng, odo_rng = np.random.default_rng(entropy).spawn(3)
+    labels = label_lookup(settings.worlds, world.manifold_ids, world_name)
     sim = Simulator(world, settings.camera, settings.laser, settings.odometry, TELEOP_CONTROL_DT)
     try:
         teleop = ScriptedTeleop(world, world.routes[route_name], settings.teleop, teleop_rng)
@@ -202,7 +214,7 @@ def collect_sequence(
                 out["poses"][k] = sim.pose
                 out["odometry"][k] = sim.odometry.pose
                 out["commands"][k] = command
-                out["labels"][k] = world.manifold_at(sim.pose[:2])
+                out["labels"][k] = labels[world.manifold_at(sim.pose[:2])]
                 out["times"][k] = sim.time
                 k += 1
                 if tick is not None:
@@ -249,7 +261,7 @@ def _collect_to_file(
     arrays = collect_sequence(settings, index, world, route, tick)
     if _QUEUE is not None:
         _QUEUE.put(ticks[0] % 10)
-    file = f"{route}.npz"
+    file = sequence_file(route)
     digest = ds.write_sequence(Path(directory) / file, arrays)
     return route, {"file": file, "world": world, "frames": settings.frames, "sha256": digest}
 
@@ -260,7 +272,7 @@ def _base_meta(settings: CollectionSettings) -> dict:
         "schema_version": ds.SCHEMA_VERSION,
         "ground_truth": True,
         "settings": settings.to_json(),
-        "manifolds": list(names.MANIFOLDS),
+        "manifolds": settings.manifolds(),
         "sequences": {},
         "complete": False,
     }
@@ -366,7 +378,7 @@ def _old_meta(directory: Path, overwrite: bool) -> dict | None:
 
 def _collect_to_file_inline(settings, index, world, route, directory, bar):
     arrays = collect_sequence(settings, index, world, route, bar.update)
-    file = f"{route}.npz"
+    file = sequence_file(route)
     digest = ds.write_sequence(directory / file, arrays)
     return route, {"file": file, "world": world, "frames": settings.frames, "sha256": digest}
 

@@ -11,7 +11,8 @@ import numpy as np
 from gymnasium import spaces
 
 from common.validation import check_bool, check_finite, check_keys
-from scenes import MANIFOLDS, NO_MANIFOLD, WORLDS, build_world
+from scenes import NO_MANIFOLD, build_world
+from scenes.families import check_world_name, parse_world_name
 from scenes.robot import RADIUS
 from sim.camera import CameraConfig
 from sim.laser import LaserConfig
@@ -39,22 +40,26 @@ def sensor_config(value, cls, name: str):
         fields = tuple(f.name for f in dataclasses.fields(cls))
         return cls(**check_keys(value, fields, name))
     raise TypeError(
-        f"{name} must be a {cls.__name__}, a dict of its fields or None, got "
-        f"{type(value).__name__}"
+        f"{name} must be a {cls.__name__}, a dict of its fields or None, got {type(value).__name__}"
     )
 
 
 def check_world(world, registered_world) -> str:
-    """The world to build: ``world``, else the one the env id names (``registered_world``,
-    passed by the registry), else "hallway"; a ``world`` that contradicts the id's is an
+    """The world to build, normalised: ``world``, else the one the env id names
+    (``registered_world``, passed by the registry), else "hallway". A generated world
+    (``FAMILY:SEED``) must be of the id's family; a ``world`` that contradicts the id is an
     error rather than the other world under the id's name."""
-    for name, value in (("world", world), ("registered_world", registered_world)):
-        if value is not None and value not in WORLDS:
-            raise ValueError(f"{name} must be one of {WORLDS}, got {value!r}")
+    world = None if world is None else check_world_name(world, "world")
+    if registered_world is not None:
+        registered_world = check_world_name(registered_world, "registered_world")
     if world is not None and registered_world is not None and world != registered_world:
+        family, registered = parse_world_name(world).family, parse_world_name(registered_world)
+        if registered.canonical and family == registered.family:
+            return world  # a generated world of the id's family
         raise ValueError(
-            f"world={world!r} contradicts the env id, which is the {registered_world} world; "
-            f"make the {world} world's id instead of passing world="
+            f"world={world!r} contradicts the env id, which is the {registered_world} world "
+            f"(it takes {registered.family!r} or {registered.family}:SEED); make the {family} "
+            "world's id instead of passing world="
         )
     return world or registered_world or "hallway"
 
@@ -140,9 +145,13 @@ class NavigationEnv(gym.Env):
 
     Parameters
     ----------
-    world : {"hallway", "lawn"}, optional
-        The world; default the one the env id names, else "hallway". A world that contradicts
-        the id (``gym.make("topomap/Hallway-v0", world="lawn")``) raises ``ValueError``.
+    world : str, optional
+        The world: ``"hallway"``, ``"lawn"`` or a generated world ``FAMILY:SEED`` of the id's
+        family (``gym.make("topomap/Hallway-v0", world="hallway:17")``); default the one the
+        env id names, else "hallway". A world that contradicts the id
+        (``gym.make("topomap/Hallway-v0", world="lawn")`` or ``world="lawn:3"``) raises
+        ``ValueError``. ``options["manifold"]`` and ``info["manifold"]`` name the world's own
+        manifolds (``info["manifold_id"]`` is the world's label id).
     render_mode : {None, "rgb_array"}, default None
         ``"rgb_array"``: :meth:`render` draws a top-down map with the robot, its laser and its
         trail.
@@ -288,9 +297,13 @@ class NavigationEnv(gym.Env):
         ok = self.occupancy.clearance >= START_CLEARANCE
         centers = self.occupancy.cell_centers()
         if manifold is not None:
-            if manifold not in MANIFOLDS:
-                raise ValueError(f"manifold must be one of {MANIFOLDS}, got {manifold!r}")
-            ok &= self.world.manifold_at(centers) == MANIFOLDS.index(manifold)
+            ids = self.world.manifold_ids
+            if not isinstance(manifold, str) or manifold not in ids:
+                raise ValueError(
+                    f"manifold must be one of {self.world.manifold_names} (the manifolds of "
+                    f"{self.world_name!r}), got {manifold!r}"
+                )
+            ok &= self.world.manifold_at(centers) == ids[manifold]
         cells = np.argwhere(ok)
         if len(cells) == 0:
             raise ValueError(
@@ -315,7 +328,7 @@ class NavigationEnv(gym.Env):
         return {
             "pose": pose,
             "odometry": self.sim.odometry.pose.copy(),
-            "manifold": None if label == NO_MANIFOLD else MANIFOLDS[label],
+            "manifold": None if label == NO_MANIFOLD else self.world.manifolds.name_of(label),
             "manifold_id": label,
             "collision": bool(collision),
             "time": self.sim.time,

@@ -74,6 +74,21 @@ def servo_maps(servo_dataset, map_cache):
     return {w: load_or_build(w, servo_dataset, map_cache) for w in ("hallway", "lawn")}
 
 
+@pytest.fixture(scope="session")
+def generated_servo_map(tmp_path_factory):
+    """(map, cache folder) of the generated world ``lawn:3``: 8 frames per route (the default
+    camera, as ``ServoEnv`` renders), small features, about 10 s."""
+    from servo.maps import MapSettings, load_or_build
+    from sim.collect import CollectionSettings, collect_dataset
+
+    data = tmp_path_factory.mktemp("generated-data")
+    collection = CollectionSettings(worlds=("lawn:3",), frames=8)
+    collect_dataset(data, collection, jobs=1, progress=False)
+    cache = tmp_path_factory.mktemp("generated-maps")
+    settings = MapSettings(stride=1, min_cluster_size=3, image_size=(16, 12))
+    return load_or_build("lawn:3", data, cache, settings, progress=False), cache
+
+
 ACES_SLICE = Path(__file__).parent / "data" / "radish" / "aces-every-third-scan.log.gz"
 
 

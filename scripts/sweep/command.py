@@ -64,12 +64,13 @@ def parse_seeds(text: str) -> list[int]:
 
 
 def _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps):
-    from scenes import WORLDS
+    from scenes.families import check_world_name
     from servo.task import POLICIES
 
     worlds, settings, seeds = list(worlds), list(settings), list(seeds)
-    if not worlds or any(w not in WORLDS for w in worlds):
-        raise ValueError(f"worlds must be a non-empty subset of {WORLDS}, got {worlds}")
+    if not worlds:
+        raise ValueError("worlds must be a non-empty list of 'hallway', 'lawn' or FAMILY:SEED")
+    worlds = [check_world_name(w, "worlds") for w in worlds]
     if not settings or any(s not in SETTINGS for s in settings):
         raise ValueError(
             f"settings must be a non-empty subset of {tuple(SETTINGS)}, got {settings}"
@@ -212,9 +213,9 @@ def sweep_meta(rows: list[dict], seeds, episodes_per_seed: int, max_steps: int, 
 
 # -- command line (``topomap sweep``) ---------------------------------------------------------
 def cmd_sweep(args) -> int:
-    from scenes import WORLDS
+    from scripts.args import worlds as world_names
 
-    worlds = WORLDS if args.world == "all" else (args.world,)
+    worlds = world_names(args.world)
     seeds = parse_seeds(args.seeds)
     settings = [s.strip() for s in args.settings.split(",") if s.strip()]
     t0 = time.perf_counter()
@@ -249,14 +250,14 @@ def _run_from_args(args, worlds, seeds, settings) -> list[dict]:
 
 def add_parser(sub, default_out: str = "out"):
     """Add the ``sweep`` subcommand to the ``topomap`` parser's subparsers."""
-    from scenes import WORLDS
+    from scripts.args import WORLD_HELP, world_choice
     from scripts.args import positive_int as positive
     from servo.task import POLICIES
 
     s = sub.add_parser(
         "sweep", help="evaluation sweep over worlds, seeds and settings, in parallel"
     )
-    s.add_argument("--world", choices=(*WORLDS, "all"), default="all")
+    s.add_argument("--world", type=world_choice, default="all", metavar="WORLD", help=WORLD_HELP)
     s.add_argument("--seeds", default="0-3", help="e.g. 0-3 or 0,2,5 (default 0-3)")
     s.add_argument(
         "--settings",
@@ -267,8 +268,12 @@ def add_parser(sub, default_out: str = "out"):
     s.add_argument("--policy", choices=POLICIES, default="servo")
     s.add_argument("--max-steps", type=positive, default=600, help="episode time limit (steps)")
     s.add_argument("--jobs", type=positive, default=None, help="workers (default: the cores)")
-    s.add_argument("--backend", choices=BACKENDS, default="local",
-                   help="local: processes on this machine; ray: Ray actors (pip install ray)")
+    s.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="local",
+        help="local: processes on this machine; ray: Ray actors (pip install ray)",
+    )
     s.add_argument("--address", default=None,
                    help="an existing Ray cluster's address (host:port or ray://host:port); "
                         "default: start a local Ray instance")  # fmt: skip

@@ -46,11 +46,12 @@ from mapping.features import ImageFeatures
 from mapping.icp_solver import densify_scan, icp
 from mapping.manifold import ManifoldClustering
 from mapping.scan_matching import refine_poses
-from scenes import WORLDS
+from scenes.families import check_world_name
 from servo.maps.file import FORMAT_VERSION, load_map, map_paths, save_map
 from servo.maps.scan_profile import clip_ranges, profile_distances
 from servo.maps.types import MapError, MapSettings, ServoMap
 from sim import datahome
+from sim.collect_worlds import world_digest
 from sim.dataset import Dataset, DatasetError, load_dataset, read_meta
 
 __all__ = ["MapError", "MapSettings", "ServoMap", "build_map", "load_map", "load_or_build",
@@ -99,13 +100,16 @@ def map_key(meta: dict, world: str, settings: MapSettings) -> str:
     that builds or stores a map (the whole ``mapping`` package, the servo map modules, the
     dataset reader) and the numeric libraries' versions."""
     h = hashlib.sha256()
+    world = check_world_name(world)
     entries = {n: e["sha256"] for n, e in meta["sequences"].items() if e["world"] == world}
     if not entries:
         raise MapError(f"the dataset has no sequence of world {world!r}")
     # the K the clustering is given (MapSettings.clusters_for), beside the settings that state it
     k = settings.clusters_for(world)
     settings_json = [settings.to_json(), k]
-    h.update(json.dumps([FORMAT_VERSION, world, entries, settings_json, _versions()]).encode())
+    # The world's floor plan too: a generated world whose generator changed is another world.
+    head = [FORMAT_VERSION, world, world_digest(world), entries, settings_json, _versions()]
+    h.update(json.dumps(head).encode())
     for name, p in _key_sources():
         h.update(name.encode() + b"\0" + p.read_bytes())
     return h.hexdigest()[:16]
@@ -117,8 +121,15 @@ def _verified(res, n_points: int, s: MapSettings) -> bool:
 
 
 def _sequence_alignment(
-    feats: np.ndarray, poses: np.ndarray, ia: np.ndarray, ib: np.ndarray, ranges: np.ndarray,
-    points: list, dense: list, beam_step: float, s: MapSettings,
+    feats: np.ndarray,
+    poses: np.ndarray,
+    ia: np.ndarray,
+    ib: np.ndarray,
+    ranges: np.ndarray,
+    points: list,
+    dense: list,
+    beam_step: float,
+    s: MapSettings,
 ) -> np.ndarray | None:
     """The rigid transform from sequence b's odometry frame to sequence a's, from what the
     robot sensed only (each recording's odometry has its own origin): every view of a is
@@ -159,8 +170,14 @@ def _sequence_alignment(
 
 
 def _overlap_search(
-    cloud_a: np.ndarray, cloud_b: np.ndarray, init: np.ndarray, reach: float = 1.0,
-    step: float = 0.1, yaw_reach: float = 0.06, yaw_step: float = 0.02, tol: float = 0.05,
+    cloud_a: np.ndarray,
+    cloud_b: np.ndarray,
+    init: np.ndarray,
+    reach: float = 1.0,
+    step: float = 0.1,
+    yaw_reach: float = 0.06,
+    yaw_step: float = 0.02,
+    tol: float = 0.05,
 ) -> np.ndarray:
     """The pose (within ``reach`` m / ``yaw_reach`` rad of ``init``, on a grid) that puts
     the most of ``cloud_b`` within ``tol`` of ``cloud_a`` (a distance-transform lookup)."""
@@ -197,8 +214,14 @@ def _sequence_cloud(poses: np.ndarray, scans: list, spacing: float = 0.05) -> np
 
 
 def _link_sequences(
-    feats: np.ndarray, poses: np.ndarray, seq: np.ndarray, ranges: np.ndarray, points: list,
-    dense: list, beam_step: float, s: MapSettings,
+    feats: np.ndarray,
+    poses: np.ndarray,
+    seq: np.ndarray,
+    ranges: np.ndarray,
+    points: list,
+    dense: list,
+    beam_step: float,
+    s: MapSettings,
 ) -> tuple[list, list]:
     """Edges between views of different sequences that see the same place. The sequences are
     first aligned by sensing (:func:`_sequence_alignment`); then each view is linked to the
@@ -238,9 +261,9 @@ def sequence_origin(odometry: np.ndarray) -> np.ndarray:
 def build_map(
     dataset: Dataset | str | os.PathLike, world: str, settings: MapSettings | None = None
 ) -> ServoMap:
-    """Fit the servo map of ``world`` from a dataset (see the module docstring)."""
-    if world not in WORLDS:
-        raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
+    """Fit the servo map of ``world`` (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``) from a
+    dataset (see the module docstring)."""
+    world = check_world_name(world)
     settings = settings or MapSettings()
     if not isinstance(dataset, Dataset):
         dataset = load_dataset(dataset)
@@ -298,6 +321,8 @@ def build_map(
     links, link_t = _link_sequences(feats, poses, seq, ranges, points, dense, beam_step, settings)
     return ServoMap(
         world=world,
+        world_digest=world_digest(world),
+        manifold_names=tuple(dataset.manifolds),
         key=map_key(dataset.meta, world, settings),
         images=images,
         features=feats,
@@ -335,8 +360,7 @@ def load_or_build(
     the default dataset is collected there when missing. A cached map that fails
     :func:`~servo.maps.file.load_map`'s checks is rebuilt, with a warning saying why.
     """
-    if world not in WORLDS:
-        raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
+    world = check_world_name(world)
     settings = settings or MapSettings()
     if dataset is None:
         dataset = datahome.default_dataset(home, progress=progress)

@@ -22,12 +22,16 @@ from common.fileio import UnreadableJSON, atomic_write_bytes, read_json
 from mapping import persistence
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
-from scenes import MANIFOLDS, NO_MANIFOLD, WORLDS
+from scenes import NO_MANIFOLD
+from scenes.families import check_world_name, parse_world_name
 from servo.maps.types import MapError, MapSettings, ServoMap
+from sim.collect_worlds import world_digest
 from sim.dataset import read_npz, write_sequence
 
 FORMAT = "topomap-servo-map"
-FORMAT_VERSION = 3  # 3: sequences aligned by sensing only (each odometry from its own origin)
+# 3: sequences aligned by sensing only (each odometry from its own origin); 4: the world's
+# floor-plan digest and the names the true labels index (generated worlds)
+FORMAT_VERSION = 4
 PROBE_VIEWS = 8  # stored views re-checked through the loaded estimators
 _ARRAYS = {  # name: (dtype kinds allowed, shape pattern); n = views, B = beams, E = edges
     "images": ("u", ("n", "H", "W", 3)),
@@ -43,14 +47,15 @@ _ARRAYS = {  # name: (dtype kinds allowed, shape pattern); n = views, B = beams,
     "true_poses": ("f", ("n", 3)),
     "true_labels": ("iu", ("n",)),
 }
-_META_KEYS = {"format", "version", "world", "key", "max_range", "sequence_names", "settings",
-              "clustering", "image_features", "sha256", "probe", "meta_sha256"}  # fmt: skip
+_META_KEYS = {"format", "version", "world", "world_digest", "manifolds", "key", "max_range",
+              "sequence_names", "settings", "clustering", "image_features", "sha256", "probe",
+              "meta_sha256"}  # fmt: skip
 _KEY = re.compile(r"[0-9a-f]{16}\Z")
 _SHA = re.compile(r"[0-9a-f]{64}\Z")
 
 
 def map_paths(directory: str | os.PathLike, world: str, key: str) -> tuple[Path, Path]:
-    stem = Path(directory) / f"{world}-{key}"
+    stem = Path(directory) / f"{parse_world_name(world).file_stem}-{key}"  # no ':' in files
     return stem.with_suffix(".json"), stem.with_suffix(".npz")
 
 
@@ -79,6 +84,8 @@ def save_map(m: ServoMap, directory: str | os.PathLike) -> Path:
         "format": FORMAT,
         "version": FORMAT_VERSION,
         "world": m.world,
+        "world_digest": m.world_digest,
+        "manifolds": list(m.manifold_names),
         "key": m.key,
         "max_range": m.max_range,
         "sequence_names": m.sequence_names,
@@ -114,11 +121,23 @@ def _read_meta(path: Path, world: str | None) -> dict:
     _check(set(meta) == _META_KEYS, path, f"expected exactly the keys {sorted(_META_KEYS)}")
     if meta["meta_sha256"] != meta_digest(meta):
         raise MapError(f"{path} is truncated or modified: its meta_sha256 does not match")
-    _check(meta["world"] in WORLDS, path, f"world must be one of {WORLDS}")
-    if world is not None and meta["world"] != world:
+    try:
+        named = check_world_name(meta["world"]) == meta["world"]  # the normalised spelling
+    except ValueError:
+        named = False
+    _check(named, path, "world must be 'hallway', 'lawn' or FAMILY:SEED such as 'hallway:17'")
+    _check(isinstance(meta["world_digest"], str) and bool(_SHA.match(meta["world_digest"])),
+           path, "world_digest must be 64 hex digits")  # fmt: skip
+    manifolds = meta["manifolds"]
+    _check(isinstance(manifolds, list) and all(isinstance(n, str) for n in manifolds), path,
+           "manifolds must be a list of names")  # fmt: skip
+    if world is not None and (
+        meta["world"] != world or meta["world_digest"] != world_digest(world)
+    ):
         raise MapError(
-            f"{path} is a servo map of the {meta['world']!r} world, not of {world!r}: build "
-            f"the map from the {world!r} dataset"
+            f"{path} is a servo map of the {meta['world']!r} world (floor plan "
+            f"{meta['world_digest'][:12]}), not of the {world!r} world (floor plan "
+            f"{world_digest(world)[:12]}): build the map from the {world!r} dataset"
         )
     _check(isinstance(meta["key"], str) and bool(_KEY.match(meta["key"])), path, "bad key")
     _check(isinstance(meta["sha256"], str) and bool(_SHA.match(meta["sha256"])), path,
@@ -135,7 +154,7 @@ def _read_meta(path: Path, world: str | None) -> dict:
     return meta
 
 
-def _check_arrays(arrays: dict, path: Path) -> None:
+def _check_arrays(arrays: dict, path: Path, manifolds: int) -> None:
     dims: dict[str, int] = {}
     for name, (kinds, pattern) in _ARRAYS.items():
         _check(name in arrays, path, f"array {name!r} is missing")
@@ -156,9 +175,9 @@ def _check_arrays(arrays: dict, path: Path) -> None:
     clusters = arrays["clusters"]
     _check(bool(np.all(clusters >= 0)), path, "clusters must be >= 0")
     labels = arrays["true_labels"]
-    _check(bool(np.all((labels >= NO_MANIFOLD) & (labels < len(MANIFOLDS)))), path,
-           f"true_labels must lie in [{NO_MANIFOLD}, {len(MANIFOLDS)}): a manifold id, "
-           f"{NO_MANIFOLD} for none")  # fmt: skip
+    _check(bool(np.all((labels >= NO_MANIFOLD) & (labels < manifolds))), path,
+           f"true_labels must lie in [{NO_MANIFOLD}, {manifolds}): an index into the map's "
+           f"manifolds, {NO_MANIFOLD} for none")  # fmt: skip
     for name in ("features", "poses", "edge_transforms", "angles"):
         _check(bool(np.isfinite(arrays[name]).all()), path, f"{name} holds NaN or inf")
     # ranges as the dataset stores them: +inf is no return, so only NaN and < 0 are refused
@@ -184,16 +203,16 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
     path : the ``.json`` (or ``.npz``) of the map.
     world : if given, the map must be of this world.
     """
-    if world is not None and (not isinstance(world, str) or world not in WORLDS):
+    if world is not None:
         # an argument error, not a damaged file: no MapError (load_or_build would rebuild)
-        raise ValueError(f"world must be one of {WORLDS} or None, got {world!r}")
+        world = check_world_name(world, "world")  # its ValueError names the accepted forms
     path = Path(path).with_suffix(".json")
     npz_path = path.with_suffix(".npz")
     if not path.is_file():
         raise MapError(f"no servo map at {path}")
     meta = _read_meta(path, world)
     arrays = read_npz(npz_path, meta["sha256"], "the servo map's arrays ", MapError)
-    _check_arrays(arrays, npz_path)
+    _check_arrays(arrays, npz_path, len(meta["manifolds"]))
     try:
         settings = MapSettings.from_json(meta["settings"])
         clustering = persistence.load(ManifoldClustering, meta["clustering"], arrays, "clustering")
@@ -205,6 +224,8 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
     _check_clusters(arrays["clusters"], clustering, npz_path)
     m = ServoMap(
         world=meta["world"],
+        world_digest=meta["world_digest"],
+        manifold_names=tuple(meta["manifolds"]),
         key=meta["key"],
         max_range=float(meta["max_range"]),
         sequence_names=list(meta["sequence_names"]),

@@ -17,10 +17,26 @@ from common.validation import check_int
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
 from scenes import MANIFOLDS, WORLDS
+from scenes.families import parse_world_name
+from sim.collect_worlds import world_manifold_names
 
 PRIOR_CLUSTERS = {w: sum(m == w or m.startswith(f"{w}-") for m in MANIFOLDS) for w in WORLDS}
 """Manifolds per shipped world, as the worlds were designed (a main corridor or lawn and its
-branches): the default K of a map's clustering, a prior, not a count of labels."""
+branches): the default K of a map's clustering, a prior, not a count of labels. A generated
+world's prior is the number of manifolds its floor plan was drawn with
+(:func:`prior_clusters`)."""
+
+
+def prior_clusters(world: str) -> int:
+    """The default K of a map of ``world``: :data:`PRIOR_CLUSTERS` for a canonical world, the
+    number of manifolds of a generated one's plan (``World.manifold_names``), else 2."""
+    if world in PRIOR_CLUSTERS:
+        return PRIOR_CLUSTERS[world]
+    try:
+        parse_world_name(world)
+    except ValueError:
+        return 2  # a place that is no world of this testbed: the smallest split
+    return len(world_manifold_names(world))
 
 
 class MapError(ValueError):
@@ -47,9 +63,9 @@ class MapSettings:
         Largest ICP residual accepted for a link, m.
     n_clusters : int or None, default None
         K of ``ManifoldClustering``: the number of manifolds the map is split into, a stated
-        prior. None: the world's prior, :data:`PRIOR_CLUSTERS` (a shipped world's main
-        corridor or lawn and its three branches: 4), else 2. Never read from the recordings'
-        labels.
+        prior. None: the world's prior, :func:`prior_clusters` (a shipped world's main
+        corridor or lawn and its three branches: 4; a generated world's manifold count), else
+        2. Never read from the recordings' labels.
 
     Attributes
     ----------
@@ -88,7 +104,7 @@ class MapSettings:
         """K for a map of ``world``: ``n_clusters``, or the world's prior."""
         if self.n_clusters is not None:
             return int(self.n_clusters)
-        return PRIOR_CLUSTERS.get(world, 2)
+        return prior_clusters(world)
 
     def to_json(self) -> dict:
         """The settings as the map's file stores them (``image_size`` as a list)."""
@@ -168,9 +184,15 @@ class ServoMap:
     true_poses : ndarray of shape (n, 3)
         The views' true poses (evaluation only).
     true_labels : ndarray of shape (n,), int
-        The views' true manifolds, ``MANIFOLD_IDS`` values (evaluation only).
+        The views' true manifolds, indices into ``manifold_names`` (evaluation only).
     settings : MapSettings, default MapSettings()
         The settings it was built with.
+    world_digest : str, optional
+        The SHA-256 of the world's floor plan (:attr:`scenes.World.digest`); None in the map
+        a policy is given (:func:`servo.task.interface.sensed_map`).
+    manifold_names : tuple of str, default scenes.MANIFOLDS
+        The names ``true_labels`` index: the dataset's manifolds (evaluation only; empty in
+        the map a policy is given).
 
     Attributes
     ----------
@@ -224,6 +246,8 @@ class ServoMap:
     true_poses: np.ndarray
     true_labels: np.ndarray
     settings: MapSettings = field(default_factory=MapSettings)
+    world_digest: str | None = None
+    manifold_names: tuple[str, ...] = MANIFOLDS
 
     def __len__(self) -> int:
         return len(self.clusters)
@@ -253,7 +277,7 @@ class ServoMap:
     def true_manifold(self, view: int) -> str | None:
         """The true manifold of stored view ``view`` (None: on none); for evaluation only."""
         label = int(self.true_labels[view])
-        return None if label < 0 else MANIFOLDS[label]
+        return None if label < 0 else self.manifold_names[label]
 
     def check_view(self, view, name: str = "target") -> int:
         """``view`` as a valid stored-view index, or a ``MapError`` naming ``name``: an integer
@@ -268,9 +292,10 @@ class ServoMap:
             )
         return int(view)
 
-    def check_world(self, world: str) -> None:
-        """Raise ``MapError`` unless this map was built for ``world``."""
-        if world != self.world:
+    def check_world(self, world: str, digest: str | None = None) -> None:
+        """Raise ``MapError`` unless this map was built for ``world`` (and, where both are
+        known, for a floor plan of this ``digest``: a generator that changed)."""
+        if world != self.world or (digest and self.world_digest and digest != self.world_digest):
             raise MapError(
                 f"this servo map was fitted on the {self.world!r} world and cannot be used in "
                 f"the {world!r} world: build the map from the {world!r} dataset"

@@ -11,7 +11,6 @@ from gymnasium import spaces
 from common.blas import single_threaded_blas
 from common.geometry import se2_relative, wrap_angle
 from common.validation import check_bool, check_finite, check_int, check_keys
-from scenes import MANIFOLDS
 from servo.maps import MapError, ServoMap, load_map, load_or_build
 from servo.task.registration import MAX_EPISODE_STEPS, spec_with_own_limit, warn_of_map_object
 from sim.env import NavigationEnv, check_pose_option, check_world
@@ -71,7 +70,8 @@ class ServoEnv(gym.Env):
 
     Info
         ``pose`` (true), ``target_pose``, ``target_view``, ``start_manifold``,
-        ``target_manifold``, ``distance``, ``heading_error``, ``success``, ``reason``,
+        ``target_manifold``, ``junctions`` (between those two manifolds), ``distance``,
+        ``heading_error``, ``success``, ``reason``,
         ``signal`` (F), ``path_length``, the reward parts and the base env's info. Truth is for
         evaluation only.
 
@@ -85,9 +85,10 @@ class ServoEnv(gym.Env):
 
     Parameters
     ----------
-    world : {"hallway", "lawn"}, optional
-        The world; default the one the env id names, else "hallway" (a world that contradicts
-        the id raises ``ValueError``).
+    world : str, optional
+        The world: ``"hallway"``, ``"lawn"`` or a generated world ``FAMILY:SEED`` of the id's
+        family; default the one the env id names, else "hallway" (a world that contradicts
+        the id raises ``ValueError``). The map must be of this world and its floor plan.
     servo_map : ServoMap, str, path or None, default None
         The map: a ``ServoMap``, the path of a saved one (cheap to pass to vector-env workers,
         and the form to give ``gym.make``: a map object there warns, since the spec would hold
@@ -205,6 +206,7 @@ class ServoEnv(gym.Env):
             randomize=randomize,
             no_return=no_return,
         )
+        servo_map.check_world(world, self.base.world.digest)  # the same floor plan too
         if self.base.observation_space["image"].shape != servo_map.image_shape:
             raise MapError(
                 f"the map's images are {servo_map.image_shape}, the camera gives "
@@ -235,10 +237,20 @@ class ServoEnv(gym.Env):
         self._spec = warn_of_map_object(spec)
 
     # -- task sampling ----------------------------------------------------------------------
+    def _map_label(self, manifold: str | None) -> int:
+        """The map's label of the world's manifold ``manifold`` (the map's labels index the
+        dataset's manifolds, not the world's ids); -2, which no view has, where it has none."""
+        names = self.map.manifold_names
+        return names.index(manifold) if manifold in names else -2
+
     def _views_on(self, manifold: str) -> np.ndarray:
-        if manifold not in MANIFOLDS:
-            raise ValueError(f"manifold must be one of {MANIFOLDS}, got {manifold!r}")
-        views = np.flatnonzero(self.map.true_labels == MANIFOLDS.index(manifold))
+        names = self.base.world.manifold_names
+        if not isinstance(manifold, str) or manifold not in names:
+            raise ValueError(
+                f"manifold must be one of {names} (the manifolds of the {self.map.world!r} "
+                f"world), got {manifold!r}"
+            )
+        views = np.flatnonzero(self.map.true_labels == self._map_label(manifold))
         if len(views) == 0:
             raise ValueError(f"no stored view on manifold {manifold!r} in the {self.map.world} map")
         return views
@@ -288,20 +300,30 @@ class ServoEnv(gym.Env):
                 ok = labels >= 0
                 if "start_manifold" in options:
                     self._views_on(options["start_manifold"])  # validates the name
-                    ok &= labels == MANIFOLDS.index(options["start_manifold"])
+                    ok &= labels == self._map_label(options["start_manifold"])
                 if target is not None and self.cross_manifold:
                     ok &= labels != labels[target]
                 cands = self._candidates(ok, options, "to start from")
                 start = int(cands[rng.integers(len(cands))])
             pose = self._start_pose(rng, start)
         if target is None:
-            here = self.base.world.manifold_at(pose[:2])
+            here = int(self.base.world.manifold_at(pose[:2]))
+            if here >= 0:
+                here = self._map_label(self.base.world.manifolds.name_of(here))
             ok = self.map.true_labels >= 0
             if self.cross_manifold:
                 ok &= self.map.true_labels != here
             cands = self._candidates(ok, options, "to target")
             target = int(cands[rng.integers(len(cands))])
         return pose, target
+
+    def _junctions_between(self, start: str | None, target: int) -> int | None:
+        """Junctions between the start's manifold and the target view's (evaluation only);
+        None where either is on no manifold of the world."""
+        world, end = getattr(self.base, "world", None), self.map.true_manifold(target)
+        if world is None or start is None or end not in world.manifold_ids:  # None: a stand-in
+            return None
+        return world.junctions_between(start, end)
 
     # -- signal -----------------------------------------------------------------------------
     def _signal(self, image: np.ndarray) -> float:
@@ -330,6 +352,7 @@ class ServoEnv(gym.Env):
             target_pose=self._target_pose.copy(),
             start_manifold=self._start_manifold,
             target_manifold=self.map.true_manifold(self._target),
+            junctions=self._junctions,
             distance=float(np.hypot(rel[0], rel[1])),
             heading_error=float(abs(rel[2])),
             path_length=self._path_length,
@@ -348,6 +371,7 @@ class ServoEnv(gym.Env):
         obs, info = self.base.reset(seed=base_seed, options={"pose": pose})
         self._target_pose = self.map.true_poses[self._target].copy()
         self._start_manifold = info["manifold"]
+        self._junctions = self._junctions_between(info["manifold"], self._target)
         self._odo0 = info["odometry"].copy()
         self._steps = 0
         self._path_length = 0.0

@@ -20,7 +20,7 @@ from common.blas import single_threaded_blas
 from common.fileio import write_png
 from common.validation import check_int
 from common.video import write_mp4
-from scenes import WORLDS
+from scenes.families import check_world_name, parse_world_name
 from servo.geodesic import GeodesicField
 from servo.laser_image import ManifoldServo
 from servo.maps import ServoMap, load_or_build
@@ -179,6 +179,7 @@ def score_episode(
         "seed": int(seed),
         "start_manifold": last["start_manifold"],
         "target_manifold": last["target_manifold"],
+        "junctions": last.get("junctions"),  # between the two manifolds (ServoEnv's info)
         "target_view": int(last["target_view"]),
         "success": success,
         "reason": last["reason"] if failure is None else failure.reason,
@@ -316,8 +317,7 @@ def evaluate(
 
     check_int(episodes, "episodes")
     check_policy_name(policy)
-    if world not in WORLDS:
-        raise ValueError(f"world must be one of {WORLDS}, got {world!r}")
+    world = check_world_name(world)
     servo_map = servo_map or load_or_build(world, home=home, progress=progress)
     env = ServoEnv(
         world,
@@ -334,7 +334,7 @@ def evaluate(
         pol = make_policy(policy, env, np.random.default_rng(seed))
     except PolicyLoadError as err:
         load_error = str(err)
-    stem = f"{world}-{policy.replace(':', '.')}"
+    stem = f"{parse_world_name(world).file_stem}-{policy.replace(':', '.')}"
     records = []
     try:
         for i, s in enumerate(

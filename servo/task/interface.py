@@ -170,9 +170,10 @@ class PolicyFactory(Protocol):
 
 
 def sensed_map(m: ServoMap) -> ServoMap:
-    """``m`` as a policy may see it: its evaluation-only arrays blanked (``true_poses`` NaN,
-    ``true_labels`` ``NO_MANIFOLD``) and its arrays read-only views, so that a policy can
-    neither read the truth nor change the map the env scores with."""
+    """``m`` as a policy may see it: its evaluation-only fields blanked (``true_poses`` NaN,
+    ``true_labels`` ``NO_MANIFOLD``, no ``manifold_names`` and no ``world_digest``: a
+    generated world's manifold names would tell its layout) and its arrays read-only views,
+    so that a policy can neither read the truth nor change the map the env scores with."""
     fields = {}
     for f in dataclasses.fields(m):
         value = getattr(m, f.name)
@@ -183,7 +184,8 @@ def sensed_map(m: ServoMap) -> ServoMap:
     poses = np.full(m.true_poses.shape, np.nan)
     labels = np.full(m.true_labels.shape, NO_MANIFOLD, m.true_labels.dtype)
     poses.flags.writeable = labels.flags.writeable = False
-    return ServoMap(**{**fields, "true_poses": poses, "true_labels": labels})
+    blank = {"true_poses": poses, "true_labels": labels, "manifold_names": (), "world_digest": None}
+    return ServoMap(**{**fields, **blank})
 
 
 def reseed(rng: np.random.Generator, episode_seed: int, policy_seed: int = 0) -> None:

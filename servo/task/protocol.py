@@ -32,6 +32,7 @@ import numpy as np
 from common.cores import available_cores, spawn_problem
 from common.validation import check_finite, check_int, check_keys
 from scenes import MANIFOLDS, WORLDS
+from scenes.families import check_world_name, parse_world_name
 from servo.task.policies import TRUTH_POLICY
 
 TIERS = ("view", "anywhere")
@@ -49,8 +50,9 @@ class Protocol:
 
     Parameters
     ----------
-    world : {"hallway", "lawn"}
-        The world.
+    world : str
+        The world: ``"hallway"``, ``"lawn"`` or a generated one, ``FAMILY:SEED``
+        (``"hallway:0"`` is stored as ``"hallway"``).
     tier : {"view", "anywhere"}, default "view"
         Where episodes start: near a stored view of the start manifold, or anywhere in its free
         space with any heading.
@@ -96,8 +98,7 @@ class Protocol:
     max_steps: int = 600
 
     def __post_init__(self):
-        if self.world not in WORLDS:
-            raise ValueError(f"world must be one of {WORLDS}, got {self.world!r}")
+        object.__setattr__(self, "world", check_world_name(self.world))
         if self.tier not in TIERS:
             raise ValueError(f"tier must be one of {TIERS}, got {self.tier!r}")
         if self.split not in SPLITS:
@@ -156,25 +157,42 @@ class EpisodeSpec:
     target_manifold: str
 
 
-def manifold_pairs(true_labels: np.ndarray) -> list[tuple[str, str]]:
-    """Ordered pairs of distinct manifolds that both hold stored views (evaluation labels)."""
-    present = [MANIFOLDS[i] for i in np.unique(true_labels) if i >= 0]
+def manifold_pairs(
+    true_labels: np.ndarray, names: tuple[str, ...] = MANIFOLDS
+) -> list[tuple[str, str]]:
+    """Ordered pairs of distinct manifolds that both hold stored views (evaluation labels,
+    indices into ``names``: the map's ``manifold_names``)."""
+    present = [names[i] for i in np.unique(true_labels) if i >= 0]
     return [(a, b) for a in present for b in present if a != b]
 
 
-def episode_specs(protocol: Protocol, true_labels: np.ndarray, episodes: int) -> list[EpisodeSpec]:
+def episode_specs(
+    protocol: Protocol, true_labels: np.ndarray, episodes: int, names: tuple[str, ...] = MANIFOLDS
+) -> list[EpisodeSpec]:
     """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
-    one). Seeds depend on the split and the world only, so tiers and settings share episodes."""
+    one). Seeds depend on the split and the world only, so tiers and settings share episodes.
+    ``names``: the manifolds ``true_labels`` index (the map's ``manifold_names``)."""
     check_int(episodes, "episodes")
-    pairs = manifold_pairs(true_labels)
+    pairs = manifold_pairs(true_labels, names)
     if not pairs:
         raise ValueError("the map needs stored views on at least two manifolds")
     root = np.random.SeedSequence(
         PROTOCOL_ENTROPY,
-        spawn_key=(SPLITS.index(protocol.split), WORLDS.index(protocol.world)),
+        spawn_key=protocol_spawn_key(protocol),
     )
     seeds = [int(s.generate_state(1)[0]) for s in root.spawn(int(episodes))]
     return [EpisodeSpec(i, s, *pairs[i % len(pairs)]) for i, s in enumerate(seeds)]
+
+
+def protocol_spawn_key(protocol: Protocol) -> tuple[int, ...]:
+    """The spawn key of a protocol's episode seeds: ``(split, world)`` for a canonical world
+    (its published episodes), ``(split, 2 + family, seed)`` for a generated one, which no
+    canonical key equals."""
+    world = parse_world_name(protocol.world)
+    family = WORLDS.index(world.family)
+    if world.canonical:
+        return (SPLITS.index(protocol.split), family)
+    return (SPLITS.index(protocol.split), len(WORLDS) + family, world.seed)
 
 
 def reset_options(env, spec: EpisodeSpec, tier: str) -> dict:
@@ -312,7 +330,7 @@ def run_protocol(
                 f"{type(servo_map).__name__}"
             )
         m.check_world(protocol.world)
-        specs = episode_specs(protocol, m.true_labels, episodes)
+        specs = episode_specs(protocol, m.true_labels, episodes, m.manifold_names)
         args = (protocol, map_path, policy, params, policy_seed, act_limit_s)
         name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
         bar = tqdm(total=len(specs), disable=not progress, desc=name)

@@ -37,7 +37,8 @@ SHAPES = {  # trailing shape per frame (angles: per dataset); -1: any size, chec
     "times": (),
 }
 _FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\.npz\Z")  # the file system's limit
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\Z")
+# A world (place) name: as a file name, and ':' for a generated world (``hallway:17``).
+_WORLD = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.:-]{0,200}\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
 GROUND_TRUTH = ("poses", "labels")  # absent from a dataset without ground truth
 SENSORS = {"camera": ("images",), "laser": ("scans", "angles")}  # absent without the sensor
@@ -143,7 +144,7 @@ def check_entry(path: Path, name: str, entry) -> None:
             f"{path}: sequence {name!r} names the file {file!r}; expected a plain file name "
             "ending in .npz inside the dataset folder"
         )
-    if not (isinstance(world, str) and _NAME.match(world)):
+    if not (isinstance(world, str) and _WORLD.match(world)):
         raise DatasetError(f"{path}: sequence {name!r} has the world {world!r}")
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 0:
         raise DatasetError(f"{path}: sequence {name!r} has {frames!r} frames; expected >= 0")

@@ -100,7 +100,7 @@ def test_truncated_or_foreign_datasets_are_refused(small_dataset, tmp_path):
 
 
 def test_bad_collection_settings():
-    with pytest.raises(ValueError, match="worlds must be a non-empty subset"):
+    with pytest.raises(ValueError, match="worlds must be .hallway. or .lawn."):
         CollectionSettings(worlds=("moon",))
     with pytest.raises(ValueError, match="frames must be an integer >= 2"):
         CollectionSettings(frames=1)

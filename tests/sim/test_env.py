@@ -67,7 +67,7 @@ def test_actions_are_validated_and_clipped():
 
 
 def test_bad_arguments_name_the_choices():
-    with pytest.raises(ValueError, match="world must be one of"):
+    with pytest.raises(ValueError, match="world must be 'hallway' or 'lawn'"):
         gym.make("topomap/Hallway-v0", world="moon")
     with pytest.raises(ValueError, match="sensors must be a non-empty subset"):
         gym.make("topomap/Hallway-v0", sensors=("sonar",))
@@ -200,7 +200,10 @@ def test_normalised_flattened_observations_hold_no_nan():
         ({"odometry": {"drift": 0.1}}, ValueError, "odometry has an unknown key 'drift'"),
         ({"no_return": "nan"}, ValueError, r"no_return must be one of \('max_range', 'inf'\)"),
         ({"world": "lawn"}, ValueError, "world='lawn' contradicts the env id"),
-        ({"world": 3}, ValueError, "world must be one of"),
+        ({"world": 3}, ValueError, "world must be 'hallway' or 'lawn'"),
+        ({"world": "lawn:3"}, ValueError, "world='lawn:3' contradicts the env id"),
+        ({"world": "hallway:x"}, ValueError, "FAMILY:SEED"),
+        ({"world": "hallway:-2"}, ValueError, "FAMILY:SEED"),
     ],
 )
 def test_every_argument_is_checked_and_named(kwargs, error, match):
@@ -234,4 +237,21 @@ def test_reset_options_are_checked_and_named(options, error, match):
     env = gym.make("topomap/Lawn-v0", sensors=("scan",))
     with pytest.raises(error, match=match):
         env.reset(seed=0, options=options)
+    env.close()
+
+
+def test_generated_world_under_its_family_id():
+    env = gym.make("topomap/Lawn-v0", world="lawn:3", sensors=("scan",), laser={"beams": 31})
+    world = env.unwrapped.world
+    assert env.unwrapped.world_name == "lawn:3" and world.name == "lawn:3"
+    leaf = list(world.routes)[-1]
+    _, info = env.reset(seed=0, options={"manifold": leaf})
+    assert info["manifold"] == leaf and info["manifold_id"] == world.manifold_ids[leaf]
+    _, _, _, truncated, info = env.step(np.array([0.2, 0.0]))
+    assert info["manifold"] in world.manifold_names and not truncated
+    with pytest.raises(ValueError, match="manifolds of 'lawn:3'"):
+        env.reset(seed=0, options={"manifold": "lawn-left"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the expected ones: see the canonical worlds' test
+        check_env(env.unwrapped, skip_render_check=True)
     env.close()

@@ -97,7 +97,7 @@ def test_pushing_a_wall_ends_as_stuck(servo_maps):
         ({"target": 99_999}, r"options\['target'\]"),
         ({"target_manifold": "kitchen"}, "manifold must be one of"),
         ({"start_view": -3}, r"options\['start_view'\]"),
-        ({"target_manifold": "lawn-left"}, "no stored view on manifold 'lawn-left'"),
+        ({"target_manifold": "lawn-left"}, "the manifolds of the 'hallway' world.*'lawn-left'"),
     ],
 )
 def test_bad_options_are_named(env, options, match):

@@ -35,7 +35,7 @@ def test_protocol_refuses_unknown_names():
         Protocol("hallway", tier="nowhere")
     with pytest.raises(ValueError, match="split must be one of"):
         Protocol("hallway", split="train")
-    with pytest.raises(ValueError, match="world must be one of"):
+    with pytest.raises(ValueError, match="world must be 'hallway' or 'lawn'.*FAMILY:SEED"):
         Protocol("moon")
 
 
@@ -187,8 +187,12 @@ def test_score_episode_is_a_function_of_the_infos_alone():
                 "target_view": 7, "target_pose": np.array([4.0, 0.0, 0.0])}  # fmt: skip
         return {**base, **over}
 
-    infos = [info(0.0), info(1.0, collision=True), info(2.0),
-             info(5.0, success=True, reason="success", distance=0.1, heading_error=np.pi / 18)]
+    infos = [
+        info(0.0),
+        info(1.0, collision=True),
+        info(2.0),
+        info(5.0, success=True, reason="success", distance=0.1, heading_error=np.pi / 18),
+    ]
     record = score_episode(3, infos, 4.0, [4, 3, 2, 0.1], [0.001, 0.003, 0.002], [np.nan] * 3)
     assert record["steps"] == 3 and record["collisions"] == 1 and record["success"]
     assert record["spl"] == pytest.approx(4.0 / 5.0)
