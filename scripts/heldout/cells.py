@@ -115,6 +115,7 @@ def run_cell(
             _manifold(data, built) if task == "manifold" else _grouping(data, built)
         )
         cell["seconds"][task] = time.perf_counter() - start
+    path.parent.mkdir(parents=True, exist_ok=True)
     write_json(path, cell)
     return cell
 
