@@ -1,10 +1,13 @@
 """Speed of generated worlds beside the canonical ones, measured in the same run: building and
 compiling a world (median over seeds), and simulator steps/s with camera and laser (a step,
 a 320x240 frame and a scan, as an env step costs) on generated worlds as a ratio of the
-canonical world's, and how that ratio goes with the number of stretches.
+canonical world's, and how that ratio goes with the number of stretches; and collecting one
+world's dataset (``sim.collect``, its default settings: a teleop drive to every leaf) on the
+machine's cores, for the largest of the first ``--collect`` generated worlds beside the
+canonical one.
 
-Run: ``.venv/bin/python bench/bench_worlds.py [--seeds 50] [--worlds 20]``. Prints a table
-with the machine's core count; the targets are for a 2-core CPU machine.
+Run: ``.venv/bin/python bench/bench_worlds.py [--seeds 50] [--worlds 20] [--collect 5]``.
+Prints a table with the machine's core count; the targets are for a 2-core CPU machine.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import tempfile
 import time
 
 import mujoco
@@ -57,10 +61,22 @@ def sensor_steps_per_s(name: str, n: int = 150) -> float:
         s.close()
 
 
+def collect_seconds(name: str) -> float:
+    """Seconds to collect ``name``'s dataset with the default settings, on every core."""
+    from sim.collect import CollectionSettings, collect_dataset
+
+    with tempfile.TemporaryDirectory(prefix="bench-collect-") as tmp:
+        start = time.perf_counter()
+        collect_dataset(tmp, CollectionSettings(worlds=(name,)), progress=False)
+        return time.perf_counter() - start
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--seeds", type=int, default=50, help="worlds per family for the build time")
     p.add_argument("--worlds", type=int, default=20, help="worlds per family for steps/s")
+    p.add_argument("--collect", type=int, default=5, help="worlds per family to pick the "
+                   "largest from for the dataset time")  # fmt: skip
     args = p.parse_args(argv)
     print(
         f"machine: {platform.machine()}, cores: {os.cpu_count()}, "
@@ -94,6 +110,13 @@ def main(argv=None) -> None:
                     f"{f'  {lo}-{hi} stretches ({pick.sum()} worlds)':58s} "
                     f"{np.median(rates[pick]) / canonical:8.2f}"
                 )
+
+        pool = names[: args.collect]
+        largest = max(pool, key=lambda n: len(build_world(n).manifold_names))
+        k = len(build_world(largest).manifold_names)
+        print(f"{f'dataset, canonical {family} (s)':58s} {collect_seconds(family):8.1f}")
+        print(f"{f'dataset, {largest} ({k} manifolds) (s)':58s} {collect_seconds(largest):8.1f}"
+              "  <= 30")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -72,6 +72,26 @@ def tree(
     """A tree: a trunk (collision cylinder + tapered visual mesh) and a lumpy crown."""
     height = float(rng.uniform(3.5, 6.0)) if height is None else height
     radius = float(rng.uniform(0.15, 0.28))
+    scene.mesh(f"{name}_trunk_mesh", meshes.trunk(rng, radius, height * 0.75))
+    crown = float(rng.uniform(1.2, 2.0))
+    scene.mesh(f"{name}_crown_mesh", meshes.canopy(rng, crown))
+    place_tree(scene, name, x, y, (height, radius, crown), name, bark_material, leaf_material)
+
+
+def place_tree(
+    scene: SceneBuilder,
+    name: str,
+    x: float,
+    y: float,
+    shape: tuple[float, float, float],
+    meshes_of: str,
+    bark_material: str,
+    leaf_material: str,
+) -> None:
+    """The geoms of a tree of ``shape`` (height, trunk radius, crown radius) at ``(x, y)``:
+    its collision cylinder and the visual meshes ``{meshes_of}_trunk_mesh`` and
+    ``{meshes_of}_crown_mesh``, made beforehand (one shape may be planted many times)."""
+    height, radius, crown = shape
     scene.cylinder(
         f"{name}_trunk_collider",
         (x, y, 1.0),
@@ -81,13 +101,28 @@ def tree(
         group=names.GROUP_COLLIDER,
         rgba=(0.4, 0.3, 0.2, 1),
     )
-    scene.mesh(f"{name}_trunk_mesh", meshes.trunk(rng, radius, height * 0.75))
-    scene.mesh_geom(f"{name}_trunk", f"{name}_trunk_mesh", (x, y, 0.0), bark_material)
-    crown = float(rng.uniform(1.2, 2.0))
-    scene.mesh(f"{name}_crown_mesh", meshes.canopy(rng, crown))
+    scene.mesh_geom(f"{name}_trunk", f"{meshes_of}_trunk_mesh", (x, y, 0.0), bark_material)
     scene.mesh_geom(
-        f"{name}_crown", f"{name}_crown_mesh", (x, y, height * 0.75 + 0.4 * crown), leaf_material
+        f"{name}_crown", f"{meshes_of}_crown_mesh", (x, y, height * 0.75 + 0.4 * crown),
+        leaf_material,
+    )  # fmt: skip
+
+
+def sky_and_street_materials(scene: SceneBuilder, colour) -> None:
+    """The outdoor worlds' sky box and the materials of cars, their windows and mailboxes
+    (``colour``: the appearance's colour jitter, ``Appearance.colour``)."""
+    scene.builtin_texture(
+        "tex_sky",
+        type="skybox",
+        builtin="gradient",
+        rgb1="0.55 0.72 0.92",
+        rgb2="0.95 0.97 1.0",
+        width="256",
+        height="256",
     )
+    scene.material("mat_car", rgba=colour((0.1, 0.2, 0.55)) + (1,), specular=0.8, shininess=0.8)
+    scene.material("mat_glass", rgba=(0.1, 0.12, 0.15, 1), specular=0.9, shininess=0.9)
+    scene.material("mat_mailbox", rgba=colour((0.15, 0.15, 0.15)) + (1,))
 
 
 def hedge(

@@ -13,7 +13,7 @@ import numpy as np
 
 from scenes import meshes, names, textures
 from scenes.appearance import Appearance
-from scenes.furnish import hedge, tree
+from scenes.furnish import hedge, sky_and_street_materials, tree
 from scenes.layout import Rect, add_floor
 from scenes.mjcf import SceneBuilder
 from scenes.regions import ManifoldMap, Region, Route
@@ -100,18 +100,7 @@ def _materials(scene: SceneBuilder, app: Appearance) -> None:
     for k, (img, rep) in tex.items():
         scene.texture(f"tex_{k}", img)
         scene.material(f"mat_{k}", f"tex_{k}", texrepeat=rep, texuniform=True)
-    scene.builtin_texture(
-        "tex_sky",
-        type="skybox",
-        builtin="gradient",
-        rgb1="0.55 0.72 0.92",
-        rgb2="0.95 0.97 1.0",
-        width="256",
-        height="256",
-    )
-    scene.material("mat_car", rgba=c((0.1, 0.2, 0.55)) + (1,), specular=0.8, shininess=0.8)
-    scene.material("mat_glass", rgba=(0.1, 0.12, 0.15, 1), specular=0.9, shininess=0.9)
-    scene.material("mat_mailbox", rgba=c((0.15, 0.15, 0.15)) + (1,))
+    sky_and_street_materials(scene, c)
 
 
 def _fence(

@@ -17,6 +17,7 @@ from scenes.appearance import Appearance
 from scenes.families.furnish import add_floors, add_walls, along, look_materials
 from scenes.families.layout import Layout
 from scenes.families.palette import OUTDOOR_LOOKS, draw_looks
+from scenes.furnish import place_tree, sky_and_street_materials
 from scenes.layout import Rect, add_floor
 from scenes.mjcf import SceneBuilder
 
@@ -39,18 +40,7 @@ def _materials(scene: SceneBuilder, app: Appearance) -> None:
     ):
         scene.texture(f"tex_{name}", img)
         scene.material(f"mat_{name}", f"tex_{name}", texrepeat=(rep, rep), texuniform=True)
-    scene.builtin_texture(
-        "tex_sky",
-        type="skybox",
-        builtin="gradient",
-        rgb1="0.55 0.72 0.92",
-        rgb2="0.95 0.97 1.0",
-        width="256",
-        height="256",
-    )
-    scene.material("mat_car", rgba=c((0.1, 0.2, 0.55)) + (1,), specular=0.8, shininess=0.8)
-    scene.material("mat_glass", rgba=(0.1, 0.12, 0.15, 1), specular=0.9, shininess=0.9)
-    scene.material("mat_mailbox", rgba=c((0.15, 0.15, 0.15)) + (1,))
+    sky_and_street_materials(scene, c)
 
 
 class _TreePool:
@@ -67,26 +57,8 @@ class _TreePool:
             self.shapes.append((height, radius, crown))
 
     def plant(self, name: str, x: float, y: float, k: int) -> None:
-        height, radius, crown = self.shapes[k % len(self.shapes)]
-        s = self.scene
-        s.cylinder(
-            f"{name}_trunk_collider",
-            (x, y, 1.0),
-            radius,
-            1.0,
-            None,
-            group=names.GROUP_COLLIDER,
-            rgba=(0.4, 0.3, 0.2, 1),
-        )
-        s.mesh_geom(
-            f"{name}_trunk", f"tree{k % len(self.shapes)}_trunk_mesh", (x, y, 0.0), "mat_bark"
-        )
-        s.mesh_geom(
-            f"{name}_crown",
-            f"tree{k % len(self.shapes)}_crown_mesh",
-            (x, y, height * 0.75 + 0.4 * crown),
-            "mat_leaves",
-        )
+        k %= len(self.shapes)
+        place_tree(self.scene, name, x, y, self.shapes[k], f"tree{k}", "mat_bark", "mat_leaves")
 
 
 def _trees_along(trees, layout, i, marks, sides, tag, rng):

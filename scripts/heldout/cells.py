@@ -6,10 +6,12 @@ A cell collects the world's dataset (one teleop drive per leaf manifold), then s
   even frames build the map, odd frames test it), ours (``ManifoldClustering``, Q = 35) beside
   scikit-learn's k-NN spectral clustering (k = 10), both told K = the world's manifold count;
 * **observation grouping** of the laser scans (``ObservationGraphPartitioner`` with odometry
-  and ICP, every drive in one graph): purity and groups per manifold.
+  and ICP, every drive in one graph): purity and groups per manifold;
+* **servoing** (:mod:`scripts.heldout.servo_cell`): a servo map built from the same dataset,
+  then the protocol's test episodes for both controllers and both start tiers.
 
-A cell is a function of (world, seed, frames) alone and is cached as JSON, so an evaluation
-resumes where it stopped and any backend gives the same numbers.
+A cell is a function of (world, seed, frames, servo episodes) alone and is cached as JSON, so
+an evaluation resumes where it stopped and any backend gives the same numbers.
 """
 
 from __future__ import annotations
@@ -23,11 +25,22 @@ import numpy as np
 from common.fileio import read_json, write_json
 from scenes.families import check_world_name, parse_world_name
 
-__all__ = ["MANIFOLD_Q", "TASKS", "cell_path", "run_cell"]
+__all__ = ["MANIFOLD_Q", "OURS_SCALED", "TASKS", "cell_path", "run_cell", "scaled_q"]
 
-TASKS = ("manifold", "grouping")
+TASKS = ("manifold", "grouping", "servo")
 MANIFOLD_Q = 35  # the manifold protocol's Q, chosen on the canonical worlds' dev seed
+OURS_SCALED = "ours, Q scaled"  # ManifoldClustering with Q from scaled_q
+Q_DIVISOR, Q_MIN = 3, 8  # scaled_q's rule, chosen on dev worlds (experiments/heldout/q_rule.py)
 CELL_VERSION = 1  # goes up whenever a change alters a cell's numbers
+MANIFOLD_VERSION = 2  # the manifold task's own: a cell of another is scored again
+
+
+def scaled_q(n: int, k: int) -> int:
+    """Q scaled to the data: ``n // (3 k)`` within [8, 35] (``n`` training images, ``k``
+    manifolds). A generated world's drive crosses several stretches, so a short leaf gets
+    fewer training frames than the protocol's Q = 35 (which the canonical worlds' leaves, at
+    37-41, just exceed); with Q above a manifold's size no cluster can hold it."""
+    return int(np.clip(n // (Q_DIVISOR * k), Q_MIN, MANIFOLD_Q))
 
 
 def cell_path(out: Path, world: str, seed: int, frames: int) -> Path:
@@ -49,11 +62,18 @@ def _manifold(data, world) -> dict:
     X_train, X_test = features.transform(images[train]), features.transform(images[test])
     del images
     labels = data.concat("labels")
-    k = len(world.manifold_names)
-    rows = score_methods(
-        X_train, labels[train], k, MANIFOLD_Q, X_test, labels[test], methods=(OURS, SKLEARN_DEFAULT)
-    )
-    return {"k": k, "n_train": int(train.sum()), "n_test": int(test.sum()), "rows": rows}
+    k, n = len(world.manifold_names), int(train.sum())
+    rows = []
+    for name, method, q in ((OURS, OURS, MANIFOLD_Q), (OURS_SCALED, OURS, scaled_q(n, k)),
+                            (SKLEARN_DEFAULT, SKLEARN_DEFAULT, None)):  # fmt: skip
+        try:
+            [row] = score_methods(X_train, labels[train], k, q or MANIFOLD_Q, X_test,
+                                  labels[test], methods=(method,))  # fmt: skip
+        except ValueError as err:  # too few images for k clusters of q: the method refuses
+            row = {"train_error": None, "test_error": None, "refused": str(err)}
+        rows.append({**row, "method": name, "q": q})
+    return {"version": MANIFOLD_VERSION, "k": k, "n_train": n, "n_test": int(test.sum()),
+            "rows": rows}  # fmt: skip
 
 
 def _grouping(data, world) -> dict:
@@ -69,14 +89,22 @@ def _grouping(data, world) -> dict:
 
 
 def run_cell(
-    world: str, seed: int, out: Path, data_root: Path, frames: int = 150, tasks=TASKS
+    world: str,
+    seed: int,
+    out: Path,
+    data_root: Path,
+    frames: int = 150,
+    tasks=TASKS,
+    episodes: int = 4,
 ) -> dict:
     """Score ``tasks`` on ``world``'s dataset of ``seed``; cached in ``out/cells``.
 
-    Returns the cell: world, family, seed, frames, the world's manifolds and, per manifold,
-    the junctions from the main one, then one entry per task.
+    ``episodes``: servo episodes per controller and start tier (a cached servo task run with
+    another count is run again). Returns the cell: world, family, seed, frames, the world's
+    manifolds and, per manifold, the junctions from the main one, then one entry per task.
     """
     from scenes import build_world
+    from scripts.heldout.servo_cell import servo_task
     from sim.collect import CollectionSettings, collect_dataset
     from sim.dataset import load_dataset
 
@@ -86,7 +114,12 @@ def run_cell(
         raise ValueError(f"tasks must be a subset of {TASKS}, got {list(tasks)}")
     path = cell_path(out, world, seed, frames)
     cell = _cached(path)
-    todo = [t for t in tasks if t not in cell.get("tasks", {})]
+    done = dict(cell.get("tasks", {}))
+    if done.get("servo", {}).get("episodes") != episodes:
+        done.pop("servo", None)
+    if done.get("manifold", {}).get("version") != MANIFOLD_VERSION:
+        done.pop("manifold", None)
+    todo = [t for t in tasks if t not in done]
     if not todo:
         return cell
     built = build_world(world)
@@ -111,9 +144,12 @@ def run_cell(
     cell.setdefault("seconds", {})["collect"] = collect_s
     for task in todo:
         start = time.perf_counter()
-        cell["tasks"][task] = (
-            _manifold(data, built) if task == "manifold" else _grouping(data, built)
-        )
+        if task == "manifold":
+            cell["tasks"][task] = _manifold(data, built)
+        elif task == "grouping":
+            cell["tasks"][task] = _grouping(data, built)
+        else:
+            cell["tasks"][task] = servo_task(data, world, episodes)
         cell["seconds"][task] = time.perf_counter() - start
     path.parent.mkdir(parents=True, exist_ok=True)
     write_json(path, cell)
@@ -135,9 +171,23 @@ def _cached(path: Path) -> dict:
 
 
 def manifold_errors(cells: list[dict], method: str) -> np.ndarray:
-    """Test error of ``method`` per cell (cells without the manifold task are left out)."""
+    """Test error of ``method`` per cell (cells without the manifold task, and cells where the
+    method refused the data, are left out: :func:`manifold_refusals` counts those)."""
     out = []
     for c in cells:
         rows = c.get("tasks", {}).get("manifold", {}).get("rows", [])
-        out += [r["test_error"] for r in rows if r["method"] == method]
+        out += [
+            r["test_error"]
+            for r in rows
+            if r["method"] == method and r.get("test_error") is not None
+        ]
     return np.asarray(out, float)
+
+
+def manifold_refusals(cells: list[dict], method: str) -> int:
+    """Cells where ``method`` refused the data (fewer images than K clusters of Q)."""
+    return sum(
+        r["method"] == method and r.get("test_error") is None
+        for c in cells
+        for r in c.get("tasks", {}).get("manifold", {}).get("rows", [])
+    )

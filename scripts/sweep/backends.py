@@ -5,7 +5,10 @@ Every backend's workers run whole episodes, env and policy together, through
 :class:`scripts.sweep.episode.EpisodeRunner`, so both give the same records for the same tasks.
 A backend is used as ``with open_backend(name, workers, address) as b:`` then
 ``b.start(maps, policy, max_steps)`` and ``for i, record in b.run(tasks): ...`` (records as they
-complete, with their task's index).
+complete, with their task's index). Other units of work use the same workers through
+``b.start_runner(factory, *args)``: each worker holds ``factory(*args)`` (an object with
+``run(task)`` and ``close()``, whose ``one_thread`` keyword says whether it may set its process
+to one thread), as the held-out evaluation's cells do (``scripts.heldout``).
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from multiprocessing import get_context
 
 from common.cores import available_cores, spawn_problem
 from common.validation import check_int
-from scripts.sweep.episode import ONE_THREAD, EpisodeRunner, EpisodeTask
+from scripts.sweep.episode import ONE_THREAD, EpisodeRunner
 from scripts.sweep.ray_backend import RayBackend, parse_address  # imports Ray only when used
 
 BACKENDS = ("local", "ray")
@@ -27,11 +30,11 @@ BACKENDS = ("local", "ray")
 _RUNNER: list[EpisodeRunner] = []  # the pool worker's runner (one per process)
 
 
-def _init_pool_worker(maps: dict, policy: str, max_steps: int) -> None:
-    _RUNNER.append(EpisodeRunner(maps, policy, max_steps))
+def _init_pool_worker(factory, args: tuple) -> None:
+    _RUNNER.append(factory(*args))
 
 
-def _run_in_pool(task: EpisodeTask) -> dict:
+def _run_in_pool(task) -> dict:
     return _RUNNER[0].run(task)
 
 
@@ -54,17 +57,21 @@ class LocalBackend:
 
     def start(self, maps: dict, policy: str, max_steps: int) -> None:
         """``maps``: ``{world: ServoMap}``."""
-        args = (dict(maps), policy, int(max_steps))
+        self.start_runner(EpisodeRunner, dict(maps), policy, int(max_steps))
+
+    def start_runner(self, factory, *args) -> None:
+        """Every worker holds ``factory(*args)``; its ``run`` gets the tasks."""
         problem = spawn_problem()
         if problem:
             warnings.warn(f"sweeping in this process, not in {self.workers} worker processes: "
                           f"{problem}", RuntimeWarning, stacklevel=3)  # fmt: skip
             self.workers = 1
             # the caller's thread settings stay its own: one thread is for a pool's workers
-            self._runner = EpisodeRunner(*args, one_thread=False)
+            self._runner = factory(*args, one_thread=False)
             return
         self._pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"),
-                                         initializer=_init_pool_worker, initargs=args)  # fmt: skip
+                                         initializer=_init_pool_worker,
+                                         initargs=(factory, args))  # fmt: skip
         # start the processes now (a spawned pool starts them all on its first task), so that
         # their start-up counts as the sweep's start-up on both backends; they inherit
         # ONE_THREAD from the environment they are started in
@@ -77,7 +84,7 @@ class LocalBackend:
             os.environ.clear()
             os.environ.update(saved)
 
-    def run(self, tasks: list[EpisodeTask]) -> Iterator[tuple[int, dict]]:
+    def run(self, tasks: list) -> Iterator[tuple[int, dict]]:
         if self._runner is not None:
             for i, task in enumerate(tasks):
                 yield i, self._runner.run(task)
@@ -121,6 +128,17 @@ def open_backend(backend: str, workers: int, address: str | None = None):
         yield b
     finally:
         b.close()
+
+
+def add_backend_arguments(parser) -> None:
+    """``--backend`` and ``--address`` on an argparse ``parser``: the options of every command
+    that runs its tasks on these backends."""
+    parser.add_argument("--backend", choices=BACKENDS, default="local",
+                        help="local: processes on this machine; ray: Ray actors "
+                             "(pip install ray)")  # fmt: skip
+    parser.add_argument("--address", default=None,
+                        help="an existing Ray cluster's address (host:port or ray://host:port); "
+                             "default: start a local Ray instance")  # fmt: skip
 
 
 def default_workers() -> int:

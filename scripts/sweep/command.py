@@ -22,7 +22,12 @@ import numpy as np
 
 from common.fileio import write_json
 from common.validation import check_int
-from scripts.sweep.backends import BACKENDS, check_backend, default_workers, open_backend
+from scripts.sweep.backends import (
+    add_backend_arguments,
+    check_backend,
+    default_workers,
+    open_backend,
+)
 from scripts.sweep.episode import SETTINGS, sweep_tasks
 from scripts.tables import Column, Table
 
@@ -268,15 +273,7 @@ def add_parser(sub, default_out: str = "out"):
     s.add_argument("--policy", choices=POLICIES, default="servo")
     s.add_argument("--max-steps", type=positive, default=600, help="episode time limit (steps)")
     s.add_argument("--jobs", type=positive, default=None, help="workers (default: the cores)")
-    s.add_argument(
-        "--backend",
-        choices=BACKENDS,
-        default="local",
-        help="local: processes on this machine; ray: Ray actors (pip install ray)",
-    )
-    s.add_argument("--address", default=None,
-                   help="an existing Ray cluster's address (host:port or ray://host:port); "
-                        "default: start a local Ray instance")  # fmt: skip
+    add_backend_arguments(s)
     s.add_argument("--data", default=f"{default_out}/dataset", help="dataset the maps come from")
     s.add_argument("--maps", default=f"{default_out}/servo-maps", help="servo map cache")
     s.add_argument("--out", default=f"{default_out}/sweep", help="where the table is written")

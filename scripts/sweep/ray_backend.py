@@ -19,7 +19,7 @@ import socket
 from collections.abc import Iterator
 from pathlib import Path
 
-from scripts.sweep.episode import ONE_THREAD, EpisodeRunner, EpisodeTask
+from scripts.sweep.episode import ONE_THREAD, EpisodeRunner
 
 PROBE_TIMEOUT_S = 5.0  # how long an address may take to accept a TCP connection
 GCS_PORT, CLIENT_PORT = 6379, 10001  # Ray's defaults: `ray start --head`, the Ray Client server
@@ -141,21 +141,27 @@ class RayBackend:
     def start(self, maps: dict, policy: str, max_steps: int) -> None:
         """``maps``: ``{world: ServoMap}``, sent once through the object store (a cluster's
         nodes need not share our disk)."""
+        self.start_runner(EpisodeRunner, maps, policy, max_steps, _put=maps)
+
+    def start_runner(self, factory, *args, _put=None) -> None:
+        """One actor per worker, each ``factory(*args)`` (``_put``: the first argument, sent
+        once through the object store instead)."""
         ray = self._ray
-        self._init(_nbytes(maps))
+        self._init(_nbytes(args if _put is None else _put))
         cpus = ray.cluster_resources().get("CPU", 0)
         if cpus < self.workers:
             raise ValueError(
                 f"num_envs (the workers) must be at most the Ray cluster's {cpus:g} CPUs, "
                 f"got {self.workers}"
             )
-        ref = ray.put(maps)
+        if _put is not None:
+            args = (ray.put(_put), *args[1:])
         env = {"env_vars": runtime_env(self.address)["env_vars"]}
-        actor = ray.remote(num_cpus=1, runtime_env=env)(EpisodeRunner)
-        self._actors = [actor.remote(ref, policy, max_steps) for _ in range(self.workers)]
+        actor = ray.remote(num_cpus=1, runtime_env=env)(factory)
+        self._actors = [actor.remote(*args) for _ in range(self.workers)]
         ray.get([a.__ray_ready__.remote() for a in self._actors])
 
-    def run(self, tasks: list[EpisodeTask]) -> Iterator[tuple[int, dict]]:
+    def run(self, tasks: list) -> Iterator[tuple[int, dict]]:
         """Each actor runs one episode at a time; the next goes to whichever finishes first."""
         ray = self._ray
         todo = list(enumerate(tasks))[::-1]
