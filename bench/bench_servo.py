@@ -97,7 +97,6 @@ KNOWN_LIMITATION = ("hallway", "hallway-straight", "hallway-right", 11)
 def known_limitation(dataset=None, cache=None) -> dict:
     """Run the known-limitation episode (start and target: the middle stored views of the two
     manifolds); returns its record."""
-    from scenes import MANIFOLDS
     from servo.task import run_episode
 
     world, start, target, seed = KNOWN_LIMITATION
@@ -105,7 +104,7 @@ def known_limitation(dataset=None, cache=None) -> dict:
     m = load_or_build(world, dataset, cache)
 
     def middle(name):
-        views = np.flatnonzero(m.true_labels == MANIFOLDS.index(name))
+        views = np.flatnonzero(m.true_labels == m.manifold_names.index(name))
         return int(views[len(views) // 2])
 
     env = ServoEnv(world, m, max_steps=500)

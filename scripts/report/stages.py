@@ -34,9 +34,10 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
     """Top-down views with trajectories, and per manifold camera frames beside the laser."""
     import cv2
 
-    from scenes import MANIFOLDS, build_world
+    from scenes import build_world
     from sim.topdown import TopDownView
 
+    names = dataset.manifolds  # the label space of the dataset's worlds, from the dataset
     views, result, rows = {}, {"topdown": {}, "manifolds": {}}, {}
     for seq in dataset.sequences.values():
         if seq.world not in views:
@@ -55,12 +56,12 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
             views[seq.world], seq.poses[middle], seq.scans[middle], seq.angles, seq.poses, h
         )
         row = np.concatenate([seq.images[i] for i in frames] + [crop], axis=1)
-        path = write_png(out_dir / f"{MANIFOLDS[m]}_samples.png", row)
-        result["manifolds"][MANIFOLDS[m]] = {
+        path = write_png(out_dir / f"{names[m].replace(':', '-')}_samples.png", row)
+        result["manifolds"][names[m]] = {
             "image": _rel(path, root),
             "frames": [[seq.name, i] for i in frames],
         }
-        rows.setdefault(seq.world, []).append((MANIFOLDS[m], row))
+        rows.setdefault(seq.world, []).append((names[m], row))
     result["sheet"] = _rel(write_png(out_dir / "samples.png", sample_sheet(rows)), root)
     result["gallery"] = _gallery(out_dir, root)
     return result

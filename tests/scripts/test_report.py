@@ -197,7 +197,7 @@ def test_write_report_is_atomic(tmp_path, monkeypatch):
 
 
 def _fake_dataset(world="hallway"):
-    from scenes import MANIFOLD_IDS
+    from scenes import MANIFOLD_IDS, MANIFOLDS
 
     n = 8
     poses = np.stack([np.linspace(1.0, 6.0, n), np.zeros(n), np.zeros(n)], axis=1)
@@ -215,7 +215,7 @@ def _fake_dataset(world="hallway"):
         labels=labels,
         times=np.arange(n, dtype=float),
     )
-    return Dataset(Path("fake"), {"manifolds": []}, {seq.name: seq})
+    return Dataset(Path("fake"), {"manifolds": list(MANIFOLDS)}, {seq.name: seq})
 
 
 def test_stage_worlds_writes_one_image_per_world_and_manifold(tmp_path):
