@@ -4,7 +4,7 @@ On held-out worlds the protocol's fixed Q = 35 (chosen on the canonical worlds) 
 training frames of many leaf manifolds (a drive's 150 frames are shared by every stretch it
 crosses, so a short leaf gets 25-37 even frames): those manifolds cannot form a cluster. This
 study scores fixed Q values and a rule scaled to the data, Q = clip(n // (c K), 8, 35), on the
-DEV worlds only (seeds 10,000-10,009 of each family), and picks the rule by the mean error
+DEV worlds only (seeds 10,000-10,005 of each family), and picks the rule by the mean error
 over both families; the test worlds are then scored once with the pick.
 
     .venv/bin/python -m experiments.heldout.q_rule [--worlds 20] [--out experiments/heldout]
@@ -62,7 +62,7 @@ def score_world(world: str, data_root: Path) -> dict:
 
 def main(argv=None) -> None:
     p = argparse.ArgumentParser()
-    p.add_argument("--worlds", type=int, default=10)
+    p.add_argument("--worlds", type=int, default=6)
     p.add_argument("--out", type=Path, default=Path("experiments/heldout"))
     p.add_argument("--data", type=Path, default=Path("out/heldout-dev/data"))
     a = p.parse_args(argv)

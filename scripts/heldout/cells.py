@@ -115,7 +115,8 @@ def run_cell(
     path = cell_path(out, world, seed, frames)
     cell = _cached(path)
     done = dict(cell.get("tasks", {}))
-    if done.get("servo", {}).get("episodes") != episodes:
+    servo = done.get("servo", {})
+    if servo.get("episodes") != episodes or "indices" not in servo:
         done.pop("servo", None)
     if done.get("manifold", {}).get("version") != MANIFOLD_VERSION:
         done.pop("manifold", None)

@@ -2,18 +2,20 @@
 benchmark protocol's test episodes for both controllers and both start tiers.
 
 Each world's map comes from its own recordings (``servo.maps.build_map``, default settings, K
-the world's manifold count), so nothing of the canonical worlds' maps is reused. Episode ``i``
-of a (world, tier) is the protocol's (``servo.task.protocol``: its seeds from the split and the
-world, pairs of manifolds in turn), so every policy meets the same starts and targets and the
-records can be paired. Each record keeps the junctions between its start and target manifold,
-by which the summary breaks success down.
+the world's manifold count), so nothing of the canonical worlds' maps is reused. The episodes
+are the protocol's (``servo.task.protocol``: seeds from the split and the world, episode ``i``
+on the ``i``-th ordered pair of manifolds), chosen by :func:`spread_by_junctions` so that a few
+episodes per world reach targets 1, 2 and 3 junctions away in turn rather than only the main
+manifold's neighbours (the protocol's first pairs all start on the main manifold). Every
+controller and tier meets the same episodes, so the records can be paired; each keeps the
+junctions between its start and target manifold, by which the summary breaks success down.
 """
 
 from __future__ import annotations
 
 from servo.task.protocol import TIERS
 
-__all__ = ["SERVO_POLICIES", "servo_task"]
+__all__ = ["SERVO_POLICIES", "servo_task", "spread_by_junctions"]
 
 SERVO_POLICIES = ("servo", "signal")  # the laser+image controller, the camera-only one
 SERVO_SPLIT = "test"
@@ -21,24 +23,48 @@ KEEP = ("episode", "seed", "start_manifold", "target_manifold", "junctions", "su
         "spl", "steps", "collisions", "final_distance")  # fmt: skip
 
 
+def spread_by_junctions(pairs: list[tuple[str, str]], junctions, episodes: int) -> list[int]:
+    """Indices of ``episodes`` of ``pairs`` (the protocol's ordered manifold pairs, episode
+    ``i`` on pair ``i``): junction counts taken in turn (1, 2, 3 or more, 1, ...; a count the
+    world lacks is skipped), each count's pairs in the protocol's order; ``junctions(a, b)``
+    counts them. When every pair is taken, the protocol's next episodes (pair ``i mod P``)
+    follow."""
+    by: dict[int, list[int]] = {}
+    for i, (a, b) in enumerate(pairs):
+        by.setdefault(min(junctions(a, b), 3), []).append(i)
+    order, queues = [], [by[j] for j in sorted(by)]
+    while len(order) < min(episodes, len(pairs)):
+        for q in queues:
+            if q and len(order) < episodes:
+                order.append(q.pop(0))
+    return order + list(range(len(pairs), len(pairs) + episodes - len(order)))
+
+
 def servo_task(data, world: str, episodes: int) -> dict:
     """Run ``episodes`` test episodes per controller and start tier in ``world`` on a map built
-    from ``data`` (the cell's dataset); returns the map's size and one record per episode
-    (:data:`KEEP`'s fields, plus ``policy`` and ``tier``)."""
+    from ``data`` (the cell's dataset), chosen by :func:`spread_by_junctions`; returns the
+    map's size and one record per episode (:data:`KEEP`'s fields, plus ``policy`` and
+    ``tier``)."""
+    from scenes import build_world
     from servo.maps import build_map
     from servo.task import Protocol, run_protocol
+    from servo.task.protocol import manifold_pairs
 
     m = build_map(data, world)
+    pairs = manifold_pairs(m.true_labels, m.manifold_names)
+    indices = spread_by_junctions(pairs, build_world(world).junctions_between, episodes)
     records = []
     for policy in SERVO_POLICIES:
         for tier in TIERS:
             protocol = Protocol(world, tier, SERVO_SPLIT)
-            r = run_protocol(protocol, m, episodes, policy, workers=1, progress=False)
+            r = run_protocol(protocol, m, episodes, policy, workers=1, progress=False,
+                             indices=indices)  # fmt: skip
             for e in r["episodes_detail"]:
                 records.append({"policy": policy, "tier": tier, **{k: e.get(k) for k in KEEP}})
     return {
         "episodes": int(episodes),
         "split": SERVO_SPLIT,
         "map_views": len(m.true_labels),
+        "indices": indices,
         "records": records,
     }

@@ -269,6 +269,22 @@ def _run_spec(spec: EpisodeSpec) -> dict:
     return record
 
 
+def _check_indices(indices) -> list[int]:
+    """``indices`` as a list of distinct integers >= 0, or a ValueError naming the form."""
+    if isinstance(indices, str | bytes) or not hasattr(indices, "__iter__"):
+        raise ValueError(f"indices must be a list of distinct integers >= 0, got {indices!r}")
+    out = list(indices)
+    if (
+        not out
+        or len(set(out)) < len(out)
+        or not all(
+            isinstance(i, int | np.integer) and not isinstance(i, bool) and i >= 0 for i in out
+        )
+    ):
+        raise ValueError(f"indices must be a list of distinct integers >= 0, got {indices!r}")
+    return [int(i) for i in out]
+
+
 def run_protocol(
     protocol: Protocol,
     servo_map,
@@ -281,6 +297,7 @@ def run_protocol(
     plot: str | os.PathLike | None = None,
     policy_seed: int = 0,
     act_limit_s: float | None = None,
+    indices=None,
 ) -> dict:
     """Run the first ``episodes`` episodes of ``protocol`` and summarise them
     (``servo.task.evaluation.summarise``: success with its Wilson 95% interval, SPL, final errors,
@@ -298,6 +315,8 @@ def run_protocol(
     the episode's seed and ``policy_seed`` (``servo.task.interface.reseed``; ours keep one
     generator per worker, ``default_rng(policy_seed)``). ``act_limit_s``: seconds a policy's
     call may take before its episode fails (default ``servo.task.guard.ACT_LIMIT_S``).
+    ``indices``: run these episodes of the protocol's list instead (distinct integers >= 0;
+    ``episodes`` is then ignored), each the same episode as in a run of the first ones.
     The result records ``policy``, ``policy_params`` and ``policy_seed``.
     """
     from tqdm.auto import tqdm
@@ -330,7 +349,12 @@ def run_protocol(
                 f"{type(servo_map).__name__}"
             )
         m.check_world(protocol.world)
-        specs = episode_specs(protocol, m.true_labels, episodes, m.manifold_names)
+        if indices is None:
+            specs = episode_specs(protocol, m.true_labels, episodes, m.manifold_names)
+        else:
+            indices = _check_indices(indices)
+            specs = episode_specs(protocol, m.true_labels, max(indices) + 1, m.manifold_names)
+            specs = [specs[i] for i in indices]
         args = (protocol, map_path, policy, params, policy_seed, act_limit_s)
         name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
         bar = tqdm(total=len(specs), disable=not progress, desc=name)

@@ -7,6 +7,7 @@ import scripts.heldout.servo_cell as servo_cell
 from scripts.heldout import run_cell
 from scripts.heldout.cells import MANIFOLD_Q, OURS_SCALED, scaled_q
 from scripts.heldout.evaluate import CellRunner
+from scripts.heldout.servo_cell import spread_by_junctions
 from scripts.manifold import OURS, SKLEARN_DEFAULT
 from scripts.sweep.backends import open_backend
 
@@ -72,3 +73,12 @@ def test_the_manifold_task_scales_q_to_the_data_and_records_a_refusal(cell_dirs)
     assert 0 <= rows[OURS_SCALED]["test_error"] <= 0.5
     assert 0 <= rows[SKLEARN_DEFAULT]["test_error"] <= 0.5
     assert [scaled_q(n, k) for n, k in ((225, 4), (525, 12), (2000, 4), (20, 3))] == [18, 14, 35, 8]
+
+
+def test_episodes_spread_over_junction_counts_in_turn():
+    pairs = [("m", "a"), ("m", "b"), ("m", "c"), ("a", "b"), ("a", "c"), ("b", "c")]
+    far = {("m", "a"): 1, ("m", "b"): 1, ("m", "c"): 2, ("a", "b"): 2, ("a", "c"): 5,
+           ("b", "c"): 3}  # fmt: skip
+    assert spread_by_junctions(pairs, lambda a, b: far[a, b], 4) == [0, 2, 4, 1]
+    assert spread_by_junctions(pairs, lambda a, b: far[a, b], 8) == [0, 2, 4, 1, 3, 5, 6, 7]
+    assert spread_by_junctions(pairs[:2], lambda a, b: 1, 2) == [0, 1]

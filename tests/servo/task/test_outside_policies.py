@@ -251,3 +251,19 @@ def test_servo_eval_runs_an_outside_policy_and_compares_it(servo_dataset, map_ca
         main(["servo-eval", *common, "--policy", "not a module"])
     with pytest.raises(SystemExit):
         main(["servo-eval", *common, "--policy", "random", "--policy-arg", "speed"])
+
+
+def test_chosen_episode_indices_are_the_protocols_episodes(servo_maps):
+    protocol = Protocol("hallway", split="dev", max_steps=4)
+    first = run_protocol(protocol, servo_maps["hallway"], 3, "random", workers=1, progress=False)
+    chosen = run_protocol(protocol, servo_maps["hallway"], 1, "random", workers=1,
+                          progress=False, indices=[2, 0])  # fmt: skip
+    ends = {e["episode"]: e["seed"] for e in first["episodes_detail"]}
+    assert [(e["episode"], e["seed"]) for e in chosen["episodes_detail"]] == [
+        (2, ends[2]),
+        (0, ends[0]),
+    ]
+    for bad in ([], [1, 1], [-1], [0.5], "01", 3, [True]):
+        with pytest.raises(ValueError, match="indices must be a list of distinct integers"):
+            run_protocol(protocol, servo_maps["hallway"], 1, "random", workers=1,
+                         progress=False, indices=bad)  # fmt: skip
