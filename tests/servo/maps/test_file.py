@@ -232,9 +232,9 @@ def _forge(copy: Path, name: str, change) -> None:
         ("true_labels", lambda a: np.full_like(a, 99), r"true_labels must lie in \[-1, 8\)"),
         ("true_labels", lambda a: np.full_like(a, -2), r"true_labels must lie in \[-1, 8\)"),
         ("clusters", lambda a: np.full_like(a, 999), r"clusters must lie in \[0, \d+\)"),
-        ("scans", lambda a: np.full_like(a, np.nan), "scans hold NaN"),
-        ("scans", lambda a: np.full_like(a, -1.0), "scans hold ranges < 0"),
-        ("scans", lambda a: np.full_like(a, -np.inf), "scans hold ranges < 0"),
+        ("scans", lambda a: np.full_like(a, np.nan), "scans holds NaN"),
+        ("scans", lambda a: np.full_like(a, -1.0), "negative scans"),
+        ("scans", lambda a: np.full_like(a, -np.inf), "negative scans"),
     ],
 )
 def test_impossible_content_is_refused_even_with_matching_checksums(copy, name, change, match):
