@@ -47,6 +47,7 @@ from sim.readers.ros_messages import (
     Stream,
     check_bag_path,
     damage_errors,
+    nesting_problem,
     odometry_values,
     read_images,
     scan_geometry,
@@ -101,6 +102,10 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
         with AnyReader([bag], default_typestore=get_typestore(Stores.LATEST)) as reader:
             conns = _connections(reader, bag, settings)
             wanted = [c for cs in conns.values() for c in cs]
+            for conn in wanted:
+                problem = nesting_problem(reader.typestore.fielddefs, conn.msgtype)
+                if problem:
+                    raise RosbagImportError(f"{bag.name}: {conn.topic}: {problem}")
             geometry = None
             counts = {"scan": 0, "image": 0, "odom": 0}
             total = sum(c.msgcount for c in wanted)
