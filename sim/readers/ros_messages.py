@@ -270,10 +270,19 @@ def damage_errors() -> tuple[type[BaseException], ...]:
 
 
 def check_bag_path(bag: Path) -> None:
-    """Refuse a path that is no bag: missing, or a directory without a ROS 2 bag's
-    ``metadata.yaml`` (an empty directory, say)."""
+    """Refuse a path that is no bag: missing, a named pipe or a device (or a directory
+    holding one), or a directory without a ROS 2 bag's ``metadata.yaml`` (an empty directory,
+    say)."""
     if not bag.exists():
         raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
+    # a named pipe or a device (or a link to one) would block the reader or never end
+    special = [p for p in (bag, *(bag.iterdir() if bag.is_dir() else ()))
+               if not (p.is_file() or p.is_dir())]  # fmt: skip
+    if special:
+        raise RosbagImportError(
+            f"{special[0]}: neither a regular file nor a directory (a named pipe, a device, or "
+            "a link to one); a bag is a ROS 1 .bag file or a ROS 2 bag directory of files"
+        )
     if bag.is_dir() and not (bag / "metadata.yaml").is_file():
         raise RosbagImportError(
             f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "

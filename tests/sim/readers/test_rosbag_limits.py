@@ -102,3 +102,23 @@ def test_a_bag_whose_scan_definition_refers_to_itself_is_refused(tmp_path):
                                    r"sensor_msgs/msg/LaserScan refers to itself"):  # fmt: skip
         import_rosbags([bag], tmp_path / "out", laser_only, progress=False)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("where", ["bag", "member"])
+def test_a_pipe_or_device_is_refused_without_blocking(tmp_path, where):
+    import os
+
+    if where == "bag":
+        bag = tmp_path / "pipe.bag"
+        os.mkfifo(bag)
+        (tmp_path / "zero.bag").symlink_to("/dev/zero")
+        bags = (bag, tmp_path / "zero.bag")
+    else:
+        bag = tmp_path / "ros2"
+        bag.mkdir()
+        (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+        os.mkfifo(bag / "ros2_0.db3")
+        bags = (bag,)
+    for given in bags:
+        with budget(5), pytest.raises(RosbagImportError, match="neither a regular file nor"):
+            import_rosbags([given], tmp_path / "out", TINY, progress=False)
