@@ -135,7 +135,7 @@ def test_arrays_that_disagree_are_refused_even_with_a_matching_checksum(copy, se
         load_map(copy)
     arrays["poses"] = np.full((len(arrays["clusters"]), 3), np.nan)
     _edit(copy, lambda m: m.update(sha256=write_sequence(npz, arrays)))
-    with pytest.raises(MapError, match="poses holds NaN"):
+    with pytest.raises(MapError, match="poses position holds NaN"):
         load_map(copy)
 
 
