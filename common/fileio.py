@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "MAX_JSON_BYTES",
     "NotARegularFile",
     "UnreadableJSON",
     "atomic_path",
@@ -32,6 +33,9 @@ __all__ = [
 ]
 
 _JSON_SCALARS = (str, int, float, bool, type(None))
+# the largest JSON file read: a description, a settings file or a result file of a thousand
+# episodes is a few MB; parsing takes several times the file's size in memory
+MAX_JSON_BYTES = 64 << 20
 
 
 @contextlib.contextmanager
@@ -140,17 +144,20 @@ class UnreadableJSON(ValueError):
     """A file that does not parse as JSON; its message is the parser's reason."""
 
 
-def read_json(path: str | os.PathLike):
+def read_json(path: str | os.PathLike, max_bytes: int | None = None):
     """The JSON value in the UTF-8 file ``path``; :class:`UnreadableJSON` for a path that is
-    no regular file (:func:`open_regular`), bad UTF-8, bad syntax, an integer of more digits
-    than Python converts, or nesting deeper than the parser's stack (100,000 ``[`` raise
-    RecursionError, which is no ValueError), so that each reader turns all into its own
-    error."""
+    no regular file (:func:`open_regular`), a file of more than ``max_bytes`` (default
+    :data:`MAX_JSON_BYTES`), bad UTF-8, bad syntax, an integer of more digits than Python
+    converts, or nesting deeper than the parser's stack (100,000 ``[`` raise RecursionError,
+    which is no ValueError), so that each reader turns all into its own error."""
+    limit = MAX_JSON_BYTES if max_bytes is None else max_bytes
     try:
         with open_regular(path) as f:
-            data = f.read()
+            data = f.read(limit + 1)  # not more, whatever the file grew to since
     except NotARegularFile as err:
         raise UnreadableJSON(str(err)) from err
+    if len(data) > limit:
+        raise UnreadableJSON(f"{path} holds more than the {limit} bytes read as JSON")
     try:
         return json.loads(data.decode("utf-8"))
     except (ValueError, RecursionError) as err:  # ValueError: bad JSON, UTF-8, huge integer

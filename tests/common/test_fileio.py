@@ -98,3 +98,11 @@ def test_an_integer_of_too_many_digits_is_unreadable_json(tmp_path):
     path.write_text("[" + "9" * 5000 + "]")
     with pytest.raises(UnreadableJSON):
         read_json(path)
+
+
+def test_json_beyond_the_cap_is_refused_unread(tmp_path):
+    path = tmp_path / "big.json"
+    path.write_text("[" + "0, " * 100 + "0]")
+    with pytest.raises(UnreadableJSON, match="more than the 100 bytes read as JSON"):
+        read_json(path, max_bytes=100)
+    assert len(read_json(path)) == 101
