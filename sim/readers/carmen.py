@@ -185,8 +185,12 @@ def _count(path: Path, line_no: int, fields: list[str], at: int, what: str) -> i
     if at >= len(fields):
         raise CarmenError(f"{path}, line {line_no}: truncated line, no {what} count")
     text = fields[at]
-    if not text.isdigit():
-        raise CarmenError(f"{path}, line {line_no}: {what} count must be an integer, got {text!r}")
+    # no line holds 10^10 values, and int() of over 4300 digits raises a ValueError of its own
+    if not (text.isdigit() and len(text) <= 10):
+        raise CarmenError(
+            f"{path}, line {line_no}: {what} count must be an integer of at most 10 digits, "
+            f"got {text[:20]!r}{'...' if len(text) > 20 else ''}"
+        )
     return int(text)
 
 

@@ -1,6 +1,6 @@
 """Carmen logs that are no plain small file: special files and links refused before they are
 read, a cap on the text read (a gzip bomb stops there), line numbers that a lone carriage
-return does not shift."""
+return does not shift, counts of thousands of digits."""
 
 import gzip
 import os
@@ -82,3 +82,13 @@ def test_a_lone_carriage_return_does_not_shift_line_numbers(tmp_path, gz):
     text = f"# a comment\rwith a carriage return\r\n{SCAN}\r\n{SCAN}\n"
     path.write_bytes(gzip.compress(text.encode()) if gz else text.encode())
     assert read_carmen(path).line_numbers.tolist() == [2, 3]
+
+
+@pytest.mark.parametrize("count", ["9" * 5000, "9" * 11])
+def test_a_count_of_many_digits_is_refused(tmp_path, count):
+    # int() of 5000 digits raises a ValueError of its own
+    with pytest.raises(CarmenError, match=r"line 2: range count must be an integer of at most"):
+        read_carmen(write(tmp_path, [SCAN, f"FLASER {count} 1.0"]))
+    robot = f"ROBOTLASER1 0 -1.5 1.0 0.5 8.0 0.01 0 2 1.0 2.0 {count} 7"
+    with pytest.raises(CarmenError, match=r"line 1: remission count must be an integer of"):
+        read_carmen(write(tmp_path, [robot]))
