@@ -146,3 +146,48 @@ def test_special_files_are_refused_without_blocking(tmp_path, member):
     (d / member).symlink_to("/dev/zero")
     with budget(5), pytest.raises(DatasetError):
         load_dataset(d)
+
+
+def _random_change(rng) -> tuple[dict, dict]:
+    """(arrays of the second sequence, meta changes): one change, or none, at random."""
+    frames = int(rng.integers(1, 7))
+    arrays = sequence_arrays(frames)
+    beams = int(rng.integers(1, 7))
+    kind = int(rng.integers(6))
+    if kind == 0:
+        arrays["scans"] = np.ones((frames, beams), np.float32)
+        arrays["angles"] = _angles(beams)
+    elif kind == 1:
+        arrays["angles"] = arrays["angles"] + np.float32(rng.choice([1e-7, 1e-3, 0.1]))
+    elif kind == 2:
+        arrays["images"] = np.zeros((frames, int(rng.integers(1, 6)), 6, 3), np.uint8)
+    elif kind == 3:
+        arrays["depth"] = np.ones((frames, *rng.integers(3, 7, 2)), np.float32)
+    settings = {"laser": {"max_range": 10.0}}
+    if rng.random() < 0.3:
+        settings["laser"]["beams"] = int(rng.choice([4, beams]))
+    if rng.random() < 0.3:
+        settings["worlds"] = [str(rng.choice(["lawn", "hallway"]))]
+    return arrays, {"settings": settings}
+
+
+def test_random_disagreements_give_a_dataset_error_or_a_dataset_that_concatenates(tmp_path):
+    rng = np.random.default_rng(5)
+    outcomes = {"refused": 0, "read": 0}
+    for case in range(60):
+        arrays, meta = _random_change(rng)
+        d = _two_sequences(tmp_path / f"case{case}", arrays, **meta)
+        with budget(5):
+            try:
+                ds = load_dataset(d)
+            except DatasetError as err:
+                assert str(d) in str(err), err
+                outcomes["refused"] += 1
+                continue
+        for field in ("images", "scans", "angles", "odometry", "commands", "times", "labels"):
+            ds.concat(field)  # what broke with a raw numpy error before
+        first = ds.sequences["lawn-left"]
+        for s in ds.sequences.values():
+            assert s.scans.shape[1] == len(first.angles) and s.images.shape[1:] == (4, 6, 3)
+        outcomes["read"] += 1
+    assert outcomes["refused"] > 10 and outcomes["read"] > 10, outcomes
