@@ -273,11 +273,11 @@ def build_map(
     for sensor in ("camera", "laser"):  # views are images; their links, scan matches
         dataset.require(sensor, "the servo map")
     names = _world_sequences(dataset, world)
-    check_needs(dataset, world, names, settings)
     first = dataset.sequences[names[0]]
     max_range = dataset.max_range
     if max_range is None:  # a meta.json from another writer: no laser settings recorded
         raise DatasetError(f"{dataset.path}: meta.json gives no settings.laser.max_range")
+    check_needs(dataset, world, names, settings)
     cols: dict[str, list] = {k: [] for k in ("images", "scans", "poses", "true", "labels")}
     seq_ids, frames = [], []
     for k, name in enumerate(names):
