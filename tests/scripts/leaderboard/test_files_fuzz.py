@@ -126,3 +126,16 @@ def test_special_files_are_refused_without_blocking(tmp_path, special):
         with budget(5), pytest.raises(ResultFileError, match="not a regular file") as err:
             load_results([given])
         assert str(path) in str(err.value)
+
+
+def test_the_command_names_the_file_and_field_without_a_traceback(tmp_path, capsys):
+    from scripts.cli import main
+
+    data = _result()
+    data["records"][2]["value"] = 10**400
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(data))
+    assert main(["leaderboard", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: records[2].value: expected a finite number" in err
+    assert "Traceback" not in err
