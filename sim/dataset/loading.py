@@ -23,6 +23,7 @@ from sim.dataset.schema import (
     PER_FRAME,
     SENSORS,
     SHAPES,
+    SPECIAL,
     DatasetError,
     read_meta,
 )
@@ -59,8 +60,8 @@ def read_npz(
     """The arrays of an ``.npz`` (as :func:`write_sequence` writes them), read without pickle
     after checking its SHA-256 when ``sha256`` is given; a missing, modified or unreadable file
     raises ``error`` starting with ``context``."""
-    if not path.is_file():
-        raise error(f"{context}{path} is missing")
+    if not path.is_file():  # a pipe or a device there would block or never end a read
+        raise error(f"{context}{path} is {'missing' if not path.exists() else SPECIAL}")
     if sha256 is not None and file_sha256(path) != sha256:
         raise error(f"{context}{path} is truncated or modified (checksum mismatch)")
     try:

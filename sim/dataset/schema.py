@@ -44,6 +44,7 @@ _FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\.npz\Z")  # the file 
 # A world (place) name: as a file name, and ':' for a generated world (``hallway:17``).
 _WORLD = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.:-]{0,200}\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
+SPECIAL = "no regular file (a named pipe, a device, a folder, or a link to one)"
 GROUND_TRUTH = ("poses", "labels")  # absent from a dataset without ground truth
 OPTIONAL = ("depth",)  # present only when collected with it
 SENSORS = {"camera": ("images",), "laser": ("scans", "angles")}  # absent without the sensor
@@ -74,8 +75,9 @@ def read_meta(directory: str | os.PathLike) -> dict:
     path = Path(directory) / META_FILE
     if Path(directory).is_file():
         raise DatasetError(f"{directory} is a file, not a dataset folder")
-    if not path.is_file():
-        raise DatasetError(f"no dataset at {directory}: {META_FILE} is missing")
+    if not path.is_file():  # a pipe or a device there would block or never end a read
+        what = "is missing" if not path.exists() else f"is {SPECIAL}"
+        raise DatasetError(f"no dataset at {directory}: {META_FILE} {what}")
     try:
         meta = read_json(path)
     except UnreadableJSON as err:

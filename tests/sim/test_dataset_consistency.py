@@ -139,12 +139,12 @@ def test_special_files_are_refused_without_blocking(tmp_path, member):
     d = write_dataset(tmp_path / "d")
     (d / member).unlink()
     os.mkfifo(d / member)
-    with budget(5), pytest.raises(DatasetError) as err:
+    with budget(5), pytest.raises(DatasetError, match="is no regular file") as err:
         load_dataset(d)
     assert str(d) in str(err.value)
     (d / member).unlink()
     (d / member).symlink_to("/dev/zero")
-    with budget(5), pytest.raises(DatasetError):
+    with budget(5), pytest.raises(DatasetError, match="is no regular file"):
         load_dataset(d)
 
 
