@@ -2,7 +2,8 @@
 
 No pickle anywhere. A map file is untrusted input: :func:`load_map` checks the JSON's schema, the
 ``.npz``'s SHA-256 against the one recorded at save time, every array's dtype and shape against
-the others, checks the description's own SHA-256, rebuilds the estimators only through
+the others and its values against :mod:`common.bounds` and the map's own indices (views,
+sequences, manifolds), checks the description's own SHA-256, rebuilds the estimators only through
 :mod:`mapping.persistence` (an exact set of known classes), and finally re-runs the feature
 transform and the clustering's ``predict`` on a few stored views and compares with what was
 saved. Whatever fails raises :class:`MapError` naming the file and the fault.

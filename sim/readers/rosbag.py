@@ -24,8 +24,11 @@ Bad input is refused with an error naming the bag, topic and message: a damaged 
 rosbags or SQLite raise becomes a ``RosbagImportError``), a missing topic (the bag's topics are
 listed), another message type, a scan whose range count disagrees with its angles, scans or
 images that change shape, stamps that repeat or go backwards, values beyond
-:mod:`common.bounds`, bags in which no beam has a return. The dataset is built in a temporary
-directory beside ``out`` and renamed into place when complete: nothing half-written is left.
+:mod:`common.bounds`, bags in which no beam has a return, a named pipe or device in place of a
+bag or its files, images beyond ``MAX_IMAGE_PIXELS`` and message definitions that refer to
+themselves or nest beyond ``MAX_MESSAGE_NESTING`` (:mod:`sim.readers.ros_messages`). The
+dataset is built in a temporary directory beside ``out`` and renamed into place when complete:
+nothing half-written is left.
 """
 
 from __future__ import annotations
