@@ -1,5 +1,5 @@
-"""Atomic file writes, JSON coercion and reading JSON that may be damaged: the one home for
-each.
+"""Atomic file writes, JSON coercion, opening untrusted files and reading JSON that may be
+damaged: the one home for each.
 
 A write goes to a temporary file in the same directory, then a rename, so a reader never sees
 half a file and a failed write leaves nothing behind. JSON goes through :func:`jsonable` first,
@@ -12,6 +12,7 @@ import contextlib
 import json
 import math
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -19,16 +20,22 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "MAX_JSON_BYTES",
+    "NotARegularFile",
     "UnreadableJSON",
     "atomic_path",
     "atomic_write_bytes",
     "jsonable",
+    "open_regular",
     "read_json",
     "write_json",
     "write_png",
 ]
 
 _JSON_SCALARS = (str, int, float, bool, type(None))
+# the largest JSON file read: a description, a settings file or a result file of a thousand
+# episodes is a few MB; parsing takes several times the file's size in memory
+MAX_JSON_BYTES = 64 << 20
 
 
 @contextlib.contextmanager
@@ -92,17 +99,68 @@ def _key(key):
     return key if isinstance(key, _JSON_SCALARS) else str(key)
 
 
+class NotARegularFile(OSError):
+    """A path that is no regular file (a folder, a named pipe, a device, a socket, or a link
+    to one of these): reading it could block forever or never end."""
+
+
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))  # fmt: skip
+
+
+def _kind(mode: int) -> str:
+    return next((name for test, name in _KINDS if test(mode)), "no regular file")
+
+
+def open_regular(path: str | os.PathLike):
+    """``path`` opened for binary reading, once it is known to be a regular file.
+
+    A link is followed to its target, which must be a regular file too. The kind of file is
+    checked before it is opened, and again on the open descriptor (opened without blocking,
+    so that a pipe put in its place in between cannot block either).
+
+    Raises
+    ------
+    NotARegularFile
+        Naming the path and what it is instead (``"a named pipe"``, ``"a link to a character
+        device"``, ...); an ``OSError``, so readers that turn ``OSError`` into their own error
+        need nothing more.
+    """
+    path = Path(path)
+    mode = os.stat(path).st_mode  # FileNotFoundError for nothing there, as open's
+    if not stat.S_ISREG(mode):
+        link = "a link to " if path.is_symlink() else ""
+        raise NotARegularFile(f"{path} is {link}{_kind(mode)}, not a regular file")
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        raise NotARegularFile(f"{path} is {_kind(mode)}, not a regular file")
+    return os.fdopen(fd, "rb")
+
+
 class UnreadableJSON(ValueError):
     """A file that does not parse as JSON; its message is the parser's reason."""
 
 
-def read_json(path: str | os.PathLike):
-    """The JSON value in the UTF-8 file ``path``; :class:`UnreadableJSON` for bad UTF-8, bad
-    syntax, or nesting deeper than the parser's stack (100,000 ``[`` raise RecursionError,
-    which is no ValueError), so that each reader turns all three into its own error."""
+def read_json(path: str | os.PathLike, max_bytes: int | None = None):
+    """The JSON value in the UTF-8 file ``path``; :class:`UnreadableJSON` for a path that is
+    no regular file (:func:`open_regular`), a file of more than ``max_bytes`` (default
+    :data:`MAX_JSON_BYTES`), bad UTF-8, bad syntax, an integer of more digits than Python
+    converts, or nesting deeper than the parser's stack (100,000 ``[`` raise RecursionError,
+    which is no ValueError), so that each reader turns all into its own error."""
+    limit = MAX_JSON_BYTES if max_bytes is None else max_bytes
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
-    except (ValueError, RecursionError) as err:  # ValueError: bad JSON or bad UTF-8
+        with open_regular(path) as f:
+            data = f.read(limit + 1)  # not more, whatever the file grew to since
+    except NotARegularFile as err:
+        raise UnreadableJSON(str(err)) from err
+    if len(data) > limit:
+        raise UnreadableJSON(f"{path} holds more than the {limit} bytes read as JSON")
+    try:
+        return json.loads(data.decode("utf-8"))
+    except (ValueError, RecursionError) as err:  # ValueError: bad JSON, UTF-8, huge integer
         raise UnreadableJSON(str(err)) from err
 
 

@@ -167,6 +167,8 @@ def _load_records(spec, where: str, arrays: dict, prefix: str) -> list:
         cls is not None, f"{where} names record class {spec['class']!r}; allowed: {sorted(RECORDS)}"
     )
     names = {f.name for f in dataclasses.fields(cls)}
+    # fields the class declares as arrays: a scalar there breaks its methods, not its __init__
+    array_fields = {f.name for f in dataclasses.fields(cls) if "ndarray" in str(f.type)}
     _require(isinstance(spec["items"], list) and spec["items"], f"{where}.items must be a list")
     out = []
     for i, item in enumerate(spec["items"]):
@@ -176,6 +178,9 @@ def _load_records(spec, where: str, arrays: dict, prefix: str) -> list:
         )
         fields = {k: _load_value(v, f"{where}.items[{i}].{k}", arrays, prefix)
                   for k, v in item.items()}  # fmt: skip
+        scalar = sorted(k for k in array_fields if not isinstance(fields[k], np.ndarray))
+        _require(not scalar, f"{where}.items[{i}].{', '.join(scalar)} must be an array "
+                             "({'array': key}), got a scalar")  # fmt: skip
         try:
             out.append(cls(**fields))
         except (TypeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:

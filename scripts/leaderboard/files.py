@@ -14,9 +14,10 @@ A result file is one JSON object (``FORMAT``, ``FORMAT_VERSION``; see
      ...}
 
 A record is one independent unit (a dataset seed, a world, a log, an episode) of one group
-(the condition the leaderboard ranks within); ``value`` is the metric (a number, or a bool
-for a ``rate``), ``failure`` the reason the method gave no value (None when it did). Other
-top-level keys are the evaluation's own (``servo-eval`` keeps its ``results`` there).
+(the condition the leaderboard ranks within); ``value`` is the metric (a number of size at
+most ``MAX_VALUE``, or a bool for a ``rate``), ``failure`` the reason the method gave no value
+(None when it did); every record has both keys. Other top-level keys are the evaluation's own
+(``servo-eval`` keeps its ``results`` there).
 
 The reader treats a file as untrusted: it is refused before parsing when larger than
 ``MAX_BYTES``, never unpickled, and every field is checked; :class:`ResultFileError` names the
@@ -25,7 +26,6 @@ file and the field.
 
 from __future__ import annotations
 
-import math
 import os
 import platform
 import subprocess
@@ -38,6 +38,7 @@ __all__ = [
     "FORMAT_VERSION",
     "KINDS",
     "MAX_BYTES",
+    "MAX_VALUE",
     "ResultFileError",
     "code_version",
     "envelope",
@@ -50,6 +51,10 @@ FORMAT = "topomap-result"
 FORMAT_VERSION = 1
 MAX_BYTES = 64 << 20  # a servo file of 1000 episodes is ~5 MB
 MAX_RECORDS = 100_000
+# the largest |value| of a record: no metric of the testbed comes near it (errors and rates
+# are fractions), and beyond it a mean or a percentage loses its digits or overflows to inf
+MAX_VALUE = 1e12
+MAX_VERSION = 1_000_000  # the largest protocol version
 # metric kind -> whether higher is better; "rate" values are bools (Wilson interval)
 KINDS = {"error": False, "score": True, "rate": True}
 _ROOT = Path(__file__).resolve().parents[2]
@@ -140,8 +145,9 @@ def read_result(path: str | os.PathLike) -> dict:
     """The checked result file at ``path``; :class:`ResultFileError` naming the file and the
     field when it is too large, not JSON, or a field is missing or malformed."""
     path = Path(path)
-    if not path.is_file():
-        raise ResultFileError(path, "file", "not a file")
+    if not path.is_file():  # a named pipe would block the read, a device never end it
+        raise ResultFileError(path, "file", "not a regular file (a folder, a named pipe, a "
+                                            "device, or nothing)")  # fmt: skip
     size = path.stat().st_size
     if size > MAX_BYTES:
         raise ResultFileError(path, "file", f"{size} bytes, more than the {MAX_BYTES} allowed")
@@ -178,15 +184,21 @@ def check_result(data, path) -> dict:
             fail(key, f"expected a non-empty string, got {data[key]!r}")
     p = data["protocol"]
     if not (isinstance(p, dict) and _short_str(p.get("name")) and _int(p.get("version"))):
-        fail("protocol", f"expected {{'name': str, 'version': int}}, got {p!r}")
+        fail("protocol", f"expected {{'name': str, 'version': int in [0, {MAX_VERSION}]}}, "
+                         f"got {_shown(p)}")  # fmt: skip
     m = data["metric"]
-    if not (isinstance(m, dict) and _short_str(m.get("name")) and m.get("kind") in KINDS):
-        fail("metric", f"expected {{'name': str, 'kind': one of {tuple(KINDS)}}}, got {m!r}")
+    if not (isinstance(m, dict) and _short_str(m.get("name")) and _short_str(m.get("kind"))
+            and m["kind"] in KINDS):  # fmt: skip
+        fail("metric", f"expected {{'name': str, 'kind': one of {tuple(KINDS)}}}, "
+                       f"got {_shown(m)}")  # fmt: skip
     method = data["method"]
     if not (isinstance(method, dict) and _short_str(method.get("name"))):
-        fail("method", f"expected an object with a 'name', got {method!r}")
+        fail("method", f"expected an object with a 'name', got {_shown(method)}")
     if not isinstance(method.get("params", {}), dict):
         fail("method.params", "expected an object")
+    notes = method.get("notes")
+    if notes is not None and not isinstance(notes, str):
+        fail("method.notes", f"expected a string or null, got {_shown(notes)}")
     for key in ("code_version", "machine"):
         if not isinstance(data[key], dict):
             fail(key, "expected an object")
@@ -204,15 +216,26 @@ def check_result(data, path) -> dict:
         if (r["group"], r["unit"]) in seen:
             fail(where, f"unit {r['unit']!r} appears twice in group {r['group']!r}")
         seen.add((r["group"], r["unit"]))
-        failure, value = r.get("failure"), r.get("value")
+        for key in ("value", "failure"):
+            if key not in r:
+                fail(f"{where}.{key}", "missing (every record has 'value' and 'failure', "
+                                       "null when it does not apply)")  # fmt: skip
+        failure, value = r["failure"], r["value"]
         if failure is not None:
             if not isinstance(failure, str) or value is not None:
                 fail(where, "a failed record has a 'failure' string and 'value' null")
         elif rate and not isinstance(value, bool):
-            fail(f"{where}.value", f"a rate's record is true or false, got {value!r}")
+            fail(f"{where}.value", f"a rate's record is true or false, got {_shown(value)}")
         elif not rate and not _finite(value):
-            fail(f"{where}.value", f"expected a finite number, got {value!r}")
+            fail(f"{where}.value", f"expected a finite number of size at most {MAX_VALUE:g}, "
+                                   f"got {_shown(value)}")  # fmt: skip
     return data
+
+
+def _shown(value, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters: a 400-digit integer stays readable."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
 def _short_str(value, limit: int = 500) -> bool:
@@ -220,8 +243,12 @@ def _short_str(value, limit: int = 500) -> bool:
 
 
 def _int(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_VERSION
 
 
 def _finite(value) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    """A number within ``MAX_VALUE`` (NaN is not: it compares false; an int of 400 digits is
+    compared exactly, where ``math.isfinite`` would raise OverflowError)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    return abs(value) <= MAX_VALUE

@@ -53,8 +53,8 @@ def load_results(paths) -> list[dict]:
 
 
 def _looks_like_result(path: Path) -> bool:
-    if path.stat().st_size > MAX_BYTES:
-        return True  # let the reader refuse it by name
+    if not path.is_file() or path.stat().st_size > MAX_BYTES:
+        return True  # let the reader refuse it by name (a pipe or device must not be opened)
     try:
         data = read_json(path)
     except UnreadableJSON:

@@ -48,6 +48,7 @@ from mapping.manifold import ManifoldClustering
 from mapping.scan_matching import refine_poses
 from scenes.families import check_world_name
 from servo.maps.file import FORMAT_VERSION, load_map, map_paths, save_map
+from servo.maps.needs import check_needs
 from servo.maps.scan_profile import clip_ranges, profile_distances
 from servo.maps.types import MapError, MapSettings, ServoMap
 from sim import datahome
@@ -262,7 +263,9 @@ def build_map(
     dataset: Dataset | str | os.PathLike, world: str, settings: MapSettings | None = None
 ) -> ServoMap:
     """Fit the servo map of ``world`` (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``) from a
-    dataset (see the module docstring)."""
+    dataset (see the module docstring); a dataset that cannot give what a map needs
+    (:mod:`servo.maps.needs`: beams, frames per manifold) raises ``DatasetError`` naming the
+    shortfall."""
     world = check_world_name(world)
     settings = settings or MapSettings()
     if not isinstance(dataset, Dataset):
@@ -274,6 +277,7 @@ def build_map(
     max_range = dataset.max_range
     if max_range is None:  # a meta.json from another writer: no laser settings recorded
         raise DatasetError(f"{dataset.path}: meta.json gives no settings.laser.max_range")
+    check_needs(dataset, world, names, settings)
     cols: dict[str, list] = {k: [] for k in ("images", "scans", "poses", "true", "labels")}
     seq_ids, frames = [], []
     for k, name in enumerate(names):

@@ -2,7 +2,8 @@
 
 No pickle anywhere. A map file is untrusted input: :func:`load_map` checks the JSON's schema, the
 ``.npz``'s SHA-256 against the one recorded at save time, every array's dtype and shape against
-the others, checks the description's own SHA-256, rebuilds the estimators only through
+the others and its values against :mod:`common.bounds` and the map's own indices (views,
+sequences, manifolds), checks the description's own SHA-256, rebuilds the estimators only through
 :mod:`mapping.persistence` (an exact set of known classes), and finally re-runs the feature
 transform and the clustering's ``predict`` on a few stored views and compares with what was
 saved. Whatever fails raises :class:`MapError` naming the file and the fault.
@@ -18,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from common import bounds
 from common.fileio import UnreadableJSON, atomic_write_bytes, read_json
+from common.validation import is_real
 from mapping import persistence
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
@@ -143,8 +146,10 @@ def _read_meta(path: Path, world: str | None) -> dict:
     _check(isinstance(meta["sha256"], str) and bool(_SHA.match(meta["sha256"])), path,
            "sha256 must be 64 hex digits")  # fmt: skip
     r = meta["max_range"]
-    _check(isinstance(r, int | float) and np.isfinite(r) and r > 0, path,
-           "max_range must be a positive number")  # fmt: skip
+    # an int is compared as an int: np.isfinite(10**400) raises TypeError
+    _check(is_real(r) and 0 < r <= bounds.MAX_RANGE, path,
+           f"max_range must be a number of metres in (0, {bounds.MAX_RANGE:g}], got "
+           f"{repr(r)[:40]}")  # fmt: skip
     names = meta["sequence_names"]
     _check(isinstance(names, list) and all(isinstance(n, str) for n in names), path,
            "sequence_names must be a list of strings")  # fmt: skip
@@ -154,7 +159,7 @@ def _read_meta(path: Path, world: str | None) -> dict:
     return meta
 
 
-def _check_arrays(arrays: dict, path: Path, manifolds: int) -> None:
+def _check_arrays(arrays: dict, path: Path, manifolds: int, sequences: int) -> None:
     dims: dict[str, int] = {}
     for name, (kinds, pattern) in _ARRAYS.items():
         _check(name in arrays, path, f"array {name!r} is missing")
@@ -174,17 +179,25 @@ def _check_arrays(arrays: dict, path: Path, manifolds: int) -> None:
     _check(bool(np.all((edges >= 0) & (edges < n))), path, "edges name views outside the map")
     clusters = arrays["clusters"]
     _check(bool(np.all(clusters >= 0)), path, "clusters must be >= 0")
+    _check(bool(np.all(arrays["frame"] >= 0)), path, "frame must be >= 0 (a frame index)")
+    _check(bool(np.all((arrays["sequence"] >= 0) & (arrays["sequence"] < sequences))), path,
+           f"sequence must lie in [0, {sequences}): an index into the map's {sequences} "
+           "sequence_names")  # fmt: skip
     labels = arrays["true_labels"]
     _check(bool(np.all((labels >= NO_MANIFOLD) & (labels < manifolds))), path,
            f"true_labels must lie in [{NO_MANIFOLD}, {manifolds}): an index into the map's "
            f"manifolds, {NO_MANIFOLD} for none")  # fmt: skip
-    for name in ("features", "poses", "edge_transforms", "angles"):
+    for name in ("features", "edge_transforms"):
         _check(bool(np.isfinite(arrays[name]).all()), path, f"{name} holds NaN or inf")
-    # ranges as the dataset stores them: +inf is no return, so only NaN and < 0 are refused
-    # (a scan of NaN or negative ranges has no point, and the map's views need their points)
-    scans = arrays["scans"]
-    _check(not bool(np.isnan(scans).any()), path, "scans hold NaN (no return is +inf)")
-    _check(bool(np.all(scans >= 0)), path, "scans hold ranges < 0")
+    # the bounds every reader applies (common.bounds); ranges as the dataset stores them: +inf
+    # is no return, NaN and < 0 are refused (the map's views need their points)
+    problem = (
+        bounds.pose_problem(arrays["poses"], "poses")
+        or bounds.pose_problem(arrays["true_poses"], "true_poses")
+        or bounds.angle_problem(arrays["angles"], "angles")
+        or bounds.range_problem(arrays["scans"], "scans")
+    )
+    _check(problem is None, path, str(problem))
 
 
 def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: Path) -> None:
@@ -212,7 +225,7 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
         raise MapError(f"no servo map at {path}")
     meta = _read_meta(path, world)
     arrays = read_npz(npz_path, meta["sha256"], "the servo map's arrays ", MapError)
-    _check_arrays(arrays, npz_path, len(meta["manifolds"]))
+    _check_arrays(arrays, npz_path, len(meta["manifolds"]), len(meta["sequence_names"]))
     try:
         settings = MapSettings.from_json(meta["settings"])
         clustering = persistence.load(ManifoldClustering, meta["clustering"], arrays, "clustering")

@@ -26,6 +26,8 @@ def profile_distances(
     profile in ``table`` (n, B), minimised over beam shifts of up to ``max_shift`` beams (every
     5th), and the heading (rad, ``shift * beam_step``) of the best shift per view."""
     n = len(ranges)
+    if n <= max_shift:  # a shift would leave nothing to compare (servo.maps.needs: MIN_BEAMS)
+        raise ValueError(f"a scan of {n} beams cannot be shifted by up to {max_shift} beams")
     best = np.full(len(table), np.inf)
     yaw = np.zeros(len(table))
     for s in range(-max_shift, max_shift + 1, 5):

@@ -25,9 +25,13 @@ true); a method that needs the missing sensor raises :class:`MissingSensorError`
 version 1 (before ``"ground_truth"`` existed) is still read, as a dataset with ground truth.
 
 Reading checks the values too, against :mod:`common.bounds`: finite poses, odometry, commands,
-times and angles within their bounds, times that never go backwards, ranges that are never NaN
-or negative (``+inf``: no return), labels within the manifolds, images and scans that are not
-empty. Anything else raises :class:`DatasetError` naming the file and the array.
+times and angles within their bounds, times that never go backwards, ranges and depths that are
+never NaN or negative (``+inf``: no return), labels within the manifolds (a dataset with labels
+must list its ``manifolds``), images and scans that are not empty, a maximum range within the
+bound of every reader. Across the sequences (:mod:`sim.dataset.consistency`): one beam layout,
+one image size, and both as the settings record them, worlds among the settings' worlds, and
+no file listed under two sequence names. Anything else raises :class:`DatasetError` naming the
+file (or the folder) and the array.
 
 Every file is written to a temporary name and renamed, and ``meta.json`` lists a sequence only
 after its file is complete, so an interrupted collection never leaves a half-written sequence.

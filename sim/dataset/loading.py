@@ -13,13 +13,17 @@ import numpy as np
 from common import bounds
 from common.fileio import atomic_path
 from common.npz import UnreadableNpz, read_arrays
+from sim.dataset.consistency import check_consistency
 from sim.dataset.model import Dataset, Sequence
 from sim.dataset.schema import (
     ARRAYS,
     GROUND_TRUTH,
+    META_FILE,
+    OPTIONAL,
     PER_FRAME,
     SENSORS,
     SHAPES,
+    SPECIAL,
     DatasetError,
     read_meta,
 )
@@ -56,8 +60,8 @@ def read_npz(
     """The arrays of an ``.npz`` (as :func:`write_sequence` writes them), read without pickle
     after checking its SHA-256 when ``sha256`` is given; a missing, modified or unreadable file
     raises ``error`` starting with ``context``."""
-    if not path.is_file():
-        raise error(f"{context}{path} is missing")
+    if not path.is_file():  # a pipe or a device there would block or never end a read
+        raise error(f"{context}{path} is {'missing' if not path.exists() else SPECIAL}")
     if sha256 is not None and file_sha256(path) != sha256:
         raise error(f"{context}{path} is truncated or modified (checksum mismatch)")
     try:
@@ -110,37 +114,35 @@ def load_sequence(
     must be there (True) or must not (False), ``laser`` the same of ``scans`` and ``angles``."""
     path = Path(directory) / entry["file"]
     arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
+
+    def fail(problem: str):
+        raise DatasetError(f"{path}: sequence {name!r}: {problem}")
+
     absent = (
         (() if ground_truth else GROUND_TRUTH)
         + (() if camera else SENSORS["camera"])
         + (() if laser else SENSORS["laser"])
     )
+    absent += tuple(k for k in OPTIONAL if k not in arrays)
     expected = [k for k in ARRAYS if k not in absent]
     missing = [k for k in expected if k not in arrays]
     if missing:
-        raise DatasetError(f"sequence {name!r}: arrays {missing} missing from {path}")
+        fail(f"arrays {missing} missing")
     extra = [k for k in GROUND_TRUTH if k in arrays and not ground_truth]
     if extra:
-        raise DatasetError(
-            f"sequence {name!r}: {path} holds {extra} but meta.json says ground_truth is false"
-        )
+        fail(f"holds {extra} but meta.json says ground_truth is false")
     for sensor, on in (("camera", camera), ("laser", laser)):
         held = [k for k in SENSORS[sensor] if k in arrays]
         if held and not on:
-            raise DatasetError(f"sequence {name!r}: {path} holds {held} but meta.json says "
-                               f"{sensor} is false")  # fmt: skip
+            fail(f"holds {held} but meta.json says {sensor} is false")
     n = entry["frames"]
-    for k in [k for k in PER_FRAME if k in expected] + (["depth"] if "depth" in arrays else []):
+    for k in [k for k in (*PER_FRAME, *OPTIONAL) if k in expected]:
         if arrays[k].ndim == 0 or len(arrays[k]) != n:
-            raise DatasetError(
-                f"sequence {name!r}: {k} has shape {arrays[k].shape}, meta says {n} frames"
-            )
+            fail(f"{k} has shape {arrays[k].shape}, meta says {n} frames")
     for k in expected:
         dtype = ARRAYS[k]
         if arrays[k].dtype != dtype:
-            raise DatasetError(
-                f"sequence {name!r}: {k} has dtype {arrays[k].dtype}, expected {np.dtype(dtype)}"
-            )
+            fail(f"{k} has dtype {arrays[k].dtype}, expected {np.dtype(dtype)}")
         trailing = arrays[k].shape[0 if k == "angles" else 1 :]
         want = SHAPES[k]
         if len(trailing) != len(want) or any(
@@ -148,17 +150,16 @@ def load_sequence(
         ):
             lead = () if k == "angles" else ("frames",)
             form = ", ".join([*lead, *("*" if w < 0 else str(w) for w in want)])
-            raise DatasetError(
-                f"sequence {name!r}: {k} has shape {arrays[k].shape}; expected ({form})"
-            )
+            fail(f"{k} has shape {arrays[k].shape}; expected ({form})")
     if laser and arrays["scans"].shape[1] != len(arrays["angles"]):
-        raise DatasetError(
-            f"sequence {name!r}: scans have {arrays['scans'].shape[1]} beams but angles has "
-            f"{len(arrays['angles'])}"
-        )
+        fail(f"scans have {arrays['scans'].shape[1]} beams but angles has "
+             f"{len(arrays['angles'])}")  # fmt: skip
+    if camera and "depth" in arrays and arrays["depth"].shape[1:] != arrays["images"].shape[1:3]:
+        fail(f"depth has shape {arrays['depth'].shape}; expected (frames, "
+             f"{', '.join(map(str, arrays['images'].shape[1:3]))}), the images' size")  # fmt: skip
     problem = _value_problem(arrays, manifolds)
     if problem:
-        raise DatasetError(f"sequence {name!r}: {path}: {problem}")
+        fail(problem)
     return Sequence(
         name=name,
         world=entry["world"],
@@ -166,7 +167,7 @@ def load_sequence(
         images=arrays.get("images"),
         scans=arrays.get("scans"),
         angles=arrays.get("angles"),
-        **{k: arrays[k] for k in expected if k not in ("images", "scans", "angles")},
+        **{k: arrays[k] for k in expected if k not in ("images", "scans", "angles", "depth")},
     )
 
 
@@ -186,6 +187,12 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
             "done): rerun the same `topomap collect` command to resume it"
         )
     ground_truth = bool(meta.get("ground_truth", True))
+    if ground_truth and meta["sequences"] and "manifolds" not in meta:
+        # without the names, labels could not be checked, and nothing could name them
+        raise DatasetError(
+            f"{directory / META_FILE}: the sequences have labels (ground_truth) but there is "
+            "no 'manifolds' list of the names they index"
+        )
     manifolds = len(meta["manifolds"]) if "manifolds" in meta else None
     seqs = {
         name: load_sequence(
@@ -200,4 +207,5 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
         )
         for name, entry in meta["sequences"].items()
     }
+    check_consistency(directory, meta, seqs)
     return Dataset(directory, meta, seqs)

@@ -9,14 +9,17 @@ from pathlib import Path
 
 import numpy as np
 
+from common.bounds import MAX_RANGE
 from common.fileio import UnreadableJSON, read_json
+from common.validation import is_real
 
 SCHEMA_VERSION = 2
 READABLE_VERSIONS = (1, 2)  # version 2 added "ground_truth" (false: no poses, no labels)
 FORMAT_NAME = "topomap-dataset"
 META_FILE = "meta.json"
-ARRAYS = {  # name: (dtype, trailing shape rank or None for per-dataset constants)
+ARRAYS = {  # name: dtype
     "images": np.uint8,
+    "depth": np.float32,
     "scans": np.float32,
     "angles": np.float32,
     "poses": np.float64,
@@ -35,12 +38,15 @@ SHAPES = {  # trailing shape per frame (angles: per dataset); -1: any size, chec
     "commands": (2,),
     "labels": (),
     "times": (),
+    "depth": (-1, -1),
 }
 _FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,200}\.npz\Z")  # the file system's limit
 # A world (place) name: as a file name, and ':' for a generated world (``hallway:17``).
 _WORLD = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.:-]{0,200}\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
+SPECIAL = "no regular file (a named pipe, a device, a folder, or a link to one)"
 GROUND_TRUTH = ("poses", "labels")  # absent from a dataset without ground truth
+OPTIONAL = ("depth",)  # present only when collected with it
 SENSORS = {"camera": ("images",), "laser": ("scans", "angles")}  # absent without the sensor
 
 
@@ -69,8 +75,9 @@ def read_meta(directory: str | os.PathLike) -> dict:
     path = Path(directory) / META_FILE
     if Path(directory).is_file():
         raise DatasetError(f"{directory} is a file, not a dataset folder")
-    if not path.is_file():
-        raise DatasetError(f"no dataset at {directory}: {META_FILE} is missing")
+    if not path.is_file():  # a pipe or a device there would block or never end a read
+        what = "is missing" if not path.exists() else f"is {SPECIAL}"
+        raise DatasetError(f"no dataset at {directory}: {META_FILE} {what}")
     try:
         meta = read_json(path)
     except UnreadableJSON as err:
@@ -97,8 +104,13 @@ def read_meta(directory: str | os.PathLike) -> dict:
     sequences = meta["sequences"]
     if not isinstance(sequences, dict):
         raise DatasetError(f"{path}: 'sequences' must be an object of sequence entries")
+    files: dict[str, str] = {}
     for name, entry in sequences.items():
         check_entry(path, name, entry)
+        other = files.setdefault(entry["file"], name)
+        if other != name:  # its frames would be counted twice
+            raise DatasetError(f"{path}: sequences {other!r} and {name!r} both name the file "
+                               f"{entry['file']!r}; each sequence has its own file")  # fmt: skip
     _check_optional_keys(path, meta)
     return meta
 
@@ -116,9 +128,9 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
     if not isinstance(laser, dict):
         raise DatasetError(f"{path}: 'settings.laser' must be an object, got {laser!r}")
     r = laser.get("max_range", 1.0)
-    if isinstance(r, bool) or not isinstance(r, int | float) or not 0 < r < float("inf"):
-        raise DatasetError(f"{path}: 'settings.laser.max_range' must be a positive number (m), "
-                           f"got {r!r}")  # fmt: skip
+    if not (is_real(r) and 0 < r <= MAX_RANGE):  # an int of 400 digits compares exactly
+        raise DatasetError(f"{path}: 'settings.laser.max_range' must be a number of metres in "
+                           f"(0, {MAX_RANGE:g}], got {repr(r)[:40]}")  # fmt: skip
     manifolds = meta.get("manifolds", [])
     if not (isinstance(manifolds, list) and all(isinstance(m, str) for m in manifolds)):
         raise DatasetError(f"{path}: 'manifolds' must be a list of names, got {manifolds!r}")

@@ -21,12 +21,19 @@ Values no robot records are refused with the bound they break (:mod:`common.boun
 within 10^6 m, finite ranges within 10^4 m, beam geometry within a full turn); readings above the
 sensor's maximum range are kept as no-returns (Carmen logs e.g. 81.91 m for a beam without a
 return of a laser whose range is 50 m). Lines are the file's ``\\n``-separated lines, so the
-line numbers are those of ``sed -n`` and editors, whatever other control characters a line holds.
+line numbers are those of ``sed -n`` and editors, whatever other control characters (a lone
+``\\r`` included) a line holds.
+
+The log must be a regular file (or a link to one): a named pipe, a device or a folder is refused
+before it is opened for reading, since reading it could block or never end. At most
+``MAX_LOG_BYTES`` (1 GiB) of text are read, counted after decompression; a larger log is
+refused rather than exhausting memory.
 """
 
 from __future__ import annotations
 
 import gzip
+import io
 import math
 import os
 import warnings
@@ -44,6 +51,7 @@ from common.bounds import (
     pose_problem,
     range_problem,
 )
+from common.fileio import NotARegularFile, open_regular
 from common.validation import is_real
 
 __all__ = ["CarmenError", "CarmenLog", "read_carmen"]
@@ -53,6 +61,9 @@ _FLASER_TAIL = 9  # x y theta odom_x odom_y odom_theta ipc_timestamp hostname lo
 _ROBOTLASER_HEAD = 7  # laser_type start_angle fov resolution max_range accuracy remission_mode
 _ROBOTLASER_TAIL = 14  # laser pose, robot pose, tv rv, 3 safety fields, timestamp host logger
 _MAX_RANGE_PARAM = "robot_front_laser_max"
+# the largest log read, in bytes of text after decompression: the largest public Radish logs
+# are a few hundred MB; a bomb of a few KB that expands to GiB stops here, not in MemoryError
+MAX_LOG_BYTES = 1 << 30
 
 
 class CarmenError(ValueError):
@@ -122,18 +133,29 @@ class CarmenLog:
         return int(self.ranges.shape[0])
 
 
-def _open_text(path: Path):
-    with open(path, "rb") as f:
-        gz = f.read(2) == b"\x1f\x8b"
-    return gzip.open(path, "rt", encoding="ascii") if gz else open(path, encoding="ascii")
+def _read_text(path: Path) -> str:
+    """At most ``MAX_LOG_BYTES + 1`` characters of the log, decompressed when it is gzip."""
+    with open_regular(path) as raw:
+        gz = raw.read(2) == b"\x1f\x8b"
+        raw.seek(0)
+        stream = gzip.GzipFile(fileobj=raw, mode="rb") if gz else raw
+        # newline="": a lone \r stays inside its line, as it does for sed and editors
+        with io.TextIOWrapper(stream, encoding="ascii", newline="") as text:
+            return text.read(MAX_LOG_BYTES + 1)
 
 
 def _read_lines(path: Path) -> list[str]:
     try:
-        with _open_text(path) as f:
-            text = f.read()
+        text = _read_text(path)
+    except NotARegularFile as err:
+        raise CarmenError(f"{err}; a Carmen log must be a regular file") from None
     except (OSError, EOFError, UnicodeDecodeError, zlib.error) as err:  # gzip: all four
         raise CarmenError(f"{path}: cannot read as a (gzip) text Carmen log: {err}") from err
+    if len(text) > MAX_LOG_BYTES:  # ascii: one character is one byte
+        raise CarmenError(
+            f"{path}: more than MAX_LOG_BYTES = {MAX_LOG_BYTES} bytes of text (after "
+            "decompression); split the log, or raise sim.readers.carmen.MAX_LOG_BYTES"
+        )
     # not splitlines(): it also splits at form feeds, vertical tabs and \x1c-\x1e, which would
     # shift every later line number away from the file's own
     lines = text.split("\n")
@@ -163,8 +185,12 @@ def _count(path: Path, line_no: int, fields: list[str], at: int, what: str) -> i
     if at >= len(fields):
         raise CarmenError(f"{path}, line {line_no}: truncated line, no {what} count")
     text = fields[at]
-    if not text.isdigit():
-        raise CarmenError(f"{path}, line {line_no}: {what} count must be an integer, got {text!r}")
+    # no line holds 10^10 values, and int() of over 4300 digits raises a ValueError of its own
+    if not (text.isdigit() and len(text) <= 10):
+        raise CarmenError(
+            f"{path}, line {line_no}: {what} count must be an integer of at most 10 digits, "
+            f"got {text[:20]!r}{'...' if len(text) > 20 else ''}"
+        )
     return int(text)
 
 
@@ -218,8 +244,7 @@ def _check_geometry(path: Path, line_no: int, n: int, head: np.ndarray) -> None:
     for name, value in (("angular_resolution", resolution), ("field_of_view", fov)):
         if not (0 <= value <= FULL_TURN and (n == 1 or value > 0)):
             raise CarmenError(
-                f"{path}, line {line_no}: ROBOTLASER1 {name} {value!r} rad is outside "
-                f"{low}, 2 pi]"
+                f"{path}, line {line_no}: ROBOTLASER1 {name} {value!r} rad is outside {low}, 2 pi]"
             )
     problem = angle_problem(start, "ROBOTLASER1 start_angle")
     if problem:
@@ -281,7 +306,9 @@ def read_carmen(
     Raises
     ------
     CarmenError
-        Naming the file and the line: a damaged file (gzip or text), no scans, a truncated
+        Naming the file and the line: a path that is no regular file (a named pipe, a device,
+        a folder, a link to one), more than ``MAX_LOG_BYTES`` of text, a damaged file (gzip
+        or text), no scans, a truncated
         line, a non-numeric field, NaN or infinite ranges, poses or times, negative ranges,
         values beyond :mod:`common.bounds` (positions beyond 10^6 m, ranges beyond 10^4 m), a
         count that does not match its values, a scan without ranges, a ``ROBOTLASER1`` angular

@@ -8,7 +8,11 @@
   ``angle_max`` is the last beam's angle); more is refused.
 - ``sensor_msgs/Image`` (``rgb8``, ``bgr8``, ``rgba8``, ``bgra8``, ``mono8``; rows may be
   padded, ``step``) and ``sensor_msgs/CompressedImage`` (JPEG, PNG: whatever OpenCV decodes):
-  RGB uint8, grey repeated in the three channels.
+  RGB uint8, grey repeated in the three channels. An image of more than
+  :data:`MAX_IMAGE_PIXELS` pixels is refused, a compressed one by the size its PNG or JPEG
+  header states, before it is decoded (a header of a few bytes can claim 40000x40000).
+- Message definitions (a bag carries its own) nested more than :data:`MAX_MESSAGE_NESTING`
+  types deep, or referring to themselves, are refused before any message is decoded.
 - ``nav_msgs/Odometry``: x, y, yaw (from the quaternion, about z), v (twist linear x) and
   omega (twist angular z), all finite (a NaN or infinite value is refused), within
   :mod:`common.bounds`, with an orientation quaternion that is not all zeros.
@@ -29,6 +33,13 @@ from common.bounds import MAX_RANGE, angle_problem, command_problem, pose_proble
 ENCODINGS = {"rgb8": (3, None), "bgr8": (3, [2, 1, 0]), "rgba8": (4, None)}
 ENCODINGS |= {"bgra8": (4, [2, 1, 0]), "mono8": (1, None)}  # channels, reorder to RGB
 SPAN_TOLERANCE = 8 * float(np.finfo(np.float32).eps)  # relative, of a scan's span in beams
+# the largest image imported, in pixels: 4096 x 4096, beyond any robot camera the methods take
+# (they shrink images to tens of pixels a side), and 50 MB of RGB per frame
+MAX_IMAGE_PIXELS = 4096 * 4096
+# the deepest nesting of message types in a definition: Odometry is 4 deep (Odometry, its
+# PoseWithCovariance, Pose, Point); a definition deeper, or one that refers to itself,
+# would exhaust the decoder's recursion
+MAX_MESSAGE_NESTING = 32
 
 
 class RosbagImportError(ValueError):
@@ -113,7 +124,13 @@ def decode_image(msg, msgtype: str, where: str) -> np.ndarray:
 
     data = np.asarray(msg.data, dtype=np.uint8)
     if msgtype.endswith("CompressedImage"):
-        bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+        size = compressed_size(data.tobytes())
+        if size is not None:
+            _check_pixels(*size, where)
+        try:
+            bgr = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+        except cv2.error:  # a header OpenCV refuses (its own size cap, say)
+            bgr = None
         if bgr is None:
             raise RosbagImportError(f"{where}: OpenCV cannot decode it (format {msg.format!r})")
         return np.ascontiguousarray(bgr[..., ::-1])
@@ -124,6 +141,7 @@ def decode_image(msg, msgtype: str, where: str) -> np.ndarray:
         )
     channels, order = ENCODINGS[msg.encoding]
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    _check_pixels(w, h, where)
     if h < 1 or w < 1 or step < w * channels or data.size < step * h:
         raise RosbagImportError(
             f"{where}: {data.size} bytes do not hold a {w}x{h} {msg.encoding} image (step {step})"
@@ -132,6 +150,75 @@ def decode_image(msg, msgtype: str, where: str) -> np.ndarray:
     if channels == 1:
         return np.repeat(img, 3, axis=2)
     return np.ascontiguousarray(img[..., order or [0, 1, 2]])
+
+
+def _check_pixels(width: int, height: int, where: str) -> None:
+    if width * height > MAX_IMAGE_PIXELS:
+        raise RosbagImportError(
+            f"{where}: a {width}x{height} image; at most MAX_IMAGE_PIXELS = {MAX_IMAGE_PIXELS} "
+            "pixels are imported"
+        )
+
+
+_JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
+
+
+def compressed_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) that a PNG's IHDR or a JPEG's start-of-frame states, read from the
+    header without decoding; None for another format or a header too short to say."""
+    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24 and data[12:16] == b"IHDR":
+        return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    if data[:2] != b"\xff\xd8":
+        return None
+    at = 2
+    while at + 9 <= len(data) and data[at] == 0xFF:
+        marker, length = data[at + 1], int.from_bytes(data[at + 2 : at + 4], "big")
+        if marker in _JPEG_SOF:
+            height = int.from_bytes(data[at + 5 : at + 7], "big")
+            return int.from_bytes(data[at + 7 : at + 9], "big"), height
+        at += 2 + length
+    return None
+
+
+def nesting_problem(fielddefs: dict, msgtype: str) -> str | None:
+    """What is wrong with the definition of ``msgtype`` in a typestore's ``fielddefs``, or
+    None: a type that refers to itself, or types nested deeper than
+    :data:`MAX_MESSAGE_NESTING`. Walked without recursion past the cap."""
+    depth: dict[str, int] = {}
+
+    def walk(name: str, chain: tuple[str, ...]) -> int:
+        if name in chain:
+            loop = " -> ".join((*chain[chain.index(name) :], name))
+            raise _Nesting(f"message type {name} refers to itself ({loop})")
+        if len(chain) >= MAX_MESSAGE_NESTING:
+            raise _Nesting(f"message type {chain[0]} nests more than MAX_MESSAGE_NESTING = "
+                           f"{MAX_MESSAGE_NESTING} types deep")  # fmt: skip
+        if name not in depth:
+            inner = [walk(sub, (*chain, name)) for sub in _named(fielddefs.get(name))]
+            depth[name] = 1 + max(inner, default=0)
+        return depth[name]
+
+    try:
+        walk(msgtype, ())
+    except _Nesting as err:
+        return str(err)
+    return None
+
+
+class _Nesting(Exception):
+    pass
+
+
+def _named(definition) -> list[str]:
+    """The message types the fields of ``definition`` (``(constants, fields)``) name, inside
+    arrays and sequences too."""
+    out = []
+    for _, desc in definition[1] if definition else ():
+        while int(desc[0]) in (3, 4):  # rosbags' Nodetype ARRAY, SEQUENCE: (element, count)
+            desc = desc[1][0]
+        if int(desc[0]) == 2:  # Nodetype NAME: another message type
+            out.append(desc[1])
+    return out
 
 
 class Stream:
@@ -170,6 +257,8 @@ def damage_errors() -> tuple[type[BaseException], ...]:
     from rosbags.rosbag2 import ReaderError as Ros2Error
 
     errors = [Ros1Error, Ros2Error, sqlite3.Error, OSError, EOFError, struct.error, zlib.error]
+    # a definition deeper than nesting_problem's walk sees (a type not among the topics read)
+    errors += [RecursionError]
     errors += [KeyError, IndexError, ValueError, AssertionError, TypeError, AttributeError]
     try:
         import apsw  # rosbags' SQLite binding, where installed
@@ -181,10 +270,19 @@ def damage_errors() -> tuple[type[BaseException], ...]:
 
 
 def check_bag_path(bag: Path) -> None:
-    """Refuse a path that is no bag: missing, or a directory without a ROS 2 bag's
-    ``metadata.yaml`` (an empty directory, say)."""
+    """Refuse a path that is no bag: missing, a named pipe or a device (or a directory
+    holding one), or a directory without a ROS 2 bag's ``metadata.yaml`` (an empty directory,
+    say)."""
     if not bag.exists():
         raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
+    # a named pipe or a device (or a link to one) would block the reader or never end
+    special = [p for p in (bag, *(bag.iterdir() if bag.is_dir() else ()))
+               if not (p.is_file() or p.is_dir())]  # fmt: skip
+    if special:
+        raise RosbagImportError(
+            f"{special[0]}: neither a regular file nor a directory (a named pipe, a device, or "
+            "a link to one); a bag is a ROS 1 .bag file or a ROS 2 bag directory of files"
+        )
     if bag.is_dir() and not (bag / "metadata.yaml").is_file():
         raise RosbagImportError(
             f"{bag}: a directory without metadata.yaml, so not a ROS 2 bag (a ROS 1 bag is a "

@@ -24,8 +24,11 @@ Bad input is refused with an error naming the bag, topic and message: a damaged 
 rosbags or SQLite raise becomes a ``RosbagImportError``), a missing topic (the bag's topics are
 listed), another message type, a scan whose range count disagrees with its angles, scans or
 images that change shape, stamps that repeat or go backwards, values beyond
-:mod:`common.bounds`, bags in which no beam has a return. The dataset is built in a temporary
-directory beside ``out`` and renamed into place when complete: nothing half-written is left.
+:mod:`common.bounds`, bags in which no beam has a return, a named pipe or device in place of a
+bag or its files, images beyond ``MAX_IMAGE_PIXELS`` and message definitions that refer to
+themselves or nest beyond ``MAX_MESSAGE_NESTING`` (:mod:`sim.readers.ros_messages`). The
+dataset is built in a temporary directory beside ``out`` and renamed into place when complete:
+nothing half-written is left.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ from sim.readers.ros_messages import (
     Stream,
     check_bag_path,
     damage_errors,
+    nesting_problem,
     odometry_values,
     read_images,
     scan_geometry,
@@ -101,6 +105,10 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
         with AnyReader([bag], default_typestore=get_typestore(Stores.LATEST)) as reader:
             conns = _connections(reader, bag, settings)
             wanted = [c for cs in conns.values() for c in cs]
+            for conn in wanted:
+                problem = nesting_problem(reader.typestore.fielddefs, conn.msgtype)
+                if problem:
+                    raise RosbagImportError(f"{bag.name}: {conn.topic}: {problem}")
             geometry = None
             counts = {"scan": 0, "image": 0, "odom": 0}
             total = sum(c.msgcount for c in wanted)

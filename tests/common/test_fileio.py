@@ -1,12 +1,23 @@
-"""Atomic writes and JSON coercion."""
+"""Atomic writes, JSON coercion, and reading only regular files."""
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from common.fileio import atomic_path, atomic_write_bytes, jsonable, write_json, write_png
+from common.fileio import (
+    NotARegularFile,
+    UnreadableJSON,
+    atomic_path,
+    atomic_write_bytes,
+    jsonable,
+    open_regular,
+    read_json,
+    write_json,
+    write_png,
+)
 
 
 def test_jsonable_converts_numpy_and_paths_recursively():
@@ -61,3 +72,37 @@ def test_write_png_round_trips_rgb(tmp_path):
     rgb[..., 0] = 200  # red
     path = write_png(tmp_path / "sub" / "img.png", rgb)
     np.testing.assert_array_equal(cv2.imread(str(path))[..., ::-1], rgb)
+
+
+def test_special_files_are_refused_before_they_are_read(tmp_path):
+    pipe = tmp_path / "pipe.json"
+    os.mkfifo(pipe)  # no writer: a blocking open would never return
+    link = tmp_path / "zero.json"
+    link.symlink_to("/dev/zero")
+    for path, what in ((pipe, "a named pipe"), (link, "a link to a character device"),
+                       (tmp_path, "a folder")):  # fmt: skip
+        with pytest.raises(NotARegularFile, match=f"is {what}, not a regular file"):
+            open_regular(path)
+        with pytest.raises(UnreadableJSON, match=what):
+            read_json(path)
+    with pytest.raises(FileNotFoundError):
+        read_json(tmp_path / "missing.json")
+    good = tmp_path / "good.json"
+    good.write_text('{"a": 1}')
+    (tmp_path / "link.json").symlink_to(good)
+    assert read_json(tmp_path / "link.json") == {"a": 1}
+
+
+def test_an_integer_of_too_many_digits_is_unreadable_json(tmp_path):
+    path = tmp_path / "big.json"
+    path.write_text("[" + "9" * 5000 + "]")
+    with pytest.raises(UnreadableJSON):
+        read_json(path)
+
+
+def test_json_beyond_the_cap_is_refused_unread(tmp_path):
+    path = tmp_path / "big.json"
+    path.write_text("[" + "0, " * 100 + "0]")
+    with pytest.raises(UnreadableJSON, match="more than the 100 bytes read as JSON"):
+        read_json(path, max_bytes=100)
+    assert len(read_json(path)) == 101

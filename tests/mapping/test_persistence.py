@@ -81,6 +81,10 @@ def test_a_file_from_before_the_kernel_parameters_loads_with_their_defaults(fitt
             lambda m: m["records"]["_models"]["items"][0].update(sigma={"value": [1]}),
             "JSON scalar",
         ),
+        (
+            lambda m: m["records"]["_models"]["items"][0].update(degrees={"value": True}),
+            r"items\[0\].degrees must be an array",
+        ),
     ],
 )
 def test_crafted_descriptions_are_refused(fitted, change, match):

@@ -297,8 +297,14 @@ def test_bad_appearance_is_refused(capsys):
         ({"sequences": "drop"}, "the key 'sequences' .* is missing"),
         ({"settings": []}, "'settings' must be an object"),
         ({"settings": {"laser": 20.0}}, r"'settings\.laser' must be an object"),
-        ({"settings": {"laser": {"max_range": "20"}}}, r"max_range' must be a positive number"),
-        ({"settings": {"laser": {"max_range": float("nan")}}}, "max_range' must be a positive"),
+        (
+            {"settings": {"laser": {"max_range": "20"}}},
+            r"max_range' must be a number of metres in \(0, 10000\]",
+        ),
+        (
+            {"settings": {"laser": {"max_range": float("nan")}}},
+            "max_range' must be a number of metres",
+        ),
         ({"manifolds": [1, 2]}, "'manifolds' must be a list of names"),
         ({"complete": "yes"}, "'complete' must be true or false"),
     ],

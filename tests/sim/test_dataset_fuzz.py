@@ -17,7 +17,8 @@ from tests.sim.dataset_fixtures import sequence_arrays, write_dataset
 from tests.sim.readers.fuzzing import SPECIAL_NUMBERS, budget, flipped, truncated
 
 CASE_BUDGET_S = 2.0
-META_VALUES = (True, False, None, -1, 0, 2, 1.5, 1e308, "x" * 300, "../x.npz", [], {}, "2")
+META_VALUES = (True, False, None, -1, 0, 2, 1.5, 1e308, "x" * 300, "../x.npz", [], {}, "2",
+               10**400, -(10**400), 1e4 + 1)  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -123,4 +124,3 @@ def test_odd_zip_members_give_a_dataset_error_or_a_valid_dataset(clean, tmp_path
         _load(path, "member", outcomes)
         shutil.rmtree(path)
     assert outcomes.get(("member", "refused"), 0) == 60  # every such member is refused
-

@@ -135,7 +135,7 @@ def test_arrays_that_disagree_are_refused_even_with_a_matching_checksum(copy, se
         load_map(copy)
     arrays["poses"] = np.full((len(arrays["clusters"]), 3), np.nan)
     _edit(copy, lambda m: m.update(sha256=write_sequence(npz, arrays)))
-    with pytest.raises(MapError, match="poses holds NaN"):
+    with pytest.raises(MapError, match="poses position holds NaN"):
         load_map(copy)
 
 
@@ -232,9 +232,9 @@ def _forge(copy: Path, name: str, change) -> None:
         ("true_labels", lambda a: np.full_like(a, 99), r"true_labels must lie in \[-1, 8\)"),
         ("true_labels", lambda a: np.full_like(a, -2), r"true_labels must lie in \[-1, 8\)"),
         ("clusters", lambda a: np.full_like(a, 999), r"clusters must lie in \[0, \d+\)"),
-        ("scans", lambda a: np.full_like(a, np.nan), "scans hold NaN"),
-        ("scans", lambda a: np.full_like(a, -1.0), "scans hold ranges < 0"),
-        ("scans", lambda a: np.full_like(a, -np.inf), "scans hold ranges < 0"),
+        ("scans", lambda a: np.full_like(a, np.nan), "scans holds NaN"),
+        ("scans", lambda a: np.full_like(a, -1.0), "negative scans"),
+        ("scans", lambda a: np.full_like(a, -np.inf), "negative scans"),
     ],
 )
 def test_impossible_content_is_refused_even_with_matching_checksums(copy, name, change, match):

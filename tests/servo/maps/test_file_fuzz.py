@@ -15,12 +15,13 @@ from tests.sim.readers.fuzzing import OverBudget, budget, flipped, truncated
 
 CASES = 12  # per kind
 ODD_VALUES = (None, True, -1, 0, 1e308, float("nan"), "x", "", [], [1, "a"], {}, {"a": None},
-              [[[[]]]], "9" * 400)  # fmt: skip
+              [[[[]]]], "9" * 400, 10**400, -(10**400))  # fmt: skip
+WORLD = "lawn:3"  # the small map of the session fixture generated_servo_map: quick to load
 
 
 @pytest.fixture(scope="module")
-def saved(servo_maps, tmp_path_factory):
-    return save_map(servo_maps["hallway"], tmp_path_factory.mktemp("fuzz-map"))
+def saved(generated_servo_map, tmp_path_factory):
+    return save_map(generated_servo_map[0], tmp_path_factory.mktemp("fuzz-map"))
 
 
 def _odd_array(a: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -97,7 +98,7 @@ def test_a_damaged_map_raises_a_map_error(saved, tmp_path, seed):
             path.with_suffix(".npz").write_bytes(second)
         try:
             with budget(30):
-                load_map(path, "hallway")
+                load_map(path, WORLD)
         except MapError as err:
             assert str(path.parent) in str(err), f"{kind}: the error names no file: {err}"
         except OverBudget:

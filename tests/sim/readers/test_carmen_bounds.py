@@ -132,7 +132,10 @@ _RL = robotlaser([1.0, 2.0])
         (_RL.replace("ROBOTLASER1 0 -1.5", "ROBOTLASER1 0 x"), "non-numeric header field 'x'$"),
         (_RL.replace(" 2 1.0 2.0 ", " 2 1.0 y "), "non-numeric range field 'y'$"),
         (_RL.replace("2 7 8 3.0 4.0", "2 7 8 3.0 z"), "non-numeric pose field 'z'$"),
-        (_RL.replace("2 7 8 ", "q 7 8 "), "remission count must be an integer, got 'q'$"),
+        (
+            _RL.replace("2 7 8 ", "q 7 8 "),
+            "remission count must be an integer of at most 10 digits, got 'q'$",
+        ),
         (_RL.rsplit(" 2 7 8 ", 1)[0], "truncated line, no remission count$"),
         (_RL.replace("2 7 8 ", "3 7 8 "), "a count that does not match its values\\)$"),
         (robotlaser([1.0, -2.0]), "negative range -2.0 \\(at row 1\\)$"),
@@ -194,7 +197,9 @@ def test_maximum_ranges_at_their_bounds(tmp_path):
 
 def test_count_errors_name_the_count(tmp_path):
     bad = flaser([1.0, 2.0, 3.0]).replace("FLASER 3", "FLASER x")
-    with pytest.raises(CarmenError, match=r"line 1: range count must be an integer, got 'x'$"):
+    with pytest.raises(
+        CarmenError, match=r"line 1: range count must be an integer of at most 10 digits, got 'x'$"
+    ):
         read_carmen(write(tmp_path, [bad]))
 
 

@@ -1,0 +1,72 @@
+"""The checks across a dataset's sequences, and between them and ``meta.json``'s settings:
+written once, applied by :func:`sim.dataset.load_dataset` after each sequence passed its own.
+
+Every sequence of a dataset comes from one robot setup, so all keep the same laser (the same
+beam angles, hence the same beam count) and the same image size, and agree with what the
+settings record (``settings.laser.beams``, ``settings.camera.width`` and ``height``,
+``settings.worlds``) where they record it; otherwise ``Dataset.concat`` would stack arrays of
+different forms and the methods would mix beams that point different ways.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sim.dataset.schema import META_FILE, DatasetError
+
+__all__ = ["ANGLE_TOLERANCE", "check_consistency"]
+
+# two sequences' beams are the same beams when their angles differ by at most this (rad): the
+# float32 rounding of one angle is ~1e-7 rad, a real difference of set-up at least ~1e-3 rad
+ANGLE_TOLERANCE = 1e-5
+
+
+def _setting(meta: dict, sensor: str, key: str):
+    """``meta["settings"][sensor][key]`` when it is a whole number, else None (not recorded)."""
+    value = ((meta.get("settings") or {}).get(sensor) or {}).get(key)
+    return value if isinstance(value, int) and not isinstance(value, bool) else None
+
+
+def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
+    """Raise :class:`DatasetError` naming the dataset's folder, the sequence and its file when
+    a sequence's beams, angles, image size or world disagrees with the first sequence's or with
+    the settings of ``meta`` (``sequences``: loaded :class:`~sim.dataset.Sequence` by name)."""
+    where = {name: f"{directory}: sequence {name!r} ({meta['sequences'][name]['file']})"
+             for name in sequences}  # fmt: skip
+    beams = _setting(meta, "laser", "beams")
+    width, height = _setting(meta, "camera", "width"), _setting(meta, "camera", "height")
+    worlds = (meta.get("settings") or {}).get("worlds")
+    first = next(iter(sequences.values()), None)
+    for name, s in sequences.items():
+        if s.angles is not None:
+            if beams is not None and len(s.angles) != beams:
+                raise DatasetError(f"{where[name]}: {len(s.angles)} beams, but {META_FILE}'s "
+                                   f"settings.laser.beams is {beams}")  # fmt: skip
+            if len(s.angles) != len(first.angles):
+                raise DatasetError(
+                    f"{where[name]}: {len(s.angles)} beams, but sequence {first.name!r} has "
+                    f"{len(first.angles)}; the sequences of one dataset keep one laser"
+                )
+            gap = float(np.max(np.abs(s.angles.astype(float) - first.angles), initial=0.0))
+            if not gap <= ANGLE_TOLERANCE:
+                raise DatasetError(
+                    f"{where[name]}: beam angles differ from sequence {first.name!r}'s by up to "
+                    f"{gap:.3g} rad (more than {ANGLE_TOLERANCE:g}); the sequences of one "
+                    "dataset keep one laser"
+                )
+        if s.images is not None:
+            h, w = s.images.shape[1:3]
+            if None not in (width, height) and (w, h) != (width, height):
+                raise DatasetError(f"{where[name]}: images of {w}x{h}, but {META_FILE}'s "
+                                   f"settings.camera is {width}x{height}")  # fmt: skip
+            if s.images.shape[1:] != first.images.shape[1:]:
+                raise DatasetError(
+                    f"{where[name]}: images of shape {s.images.shape[1:]}, but sequence "
+                    f"{first.name!r} has {first.images.shape[1:]}; the sequences of one "
+                    "dataset keep one camera"
+                )
+        if isinstance(worlds, list) and s.world not in worlds:
+            raise DatasetError(f"{where[name]}: world {s.world!r} is not among {META_FILE}'s "
+                               f"settings.worlds {worlds}")  # fmt: skip
