@@ -33,9 +33,9 @@ def q_rule(n: int, k: int, c: int) -> int:
 
 def score_world(world: str, data_root: Path) -> dict:
     from mapping import ColorHistogramFeatures, ManifoldClustering, clustering_error
+    from scenes import build_world
     from sim.collect import CollectionSettings, collect_dataset
     from sim.dataset import load_dataset
-    from scenes import build_world
 
     directory = data_root / world.replace(":", "-")
     collect_dataset(directory, CollectionSettings(worlds=(world,), frames=150, seed=0),
@@ -71,8 +71,8 @@ def main(argv=None) -> None:
         for world in split_worlds(family, "dev", a.worlds):
             t = time.perf_counter()
             rows.append(on_one_blas_thread(score_world, world, a.data))
-            print(world, rows[-1]["k"], {k: v and round(v, 3) for k, v in rows[-1]["errors"].items()},
-                  f"{time.perf_counter() - t:.0f}s", flush=True)  # fmt: skip
+            errors = {k: v and round(v, 3) for k, v in rows[-1]["errors"].items()}
+            print(world, rows[-1]["k"], errors, f"{time.perf_counter() - t:.0f}s", flush=True)
     names = list(rows[0]["errors"])
     summary = {}
     for name in names:
