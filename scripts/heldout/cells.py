@@ -95,7 +95,7 @@ def run_cell(
     data_root: Path,
     frames: int = 150,
     tasks=TASKS,
-    episodes: int = 4,
+    episodes: int = 3,
 ) -> dict:
     """Score ``tasks`` on ``world``'s dataset of ``seed``; cached in ``out/cells``.
 

@@ -72,7 +72,7 @@ def evaluate_heldout(
     data_root: Path | None = None,
     progress: bool = True,
     *,
-    episodes: int = 4,
+    episodes: int = 3,
     backend: str = "local",
     address: str | None = None,
 ) -> dict:
@@ -121,9 +121,10 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     p.add_argument(
         "--episodes",
         type=positive_int,
-        default=4,
-        help="servo episodes per controller and start tier in each held-out world (default 4; "
-        f"the canonical world gets {CANONICAL_EPISODES}x as many)",
+        default=3,
+        help="servo episodes per controller and start tier in each held-out world (default 3: "
+        "targets 1, 2 and 3+ junctions away; the canonical world gets "
+        f"{CANONICAL_EPISODES}x as many)",
     )
     p.add_argument("--jobs", type=positive_int, default=None, help="workers (default: the cores)")
     add_backend_arguments(p)

@@ -1,7 +1,8 @@
 """README's Results table and the results pages, written from the committed result files.
 
-``python -m scripts.results`` rewrites README.md between its markers and
-``docs/results/{manifold-clustering,observation-grouping,servo}.md``; ``--check`` writes
+``python -m scripts.results`` rewrites README.md between its markers (the results table, and
+the held-out worlds' tables) and ``docs/results/{manifold-clustering,observation-grouping,servo,
+held-out-worlds}.md``; ``--check`` writes
 nothing and exits 1 when any of them differs from what the files give (run by the tests, so
 a number edited by hand, or a result file changed without regenerating, is caught).
 """
@@ -14,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from common.fileio import read_json
+from scripts.results.heldout import HELDOUT_SOURCE, heldout_summary, heldout_worlds
 from scripts.results.rows import PAGES, ROWS, SECTIONS, Row, Section
 from scripts.results.sources import Estimate, provenance, read_estimate, servo_results
 from scripts.tables import Column, Table
@@ -22,6 +24,7 @@ __all__ = ["RENDERERS", "generate", "main", "readme_table"]
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 START, END = "<!-- results:start -->", "<!-- results:end -->"
+HELDOUT_START, HELDOUT_END = "<!-- heldout:start -->", "<!-- heldout:end -->"
 COMMAND = "python -m scripts.results"
 DATA = Path("docs") / "results" / "data"
 PAGES_DIR = Path("docs") / "results"
@@ -227,6 +230,8 @@ RENDERERS: dict[str, Callable[[Path, tuple[str, ...]], str]] = {
     "grouping-seeds": _grouping_seeds,
     "carmen-table": _carmen_table,
     "servo-summary": _servo_summary,
+    "heldout-summary": lambda root, sources: heldout_summary(root / DATA, sources),
+    "heldout-worlds": lambda root, sources: heldout_worlds(root / DATA, sources),
 }
 _MADE = ("command", "commit", "machine", "date")
 
@@ -254,8 +259,11 @@ def page(root: Path, task: str) -> str:
     title, _ = PAGES[task]
     table = readme_table(root)
     own = [r for r, row in zip(table.rows, ROWS, strict=True) if row.task == task]
-    summary = Table.of(table.columns[1:], own).to_markdown()
     sections = "\n".join(_section(root, s) for s in SECTIONS if s.task == task)
+    if not own:  # the held-out worlds: their own tables, also in README
+        lead = "The current numbers, from the committed result file (README shows the first table)."
+        return f"{_BANNER}\n\n# Results: {title.lower()}\n\n{lead}\n\n{sections}"
+    summary = Table.of(table.columns[1:], own).to_markdown()
     return (
         f"{_BANNER}\n\n# Results: {title.lower()}\n\n"
         f"The current numbers, from the committed result files (the same rows as the Results "
@@ -263,20 +271,22 @@ def page(root: Path, task: str) -> str:
     )
 
 
+def _between(text: str, start: str, end: str, body: str, where: Path) -> str:
+    """``text`` with what lies between its one ``start`` and one ``end`` marker replaced."""
+    if text.count(start) != 1 or text.count(end) != 1 or text.index(start) > text.index(end):
+        raise ValueError(f"{where}: needs one {start} before one {end}")
+    head, rest = text.split(start)
+    _, tail = rest.split(end)
+    return f"{head}{start}\n{body}{end}{tail}"
+
+
 def generate(root: Path) -> dict[Path, str]:
     """Every generated file (relative path -> text) for the repository at ``root``."""
     readme_path = root / "README.md"
     readme = readme_path.read_text(encoding="utf-8")
-    if (
-        readme.count(START) != 1
-        or readme.count(END) != 1
-        or readme.index(START) > readme.index(END)
-    ):
-        raise ValueError(f"{readme_path}: needs one {START} before one {END}")
-    head, rest = readme.split(START)
-    _, tail = rest.split(END)
-    table = readme_table(root).to_markdown()
-    files = {Path("README.md"): f"{head}{START}\n{table}{END}{tail}"}
+    readme = _between(readme, START, END, readme_table(root).to_markdown(), readme_path)
+    held = heldout_summary(root / DATA, (HELDOUT_SOURCE,))
+    files = {Path("README.md"): _between(readme, HELDOUT_START, HELDOUT_END, held, readme_path)}
     for task, (_, name) in PAGES.items():
         files[PAGES_DIR / name] = page(root, task)
     return files

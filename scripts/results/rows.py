@@ -17,6 +17,7 @@ PAGES = {
     "manifold": ("Visual-manifold clustering", "manifold-clustering.md"),
     "grouping": ("Laser observation grouping", "observation-grouping.md"),
     "servo": ("Closed-loop servoing", "servo.md"),
+    "worlds": ("Held-out worlds", "held-out-worlds.md"),
 }
 
 
@@ -156,4 +157,7 @@ SECTIONS: tuple[Section, ...] = (
             "leaderboard", ("servo/servo-all-view-test-100ep.json",
                             "servo/signal-hallway-view-test-100ep.json",
                             "servo/signal-lawn-view-test-100ep.json", *_OUTSIDE_SERVO)),
+    Section("worlds", "Every task: the canonical world beside held-out test worlds",
+            "heldout-summary", ("worlds/heldout.json",)),
+    Section("worlds", "Per world", "heldout-worlds", ("worlds/heldout.json",)),
 )  # fmt: skip

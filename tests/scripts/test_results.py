@@ -71,3 +71,28 @@ def test_a_file_without_its_provenance_is_refused(copy):
     meta.write_text(json.dumps(entries))
     with pytest.raises(ValueError, match="lacks"):
         generate(copy)
+
+
+def test_a_changed_held_out_cell_makes_readme_and_its_page_stale(copy, capsys):
+    path = copy / DATA / "worlds" / "heldout.json"
+    data = json.loads(path.read_text())
+    cell = next(c for c in data["cells"] if ":" in c["world"] and "grouping" in c["tasks"])
+    cell["tasks"]["grouping"]["purity"] = 0.0  # the summary is recomputed from the cells
+    path.write_text(json.dumps(data))
+    assert main(["--check", "--root", str(copy)]) == 1
+    stale = capsys.readouterr().err
+    assert "README.md" in stale and "docs/results/held-out-worlds.md" in stale
+    assert "docs/results/servo.md" not in stale
+
+
+def test_a_held_out_file_without_cells_is_refused(copy):
+    path = copy / DATA / "worlds" / "heldout.json"
+    path.write_text(json.dumps({"summary": {}, "cells": []}))
+    with pytest.raises(ValueError, match="heldout.json: 'cells' must be a non-empty list"):
+        generate(copy)
+    readme = copy / "README.md"
+    readme.write_text(readme.read_text().replace("<!-- heldout:end -->", ""))
+    path.write_text(json.dumps({"cells": [{"world": "lawn", "family": "lawn", "frames": 150,
+                                           "tasks": {}}]}))  # fmt: skip
+    with pytest.raises(ValueError, match="heldout:end"):
+        generate(copy)
