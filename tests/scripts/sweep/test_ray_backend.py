@@ -156,3 +156,23 @@ def test_cli_unreachable_address(ray, capsys):
                  "--quiet"]) == 2  # fmt: skip
     err = capsys.readouterr().err
     assert err.startswith("topomap sweep: no Ray cluster answers") and "ray start --head" in err
+
+
+def test_held_out_cells_run_on_ray_actors(ray_session, tmp_path):
+    """The held-out evaluation's cells through the Ray backend's actors (``start_runner``):
+    a cached cell comes back as it was stored, from an actor's process."""
+    from common.fileio import write_json
+    from scripts.heldout.cells import CELL_VERSION, MANIFOLD_VERSION, cell_path
+    from scripts.heldout.evaluate import CellRunner
+    from scripts.sweep.backends import open_backend
+
+    cell = {"version": CELL_VERSION, "world": "lawn:11001", "family": "lawn", "seed": 0,
+            "frames": 150, "tasks": {"manifold": {"version": MANIFOLD_VERSION, "rows": []},
+                                     "servo": {"episodes": 3, "indices": [0, 2, 1]}}}  # fmt: skip
+    path = cell_path(tmp_path, "lawn:11001", 0, 150)
+    path.parent.mkdir(parents=True)
+    write_json(path, cell)
+    with open_backend("ray", 1) as workers:
+        workers.start_runner(CellRunner, tmp_path, tmp_path / "data", 150, ("manifold", "servo"))
+        [(i, got)] = list(workers.run([("lawn:11001", 0, 3)]))
+    assert i == 0 and got == cell
