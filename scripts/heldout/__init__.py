@@ -3,7 +3,15 @@ beside the canonical world of each family (``topomap heldout``)."""
 
 from scripts.heldout.cells import TASKS, run_cell
 from scripts.heldout.evaluate import build_parser as heldout_parser
-from scripts.heldout.evaluate import evaluate_heldout, summarise
+from scripts.heldout.evaluate import evaluate_heldout, format_summary, summarise
 from scripts.heldout.evaluate import run as run_heldout
 
-__all__ = ["TASKS", "evaluate_heldout", "heldout_parser", "run_cell", "run_heldout", "summarise"]
+__all__ = [
+    "TASKS",
+    "evaluate_heldout",
+    "format_summary",
+    "heldout_parser",
+    "run_cell",
+    "run_heldout",
+    "summarise",
+]

@@ -47,7 +47,7 @@ class CellRunner:
         import sim  # noqa: F401  (headless GL before mujoco in a fresh worker)
 
         if one_thread:
-            from scripts.sweep.episode import configure_worker
+            from scripts.sweep import configure_worker
 
             configure_worker()  # the workers share the cores: one BLAS thread each
         self._args = (Path(out), Path(data_root), int(frames), tuple(tasks))
@@ -82,7 +82,7 @@ def evaluate_heldout(
     (the canonical world gets :data:`CANONICAL_EPISODES` times as many)."""
     from tqdm.auto import tqdm
 
-    from scripts.sweep.backends import open_backend
+    from scripts.sweep import open_backend
 
     out = Path(out)
     data_root = out / "data" if data_root is None else Path(data_root)
@@ -105,7 +105,7 @@ def evaluate_heldout(
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
     from scripts.args import positive_int
-    from scripts.sweep.backends import add_backend_arguments
+    from scripts.sweep import add_backend_arguments
 
     p = parser or argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--families", nargs="+", choices=FAMILIES, default=list(FAMILIES))

@@ -13,7 +13,7 @@ junctions between its start and target manifold, by which the summary breaks suc
 
 from __future__ import annotations
 
-from servo.task.protocol import TIERS
+from servo.task import TIERS
 
 __all__ = ["SERVO_POLICIES", "servo_task", "spread_by_junctions"]
 
@@ -47,8 +47,7 @@ def servo_task(data, world: str, episodes: int) -> dict:
     ``tier``)."""
     from scenes import build_world
     from servo.maps import build_map
-    from servo.task import Protocol, run_protocol
-    from servo.task.protocol import manifold_pairs
+    from servo.task import Protocol, manifold_pairs, run_protocol
 
     m = build_map(data, world)
     pairs = manifold_pairs(m.true_labels, m.manifold_names)

@@ -36,7 +36,7 @@ def _interval(values, seed: int = 0) -> dict:
 
 def _rate(records: list[dict]) -> dict | None:
     """Successes of ``records`` with the Wilson 95% interval (None: no episode)."""
-    from servo.task.stats import wilson_interval
+    from servo.task import wilson_interval
 
     if not records:
         return None

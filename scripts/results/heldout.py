@@ -31,8 +31,7 @@ def heldout_cells(path: Path) -> tuple[list[dict], int]:
 
 def heldout_summary(root: Path, sources) -> str:
     """The summary tables (``scripts.heldout.format_summary``) of the file, with a legend."""
-    from scripts.heldout import summarise
-    from scripts.heldout.summary import format_summary
+    from scripts.heldout import format_summary, summarise
 
     cells, frames = heldout_cells(root / sources[0])
     legend = (

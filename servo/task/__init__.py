@@ -43,6 +43,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "EpisodeSpec": "servo.task.protocol",
         "Protocol": "servo.task.protocol",
         "episode_specs": "servo.task.protocol",
+        "manifold_pairs": "servo.task.protocol",
         "reset_options": "servo.task.protocol",
         "run_protocol": "servo.task.protocol",
         "MAX_EPISODE_STEPS": "servo.task.registration",

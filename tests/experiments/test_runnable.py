@@ -19,7 +19,7 @@ STUDIES = sorted(
 
 def test_the_studies_are_found():
     assert len(STUDIES) >= 15
-    assert {s.split(".")[1] for s in STUDIES} == {"manifold", "grouping", "servo"}
+    assert {s.split(".")[1] for s in STUDIES} == {"manifold", "grouping", "servo", "heldout"}
 
 
 @pytest.mark.parametrize("study", STUDIES)
