@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from servo.maps.file import load_map, meta_digest
+from servo.maps.file import load_map
 from servo.maps.types import MapError
-from sim.dataset import write_sequence
+from tests.servo.maps.test_file import _edit, _forge  # the map file tests' own forgers
 from tests.sim.readers.fuzzing import budget
 
 WORLD = "lawn:3"  # the map of the session fixture generated_servo_map
@@ -26,21 +26,6 @@ def copy(generated_servo_map, tmp_path) -> Path:
     for path in cache.iterdir():
         shutil.copy(path, tmp_path / path.name)
     return next(tmp_path.glob("*.json"))
-
-
-def _edit(path: Path, change) -> None:
-    meta = json.loads(path.read_text())
-    change(meta)
-    meta["meta_sha256"] = meta_digest(meta)
-    path.write_text(json.dumps(meta))
-
-
-def _forge(path: Path, name: str, change) -> None:
-    npz = path.with_suffix(".npz")
-    with np.load(npz) as f:
-        arrays = {k: f[k] for k in f.files}
-    arrays[name] = change(arrays[name].copy())
-    _edit(path, lambda m: m.update(sha256=write_sequence(npz, arrays)))
 
 
 @pytest.mark.parametrize(
