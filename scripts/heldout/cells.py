@@ -150,7 +150,7 @@ def run_cell(
         elif task == "grouping":
             cell["tasks"][task] = _grouping(data, built)
         else:
-            cell["tasks"][task] = servo_task(data, world, episodes)
+            cell["tasks"][task] = servo_task(data, built, episodes)
         cell["seconds"][task] = time.perf_counter() - start
     path.parent.mkdir(parents=True, exist_ok=True)
     write_json(path, cell)

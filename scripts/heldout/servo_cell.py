@@ -40,22 +40,22 @@ def spread_by_junctions(pairs: list[tuple[str, str]], junctions, episodes: int) 
     return order + list(range(len(pairs), len(pairs) + episodes - len(order)))
 
 
-def servo_task(data, world: str, episodes: int) -> dict:
-    """Run ``episodes`` test episodes per controller and start tier in ``world`` on a map built
+def servo_task(data, world, episodes: int) -> dict:
+    """Run ``episodes`` test episodes per controller and start tier in ``world`` (the built
+    ``scenes.World``) on a map built
     from ``data`` (the cell's dataset), chosen by :func:`spread_by_junctions`; returns the
     map's size and one record per episode (:data:`KEEP`'s fields, plus ``policy`` and
     ``tier``)."""
-    from scenes import build_world
     from servo.maps import build_map
     from servo.task import Protocol, manifold_pairs, run_protocol
 
-    m = build_map(data, world)
+    m = build_map(data, world.name)
     pairs = manifold_pairs(m.true_labels, m.manifold_names)
-    indices = spread_by_junctions(pairs, build_world(world).junctions_between, episodes)
+    indices = spread_by_junctions(pairs, world.junctions_between, episodes)
     records = []
     for policy in SERVO_POLICIES:
         for tier in TIERS:
-            protocol = Protocol(world, tier, SERVO_SPLIT)
+            protocol = Protocol(world.name, tier, SERVO_SPLIT)
             r = run_protocol(protocol, m, episodes, policy, workers=1, progress=False,
                              indices=indices)  # fmt: skip
             for e in r["episodes_detail"]:
