@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 
 from common.fileio import write_png
-from scenes import MANIFOLDS, build_world
+from scenes import build_world
 from sim.dataset import Dataset
 from sim.topdown import MANIFOLD_COLOURS, TopDownView, manifold_colours
 
@@ -18,13 +18,13 @@ THUMB = (160, 120)
 def contact_sheet(
     images: np.ndarray,
     labels: np.ndarray,
+    names,
     every: int = 10,
     columns: int = 5,
-    names=MANIFOLDS,
     colours=MANIFOLD_COLOURS,
 ) -> np.ndarray:
     """Thumbnails of every ``every``-th frame, each captioned with its index and manifold
-    (``names`` of the label ids, ``colours`` of the names)."""
+    (``names`` of the label ids: the dataset's manifolds; ``colours`` of the names)."""
     idx = np.arange(0, len(images), every)
     rows = int(np.ceil(len(idx) / columns))
     w, h = THUMB
@@ -55,14 +55,14 @@ def write_previews(dataset: Dataset, out: str | Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     written = []
     by_world: dict[str, list] = {}
-    names = dataset.meta.get("manifolds", MANIFOLDS)
+    names = dataset.manifolds
     worlds = {w: build_world(w) for w in dict.fromkeys(s.world for s in dataset.sequences.values())}
     colours = {n: c for w in worlds.values() for n, c in manifold_colours(w).items()}
     for name, seq in dataset.sequences.items():
         by_world.setdefault(seq.world, []).append(seq)
         stem = name.replace(":", "-")  # a generated world's name holds a colon
         path = out / f"{stem}_contact_sheet.png"
-        write_png(path, contact_sheet(seq.images, seq.labels, names=names, colours=colours))
+        write_png(path, contact_sheet(seq.images, seq.labels, names, colours=colours))
         written.append(path)
         frames = [seq.images[i] for i in (0, len(seq) // 2, len(seq) - 1)]
         path = out / f"{stem}_frames.png"

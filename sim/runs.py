@@ -52,8 +52,8 @@ class Runs:
     labels : ndarray of int, shape (N,) or None
         The ground-truth manifold ids (-1: on none); None without ground truth.
     manifold_names : tuple of str or None
-        The manifold of each id (the dataset's ``meta["manifolds"]``); None: the canonical
-        worlds' :data:`scenes.MANIFOLDS`.
+        The manifold of each id (the dataset's ``manifolds``); None for recordings without
+        labels.
     """
 
     world: str

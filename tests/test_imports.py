@@ -247,3 +247,48 @@ def test_the_wheel_holds_the_installed_packages_only():
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())
     include = config["tool"]["setuptools"]["packages"]["find"]["include"]
     assert sorted(include) == sorted(f"{p}*" for p in INSTALLED)
+
+
+# The modules outside ``scenes`` that may read its lists of the canonical worlds: each keys
+# something by a canonical world's position (seeds, so that the canonical datasets and
+# episodes keep their bytes) or expands "all" into the canonical worlds. Everything else takes
+# a world's manifolds and names from the world or the dataset.
+CANONICAL_LIST_READERS = {
+    "scripts.args": "--world all: the canonical worlds",
+    "scripts.grouping.loop_recordings": "a loop's seed index by canonical world",
+    "servo.task.protocol": "episode seeds keyed by the world's position",
+    "sim.collect": "the default dataset holds the canonical worlds",
+    "sim.collect_worlds": "sequence seeds and label ids keyed by canonical world",
+}
+
+
+def _reads_canonical_lists(path: Path) -> bool:
+    for node in _runtime_nodes(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Name) and node.id in ("WORLDS", "MANIFOLDS"):
+            return True
+        if isinstance(node, ast.Attribute) and node.attr in ("WORLDS", "MANIFOLDS"):
+            return True
+        if isinstance(node, ast.alias) and node.name in ("WORLDS", "MANIFOLDS"):
+            return True
+    return False
+
+
+def test_worlds_are_data_outside_scenes(mods):
+    readers = {
+        name
+        for name, path in mods.items()
+        if name.split(".")[0] in INSTALLED
+        and not _inside(name, "scenes")
+        and _reads_canonical_lists(path)
+    }
+    assert readers == set(CANONICAL_LIST_READERS)
+
+
+def test_the_world_list_check_sees_a_reader(tmp_path):
+    path = tmp_path / "m.py"
+    path.write_text("from scenes import MANIFOLDS\n")
+    assert _reads_canonical_lists(path)
+    path.write_text("from scenes import names\nx = names.WORLDS\n")
+    assert _reads_canonical_lists(path)
+    path.write_text("x = world.manifold_names\n")
+    assert not _reads_canonical_lists(path)

@@ -26,6 +26,7 @@ from mapping.grouping.pose_graph import absolute_trajectory_error, close_loops
 from scripts.grouping.evaluate import score_groups
 from scripts.grouping.loop_recordings import collect_loop
 from sim import dataset as ds
+from sim.collect_worlds import label_space
 from sim.runs import Runs
 
 JSON_FILE = "loop_closure.json"
@@ -36,7 +37,7 @@ def evaluate(data, out_dir) -> dict:
     result = {}
     for world in dataset.worlds:
         seq = collect_loop(world, Path(out_dir) / "loop")
-        r = Runs.from_sequences([seq], dataset.max_range)
+        r = Runs.from_sequences([seq], dataset.max_range, label_space((world,)))
         lc = close_loops(r.scans, r.odometry, groups=r.groups)
         rows = {"loops": len(lc.loops), "candidates": lc.candidates}
         for name, poses in (
@@ -48,7 +49,7 @@ def evaluate(data, out_dir) -> dict:
             model = ObservationGraphPartitioner(scan_matching=False).fit(r.scans, poses)
             rows[name] = {
                 "ate": absolute_trajectory_error(poses, r.poses),
-                "grouping": score_groups(r.labels, model.labels_),
+                "grouping": score_groups(r.labels, model.labels_, r.manifold_names),
             }
         result[f"{world} loop"] = rows
     write_json(Path(out_dir) / JSON_FILE, result)

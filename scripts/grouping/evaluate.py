@@ -32,9 +32,8 @@ import numpy as np
 
 from common.fileio import jsonable, write_json
 from mapping.grouping import ObservationGraphPartitioner
-from scenes import WORLDS
 from scripts.grouping import plots as gp
-from scripts.grouping.loop_recordings import collect_loop
+from scripts.grouping.loop_recordings import collect_loop, has_loop
 from scripts.grouping.scores import (
     TARGETS,
     compare_methods,
@@ -44,6 +43,7 @@ from scripts.grouping.scores import (
 )
 from scripts.grouping.tables import comparison_table, grouping_table
 from sim import dataset as ds
+from sim.collect_worlds import label_space
 from sim.runs import Runs
 
 __all__ = ["TARGETS", "evaluate_grouping", "format_report", "main", "score_groups"]
@@ -148,7 +148,7 @@ def evaluate_grouping(
     worlds = dataset.worlds
     # a loop is driven in the simulated world: not for a dataset imported from a robot's log
     simulated = dataset.has_ground_truth
-    loops = [w for w in worlds if w in WORLDS and simulated] if loop else []
+    loops = [w for w in worlds if has_loop(w) and simulated] if loop else []
     steps = len(worlds) * (len(variants) + compare + figures) + len(loops) * (
         len(variants) + figures
     )
@@ -183,9 +183,8 @@ def evaluate_grouping(
             if world in loops:
                 bar.set_postfix_str(f"collect {world} loop")
                 seq = collect_loop(world, out_dir / "loop", frames=loop_frames)
-                cases.append(
-                    ("loop", f"{world}-loop", Runs.from_sequences([seq], dataset.max_range))
-                )
+                loop_runs = Runs.from_sequences([seq], dataset.max_range, label_space((world,)))
+                cases.append(("loop", f"{world}-loop", loop_runs))
             for section, tag, runs in cases:
                 result[section][world] = {"frames": len(runs), "sequences": runs.names}
                 labels[f"{section}/{world}/groups"] = runs.groups

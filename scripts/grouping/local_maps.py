@@ -251,9 +251,9 @@ def format_report(result: dict) -> str:
 
 def dataset_cases(data, out_dir, *, loop: bool = True, loop_frames: int | None = None) -> dict:
     """Cases of a simulated dataset: each world's default sequences, and its loop."""
-    from scenes import WORLDS
-    from scripts.grouping.loop_recordings import collect_loop
+    from scripts.grouping.loop_recordings import collect_loop, has_loop
     from sim import dataset as ds
+    from sim.collect_worlds import label_space
     from sim.runs import Runs
 
     dataset = data if isinstance(data, ds.Dataset) else ds.load_dataset(data)
@@ -262,9 +262,9 @@ def dataset_cases(data, out_dir, *, loop: bool = True, loop_frames: int | None =
     cases = {}
     for world in dataset.worlds:
         runs = [dataset.runs(world)]
-        if loop and world in WORLDS:
+        if loop and has_loop(world):
             seq = collect_loop(world, Path(out_dir) / "loop", frames=loop_frames)
-            runs.append(Runs.from_sequences([seq], dataset.max_range))
+            runs.append(Runs.from_sequences([seq], dataset.max_range, label_space((world,))))
         for tag, r in zip((world, f"{world} loop"), runs, strict=False):
             cases[tag] = (r.scans, r.poses, r.odometry, r.groups)
     return cases

@@ -18,11 +18,12 @@ import numpy as np
 
 from common.fileio import UnreadableJSON, read_json, write_json
 from scenes import names
+from scenes.families import parse_world_name
 from scenes.regions import Route
 from sim import dataset as ds
 from sim.collect import CollectionSettings, collect_sequence, collection_world
 
-__all__ = ["LOOP_INDEX", "collect_loop", "loop_frames", "loop_route"]
+__all__ = ["LOOP_INDEX", "collect_loop", "has_loop", "loop_frames", "loop_route"]
 
 # Seeds sequences after the default dataset's (world * branches + branch < 100), so the loop
 # never reuses the random streams of a default sequence.
@@ -30,6 +31,16 @@ LOOP_INDEX = 100
 # Lateral offset of a U-turn at a branch's end: the route goes up one side and comes back on
 # the other, so pure pursuit turns along an arc instead of facing a target straight behind.
 U_TURN_OFFSET = 0.35  # m; fits the narrowest corridor (2.4 m) with the robot's radius
+
+
+def has_loop(world: str) -> bool:
+    """Whether ``world`` has a loop: a canonical world does (one junction whose three branch
+    routes :func:`loop_route` joins); a generated world's tree of junctions has none yet, and
+    a name that is no world has none."""
+    try:
+        return parse_world_name(world).canonical
+    except (TypeError, ValueError):
+        return False
 
 
 def loop_name(world: str) -> str:
@@ -84,8 +95,8 @@ def collect_loop(
     tick : callable, optional
         Called with 1 after each frame (a progress bar's ``update``).
     """
-    if world_name not in names.WORLDS:
-        raise ValueError(f"world_name must be one of {names.WORLDS}, got {world_name!r}")
+    if not isinstance(world_name, str) or not has_loop(world_name):
+        raise ValueError(f"world_name must be a canonical world {names.WORLDS}, got {world_name!r}")
     settings = settings or CollectionSettings(worlds=(world_name,))
     world = collection_world(world_name, settings.seed, settings.randomize, settings.appearance)
     route = loop_route(world)

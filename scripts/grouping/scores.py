@@ -13,7 +13,6 @@ from mapping.grouping import ObservationGraphPartitioner
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import adjusted_rand_index, contingency_matrix, purity
 from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
-from scenes import MANIFOLDS
 from sim.runs import Runs
 
 __all__ = ["TARGETS", "compare_methods", "meets_targets", "score_groups", "unscored"]
@@ -23,11 +22,11 @@ TARGETS = {"purity_min": 0.9, "max_groups_per_manifold": 3}
 MC_MIN_CLUSTER_SIZE = 35  # Q of docs/guides/manifold-clustering.md on the same sequences
 
 
-def score_groups(truth: np.ndarray, labels: np.ndarray, names=None) -> dict:
+def score_groups(truth: np.ndarray, labels: np.ndarray, names) -> dict:
     """Groups against ground-truth manifold ids (frames on no manifold, -1, are left out).
 
-    ``names``: the manifold of each id (a dataset's ``meta["manifolds"]``); default the
-    canonical worlds' :data:`scenes.MANIFOLDS`.
+    ``names``: the manifold of each id (the recordings' ``manifold_names``, a dataset's
+    ``manifolds``).
 
     ``groups_per_manifold``: for each manifold, the groups whose majority manifold it is (every
     group counts for exactly one manifold; frames of a group that belong elsewhere are what
@@ -42,7 +41,6 @@ def score_groups(truth: np.ndarray, labels: np.ndarray, names=None) -> dict:
     groups = np.unique(labels)
     # The contingency matrix purity is computed from: rows manifolds, columns groups.
     majority = manifolds[contingency_matrix(truth, labels).argmax(axis=0)]
-    names = MANIFOLDS if names is None else names
     per = {names[m]: int(np.sum(majority == m)) for m in manifolds}
     touching = {names[m]: len(np.unique(labels[truth == m])) for m in manifolds}
     return {

@@ -16,22 +16,14 @@ from common.geometry import scan_to_points
 from common.validation import check_int
 from mapping.features import ImageFeatures
 from mapping.manifold import ManifoldClustering
-from scenes import MANIFOLDS, WORLDS
 from scenes.families import parse_world_name
 from sim.collect_worlds import world_manifold_names
 
-PRIOR_CLUSTERS = {w: sum(m == w or m.startswith(f"{w}-") for m in MANIFOLDS) for w in WORLDS}
-"""Manifolds per shipped world, as the worlds were designed (a main corridor or lawn and its
-branches): the default K of a map's clustering, a prior, not a count of labels. A generated
-world's prior is the number of manifolds its floor plan was drawn with
-(:func:`prior_clusters`)."""
-
 
 def prior_clusters(world: str) -> int:
-    """The default K of a map of ``world``: :data:`PRIOR_CLUSTERS` for a canonical world, the
-    number of manifolds of a generated one's plan (``World.manifold_names``), else 2."""
-    if world in PRIOR_CLUSTERS:
-        return PRIOR_CLUSTERS[world]
+    """The default K of a map of ``world``: the number of manifolds its plan was drawn with
+    (``World.manifold_names``: a main corridor or lawn and its branches), a prior, not a count
+    of labels; 2 for a place that is no world of this testbed."""
     try:
         parse_world_name(world)
     except ValueError:
@@ -190,7 +182,7 @@ class ServoMap:
     world_digest : str, optional
         The SHA-256 of the world's floor plan (:attr:`scenes.World.digest`); None in the map
         a policy is given (:func:`servo.task.interface.sensed_map`).
-    manifold_names : tuple of str, default scenes.MANIFOLDS
+    manifold_names : tuple of str, default ()
         The names ``true_labels`` index: the dataset's manifolds (evaluation only; empty in
         the map a policy is given).
 
@@ -247,7 +239,7 @@ class ServoMap:
     true_labels: np.ndarray
     settings: MapSettings = field(default_factory=MapSettings)
     world_digest: str | None = None
-    manifold_names: tuple[str, ...] = MANIFOLDS
+    manifold_names: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.clusters)

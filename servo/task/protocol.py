@@ -31,9 +31,10 @@ import numpy as np
 
 from common.cores import available_cores, spawn_problem
 from common.validation import check_finite, check_int, check_keys
-from scenes import MANIFOLDS, WORLDS
+from scenes import WORLDS
 from scenes.families import check_world_name, parse_world_name
 from servo.task.policies import TRUTH_POLICY
+from sim.collect_worlds import label_space
 
 TIERS = ("view", "anywhere")
 SPLITS = ("dev", "test")
@@ -157,9 +158,7 @@ class EpisodeSpec:
     target_manifold: str
 
 
-def manifold_pairs(
-    true_labels: np.ndarray, names: tuple[str, ...] = MANIFOLDS
-) -> list[tuple[str, str]]:
+def manifold_pairs(true_labels: np.ndarray, names: tuple[str, ...]) -> list[tuple[str, str]]:
     """Ordered pairs of distinct manifolds that both hold stored views (evaluation labels,
     indices into ``names``: the map's ``manifold_names``)."""
     present = [names[i] for i in np.unique(true_labels) if i >= 0]
@@ -167,12 +166,14 @@ def manifold_pairs(
 
 
 def episode_specs(
-    protocol: Protocol, true_labels: np.ndarray, episodes: int, names: tuple[str, ...] = MANIFOLDS
+    protocol: Protocol, true_labels: np.ndarray, episodes: int, names: tuple[str, ...] | None = None
 ) -> list[EpisodeSpec]:
     """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
     one). Seeds depend on the split and the world only, so tiers and settings share episodes.
-    ``names``: the manifolds ``true_labels`` index (the map's ``manifold_names``)."""
+    ``names``: the manifolds ``true_labels`` index (the map's ``manifold_names``); None: those
+    of a dataset of the protocol's world (:func:`sim.collect_worlds.label_space`)."""
     check_int(episodes, "episodes")
+    names = tuple(label_space((protocol.world,))) if names is None else names
     pairs = manifold_pairs(true_labels, names)
     if not pairs:
         raise ValueError("the map needs stored views on at least two manifolds")

@@ -48,7 +48,7 @@ def test_an_estimator_gets_scans_poses_and_drives_and_is_scored_on_the_truth(dat
     method = OutsideMethod("by_drive_mod:ByDrive", ("fit",))
     (scores,) = outside.evaluate_worlds_method(method, [data], progress=False)
     runs = load_dataset(data).runs("hallway")
-    expected = score_groups(runs.labels, runs.groups)
+    expected = score_groups(runs.labels, runs.groups, runs.manifold_names)
     assert [r["group"] for r in scores["records"]] == list(outside.POSES)
     for r in scores["records"]:
         assert r["unit"] == "seed 0/hallway" and r["failure"] is None

@@ -139,10 +139,10 @@ def test_map_does_not_depend_on_the_truth(servo_dataset, servo_maps):
 
 def test_the_number_of_clusters_is_a_stated_setting(servo_dataset):
     from servo.maps import MapSettings, map_key
-    from servo.maps.types import PRIOR_CLUSTERS
+    from servo.maps.types import prior_clusters
     from sim.dataset import read_meta
 
-    assert PRIOR_CLUSTERS == {"hallway": 4, "lawn": 4}
+    assert prior_clusters("hallway") == prior_clusters("lawn") == 4
     assert MapSettings().clusters_for("lawn") == 4 and MapSettings().clusters_for("robot") == 2
     assert MapSettings(n_clusters=3).clusters_for("lawn") == 3
     meta = read_meta(servo_dataset)
