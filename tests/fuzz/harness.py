@@ -18,6 +18,7 @@ per reader instead (``TOPOMAP_FUZZ_CASES=500`` for 2,500 cases over the five rea
 from __future__ import annotations
 
 import os
+import shutil
 import warnings
 import zlib
 from collections import Counter
@@ -61,6 +62,8 @@ def special_file(path: Path, kind: str) -> Path:
     """Put a special file of ``kind`` (one of :data:`SPECIAL_FILES`) at ``path``."""
     if path.is_symlink() or path.is_file():
         path.unlink()
+    elif path.is_dir():  # a ROS 2 bag's folder
+        shutil.rmtree(path)
     if kind == "pipe":
         os.mkfifo(path)
     elif kind == "link to /dev/zero":
@@ -196,9 +199,19 @@ class Judge:
         self.outcomes[kind, outcome] += 1
         return outcome
 
+    def summary(self) -> str:
+        """One line per kind: how many cases were refused, read and escaped."""
+        kinds = sorted({kind for kind, _ in self.outcomes})
+        return "\n".join(
+            f"{kind}: " + ", ".join(f"{o} {self.outcomes[kind, o]}"
+                                    for o in ("refused", "read", "escaped"))
+            for kind in kinds
+        )  # fmt: skip
+
     def assert_clean(self, least: int) -> None:
         """Fail listing every escape, or when fewer than ``least`` cases ran."""
         total = sum(self.outcomes.values())
+        print(self.summary())  # shown with pytest -s
         assert not self.escapes, f"{len(self.escapes)} of {total} cases escaped:\n" + "\n".join(
             self.escapes
         )
