@@ -40,7 +40,7 @@ def clean(tmp_path_factory):
     meta = json.loads((path / "meta.json").read_text())
     meta["sequences"]["lawn-right"] = dict(meta["sequences"]["lawn-left"], file="lawn-right.npz",
                                            sha256=file_sha256(path / "lawn-right.npz"))  # fmt: skip
-    meta["settings"] = {"laser": {"max_range": 10.0, "beams": 4},
+    meta["settings"] = {"laser": {"max_range": 10.0, "beams": 4, "fov": np.pi},
                         "camera": {"width": 6, "height": 4}, "worlds": ["lawn"]}  # fmt: skip
     (path / "meta.json").write_text(json.dumps(meta))
     assert len(load_dataset(path).sequences) == 2
@@ -136,10 +136,17 @@ def _case(clean, path, kind, rng, case):
         _write(path, name, arrays, meta)
         meta["sequences"][name]["frames"] = 5
     else:  # settings that contradict the arrays
-        key = str(rng.choice(["beams", "width", "height", "worlds"]))
+        key = str(rng.choice(["beams", "fov", "width", "height", "worlds", "camera"]))
         value = int(rng.choice([3, 5, 361, 10**400]))
         if key == "beams":
             meta["settings"]["laser"]["beams"] = value
+        elif key in ("fov", "camera"):
+            odd = (1.0, 2 * np.pi, -np.pi, 7.0, float("nan"), 10**400, True, "3.14")
+            section = meta["settings"]["laser" if key == "fov" else "camera"]
+            meta["settings"]["laser" if key == "fov" else "camera"] = (
+                dict(section, fov=odd[int(rng.integers(len(odd)))]) if key == "fov"
+                else odd[int(rng.integers(len(odd)))]
+            )  # fmt: skip
         elif key == "worlds":
             meta["settings"]["worlds"] = ["hallway"]
         else:
