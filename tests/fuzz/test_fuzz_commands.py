@@ -36,9 +36,25 @@ def test_the_builder_refuses_every_damaged_dataset_naming_it(clean, tmp_path):  
         path = tmp_path / f"case{case}"
         _case(clean, path, kind, rng, case)
         judge(kind, path)
+        if case % 3 == 0:  # and through the command
+            _through_servo_eval(judge, kind, path, maps)
         shutil.rmtree(path)
     judge.assert_clean(least=n)
     assert not maps.exists() or not any(maps.iterdir()), "a map file was left"
+
+
+def _through_servo_eval(judge, kind, path, maps):
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            status = main(["servo-eval", "--world", "lawn", "--episodes", "1", "--data",
+                           str(path), "--maps", str(maps)])  # fmt: skip
+    except Exception as exc:  # what the fuzz looks for
+        judge.escapes.append(f"{kind}: topomap servo-eval raised {type(exc).__name__}: {exc}")
+        return
+    text = err.getvalue()
+    if status != 2 or "Traceback" in text or str(path) not in text:
+        judge.escapes.append(f"{kind}: topomap servo-eval exit {status}: {text[:300]}")
 
 
 def _short(tmp_path, beams: int, frames: int):
