@@ -5,14 +5,15 @@ Each reader's module builds small valid files, damages copies of them (truncatio
 flips, odd JSON members and ``.npz`` arrays, huge integers, NaN and infinity, other dtypes,
 shapes and ranks, sequences that disagree, links to ``/dev/zero``, named pipes, compression
 bombs, ...) and recomputes every checksum after each edit, so that only the reader's own
-checks stand between the damage and the caller. :func:`judge` then runs the reader on the
+checks stand between the damage and the caller. :class:`Judge` then runs the reader on the
 case within a time budget: the case passes when the reader raises its own error naming the
-file, or returns what :func:`judge`'s ``check`` accepts as physically possible and consistent;
+file, or returns what the judge's ``check`` accepts as physically possible and consistent;
 a raw library exception, a hang or an accepted impossibility is an escape, and every escape
 is listed when the test fails.
 
-The default suite runs a few hundred cases in all; ``TOPOMAP_FUZZ_CASES=N`` runs ``N`` cases
-per reader instead (``TOPOMAP_FUZZ_CASES=500`` for 2,500 cases over the five readers).
+The default suite runs 320 cases in all; ``TOPOMAP_FUZZ_CASES=N`` runs ``N`` cases per reader
+and per command instead (``TOPOMAP_FUZZ_CASES=500``: 2,500 cases over the five readers and
+500 more through the map builder).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from tests.sim.readers.fuzzing import OverBudget, budget, flipped, truncated
 
 __all__ = [
     "ODD_VALUES",
+    "SPECIAL_FILES",
     "Judge",
     "case_count",
     "flipped",
