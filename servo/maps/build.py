@@ -374,7 +374,11 @@ def load_or_build(
     cache = datahome.maps_dir(home) if cache is None else Path(cache)
     if cache.exists() and not cache.is_dir():
         raise ValueError(f"cache must be a folder for servo maps, got the file {cache}")
-    path, _ = map_paths(cache, world, map_key(read_meta(dataset), world, settings))
+    try:
+        key = map_key(read_meta(dataset), world, settings)
+    except MapError as err:  # no sequence of the world: name the dataset
+        raise MapError(f"{dataset}: {err}") from None
+    path, _ = map_paths(cache, world, key)
     if path.is_file():
         try:
             return load_map(path, world)

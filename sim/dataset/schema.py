@@ -117,8 +117,8 @@ def read_meta(directory: str | os.PathLike) -> dict:
 
 def _check_optional_keys(path: Path, meta: dict) -> None:
     """The other keys the code reads, where present: ``settings`` (its ``laser`` and that
-    one's ``max_range``, the laser's range), ``manifolds`` and ``complete``. They may be
-    absent (a dataset of schema version 1, a collection just started)."""
+    one's ``max_range``, the laser's range, and its ``camera``), ``manifolds`` and
+    ``complete``. They may be absent (a dataset of schema version 1, a collection just started)."""
     settings = meta.get("settings", {})
     if not isinstance(settings, dict):
         raise DatasetError(f"{path}: 'settings' must be an object, got {settings!r}")
@@ -127,6 +127,10 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
         laser = {}
     if not isinstance(laser, dict):
         raise DatasetError(f"{path}: 'settings.laser' must be an object, got {laser!r}")
+    camera = settings.get("camera")
+    if camera is not None and not isinstance(camera, dict):
+        raise DatasetError(f"{path}: 'settings.camera' must be an object or null, got "
+                           f"{repr(camera)[:40]}")  # fmt: skip
     r = laser.get("max_range", 1.0)
     if not (is_real(r) and 0 < r <= MAX_RANGE):  # an int of 400 digits compares exactly
         raise DatasetError(f"{path}: 'settings.laser.max_range' must be a number of metres in "

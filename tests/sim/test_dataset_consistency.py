@@ -64,6 +64,8 @@ def test_angles_within_the_tolerance_are_the_same_beams(tmp_path):
          "images of 6x4, but meta.json's settings.camera is 320x240"),
         ({"laser": {"max_range": 10.0}, "worlds": ["hallway"]},
          r"world 'lawn' is not among meta.json's settings.worlds \['hallway'\]"),
+        ({"laser": {"max_range": 10.0, "fov": 1.0}},
+         r"beam angles span 3.14159 rad, but meta.json's settings.laser.fov is 1 rad"),
     ],
 )  # fmt: skip
 def test_settings_that_contradict_the_arrays_are_refused(tmp_path, settings, match):
@@ -74,9 +76,33 @@ def test_settings_that_contradict_the_arrays_are_refused(tmp_path, settings, mat
 
 
 def test_settings_that_agree_are_read(tmp_path):
-    settings = {"laser": {"max_range": 10.0, "beams": 4}, "camera": {"width": 6, "height": 4},
-                "worlds": ["lawn"]}  # fmt: skip
+    settings = {"laser": {"max_range": 10.0, "beams": 4, "fov": np.pi},
+                "camera": {"width": 6, "height": 4}, "worlds": ["lawn"]}  # fmt: skip
     assert len(load_dataset(write_dataset(tmp_path / "d", settings=settings)).sequences) == 1
+
+
+def test_an_imported_scan_of_decreasing_angles_records_a_negative_span(tmp_path):
+    arrays = sequence_arrays()
+    arrays["angles"] = arrays["angles"][::-1].copy()
+    settings = {"laser": {"max_range": 10.0, "fov": -float(np.pi)}}
+    assert load_dataset(write_dataset(tmp_path / "d", arrays, settings=settings)).sequences
+
+
+def test_a_full_turn_spans_one_beam_less_than_its_field_of_view(tmp_path):
+    from sim.laser import LaserConfig
+
+    arrays = sequence_arrays()
+    arrays["angles"] = LaserConfig(fov=2 * np.pi, beams=4).angles.astype(np.float32)
+    settings = {"laser": {"max_range": 10.0, "fov": 2 * np.pi}}
+    assert load_dataset(write_dataset(tmp_path / "d", arrays, settings=settings)).sequences
+
+
+@pytest.mark.parametrize("fov", [-7.0, 7.0, 10**400, float("nan")])
+def test_a_field_of_view_beyond_a_full_turn_is_refused(tmp_path, fov):
+    d = write_dataset(tmp_path / "d", settings={"laser": {"max_range": 10.0, "fov": fov}})
+    with pytest.raises(DatasetError, match=r"meta.json: settings.laser.fov must be a field of "
+                                           r"view of at most 2 pi rad"):  # fmt: skip
+        load_dataset(d)
 
 
 def test_one_file_under_two_names_is_refused(tmp_path):
@@ -191,3 +217,10 @@ def test_random_disagreements_give_a_dataset_error_or_a_dataset_that_concatenate
             assert s.scans.shape[1] == len(first.angles) and s.images.shape[1:] == (4, 6, 3)
         outcomes["read"] += 1
     assert outcomes["refused"] > 10 and outcomes["read"] > 10, outcomes
+
+
+@pytest.mark.parametrize("camera", [True, 3, "320x240", [320, 240]])
+def test_camera_settings_that_are_no_object_are_refused(tmp_path, camera):
+    d = write_dataset(tmp_path / "d", settings={"laser": {"max_range": 10.0}, "camera": camera})
+    with pytest.raises(DatasetError, match=r"meta.json: 'settings.camera' must be an object"):
+        load_dataset(d)

@@ -50,3 +50,12 @@ def test_profile_distances_names_a_shift_longer_than_the_scan():
         profile_distances(np.ones((2, 61)), np.ones(61), 0.01)
     best, _ = profile_distances(np.ones((2, MIN_BEAMS)), np.ones(MIN_BEAMS), 0.01)
     assert best.tolist() == [0.0, 0.0]
+
+
+def test_a_dataset_without_the_world_is_refused_naming_it(tmp_path):
+    from servo.maps import load_or_build
+    from servo.maps.types import MapError
+
+    data = write_dataset(tmp_path / "d")
+    with pytest.raises(MapError, match=r"/d: the dataset has no sequence of world 'hallway'"):
+        load_or_build("hallway", data, tmp_path / "maps", progress=False)
