@@ -18,6 +18,7 @@ import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -44,11 +45,23 @@ _UNSHARE_SCRIPT = ('n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "
 
 def default_hidden() -> list[str]:
     """Folders a policy's sandbox hides whatever the run: the data home (``sim.datahome``),
-    ``TOPOMAP_HOME`` and the repository's ``out/``, those that exist."""
+    ``TOPOMAP_HOME``, the repository's ``out/`` and the temporary folder (where every run
+    keeps its copy of the map, the truth included; the policy gets an empty one), those that
+    exist; not a folder that holds the repository or the current directory."""
     from sim.datahome import ENV_VAR, user_cache_dir
 
-    found = [os.environ.get(ENV_VAR) or "", str(user_cache_dir()), str(_ROOT / "out")]
+    found = [os.environ.get(ENV_VAR) or "", str(user_cache_dir()), str(_ROOT / "out"),
+             tempfile.gettempdir()]  # fmt: skip
     return sorted({str(Path(p).resolve()) for p in found if p and Path(p).is_dir()})
+
+
+def outermost(folders) -> list[str]:
+    """The folders that lie in no other of ``folders`` and hold neither the repository nor
+    the current directory (hiding those would hide the code), resolved."""
+    keep = [Path(f).resolve() for f in folders if Path(f).is_dir()]
+    needed = (_ROOT, Path.cwd().resolve())
+    keep = [f for f in keep if not any(n == f or f in n.parents for n in needed)]
+    return sorted({str(f) for f in keep if not any(o in f.parents for o in keep)})
 
 
 def _prefix(tool: str, hide: list[str]) -> list[str]:
@@ -113,6 +126,9 @@ class RemotePolicy:
         The stored view the policy said it heads for after its last ``act``.
     sandboxed : bool
         Whether it runs in a sandbox.
+    hidden : list of str
+        The folders the sandbox empties (:func:`outermost` of :func:`default_hidden` and
+        ``hide``).
     """
 
     def __init__(self, spec: str, servo_map: ServoMap, policy_seed: int = 0,
@@ -124,8 +140,8 @@ class RemotePolicy:
         if sandbox and tool is None:
             raise ValueError("no sandbox on this platform: neither bwrap nor unshare can make "
                              "a mount namespace here")  # fmt: skip
-        hidden = sorted({*default_hidden(), *(str(Path(h).resolve()) for h in hide)})
-        self._prefix = _prefix(tool, [h for h in hidden if Path(h).is_dir()]) if tool else []
+        self.hidden = outermost([*default_hidden(), *hide]) if tool else []
+        self._prefix = _prefix(tool, self.hidden) if tool else []
         self._views = len(servo_map)
         values, self._arrays = map_message_of(servo_map)
         self._init = {"spec": spec, "params": self.params, "policy_seed": self.policy_seed,

@@ -97,11 +97,10 @@ def _roots(roots) -> list[str]:
 
 
 class Attacker:
-    """Searches with ``search`` at the factory, every reset and every act."""
+    """Searches with ``search`` at every reset and every act."""
 
     def __init__(self, search):
         self.search = search
-        self._check("factory")
 
     def _check(self, when: str):
         found = self.search()
