@@ -52,7 +52,8 @@ def cmd_servo_eval(args) -> int:
         path, _ = map_paths(args.maps, world, servo_map.key)
         r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
                          args.policy, workers=args.workers, progress=not args.json,
-                         policy_options=dict(args.policy_arg or []))  # fmt: skip
+                         policy_options=dict(args.policy_arg or []),
+                         hide=[args.data] if args.data else [])  # fmt: skip
         not_loaded = r["reasons"].get("policy not loaded", 0)
         if not_loaded:  # every episode failed so: say why here too, not only in the records
             why = next(e["failure"] for e in r["episodes_detail"] if "failure" in e)

@@ -270,6 +270,7 @@ def run_protocol(
 
     from servo.maps import ServoMap, load_map, save_map
     from servo.task.evaluation import check_policy_name, summarise
+    from servo.task.interface import is_policy_spec
 
     if not isinstance(protocol, Protocol):
         raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
@@ -333,6 +334,10 @@ def run_protocol(
     where = {k: isolation[k] for k in ("process", "sandboxed", "sandbox")}
     result.update(asdict(protocol), policy=policy, workers=workers, policy_params=params,
                   policy_seed=policy_seed, isolation=where)  # fmt: skip
+    if is_policy_spec(policy):  # provenance: the digest of the module's source
+        from common.user_modules import source_digest
+
+        result["source"] = source_digest(policy.split(":", 1)[0])
     if plot is not None:
         from scenes import build_world
         from servo.task.evaluation import plot_trajectories
