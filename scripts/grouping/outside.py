@@ -203,7 +203,7 @@ def evaluate_carmen_method(method: OutsideMethod, logs, given="scans", seed: int
 def file_name(result: dict) -> str:
     """``<protocol>-<input>-<spec>[-<params digest>].json``
     (``scripts.leaderboard.files.file_tag``), safe on every file system."""
-    from scripts.leaderboard.files import file_tag
+    from scripts.leaderboard import file_tag
 
     m = result["method"]
     tag = file_tag(m.get("spec") or m["name"], m["params"])

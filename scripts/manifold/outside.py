@@ -151,7 +151,7 @@ def file_name(method: dict) -> str:
     """``manifold-<spec>[-<params digest>].json`` (``scripts.leaderboard.files.file_tag``):
     the full ``package.module:Class``, so a class of the same name elsewhere never shares
     the file, safe on every file system."""
-    from scripts.leaderboard.files import file_tag
+    from scripts.leaderboard import file_tag
 
     chosen = method.get("protocol_params", [])
     params = {k: v for k, v in method["params"].items() if k not in chosen}

@@ -36,6 +36,8 @@ MAP_ARRAYS = ("images", "features", "scans", "angles", "poses", "sequence", "fra
               "edges", "edge_transforms")  # fmt: skip
 MAX_TO_POLICY = 4 << 30  # bytes of one message to the policy (the map is the largest)
 BUILTIN = ("servo", "signal", "greedy", "greedy-target", "random")  # all but the oracle
+# observation entries the same at every step of an episode: sent with its first act only
+EPISODE_CONSTANT = ("target_image", "target_scan", "target_scan_valid")
 
 
 def builtin_policy(name: str, m: ServoMap, rng: np.random.Generator, **options):
@@ -108,6 +110,7 @@ def _error(sock, stage: str, err: BaseException) -> None:
 def serve(sock: socket.socket) -> None:
     """Answer the evaluator's messages on ``sock`` until it says ``close`` or goes away."""
     policy = rng = None
+    kept: dict = {}  # the episode's constant observation entries, as first sent
     while True:
         try:
             kind, values, arrays = wire.decode(wire.receive(sock, MAX_TO_POLICY), MAX_TO_POLICY)
@@ -123,6 +126,7 @@ def serve(sock: socket.socket) -> None:
                 continue
             wire.send(sock, wire.encode("ready"))
         elif kind == "reset":
+            kept.clear()
             if rng is not None:
                 reseed(rng, int(values["episode_seed"]), int(values["policy_seed"]))
             try:
@@ -133,6 +137,8 @@ def serve(sock: socket.socket) -> None:
             wire.send(sock, wire.encode("done"))
         elif kind == "act":
             observation = {k: np.array(v) for k, v in arrays.items()}
+            kept.update({k: observation[k] for k in EPISODE_CONSTANT if k in observation})
+            observation.update({k: kept[k] for k in values.get("same", []) if k in kept})
             try:
                 action = policy.act(observation)
             except Exception as err:

@@ -33,7 +33,7 @@ from common.cores import available_cores, spawn_problem
 from common.validation import check_finite, check_int, check_keys
 from scenes import MANIFOLDS, WORLDS
 from scenes.families import check_world_name, parse_world_name
-from servo.task.worker import _close_worker, _init_worker, _isolation, _param_names, _run_spec
+from servo.task.worker import close_worker, init_worker, isolation_of, param_names, run_spec
 
 TIERS = ("view", "anywhere")
 SPLITS = ("dev", "test")
@@ -280,8 +280,8 @@ def run_protocol(
     policy_seed = check_int(policy_seed, "policy_seed", minimum=0)
     if act_limit_s is not None and not check_finite(act_limit_s, "act_limit_s") > 0:
         raise ValueError(f"act_limit_s must be a number > 0, got {act_limit_s!r}")
-    params = check_keys(policy_options, _param_names(policy_options), "policy_options")
-    isolation = _isolation(policy, isolate, sandbox)
+    params = check_keys(policy_options, param_names(policy_options), "policy_options")
+    isolation = isolation_of(policy, isolate, sandbox)
     workers = available_cores() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
@@ -305,7 +305,8 @@ def run_protocol(
             specs = episode_specs(protocol, m.true_labels, max(indices) + 1, m.manifold_names)
             specs = [specs[i] for i in indices]
         isolation["hide"] = [str(Path(map_path).parent), *(str(h) for h in hide)]
-        args = (protocol, map_path, policy, params, policy_seed, act_limit_s, isolation)
+        args = (protocol, map_path, policy, params, policy_seed, act_limit_s, isolation,
+                reset_options)  # fmt: skip
         name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
         bar = tqdm(total=len(specs), disable=not progress, desc=name)
         records = []
@@ -315,18 +316,18 @@ def run_protocol(
                           f"{problem}", stacklevel=2)  # fmt: skip
             workers = 1
         if workers == 1:
-            _init_worker(*args)
+            init_worker(*args)
             try:
                 for s in specs:
-                    records.append(_run_spec(s))
+                    records.append(run_spec(s))
                     bar.update()
             finally:
-                _close_worker()
+                close_worker()
         else:
             ctx = get_context("spawn")  # no forked MuJoCo / GL state
-            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=init_worker,
                                      initargs=args) as pool:  # fmt: skip
-                for r in pool.map(_run_spec, specs):
+                for r in pool.map(run_spec, specs):
                     records.append(r)
                     bar.update()
         bar.close()

@@ -35,6 +35,7 @@ from servo.task.guard import (
     PolicyFailure,
 )
 from servo.task.interface import PolicyLoadError, sensed_map
+from servo.task.policy_host import EPISODE_CONSTANT, map_message
 
 START_LIMIT_S = 120.0  # s to start the process, rebuild the map and run the factory
 MAX_FROM_POLICY = 1 << 16  # bytes of one answer: an action, a waypoint, a failure's text
@@ -143,18 +144,19 @@ class RemotePolicy:
         self.hidden = outermost([*default_hidden(), *hide]) if tool else []
         self._prefix = _prefix(tool, self.hidden) if tool else []
         self._views = len(servo_map)
-        values, self._arrays = map_message_of(servo_map)
+        values, self._arrays = map_message(sensed_map(servo_map))
         self._init = {"spec": spec, "params": self.params, "policy_seed": self.policy_seed,
                       "map": values}  # fmt: skip
         self.limit_s, self.start_limit_s = ACT_LIMIT_S, float(start_limit_s)
         self.waypoint_ = None
         self._proc = self._sock = None
-        self._episode = (0, self.policy_seed)
+        self._episode, self._sent = (0, self.policy_seed), {}
         self._start()
 
     # -- the process ----------------------------------------------------------------------
     def _start(self) -> None:
         parent, child = socket.socketpair()
+        self._sent = {}  # a fresh process knows nothing of the episode
         env = {k: v for k, v in os.environ.items() if not k.startswith("TOPOMAP_")}
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_ROOT), env.get("PYTHONPATH")]))
         command = [*self._prefix, sys.executable, "-m", "servo.task.policy_host",
@@ -240,13 +242,21 @@ class RemotePolicy:
     def reset(self, target) -> None:
         """Start an episode toward ``target`` (a ``Target``: its view and image go over)."""
         seed, policy_seed = self._episode
+        self._sent = {}
         values = {"view": int(target.view), "episode_seed": seed, "policy_seed": policy_seed}
         self._ask("reset", values, {"image": target.image}, "done")
 
     def act(self, observation: dict) -> np.ndarray:
         """The policy's command for ``observation`` (plain arrays over, two numbers back)."""
         self.waypoint_ = None
-        answer, arrays = self._ask("act", {}, observation, "action")
+        send, same = {}, []
+        for k, v in observation.items():  # what stays the same in an episode goes over once
+            if k in EPISODE_CONSTANT and k in self._sent and np.array_equal(self._sent[k], v):
+                same.append(k)
+            else:
+                send[k] = v
+        answer, arrays = self._ask("act", {"same": same}, send, "action")
+        self._sent.update({k: np.array(send[k]) for k in EPISODE_CONSTANT if k in send})
         if set(arrays) - {"action"} or set(answer) - {"waypoint", "invalid"}:
             self._fail(GARBAGE, "an action message with other fields")
         if "invalid" in answer or "action" not in arrays:
@@ -259,10 +269,3 @@ class RemotePolicy:
     def __del__(self):
         if getattr(self, "_proc", None) is not None:
             self._proc.kill()
-
-
-def map_message_of(servo_map: ServoMap):
-    """The message values and arrays of ``servo_map``'s sensed part."""
-    from servo.task.policy_host import map_message
-
-    return map_message(sensed_map(servo_map))

@@ -42,21 +42,28 @@ class Timeout(WireError):
 
 
 def encode(kind: str, values: dict | None = None, arrays: dict | None = None) -> bytes:
-    """The message ``kind`` with the JSON-able ``values`` and the numeric ``arrays``."""
-    specs, blobs = [], []
+    """The message ``kind`` with the JSON-able ``values`` and the numeric ``arrays`` (each
+    array's bytes copied once, into the message)."""
+    specs, parts = [], []
     for name, a in (arrays or {}).items():
         a = np.ascontiguousarray(a)
-        dtype = a.dtype.newbyteorder("<") if a.dtype.byteorder == ">" else a.dtype
-        a = a.astype(dtype, copy=False)
+        if a.dtype.byteorder == ">":
+            a = a.astype(a.dtype.newbyteorder("<"))
         if a.dtype.str not in DTYPES:
             raise WireError(f"array {name!r}: dtype {a.dtype} is not one of {DTYPES}")
         specs.append([str(name), a.dtype.str, list(a.shape)])
-        blobs.append(a.tobytes())
+        parts.append(a.reshape(-1).view(np.uint8))
     header = json.dumps({"kind": str(kind), "values": values or {}, "arrays": specs}).encode()
-    return b"".join([MAGIC, struct.pack("<I", len(header)), header, *blobs])
+    out = bytearray(8 + len(header) + sum(p.size for p in parts))
+    out[:4], out[4:8], out[8 : 8 + len(header)] = MAGIC, struct.pack("<I", len(header)), header
+    at = 8 + len(header)
+    for p in parts:
+        out[at : at + p.size] = memoryview(p)
+        at += p.size
+    return bytes(out) if len(out) < 4096 else out
 
 
-def decode(data: bytes, max_bytes: int) -> tuple[str, dict, dict[str, np.ndarray]]:
+def decode(data: bytes | bytearray, max_bytes: int) -> tuple[str, dict, dict[str, np.ndarray]]:
     """``(kind, values, arrays)`` of an untrusted message; the arrays are read-only views of
     ``data``. Raises :class:`WireError` naming the fault."""
     if len(data) > max_bytes:
@@ -87,6 +94,7 @@ def decode(data: bytes, max_bytes: int) -> tuple[str, dict, dict[str, np.ndarray
         if offset + nbytes > len(data):
             raise WireError(f"array {name!r} of shape {shape} runs past the message's end")
         a = np.frombuffer(data, dtype=dtype, count=count, offset=offset).reshape(shape)
+        a.flags.writeable = False  # a view of the message, whatever buffer holds it
         arrays[name], offset = a, offset + nbytes
     if offset != len(data):
         raise WireError(f"{len(data) - offset} bytes after the last array")
@@ -113,24 +121,25 @@ def _array_spec(spec) -> tuple[str, str, tuple[int, ...]]:
 def send(sock: socket.socket, message: bytes) -> None:
     """Write one frame (length, then ``message``); raises :class:`Closed` if the other end
     is gone."""
-    try:
-        sock.sendall(struct.pack(">Q", len(message)) + message)
+    try:  # the length, then the message itself: no copy of a large message
+        sock.sendall(struct.pack(">Q", len(message)))
+        sock.sendall(message)
     except OSError as err:  # BrokenPipe, ConnectionReset: the process died
         raise Closed(f"the connection closed ({type(err).__name__})") from None
 
 
-def receive(sock: socket.socket, max_bytes: int, timeout: float | None = None) -> bytes:
+def receive(sock: socket.socket, max_bytes: int, timeout: float | None = None) -> bytearray:
     """One frame's message, of at most ``max_bytes``, within ``timeout`` seconds (None: wait
     as long as it takes). Raises :class:`Timeout`, :class:`Closed` or :class:`WireError`."""
     deadline = None if timeout is None else time.monotonic() + timeout
     head = _read(sock, 8, deadline)
-    (size,) = struct.unpack(">Q", head)
+    (size,) = struct.unpack(">Q", bytes(head))
     if size > max_bytes:
         raise WireError(f"a message of {size} bytes announced, more than the {max_bytes} allowed")
     return _read(sock, size, deadline)
 
 
-def _read(sock: socket.socket, n: int, deadline: float | None) -> bytes:
+def _read(sock: socket.socket, n: int, deadline: float | None) -> bytearray:
     buf = bytearray(n)
     view, got = memoryview(buf), 0
     while got < n:
@@ -145,4 +154,4 @@ def _read(sock: socket.socket, n: int, deadline: float | None) -> bytes:
         if k == 0:
             raise Closed("the other end closed the connection")
         got += k
-    return bytes(buf)
+    return buf

@@ -11,7 +11,7 @@ from servo.task.policies import TRUTH_POLICY
 _WORKER: dict = {}
 
 
-def _param_names(options) -> list[str]:
+def param_names(options) -> list[str]:
     """The names a policy's params may have: identifiers (they become keyword arguments); the
     values go to the policy, which checks them."""
     if isinstance(options, dict):
@@ -22,9 +22,13 @@ def _param_names(options) -> list[str]:
     return []
 
 
-def _init_worker(protocol, map_path: str, policy: str, options: dict,
+def init_worker(protocol, map_path: str, policy: str, options: dict,
                  seed: int = 0, act_limit_s: float | None = None,
-                 isolation: dict | None = None) -> None:  # fmt: skip
+                 isolation: dict | None = None, reset_options=None) -> None:  # fmt: skip
+    """Make this worker's env and policy (``run_protocol``'s pool initializer): the policy in
+    its own process where ``isolation["process"]`` (sandboxed where ``isolation["sandboxed"]``,
+    its ``hide`` folders emptied), else here; ``reset_options`` is
+    ``servo.task.protocol.reset_options`` (passed in: that module imports this one)."""
     import sim  # noqa: F401  (the GL backend before mujoco, in a spawned process)
     from servo.task.env import ServoEnv
     from servo.task.evaluation import make_policy
@@ -59,12 +63,14 @@ def _init_worker(protocol, map_path: str, policy: str, options: dict,
     limit = ACT_LIMIT_S if act_limit_s is None else float(act_limit_s)
     # an outside policy's generator is set anew for every episode (interface.reseed); ours
     # keep the one generator of the worker, as their published numbers were made with it
-    _WORKER.update(env=env, protocol=protocol, policy=pol, load_error=load_error,
-                   truth=policy == TRUTH_POLICY, act_limit_s=limit, policy_seed=seed,
-                   rng=rng if is_policy_spec(policy) else None)  # fmt: skip
+    # the protocol's reset options (servo.task.protocol.reset_options), passed in: this module
+    # is imported by the protocol's, not the other way round
+    _WORKER.update(reset_options=reset_options, env=env, protocol=protocol, policy=pol,
+                   load_error=load_error, truth=policy == TRUTH_POLICY, act_limit_s=limit,
+                   policy_seed=seed, rng=rng if is_policy_spec(policy) else None)  # fmt: skip
 
 
-def _close_worker() -> None:
+def close_worker() -> None:
     """End this worker's env and policy process (the in-process runner's end)."""
     _WORKER.pop("env").close()
     policy = _WORKER.pop("policy", None)
@@ -72,10 +78,10 @@ def _close_worker() -> None:
         policy.close()
 
 
-def _run_spec(spec) -> dict:
+def run_spec(spec) -> dict:
+    """The record of episode ``spec`` (a ``servo.task.EpisodeSpec``) run by this worker."""
     from servo.task.evaluation import run_episode
     from servo.task.interface import reseed
-    from servo.task.protocol import reset_options
 
     env, protocol, policy = _WORKER["env"], _WORKER["protocol"], _WORKER["policy"]
     if _WORKER["rng"] is not None:
@@ -84,7 +90,7 @@ def _run_spec(spec) -> dict:
         else:
             reseed(_WORKER["rng"], spec.seed, _WORKER["policy_seed"])
     record = run_episode(
-        env, policy, spec.seed, reset_options(env, spec, protocol.tier),
+        env, policy, spec.seed, _WORKER["reset_options"](env, spec, protocol.tier),
         truth=_WORKER["truth"], act_limit_s=_WORKER["act_limit_s"],
         load_error=_WORKER["load_error"],
     )  # fmt: skip
@@ -92,7 +98,7 @@ def _run_spec(spec) -> dict:
     return record
 
 
-def _isolation(policy: str, isolate, sandbox) -> dict:
+def isolation_of(policy: str, isolate, sandbox) -> dict:
     """Where the policy runs: ``process`` (its own), ``sandboxed``, ``sandbox`` (the tool)."""
     from servo.task.interface import is_policy_spec
     from servo.task.remote import sandbox_tool

@@ -220,11 +220,11 @@ def test_an_outside_policy_draws_the_same_per_episode_whatever_ran_before(servo_
                         policy_options=params)  # fmt: skip
     # episode 1 alone, in a fresh worker that never ran episode 0 (as in a pool of workers)
     specs = runner.episode_specs(protocol, servo_maps["hallway"].true_labels, 2)
-    worker._init_worker(protocol, path, spec, params)
+    worker.init_worker(protocol, path, spec, params, reset_options=runner.reset_options)
     try:
-        alone = worker._run_spec(specs[1])
+        alone = worker.run_spec(specs[1])
     finally:
-        worker._close_worker()
+        worker.close_worker()
     keys = ("steps", "reason", "path_length", "final_distance", "collisions")
     assert {k: alone[k] for k in keys} == {k: both["episodes_detail"][1][k] for k in keys}
     assert alone["path_length"] > 0
