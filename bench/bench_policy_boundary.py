@@ -43,9 +43,7 @@ def small_map(folder: Path):
 
 def measure(steps: int, sandbox: bool) -> dict:
     """Median ms per ``act`` in process and across the boundary, and per env step."""
-    from servo.task.env import ServoEnv
-    from servo.task.interface import Target, make_outside_policy
-    from servo.task.remote import RemotePolicy
+    from servo.task import RemotePolicy, ServoEnv, Target, make_outside_policy
 
     with tempfile.TemporaryDirectory(prefix="bench-boundary-") as tmp:
         m = small_map(Path(tmp))

@@ -78,7 +78,14 @@ def _prefix(tool: str, hide: list[str]) -> list[str]:
 @functools.cache
 def sandbox_tool() -> str | None:
     """``"bwrap"`` or ``"unshare"``, whichever first runs a command in its own mount and
-    process namespaces with a folder hidden here; None where neither does."""
+    process namespaces with a folder hidden here; None where neither does.
+
+    Examples
+    --------
+    >>> from servo.task import sandbox_tool
+    >>> sandbox_tool() in (None, "bwrap", "unshare")
+    True
+    """
     for tool in ("bwrap", "unshare"):
         if shutil.which(tool) is None:
             continue
@@ -130,6 +137,22 @@ class RemotePolicy:
     hidden : list of str
         The folders the sandbox empties (:func:`outermost` of :func:`default_hidden` and
         ``hide``).
+
+    Examples
+    --------
+    Made by the runner for every outside policy (``run_protocol``); whether this machine
+    can sandbox it:
+
+    >>> from servo.task import RemotePolicy, sandbox_tool
+    >>> sandbox_tool() in (None, "bwrap", "unshare")
+    True
+    >>> callable(RemotePolicy.set_episode)
+    True
+
+    See Also
+    --------
+    servo.task.run_protocol : Runs a policy this way (``isolate``, ``sandbox``).
+    servo.task.Policy : The interface it has, as the policy in its process does.
     """
 
     def __init__(self, spec: str, servo_map: ServoMap, policy_seed: int = 0,
