@@ -187,6 +187,10 @@ class RemotePolicy:
         try:
             self._proc = subprocess.Popen(command, pass_fds=[child.fileno()], env=env,
                                           stdin=subprocess.DEVNULL, stdout=2)  # fmt: skip
+        except OSError as err:  # no python, no sandbox tool any more, no processes left
+            parent.close()
+            raise PolicyLoadError(f"policy {self.spec!r}: its process did not start "
+                                  f"({type(err).__name__}: {err})") from None  # fmt: skip
         finally:
             child.close()
         self._sock = parent
