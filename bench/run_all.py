@@ -4,7 +4,8 @@
 
 Runs the simulator (``bench_sim``; the registered envs under ``gymnasium.utils.performance``
 in group ``envs``), manifold clustering (``bench_manifold``), observation
-grouping (``bench_partition``) and servo (``bench_servo``) measurements by importing their
+grouping (``bench_partition``), servo (``bench_servo``) and policy-process boundary
+(``bench_policy_boundary``) measurements by importing their
 functions, and writes a table with the machine (CPU model, core count, load) and each figure
 beside its target. ``--quick`` (about a minute) uses fewer repeats, skips the
 dataset collection and the full-resolution clustering, stops the scaling at n = 600 and times
@@ -277,6 +278,22 @@ def servo_rows(quick: bool) -> list[Row]:
     return rows
 
 
+def boundary_rows(quick: bool) -> list[Row]:
+    """``bench_policy_boundary.measure``: an outside policy's ``act`` across its process
+    boundary against the same ``act`` in this process, on the same observations (the
+    overhead's target: at most 2 ms a step), and the ratio of a whole step's time."""
+    import bench_policy_boundary as bpb
+
+    r = bpb.measure(100 if quick else 300, sandbox=False)
+    overhead = f"policy process overhead per step, median, {r['steps']} steps"
+    ratio = "a step across the boundary / in process (env step included)"
+    return [
+        _row("boundary", overhead, r["overhead_ms"], "ms", bpb.TARGET_MS),
+        _row("boundary", "the same act in process, median", r["in_process_ms"], "ms"),
+        _row("boundary", ratio, r["step_ratio"], "x"),
+    ]
+
+
 # --------------------------------------------------------------------------- table
 
 
@@ -286,6 +303,7 @@ GROUPS: dict[str, Callable[[bool], list[Row]]] = {
     "manifold": manifold_rows,
     "grouping": partition_rows,
     "servo": servo_rows,
+    "boundary": boundary_rows,
 }
 
 

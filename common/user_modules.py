@@ -4,12 +4,16 @@ beside the user's working directory is found. Importing it runs its code."""
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import os
 import sys
+from pathlib import Path
 from types import ModuleType
 
-__all__ = ["UserModuleError", "import_user_module"]
+__all__ = ["UserModuleError", "import_user_module", "source_digest"]
+
+MAX_SOURCE_FILES = 500  # files of a package folder hashed at most
 
 
 class UserModuleError(ValueError):
@@ -37,3 +41,30 @@ def import_user_module(name: str) -> ModuleType:
         raise UserModuleError(
             f"module {name!r} does not import ({type(err).__name__}: {err})"
         ) from err
+
+
+def source_digest(name: str) -> dict:
+    """The provenance of module ``name``, found as :func:`import_user_module` would find it
+    (the current directory, then ``sys.path``) but without importing anything: ``{"module",
+    "files", "sha256"}``, the SHA-256 over the module's file and the other ``.py`` files of
+    its folder (its package's code), each by its name and bytes; ``sha256`` None when the
+    module is no source file there (a built-in or compiled module, or none).
+
+    Examples
+    --------
+    >>> from common.user_modules import source_digest
+    >>> d = source_digest("common.user_modules")
+    >>> d["files"] >= 1 and len(d["sha256"])
+    64
+    """
+    parts = str(name).split(".")
+    for root in [os.getcwd(), *sys.path]:
+        base = Path(root or ".", *parts)
+        for path in (base.with_suffix(".py"), base / "__init__.py"):
+            if path.is_file():
+                files = sorted(path.parent.glob("*.py"))[:MAX_SOURCE_FILES]
+                h = hashlib.sha256()
+                for f in files:
+                    h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
+                return {"module": name, "files": len(files), "sha256": h.hexdigest()}
+    return {"module": name, "files": 0, "sha256": None}

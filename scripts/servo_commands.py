@@ -43,6 +43,16 @@ def cmd_servo_eval(args) -> int:
     from servo.task import Protocol, run_protocol
 
     out = output_folder(args.out) if args.out else None
+    sandbox = {"auto": None, "on": True, "off": False}[getattr(args, "sandbox", "auto")]
+    if ":" not in args.policy:
+        sandbox = None  # ours run in the worker
+    elif sandbox:
+        from servo.task import sandbox_tool
+
+        if sandbox_tool() is None:
+            print("topomap servo-eval: --sandbox on, but neither bwrap nor unshare can make a "
+                  "sandbox on this machine", file=sys.stderr)  # fmt: skip
+            return 2
     results = []
     for world in worlds(args.world):
         protocol = Protocol(world, args.tier, args.split, randomize=args.randomize,
@@ -52,7 +62,8 @@ def cmd_servo_eval(args) -> int:
         path, _ = map_paths(args.maps, world, servo_map.key)
         r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
                          args.policy, workers=args.workers, progress=not args.json,
-                         policy_options=dict(args.policy_arg or []))  # fmt: skip
+                         policy_options=dict(args.policy_arg or []),
+                         hide=[args.data] if args.data else [], sandbox=sandbox)  # fmt: skip
         not_loaded = r["reasons"].get("policy not loaded", 0)
         if not_loaded:  # every episode failed so: say why here too, not only in the records
             why = next(e["failure"] for e in r["episodes_detail"] if "failure" in e)
@@ -128,6 +139,10 @@ def add_parsers(sub, default_out: str) -> None:
     e.add_argument("--data", default=f"{default_out}/dataset", help="dataset the map is built from")
     e.add_argument("--maps", default=f"{default_out}/servo-maps", help="servo map cache")
     e.add_argument("--out", default=None, help="write the results' JSON here")
+    e.add_argument("--sandbox", choices=("auto", "on", "off"), default="auto",
+                   help="an outside policy's process in a sandbox (bwrap or unshare) that "
+                   "hides the datasets and maps: where the platform has one (auto), always "
+                   "(on: refused where there is none) or never (off); recorded")  # fmt: skip
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.set_defaults(func=cmd_servo_eval)
 

@@ -201,11 +201,14 @@ def evaluate_carmen_method(method: OutsideMethod, logs, given="scans", seed: int
 
 
 def file_name(result: dict) -> str:
-    """``<protocol>-<name>[-<params>].json``, safe on every file system."""
+    """``<protocol>-<input>-<spec>[-<params digest>].json``
+    (``scripts.leaderboard.files.file_tag``), safe on every file system."""
+    from scripts.leaderboard import file_tag
+
     m = result["method"]
-    params = "-".join(f"{k}={v}" for k, v in sorted(m["params"].items()))
-    stem = f"{result['protocol']['name']}-{m['name']}-{m['input']}" + (f"-{params}" * bool(params))
-    return re.sub(r"[^A-Za-z0-9=.,_-]+", "_", stem)[:150] + ".json"
+    tag = file_tag(m.get("spec") or m["name"], m["params"])
+    stem = f"{result['protocol']['name']}-{m['input']}-{tag}"
+    return re.sub(r"[^A-Za-z0-9=.,_-]+", "_", stem) + ".json"
 
 
 def add_arguments(p) -> None:

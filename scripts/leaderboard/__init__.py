@@ -13,6 +13,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "FORMAT_VERSION": "scripts.leaderboard.files",
         "ResultFileError": "scripts.leaderboard.files",
         "envelope": "scripts.leaderboard.files",
+        "file_tag": "scripts.leaderboard.files",
         "read_result": "scripts.leaderboard.files",
         "write_result": "scripts.leaderboard.files",
         "OutsideMethod": "scripts.leaderboard.outside",

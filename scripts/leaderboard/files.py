@@ -26,8 +26,11 @@ file and the field.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import platform
+import re
 import subprocess
 from pathlib import Path
 
@@ -42,6 +45,7 @@ __all__ = [
     "ResultFileError",
     "code_version",
     "envelope",
+    "file_tag",
     "machine",
     "read_result",
     "write_result",
@@ -134,11 +138,42 @@ def envelope(
 
 def write_result(path: str | os.PathLike, result: dict) -> Path:
     """Write ``result`` (an :func:`envelope`) to ``path`` atomically, after checking it as the
-    reader will (a writer must not produce a file its own reader refuses)."""
+    reader will (a writer must not produce a file its own reader refuses). A file there of
+    another method (its ``spec`` or ``params`` differ) is not replaced:
+    :class:`ResultFileError` names both."""
     path = Path(path)
     check_result(result, path)
+    if path.exists():
+        try:
+            old = read_result(path)["method"]
+        except ResultFileError:
+            old = None  # not a result file of this format: replaced as before
+        new = result["method"]
+        if old is not None and _identity(old) != _identity(new):
+            raise ResultFileError(path, "method", (
+                f"holds the results of {_identity(old)[0]} with params {_identity(old)[1]}; "
+                f"refusing to replace them with those of {_identity(new)[0]} with params "
+                f"{_identity(new)[1]}: write to another folder"))  # fmt: skip
     write_json(path, result)
     return path
+
+
+def _identity(method: dict) -> tuple[str, str]:
+    spec = method.get("spec") or method.get("name")
+    return str(spec), json.dumps(method.get("params", {}), sort_keys=True, default=str)
+
+
+def file_tag(spec: str, params: dict | None) -> str:
+    """A file-name part for a method: its full spec (``:`` as ``.``, anything but letters,
+    digits and ``._-`` as ``_``) and, with params, the first 8 hex digits of their SHA-256,
+    so that two methods of one class name, or one method with other params, never share a
+    file. ``file_tag("sklearn.cluster:KMeans", {"n_init": 3})`` starts
+    ``sklearn.cluster.KMeans-``."""
+    tag = re.sub(r"[^A-Za-z0-9._-]+", "_", str(spec).replace(":", "."))[:120]
+    if params:
+        blob = json.dumps(params, sort_keys=True, default=str).encode()
+        tag += "-" + hashlib.sha256(blob).hexdigest()[:8]
+    return tag
 
 
 def read_result(path: str | os.PathLike) -> dict:

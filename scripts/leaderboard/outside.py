@@ -11,7 +11,7 @@ import inspect
 import math
 import re
 
-from common.user_modules import UserModuleError, import_user_module
+from common.user_modules import UserModuleError, import_user_module, source_digest
 
 __all__ = ["OutsideMethod", "load_method", "parse_params"]
 
@@ -79,11 +79,13 @@ class OutsideMethod:
         return self.cls(**given, **self.params)
 
     def describe(self, **defaults) -> dict:
-        """The method block of a result file: name, spec, every parameter passed, and which
-        of them the protocol chose (``protocol_params``: left out of the method's label)."""
+        """The method block of a result file: name, spec, every parameter passed, which of
+        them the protocol chose (``protocol_params``: left out of the method's label) and the
+        digest of the module's source (``source``: ``common.user_modules.source_digest``)."""
         given = {k: v for k, v in defaults.items() if k not in self.params and self.accepts(k)}
         return {"name": self.name, "spec": self.spec, "params": {**given, **self.params},
-                "protocol_params": sorted(given)}  # fmt: skip
+                "protocol_params": sorted(given),
+                "source": source_digest(self.spec.partition(":")[0])}  # fmt: skip
 
 
 def load_method(spec: str, required: tuple[str, ...] = ("fit",)):

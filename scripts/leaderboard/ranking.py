@@ -31,6 +31,8 @@ __all__ = ["Row", "leaderboard_html", "leaderboard_markdown", "load_results", "r
 
 BOOTSTRAP_SEED = 0
 N_RESAMPLES = 4000
+MIN_SEEDS = 5  # fewer units: the leaderboard warns that the bootstrap interval is too narrow
+MIN_EPISODES = 20  # fewer episodes of a rate: it warns that the interval is rough
 
 
 def load_results(paths) -> list[dict]:
@@ -161,8 +163,39 @@ def _join(results) -> dict:
                 )
             joined[key][2].extend(r["records"])
         else:
-            joined[key] = [identity, r["method"].get("notes", ""), list(r["records"])]
+            joined[key] = [identity, _method_notes(r["method"]), list(r["records"])]
     return {k: (v[0], v[1], v[2]) for k, v in joined.items()}
+
+
+def _method_notes(method: dict) -> str:
+    """The notes a method's file gives, its source's digest, and a warning where an outside
+    policy's process ran without a sandbox (it could read the datasets on disk)."""
+    notes = [method.get("notes") or ""]
+    source = method.get("source")
+    if isinstance(source, dict) and isinstance(source.get("sha256"), str):
+        notes.append(f"source {source['sha256'][:12]}")
+    if method.get("sandboxed") is False and ":" in str(method.get("spec", "")).replace(
+        "servo.task.POLICIES:", ""
+    ):
+        notes.append("NOT sandboxed: the policy's process could read the disk")
+    return "; ".join(n for n in notes if n)
+
+
+def _warnings(row: Row, kind: str) -> list[str]:
+    """What a reader must know before trusting a row's interval and its paired test."""
+    out, n = [], len(row.values)
+    if kind == "rate" and 0 < n < MIN_EPISODES:
+        out.append(f"only {n} episodes (fewer than {MIN_EPISODES}): a rough interval")
+    elif kind != "rate" and 0 < n < MIN_SEEDS:
+        out.append(f"only {n} units (fewer than {MIN_SEEDS}): the bootstrap interval is no "
+                   f"wider than the spread of {n} values, too narrow")  # fmt: skip
+    q = row.paired
+    if q.get("n") and not np.isnan(q["lo"]):
+        excludes = q["lo"] > 0 or q["hi"] < 0
+        if excludes != (q["p"] < 0.05):
+            out.append(f"interval and test disagree over {q['n']} units: a percentile "
+                       "bootstrap of few units is too narrow; the test decides")  # fmt: skip
+    return out
 
 
 def _matches(label: str, method_key, reference: str) -> bool:
@@ -261,7 +294,7 @@ def leaderboard_tables(boards: dict, reference: str | None):
                             else (f" [{_fmt(q['lo'], kind)}, {_fmt(q['hi'], kind)}]")
                         )
                         cells += [f"{diff}{ci_text} over {q['n']}", f"{q['p']:.3g} ({q['test']})"]
-                cells.append(r.notes or "")
+                cells.append("; ".join(filter(None, [r.notes, *_warnings(r, kind)])))
                 body.append(cells)
             yield heading, header, body
 

@@ -4,6 +4,7 @@ one record per episode (success or not) for the leaderboard."""
 
 from __future__ import annotations
 
+from common.user_modules import source_digest
 from scripts.leaderboard.files import envelope
 
 __all__ = ["PROTOCOL", "TASK", "servo_method", "servo_result_file", "servo_results_of"]
@@ -39,14 +40,20 @@ def servo_result_file(results: list[dict], policy: str, split: str) -> dict:
 def servo_method(results: list[dict], policy: str) -> dict:
     """The ``method`` of a servo result file: a built-in policy by its name
     (``servo.task.POLICIES``), an outside one by its ``package.module:factory`` spec, named
-    by its module's last part, with the ``--policy-arg`` parameters its results record."""
+    by its module's last part, with the ``--policy-arg`` parameters its results record,
+    whether its process ran in a sandbox (``sandboxed``) and its source's digest
+    (``source``)."""
     policy = str(policy)
     params = next((r["policy_params"] for r in results if isinstance(r.get("policy_params"), dict)),
                   {})  # fmt: skip
     if ":" not in policy:
         return {"name": policy, "spec": f"servo.task.POLICIES:{policy}", "params": params}
     module = policy.split(":", 1)[0]
-    return {"name": module.rsplit(".", 1)[-1], "spec": policy, "params": params}
+    where = next((r["isolation"] for r in results if isinstance(r.get("isolation"), dict)), {})
+    source = next((r["source"] for r in results if isinstance(r.get("source"), dict)), None)
+    return {"name": module.rsplit(".", 1)[-1], "spec": policy, "params": params,
+            "sandboxed": bool(where.get("sandboxed", False)),
+            "source": source or source_digest(module)}  # fmt: skip
 
 
 def servo_results_of(data):

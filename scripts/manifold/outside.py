@@ -24,7 +24,6 @@ each); ``OUT`` then holds the files ``topomap leaderboard OUT`` ranks.
 from __future__ import annotations
 
 import argparse
-import re
 import time
 import warnings
 from pathlib import Path
@@ -149,11 +148,14 @@ def evaluate_method(
 
 
 def file_name(method: dict) -> str:
-    """``manifold-<name>[-<params>].json``, safe on every file system."""
+    """``manifold-<spec>[-<params digest>].json`` (``scripts.leaderboard.files.file_tag``):
+    the full ``package.module:Class``, so a class of the same name elsewhere never shares
+    the file, safe on every file system."""
+    from scripts.leaderboard import file_tag
+
     chosen = method.get("protocol_params", [])
-    params = "-".join(f"{k}={v}" for k, v in sorted(method["params"].items()) if k not in chosen)
-    stem = f"manifold-{method['name']}" + (f"-{params}" if params else "")
-    return re.sub(r"[^A-Za-z0-9=.,_-]+", "_", stem)[:150] + ".json"
+    params = {k: v for k, v in method["params"].items() if k not in chosen}
+    return f"manifold-{file_tag(method.get('spec') or method['name'], params)}.json"
 
 
 _DESCRIPTION = """Run any scikit-learn-style clusterer (fit, labels_, optional predict) through the

@@ -3,7 +3,9 @@ the closed-loop evaluation (``evaluation``), the frozen benchmark protocol (``pr
 policies it can run (``policies``: their names; ``baseline_policies``: random, greedy F
 probing and the oracle), what a policy under evaluation is and is given (``interface``: the
 :class:`Policy` interface, its factory, the target and the map as sensed), its calls guarded
-(``guard``: an error, a bad action or a slow step fails the episode), two evaluations paired
+(``guard``: an error, a bad action or a slow step fails the episode), an outside policy in
+its own process (``remote``, ``policy_host``, their messages ``wire``; the runner's worker
+``worker``), two evaluations paired
 episode by episode (``paired_comparison``) and the Wilson interval of a success rate
 (``stats``).
 """
@@ -31,12 +33,15 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "PolicyLoadError": "servo.task.interface",
         "Target": "servo.task.interface",
         "load_factory": "servo.task.interface",
+        "make_outside_policy": "servo.task.interface",
         "sensed_map": "servo.task.interface",
         "PairedComparison": "servo.task.paired_comparison",
         "compare": "servo.task.paired_comparison",
         "load_results": "servo.task.paired_comparison",
         "markdown": "servo.task.paired_comparison",
         "POLICIES": "servo.task.policies",
+        "RemotePolicy": "servo.task.remote",
+        "sandbox_tool": "servo.task.remote",
         "TRUTH_POLICY": "servo.task.policies",
         "SUCCESS_TARGETS": "servo.task.protocol",
         "TIERS": "servo.task.protocol",

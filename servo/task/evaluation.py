@@ -22,29 +22,25 @@ from common.validation import check_int
 from common.video import write_mp4
 from scenes.families import check_world_name, parse_world_name
 from servo.geodesic import GeodesicField
-from servo.laser_image import ManifoldServo
 from servo.maps import ServoMap, load_or_build
-from servo.task.baseline_policies import GreedyFProbing, OraclePolicy, RandomPolicy
+from servo.task.baseline_policies import OraclePolicy
 from servo.task.env import ServoEnv
 from servo.task.guard import ACT_LIMIT_S, NOT_LOADED, PolicyFailure, call, check_action
-from servo.task.interface import (
-    PolicyLoadError,
-    Target,
-    is_policy_spec,
-    make_outside_policy,
-    sensed_map,
-)
+from servo.task.interface import PolicyLoadError, Target, is_policy_spec, sensed_map
 from servo.task.policies import POLICIES, TRUTH_POLICY
+from servo.task.policy_host import builtin_policy
 from servo.task.stats import wilson_interval
 
 SIGNAL_LAG = 5  # steps between the two ends of a step pair in the F-vs-distance summary
 SIGNAL_MIN_DROP = 0.1  # m of true (geodesic) distance a pair must fall to count
+BOUNDARY_MARGIN_S = 5.0  # s the alarm waits beyond a policy process's own time limit
 
 
 def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
     """The policy ``name`` for ``env`` (``options``: its keyword arguments): one of
     :data:`POLICIES`, or an outside factory ``package.module:factory``
-    (:class:`~servo.task.interface.PolicyFactory`; raises
+    (:class:`~servo.task.interface.PolicyFactory`), which runs in its own process
+    (:class:`~servo.task.remote.RemotePolicy`, policy seed 0, no sandbox; raises
     :class:`~servo.task.interface.PolicyLoadError`). Every policy but the oracle is given the
     map as sensed (:func:`~servo.task.interface.sensed_map`). ``greedy`` probes toward the next
     waypoint view of the route (:class:`~servo.task.baseline_policies.GreedyFProbing`);
@@ -52,23 +48,12 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
     as such: its cluster gives no signal from another manifold)."""
     check_policy_name(name)
     if is_policy_spec(name):
-        return make_outside_policy(name, env.map, rng, **options)
+        from servo.task.remote import RemotePolicy
+
+        return RemotePolicy(name, env.map, params=options)
     if name == "oracle":  # the upper bound: the one policy given the truth
         return OraclePolicy(env.base.world, **options)
-    m = sensed_map(env.map)
-    if name == "servo":
-        return ManifoldServo(m, world=m.world, **options)
-    if name == "signal":
-        from servo.camera_only import SignalServo
-
-        return SignalServo(m, world=m.world, **options)
-    if name == "greedy":
-        return GreedyFProbing(m, **options)
-    if name == "greedy-target":
-        return GreedyFProbing(m, waypoints=False, **options)
-    if name == "random":
-        return RandomPolicy(rng, **options)
-    raise ValueError(f"policy must be one of {POLICIES} or package.module:factory, got {name!r}")
+    return builtin_policy(name, sensed_map(env.map), rng, **options)
 
 
 def check_policy_name(name) -> str:
@@ -134,10 +119,13 @@ def run_episode(
         view = int(info["target_view"])
         target = Target(view, env.map.images[view])
         extra = (info,) if truth else ()
-        call(policy.reset, target, *extra, limit=act_limit_s)
+        limit = act_limit_s
+        if hasattr(policy, "limit_s"):  # in its own process: the boundary keeps the time
+            policy.limit_s, limit = act_limit_s, act_limit_s + BOUNDARY_MARGIN_S
+        call(policy.reset, target, *extra, limit=limit)
         while True:
             t0 = time.perf_counter()
-            action = call(policy.act, obs, *extra, limit=act_limit_s)
+            action = call(policy.act, obs, *extra, limit=limit)
             act_time.append(time.perf_counter() - t0)
             check_action(action, low, high)
             waypoint = getattr(policy, "waypoint_", None)
@@ -352,6 +340,8 @@ def evaluate(
             )
     finally:
         env.close()
+        if hasattr(pol, "close"):
+            pol.close()
     result.update(world=world, policy=policy, seed=seed, randomize=randomize,
                   odometry_noise=odometry_noise)  # fmt: skip
     return result

@@ -18,7 +18,9 @@ NOT_LOADED = "policy not loaded"
 RAISED = "policy raised"
 INVALID_ACTION = "invalid action"
 TOO_SLOW = "policy too slow"
-FAILURES = (NOT_LOADED, RAISED, INVALID_ACTION, TOO_SLOW)
+DIED = "policy process died"  # a policy in its own process (servo.task.remote)
+GARBAGE = "policy sent garbage"  # an answer that is no message of servo.task.wire
+FAILURES = (NOT_LOADED, RAISED, INVALID_ACTION, TOO_SLOW, DIED, GARBAGE)
 
 
 class PolicyFailure(Exception):
@@ -62,6 +64,8 @@ def call(fn, *args, limit: float = ACT_LIMIT_S):
     try:
         with _alarm(limit):
             out = fn(*args)
+    except PolicyFailure:  # a policy in its own process: the boundary said what went wrong
+        raise
     except _Overtime:
         raise PolicyFailure(TOO_SLOW, f"{_name(fn)} took over {limit:g} s") from None
     except Exception as err:

@@ -13,6 +13,7 @@ blanked) and a seeded ``numpy.random.Generator``. Only the oracle, by name, read
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -172,8 +173,9 @@ class PolicyFactory(Protocol):
 def sensed_map(m: ServoMap) -> ServoMap:
     """``m`` as a policy may see it: its evaluation-only fields blanked (``true_poses`` NaN,
     ``true_labels`` ``NO_MANIFOLD``, no ``manifold_names`` and no ``world_digest``: a
-    generated world's manifold names would tell its layout) and its arrays read-only views,
-    so that a policy can neither read the truth nor change the map the env scores with."""
+    generated world's manifold names would tell its layout), no key to the files it was built
+    from (:func:`neutral_names`), and its arrays read-only views, so that a policy can neither
+    read the truth nor change the map the env scores with."""
     fields = {}
     for f in dataclasses.fields(m):
         value = getattr(m, f.name)
@@ -185,7 +187,24 @@ def sensed_map(m: ServoMap) -> ServoMap:
     labels = np.full(m.true_labels.shape, NO_MANIFOLD, m.true_labels.dtype)
     poses.flags.writeable = labels.flags.writeable = False
     blank = {"true_poses": poses, "true_labels": labels, "manifold_names": (), "world_digest": None}
-    return ServoMap(**{**fields, **blank})
+    return ServoMap(**{**fields, **blank, **neutral_names(m)})
+
+
+def neutral_names(m: ServoMap) -> dict:
+    """The fields of ``m`` that would lead to the files it was built from, made neutral:
+    ``sequence_names`` ``recording-0``, ``recording-1``, ... (a recording's name is its true
+    branch), ``frame`` each view's place in its recording (0, 1, 2, ...; not the index of a
+    frame in the dataset) and ``key`` a digest of the stored features (the cache key names
+    the map's file in the data home). Read-only arrays."""
+    frame = np.zeros(len(m.sequence), np.int64)
+    for s in np.unique(m.sequence):
+        at = np.flatnonzero(m.sequence == s)
+        frame[at[np.argsort(m.frame[at], kind="stable")]] = np.arange(len(at))
+    frame.flags.writeable = False
+    features = np.ascontiguousarray(m.features)
+    key = hashlib.sha256(b"sensed-map" + features.tobytes()).hexdigest()[:16]
+    names = [f"recording-{i}" for i in range(len(m.sequence_names))]
+    return {"sequence_names": names, "frame": frame, "key": key}
 
 
 def reseed(rng: np.random.Generator, episode_seed: int, policy_seed: int = 0) -> None:

@@ -33,7 +33,7 @@ from common.cores import available_cores, spawn_problem
 from common.validation import check_finite, check_int, check_keys
 from scenes import WORLDS
 from scenes.families import check_world_name, parse_world_name
-from servo.task.policies import TRUTH_POLICY
+from servo.task.worker import close_worker, init_worker, isolation_of, param_names, run_spec
 from sim.collect_worlds import label_space
 
 TIERS = ("view", "anywhere")
@@ -207,69 +207,7 @@ def reset_options(env, spec: EpisodeSpec, tier: str) -> dict:
     raise ValueError(f"tier must be one of {TIERS}, got {tier!r}")
 
 
-# -- the runner (one env and policy per worker process) ---------------------------------------
-_WORKER: dict = {}
-
-
-def _param_names(options) -> list[str]:
-    """The names a policy's params may have: identifiers (they become keyword arguments); the
-    values go to the policy, which checks them."""
-    if isinstance(options, dict):
-        bad = [k for k in options if not (isinstance(k, str) and k.isidentifier())]
-        if bad:
-            raise ValueError(f"policy_options keys must be identifiers, got {bad[0]!r}")
-        return list(options)
-    return []
-
-
-def _init_worker(protocol: Protocol, map_path: str, policy: str, options: dict,
-                 seed: int = 0, act_limit_s: float | None = None) -> None:  # fmt: skip
-    import sim  # noqa: F401  (the GL backend before mujoco, in a spawned process)
-    from servo.task.env import ServoEnv
-    from servo.task.evaluation import make_policy
-    from servo.task.guard import ACT_LIMIT_S
-    from servo.task.interface import PolicyLoadError, is_policy_spec
-
-    env = ServoEnv(
-        protocol.world,
-        map_path,
-        max_steps=protocol.max_steps,
-        randomize=protocol.randomize,
-        odometry_noise=protocol.odometry_noise,
-    )
-    pol, load_error, rng = None, None, np.random.default_rng(seed)
-    try:
-        pol = make_policy(policy, env, rng, **options)
-    except PolicyLoadError as err:  # every episode fails with the reason; the run goes on
-        load_error = str(err)
-    # a slow policy of ours (greedy probing) gets the steps to cover the route: it measures F
-    # then. An outside policy gets the protocol's steps, whatever it claims.
-    if not is_policy_spec(policy):
-        env.max_steps = protocol.max_steps * int(getattr(pol, "budget_factor", 1))
-    limit = ACT_LIMIT_S if act_limit_s is None else float(act_limit_s)
-    # an outside policy's generator is set anew for every episode (interface.reseed); ours
-    # keep the one generator of the worker, as their published numbers were made with it
-    _WORKER.update(env=env, protocol=protocol, policy=pol, load_error=load_error,
-                   truth=policy == TRUTH_POLICY, act_limit_s=limit, policy_seed=seed,
-                   rng=rng if is_policy_spec(policy) else None)  # fmt: skip
-
-
-def _run_spec(spec: EpisodeSpec) -> dict:
-    from servo.task.evaluation import run_episode
-    from servo.task.interface import reseed
-
-    env, protocol = _WORKER["env"], _WORKER["protocol"]
-    if _WORKER["rng"] is not None:
-        reseed(_WORKER["rng"], spec.seed, _WORKER["policy_seed"])
-    record = run_episode(
-        env, _WORKER["policy"], spec.seed, reset_options(env, spec, protocol.tier),
-        truth=_WORKER["truth"], act_limit_s=_WORKER["act_limit_s"],
-        load_error=_WORKER["load_error"],
-    )  # fmt: skip
-    record["episode"] = spec.index
-    return record
-
-
+# -- the runner (one env and policy per worker process: servo.task.worker) ----------------------
 def _check_indices(indices) -> list[int]:
     """``indices`` as a list of distinct integers >= 0, or a ValueError naming the form."""
     if isinstance(indices, str | bytes) or not hasattr(indices, "__iter__"):
@@ -299,6 +237,9 @@ def run_protocol(
     policy_seed: int = 0,
     act_limit_s: float | None = None,
     indices=None,
+    isolate: bool | None = None,
+    sandbox: bool | None = None,
+    hide=(),
 ) -> dict:
     """Run the first ``episodes`` episodes of ``protocol`` and summarise them
     (``servo.task.evaluation.summarise``: success with its Wilson 95% interval, SPL, final errors,
@@ -318,12 +259,19 @@ def run_protocol(
     call may take before its episode fails (default ``servo.task.guard.ACT_LIMIT_S``).
     ``indices``: run these episodes of the protocol's list instead (distinct integers >= 0;
     ``episodes`` is then ignored), each the same episode as in a run of the first ones.
-    The result records ``policy``, ``policy_params`` and ``policy_seed``.
+    ``isolate``: run the policy in its own process (``servo.task.remote.RemotePolicy``);
+    None: an outside policy does (always: ``False`` is refused for one), ours run in the
+    worker. ``sandbox``: run that process in a sandbox (``servo.task.remote.sandbox_tool``)
+    with the map's folder, ``hide`` (the datasets, say) and the data home emptied; None: where
+    the platform has one; True: refused where it has none.
+    The result records ``policy``, ``policy_params``, ``policy_seed`` and ``isolation``
+    (``process``, ``sandboxed``, ``sandbox``).
     """
     from tqdm.auto import tqdm
 
     from servo.maps import ServoMap, load_map, save_map
     from servo.task.evaluation import check_policy_name, summarise
+    from servo.task.interface import is_policy_spec
 
     if not isinstance(protocol, Protocol):
         raise TypeError(f"protocol must be a Protocol, got {type(protocol).__name__}")
@@ -333,7 +281,8 @@ def run_protocol(
     policy_seed = check_int(policy_seed, "policy_seed", minimum=0)
     if act_limit_s is not None and not check_finite(act_limit_s, "act_limit_s") > 0:
         raise ValueError(f"act_limit_s must be a number > 0, got {act_limit_s!r}")
-    params = check_keys(policy_options, _param_names(policy_options), "policy_options")
+    params = check_keys(policy_options, param_names(policy_options), "policy_options")
+    isolation = isolation_of(policy, isolate, sandbox)
     workers = available_cores() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
@@ -356,7 +305,9 @@ def run_protocol(
             indices = _check_indices(indices)
             specs = episode_specs(protocol, m.true_labels, max(indices) + 1, m.manifold_names)
             specs = [specs[i] for i in indices]
-        args = (protocol, map_path, policy, params, policy_seed, act_limit_s)
+        isolation["hide"] = [str(Path(map_path).parent), *(str(h) for h in hide)]
+        args = (protocol, map_path, policy, params, policy_seed, act_limit_s, isolation,
+                reset_options)  # fmt: skip
         name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
         bar = tqdm(total=len(specs), disable=not progress, desc=name)
         records = []
@@ -366,24 +317,29 @@ def run_protocol(
                           f"{problem}", stacklevel=2)  # fmt: skip
             workers = 1
         if workers == 1:
-            _init_worker(*args)
+            init_worker(*args)
             try:
                 for s in specs:
-                    records.append(_run_spec(s))
+                    records.append(run_spec(s))
                     bar.update()
             finally:
-                _WORKER.pop("env").close()
+                close_worker()
         else:
             ctx = get_context("spawn")  # no forked MuJoCo / GL state
-            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=init_worker,
                                      initargs=args) as pool:  # fmt: skip
-                for r in pool.map(_run_spec, specs):
+                for r in pool.map(run_spec, specs):
                     records.append(r)
                     bar.update()
         bar.close()
     result = summarise(records)
+    where = {k: isolation[k] for k in ("process", "sandboxed", "sandbox")}
     result.update(asdict(protocol), policy=policy, workers=workers, policy_params=params,
-                  policy_seed=policy_seed)  # fmt: skip
+                  policy_seed=policy_seed, isolation=where)  # fmt: skip
+    if is_policy_spec(policy):  # provenance: the digest of the module's source
+        from common.user_modules import source_digest
+
+        result["source"] = source_digest(policy.split(":", 1)[0])
     if plot is not None:
         from scenes import build_world
         from servo.task.evaluation import plot_trajectories

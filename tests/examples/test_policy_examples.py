@@ -24,9 +24,12 @@ def env(servo_maps):
 
 @pytest.mark.parametrize("spec", SPECS)
 def test_an_example_is_a_policy_and_runs(env, spec):
-    policy = make_policy(spec, env, np.random.default_rng(0))
+    policy = make_policy(spec, env, np.random.default_rng(0))  # in its own process
     assert isinstance(policy, Policy)
-    record = run_episode(env, policy, seed=5)
+    try:
+        record = run_episode(env, policy, seed=5)
+    finally:
+        policy.close()
     assert "failure" not in record, record.get("failure")
     assert record["steps"] == 8 and record["path_length"] > 0  # it drove
 

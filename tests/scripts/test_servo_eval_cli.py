@@ -84,3 +84,20 @@ def test_main_reports_an_os_error_in_one_line(tmp_path, capsys, monkeypatch):
     assert cli.main(["preview", "--data", "d", "--out", str(tmp_path)]) == 1
     err = capsys.readouterr().err
     assert err == f"topomap preview: [Errno 13] Permission denied: '{tmp_path / 'x.png'}'\n"
+
+
+def test_the_sandbox_option_is_parsed_and_a_missing_sandbox_refused(tmp_path, capsys,
+                                                                    monkeypatch):  # fmt: skip
+    import servo.task
+    from scripts.cli import main
+    from servo.task import remote
+
+    assert build_parser().parse_args(["servo-eval"]).sandbox == "auto"
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["servo-eval", "--sandbox", "maybe"])
+    monkeypatch.setattr(remote, "sandbox_tool", lambda: None)
+    monkeypatch.setattr(servo.task, "sandbox_tool", lambda: None, raising=False)
+    argv = _servo_eval(tmp_path, str(tmp_path / "o"))
+    argv[argv.index("random")] = "examples.my_policy:make_policy"
+    assert main([*argv, "--sandbox", "on"]) == 2
+    assert "--sandbox on, but neither bwrap nor unshare" in capsys.readouterr().err

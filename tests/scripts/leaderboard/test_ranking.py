@@ -95,3 +95,54 @@ def test_a_label_shows_the_users_parameters_not_the_protocols():
     theirs = {"name": "C", "params": {"n_clusters": None}, "protocol_params": []}
     assert method_label(ours) == "C(eps=0.5)"
     assert method_label(theirs) == "C(n_clusters=None)"
+
+
+def test_few_seeds_or_episodes_and_a_disagreeing_test_are_warned_of(tmp_path):
+    from scripts.leaderboard import leaderboard_markdown
+
+    _write(tmp_path, "ref", [0.20, 0.30])
+    _write(tmp_path, "two", [0.10, 0.21])  # two seeds: an "interval" of two values, p = 0.5
+    _write(tmp_path, "coin", [True] * 6, kind="rate", group="r")
+    text = leaderboard_markdown(load_results([tmp_path]), reference="ref")
+    assert "only 2 units (fewer than 5)" in text and "too narrow" in text
+    assert "interval and test disagree over 2 units" in text
+    assert "only 6 episodes (fewer than 20)" in text
+
+
+def test_a_result_file_of_another_method_is_not_replaced(tmp_path):
+    from scripts.leaderboard import ResultFileError
+    from scripts.leaderboard.files import file_tag
+
+    def method(spec, **params):
+        return {"name": "KMeans", "spec": spec, "params": params}
+
+    path = tmp_path / "manifold-KMeans.json"
+    records = [{"group": "g", "unit": "seed 1", "value": 0.1, "failure": None}]
+    write_result(path, envelope("t", ("p", 1), "test", method("sklearn.cluster:KMeans"),
+                                ("err", "error"), records))  # fmt: skip
+    write_result(path, envelope("t", ("p", 1), "test", method("sklearn.cluster:KMeans"),
+                                ("err", "error"), records))  # the same method: a rerun  # fmt: skip
+    with pytest.raises(ResultFileError, match="sklearn.cluster:KMeans.*refusing.*mine:KMeans"):
+        write_result(path, envelope("t", ("p", 1), "test", method("mine:KMeans"),
+                                    ("err", "error"), records))  # fmt: skip
+    # names that cannot meet: the full spec, and the params' digest
+    tags = {file_tag("sklearn.cluster:KMeans", {}), file_tag("mine:KMeans", {}),
+            file_tag("mine:KMeans", {"k": 3}), file_tag("mine:KMeans", {"k": 4})}  # fmt: skip
+    assert len(tags) == 4 and all(":" not in t for t in tags)
+
+
+def test_an_unsandboxed_outside_policy_and_its_source_are_shown(tmp_path):
+    from scripts.leaderboard import leaderboard_markdown
+
+    records = [{"group": "g", "unit": f"episode {i}", "value": True, "failure": None}
+               for i in range(20)]  # fmt: skip
+    source = {"module": "mine", "files": 1, "sha256": "ab" * 32}
+    for name, sandboxed in (("mine", False), ("theirs", True)):
+        m = {"name": name, "spec": f"{name}:make", "params": {}, "sandboxed": sandboxed,
+             "source": source}  # fmt: skip
+        result = envelope("servo", ("p", 1), "test", m, ("success", "rate"), records)
+        write_result(tmp_path / f"{name}.json", result)
+    text = leaderboard_markdown(load_results([tmp_path]))
+    rows = {line.split("|")[2].strip(): line for line in text.splitlines() if "source" in line}
+    assert "NOT sandboxed" in rows["mine"] and "NOT sandboxed" not in rows["theirs"]
+    assert "source abababababab" in rows["theirs"]

@@ -41,7 +41,10 @@ def test_an_outside_policy_is_named_by_its_spec_with_its_parameters():
     r = _results([1, 0], "examples.nearest_view_homing:make_policy")
     r[0]["policy_params"] = {"clearance": 0.6}
     method = servo_result_file(r, "examples.nearest_view_homing:make_policy", "test")["method"]
+    source = method.pop("source")
     assert method == {"name": "nearest_view_homing", "params": {"clearance": 0.6},
-                      "spec": "examples.nearest_view_homing:make_policy"}  # fmt: skip
+                      "spec": "examples.nearest_view_homing:make_policy",
+                      "sandboxed": False}  # fmt: skip
+    assert source["module"] == "examples.nearest_view_homing" and len(source["sha256"]) == 64
     builtin = servo_result_file(_results([1], "signal"), "signal", "test")["method"]
     assert (builtin["name"], builtin["params"]) == ("signal", {})
