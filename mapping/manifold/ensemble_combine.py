@@ -11,7 +11,8 @@ combine them without labels:
 
 ``coassociation``
     Evidence accumulation (Fred & Jain, IEEE TPAMI 27(6), 2005): the co-association
-    ``A[b, c]`` = the fraction of the partitions that put leaves b and c in one group; the K
+    ``A[b, c]`` = the fraction of the partitions (the cuts into K, K + 1, .. K + 3 groups at
+    every usable sigma) that put leaves b and c in one group; the K
     clusters are the average-linkage tree of the distance ``1 - A`` cut into K
     (``scipy.cluster.hierarchy``; the leaves are its units).
 ``consensus``
@@ -34,6 +35,9 @@ from mapping.manifold.spectral_combine import spectral_groups
 
 #: rules of this module (``ManifoldClustering``'s ``combine``)
 ENSEMBLE_RULES = ("coassociation", "consensus")
+#: "coassociation" also accumulates the cuts into K + 1 .. K + FINER groups (chosen on the dev
+#: seeds over none: ``experiments/manifold/README.md``)
+FINER = 3
 
 
 def sigma_partitions(
@@ -108,14 +112,14 @@ def consensus_groups(partitions: np.ndarray, sizes: np.ndarray) -> np.ndarray:
 
 def ensemble_merge(
     scores, n_clusters: int, rule: str, adjacent: np.ndarray | None = None,
-    sigmas: slice | None = None, extra: int = 0,
+    sigmas: slice | None = None, extra: int = FINER,
 ) -> list[list[int]] | None:  # fmt: skip
     """K groups of leaves by ``rule`` (one of :data:`ENSEMBLE_RULES`) from the usable sigmas'
     cuts; None if no sigma is usable (the caller falls back to a pairwise rule).
 
-    ``extra`` > 0 adds, for "coassociation", the cuts into K + 1 .. K + extra groups at every
-    usable sigma (Fred & Jain's ensembles of finer partitions, cut into K by the linkage).
-    """
+    ``extra`` > 0 (default :data:`FINER`) adds, for "coassociation", the cuts into K + 1 ..
+    K + extra groups at every usable sigma (Fred & Jain's ensembles of finer partitions, cut
+    into K by the linkage)."""
     if rule not in ENSEMBLE_RULES:
         raise ValueError(f"rule must be one of {ENSEMBLE_RULES}, got {rule!r}")
     n_leaves = scores.sizes.shape[0]
