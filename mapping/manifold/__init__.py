@@ -9,6 +9,7 @@ Where each part of the paper lives:
 * ``split`` -- one split of a cluster by Omega(2) (eq. 6-12), choosing its sigma and alpha;
 * ``tree`` -- the recursive splits into C leaves and their combination into K clusters
   (Section II-E); ``spectral_combine`` -- the default combination, a spectral cut of the leaves;
+  ``ensemble_combine`` -- every grid sigma's cut combined (co-association, consensus);
 * ``cluster_model`` and ``graph_cluster_model`` -- F^j(k) of a new view (eq. 13) for a dense
   and a graph cluster; ``signal_solvers`` -- eq. 13's two solvers; ``stacked_signal`` -- eq. 13
   for every cluster at once;

@@ -97,12 +97,17 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
         Reading of eq. 9; "printed" rewards spread within cluster 1 (kept for comparison).
     seed_rule : {"weighted", "printed"}, default "weighted"
         Reading of eq. 12 for the second seed (see ``mapping.manifold.kernel.seed_pair``).
-    combine : {"spectral", "separability", "merge", "cut"}, default "spectral"
-        How the C leaves become K clusters: a normalised cut of the leaves' affinity in the
-        manifold kernel (leaves kept whole; the sigma whose K groups have the largest total
-        Omega(2), eq. 9); repeatedly join the adjacent pair of groups least separable as two
-        manifolds (eq. 9's spread on the pair, maximised over sigma and alpha); greedy merging
-        by the sum of group-vs-rest Omega(2); or cutting the tree.
+    combine : str, default "spectral"
+        How the C leaves become K clusters: "spectral", the reading that reproduces the paper,
+        a normalised cut of the leaves' affinity in the manifold kernel (leaves kept whole;
+        the sigma whose K groups have the largest total Omega(2), eq. 9); "coassociation", the
+        cuts of every grid sigma combined by evidence accumulation (the leaves' co-association,
+        cut into K by average linkage; Fred & Jain 2005); "consensus", the sigma whose cut
+        agrees most with the other sigmas' (mean NMI; Strehl & Ghosh 2002)
+        (``mapping.manifold.ensemble_combine``); "separability", repeatedly join the adjacent
+        pair of groups least separable as two manifolds (eq. 9's spread on the pair, maximised
+        over sigma and alpha); "merge", greedy merging by the sum of group-vs-rest Omega(2);
+        or "cut", cutting the tree.
     store_dtype : {"float32", "float64"}, default "float32"
         dtype of the centred training points kept for ``predict`` and ``signal``; float32
         halves memory and the time of a ``signal`` call on image-sized vectors. Data whose

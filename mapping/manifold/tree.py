@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from mapping.manifold.ensemble_combine import ENSEMBLE_RULES, ensemble_merge
 from mapping.manifold.geometry import (
     GraphGeometry,
     as_geometry,
@@ -38,10 +39,10 @@ from mapping.split_tree import SplitNode
 
 # Rules for combining leaves (docs/guides/manifold-clustering.md, ambiguity 4): "spectral" (the
 # default: a normalised cut of the leaves' kernel affinity, mapping.manifold.spectral_combine),
+# "coassociation" and "consensus" (every sigma's cut as an ensemble, ensemble_combine),
 # "separability" (merge the neighbouring pair least separable as two manifolds), "merge" (greedy
-# agglomeration maximising the sum of group-vs-rest Omega(2)) or "cut" (cut the tree into K
-# subtrees by Omega).
-COMBINE_RULES = ("spectral", "separability", "merge", "cut")
+# agglomeration maximising the sum of group-vs-rest Omega(2)) or "cut" (the tree cut into K).
+COMBINE_RULES = ("spectral", *ENSEMBLE_RULES, "separability", "merge", "cut")
 # Neighbours per point that make two groups "adjacent" candidates for the separability merge.
 _ADJACENCY_NEIGHBOURS = 10
 
@@ -390,13 +391,16 @@ def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpac
         return Combination([list(range(len(leaves)))], *one)
     groups = None
     geometry = as_geometry(sq_dist)
-    if rule == "spectral":
+    if rule == "spectral" or rule in ENSEMBLE_RULES:
         scores = GroupScores(geometry, leaves, space)
         labels = _leaf_labels(geometry.size, leaves)
         adjacent = np.array(
             sorted(_adjacent_pairs(geometry.neighbours(_ADJACENCY_NEIGHBOURS), labels))
-        )
-        groups = spectral_merge(scores, n_clusters, adjacent.reshape(-1, 2))
+        ).reshape(-1, 2)
+        if rule == "spectral":
+            groups = spectral_merge(scores, n_clusters, adjacent)
+        else:
+            groups = ensemble_merge(scores, n_clusters, rule, adjacent)
         if groups is None:  # no sigma gave K non-empty groups: the pairwise rule decides
             groups = shared_kernel_merge(geometry, leaves, n_clusters, scores)
         return combine_leaves(geometry, leaves, n_clusters, space, groups=groups, scores=scores)
