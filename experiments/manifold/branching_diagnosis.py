@@ -1,6 +1,6 @@
 """Why ours loses to scikit-learn's 10-NN graph on the branching sequences.
 
-The sequences of :func:`mapping.synthetic.branching_sequences` are two stars: per world a trunk
+The sequences of `mapping.synthetic.branching_sequences` are two stars: per world a trunk
 and three branches that all start at the trunk's end. For each draw this script fits
 ``ManifoldClustering`` and asks where its error comes from:
 

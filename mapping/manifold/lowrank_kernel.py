@@ -1,6 +1,6 @@
 """The manifold kernel of eq. 1-12 on a sparse k-nearest-neighbour graph, from a few eigenpairs.
 
-For large nodes :class:`LowRankBasis` stands in for :class:`~mapping.manifold.kernel.
+For large nodes `LowRankBasis` stands in for :class:`~mapping.manifold.kernel.
 SpectralBasis`. The affinity W keeps only the edges of a symmetrised k-nearest-neighbour graph
 (every other affinity is set to 0, as the Gaussian's own underflow does far away), S is sparse,
 and per connected component c only the top k_c eigenpairs of S are computed (ARPACK in
@@ -88,8 +88,8 @@ class LowRankGains:
 class LowRankBasis:
     """Kept eigenpairs of a sparse S and the mean of the left-out eigenvalues per component.
 
-    Same methods as :class:`~mapping.manifold.kernel.SpectralBasis`, so that
-    :func:`mapping.manifold.split.split_scores` runs on either; "coordinates" of a weight
+    Same methods as `SpectralBasis`, so that
+    `mapping.manifold.split.split_scores` runs on either; "coordinates" of a weight
     vector w are ``[Q^T w; w]`` (shape (r + m, A)), linear in w as the split needs.
 
     Attributes

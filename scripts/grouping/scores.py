@@ -27,7 +27,7 @@ def score_groups(truth: np.ndarray, labels: np.ndarray, names=None) -> dict:
     """Groups against ground-truth manifold ids (frames on no manifold, -1, are left out).
 
     ``names``: the manifold of each id (a dataset's ``meta["manifolds"]``); default the
-    canonical worlds' :data:`scenes.MANIFOLDS`.
+    canonical worlds' [`scenes.MANIFOLDS`][scenes.MANIFOLDS].
 
     ``groups_per_manifold``: for each manifold, the groups whose majority manifold it is (every
     group counts for exactly one manifold; frames of a group that belong elsewhere are what
@@ -68,7 +68,7 @@ def meets_targets(score: dict) -> bool:
 
 
 def unscored(frames: int, labels: np.ndarray) -> dict:
-    """The keys of :func:`score_groups` for groups that cannot be scored (no ground truth):
+    """The keys of `score_groups` for groups that cannot be scored (no ground truth):
     the counts, and None for every score."""
     keys = ("purity", "ari", "max_groups_per_manifold", "max_groups_touching")
     return {

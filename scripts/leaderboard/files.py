@@ -20,8 +20,8 @@ most ``MAX_VALUE``, or a bool for a ``rate``), ``failure`` the reason the method
 (``servo-eval`` keeps its ``results`` there).
 
 The reader treats a file as untrusted: it is refused before parsing when larger than
-``MAX_BYTES``, never unpickled, and every field is checked; :class:`ResultFileError` names the
-file and the field.
+``MAX_BYTES``, never unpickled, and every field is checked;
+[`ResultFileError`][scripts.leaderboard.files.ResultFileError] names the file and the field.
 """
 
 from __future__ import annotations
@@ -133,8 +133,9 @@ def envelope(
 
 
 def write_result(path: str | os.PathLike, result: dict) -> Path:
-    """Write ``result`` (an :func:`envelope`) to ``path`` atomically, after checking it as the
-    reader will (a writer must not produce a file its own reader refuses)."""
+    """Write ``result`` (an [`envelope`][scripts.leaderboard.files.envelope]) to ``path``
+    atomically, after checking it as the reader will (a writer must not produce a file its own
+    reader refuses)."""
     path = Path(path)
     check_result(result, path)
     write_json(path, result)
@@ -142,8 +143,9 @@ def write_result(path: str | os.PathLike, result: dict) -> Path:
 
 
 def read_result(path: str | os.PathLike) -> dict:
-    """The checked result file at ``path``; :class:`ResultFileError` naming the file and the
-    field when it is too large, not JSON, or a field is missing or malformed."""
+    """The checked result file at ``path``;
+    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] naming the file and the field
+    when it is too large, not JSON, or a field is missing or malformed."""
     path = Path(path)
     if not path.is_file():  # a named pipe would block the read, a device never end it
         raise ResultFileError(path, "file", "not a regular file (a folder, a named pipe, a "
@@ -164,7 +166,7 @@ _REQUIRED = ("format", "format_version", "task", "protocol", "split", "metric", 
 
 def check_result(data, path) -> dict:
     """``data`` if it is a well-formed result of this format version, else
-    :class:`ResultFileError` for ``path``."""
+    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] for ``path``."""
 
     def fail(field, problem):
         raise ResultFileError(path, field, problem)

@@ -52,7 +52,7 @@ def _estimate_text(row: Row, e: Estimate) -> str:
 
 
 def readme_table(root: Path, pages: Path = PAGES_DIR) -> Table:
-    """One row per :data:`ROWS` entry: the estimate with its 95% interval and what it rests on.
+    """One row per `ROWS` entry: the estimate with its 95% interval and what it rests on.
 
     ``pages`` is the results pages' folder as the page holding the table links it: README's
     ``docs/results``, the docs front page's ``results``.
@@ -221,7 +221,7 @@ def leaderboard_inputs(root: Path, sources) -> tuple[list[dict], str | None]:
 
 
 def _leaderboard(root: Path, sources) -> str:
-    """``topomap leaderboard`` of a section's result files (:func:`leaderboard_inputs`)."""
+    """``topomap leaderboard`` of a section's result files (`leaderboard_inputs`)."""
     from scripts.leaderboard import leaderboard_markdown
 
     results, reference = leaderboard_inputs(root, sources)
