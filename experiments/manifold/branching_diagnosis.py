@@ -43,7 +43,7 @@ from mapping.metrics import majority_merge_error
 from mapping.synthetic import branching_sequences
 
 K, D = 8, 2000
-#: labels of the trunks in :func:`mapping.synthetic.branching_sequences` (0..3 world one)
+#: labels of the trunks in `mapping.synthetic.branching_sequences` (0..3 world one)
 TRUNKS = (0, 4)
 
 

@@ -40,7 +40,7 @@ from mapping.validation import check_distinct_rows, check_span
 
 __all__ = ["EigengapNCutClustering", "KNNSpectralClustering", "eigengap"]
 
-#: Neighbour counts the eigengap rule of :class:`KNNSpectralClustering` chooses from.
+#: Neighbour counts the eigengap rule of `KNNSpectralClustering` chooses from.
 DEFAULT_NEIGHBOR_CANDIDATES = (5, 7, 10, 15, 20, 30)
 
 

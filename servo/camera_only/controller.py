@@ -350,7 +350,7 @@ class SignalServo:
                 and (self._lost > c.relocalise_after or walled or unpeaked)
                 and self.relocalised_ < c.max_relocalise):  # fmt: skip
             self.relocalised_ += 1
-            if c.exclude_fix:  # a fix found wrong (:func:`~.turn_global_fix.exclude_near`)
+            if c.exclude_fix:  # a fix found wrong (`turn_global_fix.exclude_near`)
                 moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
                 self._exclude = exclude_near(self.routes, self._exclude, self._fix_view, moved)
             self._observe_start()

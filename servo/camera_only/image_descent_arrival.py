@@ -136,7 +136,7 @@ class DescentArrival(PeakArrival):
         return None
 
     def _search(self, b: RouteBelief, target: np.ndarray, left: np.ndarray) -> np.ndarray:
-        if self._next is None:  # the last point was not reached (:meth:`blocked`)
+        if self._next is None:  # the last point was not reached (`blocked`)
             return self._searched(b, target, left)
         goal = target.copy()
         goal[:2] += self._next * left
