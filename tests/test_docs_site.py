@@ -1,9 +1,10 @@
 """The docs site as a reader opens it: built once (``mkdocs build --strict``, into a temp dir),
 opened at its ``index.html``, every internal link followed to a file of the site (and to its
-anchor)."""
+anchor), and no Sphinx role (``:func:`...```) left unrendered on a page."""
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import subprocess
 import sys
@@ -14,6 +15,8 @@ from urllib.parse import unquote, urlsplit
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+# a role as the page shows it: its backticks rendered as <code>, or left as they were
+ROLE = re.compile(r":(?:func|meth|class|mod|data|attr|obj|exc|const|ref|py:\w+):(?:`|<code>)")
 
 
 class _Page(HTMLParser):
@@ -114,3 +117,46 @@ def test_the_nav_is_by_task(site):
     assert sections == ["Getting started", "Guides", "Results", "API reference", "Decisions",
                         "Design"]  # fmt: skip
 
+
+def test_no_sphinx_role_is_left_on_a_page(site):
+    left = {}
+    for page in sorted(site.rglob("*.html")):
+        found = ROLE.findall(page.read_text(encoding="utf-8"))
+        if found:
+            left[str(page.relative_to(site))] = len(found)
+    assert not left, f"pages with literal Sphinx roles (role: count): {left}"
+
+
+def _see_also():
+    """``docs/hooks/see_also.py``, the griffe extension mkdocs.yml names, as a module."""
+    spec = importlib.util.spec_from_file_location("see_also", ROOT / "docs/hooks/see_also.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_a_see_also_section_becomes_a_list_of_links():
+    text = (
+        "Summary.\n\nSee Also\n--------\n"
+        "mapping.features.ScanFeatures, mapping.features.ImageFeatures : The features,\n"
+        "    on two lines.\nsklearn.cluster.SpectralClustering : From outside.\n"
+        "mapping.features.NoSuchThing\n\nExamples\n--------\n>>> 1\n"
+    )
+    assert _see_also().see_also_as_list(text) == (
+        "Summary.\n\nSee Also\n--------\n"
+        "- [`mapping.features.ScanFeatures`][mapping.features.scans.ScanFeatures], "
+        "[`mapping.features.ImageFeatures`][mapping.features.images.ImageFeatures]: "
+        "The features, on two lines.\n"
+        "- `sklearn.cluster.SpectralClustering`: From outside.\n"
+        "- `mapping.features.NoSuchThing`\n\nExamples\n--------\n>>> 1\n"
+    )
+
+
+def test_every_see_also_section_of_the_site_is_a_list_that_links(site):
+    blocks = [block for page in sorted((site / "api").rglob("*.html"))
+              for block in re.findall(r'<details class="see-also".*?</details>',
+                                      page.read_text(encoding="utf-8"), re.S)]  # fmt: skip
+    assert len(blocks) > 30
+    assert all("<ul>" in block for block in blocks)
+    assert sum("autorefs-internal" in block or "autorefs-external" in block
+               for block in blocks) > 0.9 * len(blocks)  # fmt: skip
