@@ -1,6 +1,6 @@
 """The docs site as a reader opens it: built once (``mkdocs build --strict``, into a temp dir),
 opened at its ``index.html``, every internal link followed to a file of the site (and to its
-anchor), and no Sphinx role (``:func:`...```) left unrendered on a page."""
+anchor), and no Sphinx role (``:func:`` and the like) left unrendered on a page."""
 
 from __future__ import annotations
 
