@@ -1,6 +1,6 @@
 """The BLAS thread policy of the numeric code: small eigendecompositions and solves run with
-BLAS on one thread (:func:`single_threaded_blas`), big products keep all threads unless the
-machine is busy (:func:`busy`).
+BLAS on one thread (`single_threaded_blas`), big products keep all threads unless the
+machine is busy (`busy`).
 
 Shared by the estimators of ``mapping`` and the controllers and evaluation of ``servo``.
 """
@@ -61,7 +61,7 @@ def single_threaded_blas() -> _OneBlasThread:
 
 
 def on_one_blas_thread(fn, *args):
-    """``fn(*args)`` under :func:`single_threaded_blas`: what a worker process of a parallel
+    """``fn(*args)`` under `single_threaded_blas`: what a worker process of a parallel
     fit runs, so that its result is the one the fit computes in the parent (which holds the
     same context), to the bit."""
     with single_threaded_blas():

@@ -2,7 +2,7 @@
 damaged: the one home for each.
 
 A write goes to a temporary file in the same directory, then a rename, so a reader never sees
-half a file and a failed write leaves nothing behind. JSON goes through :func:`jsonable` first,
+half a file and a failed write leaves nothing behind. JSON goes through `jsonable` first,
 so numpy scalars, arrays and paths from a result need no per-caller conversion.
 """
 
@@ -145,9 +145,9 @@ class UnreadableJSON(ValueError):
 
 
 def read_json(path: str | os.PathLike, max_bytes: int | None = None):
-    """The JSON value in the UTF-8 file ``path``; :class:`UnreadableJSON` for a path that is
-    no regular file (:func:`open_regular`), a file of more than ``max_bytes`` (default
-    :data:`MAX_JSON_BYTES`), bad UTF-8, bad syntax, an integer of more digits than Python
+    """The JSON value in the UTF-8 file ``path``; `UnreadableJSON` for a path that is
+    no regular file (`open_regular`), a file of more than ``max_bytes`` (default
+    `MAX_JSON_BYTES`), bad UTF-8, bad syntax, an integer of more digits than Python
     converts, or nesting deeper than the parser's stack (100,000 ``[`` raise RecursionError,
     which is no ValueError), so that each reader turns all into its own error."""
     limit = MAX_JSON_BYTES if max_bytes is None else max_bytes

@@ -2,7 +2,7 @@
 
 ``numpy.load`` trusts each member's header: a damaged or hand-made file can make it raise
 ``zlib.error``, ``AttributeError``, ``tokenize.TokenError`` or ``MemoryError`` (a header that
-declares a huge shape). :func:`read_arrays` checks every member before reading it (a plain
+declares a huge shape). `read_arrays` checks every member before reading it (a plain
 ``name.npy``, once; a version 1 or 2 header; no Python objects; a declared size that matches the
 member's size, which itself is bounded by its compressed size; at most :data:`MAX_ARRAY_BYTES`
 declared in all) and turns every failure into one :class:`UnreadableNpz` that says what is

@@ -23,7 +23,7 @@ class UserModuleError(ValueError):
 def import_user_module(name: str) -> ModuleType:
     """The module ``name``, imported with the current directory first on ``sys.path``.
 
-    Raises :class:`UserModuleError` ("module 'name' does not import (Error: message)") when
+    Raises `UserModuleError` ("module 'name' does not import (Error: message)") when
     the import raises anything: whatever a user's module raises is theirs to see.
 
     Examples

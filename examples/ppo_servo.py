@@ -75,7 +75,7 @@ def make_env(env_id: str, servo_map: str | None = None, size=IMAGE_SIZE) -> gym.
 def train(
     env_id: str, steps: int, servo_map: str | None = None, seed: int = 0, threads: int = 1
 ) -> dict:
-    """PPO (``MultiInputPolicy``) on :func:`make_env` for ``steps`` env steps, PyTorch on
+    """PPO (``MultiInputPolicy``) on `make_env` for ``steps`` env steps, PyTorch on
     ``threads`` threads; returns the steps, the wall time, the steps per second, the episodes
     ended and their mean reward."""
     import torch

@@ -1,10 +1,10 @@
 """Mapping methods: visual-manifold clustering (Grudic & Mulligan) and laser observation
 grouping (Blanco et al.), their baselines, features and metrics.
 
-The methods are subpackages: :mod:`mapping.manifold` (the manifold clustering and its F^j(k)
-queries), :mod:`mapping.grouping` (the observation-graph partitioner, its overlap, Ncut, local
-maps and topological map), :mod:`mapping.baselines` (the spectral clusterings a user would
-compare with) and :mod:`mapping.features` (image and scan features). The modules beside them
+The methods are subpackages: `mapping.manifold` (the manifold clustering and its F^j(k)
+queries), `mapping.grouping` (the observation-graph partitioner, its overlap, Ncut, local
+maps and topological map), `mapping.baselines` (the spectral clusterings a user would
+compare with) and `mapping.features` (image and scan features). The modules beside them
 are shared by both methods: metrics, distances, ICP and scan matching, persistence, synthetic
 data. Public names are imported lazily so that ``import mapping`` stays cheap.
 """

@@ -132,7 +132,8 @@ def _hungarian(y_true: ArrayLike, y_pred: ArrayLike):
 
 
 def best_matching(y_true: ArrayLike, y_pred: ArrayLike) -> dict:
-    """The matching :func:`clustering_error` scores: predicted cluster -> its true class.
+    """The matching [`clustering_error`][mapping.metrics.clustering_error] scores: predicted cluster
+    -> its true class.
 
     Clusters left unmatched (more clusters than classes) are absent from the dict.
     """
@@ -144,8 +145,9 @@ def best_matching(y_true: ArrayLike, y_pred: ArrayLike) -> dict:
 def purity(y_true: ArrayLike, y_pred: ArrayLike) -> float:
     """Fraction of points whose predicted cluster's majority class is their own class.
 
-    Unlike :func:`clustering_error` several clusters may share a majority class, so purity
-    rewards over-segmentation (every point in its own cluster gives purity 1).
+    Unlike [`clustering_error`][mapping.metrics.clustering_error] several clusters may share a
+    majority class, so purity rewards over-segmentation (every point in its own cluster gives purity
+    1).
 
     Parameters
     ----------

@@ -3,19 +3,19 @@
 scikit-learn conventions make the layout generic: ``__init__`` arguments are the parameters and
 fitted state lives in public attributes ending in ``_``. Arrays go into an ``.npz`` under
 ``<prefix>/<name>``; scalars, parameters and the layout go into JSON. A private list of
-*records* (``ManifoldClustering._models``, one :class:`~mapping.manifold.cluster_model.ClusterModel`
-per cluster, a ``mapping.manifold.graph_cluster_model.GraphClusterModel`` after a k-NN graph fit) is
-saved field by field. Attributes of any other type (a split tree kept for
-inspection) are skipped and listed, so a loaded estimator predicts exactly like the saved one
-but cannot be inspected in those respects.
+*records* (``ManifoldClustering._models``, one
+[`ClusterModel`][mapping.manifold.cluster_model.ClusterModel] per cluster, a
+``mapping.manifold.graph_cluster_model.GraphClusterModel`` after a k-NN graph fit) is saved field by
+field. Attributes of any other type (a split tree kept for inspection) are skipped and listed, so a
+loaded estimator predicts exactly like the saved one but cannot be inspected in those respects.
 
 Loading treats the description as untrusted input: only the estimator classes in
-:data:`ESTIMATORS` and the record classes in :data:`RECORDS` are ever built, looked up by their
+`ESTIMATORS` and the record classes in `RECORDS` are ever built, looked up by their
 exact name in those tables (never imported by a name from the file); every parameter and field
 name must be one the class declares; values must be JSON scalars or arrays that the ``.npz``
 holds; records must pass their class's ``validate`` (shapes, finite values, ranges) and the
 estimator its ``_check_fitted_state`` (the records agree with the labels and centres).
-Anything else raises :class:`PersistenceError` saying what is wrong.
+Anything else raises `PersistenceError` saying what is wrong.
 """
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ def _dump_value(value, key: str, arrays: dict) -> dict:
 
 
 def dump(estimator, prefix: str) -> tuple[dict, dict[str, np.ndarray]]:
-    """``(meta, arrays)`` describing a fitted estimator of a class in :data:`ESTIMATORS`."""
+    """``(meta, arrays)`` describing a fitted estimator of a class in `ESTIMATORS`."""
     cls = type(estimator)
     if ESTIMATORS.get(cls.__name__) is not cls:
         raise TypeError(f"cannot save a {cls.__name__}: not one of {sorted(ESTIMATORS)}")
@@ -190,7 +190,7 @@ def _load_records(spec, where: str, arrays: dict, prefix: str) -> list:
 
 
 def load(cls, meta: dict, arrays: dict[str, np.ndarray], prefix: str):
-    """Rebuild an estimator of class ``cls`` (one of :data:`ESTIMATORS`) from :func:`dump`'s
+    """Rebuild an estimator of class ``cls`` (one of `ESTIMATORS`) from `dump`'s
     output; ``meta`` and ``arrays`` are untrusted (see the module docstring)."""
     _require(ESTIMATORS.get(cls.__name__) is cls, f"{cls.__name__} cannot be loaded")
     _require(isinstance(meta, dict), f"{prefix}: the description must be a JSON object")

@@ -2,9 +2,9 @@
 
 The manifold clustering (Grudic & Mulligan, Section II-C, ``mapping.manifold.tree``) and the
 observation grouping (Blanco et al., Section II-B, ``mapping.grouping.normalized_cut``) both bisect
-their data recursively. Their nodes are :class:`SplitNode` s with one convention: a node's
-``children`` are its two halves, or the empty tuple for a leaf. Each method subclasses it to record
-its own split criterion (Omega(2) with its sigma and alpha; the Ncut).
+their data recursively. Their nodes are [`SplitNode`][mapping.split_tree.SplitNode] s with one
+convention: a node's ``children`` are its two halves, or the empty tuple for a leaf. Each method
+subclasses it to record its own split criterion (Omega(2) with its sigma and alpha; the Ncut).
 """
 
 from __future__ import annotations

@@ -143,7 +143,7 @@ def lines_variable_spacing(
     """Figure 1b: three parallel lines, each sampled at its own interval.
 
     Line k lies at y = k * gap and is sampled every ``spacings[k]`` from x = 0 to ``length``
-    (201, 81 and 41 points by default). Compared with :func:`parallel_lines` only the sampling
+    (201, 81 and 41 points by default). Compared with `parallel_lines` only the sampling
     intervals differ (and the lines are twice as long, so that the sparse one has 41 points).
 
     Parameters
@@ -269,7 +269,7 @@ SYNTHETIC_SETS: dict[str, Callable[..., tuple[np.ndarray, np.ndarray]]] = {
 def make_all(
     noise: float = 0.0, rng: np.random.Generator | None = None
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """All four sets with default parameters, keyed as in :data:`SYNTHETIC_SETS`."""
+    """All four sets with default parameters, keyed as in `SYNTHETIC_SETS`."""
     return {name: make(noise=noise, rng=rng) for name, make in SYNTHETIC_SETS.items()}
 
 
@@ -320,7 +320,7 @@ def plot_sets(path: str | None = None, sets: dict | None = None):
     path : str or path-like, optional
         Where to save the figure (PNG, via the Agg backend); if None it is only returned.
     sets : dict, optional
-        ``name -> (X, y)``; defaults to :func:`make_all`.
+        ``name -> (X, y)``; defaults to `make_all`.
 
     Returns
     -------

@@ -1,6 +1,6 @@
-"""The checks of a fitted state read back from a file (:func:`check_layout`,
-:func:`check_number`) and the checks of training points every clustering shares
-(:func:`check_span`, :func:`check_distinct_rows`).
+"""The checks of a fitted state read back from a file (`check_layout`,
+`check_number`) and the checks of training points every clustering shares
+(`check_span`, `check_distinct_rows`).
 
 Input and parameter checks are scikit-learn's (``validate_data``, ``_parameter_constraints``,
 ``check_is_fitted``); only what scikit-learn does not do lives here.
@@ -48,7 +48,7 @@ def check_layout(record, layout: dict[str, tuple[str, ...]]) -> dict[str, int]:
     the size of its first occurrence, and every other occurrence must match it. Every array
     must be numeric and finite; a field named ``indices`` must be of an integer dtype and
     non-negative. Raises ValueError naming the field and the expected form (what a file saved
-    by :mod:`mapping.persistence` and then altered gets).
+    by `mapping.persistence` and then altered gets).
     """
     sizes: dict[str, int] = {}
     for name, dims in layout.items():

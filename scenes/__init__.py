@@ -1,6 +1,6 @@
 """Worlds of the testbed, built in code: a branching indoor hallway and an outdoor lawn.
 
-``build_world(name, rng=None)`` (:mod:`scenes.registry`) returns a :class:`~scenes.world.World`
+``build_world(name, rng=None)`` (`scenes.registry`) returns a [`World`][scenes.world.World]
 with the MJCF, textures and the ground truth (manifold regions, free space, teleop routes).
 Nothing here imports MuJoCo: compiling and simulating is ``sim``'s job.
 """

@@ -35,8 +35,8 @@ APPEARANCE_MODES = ("default", "hard")
 
 @dataclass(frozen=True)
 class Appearance:
-    """One draw from :data:`RANDOMIZATION` plus the generator that made the textures, and the
-    appearance mode (one of :data:`APPEARANCE_MODES`)."""
+    """One draw from [`RANDOMIZATION`][scenes.appearance.RANDOMIZATION] plus the generator that made
+    the textures, and the appearance mode (one of `APPEARANCE_MODES`)."""
 
     params: dict
     texture_rng: np.random.Generator = field(compare=False, repr=False)
@@ -75,7 +75,7 @@ class Appearance:
 
 
 def check_appearance_mode(mode) -> str:
-    """``mode`` if it is one of :data:`APPEARANCE_MODES`, else a ValueError naming them."""
+    """``mode`` if it is one of `APPEARANCE_MODES`, else a ValueError naming them."""
     if not isinstance(mode, str) or mode not in APPEARANCE_MODES:
         raise ValueError(f"appearance must be one of {APPEARANCE_MODES}, got {mode!r}")
     return mode

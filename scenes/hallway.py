@@ -279,7 +279,7 @@ def _lights(scene: SceneBuilder, app: Appearance) -> None:
 
 
 def build_hallway(app: Appearance) -> World:
-    """Build the hallway world from :data:`SEGMENTS` (see the module docstring)."""
+    """Build the hallway world from `SEGMENTS` (see the module docstring)."""
     scene = SceneBuilder(names.HALLWAY)
     extent = MAIN_LENGTH + CORRIDOR_WIDTH + BRANCH_LENGTH
     scene.set_visual(extent, (extent / 2, 0.0, 1.0), headlight_ambient=0.25, headlight_diffuse=0.15)

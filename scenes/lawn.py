@@ -234,7 +234,7 @@ def _scenery(scene: SceneBuilder, app: Appearance) -> None:
 
 
 def build_lawn(app: Appearance) -> World:
-    """Build the lawn world from :data:`AREAS` (see the module docstring)."""
+    """Build the lawn world from `AREAS` (see the module docstring)."""
     scene = SceneBuilder(names.LAWN)
     extent = 2.0 * _TOP
     scene.set_visual(extent, (_JX, 0.0, 1.0), headlight_ambient=0.35, headlight_diffuse=0.1)

@@ -2,7 +2,7 @@
 
 Worlds are described by compact layouts (``scenes/hallway.py``, ``scenes/lawn.py``) and turned
 into MJCF here. Every element gets a name; colliding geoms also leave a floor
-:class:`~scenes.regions.Footprint` behind for the free-space ground truth.
+`Footprint` behind for the free-space ground truth.
 """
 
 from __future__ import annotations

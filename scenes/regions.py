@@ -20,7 +20,7 @@ def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     """Even-odd rule for many points against one polygon, vectorised over points and edges.
 
     Points exactly on an edge may fall either side; regions that share an edge are resolved
-    by their order in :class:`ManifoldMap` (first match wins).
+    by their order in `ManifoldMap` (first match wins).
     """
     p = np.asarray(points, np.float64).reshape(-1, 2)
     a = np.asarray(polygon, np.float64)
@@ -57,7 +57,7 @@ class ManifoldMap:
     ids : dict of str to int, optional
         The label id of each manifold. Default: their order of first appearance in
         ``regions``, from 0. The canonical worlds pass the paper's ids
-        (:data:`scenes.names.MANIFOLD_IDS`: the lawn's manifolds are 4 to 7).
+        ([`scenes.names.MANIFOLD_IDS`][scenes.names.MANIFOLD_IDS]: the lawn's manifolds are 4 to 7).
     """
 
     regions: tuple[Region, ...]
@@ -79,7 +79,7 @@ class ManifoldMap:
         return tuple(sorted(self.ids, key=self.ids.get))
 
     def name_of(self, label: int) -> str | None:
-        """The name of label id ``label``; None for :data:`~scenes.names.NO_MANIFOLD`."""
+        """The name of label id ``label``; None for [`NO_MANIFOLD`][scenes.names.NO_MANIFOLD]."""
         for name, i in self.ids.items():
             if i == label:
                 return name
@@ -89,7 +89,7 @@ class ManifoldMap:
                          f"got {label!r}")  # fmt: skip
 
     def label_at(self, xy) -> np.ndarray:
-        """Manifold ids (:attr:`ids`) of points (..., 2); -1 off every manifold."""
+        """Manifold ids (`ids`) of points (..., 2); -1 off every manifold."""
         xy = np.asarray(xy, np.float64)
         if xy.shape[-1] != 2:
             raise ValueError(f"xy must have shape (..., 2), got {xy.shape}")

@@ -1,6 +1,7 @@
-"""The worlds by name: :func:`build_world` looks the builder up in :data:`BUILDERS`.
+"""The worlds by name: [`build_world`][scenes.registry.build_world] looks the builder up in
+`BUILDERS`.
 
-Kept apart from :mod:`scenes.world` so that the builders can import ``World`` without an
+Kept apart from `scenes.world` so that the builders can import ``World`` without an
 import cycle: ``registry`` -> ``hallway``, ``lawn`` -> ``world``.
 """
 
@@ -36,15 +37,15 @@ def build_world(
     name : str
         ``"hallway"`` or ``"lawn"`` (the canonical worlds), or ``FAMILY:SEED`` for a
         generated world of that family (``"hallway:17"``, ``"lawn:3"``; seeds 0 to
-        :data:`~scenes.families.naming.MAX_SEED`, seed 0 being the canonical world); see
-        :mod:`scenes.families`.
+        `MAX_SEED`, seed 0 being the canonical world); see
+        `scenes.families`.
     rng : numpy.random.Generator, optional
         Without one, the canonical world (fixed textures, default lights and clutter). With one,
         a domain-randomised variant (textures, colours, lighting, clutter placement), the same
         for the same generator state.
     appearance : {"default", "hard"}
         ``"hard"``: every branch shares the main manifold's wall, floor and light materials
-        (see :data:`~scenes.appearance.APPEARANCE_MODES`); the geometry is that of the default
+        (see `APPEARANCE_MODES`); the geometry is that of the default
         world.
     """
     world = parse_world_name(name)

@@ -1,7 +1,7 @@
 """A built world: its MJCF, texture assets and ground truth (manifolds, free space, routes).
 
-The builders (:mod:`scenes.hallway`, :mod:`scenes.lawn`) make one; :func:`scenes.build_world`
-(:mod:`scenes.registry`) picks the builder by name.
+The builders (`scenes.hallway`, `scenes.lawn`) make one;
+[`scenes.build_world`][scenes.registry.build_world] (`scenes.registry`) picks the builder by name.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ class World:
     ----------
     name : str
         ``"hallway"``, ``"lawn"`` or a generated world's ``FAMILY:SEED``
-        (:mod:`scenes.families`).
+        (`scenes.families`).
     xml : str
         The MJCF model (robot included).
     assets : dict[str, bytes]
@@ -46,7 +46,7 @@ class World:
     randomized : bool
         Whether those were drawn (else the defaults).
     appearance_mode : str
-        One of :data:`APPEARANCE_MODES`.
+        One of `APPEARANCE_MODES`.
     parents : dict[str, str or None]
         Each manifold's parent in the world's tree of stretches (None for the main one).
     digest : str
@@ -56,11 +56,11 @@ class World:
     Parameters
     ----------
     name, xml, assets, manifolds, footprints, bounds, routes, appearance
-        The attributes above, as :func:`scenes.build_world` makes them.
+        The attributes above, as [`scenes.build_world`][scenes.registry.build_world] makes them.
     randomized : bool, default False
         Whether the appearance was drawn.
     appearance_mode : str, default "default"
-        One of :data:`APPEARANCE_MODES`.
+        One of `APPEARANCE_MODES`.
     parents : dict, optional
         Default: the first manifold is the main one and every other leaves from it (the
         canonical worlds' single junction).
@@ -121,7 +121,7 @@ class World:
         parents: dict | None = None,
         digest: str | None = None,
     ) -> World:
-        """The finished world of a built :class:`~scenes.mjcf.SceneBuilder` scene."""
+        """The finished world of a built `SceneBuilder` scene."""
         return cls(
             name=name,
             xml=scene.to_xml(),
@@ -167,7 +167,8 @@ class World:
         return up_a + up_b - (1 if up_a and up_b else 0)
 
     def manifold_at(self, xy) -> np.ndarray:
-        """Manifold ids at points (..., 2): indices into :data:`scenes.names.MANIFOLDS`, -1 off."""
+        """Manifold ids at points (..., 2): indices into
+        [`scenes.names.MANIFOLDS`][scenes.names.MANIFOLDS], -1 off."""
         return self.manifolds.label_at(xy)
 
     def free_space(self, resolution: float = 0.05, inflation: float = 0.0) -> OccupancyGrid:

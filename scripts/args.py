@@ -1,6 +1,6 @@
 """Argument types shared by the command-line parsers (``topomap`` and its subcommands): each
 parses one string or raises ``argparse.ArgumentTypeError`` naming the expected form; and
-:func:`output_folder`, the check every ``--out`` gets before any work runs."""
+`output_folder`, the check every ``--out`` gets before any work runs."""
 
 from __future__ import annotations
 

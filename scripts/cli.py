@@ -1,5 +1,5 @@
 """The ``topomap`` command line. ``topomap --help`` lists every subcommand with the one-line
-``help=`` it is registered with (:func:`command_listing`), so the list cannot go stale."""
+``help=`` it is registered with (`command_listing`), so the list cannot go stale."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Result tables: typed columns and rows, rendered once as markdown, HTML, CSV or JSON.
 
-An evaluation builds a :class:`Table` (each :class:`Column` says which key of a row it shows,
+An evaluation builds a `Table` (each `Column` says which key of a row it shows,
 under which header, in which format) and every place that shows it (the command line, the HTML
 report, the sweep's files, the benchmark's ``results.md``) renders that one table, so a column
 is named and formatted in one place.
@@ -33,7 +33,7 @@ FORMATS = ("md", "html", "csv", "json")
 class Column:
     """One column: the row key it shows, its header, and how a value is written.
 
-    ``fmt`` is a :func:`format` spec (``".3f"``, ``"+.2f"``, ``"d"``, ``""``) or a function of
+    ``fmt`` is a `format` spec (``".3f"``, ``"+.2f"``, ``"d"``, ``""``) or a function of
     the value returning the text; booleans read yes / no, sequences are joined with ``sep``.
     """
 
@@ -57,7 +57,7 @@ class Column:
 
 @dataclass(frozen=True)
 class Table:
-    """Rows (mappings from column key to value) under typed :class:`Column` s.
+    """Rows (mappings from column key to value) under typed `Column` s.
 
     ``notes`` are lines shown under the table (markdown, HTML) and kept in its JSON.
     """

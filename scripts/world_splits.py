@@ -1,10 +1,10 @@
 """How many test worlds repeat a training world's structure, per family.
 
 ``python -m scripts.world_splits [--out FILE]`` draws the floor plan of every train and test
-seed (:data:`scenes.families.splits.SPLITS`; about 100 s per family on one core), counts the
-test worlds whose :func:`~scenes.families.splits.structure` occurs among the train worlds
-(:func:`~scenes.families.splits.held_out_worlds` skips them, by the list in
-:data:`~scenes.families.splits.REPEATED_TEST_SEEDS` that this script's output fills) and writes
+seed (`scenes.families.splits.SPLITS`; about 100 s per family on one core), counts the
+test worlds whose `structure` occurs among the train worlds
+(`held_out_worlds` skips them, by the list in
+`REPEATED_TEST_SEEDS` that this script's output fills) and writes
 the counts, and which train world each repeat copies, as JSON.
 """
 

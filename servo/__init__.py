@@ -1,15 +1,15 @@
 """Closed-loop servoing between manifolds (the paper's Section II-G, run in simulation).
 
-The subpackages follow the data flow: :mod:`servo.maps` builds and stores the map a robot
+The subpackages follow the data flow: `servo.maps` builds and stores the map a robot
 servoes on (its recordings, clustered by the manifold method and linked by ICP);
-:mod:`servo.laser_image` is :class:`ManifoldServo`, the laser + image controller;
-:mod:`servo.camera_only` is :class:`SignalServo`, the camera-only controller that servoes by
-F^j(k); :mod:`servo.task` is the task (:class:`ServoEnv`, registered as
-``topomap/HallwayServo-v0`` and ``topomap/LawnServo-v0`` on import), the benchmark protocol,
-the closed-loop evaluation (``servo.evaluate``, the module), the baseline policies and the
-paired comparison. The modules beside them are the tools both controllers use: image
-localisation, the route graph, steering, the waypoint tracker and the geodesic field. Heavy
-modules load lazily.
+`servo.laser_image` is [`ManifoldServo`][servo.laser_image.controller.ManifoldServo], the laser +
+image controller; `servo.camera_only` is [`SignalServo`][servo.camera_only.controller.SignalServo],
+the camera-only controller that servoes by F^j(k); `servo.task` is the task
+([`ServoEnv`][servo.task.env.ServoEnv], registered as ``topomap/HallwayServo-v0`` and
+``topomap/LawnServo-v0`` on import), the benchmark protocol, the closed-loop evaluation
+(``servo.evaluate``, the module), the baseline policies and the paired comparison. The modules
+beside them are the tools both controllers use: image localisation, the route graph, steering, the
+waypoint tracker and the geodesic field. Heavy modules load lazily.
 """
 
 import sim  # noqa: F401  (headless GL backend before mujoco; base envs registered)

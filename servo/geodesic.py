@@ -31,7 +31,7 @@ def _grid_graph(space: World | OccupancyGrid, resolution: float, keep_off: float
     """The free cells' 8-connected graph, built once per world or grid (it does not depend on
     goals). A world's free space is its ground truth grown by the robot's radius and a margin;
     a grid (a map's sensed free space) is taken as it is. ``keep_off`` (m): see
-    :class:`GeodesicField`."""
+    `GeodesicField`."""
     key = (id(space), resolution, keep_off)
     if key not in _GRAPHS:
         if isinstance(space, OccupancyGrid):

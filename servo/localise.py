@@ -5,7 +5,7 @@
 shifts: a heading offset moves the scene sideways in the image, so the best shift is the
 heading error toward that view (view-sequence navigation's image alignment), and the
 residual says how alike the places are. The clustering's eq. 13 (``predict`` / F^j(k)) names
-the manifold, and :meth:`ImageLocaliser.signal` is F toward one stored view.
+the manifold, and `ImageLocaliser.signal` is F toward one stored view.
 """
 
 from __future__ import annotations
@@ -68,8 +68,8 @@ class ImageLocaliser:
     max_shift : int
         Horizontal shifts tried, in feature-image pixels either way.
     refine_shift : bool
-        :meth:`align` places the best shift between the tried ones by a parabola through the
-        distances at it and its two neighbours (:func:`refined_shift`); False: the best tried
+        `align` places the best shift between the tried ones by a parabola through the
+        distances at it and its two neighbours (`refined_shift`); False: the best tried
         shift (a step of 2 pixels is 0.025 rad).
     """
 
@@ -104,14 +104,14 @@ class ImageLocaliser:
         return c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-12)
 
     def _band_rows(self) -> dict[str, slice]:
-        """The rows of the two bands :meth:`cross_offset` aligns: the top half (sky, trees,
+        """The rows of the two bands `cross_offset` aligns: the top half (sky, trees,
         far walls: far, little parallax) and the bottom third (the ground and the bases of
         walls near the robot: near, much parallax)."""
         h = self._wh[1]
         return {"far": slice(0, h // 2), "near": slice(2 * h // 3, h)}
 
     def _shifted_crops(self, band: np.ndarray) -> np.ndarray:
-        """(2 max_shift + 1, D): :meth:`_crops` of one image's ``band`` (rows, w, channels)
+        """(2 max_shift + 1, D): `_crops` of one image's ``band`` (rows, w, channels)
         at every shift from -max_shift to max_shift, built at once from a sliding window."""
         s = self.max_shift
         w = band.shape[1] - 2 * s
@@ -121,7 +121,7 @@ class ImageLocaliser:
         return c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-12)
 
     def band_shifts(self, x: np.ndarray, views) -> tuple[np.ndarray, np.ndarray]:
-        """Best horizontal shift (feature-image pixels; crop offset, as :meth:`align` before
+        """Best horizontal shift (feature-image pixels; crop offset, as `align` before
         its sign and scale) and its squared distance (0..4) of the far and the near band of
         ``x`` against each stored view in ``views``: arrays (len(views), 2), columns far, near."""
         views = np.atleast_1d(np.asarray(views, np.intp))
@@ -137,7 +137,7 @@ class ImageLocaliser:
 
     # -- API --------------------------------------------------------------------------------
     def features(self, image, name: str = "observation['image']") -> np.ndarray:
-        """The image's feature vector (d,); refuses what :func:`check_image` refuses."""
+        """The image's feature vector (d,); refuses what `check_image` refuses."""
         image = check_image(image, self.map.image_shape, name)
         return self.map.image_features.transform(image[None]).astype(np.float32)[0]
 
@@ -150,7 +150,7 @@ class ImageLocaliser:
 
     def align_contrast(self, x: np.ndarray, views=None,
                        step: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-        """:meth:`align`, and each view's best distance over its median over the shifts: a
+        """`align`, and each view's best distance over its median over the shifts: a
         real match is a sharp minimum (measured on the lawn: <= 0.21 at the view and up to
         1 m or 0.3 rad from it); grass and sky match a view turned 0.7 rad away almost as
         well at every shift (0.68-0.87), so that best shift says nothing of the heading."""
@@ -176,7 +176,7 @@ class ImageLocaliser:
         return float(self.signals(x, [view])[0])
 
     def signals(self, x: np.ndarray, views) -> np.ndarray:
-        """:meth:`signal` toward each of ``views``, the image's squared distances to a
+        """`signal` toward each of ``views``, the image's squared distances to a
         cluster's points (the costly part: a projection of the whole image) computed once per
         cluster rather than once per view. Same numbers as ``clustering.signal``."""
         views = [int(v) for v in np.atleast_1d(views)]
@@ -210,13 +210,13 @@ class ImageLocaliser:
 
     def cross_parallax(self, min_offset: float = 0.15, trust: float = 0.5,
                        min_edges: int = 10) -> float:  # fmt: skip
-        """Pixels of near-band minus far-band shift (:meth:`band_shifts`) per m of offset
-        across a view's line of sight, from the map's own views as :meth:`parallax` (the
+        """Pixels of near-band minus far-band shift (`band_shifts`) per m of offset
+        across a view's line of sight, from the map's own views as `parallax` (the
         view-graph edges with one view ``min_offset`` m or more beside the other; both bands
         within ``trust``, the near one not at the largest shift), least squares through 0.
         A turn moves both bands alike; an offset moves the near ground far more than the far
         scene, so the difference is the offset alone. 0 where fewer than ``min_edges`` edges
-        qualify or the slope is not positive (then :meth:`cross_offset` is never used)."""
+        qualify or the slope is not positive (then `cross_offset` is never used)."""
         ys, ds = [], []
         for a, b, rel in self._side_by_side(min_offset):
             shift, dist = self.band_shifts(self.map.features[b], [a])
@@ -232,7 +232,7 @@ class ImageLocaliser:
                      trust: float = 0.5) -> float:  # fmt: skip
         """The robot's offset (m, left positive) across stored view ``view``'s line of sight
         from the two bands' shifts, independent of the heading: (near - far) / ``pixels_per_m``
-        (:meth:`cross_parallax`). NaN where either band matches worse than ``trust`` or the
+        (`cross_parallax`). NaN where either band matches worse than ``trust`` or the
         near band's shift is at the largest tried (the offset is beyond what it measures)."""
         if not pixels_per_m > 0:
             return float("nan")

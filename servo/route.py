@@ -87,7 +87,7 @@ class RouteGraph:
 class RoutePath:
     """A route's views as a polyline in the route frame (the first view's), by arc length.
 
-    ``frames`` (n, 3): each route view's pose there (:meth:`RouteGraph.frames`); the robot's
+    ``frames`` (n, 3): each route view's pose there (`RouteGraph.frames`); the robot's
     progress along the route is the arc length of the nearest point of the polyline.
     """
 

@@ -41,7 +41,7 @@ def turn_on_spot(err: float, turn_rate: float, dt: float) -> np.ndarray:
 
 def pursue_route(goal: np.ndarray, reverse: bool, speed: float, careful: bool,
                  turn_rate: float) -> np.ndarray:  # fmt: skip
-    """(v, omega) of :func:`pursue` toward ``goal`` (robot frame), forward or in reverse.
+    """(v, omega) of `pursue` toward ``goal`` (robot frame), forward or in reverse.
 
     Reversing is pursuit of the goal mirrored through the robot (the robot turned round) with
     the speed's sign flipped; the turn rate is the same. ``careful`` (just backed off a wall,

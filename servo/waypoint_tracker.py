@@ -1,7 +1,7 @@
 """``WaypointTracker``: which waypoint view a view-sequence navigator servoes to, advancing when
 F^j(k) toward the next waypoint overtakes F toward the current one (Section II-G's signal used
-as in view-sequence navigation); shared by :class:`~servo.camera_only.controller.SignalServo` and
-the greedy F-probing baseline (:mod:`servo.task.baseline_policies`)."""
+as in view-sequence navigation); shared by [`SignalServo`][servo.camera_only.controller.SignalServo]
+and the greedy F-probing baseline (`servo.task.baseline_policies`)."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ hangs on its first frame: exactly what ``gym.make_vec(..., vectorization_mode="a
 with the default ``fork`` context after the parent rendered anything. We therefore default
 ``LP_NUM_THREADS=0`` (render in the calling thread; as fast for our 320x240 frames, see
 ``bench/``), which makes forked workers safe. Where a user set their own thread count,
-:func:`check_fork_safe` turns the hang into an immediate error saying what to pass instead.
+`check_fork_safe` turns the hang into an immediate error saying what to pass instead.
 """
 
 from __future__ import annotations

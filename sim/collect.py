@@ -1,6 +1,6 @@
 """Scripted-teleop data collection: the paper's 6 sequences (3 per world: main manifold, then
-left / straight / right), written as a resumable dataset (see :mod:`sim.dataset`); a generated
-world (``FAMILY:SEED``) records one sequence per route (:mod:`sim.collect_worlds`).
+left / straight / right), written as a resumable dataset (see `sim.dataset`); a generated
+world (``FAMILY:SEED``) records one sequence per route (`sim.collect_worlds`).
 
 Frames are taken at equal steps of progress along the route, so every sequence covers its
 whole route with the requested number of frames whatever the driver's speed jitter; the
@@ -68,7 +68,7 @@ class CollectionSettings:
         Draw the lights and colours from the world's randomisation table.
     appearance : {"default", "hard"}, default "default"
         ``"hard"`` worlds give every branch the main manifold's materials
-        (:func:`scenes.build_world`).
+        ([`scenes.build_world`][scenes.registry.build_world]).
     camera : CameraConfig, optional
         The camera; default ``CameraConfig()``.
     laser : LaserConfig, optional
@@ -133,25 +133,26 @@ class CollectionSettings:
     def sequences(self) -> list[tuple[int, str, str]]:
         """(stable index, world, route name); the index seeds the sequence, so collecting one
         world gives the same sequences as collecting all (see
-        :func:`sim.collect_worlds.world_sequences`)."""
+        `sim.collect_worlds.world_sequences`)."""
         return [s for w in self.worlds for s in world_sequences(w)]
 
     def manifolds(self) -> list[str]:
         """The dataset's manifold names, which its labels index
-        (:func:`sim.collect_worlds.label_space`)."""
+        (`sim.collect_worlds.label_space`)."""
         return label_space(self.worlds)
 
 
 def frame_bytes(camera: CameraConfig, laser: LaserConfig) -> int:
-    """Bytes one frame adds to a sequence's arrays (see :func:`collect_sequence`): the RGB
-    image, the depth image when recorded, the scan, and pose, odometry, command, label, time."""
+    """Bytes one frame adds to a sequence's arrays (see
+    [`collect_sequence`][sim.collect.collect_sequence]): the RGB image, the depth image when
+    recorded, the scan, and pose, odometry, command, label, time."""
     pixels = camera.height * camera.width
     return pixels * 3 + pixels * 4 * bool(camera.depth) + laser.beams * 4 + 3 * 3 * 8 + 2 + 8
 
 
 def check_sequence_size(frames: int, camera: CameraConfig, laser: LaserConfig) -> None:
-    """Refuse ``frames`` per sequence above :data:`MAX_FRAMES`, or whose arrays would take more
-    than :data:`MAX_SEQUENCE_BYTES` of memory with these camera and laser settings."""
+    """Refuse ``frames`` per sequence above `MAX_FRAMES`, or whose arrays would take more
+    than `MAX_SEQUENCE_BYTES` of memory with these camera and laser settings."""
     if frames > MAX_FRAMES:
         raise ValueError(f"frames must be an integer in [2, {MAX_FRAMES}], got {frames}")
     size = frames * frame_bytes(camera, laser) + laser.beams * 4
@@ -178,7 +179,8 @@ def collect_sequence(
     settings: CollectionSettings, index, world_name: str, route_name: str, tick=None
 ) -> dict[str, np.ndarray]:
     """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays.
-    ``index`` is the sequence's seeding index (:meth:`CollectionSettings.sequences`)."""
+    ``index`` is the sequence's seeding index
+    ([`CollectionSettings.sequences`][sim.collect.CollectionSettings.sequences])."""
     world = collection_world(world_name, settings.seed, settings.randomize, settings.appearance)
     entropy = sequence_entropy(settings.seed, index)
     teleop_rng, noise_rng, odo_rng = np.random.default_rng(entropy).spawn(3)

@@ -1,9 +1,9 @@
 """The worlds of a collection: their names, sequences, seeding keys and label space.
 
 The canonical worlds keep the paper's layout: three routes each, label ids that index
-:data:`scenes.names.MANIFOLDS`, and sequence seeds 0 to 5. A generated world (``FAMILY:SEED``,
-:mod:`scenes.families`) records one sequence per route (one per leaf manifold), seeded by a key
-that cannot meet a canonical one, and its labels are mapped into the dataset's own list of
+[`scenes.names.MANIFOLDS`][scenes.names.MANIFOLDS], and sequence seeds 0 to 5. A generated world
+(``FAMILY:SEED``, `scenes.families`) records one sequence per route (one per leaf manifold), seeded
+by a key that cannot meet a canonical one, and its labels are mapped into the dataset's own list of
 manifolds.
 """
 
@@ -46,7 +46,7 @@ def check_worlds(worlds, argument: str = "worlds") -> tuple[str, ...]:
 
 @lru_cache(maxsize=64)
 def world_digest(name: str) -> str:
-    """The floor plan's SHA-256 of world ``name`` (:attr:`scenes.World.digest`), built once
+    """The floor plan's SHA-256 of world ``name`` (`scenes.World.digest`), built once
     per process; ValueError naming the accepted forms for a name that is no world."""
     return build_world(check_world_name(name)).digest
 

@@ -14,7 +14,7 @@ collected with a progress bar when missing, never replaced) and ``servo-maps/`` 
 The command line keeps its own ``--out`` folders and does not use the home.
 
 The real laser logs are not part of the home: the folder that holds them is named by the
-``TOPOMAP_RADISH`` variable (:func:`radish_log`), read by every command and test that has a
+``TOPOMAP_RADISH`` variable (`radish_log`), read by every command and test that has a
 default for them (docs/references.md says where to get them).
 """
 
@@ -124,7 +124,7 @@ def radish_log(name: str) -> Path:
     ----------
     name : str
         The log's file name in that folder, e.g. ``"aces-corrected.log.gz"`` (the two logs the
-        project uses are :data:`RADISH_LOGS`).
+        project uses are `RADISH_LOGS`).
 
     Returns
     -------

@@ -153,8 +153,8 @@ class NavigationEnv(gym.Env):
         ``ValueError``. ``options["manifold"]`` and ``info["manifold"]`` name the world's own
         manifolds (``info["manifold_id"]`` is the world's label id).
     render_mode : {None, "rgb_array"}, default None
-        ``"rgb_array"``: :meth:`render` draws a top-down map with the robot, its laser and its
-        trail.
+        ``"rgb_array"``: [`render`][sim.env.NavigationEnv.render] draws a top-down map with the
+        robot, its laser and its trail.
     camera : CameraConfig or dict, optional
         The camera, or a dict of its fields (``{"width": 160, "height": 120}``: a spec that
         stays JSON); default ``CameraConfig()`` (320 x 240, 45 degrees vertical field of view).
@@ -282,9 +282,10 @@ class NavigationEnv(gym.Env):
         }
 
     def scan_observation(self, ranges: np.ndarray, key: str) -> dict[str, np.ndarray]:
-        """``ranges`` (+inf: no return) as the observation's entries of :meth:`scan_spaces`:
-        a copy, with no return (and a return pushed past the maximum range by the range noise)
-        at the maximum range and ``{key}_valid`` 1 where the beam returned."""
+        """``ranges`` (+inf: no return) as the observation's entries of
+        [`scan_spaces`][sim.env.NavigationEnv.scan_spaces]: a copy, with no return (and a return
+        pushed past the maximum range by the range noise) at the maximum range and ``{key}_valid`` 1
+        where the beam returned."""
         if self.no_return == "inf":
             return {key: np.array(ranges, np.float32)}
         valid = np.isfinite(ranges)

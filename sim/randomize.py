@@ -1,6 +1,6 @@
 """Per-episode appearance randomisation on a compiled model: light colours and intensities
 (the scene's lights and the headlight) and material colours, drawn from
-:data:`scenes.RANDOMIZATION`, without recompiling the model.
+[`scenes.RANDOMIZATION`][scenes.RANDOMIZATION], without recompiling the model.
 
 (Textures and clutter placement are randomised when a world is *built*, with
 ``scenes.build_world(name, rng)``; changing them per episode would mean recompiling and a new
@@ -29,7 +29,7 @@ MAX_LIGHT = 2.0
 
 
 class AppearanceRandomizer:
-    """Remembers the model's base appearance and re-draws it on :meth:`apply`."""
+    """Remembers the model's base appearance and re-draws it on `apply`."""
 
     def __init__(self, model: mujoco.MjModel):
         self.model = model

@@ -1,8 +1,10 @@
 """Several drives (runs) through one place, concatenated in the form the mapping methods take.
 
-:meth:`sim.dataset.Dataset.runs` builds one; ``groups`` is the per-sample drive index that
-:class:`mapping.ObservationGraphPartitioner` takes (scikit-learn's ``groups`` convention, as in
-``GroupKFold``), so the grouping of a dataset's laser scans is::
+[`sim.dataset.Dataset.runs`][sim.dataset.model.Dataset.runs] builds one; ``groups`` is the
+per-sample drive index that
+[`mapping.ObservationGraphPartitioner`][mapping.grouping.partitioner.ObservationGraphPartitioner]
+takes (scikit-learn's ``groups`` convention, as in ``GroupKFold``), so the grouping of a dataset's
+laser scans is::
 
     runs = dataset.runs("hallway")
     ObservationGraphPartitioner().fit(runs.scans, runs.odometry, groups=runs.groups)

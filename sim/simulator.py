@@ -44,7 +44,8 @@ class Simulator:
     odometry : OdometryConfig or None, default None
         The odometry's drift; None: ``OdometryConfig()``.
     control_dt : float, default 0.1
-        Seconds each :meth:`step` command is held (rounded to whole physics steps).
+        Seconds each [`step`][sim.simulator.Simulator.step] command is held (rounded to whole
+        physics steps).
 
     Attributes
     ----------
@@ -57,7 +58,7 @@ class Simulator:
     camera, laser, odometry
         The sensors (None where not given).
     collisions : int
-        Steps in contact since the last :meth:`reset`.
+        Steps in contact since the last [`reset`][sim.simulator.Simulator.reset].
     pose : ndarray of shape (3,)
         The true pose (x, y, yaw).
 

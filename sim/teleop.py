@@ -47,7 +47,7 @@ class TeleopConfig:
     def scaled(self, jitter: float) -> TeleopConfig:
         """The same driver with every random term (speed and turn jitter, lateral wander,
         start jitter) times ``jitter``: 0 drives the route's centre line at constant speed,
-        the same pass for every seed; 1 is this config; at most :data:`MAX_JITTER`, beyond
+        the same pass for every seed; 1 is this config; at most `MAX_JITTER`, beyond
         which the driver can stall before the route's end."""
         if not (np.isfinite(jitter) and jitter >= 0):
             raise ValueError(f"teleop jitter must be a finite number >= 0, got {jitter}")
@@ -97,7 +97,7 @@ class Polyline:
 
 
 class ScriptedTeleop:
-    """Drives one route. Call :meth:`start_pose` once, then :meth:`command` every step."""
+    """Drives one route. Call `start_pose` once, then `command` every step."""
 
     def __init__(self, world: World, route: Route, config: TeleopConfig, rng: np.random.Generator):
         self.route = Polyline(route.waypoints)
@@ -122,7 +122,7 @@ class ScriptedTeleop:
         return self.progress >= self.route.length - 0.05
 
     def command(self, pose: np.ndarray, dt: float) -> tuple[float, float]:
-        """(v, omega) toward the wandering look-ahead point; advances :attr:`progress`."""
+        """(v, omega) toward the wandering look-ahead point; advances `progress`."""
         c = self.config
         self.progress = self.route.project(pose[:2], self.progress - 0.5, self.progress + 2.0)
         # Ornstein-Uhlenbeck noises (exact discretisation, unit-free correlation times).

@@ -113,3 +113,23 @@ def test_the_public_methods_of_a_public_class_have_docstrings(path):
         if not name.startswith("_") and callable(function) and not (function.__doc__ or "").strip():
             bare.append(name)
     assert not bare, f"{path}: public methods without a docstring: {bare}"
+
+
+def imported_names(page: Path) -> list[str]:
+    """The names the import lines of a page's first Python block bring in, in order."""
+    block = re.search(r"```python\n(.*?)```", page.read_text(), re.S)
+    lines = block.group(1).splitlines() if block else []
+    return [name.strip() for line in lines
+            if (m := re.match(r"from [\w.]+ import ([\w, ]+)", line))
+            for name in m.group(1).split(",")]  # fmt: skip
+
+
+@pytest.mark.parametrize("page", sorted(API.glob("*.md")), ids=lambda page: page.stem)
+def test_a_page_lists_the_names_users_import_before_the_rest(page):
+    """Within each section of a page (Classes, Functions...), the objects its import line names
+    come first, in that order: ``ManifoldClustering`` heads its page, its internals follow."""
+    names = imported_names(page)
+    for section in re.split(r"^## ", page.read_text(), flags=re.M):
+        shown = [path.rsplit(".", 1)[-1] for path in DIRECTIVE.findall(section)]
+        ranks = [names.index(name) if name in names else len(names) for name in shown]
+        assert ranks == sorted(ranks), f"{page.name}: {shown} (imported first: {names})"

@@ -3,7 +3,8 @@
     python -m experiments.grouping.knobs [--data DIR] [--carmen LOG ...] --out DIR
 
 One knob at a time is moved away from the defaults of
-:class:`mapping.ObservationGraphPartitioner` (Blanco et al.):
+[`mapping.ObservationGraphPartitioner`][mapping.grouping.partitioner.ObservationGraphPartitioner]
+(Blanco et al.):
 
 * ``match_distance``, the tolerance ``delta`` of eq. 16 (0.1 m is below the beam spacing of a
   1-degree laser beyond about 6 m, of a half-degree one beyond about 11 m);
@@ -22,7 +23,7 @@ the corrected SLAM poses), ICP off, every 5th scan held out.
 Scores: on the worlds purity and ARI against the manifolds, and on every case the share of
 held-out scans that localise against their group's local map (Wilson 95 % interval). The
 estimator's own knobs (``match_distance``, ``threshold``) are chosen jointly on the ``dev``
-cases (the dataset's hallway and ACES; :func:`dev_score`): the best hallway ARI over their
+cases (the dataset's hallway and ACES; `dev_score`): the best hallway ARI over their
 grid, among settings that keep ACES' localisation rate within the defaults' interval, and
 only if it beats the defaults by ``MIN_GAIN``. The ``test`` cases (the lawn, CSAIL) are
 scored, never used to choose. Field of view and range cap are the sensor's, not the
@@ -172,7 +173,7 @@ def _evaluate(cases: list[Case], setting: dict, seed: int) -> dict:
 
 def evaluate_knobs(cases: list[Case], out_dir, *, seed: int = 0, progress: bool = True) -> dict:
     """Sweep each knob alone on every case, choose ``match_distance`` and ``threshold``
-    jointly on the dev cases (grid of :data:`KNOBS`), then score the choice on every case.
+    jointly on the dev cases (grid of `KNOBS`), then score the choice on every case.
     Writes ``knobs.json``."""
     from tqdm.auto import tqdm
 

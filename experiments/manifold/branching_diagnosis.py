@@ -1,6 +1,6 @@
 """Why ours loses to scikit-learn's 10-NN graph on the branching sequences.
 
-The sequences of :func:`mapping.synthetic.branching_sequences` are two stars: per world a trunk
+The sequences of `mapping.synthetic.branching_sequences` are two stars: per world a trunk
 and three branches that all start at the trunk's end. For each draw this script fits
 ``ManifoldClustering`` and asks where its error comes from:
 
@@ -43,7 +43,7 @@ from mapping.metrics import majority_merge_error
 from mapping.synthetic import branching_sequences
 
 K, D = 8, 2000
-#: labels of the trunks in :func:`mapping.synthetic.branching_sequences` (0..3 world one)
+#: labels of the trunks in `mapping.synthetic.branching_sequences` (0..3 world one)
 TRUNKS = (0, 4)
 
 

@@ -9,7 +9,7 @@ size Q this study fits ``ManifoldClustering`` and prints:
 * the tree against the combination: the fit's error, the majority-merge bound of its leaves
   (every leaf joins its majority manifold, so it may use fewer than K groups) and the
   *K-group oracle*: the best grouping of the leaves into exactly K non-empty groups given the
-  labels (:func:`k_group_oracle`), the ceiling of every combination of these leaves;
+  labels (`k_group_oracle`), the ceiling of every combination of these leaves;
 * the cut's objective: at the sigma the combination chose (top alpha), the normalised cut of
   the leaves' majority grouping over that of the chosen grouping (above 1: the objective
   itself prefers the wrong grouping), and the first K + 2 generalised eigenvalues of

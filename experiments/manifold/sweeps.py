@@ -4,7 +4,7 @@ sequences at several n, and the paper's claim tested where it should matter.
 Per-cluster sigma should beat one sigma when no single sigma both connects the sparsest curve
 (sigma above its sampling interval) and separates the curves (sigma below the gap between
 them), i.e. when ``gap / coarsest interval`` is near or below 1, and more so the larger the
-density ratio between the curves. Two sweeps of :func:`mapping.synthetic.lines_variable_spacing`
+density ratio between the curves. Two sweeps of `mapping.synthetic.lines_variable_spacing`
 test that:
 
 * ``gap``: intervals (0.01, 0.025, 0.05) fixed, the gap between the lines from 0.5 to 6 times

@@ -5,8 +5,8 @@ For each view the world is rendered on a square grid of points about the view's 
 (``--radius`` m either way along and across its sight, ``--step`` m apart) facing the view's
 heading give or take a normal error (``--heading-noise`` rad: what the robot's belief
 carries), and two things are read toward the view: the shift-minimised image distance
-(:meth:`servo.localise.ImageLocaliser.align`) and F (eq. 13,
-:meth:`~servo.localise.ImageLocaliser.signal`). Printed per view:
+(`servo.localise.ImageLocaliser.align`) and F (eq. 13,
+`signal`). Printed per view:
 
 * F at the view itself and the median F beyond 1 m (how much F says once the heading is off);
 * the catchment of the distance: the share of the grid points, by ring of distance from the

@@ -58,7 +58,7 @@ def record(world: str, episodes: int, data, maps, out: str) -> None:
 
 
 def load_recording(path) -> dict:
-    """A file written by :func:`record`, read as untrusted input: the known arrays only (no
+    """A file written by `record`, read as untrusted input: the known arrays only (no
     pickles), a known world, and one turn (T, d) features and (T, 3) odometry per start."""
     try:
         with np.load(path, allow_pickle=False) as z:

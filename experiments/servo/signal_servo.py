@@ -18,7 +18,7 @@ nearest the true position and the heading that faces it (the start pose then as 
 controller finds it), ``pose`` also the true pose in that view's frame; ``top5``
 a perfect choice among the candidates the turn offers: of the controller's own five best
 places by contrast score (views 4 m or more apart,
-:func:`servo.camera_only.turn_global_fix.contrast_scores`), the one nearest the truth. What a better
+`servo.camera_only.turn_global_fix.contrast_scores`), the one nearest the truth. What a better
 global fix is worth, against the same episodes without it. Diagnosis only: the controller never sees
 the truth.
 

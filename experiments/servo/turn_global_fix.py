@@ -3,7 +3,7 @@ images of ``dev`` episodes, recorded once, and the fix each image descriptor wou
 
 Runs the controller exactly as ``topomap servo-eval`` starts an episode (same specs, starts,
 env) until its observing turn ends, keeps every image it localised (``observe_every``), then
-scores :func:`~servo.camera_only.turn_global_fix.contrast_fix` on the shift-aligned distances of
+scores `contrast_fix` on the shift-aligned distances of
 several descriptors of those images against the stored views (no metric check, ``fix_check``): how
 far the fix's view lies from the nearest stored view (truth, for the analysis only). One turn
 costs ~2 s to record; a descriptor is scored on 60 turns in seconds, where an episode run takes

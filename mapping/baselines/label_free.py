@@ -1,19 +1,22 @@
 """The baselines a user would pick: spectral clusterings whose scale is chosen without labels.
 
-* :class:`KNNSpectralClustering` -- scikit-learn's ``SpectralClustering(affinity=
+* [`KNNSpectralClustering`][mapping.baselines.label_free.KNNSpectralClustering] -- scikit-learn's
+  ``SpectralClustering(affinity=
   "nearest_neighbors")`` with the neighbour count either fixed (scikit-learn's default, 10) or
   chosen by the eigengap over a few candidates; new points take the majority cluster of their
   ``n_neighbors`` nearest training points (scikit-learn's ``KNeighborsClassifier``), since
   ``SpectralClustering`` itself has no ``predict``.
-* :class:`EigengapNCutClustering` -- :class:`~mapping.baselines.NormalizedCutClustering` with
+* [`EigengapNCutClustering`][mapping.baselines.label_free.EigengapNCutClustering] --
+  [`NormalizedCutClustering`][mapping.baselines.spectral.NormalizedCutClustering] with
   the single sigma chosen by the eigengap of ``S = D^-1/2 W D^-1/2`` over a log grid; new
   points by its Nystrom extension.
 
 The eigengap rule (von Luxburg, *A tutorial on spectral clustering*, 2007, Section 8.3): the
 scale whose normalised affinity has the largest gap ``lambda_K - lambda_{K+1}`` between its
 K-th and (K+1)-th largest eigenvalue, i.e. the graph closest to K disconnected parts. It looks
-at the data only, never at labels, unlike :func:`~mapping.baselines.sigma_sweep.best_sigma_ncut`,
-the paper's oracle, which is kept as a ceiling.
+at the data only, never at labels, unlike
+[`best_sigma_ncut`][mapping.baselines.sigma_sweep.best_sigma_ncut], the paper's oracle, which is
+kept as a ceiling.
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ from mapping.validation import check_distinct_rows, check_span
 
 __all__ = ["EigengapNCutClustering", "KNNSpectralClustering", "eigengap"]
 
-#: Neighbour counts the eigengap rule of :class:`KNNSpectralClustering` chooses from.
+#: Neighbour counts the eigengap rule of `KNNSpectralClustering` chooses from.
 DEFAULT_NEIGHBOR_CANDIDATES = (5, 7, 10, 15, 20, 30)
 
 
@@ -93,7 +96,8 @@ class KNNSpectralClustering(ClusterMixin, BaseEstimator):
     n_neighbors : int or "eigengap", default 10
         Neighbours of the graph (10 is scikit-learn's default); ``"eigengap"`` picks, among
         ``candidates`` smaller than n, the k whose symmetrised kNN graph (as scikit-learn
-        builds it, ``(A + A^T) / 2``) has the largest :func:`eigengap`.
+        builds it, ``(A + A^T) / 2``) has the largest
+        [`eigengap`][mapping.baselines.label_free.eigengap].
     candidates : tuple of int, default (5, 7, 10, 15, 20, 30)
         Neighbour counts tried by the eigengap rule.
     random_state : int, default 0
@@ -194,8 +198,8 @@ class EigengapNCutClustering(ClusterMixin, BaseEstimator):
     n_clusters : int, default 2
         Number of clusters K.
     n_sigmas : int, default 25
-        Size of the log grid of :func:`~mapping.baselines.sigma_sweep.default_sigmas` (half the
-        median nearest-neighbour distance to the diameter) that the rule searches.
+        Size of the log grid of [`default_sigmas`][mapping.baselines.sigma_sweep.default_sigmas]
+        (half the median nearest-neighbour distance to the diameter) that the rule searches.
     n_init : int, default 10
         k-means restarts.
     random_state : int, default 0
@@ -205,7 +209,7 @@ class EigengapNCutClustering(ClusterMixin, BaseEstimator):
     ----------
     labels_ : ndarray of shape (n,)
     sigma_ : float
-        The sigma of the largest :func:`eigengap`.
+        The sigma of the largest [`eigengap`][mapping.baselines.label_free.eigengap].
     sigmas_, gaps_ : ndarray
         The grid and the eigengap at each sigma (-inf where every affinity underflows).
     model_ : NormalizedCutClustering

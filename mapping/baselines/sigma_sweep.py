@@ -1,6 +1,6 @@
 """The paper's "Normalized Cuts" baseline as the paper ran it (Section III): one Gaussian sigma
 for all clusters, swept over a grid, keeping the sigma with the lowest clustering error on the
-true labels (an oracle choice: :mod:`mapping.baselines.label_free` chooses without labels).
+true labels (an oracle choice: `mapping.baselines.label_free` chooses without labels).
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ __all__ = ["SigmaSweep", "best_sigma_ncut", "default_sigmas"]
 
 @dataclass(frozen=True)
 class SigmaSweep:
-    """Result of :func:`best_sigma_ncut`: the chosen sigma, its error and model, and the sweep.
+    """Result of [`best_sigma_ncut`][mapping.baselines.sigma_sweep.best_sigma_ncut]: the chosen
+    sigma, its error and model, and the sweep.
 
     Parameters
     ----------
@@ -94,14 +95,15 @@ def best_sigma_ncut(
     X : array-like of shape (n, d)
         Data.
     y : array-like of shape (n,)
-        True labels, used only to score each sigma with :func:`clustering_error`.
+        True labels, used only to score each sigma with
+        [`clustering_error`][mapping.metrics.clustering_error].
     n_clusters : int
         Number of clusters for every fit.
     sigmas : array-like, optional
         Candidate sigmas (> 0). Default: 40 log-spaced values from half the median
         nearest-neighbour distance to the largest pairwise distance.
     n_init, random_state : int
-        Passed to :class:`NormalizedCutClustering`.
+        Passed to [`NormalizedCutClustering`][mapping.baselines.spectral.NormalizedCutClustering].
 
     Returns
     -------

@@ -1,10 +1,13 @@
 """Spectral clustering baselines the paper's method is compared with.
 
-* :class:`NormalizedCutClustering` -- normalised spectral clustering with one Gaussian sigma for
+* [`NormalizedCutClustering`][mapping.baselines.spectral.NormalizedCutClustering] -- normalised
+  spectral clustering with one Gaussian sigma for
   all clusters, the "Normalized Cuts" baseline of Section III;
-  :func:`mapping.baselines.sigma_sweep.best_sigma_ncut` sweeps sigma and keeps the one with the
-  lowest clustering error on the true labels, as the paper did.
-* :class:`SelfTuningSpectralClustering` -- local scaling (Zelnik-Manor & Perona, 2004): each
+  [`mapping.baselines.sigma_sweep.best_sigma_ncut`][mapping.baselines.sigma_sweep.best_sigma_ncut]
+  sweeps sigma and keeps the one with the lowest clustering error on the true labels, as the paper
+  did.
+* [`SelfTuningSpectralClustering`][mapping.baselines.spectral.SelfTuningSpectralClustering] -- local
+  scaling (Zelnik-Manor & Perona, 2004): each
   point gets its own sigma, the distance to its ``n_neighbors``-th neighbour; the stronger,
   modern baseline.
 
@@ -233,8 +236,9 @@ class SelfTuningSpectralClustering(_SpectralBase):
     neighbour (copies of a point, a robot standing still, count as one neighbour), and
     ``W_ij = exp(-|x_i - x_j|^2 / (sigma_i sigma_j))``. The number of clusters is fixed (their
     eigenvector-rotation search for it is not used) and the rest is the NJW pipeline of
-    :class:`NormalizedCutClustering`. A new point's scale is its distance to its
-    ``n_neighbors``-th nearest training point; it is then embedded by the Nystrom extension.
+    [`NormalizedCutClustering`][mapping.baselines.spectral.NormalizedCutClustering]. A new point's
+    scale is its distance to its ``n_neighbors``-th nearest training point; it is then embedded by
+    the Nystrom extension.
 
     Parameters
     ----------
@@ -250,7 +254,7 @@ class SelfTuningSpectralClustering(_SpectralBase):
     Attributes
     ----------
     labels_, affinity_matrix_, eigenvalues_, eigenvectors_, embedding_, cluster_centers_
-        As in :class:`NormalizedCutClustering`.
+        As in [`NormalizedCutClustering`][mapping.baselines.spectral.NormalizedCutClustering].
     scales_ : ndarray of shape (n,)
         The local scale sigma_i of each training point.
     min_scale_ : float

@@ -78,16 +78,18 @@ def color_histograms(
 
 
 class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
-    """Images -> per-cell HSV histograms (:func:`color_histograms`), a transformer.
+    """Images -> per-cell HSV histograms
+    ([`color_histograms`][mapping.features.hsv_histograms.color_histograms]), a transformer.
 
     Stateless apart from remembering the feature count, so ``fit`` only validates; it exists
-    so that this and :class:`ImageFeatures` are interchangeable in a pipeline.
+    so that this and [`ImageFeatures`][mapping.features.images.ImageFeatures] are interchangeable in
+    a pipeline.
 
     Parameters
     ----------
     bins : (hue, saturation, value), default (8, 4, 4)
     grid : (columns, rows), default (2, 2)
-        See :func:`color_histograms`.
+        See [`color_histograms`][mapping.features.hsv_histograms.color_histograms].
 
     Attributes
     ----------

@@ -1,10 +1,11 @@
 """Images to fixed-length feature vectors, for both mapping methods.
 
 The paper clusters raw pixels (3 x 320 x 240 values per image, Section III-B).
-:func:`images_to_vectors` keeps that as the default and adds a resolution, colour or grey, and
-a normalisation; :class:`ImageFeatures` wraps it with an optional PCA projection fitted on the
-training images (scikit-learn's ``PCA``). The compact alternative that reproduces the paper's
-image result here, per-cell HSV histograms, is in :mod:`mapping.features.hsv_histograms`.
+[`images_to_vectors`][mapping.features.images.images_to_vectors] keeps that as the default and adds
+a resolution, colour or grey, and a normalisation;
+[`ImageFeatures`][mapping.features.images.ImageFeatures] wraps it with an optional PCA projection
+fitted on the training images (scikit-learn's ``PCA``). The compact alternative that reproduces the
+paper's image result here, per-cell HSV histograms, is in `mapping.features.hsv_histograms`.
 
 Everything is vectorised over images; the only Python loop is one OpenCV call per image.
 """
@@ -54,7 +55,8 @@ def _image_batch(images: np.ndarray) -> np.ndarray:
 
 
 def _pixel_scale(images: np.ndarray) -> float:
-    """The factor that maps ``images`` to [0, 1] (the rule of :func:`images_to_vectors`).
+    """The factor that maps ``images`` to [0, 1] (the rule of
+    [`images_to_vectors`][mapping.features.images.images_to_vectors]).
 
     uint8 and uint16 go by their type, with no pass over the pixels. A float copy of 8-bit
     pixels (what ``servo`` passes on) gives what the uint8 image gives.
@@ -228,7 +230,7 @@ class ImageFeatures(TransformerMixin, BaseEstimator):
         Parameters
         ----------
         images : array-like of shape (n, H, W, 3) or (n, H, W)
-            Training images (see :func:`images_to_vectors`).
+            Training images (see [`images_to_vectors`][mapping.features.images.images_to_vectors]).
         y : None
             Ignored.
         """

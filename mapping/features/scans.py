@@ -1,15 +1,16 @@
 """Sensor readings to fixed-length feature vectors, so both sensors feed both mapping methods.
 
-Images: :mod:`mapping.features.images` (raw pixels as in the paper) and
-:mod:`mapping.features.hsv_histograms` (per-cell HSV colour histograms).
+Images: `mapping.features.images` (raw pixels as in the paper) and
+`mapping.features.hsv_histograms` (per-cell HSV colour histograms).
 
 Laser scans: float32 range arrays of shape (n_beams,) or (n, n_beams), where ``+inf`` means
-"no return within max range" and NaN an invalid reading. :func:`scan_ranges` makes them finite
-(both become ``max_range``), :func:`scan_vectors` turns them into a range, inverse-range or
-polar occupancy-grid vector, and :class:`ScanFeatures` wraps that
-(:func:`common.geometry.scan_to_points` gives the returns as points instead;
-:class:`mapping.features.statistics.ScanStatistics` summarises a scan by sector and ring
-statistics). Everything is vectorised over scans and beams.
+"no return within max range" and NaN an invalid reading.
+[`scan_ranges`][mapping.features.scans.scan_ranges] makes them finite (both become ``max_range``),
+[`scan_vectors`][mapping.features.scans.scan_vectors] turns them into a range, inverse-range or
+polar occupancy-grid vector, and [`ScanFeatures`][mapping.features.scans.ScanFeatures] wraps that
+([`common.geometry.scan_to_points`][common.geometry.scan_to_points] gives the returns as points
+instead; [`mapping.features.statistics.ScanStatistics`][mapping.features.statistics.ScanStatistics]
+summarises a scan by sector and ring statistics). Everything is vectorised over scans and beams.
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ def scan_vectors(
     Parameters
     ----------
     ranges : array-like of shape (n_beams,) or (n, n_beams)
-        Raw ranges; inf = no return, NaN = invalid (see :func:`scan_ranges`).
+        Raw ranges; inf = no return, NaN = invalid (see
+        [`scan_ranges`][mapping.features.scans.scan_ranges]).
     max_range : float
         Sensor range limit in metres.
     representation : {"range", "inverse", "polar_grid"}, default "range"
@@ -142,8 +144,9 @@ def fitted_max_range(ranges: np.ndarray, max_range: float | None) -> float:
 
 class ScanRangesInput:
     """Input handling shared by the scan transformers: rows of ranges (n, n_beams) in which inf
-    (no return) and NaN (invalid beam) are readings, not missing data (see :func:`scan_ranges`),
-    so scikit-learn's finiteness check is off and its ``allow_nan`` tag on.
+    (no return) and NaN (invalid beam) are readings, not missing data (see
+    [`scan_ranges`][mapping.features.scans.scan_ranges]), so scikit-learn's finiteness check is off
+    and its ``allow_nan`` tag on.
 
     Examples
     --------
@@ -169,7 +172,8 @@ class ScanRangesInput:
 
 
 class ScanFeatures(ScanRangesInput, TransformerMixin, BaseEstimator):
-    """Laser scans -> feature vectors (a fit/transform wrapper of :func:`scan_vectors`).
+    """Laser scans -> feature vectors (a fit/transform wrapper of
+    [`scan_vectors`][mapping.features.scans.scan_vectors]).
 
     Parameters
     ----------
@@ -180,7 +184,7 @@ class ScanFeatures(ScanRangesInput, TransformerMixin, BaseEstimator):
     n_sectors : int, optional
     min_range : float, default 0.05
     n_range_bins : int, default 8
-        See :func:`scan_vectors`.
+        See [`scan_vectors`][mapping.features.scans.scan_vectors].
 
     Attributes
     ----------

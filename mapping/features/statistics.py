@@ -1,6 +1,6 @@
 """Laser scans as sector and ring statistics.
 
-:mod:`mapping.features` turns a scan into its ranges, inverse ranges or a polar occupancy grid:
+`mapping.features` turns a scan into its ranges, inverse ranges or a polar occupancy grid:
 one number per beam or per (sector, range bin). Those vectors change a lot when the robot turns
 a few degrees or a single beam misses, and they weigh every beam alike. The statistics here
 summarise a scan the way a person reads a corridor:
@@ -13,10 +13,10 @@ summarise a scan the way a person reads a corridor:
   thin, far rings wide, as range error and relevance both scale with range). It ignores the
   beam order, so it does not change when the robot turns: the rotation-tolerant block.
 
-Each statistic is one *block*. :class:`ScanStatistics` learns, per block, the total standard
-deviation of the training scans and divides by it, so every block enters a Euclidean distance
-(all the clustering methods here use one) with the same weight, whatever its units or its
-number of sectors.
+Each statistic is one *block*. [`ScanStatistics`][mapping.features.statistics.ScanStatistics]
+learns, per block, the total standard deviation of the training scans and divides by it, so every
+block enters a Euclidean distance (all the clustering methods here use one) with the same weight,
+whatever its units or its number of sectors.
 """
 
 from __future__ import annotations
@@ -65,7 +65,8 @@ def scan_statistics(
     ----------
     ranges : array-like of shape (n_beams,) or (n, n_beams)
         Raw ranges; ``+inf`` = no return, NaN or negative = invalid (both read as "nothing
-        seen", see :func:`mapping.features.scan_ranges`). Beams are ordered by angle.
+        seen", see [`mapping.features.scan_ranges`][mapping.features.scans.scan_ranges]). Beams are
+        ordered by angle.
     max_range : float
         Sensor range limit in metres.
     statistics : sequence of str, default all of ``SCAN_STATISTICS``
@@ -136,13 +137,13 @@ class ScanStatistics(ScanRangesInput, TransformerMixin, BaseEstimator):
     ----------
     max_range : float, optional
         Sensor range limit in metres. None takes the largest finite positive reading of the
-        training scans (as :class:`mapping.ScanFeatures` does).
+        training scans (as [`mapping.ScanFeatures`][mapping.features.scans.ScanFeatures] does).
     statistics : tuple of str, default all of ``SCAN_STATISTICS``
-        The blocks (see :func:`scan_statistics`).
+        The blocks (see [`scan_statistics`][mapping.features.statistics.scan_statistics]).
     n_sectors : int, default 12
     n_rings : int, default 8
     min_range : float, default 0.25
-        See :func:`scan_statistics`.
+        See [`scan_statistics`][mapping.features.statistics.scan_statistics].
     block_scaling : bool, default True
         Divide each block by its training scans' total standard deviation
         (``sqrt`` of the sum of its columns' variances), so that every block weighs the same in

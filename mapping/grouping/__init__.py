@@ -1,7 +1,9 @@
 """Consistent observation grouping (Blanco, Gonzalez & Fernandez-Madrigal): 2-D laser scans
 with poses grouped into local metric maps by recursive min-Ncut of their sensed-space overlap.
 
-* ``partitioner`` -- :class:`ObservationGraphPartitioner`, the estimator;
+* ``partitioner`` --
+  [`ObservationGraphPartitioner`][mapping.grouping.partitioner.ObservationGraphPartitioner], the
+  estimator;
 * ``overlap`` -- the sensed-space overlap (SSO) weights of the observation graph, over the
   voxel grid of ``voxel_grid``; ``incremental_overlap`` -- the same, updated scan by scan;
 * ``normalized_cut`` -- Ncut, spectral bisection and the recursive partition with threshold 1;

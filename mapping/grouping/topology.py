@@ -6,7 +6,7 @@ partition become the nodes of a graph; each node stores a local metric map and e
 differential poses between scans of different groups".
 
 Poses are ``(x, y, yaw)`` rows; their algebra (``se2_compose``, ``se2_relative``, ...) is
-:mod:`common.geometry`'s.
+`common.geometry`'s.
 """
 
 from __future__ import annotations
@@ -361,7 +361,7 @@ def fill_from_nearest(labels: ArrayLike, starts: ArrayLike | None = None) -> np.
 
 
 def _fill(labels: np.ndarray) -> np.ndarray:
-    """:func:`fill_from_nearest` over all indices, on checked labels."""
+    """`fill_from_nearest` over all indices, on checked labels."""
     known = np.flatnonzero(labels >= 0)
     if known.size == 0:
         return np.zeros_like(labels)

@@ -1,9 +1,9 @@
 """The voxel grid of the approximate sensed-space overlap (eq. 16-17 on voxels).
 
 World points snap to square voxels anchored at the origin; a scan becomes the set of voxels
-it occupies (:func:`voxel_incidence`) and eq. 16's disc of radius ``delta`` becomes a set of
-integer offsets (:func:`voxel_offsets`), so "a point of the other scan within delta" becomes
-"an occupied voxel of the other scan at one of those offsets" (:func:`voxel_adjacency`).
+it occupies (`voxel_incidence`) and eq. 16's disc of radius ``delta`` becomes a set of
+integer offsets (`voxel_offsets`), so "a point of the other scan within delta" becomes
+"an occupied voxel of the other scan at one of those offsets" (`voxel_adjacency`).
 Cells are addressed by row-major int64 ids where the bounding box allows, by rank where a
 point far outside the map would overflow them; coordinates beyond int64 and voxels so fine
 that the disc would hold more cells than the exact overlap costs are refused before anything

@@ -1,5 +1,6 @@
 """Visual-manifold clustering (Grudic & Mulligan, *Topological Mapping with Multiple Visual
-Manifolds*): :class:`ManifoldClustering` and the per-cluster models behind its F^j(k).
+Manifolds*): [`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering] and the
+per-cluster models behind its F^j(k).
 
 Where each part of the paper lives:
 

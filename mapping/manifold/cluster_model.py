@@ -29,7 +29,7 @@ fit-time inverse ``H = (I - alpha D^-1/2 W D^-1/2)^-1`` (its condition number is
 an |S| x |S| SPD system whose eigenvalues are >= 1. It is exact (no degree is approximated or
 affinity dropped: entries outside S are exactly 0). A cluster with a training point of degree
 0 has no H and keeps the dense solve of A. Both solvers are in
-:mod:`mapping.manifold.signal_solvers`; rows and clusters of a batch are solved together, sorted by
+`mapping.manifold.signal_solvers`; rows and clusters of a batch are solved together, sorted by
 |S| and padded with identity rows.
 
 The distances: the cluster's centred points are kept as coordinates in an orthonormal basis of
@@ -42,7 +42,7 @@ singular value below 1e-10 of the largest are dropped, so the omission is at the
 float32 round-off); with ``tol > 0`` the weakest directions holding at most a fraction ``tol``
 of the cluster's energy are dropped too (image noise, mostly), and the omitted term is bounded
 by ``2 |x_perp| |r_i|`` (Cauchy-Schwarz) and near 0 for noise independent of the training
-points'. ``predict`` goes through :class:`mapping.manifold.stacked_signal.Stack`: every cluster's
+points'. ``predict`` goes through `mapping.manifold.stacked_signal.Stack`: every cluster's
 arrays padded to one size and all bases stacked, so one view is centred, cast and projected
 once (one GEMV) for all K clusters and solved in a few batched numpy calls, not K of each.
 """
@@ -109,8 +109,9 @@ class ClusterModel(DerivedCache):
     Parameters
     ----------
     indices, sigma, alpha, centre, mean, basis, coords, sq_norms, weights, degrees, scale
-        The attributes above, as :meth:`build` computes them from one cluster of the training
-        data (``ManifoldClustering.fit`` builds one model per cluster).
+        The attributes above, as [`build`][mapping.manifold.cluster_model.ClusterModel.build]
+        computes them from one cluster of the training data (``ManifoldClustering.fit`` builds one
+        model per cluster).
 
     Examples
     --------

@@ -1,11 +1,11 @@
 """Clustering along multiple visual manifolds (Grudic & Mulligan), as a scikit-learn estimator.
 
-:class:`ManifoldClustering` implements Section II of the paper: the manifold kernel
-``U = beta (I - alpha S)^-1`` (eq. 1, 3), its normalised columns and distances ``D_M``
-(eq. 4-6), outlier vectors (eq. 10, 11) and seeds (eq. 12), recursive bisection maximising
-Omega(2) over (sigma, alpha) (eq. 9) down to ``min_cluster_size``, the combination of the C
-leaves into ``n_clusters``, and the out-of-sample signal F^j(k) of eq. 13 for prediction and
-servoing. The functional cores are the other modules of :mod:`mapping.manifold`; the readings chosen
+[`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering] implements Section II of the
+paper: the manifold kernel ``U = beta (I - alpha S)^-1`` (eq. 1, 3), its normalised columns and
+distances ``D_M`` (eq. 4-6), outlier vectors (eq. 10, 11) and seeds (eq. 12), recursive bisection
+maximising Omega(2) over (sigma, alpha) (eq. 9) down to ``min_cluster_size``, the combination of the
+C leaves into ``n_clusters``, and the out-of-sample signal F^j(k) of eq. 13 for prediction and
+servoing. The functional cores are the other modules of `mapping.manifold`; the readings chosen
 where the paper is ambiguous, and the evidence for them, are the decision records
 ``docs/decisions/001-*`` to ``010-*`` (listed in ``docs/guides/manifold-clustering.md``).
 """

@@ -1,11 +1,11 @@
 """What the bisection and the combination need to know about a set of points, two ways.
 
-:class:`DenseGeometry` holds the node's full squared-distance matrix and gives the exact
-eigenbasis of S (:class:`~mapping.manifold.kernel.SpectralBasis`): the reference path, and the
-one used for every node of a small fit. :class:`GraphGeometry` holds the training points and a
+`DenseGeometry` holds the node's full squared-distance matrix and gives the exact
+eigenbasis of S (`SpectralBasis`): the reference path, and the
+one used for every node of a small fit. `GraphGeometry` holds the training points and a
 symmetrised k-nearest-neighbour graph of them and gives the low-rank basis of
-:mod:`mapping.manifold.lowrank_kernel`; nothing in it is m x m. A node of it with at most
-``dense_below`` points turns into a :class:`DenseGeometry` of its own distances (computed then,
+`mapping.manifold.lowrank_kernel`; nothing in it is m x m. A node of it with at most
+``dense_below`` points turns into a `DenseGeometry` of its own distances (computed then,
 O(m^2 d) for small m), so the deep, small nodes of a large fit are exact.
 """
 
@@ -80,7 +80,7 @@ def _bounds(nn: np.ndarray, diameter: float) -> tuple[float, float]:
 class DenseGeometry:
     """A node given by its squared distances (m, m): the exact path.
 
-    ``coarse``: a sub-node of a graph fit, searched with :func:`coarse_space`.
+    ``coarse``: a sub-node of a graph fit, searched with `coarse_space`.
     """
 
     def __init__(self, sq_dist: np.ndarray, coarse: bool = False) -> None:
@@ -181,17 +181,17 @@ class GraphGeometry:
     X : ndarray of shape (n, d)
         All training points.
     edges : scipy.sparse.csr_matrix of shape (m, m)
-        :func:`knn_edges` restricted to the node's points.
+        `knn_edges` restricted to the node's points.
     indices : ndarray of shape (m,)
         Training indices of the node's points.
     rank : int
-        Eigenpairs of S kept per sigma (:meth:`LowRankBasis.from_edges`).
+        Eigenpairs of S kept per sigma (`LowRankBasis.from_edges`).
     dense_below : int
         Sub-nodes of at most this many points use the exact dense path.
     n_neighbors : int
         k of the graph (the neighbours a new point is joined to by eq. 13's graph models).
     n_jobs : int or None
-        Processes that compute a node's eigenbases (:meth:`prefetch`; joblib's meaning).
+        Processes that compute a node's eigenbases (`prefetch`; joblib's meaning).
     """
 
     def __init__(self, X, edges, indices, rank: int, dense_below: int, n_neighbors: int = 10,
@@ -234,11 +234,11 @@ class GraphGeometry:
     def prefetch(self, sigmas) -> None:
         """Compute the bases at ``sigmas`` not kept yet in ``n_jobs`` processes at once.
 
-        The split search needs its whole grid (:func:`coarse_space`), and each sigma is one
+        The split search needs its whole grid (`coarse_space`), and each sigma is one
         independent eigensolve; together they are half to two thirds of a graph fit's time
         (ARPACK holds the GIL, so threads do not help). Each process runs BLAS on one thread,
         as ``fit`` does, so the bases, and the fit, do not depend on ``n_jobs``. With one job
-        this does nothing: :meth:`basis` computes each sigma when it is asked for.
+        this does nothing: `basis` computes each sigma when it is asked for.
         """
         missing = [s for s in sigmas if s not in self._bases]
         if len(missing) < 2 or effective_n_jobs(self.n_jobs) < 2:
@@ -261,18 +261,18 @@ class GraphGeometry:
         return GraphGeometry(X, E, indices, self.rank, self.dense_below, self.n_neighbors, 1)
 
     def has_extent(self) -> bool:
-        """As :meth:`DenseGeometry.has_extent`; a positive edge decides it without the points."""
+        """As `DenseGeometry.has_extent`; a positive edge decides it without the points."""
         E = self.edges
         if E.data.size and E.data.max() > 0:
             return True
         return bool(self.X is not None and np.ptp(self.X[self.indices], axis=0).max() > 0)
 
     def search_space(self, space):
-        """The (sigma, alpha) search of a graph node: :func:`coarse_space`."""
+        """The (sigma, alpha) search of a graph node: `coarse_space`."""
         return coarse_space(space)
 
     def sigma_bounds(self) -> tuple[float, float]:
-        """As :func:`sigma_bounds`, with the nearest neighbour and the diameter taken on the
+        """As `sigma_bounds`, with the nearest neighbour and the diameter taken on the
         graph's edges: beyond the longest edge the affinities only approach 1 (a kernel wider
         than the graph has no meaning), so that is the upper bound."""
         nn = np.full(self.size, np.inf)
@@ -309,7 +309,7 @@ def training_geometry(
     Dense: squared distances once, in float64 after centring (a float32 Gram matrix loses
     near-duplicate images entirely); every node and every sigma reuses blocks of it. Sparse:
     the k-NN graph, and nodes of at most ``4 n_components`` points dense; ``n_jobs``
-    processes compute each graph node's eigenbases (:meth:`GraphGeometry.prefetch`).
+    processes compute each graph node's eigenbases (`GraphGeometry.prefetch`).
     """
     n = X.shape[0]
     span = check_span(X)  # refuses a span float64 distances cannot hold
@@ -326,5 +326,5 @@ def training_geometry(
 
 
 def as_geometry(x) -> DenseGeometry | GraphGeometry:
-    """A geometry as is; a square array of squared distances as a :class:`DenseGeometry`."""
+    """A geometry as is; a square array of squared distances as a `DenseGeometry`."""
     return x if isinstance(x, DenseGeometry | GraphGeometry) else DenseGeometry(np.asarray(x))

@@ -1,9 +1,8 @@
 """eq. 13 (Grudic & Mulligan, Section II-F/G) for a large cluster of a k-NN graph fit.
 
-The scalable path's counterpart of :class:`~mapping.manifold.cluster_model.ClusterModel`: nothing in
-it is m x m. The cluster's kernel is the one its (sigma_j, alpha_j) were chosen on: the k-NN
-graph restricted to the cluster and the low-rank inverse of
-:class:`~mapping.manifold.lowrank_kernel.LowRankBasis`,
+The scalable path's counterpart of [`ClusterModel`][mapping.manifold.cluster_model.ClusterModel]:
+nothing in it is m x m. The cluster's kernel is the one its (sigma_j, alpha_j) were chosen on: the
+k-NN graph restricted to the cluster and the low-rank inverse of `LowRankBasis`,
 
     H = (I - alpha S)^-1 ~ Q diag(g - e_col) Q^T + diag(e),  g = 1 / (1 - alpha lam),
 
@@ -59,23 +58,24 @@ class GraphClusterModel(DerivedCache):
         Their squared norms.
     vectors, values, col_rest, point_rest : ndarray
         Q (m, r), lam (r,), and the mean left-out eigenvalue of each column's and each
-        point's component (:class:`~mapping.manifold.lowrank_kernel.LowRankBasis`).
+        point's component (`LowRankBasis`).
     degrees : ndarray of shape (m,)
         Degrees of the cluster's graph at sigma_j.
     scale : float
         ``|beta H e_centre|``, eq. 4's column norm, the divisor of ``predict``'s F.
 
     Once ``predict`` has projected a query, ``points`` is a row block (a view, the same values)
-    of the :class:`~mapping.manifold.stacked_signal.Projection` of all the clusters' points.
+    of the `Projection` of all the clusters' points.
 
     Parameters
     ----------
     indices, sigma, alpha, centre, n_neighbors, mean, points, sq_norms
         The attributes above.
     vectors, values, col_rest, point_rest, degrees, scale
-        The attributes above. All are as :meth:`build` computes them from a cluster's graph
-        and its low-rank basis (``ManifoldClustering.fit`` with ``kernel="sparse"`` builds
-        them).
+        The attributes above. All are as
+        [`build`][mapping.manifold.graph_cluster_model.GraphClusterModel.build] computes them from a
+        cluster's graph and its low-rank basis (``ManifoldClustering.fit`` with ``kernel="sparse"``
+        builds them).
 
     Examples
     --------
@@ -118,7 +118,8 @@ class GraphClusterModel(DerivedCache):
         object.__setattr__(self, "_stacks", {})
 
     def validate(self) -> dict[str, int]:
-        """As :meth:`ClusterModel.validate`: sizes ``m``, ``d`` and ``r`` (eigenpairs)."""
+        """As [`ClusterModel.validate`][mapping.manifold.cluster_model.ClusterModel.validate]: sizes
+        ``m``, ``d`` and ``r`` (eigenpairs)."""
         sizes = check_layout(self, {
             "indices": ("m",), "mean": ("d",), "points": ("m", "d"), "sq_norms": ("m",),
             "vectors": ("m", "r"), "values": ("r",), "col_rest": ("r",),
@@ -224,10 +225,12 @@ class GraphClusterModel(DerivedCache):
 def cluster_model(X, geometry, idx, sigma, alpha, predict_alpha, dtype, tol):
     """The eq. 13 model of one cluster and its points' O_d^j (eq. 11) in its own kernel.
 
-    Every cluster of a graph fit gets a :class:`GraphClusterModel` on the graph restricted to
-    it (its sigma_j was chosen on the graph kernel), built from the same eigenbasis as its
-    O_d^j; a dense fit's clusters the exact :class:`~mapping.manifold.cluster_model.ClusterModel`
-    of their distances. Returns ``(model, o_j)``.
+    Every cluster of a graph fit gets a
+    [`GraphClusterModel`][mapping.manifold.graph_cluster_model.GraphClusterModel] on the graph
+    restricted to it (its sigma_j was chosen on the graph kernel), built from the same eigenbasis as
+    its O_d^j; a dense fit's clusters the exact
+    [`ClusterModel`][mapping.manifold.cluster_model.ClusterModel] of their distances. Returns
+    ``(model, o_j)``.
     """
     if isinstance(geometry, GraphGeometry):
         sub = geometry.node(idx)
@@ -252,7 +255,7 @@ def model_scores(models, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np
     every sigma well above the edge lengths gives nearly the same kernel) would reach queries
     from other manifolds. Rows go in blocks: O(block n) memory, not O(k n). Each block is
     centred, cast and projected once for all clusters (one GEMV over the stacked points of
-    :class:`~mapping.manifold.stacked_signal.Projection`), not once per cluster.
+    `Projection`), not once per cluster.
     """
     k = X.shape[0]
     f = np.empty((k, len(models)))

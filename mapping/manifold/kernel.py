@@ -2,9 +2,9 @@
 
 Two ways to the same quantities:
 
-* closed form, for tests and small problems: :func:`normalized_affinity`, :func:`manifold_kernel`
-  (eq. 1, 3 through ``numpy.linalg.inv``), :func:`manifold_distances` (eq. 4-6);
-* the fast path, :class:`SpectralBasis`: one symmetric eigendecomposition ``S = Q diag(lam) Q^T``
+* closed form, for tests and small problems: `normalized_affinity`, `manifold_kernel`
+  (eq. 1, 3 through ``numpy.linalg.inv``), `manifold_distances` (eq. 4-6);
+* the fast path, `SpectralBasis`: one symmetric eigendecomposition ``S = Q diag(lam) Q^T``
   per sigma gives ``(I - alpha S)^-1 = Q diag(1 / (1 - alpha lam)) Q^T`` for every alpha, and all
   the sums of ``D_M`` entries that eq. 9-12 need are then matrix-vector products, O(m^2) per
   alpha instead of O(m^3).
@@ -172,7 +172,7 @@ class SpectralBasis:
 def unit_outliers(basis, g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """eq. 10 without forming D_M: ``O_d[i] = mean_j (1 - v_i . v_j) = 1 - v_i . (sum_j v_j) / m``.
 
-    ``basis`` is a :class:`SpectralBasis` or a ``mapping.manifold.lowrank_kernel.LowRankBasis`` and
+    ``basis`` is a `SpectralBasis` or a ``mapping.manifold.lowrank_kernel.LowRankBasis`` and
     g its gains at a batch of alphas. Returns ``1 / |u_i|`` (m, A), the coordinates of
     ``w = 1 / |u|`` (for sums of unit columns) and O_d (m, A).
     """

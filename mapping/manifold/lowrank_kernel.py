@@ -1,7 +1,7 @@
 """The manifold kernel of eq. 1-12 on a sparse k-nearest-neighbour graph, from a few eigenpairs.
 
-For large nodes :class:`LowRankBasis` stands in for :class:`~mapping.manifold.kernel.
-SpectralBasis`. The affinity W keeps only the edges of a symmetrised k-nearest-neighbour graph
+For large nodes `LowRankBasis` stands in for `SpectralBasis`. The affinity W keeps only the
+edges of a symmetrised k-nearest-neighbour graph
 (every other affinity is set to 0, as the Gaussian's own underflow does far away), S is sparse,
 and per connected component c only the top k_c eigenpairs of S are computed (ARPACK in
 shift-invert mode about 1, which converges in a few iterations where plain Lanczos crawls: the
@@ -35,7 +35,7 @@ from mapping.distances import TINY
 _SHIFT = 1.0 + 1e-3
 # Components up to this size are decomposed densely when ARPACK does not converge.
 _DENSE_FALLBACK = 3000
-# Above this many groups, :meth:`LowRankBasis.group_gram` uses sparse membership products.
+# Above this many groups, `LowRankBasis.group_gram` uses sparse membership products.
 _FEW_GROUPS = 16
 
 
@@ -88,8 +88,8 @@ class LowRankGains:
 class LowRankBasis:
     """Kept eigenpairs of a sparse S and the mean of the left-out eigenvalues per component.
 
-    Same methods as :class:`~mapping.manifold.kernel.SpectralBasis`, so that
-    :func:`mapping.manifold.split.split_scores` runs on either; "coordinates" of a weight
+    Same methods as `SpectralBasis`, so that
+    `mapping.manifold.split.split_scores` runs on either; "coordinates" of a weight
     vector w are ``[Q^T w; w]`` (shape (r + m, A)), linear in w as the split needs.
 
     Attributes

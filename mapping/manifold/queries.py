@@ -1,9 +1,10 @@
-"""New views on a fitted :class:`~mapping.manifold.ManifoldClustering`: eq. 13 (Section II-F/G).
+"""New views on a fitted [`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering]: eq.
+13 (Section II-F/G).
 
 ``predict`` and ``predict_proba`` assign views by ``argmax_j F^j(k)``; ``signal`` and
 ``signals`` give F^j(k) toward a stored view, the signal a robot servoes by. The per-cluster
-models they read (``_models``, built in ``fit``) are in :mod:`mapping.manifold.cluster_model`
-(dense path) and :mod:`mapping.manifold.graph_cluster_model` (k-NN graph path).
+models they read (``_models``, built in ``fit``) are in `mapping.manifold.cluster_model`
+(dense path) and `mapping.manifold.graph_cluster_model` (k-NN graph path).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ class ManifoldQueries:
 
     def _check_fitted_state(self) -> None:
         """The state the queries read, as ``fit`` leaves it (an estimator read from a file,
-        :mod:`mapping.persistence`): labels, centres, per-cluster sigma and alpha, and one
+        `mapping.persistence`): labels, centres, per-cluster sigma and alpha, and one
         valid cluster model per cluster on the points of its label. Raises ValueError."""
         labels, models = getattr(self, "labels_", None), getattr(self, "_models", None)
         if not (isinstance(labels, np.ndarray) and labels.ndim == 1 and labels.size
@@ -112,9 +113,9 @@ class ManifoldQueries:
     def predict_proba(self, X: ArrayLike) -> np.ndarray:
         """Probability that each point lies on each cluster's manifold.
 
-        The normalised F^j(k) of :meth:`predict` divided by their sum over clusters, so rows sum
+        The normalised F^j(k) of `predict` divided by their sum over clusters, so rows sum
         to 1 and the argmax is ``predict``. Rows where every F^j is 0 are one-hot on the
-        fallback cluster of :meth:`predict`.
+        fallback cluster of `predict`.
 
         Parameters
         ----------
@@ -174,7 +175,7 @@ class ManifoldQueries:
         return self.signals(X, [target])[:, 0]
 
     def signals(self, X: ArrayLike, targets: ArrayLike) -> np.ndarray:
-        """:meth:`signal` (eq. 13) toward each of several training points, each on its own
+        """`signal` (eq. 13) toward each of several training points, each on its own
         cluster ``j = labels_[t]``, with the same numbers. A view's distances to a cluster's
         points (the costly part: one projection of the whole view) are computed once per
         cluster, not once per target: what a servo comparing waypoints needs each step.

@@ -1,8 +1,8 @@
 """The two solvers of eq. 13 (Grudic & Mulligan, Section II-F/G) behind ``ClusterModel.signal``.
 
-:func:`sparse_signal` is the Woodbury form on the support of the query's affinities derived in
-:mod:`mapping.manifold.cluster_model`'s docstring (an |S| x |S| system per row, exact);
-:func:`dense_signal` solves the m x m system A of the Schur complement directly, for the rare
+`sparse_signal` is the Woodbury form on the support of the query's affinities derived in
+`mapping.manifold.cluster_model`'s docstring (an |S| x |S| system per row, exact);
+`dense_signal` solves the m x m system A of the Schur complement directly, for the rare
 cluster whose fit-time inverse H does not exist. Both return ``F^j(k)`` with
 ``beta = 1 - alpha`` and exactly 0 for a row whose affinities all underflow.
 """

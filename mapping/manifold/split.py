@@ -2,7 +2,7 @@
 
 For a node of m points and a candidate (sigma, alpha) the split is: seeds by eq. 10 and 12, the
 assignment of eq. 8 (``argmax_j V[i, l_j]``), and the score of eq. 9. With the eigenbasis of S
-at sigma (:class:`~mapping.manifold.kernel.SpectralBasis`) all of that is O(m^2) per alpha
+at sigma (`SpectralBasis`) all of that is O(m^2) per alpha
 and vectorised over a grid of alphas, because every mean of ``D_M`` entries is an inner product
 of sums of unit columns ``v_i``:
 
@@ -51,7 +51,7 @@ class SearchSpace:
     Attributes
     ----------
     n_sigmas : int
-        Grid points over sigma, log-spaced between the bounds of :func:`sigma_bounds`.
+        Grid points over sigma, log-spaced between the bounds of `sigma_bounds`.
     t_bounds : tuple of float
         Bounds of ``t = -log10(1 - alpha)``; (0.3, 4) is alpha in [0.5, 0.9999].
     n_alphas : int
@@ -61,7 +61,7 @@ class SearchSpace:
     refine_sigma : bool
         With ``refine``, refine sigma too (False: alpha only, at the grid's best sigma).
     omega_sign, seed_rule : str
-        Readings of eq. 9 and eq. 12 (see :data:`OMEGA_SIGNS`, :data:`SEED_RULES`).
+        Readings of eq. 9 and eq. 12 (see `OMEGA_SIGNS`, `SEED_RULES`).
     """
 
     n_sigmas: int = 16
@@ -246,7 +246,7 @@ class _NodeSearch:
 
 
 def _first_best(values: np.ndarray) -> np.ndarray:
-    """Per column, the lowest row index whose value is within :data:`TIE` of the column's
+    """Per column, the lowest row index whose value is within `TIE` of the column's
     maximum (``argmax`` with near-ties broken by index, not by round-off)."""
     return np.argmax(values >= values.max(axis=0) - TIE, axis=0)
 
@@ -275,11 +275,11 @@ def best_split(
 
 
 def best_splits(nodes: list, min_size: int, space: SearchSpace, n_jobs: int | None = None):
-    """:func:`best_split` of each node (a geometry), the nodes spread over ``n_jobs``
+    """`best_split` of each node (a geometry), the nodes spread over ``n_jobs``
     processes (joblib's meaning: None is one unless inside ``joblib.parallel_config``).
 
     A single node is searched here, its grid's eigensolves spread over the processes instead
-    (:meth:`~mapping.manifold.geometry.GraphGeometry.prefetch`): the root's bases stay with
+    (`prefetch`): the root's bases stay with
     it for the combination and eq. 10. Each process runs BLAS on one thread, as ``fit``
     does, so the splits do not depend on ``n_jobs``.
     """

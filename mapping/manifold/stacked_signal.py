@@ -1,11 +1,12 @@
 """eq. 13 (Section II-F/G) for every cluster at once, each query projected once for all of them.
 
-:class:`Projection` keeps what the distances of all K clusters need of a query in one matrix:
+`Projection` keeps what the distances of all K clusters need of a query in one matrix:
 
 * ``mu``, the training mean (the size-weighted mean of the cluster means), float64;
 * ``matrix`` (R, d) in the storage dtype: every cluster's rows V_j (the basis B_j of a
-  :class:`~mapping.manifold.cluster_model.ClusterModel`, the centred points P_j of a
-  :class:`~mapping.manifold.graph_cluster_model.GraphClusterModel`; R = sum of their counts);
+  [`ClusterModel`][mapping.manifold.cluster_model.ClusterModel], the centred points P_j of a
+  [`GraphClusterModel`][mapping.manifold.graph_cluster_model.GraphClusterModel]; R = sum of their
+  counts);
 * ``shifts`` (K, d), float64: the shift directions ``delta_j = mean_j - mu``;
 * ``offsets``: ``V_j delta_j`` (float64, from the stored V_j), and ``|delta_j|^2``.
 
@@ -34,24 +35,24 @@ Two things cut what a view reads further (the target: <= 2 ms at 320x240x3):
 
 * **Unreachable clusters are skipped.** ``q`` comes first (K rows of d); a cluster whose
   nearest possible point, ``(sqrt(q_j) - radius_j)^2``, lies beyond exp's underflow at its
-  sigma (:meth:`Stack.reachable`) has every affinity exactly 0 and F^j exactly 0, so its
+  sigma (`Stack.reachable`) has every affinity exactly 0 and F^j exactly 0, so its
   rows of ``matrix`` are not read. Exact: the same F, the same labels. On the benchmark's
   held-out views a view reaches 2-3 of the 8 clusters. ``predict``'s fallback (every F 0)
   needs every cluster's nearest point, and recomputes those rows unpruned.
-* **Two BLAS threads where a core is free** (:func:`projection_threads`): two cores stream
+* **Two BLAS threads where a core is free** (`projection_threads`): two cores stream
   twice the bytes of one, but OpenBLAS's threads spin-wait for a descheduled partner, so a
-  busy machine (:func:`mapping.validation.busy`) keeps one.
+  busy machine (`mapping.validation.busy`) keeps one.
 
-:class:`Stack` (``predict`` of a dense fit) pads every ``ClusterModel``'s arrays to one size,
+`Stack` (``predict`` of a dense fit) pads every ``ClusterModel``'s arrays to one size,
 so that the K eq. 13 solves of a batch are a few batched numpy calls; ``model_scores`` of a
-graph fit uses the :class:`Projection` of its models' points.
+graph fit uses the `Projection` of its models' points.
 
 Memory: when the projection is built the models' rows become row blocks (views, the same
 values) of ``matrix``, so it adds only the K shifts (K d float64), mu (d float64) and R
 float64 offsets to what the models hold; the stack adds the padded coordinates
 (K r n) and inverses (K n^2) of the solves. Both are derived, never saved
-(:mod:`mapping.persistence` saves the models' fields) nor pickled or deep-copied
-(:class:`DerivedCache`); a loaded or copied model builds them again on its first ``predict``.
+(`mapping.persistence` saves the models' fields) nor pickled or deep-copied
+(`DerivedCache`); a loaded or copied model builds them again on its first ``predict``.
 """
 
 from __future__ import annotations
@@ -249,9 +250,9 @@ class Stack:
     def sq_distances(self, X: np.ndarray, prune: bool = False) -> np.ndarray:
         """``ClusterModel.sq_distances`` of every cluster, (K, k, n), padding at infinity.
 
-        The query is projected once for all clusters (:class:`Projection`); the same
+        The query is projected once for all clusters (`Projection`); the same
         distances as each cluster's own up to the round-off of the projection. With
-        ``prune``, a cluster the query cannot reach (:meth:`reachable`) is not projected on
+        ``prune``, a cluster the query cannot reach (`reachable`) is not projected on
         and its distances are infinite (every affinity 0, as computed they underflow to 0).
         """
         p, q = self.projection(X, self.reachable if prune else None)
@@ -269,7 +270,7 @@ class Stack:
         """F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``,
         and ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K) for the rows where every F is 0
         (other rows: infinite for the clusters they cannot reach, which were not projected
-        on: :meth:`reachable`; a query near one or two of the clusters reads their bases
+        on: `reachable`; a query near one or two of the clusters reads their bases
         only, a third of the bytes on the benchmark's images)."""
         f, nearest = self._scores(X, normalize, prune=True)
         lost = np.flatnonzero(~(f.max(axis=1) > 0))
@@ -299,7 +300,7 @@ class Stack:
 
 class DerivedCache:
     """Base of the frozen per-cluster records: their ``_stacks`` dict (set on construction)
-    keeps the :class:`Stack` / :class:`Projection` built from them on the first ``predict``.
+    keeps the `Stack` / `Projection` built from them on the first ``predict``.
     Pickles and deep copies leave it out (a copy builds its own), as saved files do."""
 
     def __getstate__(self) -> dict:
@@ -314,7 +315,7 @@ class DerivedCache:
 
 def projection_threads(rows: int, matrix: np.ndarray):
     """BLAS threads for projecting ``rows`` queries on ``matrix``: for a few rows and a large
-    matrix (a memory-bound GEMV; ``_FEW_ROWS``) one on a :func:`~mapping.validation.busy`
+    matrix (a memory-bound GEMV; ``_FEW_ROWS``) one on a `busy`
     machine, where a second would spin, and the default where a core is free (idle, 2 cores:
     ``predict`` of one 320x240x3 view 3.6 -> 2.6 ms); the default otherwise (a product of
     many rows is compute-bound, as in ``fit``; a small one is not worth the switch)."""

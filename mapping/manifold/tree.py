@@ -1,11 +1,11 @@
 """Recursive bisection (Section II-C) and the combination of its C leaves into K clusters.
 
-The tree: every node of at least ``2 Q`` points is split by :func:`best_split` (eq. 9); nodes
+The tree: every node of at least ``2 Q`` points is split by `best_split` (eq. 9); nodes
 smaller than that are leaves, so every leaf has at least Q points.
 
 The combination ("the C clusters are finally combined to give the best K clusters that each
 have maximal values of Omega(2)"), by default the spectral cut of the leaves' kernel affinity
-(``mapping.manifold.spectral_combine``). The pairwise rule :func:`separability_merge`:
+(``mapping.manifold.spectral_combine``). The pairwise rule `separability_merge`:
 repeatedly merge the two adjacent groups that are least separable as two manifolds, where
 separability is eq. 9's spread ``E[D^12] - (E[D^11] + E[D^22]) / 2`` maximised over (sigma,
 alpha) on the pair's own
@@ -75,7 +75,7 @@ def build_tree(sq_dist, min_size: int, space: SearchSpace, n_jobs: int | None = 
 
     ``sq_dist``: the (n, n) squared distances or a geometry (``mapping.manifold.geometry``).
     Level by level: the nodes of one depth are independent, and ``n_jobs`` processes search
-    them at once (:func:`~mapping.manifold.split.best_splits`); the tree is the same for any
+    them at once (`best_splits`); the tree is the same for any
     ``n_jobs``.
     """
     geometry = as_geometry(sq_dist)
@@ -198,7 +198,7 @@ def combine_leaves(
     space : SearchSpace
         Grid of (sigma, alpha) to score groups on.
     groups : list of list of int, optional
-        A grouping of the leaves decided elsewhere (e.g. :func:`cut_tree`); then only the
+        A grouping of the leaves decided elsewhere (e.g. `cut_tree`); then only the
         (sigma, alpha) of each group are chosen.
     scores : GroupScores, optional
         The leaves' block sums, if already computed (the merge on a graph computes them).
@@ -346,12 +346,12 @@ def separability_merge(
 def shared_kernel_merge(
     geometry, leaves: list[np.ndarray], n_clusters: int, scores: GroupScores
 ) -> list[list[int]]:
-    """:func:`separability_merge` with every pair scored in the kernel of all the points.
+    """`separability_merge` with every pair scored in the kernel of all the points.
 
     The scalable path's form: a pair's spread ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` is read
     from the C x C block sums of ``scores`` (one eigensolve per sigma for the whole fit, the
     ones the combination needs anyway), instead of one search with its own eigensolves per
-    candidate pair. Merging two groups adds their rows and columns, as in :func:`_merge`.
+    candidate pair. Merging two groups adds their rows and columns, as in `_merge`.
     """
     groups = [[c] for c in range(len(leaves))]
     Mg = scores.M.copy()
@@ -384,7 +384,7 @@ def shared_kernel_merge(
 
 def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpace, rule: str):
     """The leaves of ``root`` combined into ``n_clusters`` groups by ``rule`` (one of
-    :data:`COMBINE_RULES`; ambiguity 4), with each group's (sigma, alpha, omega)."""
+    `COMBINE_RULES`; ambiguity 4), with each group's (sigma, alpha, omega)."""
     leaves = [leaf.indices for leaf in root.leaves()]
     if n_clusters == 1:
         one = (np.array([root.sigma]), np.array([root.alpha]), np.array([root.omega]))

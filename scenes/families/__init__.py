@@ -3,10 +3,10 @@
 ``hallway:17`` is a world of the indoor family (corridors), ``lawn:3`` one of the outdoor
 family (lawns, driveways, paths). Each is a tree of straight stretches joined by bends, T, Y
 and X junctions, one to three junctions deep, with lengths, widths and exit angles drawn from
-the family's stated ranges (:data:`~scenes.families.draw.FAMILY_SPECS`) and every stretch a
+the family's stated ranges (`FAMILY_SPECS`) and every stretch a
 manifold with its own look from the family's palette. Seed 0 is the family's canonical world.
-:func:`scenes.build_world` builds any of them; :mod:`scenes.families.splits` says which seeds
-are for training, tuning and testing.
+[`scenes.build_world`][scenes.registry.build_world] builds any of them; `scenes.families.splits`
+says which seeds are for training, tuning and testing.
 """
 
 from scenes.families.build import build_family_world, family_layout

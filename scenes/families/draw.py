@@ -1,10 +1,10 @@
 """Drawing a floor plan from a seed: the family's ranges, the tree of stretches, the checks.
 
-A family (:class:`FamilySpec`) states the ranges every generated world is drawn from: the
+A family (`FamilySpec`) states the ranges every generated world is drawn from: the
 stretches' width and lengths, how deep the tree goes, which junctions it uses and how far apart
-their exits must be. :func:`draw_layout` draws one :class:`~scenes.families.layout.Layout` from a
+their exits must be. `draw_layout` draws one `Layout` from a
 ``numpy.random.Generator`` and redraws, from the same generator, until the plan passes
-:func:`layout_problems` (no two corridors closer than the family's clearance, every junction a
+`layout_problems` (no two corridors closer than the family's clearance, every junction a
 valid polygon), so a seed always gives the same valid plan.
 
 Junctions, as MetaDrive's blocks: a *bend* (2 exits: the corridor turns), a *T* (3 exits: on
@@ -42,7 +42,7 @@ class FamilySpec:
     depth : (int, int)
         Junctions from the main stretch to the deepest leaf, inclusive range.
     kinds : dict
-        Weight of each of :data:`JUNCTION_KINDS`.
+        Weight of each of `JUNCTION_KINDS`.
     jitter : float
         Largest deviation of an exit from its nominal direction.
     min_gap : float
@@ -55,7 +55,7 @@ class FamilySpec:
         Least distance between two pieces of floor that do not meet (walls, fences and the
         buildings behind them stand in between).
     route_start, route_end_margin, turn_in : float
-        The teleop routes' (see :class:`~scenes.families.layout.Layout`).
+        The teleop routes' (see `Layout`).
     """
 
     width: tuple[float, float]
@@ -221,7 +221,7 @@ def draw_layout(family: str, rng: np.random.Generator, world: str) -> Layout:
     Raises
     ------
     RuntimeError
-        If no sound plan was drawn in :data:`MAX_REDRAWS` tries (never seen on the tested
+        If no sound plan was drawn in `MAX_REDRAWS` tries (never seen on the tested
         seeds; the message names the family and the last problem).
     """
     spec = FAMILY_SPECS[family]

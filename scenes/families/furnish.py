@@ -112,7 +112,7 @@ def add_walls(
 ) -> None:
     """A box along every wall of ``layout``, just outside the floor, in its stretch's
     material; walls meet at outer corners and stop short of sharp inner ones
-    (:class:`~scenes.families.layout.Wall`)."""
+    (`Wall`)."""
     for k, wall in enumerate(layout.walls()):
         centre, half_length, yaw = wall.box(thickness)
         scene.box(

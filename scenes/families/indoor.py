@@ -1,6 +1,6 @@
 """The indoor family (``hallway:SEED``): corridors joined by bends, T, Y and X junctions.
 
-Each corridor wears a look of :data:`~scenes.families.palette.INDOOR_LOOKS` (walls, floor,
+Each corridor wears a look of `INDOOR_LOOKS` (walls, floor,
 light colour) and its furnishing: offices (doors and posters), a library (shelves and a
 bench), a gallery (posters and potted plants) or a service corridor (lockers and fire
 extinguishers). Closed ends carry a door, the main corridor's a window. Walls reach the
@@ -157,7 +157,7 @@ def _shared_materials(scene: SceneBuilder, app: Appearance) -> None:
 
 
 def build_indoor(name: str, layout: Layout, app: Appearance, rng: np.random.Generator):
-    """The scene of an indoor world: ``(scene, bounds)`` for :class:`~scenes.world.World`.
+    """The scene of an indoor world: ``(scene, bounds)`` for [`World`][scenes.world.World].
 
     ``rng`` draws the looks and the furnishing (part of the world, like its layout); ``app``
     the domain randomisation on top (lights, colours, clutter shift).

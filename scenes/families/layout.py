@@ -1,6 +1,6 @@
 """The floor plan of a generated world: a tree of straight stretches joined by junctions.
 
-A :class:`Layout` holds the stretches (one manifold each), drawn by :mod:`scenes.families.draw`,
+A `Layout` holds the stretches (one manifold each), drawn by `scenes.families.draw`,
 and computes everything geometric from them: the hub polygon of every junction, each stretch's
 rectangle of floor, the manifold regions (a stretch's rectangle plus its sector of each hub it
 meets), the walls along the free space's boundary and one teleop route per leaf. Nothing here

@@ -31,7 +31,7 @@ class WorldName:
     Attributes
     ----------
     family : str
-        One of :data:`FAMILIES`.
+        One of `FAMILIES`.
     seed : int
         In ``[0, MAX_SEED]``; 0 is the canonical world.
 
@@ -62,7 +62,7 @@ class WorldName:
 
 
 def parse_world_name(name) -> WorldName:
-    """The :class:`WorldName` of ``name``; ValueError naming the accepted forms otherwise."""
+    """The `WorldName` of ``name``; ValueError naming the accepted forms otherwise."""
     if isinstance(name, WorldName):
         return name
     match = _SPELLING.match(name) if isinstance(name, str) else None

@@ -1,7 +1,7 @@
 """The outdoor family (``lawn:SEED``): lawns, driveways, paths and sidewalks joined at bends,
 T, Y and X junctions, between fences and low stone walls, under the sun.
 
-Each area wears a look of :data:`~scenes.families.palette.OUTDOOR_LOOKS` (its ground and its
+Each area wears a look of `OUTDOOR_LOOKS` (its ground and its
 boundary) and its furnishing: a garden (trees and bushes), a street (a parked car, a mailbox)
 or an orchard (two rows of trees). A building (house, garage or shed) stands behind every
 closed end, a fence behind the start. Trees and bushes are trimesh meshes with primitive
@@ -133,7 +133,7 @@ def _building(scene: SceneBuilder, layout: Layout, i: int, rng: np.random.Genera
 
 
 def build_outdoor(name: str, layout: Layout, app: Appearance, rng: np.random.Generator):
-    """The scene of an outdoor world: ``(scene, bounds)`` for :class:`~scenes.world.World`.
+    """The scene of an outdoor world: ``(scene, bounds)`` for [`World`][scenes.world.World].
 
     ``rng`` draws the looks, furnishing and buildings (part of the world, like its layout);
     ``app`` the domain randomisation on top (sun, colours, clutter shift).

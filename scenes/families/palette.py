@@ -26,14 +26,14 @@ class Look:
     ----------
     name : str
     wall : (str, tuple)
-        A texture of :mod:`scenes.textures` and its colours (walls, or fences outdoors).
+        A texture of `scenes.textures` and its colours (walls, or fences outdoors).
     floor : (str, tuple)
         The floor's (the ground's outdoors) texture and colours.
     light : tuple of float
         The colour of its light (indoors).
     furnishing : str
-        What stands along its sides (:mod:`scenes.families.indoor`,
-        :mod:`scenes.families.outdoor`).
+        What stands along its sides (`scenes.families.indoor`,
+        `scenes.families.outdoor`).
     """
 
     name: str

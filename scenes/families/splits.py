@@ -5,8 +5,8 @@ Methods are built and tuned on ``train`` and ``dev`` worlds; their numbers are r
 generator, makes every held-out number incomparable (the version below says which).
 
 Two worlds can differ only below what a method could tell apart (a few centimetres of
-length, a degree of angle). :func:`structure` quantises a floor plan, and
-:func:`held_out_worlds` skips test seeds whose structure also occurs among the train seeds
+length, a degree of angle). `structure` quantises a floor plan, and
+`held_out_worlds` skips test seeds whose structure also occurs among the train seeds
 (Procgen's mazes repeated 20% of their test levels in training);
 ``python -m scripts.world_splits`` counts them over the whole train range.
 """
@@ -197,8 +197,8 @@ def structure(layout: Layout) -> tuple:
 
 def held_out_worlds(family: str, count: int, train_structures: set | None = None) -> list[str]:
     """The first ``count`` test worlds of ``family`` whose structure is not a training
-    world's: those listed in :data:`REPEATED_TEST_SEEDS` are skipped, or, given
-    ``train_structures`` (a set of :func:`structure`), those whose structure is in it."""
+    world's: those listed in `REPEATED_TEST_SEEDS` are skipped, or, given
+    ``train_structures`` (a set of `structure`), those whose structure is in it."""
     from scenes.families.build import family_layout
 
     repeated = REPEATED_TEST_SEEDS[family] if train_structures is None else {}

@@ -168,7 +168,7 @@ def score_submaps(
 
 
 def submap_errors(scans, truth, poses, groups, labels, rng, *, hold_every=5, align=True):
-    """``(errors, aligned training poses, training indices)`` of :func:`score_submaps`:
+    """``(errors, aligned training poses, training indices)`` of `score_submaps`:
     each held-out scan's translation and heading error (``inf``: ICP did not converge)."""
     train, held, anchor = split(groups, hold_every)
     labels = np.asarray(labels)

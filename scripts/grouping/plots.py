@@ -185,7 +185,7 @@ def write_grouping_figures(
 
 
 def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
-    """:func:`write_grouping_figures` of one grouping of a ``sim.runs.Runs``, over the map of
+    """`write_grouping_figures` of one grouping of a ``sim.runs.Runs``, over the map of
     the true manifolds for a simulated world of ours (none for an imported dataset)."""
     draw_map = _map_background(runs.world) if runs.has_ground_truth else None
     caption = "; background: true manifolds" if draw_map is not None else ""

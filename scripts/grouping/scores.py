@@ -66,7 +66,7 @@ def meets_targets(score: dict) -> bool:
 
 
 def unscored(frames: int, labels: np.ndarray) -> dict:
-    """The keys of :func:`score_groups` for groups that cannot be scored (no ground truth):
+    """The keys of `score_groups` for groups that cannot be scored (no ground truth):
     the counts, and None for every score."""
     keys = ("purity", "ari", "max_groups_per_manifold", "max_groups_touching")
     return {

@@ -7,7 +7,7 @@ A cell collects the world's dataset (one teleop drive per leaf manifold), then s
   scikit-learn's k-NN spectral clustering (k = 10), both told K = the world's manifold count;
 * **observation grouping** of the laser scans (``ObservationGraphPartitioner`` with odometry
   and ICP, every drive in one graph): purity and groups per manifold;
-* **servoing** (:mod:`scripts.heldout.servo_cell`): a servo map built from the same dataset,
+* **servoing** (`scripts.heldout.servo_cell`): a servo map built from the same dataset,
   then the protocol's test episodes for both controllers and both start tiers.
 
 A cell is a function of (world, seed, frames, servo episodes) alone and is cached as JSON, so
@@ -173,7 +173,7 @@ def _cached(path: Path) -> dict:
 
 def manifold_errors(cells: list[dict], method: str) -> np.ndarray:
     """Test error of ``method`` per cell (cells without the manifold task, and cells where the
-    method refused the data, are left out: :func:`manifold_refusals` counts those)."""
+    method refused the data, are left out: `manifold_refusals` counts those)."""
     out = []
     for c in cells:
         rows = c.get("tasks", {}).get("manifold", {}).get("rows", [])

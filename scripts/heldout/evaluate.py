@@ -3,12 +3,12 @@ world, with the gap.
 
     topomap heldout --worlds 20 --out out/heldout [--jobs 2] [--seeds 0] [--backend ray]
 
-runs one cell (:mod:`scripts.heldout.cells`) per world and seed: the family's first ``--worlds``
-held-out test worlds (:func:`scenes.families.splits.held_out_worlds`) and its canonical world,
+runs one cell (`scripts.heldout.cells`) per world and seed: the family's first ``--worlds``
+held-out test worlds (`scenes.families.splits.held_out_worlds`) and its canonical world,
 on the sweep's backends (``scripts.sweep.backends``: local processes, or Ray actors on this
 machine or a cluster), one task per world and seed. Cells are cached, so a second call with
 more worlds computes only the new ones, and a stopped one resumes. The summary
-(:mod:`scripts.heldout.summary`) is written as ``heldout.json`` and ``heldout.md``.
+(`scripts.heldout.summary`) is written as ``heldout.json`` and ``heldout.md``.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def plan(families, count: int, seeds) -> list[tuple[str, int]]:
 
 class CellRunner:
     """Runs held-out cells in one sweep worker (``scripts.sweep.backends``): a task is
-    ``(world, seed, episodes)``; the rest of :func:`scripts.heldout.cells.run_cell`'s
+    ``(world, seed, episodes)``; the rest of `scripts.heldout.cells.run_cell`'s
     arguments are the runner's. The process is set to one thread unless ``one_thread`` is
     false (the cells then run in the calling process, whose threads are its own)."""
 
@@ -76,10 +76,10 @@ def evaluate_heldout(
     backend: str = "local",
     address: str | None = None,
 ) -> dict:
-    """Run (or resume) every cell of :func:`plan` on ``backend`` with ``jobs`` workers, then
-    :func:`summarise` them into ``out/heldout.json`` and ``out/heldout.md``; returns the
+    """Run (or resume) every cell of `plan` on ``backend`` with ``jobs`` workers, then
+    `summarise` them into ``out/heldout.json`` and ``out/heldout.md``; returns the
     summary. ``episodes``: servo episodes per controller and start tier in a held-out world
-    (the canonical world gets :data:`CANONICAL_EPISODES` times as many)."""
+    (the canonical world gets `CANONICAL_EPISODES` times as many)."""
     from tqdm.auto import tqdm
 
     from scripts.sweep import open_backend

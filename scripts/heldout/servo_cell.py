@@ -4,7 +4,7 @@ benchmark protocol's test episodes for both controllers and both start tiers.
 Each world's map comes from its own recordings (``servo.maps.build_map``, default settings, K
 the world's manifold count), so nothing of the canonical worlds' maps is reused. The episodes
 are the protocol's (``servo.task.protocol``: seeds from the split and the world, episode ``i``
-on the ``i``-th ordered pair of manifolds), chosen by :func:`spread_by_junctions` so that a few
+on the ``i``-th ordered pair of manifolds), chosen by `spread_by_junctions` so that a few
 episodes per world reach targets 1, 2 and 3 junctions away in turn rather than only the main
 manifold's neighbours (the protocol's first pairs all start on the main manifold). Every
 controller and tier meets the same episodes, so the records can be paired; each keeps the
@@ -43,8 +43,8 @@ def spread_by_junctions(pairs: list[tuple[str, str]], junctions, episodes: int) 
 def servo_task(data, world, episodes: int) -> dict:
     """Run ``episodes`` test episodes per controller and start tier in ``world`` (the built
     ``scenes.World``) on a map built
-    from ``data`` (the cell's dataset), chosen by :func:`spread_by_junctions`; returns the
-    map's size and one record per episode (:data:`KEEP`'s fields, plus ``policy`` and
+    from ``data`` (the cell's dataset), chosen by `spread_by_junctions`; returns the
+    map's size and one record per episode (`KEEP`'s fields, plus ``policy`` and
     ``tier``)."""
     from servo.maps import build_map
     from servo.task import Protocol, manifold_pairs, run_protocol

@@ -2,7 +2,7 @@
 held-out test worlds, with the gap.
 
 * clustering error: mean over worlds with its bootstrap 95% interval, ours paired against
-  scikit-learn's (the same worlds), and the worlds past :data:`ERROR_TARGET`;
+  scikit-learn's (the same worlds), and the worlds past `ERROR_TARGET`;
 * grouping purity and groups per manifold: mean over worlds with its bootstrap interval;
 * servo success per controller and start tier: the rate over every episode of every held-out
   world with its Wilson 95% interval, overall and by the junctions between start and target.

@@ -20,8 +20,8 @@ most ``MAX_VALUE``, or a bool for a ``rate``), ``failure`` the reason the method
 (``servo-eval`` keeps its ``results`` there).
 
 The reader treats a file as untrusted: it is refused before parsing when larger than
-``MAX_BYTES``, never unpickled, and every field is checked; :class:`ResultFileError` names the
-file and the field.
+``MAX_BYTES``, never unpickled, and every field is checked;
+[`ResultFileError`][scripts.leaderboard.files.ResultFileError] names the file and the field.
 """
 
 from __future__ import annotations
@@ -177,8 +177,9 @@ def file_tag(spec: str, params: dict | None) -> str:
 
 
 def read_result(path: str | os.PathLike) -> dict:
-    """The checked result file at ``path``; :class:`ResultFileError` naming the file and the
-    field when it is too large, not JSON, or a field is missing or malformed."""
+    """The checked result file at ``path``;
+    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] naming the file and the field
+    when it is too large, not JSON, or a field is missing or malformed."""
     path = Path(path)
     if not path.is_file():  # a named pipe would block the read, a device never end it
         raise ResultFileError(path, "file", "not a regular file (a folder, a named pipe, a "
@@ -199,7 +200,7 @@ _REQUIRED = ("format", "format_version", "task", "protocol", "split", "metric", 
 
 def check_result(data, path) -> dict:
     """``data`` if it is a well-formed result of this format version, else
-    :class:`ResultFileError` for ``path``."""
+    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] for ``path``."""
 
     def fail(field, problem):
         raise ResultFileError(path, field, problem)

@@ -37,9 +37,9 @@ MIN_EPISODES = 20  # fewer episodes of a rate: it warns that the interval is rou
 
 def load_results(paths) -> list[dict]:
     """The result files among ``paths``: a file is read and checked (refused with
-    :class:`~scripts.leaderboard.files.ResultFileError` when it is no result file); a folder
-    contributes the ``*.json`` files directly in it whose ``format`` is a result file's (other
-    JSON there, such as a protocol's cells, is passed over)."""
+    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] when it is no result file); a
+    folder contributes the ``*.json`` files directly in it whose ``format`` is a result file's
+    (other JSON there, such as a protocol's cells, is passed over)."""
     results = []
     for given in paths:
         given = Path(given)
@@ -264,8 +264,8 @@ def _fmt(value: float, kind: str) -> str:
 
 
 def leaderboard_tables(boards: dict, reference: str | None):
-    """(heading, header, rows of cells) per board of :func:`rank` and group: what the
-    markdown and HTML forms show."""
+    """(heading, header, rows of cells) per board of [`rank`][scripts.leaderboard.ranking.rank] and
+    group: what the markdown and HTML forms show."""
     for (task, protocol, version, split, metric, kind), groups in boards.items():
         for group, rows in groups.items():
             heading = f"{task}: {protocol} v{version}, split {split}, {group} ({metric}, " + (
@@ -300,7 +300,8 @@ def leaderboard_tables(boards: dict, reference: str | None):
 
 
 def leaderboard_markdown(results: list[dict], reference: str | None = None) -> str:
-    """The ranking of :func:`rank` as markdown: a heading and a table per board and group."""
+    """The ranking of [`rank`][scripts.leaderboard.ranking.rank] as markdown: a heading and a table
+    per board and group."""
     boards = rank(results, reference)
     parts = []
     for heading, header, body in leaderboard_tables(boards, reference):

@@ -1,7 +1,7 @@
 """The methods every manifold-clustering table compares, and how one fit is scored.
 
 Ours with default settings, the two label-free baselines a user would pick
-(:mod:`mapping.baselines.label_free`: scikit-learn's kNN-graph spectral clustering with its default
+(`mapping.baselines.label_free`: scikit-learn's kNN-graph spectral clustering with its default
 k and with k chosen by the eigengap; NCut with sigma chosen by the eigengap) and the paper's
 best-sigma NCut, which chooses sigma on the labels it is scored on and is therefore only a
 ceiling, never a competitor. Shared by ``scripts.manifold.protocol`` (datasets) and
@@ -60,8 +60,9 @@ def score_methods(
 
     Returns one dict per method: ``method``, ``train_error`` (clustering error of the fitted
     labels), ``test_error`` (of ``predict(X_test)``; None without a test set), ``seconds`` and
-    the method's chosen scale or leaf count. Errors are :func:`mapping.clustering_error`
-    (Hungarian matching of clusters to labels, as in the paper).
+    the method's chosen scale or leaf count. Errors are
+    [`mapping.clustering_error`][mapping.metrics.clustering_error] (Hungarian matching of clusters
+    to labels, as in the paper).
     """
     rows = []
     for method in methods:
@@ -91,7 +92,7 @@ def seed_error_row(errors, rng: np.random.Generator, **labels) -> dict:
 
 
 def seed_error_table(rows, group: Column, method_header: str, per_seed_header: str) -> Table:
-    """:func:`seed_error_row` rows as a table: the group, the method, the mean with its
+    """`seed_error_row` rows as a table: the group, the method, the mean with its
     interval and the error of every seed (percent)."""
 
     def interval(s: dict) -> str:

@@ -90,7 +90,8 @@ def evaluate_method(
     progress: bool = True,
 ) -> dict:
     """The result file (``scripts.leaderboard``) of ``method`` on every (condition, features,
-    seed) cell: an :class:`OutsideMethod`, or the name of one of ``METHODS``.
+    seed) cell: an [`OutsideMethod`][scripts.leaderboard.outside.OutsideMethod], or the name of one
+    of ``METHODS``.
 
     The split is ``dev`` for the dev seed alone and ``test`` for fresh seeds; the two are not
     mixed in one file (the settings were chosen on the dev seed)."""

@@ -206,7 +206,7 @@ def run_cells(
 
 def _cached_cell(path: Path) -> dict | None:
     """The cell cached at ``path``; None where there is none, and where the file is not a
-    cell (unreadable, damaged or foreign: :func:`_cell_problem`), which is then computed
+    cell (unreadable, damaged or foreign: `_cell_problem`), which is then computed
     again with a warning, as any cache would be."""
     if not path.exists():
         return None

@@ -4,14 +4,14 @@ Usage::
 
     topomap reproduce --data out/dataset --out out/reproduce [--json]
 
-Synthetic (Figures 1-5): the four sets of :mod:`mapping.synthetic`, K = 3, Q = 20, clustered by
-:class:`~mapping.ManifoldClustering`, best-sigma NCut (an oracle: sigma chosen on the labels, as
-the paper did) and self-tuning spectral clustering. Real (Figure 6): every second frame of each
-sequence of the dataset builds the map, the others are the test set, K = 8, Q = 35; the same
-three methods on three feature sets (the paper's raw pixels, HSV colour histograms, laser
-scans). Writes ``results.json``, ``clusters.npz`` (every frame's cluster) and paper-style plots
-of true and predicted label against the point or frame index; ``docs/guides/manifold-clustering.md``
-quotes the numbers.
+Synthetic (Figures 1-5): the four sets of `mapping.synthetic`, K = 3, Q = 20, clustered by
+[`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering], best-sigma NCut (an oracle:
+sigma chosen on the labels, as the paper did) and self-tuning spectral clustering. Real (Figure 6):
+every second frame of each sequence of the dataset builds the map, the others are the test set, K =
+8, Q = 35; the same three methods on three feature sets (the paper's raw pixels, HSV colour
+histograms, laser scans). Writes ``results.json``, ``clusters.npz`` (every frame's cluster) and
+paper-style plots of true and predicted label against the point or frame index;
+``docs/guides/manifold-clustering.md`` quotes the numbers.
 
 On a dataset without ground truth (imported from a robot's log, ``topomap import``) the same
 methods run with K = ``--clusters`` (default the paper's 8) and write their clusters and plots,
@@ -271,7 +271,7 @@ def reproduce(
 
 
 def markdown_tables(result: dict) -> str:
-    """The two tables of ``docs/guides/manifold-clustering.md`` from a :func:`reproduce` result."""
+    """The two tables of ``docs/guides/manifold-clustering.md`` from a `reproduce` result."""
     lines = ["| set | method | error | paper's claim |", "|---|---|---|---|"]
     for r in result["synthetic"]:
         lines.append(f"| {r['set']} | {r['method']} | {r['error']:.3f} | {r['paper_claim']} |")

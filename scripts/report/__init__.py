@@ -4,8 +4,8 @@
                 [--protocol DIR]
 
 (``python -m scripts.report`` takes the same arguments.) Stages (the registry
-:data:`~scripts.report.pipeline.STAGES`, each writing into its own folder of ``<out>/report/``,
-each timed; a failing stage stops the run with :class:`StageError` naming it):
+`STAGES`, each writing into its own folder of ``<out>/report/``,
+each timed; a failing stage stops the run with `StageError` naming it):
 
 1. ``worlds``: a top-down view per world with the dataset's trajectories, and per manifold
    sample camera frames beside the laser scan drawn on the map (``worlds/``);
@@ -19,19 +19,19 @@ each timed; a failing stage stops the run with :class:`StageError` naming it):
 5. ``servo``: closed-loop servoing (``servo.task.evaluation``) per world, the servo policy and the
    baselines: results per manifold pair, trajectories on the map, episode videos.
 
-``index.html`` opens with a summary (:mod:`~scripts.report.summary`: one line per task, its
+``index.html`` opens with a summary (`summary`: one line per task, its
 headline number and interval against its target), references the PNGs and H.264 MP4s beside
 it by relative paths (no external resource; the videos play in the page) and ends with what is
 needed to reproduce it: settings, seed, versions, commit, machine and timings.
 ``report.json`` holds every number, the summary first. The HTML is built by small functions
 (``section_*``) of plain dicts, so each can be tested on fake inputs.
 
-Modules: :mod:`~scripts.report.html` (escaping, tables, figures, the page),
-:mod:`~scripts.report.sections` (one builder per section), :mod:`~scripts.report.summary`
-(the summary's lines), :mod:`~scripts.report.drawing` and
-:mod:`~scripts.report.stages` (the stages' work), :mod:`~scripts.report.provenance` (versions,
-machine, commit), :mod:`~scripts.report.settings` (:class:`RunSettings`, the errors) and
-:mod:`~scripts.report.pipeline` (the stage registry and :func:`run_pipeline`, which takes the
+Modules: `html` (escaping, tables, figures, the page),
+`sections` (one builder per section), `summary`
+(the summary's lines), `drawing` and
+`stages` (the stages' work), `provenance` (versions,
+machine, commit), `settings` (`RunSettings`, the errors) and
+`pipeline` (the stage registry and `run_pipeline`, which takes the
 stages as an argument: tests pass fake ones).
 """
 

@@ -50,7 +50,7 @@ def fmt(value, digits: int = 3) -> str:
 
 
 def table(caption: str, header: Sequence[str], rows: Iterable[Sequence]) -> str:
-    """An HTML table with a caption; cells go through :func:`fmt`."""
+    """An HTML table with a caption; cells go through `fmt`."""
     head = "".join(f"<th>{esc(h)}</th>" for h in header)
     body = "\n".join("<tr>" + "".join(f"<td>{fmt(c)}</td>" for c in row) + "</tr>" for row in rows)
     return (

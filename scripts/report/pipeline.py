@@ -1,10 +1,10 @@
-"""The run as a registry of named stages: :data:`STAGES` lists them in order, and
-:func:`run_pipeline` runs whichever sequence of :class:`Stage` it is given (by default
-:data:`STAGES`), so tests pass fake stages instead of patching this module.
+"""The run as a registry of named stages: `STAGES` lists them in order, and
+`run_pipeline` runs whichever sequence of `Stage` it is given (by default
+`STAGES`), so tests pass fake stages instead of patching this module.
 
-Each stage gets the :class:`RunContext` (output folders, settings, the results of the stages
+Each stage gets the `RunContext` (output folders, settings, the results of the stages
 before it) and returns a dict; the pipeline times it, turns a failure into a
-:class:`StageError` naming it, builds its section of the page from the dict, and records it in
+`StageError` naming it, builds its section of the page from the dict, and records it in
 ``report.json``.
 """
 
@@ -181,7 +181,7 @@ STAGES: tuple[Stage, ...] = (
         recorded=False,
     ),
 )
-"""The stages of ``topomap run``, in order (see :mod:`scripts.report`)."""
+"""The stages of ``topomap run``, in order (see `scripts.report`)."""
 
 
 # --------------------------------------------------------------------------- the run
@@ -218,11 +218,11 @@ def run_pipeline(
     command: str = "topomap run",
     stages: Sequence[Stage] = STAGES,
 ) -> Path:
-    """Run ``stages`` in order (by default :data:`STAGES`: collect the default dataset into
+    """Run ``stages`` in order (by default `STAGES`: collect the default dataset into
     ``<out>/dataset``, reused when present, then the four stages into
     ``<out>/report/<stage>/``) and write ``<out>/report/index.html``; returns it.
 
-    Raises :class:`StageError` (naming the stage) if any stage fails, :class:`OutputError` if
+    Raises `StageError` (naming the stage) if any stage fails, `OutputError` if
     ``out`` cannot be written.
     """
     settings = settings or RunSettings()

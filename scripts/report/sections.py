@@ -283,7 +283,7 @@ def section_reproduce(info: dict) -> str:
 
 
 def section_leaderboards(result: dict) -> str:
-    """The committed leaderboards of :func:`scripts.report.stages.stage_leaderboards`: per
+    """The committed leaderboards of `scripts.report.stages.stage_leaderboards`: per
     task, ours beside the methods from outside, from the result files named under each."""
     if not result["boards"]:
         return section("leaderboards", "Leaderboards", f"<p>{esc(result['missing'])}</p>")

@@ -1,5 +1,5 @@
-"""What a run does (:class:`RunSettings`) and how it fails (:class:`StageError`,
-:class:`OutputError`); shared by the stages and the pipeline."""
+"""What a run does (`RunSettings`) and how it fails (`StageError`,
+`OutputError`); shared by the stages and the pipeline."""
 
 from __future__ import annotations
 

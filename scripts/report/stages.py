@@ -1,6 +1,6 @@
 """The report's stages proper: each runs one part of the evaluation into its own folder of
 the report and returns a plain dict for its section (paths relative to the report's root).
-:mod:`scripts.report.pipeline` wraps them as named stages."""
+`scripts.report.pipeline` wraps them as named stages."""
 
 from __future__ import annotations
 

@@ -1,8 +1,9 @@
 """README's Results table and the results pages, written from the committed result files.
 
 ``python -m scripts.results`` rewrites README.md between its markers (the results table, and
-the held-out worlds' tables) and ``docs/results/{manifold-clustering,observation-grouping,servo,
-held-out-worlds}.md``; ``--check`` writes
+the held-out worlds' tables), the results table of the docs' front page (``docs/index.md``)
+and ``docs/results/{manifold-clustering,observation-grouping,servo,held-out-worlds}.md``;
+``--check`` writes
 nothing and exits 1 when any of them differs from what the files give (run by the tests, so
 a number edited by hand, or a result file changed without regenerating, is caught).
 """
@@ -28,6 +29,7 @@ HELDOUT_START, HELDOUT_END = "<!-- heldout:start -->", "<!-- heldout:end -->"
 COMMAND = "python -m scripts.results"
 DATA = Path("docs") / "results" / "data"
 PAGES_DIR = Path("docs") / "results"
+FRONT_PAGE = Path("docs") / "index.md"
 _BANNER = (
     f"<!-- written by `{COMMAND}` from the files under docs/results/data/; "
     "edit those (and their meta.json), then run it again -->"
@@ -49,14 +51,18 @@ def _estimate_text(row: Row, e: Estimate) -> str:
     return f"{_number(row.measure, e.value)} [{lo}, {hi}]"
 
 
-def readme_table(root: Path) -> Table:
-    """One row per :data:`ROWS` entry: the estimate with its 95% interval and what it rests on."""
+def readme_table(root: Path, pages: Path = PAGES_DIR) -> Table:
+    """One row per `ROWS` entry: the estimate with its 95% interval and what it rests on.
+
+    ``pages`` is the results pages' folder as the page holding the table links it: README's
+    ``docs/results``, the docs front page's ``results``.
+    """
     rows = []
     for row in ROWS:
         e = read_estimate(root / DATA, row.reader, row.source, **row.keys)
         title, page = PAGES[row.task]
         rows.append({
-            "task": f"[{title}]({(PAGES_DIR / page).as_posix()})",
+            "task": f"[{title}]({(pages / page).as_posix()})",
             "data": row.data,
             "method": row.method,
             "measure": row.measure,
@@ -215,7 +221,7 @@ def leaderboard_inputs(root: Path, sources) -> tuple[list[dict], str | None]:
 
 
 def _leaderboard(root: Path, sources) -> str:
-    """``topomap leaderboard`` of a section's result files (:func:`leaderboard_inputs`)."""
+    """``topomap leaderboard`` of a section's result files (`leaderboard_inputs`)."""
     from scripts.leaderboard import leaderboard_markdown
 
     results, reference = leaderboard_inputs(root, sources)
@@ -287,6 +293,11 @@ def generate(root: Path) -> dict[Path, str]:
     readme = _between(readme, START, END, readme_table(root).to_markdown(), readme_path)
     held = heldout_summary(root / DATA, (HELDOUT_SOURCE,))
     files = {Path("README.md"): _between(readme, HELDOUT_START, HELDOUT_END, held, readme_path)}
+    # the docs' front page: the same table, its links relative to docs/
+    front_path = root / FRONT_PAGE
+    front = front_path.read_text(encoding="utf-8")
+    table = readme_table(root, PAGES_DIR.relative_to("docs")).to_markdown()
+    files[FRONT_PAGE] = _between(front, START, END, table, front_path)
     for task, (_, name) in PAGES.items():
         files[PAGES_DIR / name] = page(root, task)
     return files
@@ -315,6 +326,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.check and stale:
         print(f"out of date (run {COMMAND}): {', '.join(stale)}", file=sys.stderr)
         return 1
-    print(("checked" if args.check else "wrote") + f": README.md and {len(PAGES)} pages"
+    print(("checked" if args.check else "wrote") + f": README.md, {FRONT_PAGE.as_posix()} and "
+          f"{len(PAGES)} results pages"
           + (f" ({len(stale)} changed)" if stale and not args.check else ""))  # fmt: skip
     return 0

@@ -1,4 +1,4 @@
-"""The results table, as data: one :class:`Row` per task, method and setting, naming the
+"""The results table, as data: one `Row` per task, method and setting, naming the
 committed file it reads and how (``scripts.results.sources``), and the pages that show each
 task's full tables.
 
@@ -25,7 +25,7 @@ PAGES = {
 class Row:
     """One row of README's results table.
 
-    ``task`` keys :data:`PAGES`; ``data`` and ``method`` say what was run on what; ``measure``
+    ``task`` keys `PAGES`; ``data`` and ``method`` say what was run on what; ``measure``
     names the number (``"test error"``, ``"success"``...), ``split`` which data it was measured
     on; ``reader``, ``source`` and ``keys`` say where the number is (``sources.read_estimate``).
     """

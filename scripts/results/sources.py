@@ -2,7 +2,7 @@
 table, and where each file came from.
 
 Every reader takes a file (or folder) under ``docs/results/data/`` and a few keys saying which
-number in it a row shows, and returns an :class:`Estimate`. Rates come with their Wilson 95%
+number in it a row shows, and returns an `Estimate`. Rates come with their Wilson 95%
 interval (``servo.task.stats``), errors and scores averaged over seeds with a bootstrap 95%
 interval (``scripts.manifold.bootstrap_mean``, the protocol's own summary).
 """

@@ -2,7 +2,7 @@
 ``ray`` (Ray actors, on a local Ray instance or an existing cluster: ``scripts.sweep.ray_backend``).
 
 Every backend's workers run whole episodes, env and policy together, through
-:class:`scripts.sweep.episode.EpisodeRunner`, so both give the same records for the same tasks.
+`scripts.sweep.episode.EpisodeRunner`, so both give the same records for the same tasks.
 A backend is used as ``with open_backend(name, workers, address) as b:`` then
 ``b.start(maps, policy, max_steps)`` and ``for i, record in b.run(tasks): ...`` (records as they
 complete, with their task's index). Other units of work use the same workers through
@@ -40,7 +40,7 @@ def _run_in_pool(task) -> dict:
 
 class LocalBackend:
     """``workers`` spawned processes (``spawn``: a forked worker hangs on its first render once
-    the parent has had a GL context), each an :class:`EpisodeRunner` with its own copy of the
+    the parent has had a GL context), each an `EpisodeRunner` with its own copy of the
     maps (pickled from this process's, already checked: loading and re-checking the saved files
     in every worker took longer than the episodes of a small sweep).
 

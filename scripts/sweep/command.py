@@ -2,7 +2,7 @@
 local process pool or on Ray (``--backend ray``), summarised as one table.
 
 Every episode runs whole, env and policy together, in a worker
-(:class:`scripts.sweep.episode.EpisodeRunner`, on a backend of ``scripts.sweep.backends``), and
+(`scripts.sweep.episode.EpisodeRunner`, on a backend of ``scripts.sweep.backends``), and
 is a function of (world, setting, seed, episode index) alone: episode ``i`` of seed ``s`` is
 episode ``i`` of ``servo.task.evaluation.evaluate(world, episodes, s)``, so the table is the same on
 every backend and any number of workers (its time columns apart). Episodes are scored by
@@ -130,12 +130,12 @@ def run_sweep(
 ) -> list[dict]:
     """Run ``episodes_per_seed`` episodes per seed in every (world, setting); one row each.
 
-    ``settings`` are names of :data:`SETTINGS`. ``num_envs`` workers (default: the cores this
-    process may use) on ``backend`` (:data:`BACKENDS`: ``local`` processes or ``ray`` actors;
+    ``settings`` are names of `SETTINGS`. ``num_envs`` workers (default: the cores this
+    process may use) on ``backend`` (`BACKENDS`: ``local`` processes or ``ray`` actors;
     ``address``: an existing Ray cluster's, else a local Ray instance), started once for the
     whole sweep. ``maps``: ``{world: ServoMap}`` to use, else the cached map of each world
     (``servo.maps.build.load_or_build(world, dataset, cache)``; None: the data home's, see
-    ``sim.datahome``). Rows: the columns of :data:`COLUMNS` (``worker_s``: the row's episodes'
+    ``sim.datahome``). Rows: the columns of `COLUMNS` (``worker_s``: the row's episodes'
     wall time summed over the workers) plus ``act_ms``, ``reasons``, ``episodes_detail`` and
     the sweep's ``backend``, ``num_envs``, ``startup_s`` (starting the workers), ``run_s``
     (running every episode) and ``episodes_per_min`` (throughput over ``run_s``).
@@ -179,7 +179,7 @@ def run_sweep(
 
 
 def sweep_table(rows: list[dict], meta: dict) -> Table:
-    """The sweep's rows under :data:`COLUMNS`, with what was swept and how fast as a note."""
+    """The sweep's rows under `COLUMNS`, with what was swept and how fast as a note."""
     footer = (
         f"{meta['cores']} cores, backend {meta['backend']}, num_envs {meta['num_envs']} "
         f"(starting the workers: {meta['startup_s']:.1f} s), seeds {meta['seeds']}, "
@@ -191,7 +191,7 @@ def sweep_table(rows: list[dict], meta: dict) -> Table:
 
 
 def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[str, Path]:
-    """``sweep.md`` and ``sweep.csv`` (:func:`sweep_table`) and ``sweep.json`` (every row with
+    """``sweep.md`` and ``sweep.csv`` (`sweep_table`) and ``sweep.json`` (every row with
     its episodes, and ``meta``) in ``out``, each written atomically."""
     out = Path(out)
     paths = sweep_table(rows, meta).write(out / "sweep", kinds=("md", "csv"))

@@ -57,7 +57,7 @@ ONE_THREAD = {"LP_NUM_THREADS": "0", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREA
 
 
 def configure_worker() -> None:
-    """Run this worker on one core (:data:`ONE_THREAD`), where the process was started without
+    """Run this worker on one core (`ONE_THREAD`), where the process was started without
     that environment: Mesa reads ``LP_NUM_THREADS`` at the first GL context (envs are built
     lazily, after this), and ``threadpoolctl`` limits the BLAS and OpenMP pools already loaded."""
     from threadpoolctl import threadpool_limits
@@ -71,7 +71,7 @@ class EpisodeRunner:
     first use, so a worker pays for imports, maps and renderers once per sweep.
 
     ``maps``: ``{world: ServoMap}``; ``policy``: a name of ``servo.task.policies.POLICIES``. The
-    process is set to one thread (:func:`configure_worker`) unless ``one_thread`` is false (the
+    process is set to one thread (`configure_worker`) unless ``one_thread`` is false (the
     episodes run in the calling process, whose threads are its own).
     """
 

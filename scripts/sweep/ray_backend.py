@@ -1,5 +1,5 @@
 """The ``ray`` sweep backend: one Ray actor per worker, each an
-:class:`~scripts.sweep.episode.EpisodeRunner` running whole episodes (env and policy together),
+`EpisodeRunner` running whole episodes (env and policy together),
 on a local Ray instance (started here, with ``num_cpus`` = the workers, no dashboard, shut down
 afterwards) or on an existing cluster given its address.
 
@@ -58,7 +58,7 @@ def parse_address(address: str) -> tuple[str, int] | None:
 
 def probe_address(address: str, timeout: float = PROBE_TIMEOUT_S) -> None:
     """Fail within ``timeout`` seconds, with a ConnectionError saying what to do, where nothing
-    accepts a connection at ``address`` (see :func:`parse_address`; ``auto`` is not probed: Ray
+    accepts a connection at ``address`` (see `parse_address`; ``auto`` is not probed: Ray
     itself fails at once where no local cluster runs); the same where what answers is not a
     gRPC server. ``ray.init`` alone retries an unreachable GCS for minutes (measured: over 3
     minutes with Ray 2.60)."""
@@ -91,7 +91,7 @@ def runtime_env(address: str | None) -> dict:
     """The actors' runtime env: the GL backend and data home from this process, and our code:
     on a local instance the same checkout (``PYTHONPATH``); on a cluster our packages, uploaded
     (``py_modules``: Ray takes local folders only in the job's runtime env, so
-    :class:`RayBackend` passes this to ``ray.init`` and the ``env_vars`` to each actor)."""
+    `RayBackend` passes this to ``ray.init`` and the ``env_vars`` to each actor)."""
     env = {k: os.environ[k] for k in _PASS_ENV if k in os.environ} | ONE_THREAD
     if address is None:
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
@@ -109,7 +109,7 @@ def _nbytes(obj) -> int:
 class RayBackend:
     """``workers`` Ray actors (1 CPU each). ``address``: None starts a local Ray instance (or
     uses the one this process already has); otherwise the cluster there (``ray.init(address)``
-    after :func:`probe_address`)."""
+    after `probe_address`)."""
 
     name = "ray"
 

@@ -1,5 +1,6 @@
-"""The camera-only controller, :class:`SignalServo`, which servoes by maximising F^j(k)
-toward the target view (Grudic & Mulligan, Section II-G), and what only it uses:
+"""The camera-only controller, [`SignalServo`][servo.camera_only.controller.SignalServo], which
+servoes by maximising F^j(k) toward the target view (Grudic & Mulligan, Section II-G), and what only
+it uses:
 
 * ``controller`` and ``config`` -- the controller and its settings;
 * ``route_belief`` -- the robot's pose on its route, from odometry and image fixes;

@@ -1,5 +1,6 @@
-"""``SignalServoConfig``: every setting of :class:`~servo.camera_only.controller.SignalServo`, in
-one frozen dataclass validated on construction."""
+"""``SignalServoConfig``: every setting of
+[`SignalServo`][servo.camera_only.controller.SignalServo], in one frozen dataclass validated on
+construction."""
 
 from __future__ import annotations
 
@@ -17,9 +18,10 @@ _MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_sh
 
 @dataclass(frozen=True)
 class SignalServoConfig:
-    """Every setting of :class:`~servo.camera_only.controller.SignalServo`, checked when made.
+    """Every setting of [`SignalServo`][servo.camera_only.controller.SignalServo], checked when
+    made.
 
-    A frozen dataclass: change a setting with :func:`dataclasses.replace`. The defaults are the
+    A frozen dataclass: change a setting with `dataclasses.replace`. The defaults are the
     settings the servo evaluation measures (chosen on the ``dev`` split of the benchmark protocol
     only, so the ``test`` split stays unseen). Gains and shares lie in (0, 1]; a setting marked
     "0: off" may be 0, every other number must be positive; a wrong value raises ``ValueError``
@@ -71,7 +73,7 @@ class SignalServoConfig:
         Offset to either side at which F is probed once the sweep has settled, m.
     lateral_rounds : int, default 2
         Times a better side moves the sweep there (0: off;
-        :class:`~servo.camera_only.peak_arrival.PeakArrival`).
+        `PeakArrival`).
     arrive_lanes : bool, default False
         Search the F peak on the view's line of sight and on lines ``lateral`` to either side,
         then check F where the peak was, instead of probing points to the sides.
@@ -82,12 +84,12 @@ class SignalServoConfig:
         Most relocalisations in an episode (0: never).
     consistent_fix : bool, default False
         Take the observing turn's fix best supported by the turn's other images
-        (:func:`~servo.camera_only.turn_global_fix.consistent_fix`) rather than its best single
+        (`consistent_fix`) rather than its best single
         match.
     contrast_fix : bool, default True
         Take the view whose best match over the turn stands out most against its matches from
         headings ``fix_far`` or more away
-        (:func:`~servo.camera_only.turn_global_fix.contrast_fix`); overrides ``consistent_fix``.
+        (`contrast_fix`); overrides ``consistent_fix``.
         On by default: look-alike places match one heading well, a true fix one heading only.
     fix_far : float, default 0.6
         Heading difference from which ``contrast_fix`` counts a match as another heading's, rad.
@@ -102,7 +104,7 @@ class SignalServoConfig:
         the way the stored views look, rather than turned round.
     reverse_parallax : float, default 0.1
         Reverse only on a map whose parallax (image shift per m across a view's sight,
-        :meth:`~servo.localise.ImageLocaliser.parallax`) is at least this, rad/m: the reversing
+        `parallax`) is at least this, rad/m: the reversing
         fix's cross gain grows as 1 / parallax, so on a far scene (the lawn, ~0.055) it turns the
         shift's noise into metres across, and the robot does better turned round on odometry.
     reverse_speed : float, default 0.5
@@ -110,13 +112,13 @@ class SignalServoConfig:
     reverse_heading_gain : float, default 1.0
         Per metre reversed, the share of the reversing fix's innovation taken off the heading;
         the cross gain is then chosen for critical damping with it and the map's parallax
-        (:meth:`~servo.camera_only.route_belief.RouteBelief.reverse_gains`).
+        (`reverse_gains`).
     relocalise_arrive : bool, default True
         Also observe and localise again when lost in the arrival phase, since a wrong global fix
         often shows only there.
     junction_fix : bool, default False
         Where the route turns from reversing to driving forward, turn on the spot to the forward
-        heading before driving on (:class:`~servo.camera_only.junction_pose.JunctionTurn`).
+        heading before driving on (`JunctionTurn`).
     junction_position : bool, default False
         At such a junction, also fix the position by the image shifts against the stored views
         within ``junction_radius``. Off: the parallax near a junction is 2-4 times the map's,
@@ -137,33 +139,33 @@ class SignalServoConfig:
     bump_shift : float, default 0.5
         Distance the belief moves across the route at a bump while reversing, toward the side
         the robot was backing to, m (0: off;
-        :meth:`~servo.camera_only.route_belief.RouteBelief.bumped`).
+        `bumped`).
     cross_gain : float, default 0.1
         Share of the offset across the matched route view's line of sight, measured by the
-        image's two bands (:meth:`~servo.localise.ImageLocaliser.cross_offset`), corrected per
+        image's two bands (`cross_offset`), corrected per
         step (0: off).
     fix_contrast : float, default 0.5
         On a far scene (parallax below ``reverse_parallax``), an image fix needs its best
         aligned distance at most this share of the median over the shifts (1: any), since a flat
         alignment (grass and sky) gives no heading
-        (:meth:`~servo.localise.ImageLocaliser.align_contrast`).
+        (`align_contrast`).
     cross_gate : float, default 1.0
         A two-band offset farther than this from the belief is ignored, m.
     cross_min_parallax : float, default 5.0
         The two-band measurement is used only on a map whose
-        :meth:`~servo.localise.ImageLocaliser.cross_parallax` reaches this, pixels per m: below
+        `cross_parallax` reaches this, pixels per m: below
         it one pixel is more than 0.2 m and the fit on the map's few side-by-side views is weak.
     backup_steps : int, default 8
         Steps driven the other way after a wall is detected.
     refine_shift : bool, default False
         Place an image alignment's best shift between the tried ones (2 pixels, 0.025 rad
-        apart) by a parabola (:func:`~servo.localise.refined_shift`).
+        apart) by a parabola (`refined_shift`).
     bump_turn : bool, default False
         Where the robot reverses, a bump's shift across also turns the believed heading by
         -parallax times the shift, so that the reversing fix keeps the image's shift.
     pose_every : int, default 3
         Steps between metric pose fixes against the best-matching route view
-        (:meth:`~servo.camera_only.view_pose.ViewPose.pose`: keypoints at the view's map-time
+        (`pose`: keypoints at the view's map-time
         depths, PnP), in every phase (0: off).
     pose_gain : float, default 0.5
         Share of a pose fix's error corrected, position and heading.
@@ -171,26 +173,26 @@ class SignalServoConfig:
         A pose farther than this from the belief is ignored, m.
     pose_agree : float, default 0.3
         A pose is used only where the one before it, carried by odometry, agrees within this, m
-        (0: every pose; :class:`~servo.camera_only.view_pose.PoseAgreement`).
+        (0: every pose; `PoseAgreement`).
     pose_start : bool, default True
         With ``pose_every``, start the belief where the observing turn's two best images pose
         the robot against the fix's view (when they agree), not at the view itself.
     fix_check : int, default 8
         With ``contrast_fix``, ``pose_every`` and ``pose_start``: where the turn's two best
         images do not both pose against the fix's view and agree
-        (:meth:`~servo.camera_only.metric_pose_fixes.PoseFixes.supports`), the first of the next
+        (`supports`), the first of the next
         ``fix_check`` views by contrast that they do support becomes the fix (0: off).
     look_back : float, default 10.0
         On a map where the robot turns round rather than reverses, every this many metres driven
         along a recording backwards, turn to face the way its views look, take ``look_steps``
         steps of image and pose fixes, and turn back, m (0: never;
-        :class:`~servo.camera_only.rear_view_heading.LookBack`).
+        `LookBack`).
     look_steps : int, default 6
         Steps of fixes taken while looking back.
     arrive_descent : bool, default False
         Where a sweep of the target's line of sight sees no F, search across by the image's
         shift-minimised distance to the view instead
-        (:class:`~servo.camera_only.image_descent_arrival.DescentArrival`).
+        (`DescentArrival`).
     descent_step : float, default 1.0
         The first step of that search across the line, m.
     descent_rounds : int, default 4

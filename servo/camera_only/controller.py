@@ -1,30 +1,30 @@
 """``SignalServo``: servo between manifolds by F^j(k) (Section II-G), camera and odometry only.
 
 1. *Observe and localise.* Turn in place once around; every few degrees compare the image
-   with the stored views (:meth:`~servo.localise.ImageLocaliser.localise`: the clusters eq. 13
+   with the stored views (`localise`: the clusters eq. 13
    ranks first, then the best horizontally-aligned view). The global fix is a stored view and
    the odometry heading that faces the way it looks: with ``contrast_fix`` (default) the view
    whose best match over the turn stands out most against the turn's other headings
-   (:func:`~servo.camera_only.turn_global_fix.contrast_fix`; every sample is aligned with all views;
+   (`contrast_fix`; every sample is aligned with all views;
    one the turn's images cannot pose the robot against gives way to the next candidate they can,
    ``fix_check``), else the best match over the turn (or, with ``consistent_fix``, the
    match best supported by the turn's other images,
-   :func:`~servo.camera_only.turn_global_fix.consistent_fix`).
-2. *Route.* The shortest path over the view graph (:class:`~servo.route.RouteGraph`) from that
+   `consistent_fix`).
+2. *Route.* The shortest path over the view graph (`RouteGraph`) from that
    view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
    into waypoint views about ``spacing`` apart.
 3. *Servo.* Toward the waypoints along the route: the pose in the route frame is carried by
-   odometry and fixed by the images (:class:`~servo.camera_only.route_belief.RouteBelief`,
-   :class:`~servo.camera_only.route_image_fix.RouteImageFix`): the heading from the best
+   odometry and fixed by the images (`RouteBelief`,
+   `RouteImageFix`): the heading from the best
    horizontal shift against the route views the camera faces, the position along the route
    from which of them matches best; every few steps a metric pose against
-   the best of them (:class:`~servo.camera_only.metric_pose_fixes.PoseFixes`: keypoints at the
-   view's map-time depths) corrects position and heading at once. :class:`WaypointTracker` moves on
+   the best of them (`PoseFixes`: keypoints at the
+   view's map-time depths) corrects position and heading at once. `WaypointTracker` moves on
    when F toward the next waypoint overtakes F toward the current one (view-sequence navigation),
    which also tells the robot it is past the current one. Where the route drives its
    recording backwards (out of a branch) the robot reverses, the camera facing the way the
    stored views look, and takes the reverse-stable fix
-   (:meth:`~servo.camera_only.route_belief.RouteBelief.fix_reversing`), on a map with the parallax
+   (`fix_reversing`), on a map with the parallax
    that fix needs (``reverse_parallax``); on others it turns round and drives on odometry.
 4. *Arrive.* At the target view: drive to it, and where F toward it has peaked and fallen,
    take the peak as the view's place (the robot went past it) and come back.
@@ -96,9 +96,10 @@ class SignalServo:
     far_scene : bool
         Whether the map's parallax is below ``config.reverse_parallax`` (grass, sky, trees).
     target : int or None
-        The target view of the episode (None before :meth:`reset`).
+        The target view of the episode (None before
+        [`reset`][servo.camera_only.controller.SignalServo.reset]).
     phase_ : {"observe", "follow", "arrive", "done"}
-        The phase after the last :meth:`act`.
+        The phase after the last [`act`][servo.camera_only.controller.SignalServo.act].
     route_ : list of int
         Stored views of the route.
     waypoint_ : int or None
@@ -106,7 +107,7 @@ class SignalServo:
     manifold_ : int
         Cluster of the current image by eq. 13 (``predict``) at the global fix.
     belief_ : RouteBelief or None
-        The pose on the route (:class:`~servo.camera_only.route_belief.RouteBelief`); None
+        The pose on the route (`RouteBelief`); None
         while observing.
     done_ : bool
         Whether the controller has arrived and stopped.
@@ -242,7 +243,7 @@ class SignalServo:
         """Commanded motion odometry did not see: a wall. Back off the way it came.
 
         Reversing, the belief also moves ``bump_shift`` across the route toward the side the
-        robot was backing to (:meth:`~servo.camera_only.route_belief.RouteBelief.bumped`): out of a
+        robot was backing to (`bumped`): out of a
         branch the reversing fix leaves the belief ~0.7 m off, and without it every back-off
         and retry drives the same line into the same wall (dev traces: 10-12 bumps at one
         place). Forward, the image fix's funnel corrects the offset, and shifting did not
@@ -297,7 +298,7 @@ class SignalServo:
 
     def _image_fix(self, x: np.ndarray) -> None:
         """Correct the belief by the image; count the steps no route view matched
-        (:meth:`~servo.camera_only.route_image_fix.RouteImageFix.fix`)."""
+        (`fix`)."""
         fixed = self.fixes.fix(self.belief_, self.route_, x, self._image, self._odo, self._steps,
                                reversing=self._reversing,
                                following=self.phase_ == "follow")  # fmt: skip
@@ -349,7 +350,7 @@ class SignalServo:
                 and (self._lost > c.relocalise_after or walled or unpeaked)
                 and self.relocalised_ < c.max_relocalise):  # fmt: skip
             self.relocalised_ += 1
-            if c.exclude_fix:  # a fix found wrong (:func:`~.turn_global_fix.exclude_near`)
+            if c.exclude_fix:  # a fix found wrong (`turn_global_fix.exclude_near`)
                 moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
                 self._exclude = exclude_near(self.routes, self._exclude, self._fix_view, moved)
             self._observe_start()
@@ -370,7 +371,7 @@ class SignalServo:
         """Pure pursuit toward ``goal`` (robot frame): forward, or in reverse where the route
         drives its recording backwards (``WaypointTracker.directions`` < 0) on a map that
         reverses, so the camera keeps facing the way the stored views look and image fixes
-        stay available (:func:`~servo.steering.pursue_route`)."""
+        stay available (`pursue_route`)."""
         c, t = self.config, self.tracker
         reverse = self.reverses and not t.directions[t.index] > 0
         careful = self._careful > 0
@@ -379,9 +380,9 @@ class SignalServo:
         return pursue_route(goal, reverse, speed, careful, c.turn_rate)
 
     def _arrive(self, x: np.ndarray) -> np.ndarray:
-        """At the target: the F peak (:class:`~servo.camera_only.peak_arrival.PeakArrival`); with
+        """At the target: the F peak (`PeakArrival`); with
         ``arrive_descent``, also the image distance
-        (:mod:`servo.camera_only.image_descent_arrival`)."""
+        (`servo.camera_only.image_descent_arrival`)."""
         b = self.belief_
         action = self._arrival.step(b, b.path.frames[-1],
                                     lambda: self.localiser.signal(x, self.target),

@@ -1,11 +1,11 @@
 """Arrive at a stored view by descending the image distance to it, for
-:class:`~servo.camera_only.controller.SignalServo` with ``arrive_descent``.
+[`SignalServo`][servo.camera_only.controller.SignalServo] with ``arrive_descent``.
 
 F^j(k) toward a view (eq. 13) is computed on the image as it is, so it falls with the
 heading as much as with the place: rendered around eight lawn views facing their heading
 give or take 0.1 rad, F at the view itself was below 0.2 at five of them, and a metre or
 more away its median was 0.00-0.04 at seven. The image's distance to the view minimised
-over horizontal shifts (:meth:`~servo.localise.ImageLocaliser.align`: the heading taken
+over horizontal shifts (`align`: the heading taken
 out) is the translational image difference function of visual homing (Zeil, Hofmann &
 Chahl 2003, "Catchment areas of panoramic snapshots in outdoor scenes"): greedy descent on
 it over a 0.5 m grid reached the view from 86-100 % of the points 2-3 m off at five of the
@@ -13,10 +13,10 @@ eight views, and 1 m across toward the view it was below 1 m away from it at 88-
 the points at seven of them (``experiments/servo/arrival_descent.py``; docs/guides/servo.md).
 Along the view's sight its least lies up to 0.5 m off, where F's peak, when it is seen,
 does not.
-:class:`DescentArrival` is :class:`~servo.camera_only.peak_arrival.PeakArrival` (the F peak on the
+`DescentArrival` is `PeakArrival` (the F peak on the
 view's line of sight, probed across) until a sweep finds no F at all:
 
-1. *Sweep* the view's line of sight as :class:`~servo.camera_only.peak_arrival.PeakArrival` does,
+1. *Sweep* the view's line of sight as `PeakArrival` does,
    also reading the distance. Where F has stayed below ``arrive_min`` and the distance has a
    least inside the line swept, risen by ``descent_rise`` of it a good way past it (or a
    sweep there and back is done: far beside the view the distance is flat along the line),
@@ -60,10 +60,10 @@ def parabola_vertex(left: float, centre: float, right: float, step: float) -> fl
 
 
 class DescentArrival(PeakArrival):
-    """:class:`~servo.camera_only.peak_arrival.PeakArrival` that searches across by the image
+    """`PeakArrival` that searches across by the image
     distance where a sweep finds no F (see the module doc).
 
-    ``step(belief, target, signal, distance)``: as :meth:`PeakArrival.step`, and
+    ``step(belief, target, signal, distance)``: as `PeakArrival.step`, and
     ``distance()`` the current image's shift-minimised distance to the target view.
     ``stage`` may also be "across" (searching); ``searches``: searches begun.
     """
@@ -136,7 +136,7 @@ class DescentArrival(PeakArrival):
         return None
 
     def _search(self, b: RouteBelief, target: np.ndarray, left: np.ndarray) -> np.ndarray:
-        if self._next is None:  # the last point was not reached (:meth:`blocked`)
+        if self._next is None:  # the last point was not reached (`blocked`)
             return self._searched(b, target, left)
         goal = target.copy()
         goal[:2] += self._next * left

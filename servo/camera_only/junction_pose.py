@@ -1,10 +1,10 @@
 """A local position fix where a route turns from reversing out of one branch to driving
 forward into another (junction turns of
-:class:`~servo.camera_only.controller.SignalServo`).
+[`SignalServo`][servo.camera_only.controller.SignalServo]).
 
 Reversing out of a branch, the robot's offset across the branch is weakly observable (the
 image's best shift against a view is z = theta + c y: heading and offset mixed, c the map's
-parallax, :meth:`~servo.localise.ImageLocaliser.parallax`), so it arrives at the junction
+parallax, `parallax`), so it arrives at the junction
 with its position up to ~1 m off, and turning on the spot there it would enter the wrong
 opening or a wall. At a junction, though, stored views look along *different* corridors (the
 one it came from, the one it turns into, the main one), and the shifts against views of
@@ -14,17 +14,17 @@ a view k at (x_k, y_k, phi_k) says
     phi_k - yaw = h + delta + c * lat_k(x, y),   lat_k = -sin(phi_k)(x - x_k) + cos(phi_k)(y - y_k)
 
 (the robot's offset left of view k's line of sight), which is linear in the heading offset
-delta and the position (x, y). :func:`pose_from_turn` solves the matches of the turn toward
+delta and the position (x, y). `pose_from_turn` solves the matches of the turn toward
 the new heading for them by least squares, with a prior at the belief. Views of one heading
 leave the position along their sight to the prior; with two, a heading offset trades against a
 diagonal shift, so the heading's prior decides it; three fix all three. Views' poses come from
-the view graph's sensed transforms (:func:`~servo.camera_only.turn_global_fix.neighbourhood`); no
+the view graph's sensed transforms (`neighbourhood`); no
 ground truth.
 
 Dev result (docs/guides/servo.md): the position fix moved the belief the wrong way as
 often as the right way (the parallax near a junction is 2-4x the map's; views on a curve
 leave the along-sight position ill-conditioned), and the turn alone did not help either; both
-are off in :class:`~servo.camera_only.config.SignalServoConfig` (``junction_fix``,
+are off in [`SignalServoConfig`][servo.camera_only.config.SignalServoConfig] (``junction_fix``,
 ``junction_position``).
 """
 
@@ -48,7 +48,7 @@ def pose_from_turn(headings, views, yaws, weights, parallax: float, prior, *,
     ----------
     headings : (n,) belief heading (rad) at each match (odometry carries it through the turn).
     views : (n, 3) the matched view's pose (x, y, phi) in the belief's frame.
-    yaws : (n,) the match's best shift as a turn (rad, :meth:`ImageLocaliser.align`).
+    yaws : (n,) the match's best shift as a turn (rad, `ImageLocaliser.align`).
     weights : (n,) >= 0, each match's weight (e.g. 1 - distance / trust).
     parallax : c, rad of shift per m across a view's sight (> 0).
     prior : (x, y) the belief's position, the prior's mean (delta's is 0).
@@ -84,7 +84,7 @@ def pose_from_turn(headings, views, yaws, weights, parallax: float, prior, *,
 def views_near(routes, path, route: list[int], index: int, centre, radius: float):
     """The stored views within ``radius`` m of ``centre`` (route frame), any recording's,
     with their poses in the route frame: the view graph's sensed transforms chained from
-    route view ``route[index]`` (:func:`~servo.camera_only.turn_global_fix.neighbourhood`). Returns
+    route view ``route[index]`` (`neighbourhood`). Returns
     (views (m,), poses (m, 3))."""
     near = neighbourhood(routes, route[index], radius + 2.0)
     views = np.array(sorted(near), np.intp)
@@ -96,9 +96,9 @@ def views_near(routes, path, route: list[int], index: int, centre, radius: float
 class JunctionTurn:
     """Where the route turns from reversing to driving forward: turn on the spot to the
     forward heading, matching every image against the stored views nearby that look about
-    the way the robot faces, then move the belief to :func:`pose_from_turn`'s fix.
+    the way the robot faces, then move the belief to `pose_from_turn`'s fix.
 
-    ``views`` / ``poses``: the candidates (:func:`views_near`); ``heading``: the forward
+    ``views`` / ``poses``: the candidates (`views_near`); ``heading``: the forward
     heading (route frame); ``trust``: largest aligned distance that counts; ``facing``: rad
     within which a view's heading must lie of the robot's to be compared; ``max_shift``: a
     fix that would move the belief farther (m) is dropped; ``sigma_heading``: the prior's
@@ -121,8 +121,9 @@ class JunctionTurn:
     def on_route(cls, routes, belief, route: list[int], index: int, config,
                  parallax: float) -> JunctionTurn:  # fmt: skip
         """The turn at route view ``route[index]`` toward its heading, the candidates near
-        the ``belief`` (:func:`views_near`), with ``config``'s junction settings
-        (:class:`~servo.camera_only.config.SignalServoConfig`) and the map's ``parallax``."""
+        the ``belief`` (`views_near`), with ``config``'s junction settings
+        ([`SignalServoConfig`][servo.camera_only.config.SignalServoConfig]) and the map's
+        ``parallax``."""
         c = config
         views, poses = views_near(routes, belief.path, route, index, belief.pose[:2],
                                   c.junction_radius)  # fmt: skip

@@ -1,12 +1,12 @@
-"""The metric pose fixes of :class:`~servo.camera_only.controller.SignalServo`.
+"""The metric pose fixes of [`SignalServo`][servo.camera_only.controller.SignalServo].
 
 The whole image's shift against a route view measures the heading plus the parallax times the
 offset across the view's sight (z = theta + c y) and cannot tell the two apart; only motion
 does, slowly, and a robot held by a wall does not move. A metric pose against the view
-(:class:`~servo.camera_only.view_pose.ViewPose`: keypoints at the view's map-time depths, PnP)
-measures both at once. :class:`PoseFixes` takes such a pose every few steps against the route view
+(`ViewPose`: keypoints at the view's map-time depths, PnP)
+measures both at once. `PoseFixes` takes such a pose every few steps against the route view
 the image aligns with best, where the one before it agrees
-(:class:`~servo.camera_only.view_pose.PoseAgreement`), and moves the belief toward it; at the start
+(`PoseAgreement`), and moves the belief toward it; at the start
 it can place the belief where the observing turn's images pose the robot against the global fix's
 view, instead of at the view.
 """
@@ -47,7 +47,7 @@ class PoseFixes:
         """The metric poses in ``view``'s frame, with their odometry, of the two turn images
         that matched ``view`` best (``distances``: each kept image's aligned distance to it),
         in the order taken; None where either gives none. Computed once per turn, view and
-        pair of images (:meth:`supports` checks the fix's view, then :meth:`start` poses
+        pair of images (`supports` checks the fix's view, then `start` poses
         against it), each image's keypoints detected once (the check poses them against
         several views)."""
         images = self.turn_images
@@ -107,7 +107,7 @@ class PoseFixes:
     def fix(self, belief: RouteBelief, route_view: int, index: int, image: np.ndarray,
             odometry: np.ndarray) -> bool:  # fmt: skip
         """The metric pose of ``image`` against stored view ``route_view`` (route index
-        ``index``) moves ``belief`` (:meth:`~servo.camera_only.route_belief.RouteBelief.fix_pose`),
+        ``index``) moves ``belief`` (`fix_pose`),
         where the pose before it agrees (``pose_agree``). Whether it did."""
         rel = self.view_pose.pose(image, route_view)
         if rel is None:

@@ -1,13 +1,13 @@
 """Arrive at a stored view at the peak of F^j(k) toward it (Section II-G: F toward a view is
-largest at the view), for :class:`~servo.camera_only.controller.SignalServo`.
+largest at the view), for [`SignalServo`][servo.camera_only.controller.SignalServo].
 
-:class:`PeakArrival` works on the robot's belief in the route frame
-(:class:`~servo.camera_only.route_belief.RouteBelief`) and corrects it by where F peaks:
+`PeakArrival` works on the robot's belief in the route frame
+(`RouteBelief`) and corrects it by where F peaks:
 
 1. *Face the view.* Facing away (a recording driven backwards), the arrival law on the belief
    brings the robot to the view's place and turns it to the view's heading.
 2. *Sweep its line of sight.* Forward ``overshoot`` m past the view, then back and forth, each
-   leg longer, keeping the view's heading (:func:`line_drive`), until F has peaked above
+   leg longer, keeping the view's heading (`line_drive`), until F has peaked above
    ``arrive_confirm`` and fallen by ``arrive_drop``: the peak was at the view, so the belief is
    moved along the line to make it so; the arrival law drives back to it.
 3. *Probe across.* Settled, F is read there and ``lateral`` m to either side (the arrival law
@@ -74,13 +74,13 @@ class PeakArrival:
         return self.stage == "done"
 
     def blocked(self) -> None:
-        """The robot bumped (:class:`~servo.camera_only.image_descent_arrival.DescentArrival` turns
+        """The robot bumped (`DescentArrival` turns
         its search across; here the sweep goes on)."""
 
     def step(self, belief: RouteBelief, target: np.ndarray, signal: Callable[[], float],
              distance: Callable[[], float] | None = None) -> np.ndarray:  # fmt: skip
         """The command for this step; ``distance`` (the image's distance to the view) is
-        :class:`~servo.camera_only.image_descent_arrival.DescentArrival`'s."""
+        `DescentArrival`'s."""
         c, b = self.config, belief
         u = np.array([np.cos(target[2]), np.sin(target[2])])
         left = np.array([-u[1], u[0]])

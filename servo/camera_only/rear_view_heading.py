@@ -1,5 +1,5 @@
 """Looking back on a route driven turned round, for
-:class:`~servo.camera_only.controller.SignalServo`.
+[`SignalServo`][servo.camera_only.controller.SignalServo].
 
 Where a route runs a recording backwards and the map's parallax is too small for the
 reverse-stable fix (the lawn: ``reverse_parallax``), the robot turns round and drives forward,
@@ -9,7 +9,7 @@ the robot 2-4 m beside the target view when the arrival begins, where the sweep 
 view's sight never meets F's peak (dev: 5 of the lawn's 17 `view` failures on episodes 0-79
 arrived facing back along a recording, 2.2-4.8 m from the target view).
 
-:class:`LookBack` stops every ``look_back`` m of such driving, turns on the spot to face the
+`LookBack` stops every ``look_back`` m of such driving, turns on the spot to face the
 way the views look, stands for ``look_steps`` steps while the controller takes its ordinary
 image and pose fixes (heading, the position along the matched view's sight, the offset across
 it), then turns back and drives on. Two half turns per look (~5 s at 1.2 rad/s). Measured

@@ -1,9 +1,9 @@
 """Where the robot is on its route, from odometry and images only (no laser, no truth).
 
-:class:`RouteBelief` holds the robot's pose in the route's frame (the first route view's,
-chained through the view graph's sensed transforms, :meth:`servo.route.RouteGraph.frames`):
-odometry carries it (:meth:`RouteBelief.predict`) and an image fix against one route view
-corrects it (:meth:`RouteBelief.fix`): the best horizontal shift of the image against the
+`RouteBelief` holds the robot's pose in the route's frame (the first route view's,
+chained through the view graph's sensed transforms, `servo.route.RouteGraph.frames`):
+odometry carries it (`RouteBelief.predict`) and an image fix against one route view
+corrects it (`RouteBelief.fix`): the best horizontal shift of the image against the
 view gives the heading (the view's heading minus the shift's angle), and that the image
 matches the view best among its neighbours puts the robot about at the view along its line
 of sight. Nothing here depends on a global frame.
@@ -93,7 +93,7 @@ class RouteBelief:
 
     def fix_across(self, view: int, offset: float, gain: float, gate: float) -> float:
         """Correct the offset across route view ``view``'s line of sight toward ``offset``
-        (m, left positive: :meth:`servo.localise.ImageLocaliser.cross_offset`) by the share
+        (m, left positive: `servo.localise.ImageLocaliser.cross_offset`) by the share
         ``gain``; a measurement more than ``gate`` m from the belief is taken for a mismatch
         and ignored. Returns the innovation (m; NaN if ignored)."""
         frame = self.path.frames[int(view)]
@@ -106,11 +106,11 @@ class RouteBelief:
 
     def measured(self, view: int, pose) -> np.ndarray:
         """A pose measured in route view ``view``'s frame (x ahead along its sight, y left,
-        yaw: :meth:`servo.camera_only.view_pose.ViewPose.pose`) in the route frame."""
+        yaw: `servo.camera_only.view_pose.ViewPose.pose`) in the route frame."""
         return se2_compose(self.path.frames[int(view)], np.asarray(pose, np.float64))
 
     def fix_pose(self, measured, gain: float, gate: float) -> float:
-        """Correct the pose toward a ``measured`` pose in the route frame (:meth:`measured`)
+        """Correct the pose toward a ``measured`` pose in the route frame (`measured`)
         by the share ``gain``, position and heading alike; a measurement more than ``gate`` m
         from the belief is taken for a mismatch and ignored. Returns the innovation's length
         (m; NaN if ignored)."""
@@ -127,7 +127,7 @@ class RouteBelief:
     @staticmethod
     def reverse_gains(heading_gain: float, parallax: float) -> tuple[float, float]:
         """The reversing fix's gains per metre: |g1| = ``heading_gain`` and the cross gain g2
-        that puts both error modes of :meth:`fix_reversing` at one rate (critical damping:
+        that puts both error modes of `fix_reversing` at one rate (critical damping:
         trace^2 = 4 det, g2 c - |g1| = 2 sqrt(|g1| c)); the modes then decay as
         exp(-sqrt(|g1| c) s) over s metres reversed (~2.5 m in the hallway at |g1| = 1)."""
         if not (heading_gain > 0 and parallax > 0):
@@ -142,7 +142,7 @@ class RouteBelief:
         away from it. Head-on (along the route) nothing is learnt across.
 
         With ``parallax`` c > 0 the heading turns by -c times the shift as well, so that
-        theta + c y, what the image's shift measures (:meth:`fix_reversing`), stays as it
+        theta + c y, what the image's shift measures (`fix_reversing`), stays as it
         was: the shift moves the belief along what the image cannot tell apart, and the
         next image fixes do not undo it."""
         a = self.path.point(max(self.s - 0.25, 0.0))

@@ -1,12 +1,13 @@
-"""The image fixes of :class:`~servo.camera_only.controller.SignalServo`'s belief on its route.
+"""The image fixes of [`SignalServo`][servo.camera_only.controller.SignalServo]'s belief on its
+route.
 
 Each step the image is aligned with the route views about the belief's progress that look the
 way the robot faces, and the best of them corrects the belief
-(:class:`~servo.camera_only.route_belief.RouteBelief`): every ``pose_every`` steps by the metric
-pose against it (:class:`~servo.camera_only.metric_pose_fixes.PoseFixes`), else by its
+(`RouteBelief`): every ``pose_every`` steps by the metric
+pose against it (`PoseFixes`), else by its
 horizontal shift (the heading, eq. 13's best-aligned view), its place on the route (the
 position along it) and, where the map resolves it, the near ground's extra shift (the offset
-across it). :class:`RouteImageFix` holds what the fixes need of the controller and says whether
+across it). `RouteImageFix` holds what the fixes need of the controller and says whether
 the image matched, so the controller can count the steps it has been lost.
 """
 
@@ -61,7 +62,7 @@ class RouteImageFix:
         of a view must turn left to line up with it). Driving forward, correcting the heading
         by it steers the robot back onto the route (a funnel); reversing, the same correction
         would push it away, so a reversing robot takes the reverse-stable fix
-        (:meth:`~servo.camera_only.route_belief.RouteBelief.fix_reversing`), and none in the
+        (`fix_reversing`), and none in the
         arrival's sweep. At the target only the heading is fixed: the route ends there, so
         beyond it the best view is always the last, and the F peak places the robot along the
         view's sight.
@@ -73,7 +74,7 @@ class RouteImageFix:
         route : list of int
             The route's stored views (``belief``'s indices are into it).
         x : numpy.ndarray
-            The image's features (:meth:`~servo.localise.ImageLocaliser.features`).
+            The image's features (`features`).
         image : numpy.ndarray
             The image itself (metric pose fixes detect keypoints in it).
         odometry : numpy.ndarray
@@ -137,7 +138,7 @@ class RouteImageFix:
                  image: np.ndarray, odometry: np.ndarray, steps: int) -> bool:  # fmt: skip
         """Every ``pose_every`` steps, the metric pose against the best-aligned of the route
         views ``near`` (indices into ``route``;
-        :class:`~servo.camera_only.metric_pose_fixes.PoseFixes`). Whether it moved ``belief``."""
+        `PoseFixes`). Whether it moved ``belief``."""
         if self.poses is None or steps % self.config.pose_every or len(near) == 0:
             return False
         if len(near) > 1:

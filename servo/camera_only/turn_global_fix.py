@@ -1,22 +1,22 @@
-"""The global fix of :class:`~servo.camera_only.controller.SignalServo`'s observing turn, checked
-for consistency across the turn (against a wrong or loose fix).
+"""The global fix of [`SignalServo`][servo.camera_only.controller.SignalServo]'s observing turn,
+checked for consistency across the turn (against a wrong or loose fix).
 
 Every few degrees of the turn the image is localised on its own (the best-aligned view of the
-clusters eq. 13 ranks first, :meth:`~servo.localise.ImageLocaliser.localise`), which gives a
+clusters eq. 13 ranks first, `localise`), which gives a
 view and the odometry heading that faces the way it looks. The single best match can be a
 look-alike far away (the lawn's mirrored arms, a view 12-46 m off on dev starts). The right
 place explains the *other* images of the turn too: their matched views lie near it, and the
 headings at which they matched differ by what odometry turned between them, as the map's
-relative headings of those views say. :func:`consistent_fix` scores each of the best few
+relative headings of those views say. `consistent_fix` scores each of the best few
 candidates by that support and keeps the best supported (ties: the best match).
 
-:func:`contrast_fix` (the default) uses the whole turn differently: every
+`contrast_fix` (the default) uses the whole turn differently: every
 sample is aligned with every stored view, and a view counts by how sharply its distance
 profile over the turn dips (a real place is seen only facing one way; a look-alike that
 matches at every heading is not).
 
-:class:`TurnSamples` collects a turn's localisations and gives its fix;
-:func:`exclude_near` keeps a relocalisation off the views about a fix found wrong.
+`TurnSamples` collects a turn's localisations and gives its fix;
+`exclude_near` keeps a relocalisation off the views about a fix found wrong.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def consistent_fix(samples, routes: RouteGraph, *, candidates: int = 6, radius: 
     trusted sample of *another* view within ``radius`` m of the candidate's in the graph whose
     heading, relative to the candidate's, agrees within ``tolerance`` rad with that view's
     heading in the candidate's frame; each supporting view counts once, 1 - d / trust at its
-    best match. Views matched over a wide range of headings (:func:`_generic`) neither
+    best match. Views matched over a wide range of headings (`_generic`) neither
     stand nor support. The best trusted match stands unless its support is below ``share``
     of the best-supported candidate's, which then wins; with none trusted, the best match."""
     samples = sorted((float(d), int(v), float(h)) for d, v, h in samples)
@@ -101,7 +101,7 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), ver
     the turn stands out most against its matches from headings ``far`` rad or more away.
 
     ``distances`` / ``yaws`` (S, N): every sample's aligned distance to every stored view and
-    the heading error of the best shift (:meth:`~servo.localise.ImageLocaliser.align`);
+    the heading error of the best shift (`align`);
     ``headings`` (S,): each sample's odometry heading. A view of a real place matches only
     the images taken facing the way it looks (the camera sees ~1 rad; the alignment shifts
     ~0.25 rad either way), so its distance profile over the turn has one sharp dip. A view
@@ -111,7 +111,7 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), ver
     view with the smallest, and the odometry heading that faces the way it looks; views in
     ``exclude`` (a fix found wrong) only if every view is excluded. With ``verify`` (view ->
     bool: the turn's metric support for a fix there,
-    :meth:`~servo.camera_only.metric_pose_fixes.PoseFixes.supports`) a fix it does not support gives
+    `supports`) a fix it does not support gives
     way to the first of the next ``candidates`` views by score that it supports (a look-alike down a
     symmetric corridor matches as well as the place, but keypoints at known depths pose the robot
     only against the place). Returns (view, heading)."""
@@ -130,7 +130,7 @@ def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), ver
 def contrast_scores(
     distances, yaws, headings, *, far: float = 0.6
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`contrast_fix`'s score of every stored view (smaller: its best match over the
+    """`contrast_fix`'s score of every stored view (smaller: its best match over the
     turn stands out more) and the odometry heading that faces the way each looks; arguments
     as there. Returns two (N,) arrays."""
     d = np.asarray(distances, np.float64)
@@ -194,8 +194,8 @@ class TurnSamples:
             self.samples.append((d, view, float(odometry[2] + yaw)))
 
     def fix(self, routes: RouteGraph, exclude=()) -> tuple[int, float]:
-        """The global fix (view, odometry heading facing it): :func:`contrast_fix` (views in
-        ``exclude`` only if every view is), :func:`consistent_fix`, or the best match."""
+        """The global fix (view, odometry heading facing it): `contrast_fix` (views in
+        ``exclude`` only if every view is), `consistent_fix`, or the best match."""
         c = self.config
         if c.contrast_fix:
             d, yaw, h = (np.array(a) for a in zip(*self.rows, strict=True))

@@ -1,7 +1,7 @@
 """Where the camera is relative to a stored view, in metres: keypoints of the view with depth,
 matched in the current image, and the camera pose that projects them there (PnP).
 
-The whole image's best shift against a view (:mod:`servo.localise`) measures the heading plus
+The whole image's best shift against a view (`servo.localise`) measures the heading plus
 the parallax times the offset across the view's sight, z = theta + c y, and cannot tell the two
 apart. Image points at known depths can: a turn moves near and far points alike, a step
 sideways moves near points more. The stored view's depths come from the map, not from a
@@ -13,7 +13,7 @@ matches, ``cv2.solvePnPRansac`` with EPnP, then the inliers refined (Levenberg-M
 
 The depth model fails where the scan's plane (0.3 m above the floor) sees something the camera
 (1 m above it) looks over: a hedge or a low wall with a house behind it. Those views give poses
-off by a factor; :meth:`ViewPose.reliable` finds them from the map's own view graph (each view's
+off by a factor; `ViewPose.reliable` finds them from the map's own view graph (each view's
 pose against its linked views, whose relative poses the map got by scan matching).
 """
 
@@ -98,7 +98,7 @@ class ViewPose:
 
     def keypoints(self, image: np.ndarray):
         """The ORB keypoints and descriptors of a camera image (H, W, 3) uint8: pass them to
-        :meth:`pose` to pose one image against several views with one detection."""
+        `pose` to pose one image against several views with one detection."""
         image = np.asarray(image)
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
             raise ValueError(f"image must be (H, W, 3) uint8, got {image.shape} {image.dtype}")
@@ -122,8 +122,8 @@ class ViewPose:
     def depth_points(self, view: int, uv: np.ndarray, upper: bool = True) -> np.ndarray:
         """The 3-D points (camera frame: x right, y down, z ahead) seen at pixels ``uv`` of
         stored view ``view``: along each pixel's ray, the nearer of the vertical surface the
-        view's scan hit at that bearing (:data:`FAR_DEPTH` where it hit nothing) and the floor
-        (below the horizon, the camera :data:`~scenes.robot.CAMERA_HEIGHT` above it).
+        view's scan hit at that bearing (`FAR_DEPTH` where it hit nothing) and the floor
+        (below the horizon, the camera `CAMERA_HEIGHT` above it).
         ``upper=False``: NaN above the horizon, where the scan's plane says nothing of what
         the camera sees over it (the lawn's trees and houses over its fences and hedges)."""
         f, cx, cy = self.K[0, 0], self.K[0, 2], self.K[1, 2]
@@ -154,8 +154,8 @@ class ViewPose:
 
     def pose(self, image: np.ndarray, view: int, keypoints=None) -> RelativePose | None:
         """The robot's pose in stored view ``view``'s frame from the camera ``image`` with the
-        view's verified depth model (:meth:`depth_model`); None where the view has none or
-        too few keypoints match or agree. ``keypoints``: the image's :meth:`keypoints`, if
+        view's verified depth model (`depth_model`); None where the view has none or
+        too few keypoints match or agree. ``keypoints``: the image's `keypoints`, if
         already detected."""
         model = self.depth_model(view)
         return None if model is None else self.relative(image, view, model == "full", keypoints)
@@ -170,7 +170,7 @@ class ViewPose:
         return self._posed(keypoints, view, bool(upper))
 
     def _posed(self, image_keypoints, view: int, upper: bool) -> RelativePose | None:
-        """:meth:`relative` from the image's ORB ``(keypoints, descriptors)``."""
+        """`relative` from the image's ORB ``(keypoints, descriptors)``."""
         stored = self._view(view, upper)
         keypoints, descriptors = image_keypoints
         if stored.descriptors is None or descriptors is None or len(keypoints) < 8:

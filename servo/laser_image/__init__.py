@@ -1,6 +1,6 @@
-"""The laser + image controller, :class:`ManifoldServo` (``controller``), and what only it
-uses: localisation by the laser against the map's metric map (``laser_localise``,
-``metric_map``) and the scan match of the current view against a stored one
+"""The laser + image controller, [`ManifoldServo`][servo.laser_image.controller.ManifoldServo]
+(``controller``), and what only it uses: localisation by the laser against the map's metric map
+(``laser_localise``, ``metric_map``) and the scan match of the current view against a stored one
 (``view_match``).
 """
 

@@ -2,22 +2,22 @@
 
 What the robot has: its camera image, its laser scan and its odometry (never the true pose).
 The map is the servo map's views placed in one frame by sensing only
-(:class:`~servo.laser_image.metric_map.MetricMap`). An episode runs in phases:
+(`MetricMap`). An episode runs in phases:
 
 1. *Observe.* Turn once around on the spot: the scans, joined by odometry, make an all-round
    scan, and an image is kept every few steps. The heading is unknown at the start, and a
    forward-looking 180-degree laser sees too little of a corridor to place itself.
-2. *Localise.* :class:`~servo.laser_image.laser_localise.GlobalLocaliser`: the all-round scan on the
+2. *Localise.* `GlobalLocaliser`: the all-round scan on the
    point map at every free place and heading, the best refined by ICP, look-alikes told apart
    by the images against the stored views there. The clustering's ``predict`` (eq. 13) names
    the current manifold.
 3. *Drive.* The shortest path through the map's sensed free space to the target view
-   (:class:`~servo.geodesic.GeodesicField`), pure pursuit ``lookahead`` ahead along it; the
+   (`GeodesicField`), pure pursuit ``lookahead`` ahead along it; the
    pose carried by odometry and corrected each step by ICP on the point map
-   (:class:`~servo.laser_image.laser_localise.ScanTracker`). ``route_`` / ``manifold_route_``: the
+   (`ScanTracker`). ``route_`` / ``manifold_route_``: the
    stored views along the path and the clusters they cross (the manifold graph's path).
 4. *Arrive.* On the last metre, drive the target view's pose in the robot frame to zero
-   (:class:`~servo.steering.Arrival`), then verify: the scan must match the target view's.
+   (`Arrival`), then verify: the scan must match the target view's.
    Driving the view error to zero is what makes F^j(k) toward the target (eq. 13) peak; the
    literal ascent on F is ``GreedyFProbing``, and the camera-only ascent is ``SignalServo``.
 5. *Recover.* The scan no longer fits the map for ``lost_steps`` steps, or the arrival check
@@ -49,9 +49,10 @@ SCAN_POINTS = 90  # current-scan points used by tracking ICP (every k-th return)
 
 @dataclass(frozen=True)
 class ServoConfig:
-    """Every setting of :class:`ManifoldServo`, checked when made.
+    """Every setting of [`ManifoldServo`][servo.laser_image.controller.ManifoldServo], checked when
+    made.
 
-    A frozen dataclass: change a setting with :func:`dataclasses.replace`. The defaults are the
+    A frozen dataclass: change a setting with `dataclasses.replace`. The defaults are the
     settings the servo evaluation measures, chosen on the benchmark's ``dev`` split only.
 
     Parameters
@@ -152,7 +153,8 @@ class ServoConfig:
 
 
 class ManifoldServo:
-    """Servo to a stored view of a :class:`~servo.maps.ServoMap` with the laser and the camera.
+    """Servo to a stored view of a [`ServoMap`][servo.maps.types.ServoMap] with the laser and the
+    camera.
 
     An episode runs in phases (see the module's description): observe (turn once round on the
     spot), localise globally (the all-round scan on the map's point map, look-alikes told apart
@@ -177,9 +179,10 @@ class ManifoldServo:
     config : ServoConfig
         The settings.
     target : int or None
-        The target view of the episode (None before :meth:`reset`).
+        The target view of the episode (None before
+        [`reset`][servo.laser_image.controller.ManifoldServo.reset]).
     phase_ : {"observe", "drive", "done"}
-        The phase after the last :meth:`act`.
+        The phase after the last [`act`][servo.laser_image.controller.ManifoldServo.act].
     pose_ : ndarray of shape (3,) or None
         The robot's pose in the map frame while driving.
     route_ : list of int

@@ -1,14 +1,14 @@
-"""Where the robot is on a :class:`~servo.laser_image.metric_map.MetricMap`, from laser scans and
+"""Where the robot is on a `MetricMap`, from laser scans and
 images.
 
-:class:`GlobalLocaliser` answers from nothing: the scans of a turn on the spot, joined by the
+`GlobalLocaliser` answers from nothing: the scans of a turn on the spot, joined by the
 odometry into one all-round scan, are scored against the point map at every free place and
 heading (a correlative search on the map's distance field), the best distinct poses refined by
 ICP, and the ones the laser cannot tell apart (the arms of a symmetric junction) told apart by
 the images taken on the turn: each is compared, shift-aligned, with the stored views near the
 candidate pose that look the same way.
 
-:class:`ScanTracker` answers from a prior pose: ICP of the current scan on the point map,
+`ScanTracker` answers from a prior pose: ICP of the current scan on the point map,
 accepted only when most of the scan fits and the correction is small; it reports how well
 the scan fits, which tells the controller when it is lost.
 """

@@ -8,7 +8,7 @@ placed scans come what a laser controller needs to start anywhere:
 * a point map (the scans, densified and thinned to a grid) with a KD-tree for ICP, and a
   distance field for scoring many candidate poses at once (global localisation);
 * free space: the cells the laser beams crossed, minus the cells near a return, grown by the
-  robot's radius: a grid to plan shortest paths on (:class:`~servo.geodesic.GeodesicField`).
+  robot's radius: a grid to plan shortest paths on (`GeodesicField`).
 
 Nothing here reads the map's ``true_poses``: they are for the evaluation only.
 """

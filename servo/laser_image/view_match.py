@@ -1,6 +1,6 @@
 """Scan matching of the current laser scan against a servo map's stored views.
 
-:class:`ViewMatcher` runs ICP (``mapping.icp_solver``) of the current scan on one stored view's scan
+`ViewMatcher` runs ICP (``mapping.icp_solver``) of the current scan on one stored view's scan
 (or on a given ``(tree, points)`` map) and scores a match by its overlap both ways, which is
 what tells places along a uniform corridor apart: ``ManifoldServo``'s arrival check.
 """

@@ -1,7 +1,7 @@
 """The map a robot servoes on: its recordings' views, clustered into manifolds by
-:class:`~mapping.manifold.ManifoldClustering` and linked across recordings by ICP of their
-scans (``build``), its types (``types``), its file (``file``: untrusted on load, written
-atomically), the laser-profile distances between a scan and the stored views
+[`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering] and linked across recordings
+by ICP of their scans (``build``), its types (``types``), its file (``file``: untrusted on load,
+written atomically), the laser-profile distances between a scan and the stored views
 (``scan_profile``) and what a map needs from a dataset (``needs``: beams, stored views).
 """
 

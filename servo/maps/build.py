@@ -97,8 +97,9 @@ def _world_sequences(dataset: Dataset, world: str) -> list[str]:
 
 def map_key(meta: dict, world: str, settings: MapSettings) -> str:
     """Hash of what the map depends on: the world's sequence checksums, the settings (the
-    clustering's K among them, :meth:`MapSettings.clusters_for`), the source of every module
-    that builds or stores a map (the whole ``mapping`` package, the servo map modules, the
+    clustering's K among them,
+    [`MapSettings.clusters_for`][servo.maps.types.MapSettings.clusters_for]), the source of every
+    module that builds or stores a map (the whole ``mapping`` package, the servo map modules, the
     dataset reader) and the numeric libraries' versions."""
     h = hashlib.sha256()
     world = check_world_name(world)
@@ -225,7 +226,7 @@ def _link_sequences(
     s: MapSettings,
 ) -> tuple[list, list]:
     """Edges between views of different sequences that see the same place. The sequences are
-    first aligned by sensing (:func:`_sequence_alignment`); then each view is linked to the
+    first aligned by sensing (`_sequence_alignment`); then each view is linked to the
     view of the other sequence nearest in image features among those within ``link_radius``
     under that alignment, kept when ICP of the two scans (seeded by the alignment, so it
     cannot slide along a uniform corridor) converges with a small residual."""
@@ -264,7 +265,7 @@ def build_map(
 ) -> ServoMap:
     """Fit the servo map of ``world`` (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``) from a
     dataset (see the module docstring); a dataset that cannot give what a map needs
-    (:mod:`servo.maps.needs`: beams, frames per manifold) raises ``DatasetError`` naming the
+    (`servo.maps.needs`: beams, frames per manifold) raises ``DatasetError`` naming the
     shortfall."""
     world = check_world_name(world)
     settings = settings or MapSettings()
@@ -362,7 +363,7 @@ def load_or_build(
     ``dataset`` and ``cache`` default to the data home's (``sim.datahome``: the ``home``
     argument, then ``TOPOMAP_HOME``, then the per-user cache), never the working directory;
     the default dataset is collected there when missing. A cached map that fails
-    :func:`~servo.maps.file.load_map`'s checks is rebuilt, with a warning saying why.
+    [`load_map`][servo.maps.file.load_map]'s checks is rebuilt, with a warning saying why.
     """
     world = check_world_name(world)
     settings = settings or MapSettings()

@@ -1,12 +1,12 @@
 """The servo map on disk: ``<world>-<key>.npz`` (arrays) and ``<world>-<key>.json`` (the rest).
 
-No pickle anywhere. A map file is untrusted input: :func:`load_map` checks the JSON's schema, the
-``.npz``'s SHA-256 against the one recorded at save time, every array's dtype and shape against
-the others and its values against :mod:`common.bounds` and the map's own indices (views,
+No pickle anywhere. A map file is untrusted input: [`load_map`][servo.maps.file.load_map] checks the
+JSON's schema, the ``.npz``'s SHA-256 against the one recorded at save time, every array's dtype and
+shape against the others and its values against `common.bounds` and the map's own indices (views,
 sequences, manifolds), checks the description's own SHA-256, rebuilds the estimators only through
-:mod:`mapping.persistence` (an exact set of known classes), and finally re-runs the feature
-transform and the clustering's ``predict`` on a few stored views and compares with what was
-saved. Whatever fails raises :class:`MapError` naming the file and the fault.
+`mapping.persistence` (an exact set of known classes), and finally re-runs the feature transform and
+the clustering's ``predict`` on a few stored views and compares with what was saved. Whatever fails
+raises [`MapError`][servo.maps.types.MapError] naming the file and the fault.
 """
 
 from __future__ import annotations
@@ -209,7 +209,8 @@ def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: 
 
 
 def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
-    """Read and verify a map written by :func:`save_map` (see the module docstring).
+    """Read and verify a map written by [`save_map`][servo.maps.file.save_map] (see the module
+    docstring).
 
     Parameters
     ----------

@@ -1,14 +1,14 @@
 """What a servo map needs from a dataset, stated once and checked before a map is built.
 
 A map compares a scan with the stored views' scans over beam shifts of up to
-:data:`~servo.maps.scan_profile.PROFILE_SHIFT` beams each way, so a scan needs more beams than
-two such shifts (:data:`MIN_BEAMS`), and the overlap of a shifted scan with a stored one is
+`PROFILE_SHIFT` beams each way, so a scan needs more beams than
+two such shifts (`MIN_BEAMS`), and the overlap of a shifted scan with a stored one is
 never empty. The clustering splits the stored views into ``K`` manifolds
-(:meth:`~servo.maps.types.MapSettings.clusters_for`) of at least ``min_cluster_size`` views
+([`clusters_for`][servo.maps.types.MapSettings.clusters_for]) of at least ``min_cluster_size`` views
 each, so the world's sequences must give ``K * min_cluster_size`` stored views (every
 ``stride``-th frame of each sequence). A dataset that cannot give either is refused with a
-:class:`~sim.dataset.DatasetError` naming the dataset and what to collect instead, not with
-an error of numpy or of the clustering deep inside the build.
+[`DatasetError`][sim.dataset.schema.DatasetError] naming the dataset and what to collect instead,
+not with an error of numpy or of the clustering deep inside the build.
 """
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ def views_needed(world: str, settings: MapSettings) -> int:
 
 
 def check_needs(dataset: Dataset, world: str, names: list[str], settings: MapSettings) -> None:
-    """Raise :class:`~sim.dataset.DatasetError` when the sequences ``names`` of ``dataset``
-    (those of ``world``) have fewer than :data:`MIN_BEAMS` beams or give fewer stored views
-    than :func:`views_needed`, naming the shortfall and the frames per sequence to collect."""
+    """Raise [`DatasetError`][sim.dataset.schema.DatasetError] when the sequences ``names`` of
+    ``dataset`` (those of ``world``) have fewer than `MIN_BEAMS` beams or give fewer stored views
+    than `views_needed`, naming the shortfall and the frames per sequence to collect."""
     beams = len(dataset.sequences[names[0]].angles)
     if beams < MIN_BEAMS:
         raise DatasetError(

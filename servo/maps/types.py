@@ -1,5 +1,6 @@
-"""The servo map's data: :class:`ServoMap` (stored views and the graphs over them), the
-:class:`MapSettings` that determine it besides the dataset, and :class:`MapError`.
+"""The servo map's data: [`ServoMap`][servo.maps.types.ServoMap] (stored views and the graphs over
+them), the [`MapSettings`][servo.maps.types.MapSettings] that determine it besides the dataset, and
+[`MapError`][servo.maps.types.MapError].
 
 Building lives in ``servo.maps.build``, the file format in ``servo.maps.file``.
 """
@@ -55,7 +56,7 @@ class MapSettings:
         Largest ICP residual accepted for a link, m.
     n_clusters : int or None, default None
         K of ``ManifoldClustering``: the number of manifolds the map is split into, a stated
-        prior. None: the world's prior, :func:`prior_clusters` (a shipped world's main
+        prior. None: the world's prior, `prior_clusters` (a shipped world's main
         corridor or lawn and its three branches: 4; a generated world's manifold count), else
         2. Never read from the recordings' labels.
 
@@ -106,9 +107,9 @@ class MapSettings:
 
     @classmethod
     def from_json(cls, d) -> MapSettings:
-        """The inverse of :meth:`to_json`, for untrusted input: exactly these keys, each of
-        the declared type (``n_clusters`` may be missing, as in a file written before it was
-        a setting: None); raises ``ValueError`` naming the field."""
+        """The inverse of [`to_json`][servo.maps.types.MapSettings.to_json], for untrusted input:
+        exactly these keys, each of the declared type (``n_clusters`` may be missing, as in a file
+        written before it was a setting: None); raises ``ValueError`` naming the field."""
         fields = {f.name for f in dataclasses.fields(cls)}
         if isinstance(d, dict) and "n_clusters" not in d:
             d = {**d, "n_clusters": None}
@@ -135,11 +136,12 @@ class MapSettings:
 class ServoMap:
     """The stored views of one world and the graphs over them.
 
-    Built from a dataset by :func:`~servo.maps.build_map` (cached by
-    :func:`~servo.maps.load_or_build`), saved and loaded by :func:`~servo.maps.save_map` and
-    :func:`~servo.maps.load_map`. No ground truth goes into building it: each recording's
-    odometry starts at its own origin and recordings are joined by scan and image matching only;
-    ``true_poses`` and ``true_labels`` are kept for the env and the evaluation.
+    Built from a dataset by [`build_map`][servo.maps.build.build_map] (cached by
+    [`load_or_build`][servo.maps.build.load_or_build]), saved and loaded by
+    [`save_map`][servo.maps.file.save_map] and [`load_map`][servo.maps.file.load_map]. No ground
+    truth goes into building it: each recording's odometry starts at its own origin and recordings
+    are joined by scan and image matching only; ``true_poses`` and ``true_labels`` are kept for the
+    env and the evaluation.
 
     Parameters
     ----------

@@ -95,9 +95,9 @@ class GreedyFProbing:
 
     With ``waypoints`` (the fair baseline, ``policy="greedy"``), F is taken toward the next
     waypoint view of a route in the current manifold: the first image is localised
-    (:class:`~servo.localise.ImageLocaliser`), the route over the view graph is cut into
+    (`ImageLocaliser`), the route over the view graph is cut into
     waypoints ``spacing`` apart, and the probing moves on when F toward the next waypoint
-    overtakes F toward the current one (:class:`~servo.waypoint_tracker.WaypointTracker`).
+    overtakes F toward the current one (`WaypointTracker`).
     Without (``policy="greedy-target"``), F is taken toward the final target only, whose cluster
     gives no signal from another manifold.
 
@@ -123,7 +123,7 @@ class GreedyFProbing:
         per ``commit`` steps of motion) can cover the route and the result measures F, not the
         step budget.
     target : int or None
-        The target view (None before :meth:`reset`).
+        The target view (None before [`reset`][servo.task.baseline_policies.GreedyFProbing.reset]).
     waypoint_ : int
         The view F is ascended toward.
 
@@ -234,7 +234,8 @@ class OraclePolicy:
     world, speed, lookahead
         The parameters.
     field : GeodesicField or None
-        The distance field to the target (None before :meth:`reset`).
+        The distance field to the target (None before
+        [`reset`][servo.task.baseline_policies.OraclePolicy.reset]).
 
     Examples
     --------

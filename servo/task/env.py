@@ -50,7 +50,7 @@ class ServoEnv(gym.Env):
         the start of the episode* (what wheel encoders give; the env's absolute odometry starts
         at the true pose and would leak it), and the target view's image, scan and mask.
         ``no_return="inf"``: the raw ranges, ``+inf`` for no return, and no masks (as
-        :class:`~sim.env.NavigationEnv`).
+        [`NavigationEnv`][sim.env.NavigationEnv]).
 
     Rewards
         ``reward_signal``: the change of F^j(k) toward the target (eq. 13) over the step,
@@ -66,7 +66,8 @@ class ServoEnv(gym.Env):
         clock; ``spec.max_episode_steps`` is ``max_steps``). ``info["reason"]``: "success",
         "stuck", "time limit" or None while running; "time limit" too when an outer
         ``TimeLimit`` (``gym.make(..., max_episode_steps=n)``) cuts the episode, which the
-        registered ids' :class:`~servo.task.registration.TruncationReason` wrapper reports.
+        registered ids' [`TruncationReason`][servo.task.registration.TruncationReason] wrapper
+        reports.
 
     Info
         ``pose`` (true), ``target_pose``, ``target_view``, ``start_manifold``,
@@ -93,7 +94,7 @@ class ServoEnv(gym.Env):
         The map: a ``ServoMap``, the path of a saved one (cheap to pass to vector-env workers,
         and the form to give ``gym.make``: a map object there warns, since the spec would hold
         its arrays), or None for the world's cached default map
-        (:func:`~servo.maps.load_or_build`).
+        ([`load_or_build`][servo.maps.build.load_or_build]).
     max_steps : int, default 600
         Steps before the episode is truncated.
     cross_manifold : bool, default True
@@ -103,7 +104,7 @@ class ServoEnv(gym.Env):
     odometry_noise : bool, default True
         Odometry with random-walk drift; False gives noiseless odometry.
     render_mode : {None, "rgb_array"}, default None
-        ``"rgb_array"``: :meth:`render` draws the top-down map.
+        ``"rgb_array"``: [`render`][servo.task.env.ServoEnv.render] draws the top-down map.
     signal_weight : float, default 1.0
         Weight of the F reward.
     success_reward : float, default 1.0

@@ -3,7 +3,7 @@ pair, with trajectory plots over the top-down map and videos of chosen episodes.
 
 SPL (Anderson et al. 2018, "On evaluation of embodied navigation agents"):
 ``mean_i S_i l_i / max(p_i, l_i)`` with l_i the shortest free-space path length from the start
-to the target (:class:`~servo.geodesic.GeodesicField`) and p_i the length actually driven.
+to the target (`GeodesicField`) and p_i the length actually driven.
 """
 
 from __future__ import annotations
@@ -57,8 +57,8 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
 
 
 def check_policy_name(name) -> str:
-    """``name`` if it is one of :data:`POLICIES` or has the form ``package.module:factory``;
-    else ``ValueError``."""
+    """``name`` if it is one of [`POLICIES`][servo.task.evaluation.POLICIES] or has the form
+    ``package.module:factory``; else ``ValueError``."""
     if name in POLICIES or is_policy_spec(name):
         return name
     raise ValueError(f"policy must be one of {POLICIES} or package.module:factory, got {name!r}")
@@ -92,10 +92,10 @@ def run_episode(
     env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None, *,
     truth: bool = False, act_limit_s: float = ACT_LIMIT_S, load_error: str | None = None,
 ) -> dict:  # fmt: skip
-    """One episode; returns its record (:func:`score_episode`; and appends video frames to
+    """One episode; returns its record (`score_episode`; and appends video frames to
     ``frames`` if given).
 
-    The policy is given the target as a :class:`~servo.task.interface.Target` and the env's
+    The policy is given the target as a [`Target`][servo.task.interface.Target] and the env's
     observations only: ``policy.reset(target)``, ``policy.act(observation)``. With ``truth``
     (the oracle, by name), the env's info too: ``reset(target, info)``, ``act(observation,
     info)``. A policy that raises, gives an action that is not two finite numbers inside the
@@ -223,7 +223,7 @@ def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
 
 def summarise(records: list[dict]) -> dict:
     """Aggregate episode records: overall and per (start manifold, target manifold), success
-    with its Wilson 95% interval, and F along the trajectories (:func:`signal_agreement`)."""
+    with its Wilson 95% interval, and F along the trajectories (`signal_agreement`)."""
 
     def agg(rs):
         ok = [r for r in rs if r["success"]]
@@ -290,14 +290,15 @@ def evaluate(
     videos: int = 0,
     progress: bool = True,
 ) -> dict:
-    """Run ``episodes`` servo episodes in ``world`` and summarise them (see :func:`summarise`).
+    """Run ``episodes`` servo episodes in ``world`` and summarise them (see
+    [`summarise`][servo.task.evaluation.summarise]).
 
-    ``policy``: one of :data:`POLICIES` or an outside factory ``package.module:factory``
-    (:func:`make_policy`; one that cannot be made fails every episode with the reason).
-    Episode ``i`` is seeded with the ``i``-th child of ``SeedSequence(seed)``, so a run is
-    reproducible and a longer run extends a shorter one. With ``out``, writes
-    ``<world>-<policy>-trajectories.png`` and ``videos`` H.264 MP4s of the first episodes
-    (``common.video.write_mp4``: the camera view beside the top-down map). Without
+    ``policy``: one of [`POLICIES`][servo.task.evaluation.POLICIES] or an outside factory
+    ``package.module:factory`` ([`make_policy`][servo.task.evaluation.make_policy]; one that cannot
+    be made fails every episode with the reason). Episode ``i`` is seeded with the ``i``-th child of
+    ``SeedSequence(seed)``, so a run is reproducible and a longer run extends a shorter one. With
+    ``out``, writes ``<world>-<policy>-trajectories.png`` and ``videos`` H.264 MP4s of the first
+    episodes (``common.video.write_mp4``: the camera view beside the top-down map). Without
     ``servo_map``, the world's map is loaded from (or built in) the data home ``home`` (see
     ``sim.datahome``: the argument, then ``TOPOMAP_HOME``, then the per-user cache).
     """

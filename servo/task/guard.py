@@ -24,8 +24,8 @@ FAILURES = (NOT_LOADED, RAISED, INVALID_ACTION, TOO_SLOW, DIED, GARBAGE)
 
 
 class PolicyFailure(Exception):
-    """A policy's episode ended by the policy: ``reason`` one of :data:`FAILURES`, ``detail``
-    what happened."""
+    """A policy's episode ended by the policy: ``reason`` one of
+    [`FAILURES`][servo.task.guard.FAILURES], ``detail`` what happened."""
 
     def __init__(self, reason: str, detail: str):
         super().__init__(f"{reason}: {detail}")
@@ -59,7 +59,8 @@ def _alarm(seconds: float):
 
 
 def call(fn, *args, limit: float = ACT_LIMIT_S):
-    """``fn(*args)``, or :class:`PolicyFailure` when it raises or takes over ``limit`` s."""
+    """``fn(*args)``, or [`PolicyFailure`][servo.task.guard.PolicyFailure] when it raises or takes
+    over ``limit`` s."""
     t0 = time.perf_counter()
     try:
         with _alarm(limit):
@@ -81,8 +82,8 @@ def _name(fn) -> str:
 
 
 def check_action(action, low: np.ndarray, high: np.ndarray) -> None:
-    """Raise :class:`PolicyFailure` unless ``action`` is two finite numbers inside
-    ``[low, high]`` (the env's action space)."""
+    """Raise [`PolicyFailure`][servo.task.guard.PolicyFailure] unless ``action`` is two finite
+    numbers inside ``[low, high]`` (the env's action space)."""
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):

@@ -1,13 +1,15 @@
 """What a policy under evaluation is, and what it is given.
 
 A policy is any object with ``reset(target)`` and ``act(observation) -> (v, omega)``
-(:class:`Policy`, the shape of Habitat-Lab's ``Agent``); it is made by a factory
-``factory(servo_map, rng, **params)`` (:class:`PolicyFactory`) named on the command line as
-``package.module:factory``. The truth boundary (docs/decisions/064-truth-boundary.md): a
-policy is given the target as a stored view (:class:`Target`: its index and image, no pose),
-the env's observations (camera, laser, odometry relative to the episode's start), the map as
-sensed recordings only (:func:`sensed_map`: the true poses and manifold labels of its views
-blanked) and a seeded ``numpy.random.Generator``. Only the oracle, by name, reads the truth.
+([`Policy`][servo.task.interface.Policy], the shape of Habitat-Lab's ``Agent``); it is made by a
+factory ``factory(servo_map, rng, **params)``
+([`PolicyFactory`][servo.task.interface.PolicyFactory]) named on the command line as
+``package.module:factory``. The truth boundary (docs/decisions/064-truth-boundary.md): a policy is
+given the target as a stored view ([`Target`][servo.task.interface.Target]: its index and image, no
+pose), the env's observations (camera, laser, odometry relative to the episode's start), the map as
+sensed recordings only ([`sensed_map`][servo.task.interface.sensed_map]: the true poses and manifold
+labels of its views blanked) and a seeded ``numpy.random.Generator``. Only the oracle, by name,
+reads the truth.
 """
 
 from __future__ import annotations
@@ -78,13 +80,14 @@ class Target:
 
 @runtime_checkable
 class Policy(Protocol):
-    """The interface of a policy under evaluation (:func:`servo.task.run_episode` calls it).
+    """The interface of a policy under evaluation
+    ([`servo.task.run_episode`][servo.task.evaluation.run_episode] calls it).
 
-    ``reset(target)`` starts an episode toward ``target`` (a :class:`Target`);
-    ``act(observation)`` gives the command for one step from the env's observation dict
-    (``image``, ``scan``, ``scan_valid``, ``odometry`` relative to the episode's start,
-    ``target_image``, ``target_scan``, ``target_scan_valid``): ``(v, omega)`` in m/s and rad/s,
-    finite, inside the env's action space ``[-0.5, 1.5] x [-1.5, 1.5]``.
+    ``reset(target)`` starts an episode toward ``target`` (a
+    [`Target`][servo.task.interface.Target]); ``act(observation)`` gives the command for one step
+    from the env's observation dict (``image``, ``scan``, ``scan_valid``, ``odometry`` relative to
+    the episode's start, ``target_image``, ``target_scan``, ``target_scan_valid``): ``(v, omega)``
+    in m/s and rad/s, finite, inside the env's action space ``[-0.5, 1.5] x [-1.5, 1.5]``.
 
     An interface: a policy's own constructor (called by its factory) takes what it needs.
 
@@ -122,12 +125,12 @@ class Policy(Protocol):
 class PolicyFactory(Protocol):
     """``factory(servo_map, rng, **params) -> Policy``: a policy for one world's map.
 
-    ``servo_map`` is the world's :class:`~servo.maps.ServoMap` as sensed (:func:`sensed_map`:
-    images, features, scans, scan-matched odometry, the clusters learned without labels, the
-    view graph; its ``true_poses`` are NaN and its ``true_labels`` ``NO_MANIFOLD``); ``rng``
-    a seeded ``numpy.random.Generator``, the policy's only source of randomness; ``params``
-    the ``--policy-arg`` values. A factory refuses unknown params (Python does for named
-    keyword arguments).
+    ``servo_map`` is the world's [`ServoMap`][servo.maps.types.ServoMap] as sensed
+    ([`sensed_map`][servo.task.interface.sensed_map]: images, features, scans, scan-matched
+    odometry, the clusters learned without labels, the view graph; its ``true_poses`` are NaN and
+    its ``true_labels`` ``NO_MANIFOLD``); ``rng`` a seeded ``numpy.random.Generator``, the policy's
+    only source of randomness; ``params`` the ``--policy-arg`` values. A factory refuses unknown
+    params (Python does for named keyword arguments).
 
     A callable; a module-level function is the usual form.
 
@@ -224,8 +227,8 @@ def load_factory(spec: str):
     """The factory ``spec`` names (``package.module:factory``), imported as ``python -m``
     would: the module's code runs, with the current directory first on ``sys.path``.
 
-    Raises :class:`PolicyLoadError` naming the spec when it is malformed, does not import or
-    names nothing callable."""
+    Raises [`PolicyLoadError`][servo.task.interface.PolicyLoadError] naming the spec when it is
+    malformed, does not import or names nothing callable."""
     if not isinstance(spec, str) or spec.count(":") != 1:
         raise PolicyLoadError(f"policy must be a built-in name or package.module:factory, "
                               f"got {spec!r}")  # fmt: skip
@@ -244,8 +247,8 @@ def load_factory(spec: str):
 
 def make_outside_policy(spec: str, servo_map: ServoMap, rng: np.random.Generator, **params):
     """The policy the factory ``spec`` makes from the sensed ``servo_map``; raises
-    :class:`PolicyLoadError` when it cannot be loaded, raises, or gives an object without
-    ``reset`` and ``act``."""
+    [`PolicyLoadError`][servo.task.interface.PolicyLoadError] when it cannot be loaded, raises, or
+    gives an object without ``reset`` and ``act``."""
     factory = load_factory(spec)
     try:
         policy = factory(sensed_map(servo_map), rng, **params)

@@ -37,8 +37,8 @@ BOOTSTRAP = 10_000
 class PairedComparison:
     """Two evaluations of one world and setting, compared episode by episode.
 
-    :func:`compare` makes one per world and setting present in both results; episodes are
-    paired by their index (and must have the same seed).
+    [`compare`][servo.task.paired_comparison.compare] makes one per world and setting present in
+    both results; episodes are paired by their index (and must have the same seed).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """The servo benchmark protocol: named start tiers, named splits, deterministic episode sets,
 and a parallel runner over the machine's cores (success rates carry the Wilson intervals of
-:mod:`servo.task.stats`).
+`servo.task.stats`).
 
 Tiers
     ``view``: today's starts, within 0.4 m and 17 deg of a stored view of the start manifold
@@ -120,7 +120,8 @@ SUCCESS_TARGETS = {
 
 @dataclass(frozen=True)
 class EpisodeSpec:
-    """One episode of a :class:`Protocol`: its index, seed and manifold pair.
+    """One episode of a [`Protocol`][servo.task.protocol.Protocol]: its index, seed and manifold
+    pair.
 
     Parameters
     ----------

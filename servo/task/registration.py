@@ -18,7 +18,7 @@ MAX_EPISODE_STEPS = 600
 class TruncationReason(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Say why an episode was truncated when a ``TimeLimit`` below cut it.
 
-    A :class:`~servo.task.ServoEnv` names the end of its episodes in ``info["reason"]``
+    A [`ServoEnv`][servo.task.env.ServoEnv] names the end of its episodes in ``info["reason"]``
     ("success", "stuck", "time limit"), but a ``gymnasium.wrappers.TimeLimit`` around it (what
     ``gym.make(..., max_episode_steps=n)`` adds) truncates without the env knowing, which left
     the reason None. This wrapper, put on top of the ``TimeLimit``, sets ``info["reason"]`` to

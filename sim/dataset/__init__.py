@@ -1,6 +1,6 @@
 """The on-disk dataset: one ``.npz`` per sequence and a ``meta.json``, loaded without pickle.
 
-Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
+Layout of a dataset directory (schema version `SCHEMA_VERSION`)::
 
     meta.json            settings (world, seed, sensors, teleop), the manifold names, and per
                          sequence its file, world, frame count and SHA-256
@@ -17,21 +17,22 @@ Layout of a dataset directory (schema version :data:`SCHEMA_VERSION`)::
         times     float64 (N,)          simulation time (s)
 
 (*) ground truth: present when ``meta["ground_truth"]`` is true (collected in simulation); a
-dataset imported from a robot's log (:mod:`sim.readers.rosbag`) has ``"ground_truth": false``,
+dataset imported from a robot's log (`sim.readers.rosbag`) has ``"ground_truth": false``,
 no ``poses`` or ``labels`` arrays and no manifolds. A dataset of a robot without a camera (a
 laser-only bag) has ``"camera": false`` and no ``images`` arrays, one without a laser (a
 camera-only bag) ``"laser": false`` and no ``scans`` or ``angles`` arrays (both keys absent:
-true); a method that needs the missing sensor raises :class:`MissingSensorError`. Schema
-version 1 (before ``"ground_truth"`` existed) is still read, as a dataset with ground truth.
+true); a method that needs the missing sensor raises
+[`MissingSensorError`][sim.dataset.schema.MissingSensorError]. Schema version 1 (before
+``"ground_truth"`` existed) is still read, as a dataset with ground truth.
 
-Reading checks the values too, against :mod:`common.bounds`: finite poses, odometry, commands,
+Reading checks the values too, against `common.bounds`: finite poses, odometry, commands,
 times and angles within their bounds, times that never go backwards, ranges and depths that are
 never NaN or negative (``+inf``: no return), labels within the manifolds (a dataset with labels
 must list its ``manifolds``), images and scans that are not empty, a maximum range within the
-bound of every reader. Across the sequences (:mod:`sim.dataset.consistency`): one beam layout,
+bound of every reader. Across the sequences (`sim.dataset.consistency`): one beam layout,
 one image size, and both as the settings record them, worlds among the settings' worlds, and
-no file listed under two sequence names. Anything else raises :class:`DatasetError` naming the
-file (or the folder) and the array.
+no file listed under two sequence names. Anything else raises
+[`DatasetError`][sim.dataset.schema.DatasetError] naming the file (or the folder) and the array.
 
 Every file is written to a temporary name and renamed, and ``meta.json`` lists a sequence only
 after its file is complete, so an interrupted collection never leaves a half-written sequence.

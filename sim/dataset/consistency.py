@@ -1,5 +1,6 @@
 """The checks across a dataset's sequences, and between them and ``meta.json``'s settings:
-written once, applied by :func:`sim.dataset.load_dataset` after each sequence passed its own.
+written once, applied by [`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] after each
+sequence passed its own.
 
 Every sequence of a dataset comes from one robot setup, so all keep the same laser (the same
 beam angles, hence the same beam count) and the same image size, and agree with what the
@@ -65,9 +66,10 @@ def _span_problem(angles: np.ndarray, fov: float) -> str | None:
 
 
 def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
-    """Raise :class:`DatasetError` naming the dataset's folder, the sequence and its file when
-    a sequence's beams, angles, image size or world disagrees with the first sequence's or with
-    the settings of ``meta`` (``sequences``: loaded :class:`~sim.dataset.Sequence` by name)."""
+    """Raise [`DatasetError`][sim.dataset.schema.DatasetError] naming the dataset's folder, the
+    sequence and its file when a sequence's beams, angles, image size or world disagrees with the
+    first sequence's or with the settings of ``meta`` (``sequences``: loaded
+    [`Sequence`][sim.dataset.model.Sequence] by name)."""
     where = {name: f"{directory}: sequence {name!r} ({meta['sequences'][name]['file']})"
              for name in sequences}  # fmt: skip
     beams, fov = _setting(meta, "laser", "beams"), _fov(directory, meta)

@@ -1,5 +1,5 @@
 """Sequence files written and read: an ``.npz`` written atomically with its SHA-256, read
-without pickle, checked against its ``meta.json`` entry and :mod:`common.bounds`."""
+without pickle, checked against its ``meta.json`` entry and `common.bounds`."""
 
 from __future__ import annotations
 
@@ -57,9 +57,9 @@ def file_sha256(path: Path) -> str:
 def read_npz(
     path: Path, sha256: str | None, context: str = "", error: type[Exception] = DatasetError
 ) -> dict[str, np.ndarray]:
-    """The arrays of an ``.npz`` (as :func:`write_sequence` writes them), read without pickle
-    after checking its SHA-256 when ``sha256`` is given; a missing, modified or unreadable file
-    raises ``error`` starting with ``context``."""
+    """The arrays of an ``.npz`` (as [`write_sequence`][sim.dataset.loading.write_sequence] writes
+    them), read without pickle after checking its SHA-256 when ``sha256`` is given; a missing,
+    modified or unreadable file raises ``error`` starting with ``context``."""
     if not path.is_file():  # a pipe or a device there would block or never end a read
         raise error(f"{context}{path} is {'missing' if not path.exists() else SPECIAL}")
     if sha256 is not None and file_sha256(path) != sha256:
@@ -71,7 +71,7 @@ def read_npz(
 
 
 def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str | None:
-    """What is wrong with the values of a sequence's arrays (:mod:`common.bounds`), or None;
+    """What is wrong with the values of a sequence's arrays (`common.bounds`), or None;
     ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any."""
     image_shape = arrays["images"].shape[1:] if "images" in arrays else (1, 1, 3)
     beams = len(arrays["angles"]) if "angles" in arrays else 1

@@ -1,5 +1,6 @@
-"""The loaded dataset: :class:`Sequence` (one drive's arrays) and :class:`Dataset` (its
-``meta.json`` and sequences), as :func:`sim.dataset.load_dataset` returns them."""
+"""The loaded dataset: [`Sequence`][sim.dataset.model.Sequence] (one drive's arrays) and
+[`Dataset`][sim.dataset.model.Dataset] (its ``meta.json`` and sequences), as
+[`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] returns them."""
 
 from __future__ import annotations
 
@@ -72,7 +73,8 @@ class Sequence:
 class Dataset:
     """A loaded dataset: its ``meta.json`` and its sequences by name.
 
-    Made by :func:`load_dataset`, which verifies every file's checksum.
+    Made by [`load_dataset`][sim.dataset.loading.load_dataset], which verifies every file's
+    checksum.
 
     Parameters
     ----------
@@ -146,8 +148,9 @@ class Dataset:
         return bool(self.meta.get("laser", True))
 
     def require(self, sensor: str, needed_by: str) -> None:
-        """Raise :class:`MissingSensorError` naming this dataset, ``sensor`` (``"camera"`` or
-        ``"laser"``) and ``needed_by`` (what needs it) unless the sensor was recorded."""
+        """Raise [`MissingSensorError`][sim.dataset.schema.MissingSensorError] naming this dataset,
+        ``sensor`` (``"camera"`` or ``"laser"``) and ``needed_by`` (what needs it) unless the sensor
+        was recorded."""
         if sensor not in SENSORS:
             raise ValueError(f"sensor must be one of {list(SENSORS)}, got {sensor!r}")
         if not (self.has_camera if sensor == "camera" else self.has_laser):
@@ -178,9 +181,9 @@ class Dataset:
     def runs(self, world: str) -> Runs:
         """Every sequence (drive) of ``world`` together, in the form the mapping methods take.
 
-        See :class:`Runs`; no-return beams (``inf``, and readings at or beyond the dataset's
-        :attr:`max_range`) are left out of the scan points. Needs the laser
-        (:class:`MissingSensorError` without one).
+        See `Runs`; no-return beams (``inf``, and readings at or beyond the dataset's
+        [`max_range`][sim.dataset.model.Dataset.max_range]) are left out of the scan points. Needs
+        the laser ([`MissingSensorError`][sim.dataset.schema.MissingSensorError] without one).
         """
         self.require("laser", "the observation grouping (the drives' scans, Dataset.runs)")
         sequences = [s for s in self.sequences.values() if s.world == world]
@@ -192,7 +195,8 @@ class Dataset:
         return Runs.from_sequences(sequences, self.max_range, names)
 
     def paper_split(self) -> tuple[np.ndarray, np.ndarray]:
-        """Boolean masks (train, test) over :meth:`concat` order: every second frame of each
-        sequence builds the map (frames 0, 2, 4, ...) and the others test it, as in the paper."""
+        """Boolean masks (train, test) over [`concat`][sim.dataset.model.Dataset.concat] order:
+        every second frame of each sequence builds the map (frames 0, 2, 4, ...) and the others test
+        it, as in the paper."""
         train = np.concatenate([np.arange(len(s)) % 2 == 0 for s in self.sequences.values()])
         return train, ~train

@@ -1,5 +1,5 @@
 """The dataset's schema: the arrays of a sequence and their forms, ``meta.json`` and its
-checks, and the error every dataset reader raises (the format: :mod:`sim.dataset`)."""
+checks, and the error every dataset reader raises (the format: `sim.dataset`)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The topics a ROS bag import reads and the alignment rule that makes frames of its messages
-(:mod:`sim.readers.rosbag` reads the bags; :mod:`sim.readers.ros_messages` decodes them).
+(`sim.readers.rosbag` reads the bags; `sim.readers.ros_messages` decodes them).
 
 The frame clock is the laser: a scan at stamp ``t`` becomes a frame when an image lies within
 ``image_tolerance`` of ``t`` (the nearest one is taken) and two consecutive odometry messages

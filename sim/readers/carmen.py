@@ -17,7 +17,7 @@ states its own geometry, else ``FLASER``). Every other message (``PARAM``, ``ODO
 comments, ...) carries no scan and is skipped, except ``PARAM robot_front_laser_max``, the
 sensor's maximum range for ``FLASER`` logs. Every line that is read is checked; a bad one stops
 the whole read with a ``CarmenError`` naming the file and the line, so nothing is half-loaded.
-Values no robot records are refused with the bound they break (:mod:`common.bounds`: positions
+Values no robot records are refused with the bound they break (`common.bounds`: positions
 within 10^6 m, finite ranges within 10^4 m, beam geometry within a full turn); readings above the
 sensor's maximum range are kept as no-returns (Carmen logs e.g. 81.91 m for a beam without a
 return of a laser whose range is 50 m). Lines are the file's ``\\n``-separated lines, so the
@@ -100,7 +100,8 @@ class CarmenLog:
     Parameters
     ----------
     path, message, ranges, angles, max_range, poses, odometry, timestamps, line_numbers
-        The attributes above, as :func:`read_carmen` reads them from a log.
+        The attributes above, as [`read_carmen`][sim.readers.carmen.read_carmen] reads them from a
+        log.
 
     Examples
     --------
@@ -217,7 +218,7 @@ def _parse_flaser(path: Path, line_no: int, fields: list[str]) -> dict:
 
 
 def _checked(path: Path, line_no: int, scan: dict) -> dict:
-    """``scan`` once its ranges, poses and time are within :mod:`common.bounds`."""
+    """``scan`` once its ranges, poses and time are within `common.bounds`."""
     problem = (
         range_problem(scan["ranges"])
         or pose_problem(scan["pose"], "laser pose")
@@ -310,7 +311,7 @@ def read_carmen(
         a folder, a link to one), more than ``MAX_LOG_BYTES`` of text, a damaged file (gzip
         or text), no scans, a truncated
         line, a non-numeric field, NaN or infinite ranges, poses or times, negative ranges,
-        values beyond :mod:`common.bounds` (positions beyond 10^6 m, ranges beyond 10^4 m), a
+        values beyond `common.bounds` (positions beyond 10^6 m, ranges beyond 10^4 m), a
         count that does not match its values, a scan without ranges, a ``ROBOTLASER1`` angular
         resolution or field of view outside (0, 2 pi], scans with different numbers of beams
         or different beam geometry.

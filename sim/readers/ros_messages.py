@@ -1,4 +1,4 @@
-"""ROS messages to arrays: the per-message half of :mod:`sim.readers.rosbag`.
+"""ROS messages to arrays: the per-message half of `sim.readers.rosbag`.
 
 - ``sensor_msgs/LaserScan``: beam ``i`` is at ``angle_min + i * angle_increment`` (spread
   evenly from ``angle_min`` to ``angle_max`` when that is the last beam's angle, since a
@@ -9,17 +9,18 @@
 - ``sensor_msgs/Image`` (``rgb8``, ``bgr8``, ``rgba8``, ``bgra8``, ``mono8``; rows may be
   padded, ``step``) and ``sensor_msgs/CompressedImage`` (JPEG, PNG: whatever OpenCV decodes):
   RGB uint8, grey repeated in the three channels. An image of more than
-  :data:`MAX_IMAGE_PIXELS` pixels is refused, a compressed one by the size its PNG or JPEG
+  `MAX_IMAGE_PIXELS` pixels is refused, a compressed one by the size its PNG or JPEG
   header states, before it is decoded (a header of a few bytes can claim 40000x40000).
-- Message definitions (a bag carries its own) nested more than :data:`MAX_MESSAGE_NESTING`
+- Message definitions (a bag carries its own) nested more than `MAX_MESSAGE_NESTING`
   types deep, or referring to themselves, are refused before any message is decoded.
 - ``nav_msgs/Odometry``: x, y, yaw (from the quaternion, about z), v (twist linear x) and
   omega (twist angular z), all finite (a NaN or infinite value is refused), within
-  :mod:`common.bounds`, with an orientation quaternion that is not all zeros.
+  `common.bounds`, with an orientation quaternion that is not all zeros.
 
-Also here: :class:`Stream`, one topic's messages in stamp order, :func:`damage_errors`, what
-a damaged bag raises beneath rosbags (each becomes a :class:`RosbagImportError`),
-:func:`check_bag_path` and :func:`read_images`, the second pass over the image topic.
+Also here: `Stream`, one topic's messages in stamp order, `damage_errors`, what
+a damaged bag raises beneath rosbags (each becomes a
+[`RosbagImportError`][sim.readers.ros_messages.RosbagImportError]), `check_bag_path` and
+`read_images`, the second pass over the image topic.
 """
 
 from __future__ import annotations
@@ -183,7 +184,7 @@ def compressed_size(data: bytes) -> tuple[int, int] | None:
 def nesting_problem(fielddefs: dict, msgtype: str) -> str | None:
     """What is wrong with the definition of ``msgtype`` in a typestore's ``fielddefs``, or
     None: a type that refers to itself, or types nested deeper than
-    :data:`MAX_MESSAGE_NESTING`. Walked without recursion past the cap."""
+    `MAX_MESSAGE_NESTING`. Walked without recursion past the cap."""
     depth: dict[str, int] = {}
 
     def walk(name: str, chain: tuple[str, ...]) -> int:

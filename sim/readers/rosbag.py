@@ -7,9 +7,9 @@ the same place (``world``). Three streams are read, by header stamp:
 - ``sensor_msgs/LaserScan``: every scan is a candidate frame;
 - ``sensor_msgs/Image`` or ``sensor_msgs/CompressedImage``: stored as RGB;
 - ``nav_msgs/Odometry``: planar pose (x, y, yaw) and velocity
-(:mod:`sim.readers.ros_messages` turns each message into arrays and says how).
+(`sim.readers.ros_messages` turns each message into arrays and says how).
 
-The alignment rule is :mod:`sim.readers.alignment`'s: each scan with an image near it and
+The alignment rule is `sim.readers.alignment`'s: each scan with an image near it and
 odometry around it is a frame, kept when the robot has moved or turned enough since the last.
 Without an image topic (``image_topic=None``: a robot with a laser and wheel odometry only)
 the dataset has no images (``"camera": false`` in ``meta.json``); without a scan topic
@@ -24,9 +24,9 @@ Bad input is refused with an error naming the bag, topic and message: a damaged 
 rosbags or SQLite raise becomes a ``RosbagImportError``), a missing topic (the bag's topics are
 listed), another message type, a scan whose range count disagrees with its angles, scans or
 images that change shape, stamps that repeat or go backwards, values beyond
-:mod:`common.bounds`, bags in which no beam has a return, a named pipe or device in place of a
+`common.bounds`, bags in which no beam has a return, a named pipe or device in place of a
 bag or its files, images beyond ``MAX_IMAGE_PIXELS`` and message definitions that refer to
-themselves or nest beyond ``MAX_MESSAGE_NESTING`` (:mod:`sim.readers.ros_messages`). The
+themselves or nest beyond ``MAX_MESSAGE_NESTING`` (`sim.readers.ros_messages`). The
 dataset is built in a temporary directory beside ``out`` and renamed into place when complete:
 nothing half-written is left.
 """

@@ -2,22 +2,24 @@
 committed result files give, and a number changed on either side is caught."""
 
 import json
+import re
 import shutil
 from pathlib import Path
 
 import pytest
 
 from scripts.results import ROWS, generate, main, read_estimate
-from scripts.results.render import DATA, END, START
+from scripts.results.render import DATA, END, FRONT_PAGE, HELDOUT_END, HELDOUT_START, START
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
 def copy(tmp_path):
-    """README.md and docs/results/ copied, to be tampered with."""
+    """README.md, the docs' front page and docs/results/ copied, to be tampered with."""
     shutil.copy(ROOT / "README.md", tmp_path / "README.md")
     shutil.copytree(ROOT / "docs" / "results", tmp_path / "docs" / "results")
+    shutil.copy(ROOT / "docs" / "index.md", tmp_path / "docs" / "index.md")
     return tmp_path
 
 
@@ -55,6 +57,31 @@ def test_a_changed_result_file_makes_readme_and_page_stale(copy, capsys):
     assert main(["--root", str(copy)]) == 0  # regenerated: 88/100 now, and consistent
     assert "| 88.0% [80.2%, 93.0%] |" in (copy / "README.md").read_text()
     assert main(["--check", "--root", str(copy)]) == 0
+
+
+def test_the_front_page_shows_readme_table_with_its_links_from_docs(copy, capsys):
+    readme, front = (ROOT / "README.md").read_text(), (ROOT / FRONT_PAGE).read_text()
+    table = readme[readme.index(START) : readme.index(END)]
+    assert front[front.index(START) : front.index(END)] == table.replace(
+        "](docs/results/", "](results/"
+    )
+    page = copy / FRONT_PAGE
+    edited = page.read_text().replace("| 89.0% [81.4%, 93.7%] |", "| 90.0% [81.4%, 93.7%] |")
+    page.write_text(edited)
+    assert main(["--check", "--root", str(copy)]) == 1
+    assert "docs/index.md" in capsys.readouterr().err
+
+
+def test_readme_states_no_result_outside_its_generated_tables():
+    """A percentage in README's prose would be a number no result file keeps up to date: the
+    results are the generated tables' (and their pages')."""
+    text = (ROOT / "README.md").read_text()
+    for start, end in ((START, END), (HELDOUT_START, HELDOUT_END)):
+        text = text[: text.index(start)] + text[text.index(end) :]
+    # "95% interval" names the interval a result is given with, not a result
+    stated = [line for line in text.splitlines()
+              if re.search(r"\d%", line.replace("95% interval", ""))]  # fmt: skip
+    assert not stated, "README states results outside its generated tables:\n" + "\n".join(stated)
 
 
 def test_readme_without_its_markers_is_refused(copy):

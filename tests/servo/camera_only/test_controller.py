@@ -464,7 +464,7 @@ def test_consistent_fix_prefers_the_supported_place(servo_maps):
 
 
 def _arrive(config, true_view_xy, steps=900):
-    """``PeakArrival`` on the simulated unicycle (:func:`drive_arrival`). Returns the closest
+    """``PeakArrival`` on the simulated unicycle (`drive_arrival`). Returns the closest
     approach to the true view, the final distance to it and whether the arrival is done
     (then it holds the pose it settled on), and the arrival itself."""
     arrival = PeakArrival(config)

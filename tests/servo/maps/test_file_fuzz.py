@@ -1,6 +1,7 @@
 """Seeded fuzz of the servo map reader, as of every reader: truncated files, flipped bytes and
 odd members (with both checksums recomputed, as other code would write them) raise
-:class:`MapError` naming the file, never a raw exception, within a time budget."""
+[`MapError`][servo.maps.types.MapError] naming the file, never a raw exception, within a time
+budget."""
 
 import json
 import shutil

@@ -22,7 +22,7 @@ class OverBudget(Exception):
 
 @contextlib.contextmanager
 def budget(seconds: float):
-    """Raise :class:`OverBudget` in the main thread once ``seconds`` have passed."""
+    """Raise `OverBudget` in the main thread once ``seconds`` have passed."""
 
     def stop(signum, frame):
         raise OverBudget(f"over the budget of {seconds} s")
