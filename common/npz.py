@@ -4,12 +4,12 @@
 ``zlib.error``, ``AttributeError``, ``tokenize.TokenError`` or ``MemoryError`` (a header that
 declares a huge shape). `read_arrays` checks every member before reading it (a plain
 ``name.npy``, once; a version 1 or 2 header; no Python objects; a declared size that matches the
-member's size, which itself is bounded by its compressed size; at most :data:`MAX_ARRAY_BYTES`
-declared in all) and turns every failure into one :class:`UnreadableNpz` that says what is
+member's size, which itself is bounded by its compressed size; at most `MAX_ARRAY_BYTES`
+declared in all) and turns every failure into one `UnreadableNpz` that says what is
 wrong.
 
 Deflate packs a run of zeros about a thousand times, so a file of a few MB can hold members
-that declare GiB, each a true size: :data:`MAX_ARRAY_BYTES` (a module setting, 4 GiB) caps the
+that declare GiB, each a true size: `MAX_ARRAY_BYTES` (a module setting, 4 GiB) caps the
 bytes of arrays one file may declare in all, checked on the headers before anything is
 decompressed. A dataset sequence of 900 frames of 120x160 images holds about 60 MB.
 """
@@ -77,7 +77,7 @@ def read_arrays(path: str | Path) -> dict[str, np.ndarray]:
     UnreadableNpz
         Saying what is wrong: not a zip file, a damaged member, a member that is not a plain
         ``.npy`` without Python objects, a name twice, a header that does not match the data,
-        arrays of more than :data:`MAX_ARRAY_BYTES` in all.
+        arrays of more than `MAX_ARRAY_BYTES` in all.
     """
     path = Path(path)
     try:

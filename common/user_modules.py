@@ -44,7 +44,7 @@ def import_user_module(name: str) -> ModuleType:
 
 
 def source_digest(name: str) -> dict:
-    """The provenance of module ``name``, found as :func:`import_user_module` would find it
+    """The provenance of module ``name``, found as `import_user_module` would find it
     (the current directory, then ``sys.path``) but without importing anything: ``{"module",
     "files", "sha256"}``, the SHA-256 over the module's file and the other ``.py`` files of
     its folder (its package's code), each by its name and bytes; ``sha256`` None when the

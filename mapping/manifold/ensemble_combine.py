@@ -114,10 +114,10 @@ def ensemble_merge(
     scores, n_clusters: int, rule: str, adjacent: np.ndarray | None = None,
     sigmas: slice | None = None, extra: int = FINER,
 ) -> list[list[int]] | None:  # fmt: skip
-    """K groups of leaves by ``rule`` (one of :data:`ENSEMBLE_RULES`) from the usable sigmas'
+    """K groups of leaves by ``rule`` (one of `ENSEMBLE_RULES`) from the usable sigmas'
     cuts; None if no sigma is usable (the caller falls back to a pairwise rule).
 
-    ``extra`` > 0 (default :data:`FINER`) adds, for "coassociation", the cuts into K + 1 ..
+    ``extra`` > 0 (default `FINER`) adds, for "coassociation", the cuts into K + 1 ..
     K + extra groups at every usable sigma (Fred & Jain's ensembles of finer partitions, cut
     into K by the linkage)."""
     if rule not in ENSEMBLE_RULES:

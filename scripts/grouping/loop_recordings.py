@@ -35,7 +35,7 @@ U_TURN_OFFSET = 0.35  # m; fits the narrowest corridor (2.4 m) with the robot's 
 
 def has_loop(world: str) -> bool:
     """Whether ``world`` has a loop: a canonical world does (one junction whose three branch
-    routes :func:`loop_route` joins); a generated world's tree of junctions has none yet, and
+    routes `loop_route` joins); a generated world's tree of junctions has none yet, and
     a name that is no world has none."""
     try:
         return parse_world_name(world).canonical

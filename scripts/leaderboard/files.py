@@ -137,10 +137,10 @@ def envelope(
 
 
 def write_result(path: str | os.PathLike, result: dict) -> Path:
-    """Write ``result`` (an :func:`envelope`) to ``path`` atomically, after checking it as the
-    reader will (a writer must not produce a file its own reader refuses). A file there of
-    another method (its ``spec`` or ``params`` differ) is not replaced:
-    :class:`ResultFileError` names both."""
+    """Write ``result`` (an [`envelope`][scripts.leaderboard.files.envelope]) to ``path``
+    atomically, after checking it as the reader will (a writer must not produce a file its own
+    reader refuses). A file there of another method (its ``spec`` or ``params`` differ) is not
+    replaced: [`ResultFileError`][scripts.leaderboard.files.ResultFileError] names both."""
     path = Path(path)
     check_result(result, path)
     if path.exists():

@@ -182,8 +182,8 @@ class ServoMap:
     settings : MapSettings, default MapSettings()
         The settings it was built with.
     world_digest : str, optional
-        The SHA-256 of the world's floor plan (:attr:`scenes.World.digest`); None in the map
-        a policy is given (:func:`servo.task.interface.sensed_map`).
+        The SHA-256 of the world's floor plan (`scenes.World.digest`); None in the map
+        a policy is given ([`servo.task.interface.sensed_map`][servo.task.interface.sensed_map]).
     manifold_names : tuple of str, default ()
         The names ``true_labels`` index: the dataset's manifolds (evaluation only; empty in
         the map a policy is given).

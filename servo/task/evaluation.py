@@ -38,14 +38,15 @@ BOUNDARY_MARGIN_S = 5.0  # s the alarm waits beyond a policy process's own time 
 
 def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
     """The policy ``name`` for ``env`` (``options``: its keyword arguments): one of
-    :data:`POLICIES`, or an outside factory ``package.module:factory``
-    (:class:`~servo.task.interface.PolicyFactory`), which runs in its own process
-    (:class:`~servo.task.remote.RemotePolicy`, policy seed 0, no sandbox; raises
-    :class:`~servo.task.interface.PolicyLoadError`). Every policy but the oracle is given the
-    map as sensed (:func:`~servo.task.interface.sensed_map`). ``greedy`` probes toward the next
-    waypoint view of the route (:class:`~servo.task.baseline_policies.GreedyFProbing`);
-    ``greedy-target``: the earlier variant that probes toward the final target only (labelled
-    as such: its cluster gives no signal from another manifold)."""
+    [`POLICIES`][servo.task.evaluation.POLICIES], or an outside factory ``package.module:factory``
+    ([`PolicyFactory`][servo.task.interface.PolicyFactory]), which runs in its own process
+    ([`RemotePolicy`][servo.task.remote.RemotePolicy], policy seed 0, no sandbox; raises
+    [`PolicyLoadError`][servo.task.interface.PolicyLoadError]). Every policy but the oracle is given
+    the map as sensed ([`sensed_map`][servo.task.interface.sensed_map]). ``greedy`` probes toward
+    the next waypoint view of the route
+    ([`GreedyFProbing`][servo.task.baseline_policies.GreedyFProbing]); ``greedy-target``: the
+    earlier variant that probes toward the final target only (labelled as such: its cluster gives no
+    signal from another manifold)."""
     check_policy_name(name)
     if is_policy_spec(name):
         from servo.task.remote import RemotePolicy

@@ -177,7 +177,7 @@ def sensed_map(m: ServoMap) -> ServoMap:
     """``m`` as a policy may see it: its evaluation-only fields blanked (``true_poses`` NaN,
     ``true_labels`` ``NO_MANIFOLD``, no ``manifold_names`` and no ``world_digest``: a
     generated world's manifold names would tell its layout), no key to the files it was built
-    from (:func:`neutral_names`), and its arrays read-only views, so that a policy can neither
+    from (`neutral_names`), and its arrays read-only views, so that a policy can neither
     read the truth nor change the map the env scores with."""
     fields = {}
     for f in dataclasses.fields(m):

@@ -1,13 +1,13 @@
 """The policy's own process: ``python -m servo.task.policy_host FD``.
 
 It is given a connected socket (file descriptor ``FD``) and nothing else: the evaluator sends
-the map as sensed (:func:`map_message`: plain arrays and JSON, no path, neutral names), the
+the map as sensed (`map_message`: plain arrays and JSON, no path, neutral names), the
 policy's spec, params and seed; then per episode the target (its view index and image) and per
 step the observation, and reads back the action. The env, its ``info``, the geodesic field
 and the evaluator's state never exist in this process (decision record 073). Messages are
 ``servo.task.wire``'s, in both directions; the evaluator checks what comes back.
 
-Also here: :func:`builtin_policy`, the one place our controllers are made from a sensed map,
+Also here: `builtin_policy`, the one place our controllers are made from a sensed map,
 in the evaluator's process or in this one.
 """
 
@@ -41,7 +41,7 @@ EPISODE_CONSTANT = ("target_image", "target_scan", "target_scan_valid")
 
 
 def builtin_policy(name: str, m: ServoMap, rng: np.random.Generator, **options):
-    """Our controller ``name`` (one of :data:`BUILTIN`) on the sensed map ``m``."""
+    """Our controller ``name`` (one of `BUILTIN`) on the sensed map ``m``."""
     if name == "servo":
         from servo.laser_image import ManifoldServo
 
@@ -73,7 +73,7 @@ def map_message(m: ServoMap) -> tuple[dict, dict[str, np.ndarray]]:
 
 
 def map_from_message(values: dict, arrays: dict[str, np.ndarray]) -> ServoMap:
-    """The inverse of :func:`map_message`: a sensed map, its true poses NaN and true labels
+    """The inverse of `map_message`: a sensed map, its true poses NaN and true labels
     ``NO_MANIFOLD``, its arrays read-only."""
     clustering = persistence.load(ManifoldClustering, values["clustering"], arrays, "clustering")
     image_features = persistence.load(ImageFeatures, values["image_features"], arrays,

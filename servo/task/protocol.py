@@ -172,7 +172,7 @@ def episode_specs(
     """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
     one). Seeds depend on the split and the world only, so tiers and settings share episodes.
     ``names``: the manifolds ``true_labels`` index (the map's ``manifold_names``); None: those
-    of a dataset of the protocol's world (:func:`sim.collect_worlds.label_space`)."""
+    of a dataset of the protocol's world (`sim.collect_worlds.label_space`)."""
     check_int(episodes, "episodes")
     names = tuple(label_space((protocol.world,))) if names is None else names
     pairs = manifold_pairs(true_labels, names)

@@ -1,13 +1,14 @@
-"""A policy in its own process, seen from the evaluator: :class:`RemotePolicy`.
+"""A policy in its own process, seen from the evaluator:
+[`RemotePolicy`][servo.task.remote.RemotePolicy].
 
 The policy runs in ``python -m servo.task.policy_host`` (decision record 073), started with a
 socket, the environment without the data home's variable, and, where the platform allows
-(:func:`sandbox_tool`: ``bwrap``, else ``unshare``), its own mount and process namespaces in
-which the folders given to hide (the datasets, the maps, the data home, ``out/``) are empty.
-The evaluator sends plain arrays and reads back plain arrays (``servo.task.wire``), never
-unpickles what comes back, and checks every answer: a process that dies, hangs, or answers
-garbage ends its episode with that reason (``servo.task.guard``), and the next episode starts
-a fresh process.
+([`sandbox_tool`][servo.task.remote.sandbox_tool]: ``bwrap``, else ``unshare``), its own mount and
+process namespaces in which the folders given to hide (the datasets, the maps, the data home,
+``out/``) are empty. The evaluator sends plain arrays and reads back plain arrays
+(``servo.task.wire``), never unpickles what comes back, and checks every answer: a process that
+dies, hangs, or answers garbage ends its episode with that reason (``servo.task.guard``), and the
+next episode starts a fresh process.
 """
 
 from __future__ import annotations
@@ -102,9 +103,9 @@ def sandbox_tool() -> str | None:
 class RemotePolicy:
     """The policy ``spec`` made in its own process on the sensed ``servo_map``.
 
-    Has the :class:`~servo.task.interface.Policy` interface; every call crosses the process
+    Has the [`Policy`][servo.task.interface.Policy] interface; every call crosses the process
     boundary as plain arrays. ``reset`` and ``act`` raise
-    :class:`~servo.task.guard.PolicyFailure` (``policy too slow``, ``policy process died``,
+    [`PolicyFailure`][servo.task.guard.PolicyFailure] (``policy too slow``, ``policy process died``,
     ``policy sent garbage``, ``policy raised``, ``invalid action``) after which the process is
     ended and the next ``reset`` starts a fresh one.
 
@@ -113,16 +114,17 @@ class RemotePolicy:
     spec : str
         ``package.module:factory``, or one of our controllers (``policy_host.BUILTIN``).
     servo_map : ServoMap
-        The world's map; only its sensed part (:func:`~servo.task.interface.sensed_map`) is
+        The world's map; only its sensed part ([`sensed_map`][servo.task.interface.sensed_map]) is
         sent.
     policy_seed : int, default 0
         The seed of the policy's generator.
     params : dict, optional
         The factory's keyword arguments (JSON values).
     sandbox : bool, default False
-        Run in a sandbox (:func:`sandbox_tool`); ``ValueError`` when the platform has none.
+        Run in a sandbox ([`sandbox_tool`][servo.task.remote.sandbox_tool]); ``ValueError`` when the
+        platform has none.
     hide : list of str, optional
-        Folders emptied in the sandbox besides :func:`default_hidden`.
+        Folders emptied in the sandbox besides `default_hidden`.
     start_limit_s : float, default START_LIMIT_S
         Seconds the process may take to start and make the policy.
 
@@ -135,7 +137,7 @@ class RemotePolicy:
     sandboxed : bool
         Whether it runs in a sandbox.
     hidden : list of str
-        The folders the sandbox empties (:func:`outermost` of :func:`default_hidden` and
+        The folders the sandbox empties (`outermost` of `default_hidden` and
         ``hide``).
 
     Examples

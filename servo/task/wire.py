@@ -1,15 +1,15 @@
 """The plain-array messages between the evaluator and a policy's own process.
 
 A message is a kind, a JSON object of plain values and named numeric arrays; nothing in it is
-ever unpickled. On the wire (:func:`encode`)::
+ever unpickled. On the wire (`encode`)::
 
     b"TMW1" | uint32 header length | header (UTF-8 JSON) | the arrays' bytes, one after another
 
 with the header ``{"kind": str, "values": {...}, "arrays": [[name, dtype, shape], ...]}``. A
-frame on the socket is an 8-byte big-endian length and the message (:func:`send`,
-:func:`receive`). :func:`decode` treats the bytes as untrusted: the magic, the lengths, the
-JSON, every array's dtype (one of :data:`DTYPES`, little-endian numbers only: no objects),
-shape and size are checked, and any fault raises :class:`WireError` saying which.
+frame on the socket is an 8-byte big-endian length and the message (`send`,
+`receive`). `decode` treats the bytes as untrusted: the magic, the lengths, the
+JSON, every array's dtype (one of `DTYPES`, little-endian numbers only: no objects),
+shape and size are checked, and any fault raises `WireError` saying which.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def encode(kind: str, values: dict | None = None, arrays: dict | None = None) ->
 
 def decode(data: bytes | bytearray, max_bytes: int) -> tuple[str, dict, dict[str, np.ndarray]]:
     """``(kind, values, arrays)`` of an untrusted message; the arrays are read-only views of
-    ``data``. Raises :class:`WireError` naming the fault."""
+    ``data``. Raises `WireError` naming the fault."""
     if len(data) > max_bytes:
         raise WireError(f"{len(data)} bytes, more than the {max_bytes} allowed")
     if len(data) < 8 or data[:4] != MAGIC:
@@ -119,7 +119,7 @@ def _array_spec(spec) -> tuple[str, str, tuple[int, ...]]:
 
 
 def send(sock: socket.socket, message: bytes) -> None:
-    """Write one frame (length, then ``message``); raises :class:`Closed` if the other end
+    """Write one frame (length, then ``message``); raises `Closed` if the other end
     is gone."""
     try:  # the length, then the message itself: no copy of a large message
         sock.sendall(struct.pack(">Q", len(message)))
@@ -130,7 +130,7 @@ def send(sock: socket.socket, message: bytes) -> None:
 
 def receive(sock: socket.socket, max_bytes: int, timeout: float | None = None) -> bytearray:
     """One frame's message, of at most ``max_bytes``, within ``timeout`` seconds (None: wait
-    as long as it takes). Raises :class:`Timeout`, :class:`Closed` or :class:`WireError`."""
+    as long as it takes). Raises `Timeout`, `Closed` or `WireError`."""
     deadline = None if timeout is None else time.monotonic() + timeout
     head = _read(sock, 8, deadline)
     (size,) = struct.unpack(">Q", bytes(head))

@@ -1,2 +1,2 @@
 """One seeded fuzz harness over the five readers and the commands built on them (see
-:mod:`tests.fuzz.harness`)."""
+`tests.fuzz.harness`)."""

@@ -5,7 +5,7 @@ Each reader's module builds small valid files, damages copies of them (truncatio
 flips, odd JSON members and ``.npz`` arrays, huge integers, NaN and infinity, other dtypes,
 shapes and ranks, sequences that disagree, links to ``/dev/zero``, named pipes, compression
 bombs, ...) and recomputes every checksum after each edit, so that only the reader's own
-checks stand between the damage and the caller. :class:`Judge` then runs the reader on the
+checks stand between the damage and the caller. `Judge` then runs the reader on the
 case within a time budget: the case passes when the reader raises its own error naming the
 file, or returns what the judge's ``check`` accepts as physically possible and consistent;
 a raw library exception, a hang or an accepted impossibility is an escape, and every escape
@@ -61,7 +61,7 @@ def case_count(default: int) -> int:
 
 
 def special_file(path: Path, kind: str) -> Path:
-    """Put a special file of ``kind`` (one of :data:`SPECIAL_FILES`) at ``path``."""
+    """Put a special file of ``kind`` (one of `SPECIAL_FILES`) at ``path``."""
     if path.is_symlink() or path.is_file():
         path.unlink()
     elif path.is_dir():  # a ROS 2 bag's folder

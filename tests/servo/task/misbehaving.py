@@ -1,5 +1,5 @@
 """A policy that misbehaves in its own process as the target view says (view ``k``: the
-``k``-th of :data:`MODES`), for the boundary's bad-input tests; ``how`` fixes one mode."""
+``k``-th of `MODES`), for the boundary's bad-input tests; ``how`` fixes one mode."""
 
 from __future__ import annotations
 
