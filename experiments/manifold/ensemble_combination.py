@@ -37,7 +37,7 @@ from mapping import ManifoldClustering, clustering_error
 from mapping.manifold.ensemble_combine import coassociation_groups, consensus_groups
 from mapping.manifold.geometry import training_geometry
 from mapping.manifold.spectral_combine import spectral_groups
-from mapping.manifold.tree import GroupScores, _adjacent_pairs
+from mapping.manifold.tree import GroupScores, adjacent_pairs
 from scripts.manifold.protocol import K
 
 #: rule name -> (ensemble_merge's rule, its ``extra``)
@@ -59,7 +59,7 @@ def fitted(root: Path, cache: Path, seed: int, Q: int) -> dict:
         leaves = [np.flatnonzero(L == c) for c in range(int(L.max()) + 1)]
         geometry = training_geometry(X, model.kernel, model.n_neighbors, model.n_components)
         scores = GroupScores(geometry, leaves, model._search_space(len(y)))
-        adjacent = np.array(sorted(_adjacent_pairs(geometry.neighbours(10), L))).reshape(-1, 2)
+        adjacent = np.array(sorted(adjacent_pairs(geometry.neighbours(10), L))).reshape(-1, 2)
         tmp = path.with_suffix(".tmp.npz")
         np.savez(tmp, y=y, L=L, M=scores.M, sizes=scores.sizes, labels=model.labels_,
                  adjacent=adjacent)  # fmt: skip

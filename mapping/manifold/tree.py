@@ -298,7 +298,7 @@ def _leaf_labels(n: int, leaves: list[np.ndarray]) -> np.ndarray:
     return labels
 
 
-def _adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
+def adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
     """Pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point."""
     a = np.repeat(labels, nearest.shape[1])
     b = labels[nearest.ravel()]
@@ -324,7 +324,7 @@ def separability_merge(
     cache: dict[tuple[tuple[int, ...], tuple[int, ...]], float] = {}
     nearest = sq_dist.neighbours(_ADJACENCY_NEIGHBOURS)
     while len(groups) > n_clusters:
-        pairs = _adjacent_pairs(nearest, labels) or {
+        pairs = adjacent_pairs(nearest, labels) or {
             (i, j) for i in range(len(groups)) for j in range(i + 1, len(groups))
         }
         best = None
@@ -359,7 +359,7 @@ def shared_kernel_merge(
     labels = _leaf_labels(geometry.size, leaves)
     nearest = geometry.neighbours(_ADJACENCY_NEIGHBOURS)
     while len(groups) > n_clusters:
-        pairs = _adjacent_pairs(nearest, labels) or {
+        pairs = adjacent_pairs(nearest, labels) or {
             (i, j) for i in range(len(groups)) for j in range(i + 1, len(groups))
         }
         a, b = np.array(sorted(pairs)).T
@@ -395,7 +395,7 @@ def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpac
         scores = GroupScores(geometry, leaves, space)
         labels = _leaf_labels(geometry.size, leaves)
         adjacent = np.array(
-            sorted(_adjacent_pairs(geometry.neighbours(_ADJACENCY_NEIGHBOURS), labels))
+            sorted(adjacent_pairs(geometry.neighbours(_ADJACENCY_NEIGHBOURS), labels))
         ).reshape(-1, 2)
         if rule == "spectral":
             groups = spectral_merge(scores, n_clusters, adjacent)

@@ -58,12 +58,27 @@ def default_hidden() -> list[str]:
 
 
 def outermost(folders) -> list[str]:
-    """The folders that lie in no other of ``folders`` and hold neither the repository nor
-    the current directory (hiding those would hide the code), resolved."""
-    keep = [Path(f).resolve() for f in folders if Path(f).is_dir()]
+    """The folders that lie in no other of ``folders``, resolved. A folder that holds the
+    repository or the current directory (hiding it would hide the code; a clone in the
+    temporary folder) is replaced by its subfolders off the path to them, so everything else
+    in it is still hidden."""
     needed = (_ROOT, Path.cwd().resolve())
-    keep = [f for f in keep if not any(n == f or f in n.parents for n in needed)]
+    keep: list[Path] = []
+    for f in folders:
+        keep += _off_the_path(Path(f).resolve(), needed)
     return sorted({str(f) for f in keep if not any(o in f.parents for o in keep)})
+
+
+def _off_the_path(folder: Path, needed) -> list[Path]:
+    if not folder.is_dir() or any(n == folder for n in needed):
+        return []
+    if not any(folder in n.parents for n in needed):
+        return [folder]
+    try:
+        children = sorted(c for c in folder.iterdir() if c.is_dir() and not c.is_symlink())
+    except OSError:  # a folder we may not list: nothing in it can be hidden either
+        return []
+    return [kept for c in children for kept in _off_the_path(c, needed)]
 
 
 def _prefix(tool: str, hide: list[str]) -> list[str]:

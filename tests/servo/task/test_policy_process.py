@@ -147,3 +147,13 @@ def test_our_controller_runs_the_same_in_its_own_process(generated_servo_map):
     assert [{k: e[k] for k in keys} for e in here["episodes_detail"]] == [
         {k: e[k] for k in keys} for e in there["episodes_detail"]
     ]
+
+
+def test_a_hidden_folder_that_holds_the_code_hides_everything_else(tmp_path, monkeypatch):
+    from servo.task.remote import outermost
+
+    for d in ("repo/src", "other-run/maps", "data"):
+        (tmp_path / d).mkdir(parents=True)
+    monkeypatch.chdir(tmp_path / "repo")  # a clone in the temporary folder
+    hidden = outermost([tmp_path, tmp_path / "data"])
+    assert hidden == sorted(str((tmp_path / d).resolve()) for d in ("data", "other-run"))
