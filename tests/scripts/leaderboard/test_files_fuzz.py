@@ -11,6 +11,7 @@ import pytest
 
 from scripts.leaderboard import ResultFileError, envelope, leaderboard_markdown, load_results
 from scripts.leaderboard.files import MAX_VALUE
+from tests.fuzz.harness import odd_member
 from tests.sim.readers.fuzzing import budget
 
 CASES = 150
@@ -28,27 +29,6 @@ def _result() -> dict:
         envelope("task", ("proto", 2), "test", method, ("err", "error"), records)))  # fmt: skip
 
 
-def _odd(data: dict, rng: np.random.Generator) -> str:
-    """Set one member, at any depth, to an odd value or delete it; the member's path."""
-    target, key, where = data, None, []
-    while True:
-        keys = list(range(len(target))) if isinstance(target, list) else sorted(target)
-        if not keys:
-            break
-        key = keys[int(rng.integers(len(keys)))]
-        where.append(str(key))
-        if not isinstance(target[key], dict | list) or rng.random() < 0.3:
-            break
-        target = target[key]
-    if key is None:
-        return "nothing"
-    if isinstance(target, dict) and rng.random() < 0.15:
-        del target[key]
-    else:
-        target[key] = ODD_VALUES[int(rng.integers(len(ODD_VALUES)))]
-    return ".".join(where)
-
-
 def _ranked(path) -> str:
     text = leaderboard_markdown(load_results([path]), reference="M")
     assert "inf" not in text and "nan" not in text.lower(), text
@@ -62,7 +42,7 @@ def test_odd_members_are_refused_naming_the_file_or_ranked(tmp_path, seed):
     escaped = []
     for case in range(CASES):
         data = _result()
-        where = _odd(data, rng)
+        where = odd_member(data, rng, ODD_VALUES)
         path = tmp_path / f"case{case}.json"
         path.write_text(json.dumps(data))
         try:
