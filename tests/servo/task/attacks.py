@@ -7,12 +7,17 @@ from __future__ import annotations
 
 import gc
 import glob
+import itertools
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 
+# a search that outlasts the runner's answer limit fails the episode as "too slow", not as
+# "found the truth": each search gets a budget well inside that limit
+SEARCH_BUDGET_S = 3.0
 TRUTH_KEYS = ("pose", "target_pose", "manifold", "true_poses")
 TRUTH_TYPES = ("ServoEnv", "NavigationEnv", "Simulator", "GeodesicField", "MjData", "MjModel")
 
@@ -57,9 +62,10 @@ def follow_map(servo_map, roots) -> list[str]:
     every dataset under ``roots``, the data home and ``out/``; its key as a map file's name."""
     from sim.dataset import load_dataset
 
-    found = []
+    found, deadline = [], time.monotonic() + SEARCH_BUDGET_S
     for root in _roots(roots):
-        for meta in glob.glob(os.path.join(root, "**", "meta.json"), recursive=True)[:50]:
+        metas = glob.iglob(os.path.join(root, "**", "meta.json"), recursive=True)
+        for meta in _within_budget(itertools.islice(metas, 50), deadline):
             try:
                 data = load_dataset(Path(meta).parent)
             except Exception:
@@ -69,30 +75,43 @@ def follow_map(servo_map, roots) -> list[str]:
                 if seq is not None:
                     frames = servo_map.frame[servo_map.sequence == i]
                     found.append(f"{name}: poses {np.asarray(seq.poses)[frames][:1].tolist()}")
-        found += glob.glob(os.path.join(root, "**", f"*{servo_map.key}*"), recursive=True)
+        named = glob.iglob(os.path.join(root, "**", f"*{servo_map.key}*"), recursive=True)
+        found += _within_budget(named, deadline)
+        if found:  # the given roots come first: stop there rather than walk the data home
+            return found
     return found
 
 
 def scan_disk(roots) -> list[str]:
     """Any servo map file on disk (they hold the true poses): under ``roots``, the data home,
-    ``out/`` and the runner's temporary folders."""
-    found = []
+    ``out/`` and the runner's temporary folders. The given roots are searched first and the
+    search stops at the first find, so that a large data home cannot make it too slow to
+    answer (a slow scan would fail the episode for the wrong reason)."""
+    deadline = time.monotonic() + SEARCH_BUDGET_S
     for root in [*_roots(roots), "/tmp"]:
         pattern = "**/*.json" if root != "/tmp" else "servo-protocol-*/*.json"
-        for path in glob.glob(os.path.join(root, pattern), recursive=True)[:2000]:
+        paths = glob.iglob(os.path.join(root, pattern), recursive=True)
+        for path in _within_budget(itertools.islice(paths, 2000), deadline):
             try:
                 head = Path(path).read_text()[:200]
             except OSError:
                 continue
             if "topomap-servo-map" in head:
-                found.append(path)
-    return found
+                return [path]
+    return []
+
+
+def _within_budget(items, deadline: float):
+    for item in items:
+        if time.monotonic() > deadline:
+            return
+        yield item
 
 
 def _roots(roots) -> list[str]:
     from sim.datahome import user_cache_dir
 
-    here = [os.environ.get("TOPOMAP_HOME", ""), str(user_cache_dir()), "out", *roots]
+    here = [*roots, os.environ.get("TOPOMAP_HOME", ""), str(user_cache_dir()), "out"]
     return [r for r in here if r and os.path.isdir(r)]
 
 
