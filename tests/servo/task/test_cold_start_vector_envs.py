@@ -41,7 +41,7 @@ def test_gymnasium_async_workers_start_on_an_empty_home(empty_home, capfd):
         obs, _ = envs.reset(seed=0)
         assert obs["image"].shape == (2, 240, 320, 3)
         for _ in range(6):
-            obs, reward, terminated, truncated, _ = envs.step(np.tile([0.5, 0.0], (2, 1)))
+            _, reward, *_ = envs.step(np.tile([0.5, 0.0], (2, 1)))
             assert np.isfinite(reward).all()
     finally:
         envs.close()
@@ -61,7 +61,7 @@ def test_stable_baselines3_subprocess_workers_start_on_an_empty_home(empty_home,
         assert obs["scan"].shape == (2, 361) and os.environ["TOPOMAP_HOME"] == str(empty_home)
         ended = np.zeros(2, bool)
         for _ in range(6):
-            obs, reward, done, _ = envs.step(np.tile([0.5, 0.0], (2, 1)))
+            _, _, done, _ = envs.step(np.tile([0.5, 0.0], (2, 1)))
             ended |= done
         assert ended.all()  # max_steps=5: each worker's episode ended and was reset
     finally:
