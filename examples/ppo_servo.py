@@ -99,10 +99,11 @@ def train(
     seed: int = 0,
     threads: int = 1,
     obs: str = "image",
+    size=IMAGE_SIZE,
 ) -> dict:
-    """PPO on `make_env` (the policy of ``obs`` in `OBSERVATIONS`) for ``steps`` env steps,
-    PyTorch on ``threads`` threads; returns the steps, the wall time, the steps per second,
-    the episodes ended and their mean reward."""
+    """PPO on `make_env` (the policy of ``obs`` in `OBSERVATIONS`, ``size`` the images of
+    ``"dict"``) for ``steps`` env steps, PyTorch on ``threads`` threads; returns the steps,
+    the wall time, the steps per second, the episodes ended and their mean reward."""
     import torch
     from stable_baselines3 import PPO  # the optional extra: pip install -e ".[rl]"
 
@@ -110,7 +111,7 @@ def train(
     # PyTorch's default (a thread per core) ran 256 steps in 29 s instead of 2.3 s.
     torch.set_num_threads(threads)
 
-    env = make_env(env_id, servo_map, obs=obs)
+    env = make_env(env_id, servo_map, size, obs=obs)
     model = PPO(OBSERVATIONS[obs], env, n_steps=256, batch_size=64, seed=seed, verbose=0)
     start = time.perf_counter()
     model.learn(total_timesteps=steps)
