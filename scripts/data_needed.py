@@ -27,6 +27,12 @@ def is_collected(path: str | Path) -> bool:
         return False
 
 
+def _holds_a_dataset(path: str | Path) -> bool:
+    """Whether ``path`` holds a ``meta.json`` at all: a damaged or unfinished one is then the
+    reader's to report, with what is wrong, rather than a dataset to collect."""
+    return (Path(path) / "meta.json").exists()
+
+
 def collect_command(out: str | Path, seed: int | None = None, condition: str = "interleaved"):
     """The ``topomap collect`` command line that collects the dataset ``out``: the default
     settings, with ``seed`` and the flags of the manifold protocol's ``condition``."""
@@ -44,13 +50,15 @@ def missing_dataset_message(path: str | Path, option: str = "--data") -> str:
 
 
 def ensure_dataset(path: str | Path, command: str, progress: bool = True) -> str:
-    """``path`` as a collected dataset for ``command`` (``"servo-eval"``): the default
-    ``out/dataset`` is collected there when missing (or resumed), with a line on stderr saying
-    so; any other folder without a complete dataset raises ``ValueError`` with
-    `missing_dataset_message`."""
-    if is_collected(path):
+    """``path`` as a dataset for ``command`` (``"servo-eval"``): the default ``out/dataset``
+    is collected there when missing (or resumed when unfinished), with a line on stderr saying
+    so; any other folder without a ``meta.json`` raises ``ValueError`` with
+    `missing_dataset_message` (one with a ``meta.json`` goes to the reader, which says what is
+    wrong with it)."""
+    default = Path(path) == Path(DEFAULT_DATA)
+    if is_collected(path) or (_holds_a_dataset(path) and not default):
         return str(path)
-    if Path(path) != Path(DEFAULT_DATA):
+    if not default:
         raise ValueError(missing_dataset_message(path))
     from sim.collect import CollectionSettings, collect_dataset
 

@@ -71,19 +71,24 @@ def data_home(home: str | os.PathLike | None = None) -> Path:
 
 
 @contextlib.contextmanager
-def folder_lock(folder: Path, what: str = "the data home"):
-    """Hold an exclusive lock on ``folder`` (its ``.lock`` file) while collecting or building
-    into it, so that two processes (two notebooks, the workers of a vector env starting
-    together) never make the same files at once: the first makes them, the others wait, then
-    find them made. A process that has to wait says so on stderr, naming ``what``."""
+def folder_lock(folder: Path, what: str = "the data home", lock_file: str | None = None):
+    """Hold an exclusive lock on ``folder`` while collecting or building into it, so that two
+    processes (two notebooks, the workers of a vector env starting together) never make the
+    same files at once: the first makes them, the others wait, then find them made. The lock
+    is on the folder itself (nothing is written), or on its file ``lock_file`` where given. A
+    process that has to wait says so on stderr, naming ``what``."""
     try:
         import fcntl
     except ImportError:  # not POSIX: no cross-process lock, the atomic writes still hold
         yield
         return
-    with open(Path(folder) / LOCK_FILE, "a+b") as f:
+    if lock_file is None:
+        fd = os.open(folder, os.O_RDONLY)
+    else:
+        fd = os.open(Path(folder) / lock_file, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
         try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             print(
                 f"topomap: process {os.getpid()} waits for another process to finish "
@@ -91,16 +96,18 @@ def folder_lock(folder: Path, what: str = "the data home"):
                 file=sys.stderr,
                 flush=True,
             )
-            fcntl.flock(f, fcntl.LOCK_EX)
+            fcntl.flock(fd, fcntl.LOCK_EX)
         try:
             yield
         finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+            fcntl.flock(fd, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)
 
 
 def home_lock(home: Path):
-    """`folder_lock` of the data home ``home``."""
-    return folder_lock(home, "the default dataset")
+    """`folder_lock` of the data home ``home``, on its file ``.lock``."""
+    return folder_lock(home, "the default dataset", LOCK_FILE)
 
 
 def default_dataset(home: str | os.PathLike | None = None, progress: bool = True) -> Path:

@@ -72,3 +72,9 @@ def test_manifold_eval_names_the_flags_of_a_randomized_dataset(empty_folder, cap
     err = capsys.readouterr().err
     assert "`topomap collect --world all --seed 3 --randomize --out root/m-data-r3`" in err
     assert "--conditions interleaved" not in err
+
+
+def test_a_damaged_dataset_goes_to_the_reader_which_says_what_is_wrong(empty_folder):
+    (empty_folder / "mine").mkdir()
+    (empty_folder / "mine" / "meta.json").write_text("{not json")
+    assert data_needed.ensure_dataset("mine", "servo-eval") == "mine"
