@@ -3,6 +3,7 @@ and whether it can start worker processes at all."""
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import sys
 
@@ -20,7 +21,15 @@ def spawn_problem() -> str | None:
     None. A spawned worker imports the main module again, by its module name or by its file:
     a main module read from standard input (``python - <<EOF``, a notebook's ``%%bash`` cell
     piping to Python) has the file ``"<stdin>"``, which no worker can import, and every worker
-    dies at start (``BrokenProcessPool``)."""
+    dies at start (``BrokenProcessPool``). A daemonic process (a worker of Stable-Baselines3's
+    ``SubprocVecEnv``, of Gymnasium's ``AsyncVectorEnv``, of a ``multiprocessing`` pool) may
+    start no children at all (``AssertionError: daemonic processes are not allowed to have
+    children``)."""
+    if multiprocessing.current_process().daemon:
+        return (
+            "this process is a daemonic worker (a vector env's or a pool's), which may start no "
+            "worker processes of its own"
+        )
     main = sys.modules.get("__main__")
     if main is None or getattr(getattr(main, "__spec__", None), "name", None):
         return None  # no main module, or one imported by name (python -m)

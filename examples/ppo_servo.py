@@ -1,26 +1,28 @@
 """PPO from Stable-Baselines3 on the navigation and servo envs, on a CPU, out of the box.
 
-The envs' observations are finite and inside their declared spaces (a laser beam with no
-return reads the laser's maximum range, flagged by ``scan_valid``), so Stable-Baselines3's
-``MultiInputPolicy`` takes them as they are. The one change this example makes is speed: the
-camera images are downscaled (to 64 x 48 by default) before the network sees them. The
-navigation env renders them that small itself (``camera={"width": 64, "height": 48}``); the
-servo env's camera must match its map's views (320 x 240), so a Gymnasium
-``TransformObservation`` resizes ``image`` and ``target_image``.
+The envs observe a ``Dict``; ``--obs`` picks what the policy sees:
+
+- ``image`` (default): the camera image alone, 84 x 84 grayscale (``sim.wrappers.
+  ImageObservation``; on a servo env the target's view beside it), for ``CnnPolicy``;
+- ``vector``: the scan reduced to 36 beams and the odometry as one float32 vector
+  (``sim.wrappers.ScanOdometryObservation``; the target's scan too on a servo env), for
+  ``MlpPolicy``; the navigation env then renders no camera at all;
+- ``dict``: every key, the images downscaled to 64 x 48, for ``MultiInputPolicy``.
 
 Install the extra first (a CPU build of PyTorch is enough)::
 
     pip install -e ".[rl]"
 
-Run from the repository root, ``MUJOCO_GL=egl`` on a machine without a display::
+Then, from any folder (``MUJOCO_GL=egl`` on a machine without a display)::
 
-    python -m examples.ppo_servo --env topomap/Hallway-v0 --steps 2048
-    python -m examples.ppo_servo --env topomap/HallwayServo-v0 --steps 2048 --map PATH
+    python examples/ppo_servo.py --env topomap/Hallway-v0 --steps 2048
+    python examples/ppo_servo.py --env topomap/HallwayServo-v0 --obs vector --map PATH
 
-``--map``: the ``.json`` path of a saved servo map (``servo.save_map(m, directory)`` returns
-it); without it the world's default map is loaded from the data home (built there the first
-time, which collects the default dataset: minutes). A map goes to ``gym.make`` by its path,
-which keeps the env's spec small and JSON.
+(``python -m examples.ppo_servo`` works from the repository's root.) ``--map``: the ``.json``
+path of a saved servo map (``servo.save_map(m, directory)`` returns it); without it the
+world's default map is loaded from the data home (built there the first time, which collects
+the default dataset: minutes). A map goes to ``gym.make`` by its path, which keeps the env's
+spec small and JSON.
 """
 
 from __future__ import annotations
@@ -35,10 +37,13 @@ from gymnasium.wrappers import TransformObservation
 
 import servo  # noqa: F401  (registers the servo envs)
 import sim  # noqa: F401  (headless GL before mujoco; registers the navigation envs)
+from sim.wrappers import ImageObservation, ScanOdometryObservation
 
 IMAGE_SIZE = (48, 64)  # (height, width) the policy sees
 IMAGE_KEYS = ("image", "target_image")
 SERVO_STEPS = 200  # a servo episode's limit while training: several episodes in a short run
+OBSERVATIONS = {"image": "CnnPolicy", "vector": "MlpPolicy", "dict": "MultiInputPolicy"}
+CNN_SIZE = (84, 84)  # (height, width) of the grayscale image of --obs image
 
 
 def downscale(env: gym.Env, size: tuple[int, int] = IMAGE_SIZE) -> gym.Env:
@@ -61,23 +66,44 @@ def downscale(env: gym.Env, size: tuple[int, int] = IMAGE_SIZE) -> gym.Env:
     return TransformObservation(env, resize, gym.spaces.Dict(spaces))
 
 
-def make_env(env_id: str, servo_map: str | None = None, size=IMAGE_SIZE) -> gym.Env:
-    """The env the policy trains on: ``env_id`` with its images at ``size``. A navigation id
-    renders at ``size``; a servo id takes ``servo_map`` (a saved map's path, or None for the
-    world's default map), ends its episodes after ``SERVO_STEPS`` and is resized."""
-    if "Servo" in env_id:
+def make_env(
+    env_id: str, servo_map: str | None = None, size=IMAGE_SIZE, obs: str = "dict"
+) -> gym.Env:
+    """The env the policy trains on: ``env_id`` seen through ``obs`` (`OBSERVATIONS`). A
+    servo id takes ``servo_map`` (a saved map's path, or None for the world's default map)
+    and ends its episodes after ``SERVO_STEPS``. ``"dict"``: the images at ``size``, which a
+    navigation id renders itself; ``"image"``: 84 x 84 grayscale; ``"vector"``: scan and
+    odometry, the navigation id without its camera."""
+    if obs not in OBSERVATIONS:
+        raise ValueError(f"obs must be one of {tuple(OBSERVATIONS)}, got {obs!r}")
+    servo_id = "Servo" in env_id
+    if servo_id:
         env = gym.make(env_id, servo_map=servo_map, max_steps=SERVO_STEPS)
+    elif obs == "vector":
+        env = gym.make(env_id, sensors=("scan",))
     else:
-        env = gym.make(env_id, camera={"width": size[1], "height": size[0]})
+        height, width = size if obs == "dict" else CNN_SIZE
+        env = gym.make(env_id, camera={"width": width, "height": height})
+    if obs == "image":
+        keys = ("image", "target_image") if servo_id else ("image",)
+        return ImageObservation(env, keys, size=CNN_SIZE, grayscale=True)
+    if obs == "vector":
+        return ScanOdometryObservation(env)
     return downscale(env, size)
 
 
 def train(
-    env_id: str, steps: int, servo_map: str | None = None, seed: int = 0, threads: int = 1
+    env_id: str,
+    steps: int,
+    servo_map: str | None = None,
+    seed: int = 0,
+    threads: int = 1,
+    obs: str = "image",
+    size=IMAGE_SIZE,
 ) -> dict:
-    """PPO (``MultiInputPolicy``) on `make_env` for ``steps`` env steps, PyTorch on
-    ``threads`` threads; returns the steps, the wall time, the steps per second, the episodes
-    ended and their mean reward."""
+    """PPO on `make_env` (the policy of ``obs`` in `OBSERVATIONS`, ``size`` the images of
+    ``"dict"``) for ``steps`` env steps, PyTorch on ``threads`` threads; returns the steps,
+    the wall time, the steps per second, the episodes ended and their mean reward."""
     import torch
     from stable_baselines3 import PPO  # the optional extra: pip install -e ".[rl]"
 
@@ -85,8 +111,8 @@ def train(
     # PyTorch's default (a thread per core) ran 256 steps in 29 s instead of 2.3 s.
     torch.set_num_threads(threads)
 
-    env = make_env(env_id, servo_map)
-    model = PPO("MultiInputPolicy", env, n_steps=256, batch_size=64, seed=seed, verbose=0)
+    env = make_env(env_id, servo_map, size, obs=obs)
+    model = PPO(OBSERVATIONS[obs], env, n_steps=256, batch_size=64, seed=seed, verbose=0)
     start = time.perf_counter()
     model.learn(total_timesteps=steps)
     seconds = time.perf_counter() - start
@@ -94,6 +120,7 @@ def train(
     env.close()
     return {
         "env": env_id,
+        "obs": obs,
         "steps": model.num_timesteps,
         "seconds": round(seconds, 1),
         "steps_per_s": round(model.num_timesteps / seconds, 1),
@@ -109,8 +136,11 @@ def main(argv=None) -> None:
     p.add_argument("--map", default=None, help="a saved servo map's .json path (servo ids)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--threads", type=int, default=1, help="PyTorch's threads")
+    p.add_argument("--obs", choices=tuple(OBSERVATIONS), default="image",
+                   help="what the policy sees (image: CnnPolicy; vector: MlpPolicy; dict: "
+                   "MultiInputPolicy)")  # fmt: skip
     a = p.parse_args(argv)
-    print(train(a.env, a.steps, a.map, a.seed, a.threads))
+    print(train(a.env, a.steps, a.map, a.seed, a.threads, a.obs))
 
 
 if __name__ == "__main__":

@@ -140,9 +140,11 @@ def cmd_group_eval(args) -> int:
     if args.method:
         return group_eval(args)  # the outside estimator (scripts.grouping.outside)
     if args.data is not None:
+        from scripts.data_needed import ensure_dataset
         from scripts.grouping import one_dataset
 
         one_dataset(args)
+        args.data = ensure_dataset(args.data, "group-eval", progress=not args.quiet)
     if args.local_maps:
         return local_maps_eval(args)
     if args.carmen:

@@ -16,6 +16,7 @@ from scripts.args import (
     world_choice,
     worlds,
 )
+from scripts.data_needed import DEFAULT_DATA, ensure_dataset
 
 
 def servo_eval_name(args) -> str:
@@ -53,17 +54,18 @@ def cmd_servo_eval(args) -> int:
             print("topomap servo-eval: --sandbox on, but neither bwrap nor unshare can make a "
                   "sandbox on this machine", file=sys.stderr)  # fmt: skip
             return 2
+    data = ensure_dataset(args.data or DEFAULT_DATA, "servo-eval", progress=not args.json)
     results = []
     for world in worlds(args.world):
         protocol = Protocol(world, args.tier, args.split, randomize=args.randomize,
                             odometry_noise=not args.no_odometry_noise,
                             max_steps=args.max_steps)  # fmt: skip
-        servo_map = load_or_build(world, dataset=args.data, cache=args.maps)
+        servo_map = load_or_build(world, dataset=data, cache=args.maps)
         path, _ = map_paths(args.maps, world, servo_map.key)
         r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
                          args.policy, workers=args.workers, progress=not args.json,
                          policy_options=dict(args.policy_arg or []),
-                         hide=[args.data] if args.data else [], sandbox=sandbox)  # fmt: skip
+                         hide=[data], sandbox=sandbox)  # fmt: skip
         not_loaded = r["reasons"].get("policy not loaded", 0)
         if not_loaded:  # every episode failed so: say why here too, not only in the records
             why = next(e["failure"] for e in r["episodes_detail"] if "failure" in e)
@@ -136,7 +138,9 @@ def add_parsers(sub, default_out: str) -> None:
     e.add_argument("--workers", type=positive_int, default=None, help="default: the cores")
     e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")
     e.add_argument("--no-odometry-noise", action="store_true", help="perfect wheel odometry")
-    e.add_argument("--data", default=f"{default_out}/dataset", help="dataset the map is built from")
+    e.add_argument("--data", default=None,
+                   help=f"dataset the map is built from (default {DEFAULT_DATA}, collected there "
+                   "when missing)")  # fmt: skip
     e.add_argument("--maps", default=f"{default_out}/servo-maps", help="servo map cache")
     e.add_argument("--out", default=None, help="write the results' JSON here")
     e.add_argument("--sandbox", choices=("auto", "on", "off"), default="auto",

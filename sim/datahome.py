@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import sys
 from pathlib import Path
 
 ENV_VAR = "TOPOMAP_HOME"
@@ -70,20 +71,43 @@ def data_home(home: str | os.PathLike | None = None) -> Path:
 
 
 @contextlib.contextmanager
-def home_lock(home: Path):
-    """Hold an exclusive lock on the home while collecting or building into it, so two
-    processes (two notebooks, vector-env workers) never write the same files at once."""
+def folder_lock(folder: Path, what: str = "the data home", lock_file: str | None = None):
+    """Hold an exclusive lock on ``folder`` while collecting or building into it, so that two
+    processes (two notebooks, the workers of a vector env starting together) never make the
+    same files at once: the first makes them, the others wait, then find them made. The lock
+    is on the folder itself (nothing is written), or on its file ``lock_file`` where given. A
+    process that has to wait says so on stderr, naming ``what``."""
     try:
         import fcntl
     except ImportError:  # not POSIX: no cross-process lock, the atomic writes still hold
         yield
         return
-    with open(home / LOCK_FILE, "a+b") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
+    if lock_file is None:
+        fd = os.open(folder, os.O_RDONLY)
+    else:
+        fd = os.open(Path(folder) / lock_file, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print(
+                f"topomap: process {os.getpid()} waits for another process to finish "
+                f"{what} in {folder}",
+                file=sys.stderr,
+                flush=True,
+            )
+            fcntl.flock(fd, fcntl.LOCK_EX)
         try:
             yield
         finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+            fcntl.flock(fd, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)
+
+
+def home_lock(home: Path):
+    """`folder_lock` of the data home ``home``, on its file ``.lock``."""
+    return folder_lock(home, "the default dataset", LOCK_FILE)
 
 
 def default_dataset(home: str | os.PathLike | None = None, progress: bool = True) -> Path:
@@ -92,6 +116,7 @@ def default_dataset(home: str | os.PathLike | None = None, progress: bool = True
     An existing dataset there is never replaced: one collected with other settings, or a
     damaged one, is reported by ``sim.collect`` / ``sim.dataset`` with what to do.
     """
+    from common.cores import spawn_problem
     from sim.collect import CollectionSettings, collect_dataset
     from sim.dataset import META_FILE, read_meta
 
@@ -104,6 +129,14 @@ def default_dataset(home: str | os.PathLike | None = None, progress: bool = True
         return directory
     with home_lock(root):
         if not (meta_path.is_file() and read_meta(directory).get("complete", False)):
+            problem = spawn_problem()
+            where = f", in this process: {problem}" if problem else ""
+            print(
+                f"topomap: collecting the default dataset into {directory} (once; the maps and "
+                f"envs that need it read it from there){where}",
+                file=sys.stderr,
+                flush=True,
+            )
             collect_dataset(directory, CollectionSettings(), progress=progress)
     return directory
 

@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from common.validation import check_bool, check_finite, check_keys
+from common.validation import CheckedKeywords, check_bool, check_finite, check_keys
 from scenes import NO_MANIFOLD, build_world
 from scenes.families import check_world_name, parse_world_name
 from scenes.robot import RADIUS
@@ -101,7 +101,7 @@ def check_pose_option(value) -> np.ndarray:
     return pose.astype(np.float64)
 
 
-class NavigationEnv(gym.Env):
+class NavigationEnv(CheckedKeywords, gym.Env):
     """Drive a differential-drive robot through the hallway or lawn world (a Gymnasium env).
 
     Registered as ``topomap/Hallway-v0`` and ``topomap/Lawn-v0`` when ``sim`` is imported.

@@ -12,7 +12,7 @@ API = Path(__file__).resolve().parents[1] / "docs" / "api"
 FACES = (
     "mapping", "mapping.manifold", "mapping.grouping", "mapping.baselines", "mapping.features",
     "servo", "servo.maps", "servo.task", "servo.laser_image", "servo.camera_only",
-    "sim.readers", "sim.dataset", "scenes",
+    "sim.readers", "sim.dataset", "sim.wrappers", "scenes",
 )
 # sim's face exports nothing itself: users import its modules, which its page renders whole
 SIM_MODULES = ("sim.simulator", "sim.env", "sim.collect")

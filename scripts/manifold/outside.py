@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from mapping import clustering_error
+from scripts.data_needed import manifold_dataset_message
 from scripts.leaderboard import OutsideMethod, envelope, parse_params, write_result
 from scripts.manifold.methods import METHODS, score_methods
 from scripts.manifold.protocol import (
@@ -117,10 +118,10 @@ def evaluate_method(
         needed = [dataset_dir(root, seed, condition)]
         if condition == "held-out":
             needed.append(dataset_dir(root, seed + 1, condition))
-        missing = [str(p) for p in needed if not (p / "meta.json").is_file()]
-        if missing:
-            raise ValueError(f"dataset {missing[0]} not collected (topomap collect; see "
-                             "python -m scripts.manifold.protocol --help)")  # fmt: skip
+        for k, path in enumerate(needed):
+            if not (path / "meta.json").is_file():
+                raise ValueError(manifold_dataset_message(
+                    path, seed + k, condition, seed if k else None))  # fmt: skip
         X_train, y_train, X_test, y_test = cell_data(root, condition, feat, seed)
         if builtin:
             row = score_methods(X_train, y_train, K, Q, X_test, y_test, methods=(method,))[0]

@@ -24,6 +24,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import sys
 import warnings
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -385,6 +386,16 @@ def load_or_build(
             return load_map(path, world)
         except MapError as err:
             warnings.warn(f"rebuilding the servo map: {err}", RuntimeWarning, stacklevel=2)
-    m = build_map(load_dataset(dataset), world, settings)
-    save_map(m, cache)
+    cache.mkdir(parents=True, exist_ok=True)
+    with datahome.folder_lock(cache, f"the {world} servo map"):  # one builder, the others wait
+        if path.is_file():
+            try:
+                return load_map(path, world)  # built by the process this one waited for
+            except MapError:
+                pass
+        if progress:
+            print(f"topomap: building the {world} servo map into {cache} (once)",
+                  file=sys.stderr, flush=True)  # fmt: skip
+        m = build_map(load_dataset(dataset), world, settings)
+        save_map(m, cache)
     return m

@@ -10,10 +10,16 @@ from gymnasium import spaces
 
 from common.blas import single_threaded_blas
 from common.geometry import se2_relative, wrap_angle
-from common.validation import check_bool, check_finite, check_int, check_keys
+from common.validation import (
+    CheckedKeywords,
+    check_bool,
+    check_finite,
+    check_int,
+    check_keys,
+)
 from servo.maps import MapError, ServoMap, load_map, load_or_build
 from servo.task.registration import MAX_EPISODE_STEPS, spec_with_own_limit, warn_of_map_object
-from sim.env import NavigationEnv, check_pose_option, check_world
+from sim.env import NO_RETURN, NavigationEnv, check_pose_option, check_world
 from sim.odometry import OdometryConfig
 
 SUCCESS_RADIUS = 0.5  # m
@@ -29,7 +35,7 @@ COLLISION_PENALTY = 0.1
 RESET_OPTIONS = ("pose", "start_manifold", "start_view", "target", "target_manifold")
 
 
-class ServoEnv(gym.Env):
+class ServoEnv(CheckedKeywords, gym.Env):
     """Servo the robot to a stored view of the world's map (a Gymnasium env).
 
     Registered as ``topomap/HallwayServo-v0`` and ``topomap/LawnServo-v0``.
@@ -181,6 +187,20 @@ class ServoEnv(gym.Env):
         registered_world: str | None = None,
     ):
         world = check_world(world, registered_world)
+        if render_mode not in (None, *self.metadata["render_modes"]):  # before the map loads
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        if no_return not in NO_RETURN:
+            raise ValueError(f"no_return must be one of {NO_RETURN}, got {no_return!r}")
+        randomize = check_bool(randomize, "randomize")
+        self.max_steps = check_int(max_steps, "max_steps")
+        self.signal_weight = check_finite(signal_weight, "signal_weight")
+        self.success_reward = check_finite(success_reward, "success_reward")
+        self.collision_penalty = check_finite(collision_penalty, "collision_penalty")
+        self.cross_manifold = check_bool(cross_manifold, "cross_manifold")
+        odometry_noise = check_bool(odometry_noise, "odometry_noise")
         if servo_map is None:
             servo_map = load_or_build(world)
         elif isinstance(servo_map, str | os.PathLike):
@@ -191,14 +211,7 @@ class ServoEnv(gym.Env):
                 f"{type(servo_map).__name__}"
             )
         servo_map.check_world(world)
-        check_int(max_steps, "max_steps")
-        self.signal_weight = check_finite(signal_weight, "signal_weight")
-        self.success_reward = check_finite(success_reward, "success_reward")
-        self.collision_penalty = check_finite(collision_penalty, "collision_penalty")
         self.map = servo_map
-        self.max_steps = int(max_steps)
-        self.cross_manifold = check_bool(cross_manifold, "cross_manifold")
-        odometry_noise = check_bool(odometry_noise, "odometry_noise")
         self.render_mode = render_mode
         self.base = NavigationEnv(
             world,

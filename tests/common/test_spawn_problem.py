@@ -57,3 +57,21 @@ def test_the_library_runs_from_a_script_piped_to_python(tmp_path):
         pytest.fail(f"exit {done.returncode}: {done.stderr[-2000:]}")
     assert "sequences 3" in done.stdout
     assert "collecting in this process, not in 2 workers" in done.stderr
+
+
+def _daemon_problem(queue):
+    from common.cores import spawn_problem
+
+    queue.put(spawn_problem())
+
+
+def test_a_daemonic_worker_cannot_start_children():
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("spawn")
+    queue = ctx.Queue()
+    worker = ctx.Process(target=_daemon_problem, args=(queue,), daemon=True)
+    worker.start()
+    problem = queue.get(timeout=60)
+    worker.join(timeout=60)
+    assert "daemonic worker" in problem

@@ -2,11 +2,16 @@
 observations inside their spaces, and Gymnasium's flattening and normalising wrappers (what a
 network's input layer sees) free of NaN; PPO itself where Stable-Baselines3 is installed."""
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from gymnasium.wrappers import FlattenObservation, NormalizeObservation
 
-from examples.ppo_servo import IMAGE_SIZE, make_env
+from examples.ppo_servo import CNN_SIZE, IMAGE_SIZE, make_env
 from servo.maps.file import save_map
 
 
@@ -52,10 +57,45 @@ def test_the_downscaled_observations_lie_in_their_spaces(lawn_map_path):
     env.close()
 
 
-def test_ppo_trains_a_few_steps(lawn_map_path):
+@pytest.mark.parametrize(
+    ("env_id", "obs", "shape"),
+    [
+        ("topomap/Lawn-v0", "image", (*CNN_SIZE, 1)),
+        ("topomap/Lawn-v0", "vector", (40,)),
+        ("topomap/LawnServo-v0", "image", (CNN_SIZE[0], 2 * CNN_SIZE[1], 1)),
+        ("topomap/LawnServo-v0", "vector", (76,)),
+    ],
+)
+def test_the_one_box_observations_lie_in_their_spaces(env_id, obs, shape, lawn_map_path):
+    env = make_env(*_env_args(env_id, lawn_map_path), obs=obs)
+    assert env.observation_space.shape == shape
+    if obs == "vector" and "Servo" not in env_id:
+        assert "image" not in env.unwrapped.observation_space.spaces  # no camera rendered
+    o, _ = env.reset(seed=1)
+    for _ in range(3):
+        assert env.observation_space.contains(o)
+        o, *_ = env.step(np.array([0.8, 0.3], np.float32))
+    env.close()
+
+
+@pytest.mark.parametrize("obs", ["image", "vector", "dict"])
+def test_ppo_trains_a_few_steps(lawn_map_path, obs):
     """Where the optional extra is installed (pip install -e ".[rl]"); CI has no PyTorch."""
     pytest.importorskip("stable_baselines3")
     from examples.ppo_servo import train
 
-    out = train("topomap/LawnServo-v0", 128, lawn_map_path)
-    assert out["steps"] >= 128 and out["steps_per_s"] > 0
+    out = train("topomap/LawnServo-v0", 128, lawn_map_path, obs=obs)
+    assert out["steps"] >= 128 and out["steps_per_s"] > 0 and out["obs"] == obs
+
+
+def test_the_example_runs_from_a_folder_outside_the_repository(tmp_path):
+    """``python examples/ppo_servo.py`` by its path, the working folder elsewhere; the
+    project on the import path as an install puts it."""
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}  # fmt: skip
+    script = str(root / "examples" / "ppo_servo.py")
+    done = subprocess.run([sys.executable, script, "--help"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "--obs {image,vector,dict}" in done.stdout

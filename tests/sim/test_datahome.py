@@ -126,3 +126,26 @@ def test_radish_log_is_read_from_the_variable_only(tmp_path, monkeypatch):
     ).resolve()
     with pytest.raises(DataHomeError, match="holds no csail-corrected"):
         datahome.radish_log("csail-corrected.log.gz")
+
+
+def test_a_folder_lock_makes_the_second_holder_wait_saying_so(tmp_path, capsys):
+    import threading
+    import time
+
+    from sim.datahome import folder_lock
+
+    order = []
+
+    def second():
+        with folder_lock(tmp_path, "the lawn servo map"):
+            order.append("second")
+
+    with folder_lock(tmp_path, "the lawn servo map"):
+        thread = threading.Thread(target=second)
+        thread.start()
+        time.sleep(0.5)
+        order.append("first")
+    thread.join(timeout=10)
+    assert order == ["first", "second"]
+    assert "waits for another process to finish the lawn servo map" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []  # the folder itself is locked: no file is left
