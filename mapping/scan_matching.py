@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from common.geometry import se2_compose, se2_relative
 from mapping.icp_solver import densify_scan, icp_batch
-from mapping.runs import run_starts_from_groups
+from mapping.run_starts import run_starts_from_groups
 
 __all__ = ["refine_poses"]
 
@@ -40,7 +40,7 @@ def refine_poses(
     kept. The poses are re-chained from ``poses[0]``.
 
     ``groups`` gives the run (drive) of each scan, scikit-learn's per-sample convention (see
-    ``mapping.grouping.topology.run_starts_from_groups``): where a new run begins there is no
+    ``mapping.run_starts.run_starts_from_groups``): where a new run begins there is no
     odometry increment from the previous scan, so that scan keeps its input pose and the next ones
     chain from it.
 

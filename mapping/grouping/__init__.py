@@ -9,7 +9,9 @@ with poses grouped into local metric maps by recursive min-Ncut of their sensed-
 * ``normalized_cut`` -- Ncut, spectral bisection and the recursive partition with threshold 1;
 * ``topology`` -- the groups' local maps joined in a topological map;
 * ``local_maps`` -- the local maps aligned by ICP and scored;
-* ``pose_graph`` -- loop closure over the groups (GTSAM).
+* ``pose_graph`` -- loop closure over the groups (GTSAM);
+* ``similarity`` -- kNN Gaussian similarity graphs of feature vectors (e.g. images), the
+  weights of a ``"precomputed"`` partition.
 """
 
 from common.lazy import lazy_exports
@@ -20,6 +22,8 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "absolute_trajectory_error": "mapping.grouping.pose_graph",
         "align_groups": "mapping.grouping.local_maps",
         "close_loops": "mapping.grouping.pose_graph",
+        "default_n_neighbors": "mapping.grouping.similarity",
+        "knn_gaussian_affinity": "mapping.grouping.similarity",
         "localise_held_out": "mapping.grouping.local_maps",
         "map_residuals": "mapping.grouping.local_maps",
         "ncut": "mapping.grouping.normalized_cut",

@@ -31,7 +31,7 @@ from common.validation import is_real
 from mapping.grouping.overlap import check_scans_and_poses
 from mapping.grouping.topology import check_poses
 from mapping.icp_solver import densify_scan, icp
-from mapping.runs import run_starts_from_groups
+from mapping.run_starts import run_starts_from_groups
 
 __all__ = [
     "align_group",

@@ -68,8 +68,8 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     affinity : {"sso", "precomputed"}, default "sso"
         ``"sso"``: ``fit(scans, poses)`` weighs the graph by the sensed-space overlap.
         ``"precomputed"``: ``fit(W)`` partitions the symmetric non-negative weight matrix ``W``
-        (e.g. an image-similarity graph, ``mapping.similarity``); without poses there are no
-        local maps or topology.
+        (e.g. an image-similarity graph, ``knn_gaussian_affinity``); without poses there are
+        no local maps or topology.
     assoc : {"mrpt", "paper"}, default "mrpt"
         How the association of eq. 1 is counted (see ``mapping.grouping.normalized_cut.ncut``);
         ``"mrpt"`` is the basis on which the threshold of 1 separates rooms, see

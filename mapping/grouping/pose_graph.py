@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 
 from common.geometry import se2_compose, se2_relative
 from mapping.icp_solver import densify_scan, icp_batch
-from mapping.runs import run_starts_from_groups
+from mapping.run_starts import run_starts_from_groups
 
 __all__ = ["LoopClosureResult", "absolute_trajectory_error", "close_loops"]
 

@@ -25,7 +25,7 @@ from common.geometry import (
     transform_points,
     wrap_angle,
 )
-from mapping.runs import run_starts_from_groups
+from mapping.run_starts import run_starts_from_groups
 
 __all__ = [
     "TopologicalMap",

@@ -40,7 +40,7 @@ from mapping.grouping import (
     submap_labels,
 )
 from mapping.icp_solver import densify_scan
-from mapping.runs import run_starts_from_groups
+from mapping.run_starts import run_starts_from_groups
 from mapping.scan_matching import refine_poses
 from sim.odometry import Odometry, OdometryConfig
 

@@ -9,10 +9,13 @@ import time
 import numpy as np
 
 from mapping.features import ColorHistogramFeatures, ScanFeatures
-from mapping.grouping import ObservationGraphPartitioner
+from mapping.grouping import (
+    ObservationGraphPartitioner,
+    default_n_neighbors,
+    knn_gaussian_affinity,
+)
 from mapping.manifold import ManifoldClustering
 from mapping.metrics import adjusted_rand_index, contingency_matrix, purity
-from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
 from sim.runs import Runs
 
 __all__ = ["TARGETS", "compare_methods", "meets_targets", "score_groups", "unscored"]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mapping.grouping.normalized_cut import recursive_ncut_partition
-from mapping.similarity import default_n_neighbors, knn_gaussian_affinity
+from mapping.grouping.similarity import default_n_neighbors, knn_gaussian_affinity
 
 
 def test_graph_is_symmetric_sparse_with_unit_diagonal():
