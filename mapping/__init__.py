@@ -30,7 +30,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "recursive_ncut_partition": "mapping.grouping",
         "sensed_space_overlap": "mapping.grouping",
         "spectral_bisection": "mapping.grouping",
-        "icp": "mapping.icp_solver",
+        "icp": "mapping.scan_matching",
         "ManifoldClustering": "mapping.manifold",
         "adjusted_rand_index": "mapping.metrics",
         "clustering_error": "mapping.metrics",

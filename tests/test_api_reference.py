@@ -10,7 +10,8 @@ import pytest
 
 API = Path(__file__).resolve().parents[1] / "docs" / "api"
 FACES = (
-    "mapping", "mapping.manifold", "mapping.grouping", "mapping.baselines", "mapping.features",
+    "mapping", "mapping.manifold", "mapping.grouping", "mapping.scan_matching", "mapping.baselines",
+    "mapping.features",
     "servo", "servo.maps", "servo.task", "servo.laser_image", "servo.camera_only",
     "sim.readers", "sim.dataset", "sim.wrappers", "scenes",
 )

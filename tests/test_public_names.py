@@ -39,8 +39,8 @@ def test_every_public_name_imports_from_its_package(package, names):
 
 def test_the_faces_give_the_defining_modules_objects():
     from mapping.grouping.normalized_cut import ncut
-    from mapping.icp_solver import icp
+    from mapping.scan_matching.icp_alignment import icp
 
-    importlib.import_module("mapping.icp_solver")
+    importlib.import_module("mapping.scan_matching.icp_alignment")
     assert mapping.icp is icp and mapping.ncut is ncut  # functions, never the modules
     assert servo.evaluate is importlib.import_module("servo.task.evaluation")

@@ -30,8 +30,8 @@ from common.geometry import se2_compose, se2_relative, transform_points
 from common.validation import is_real
 from mapping.grouping.overlap import check_scans_and_poses
 from mapping.grouping.topology import check_poses
-from mapping.icp_solver import densify_scan, icp
 from mapping.run_starts import run_starts_from_groups
+from mapping.scan_matching import densify_scan, icp
 
 __all__ = [
     "align_group",
@@ -131,7 +131,7 @@ def align_group(
 
     The first member keeps its pose. Every next member is seeded with the given relative
     motion from the previous member (``poses[prev] ⊖ poses[i]`` composed on the aligned pose
-    of ``prev``) and aligned by ``mapping.icp_solver.icp`` to the points of the last ``window``
+    of ``prev``) and aligned by ``mapping.scan_matching.icp`` to the points of the last ``window``
     members already placed (densified along each scan). A match that does not converge or
     pairs fewer than ``min_overlap`` of the scan's points keeps the seed.
 

@@ -27,8 +27,8 @@ from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
 from common.geometry import se2_compose, se2_relative
-from mapping.icp_solver import densify_scan, icp_batch
 from mapping.run_starts import run_starts_from_groups
+from mapping.scan_matching import densify_scan, icp_batch
 
 __all__ = ["LoopClosureResult", "absolute_trajectory_error", "close_loops"]
 

@@ -39,9 +39,8 @@ from mapping.grouping import (
     map_residuals,
     submap_labels,
 )
-from mapping.icp_solver import densify_scan
 from mapping.run_starts import run_starts_from_groups
-from mapping.scan_matching import refine_poses
+from mapping.scan_matching import densify_scan, refine_poses
 from sim.odometry import Odometry, OdometryConfig
 
 __all__ = [

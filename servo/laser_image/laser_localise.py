@@ -22,7 +22,7 @@ from scipy import ndimage
 
 from common.blas import single_threaded_blas
 from common.geometry import thin_to_grid, wrap_angle
-from mapping.icp_solver import icp
+from mapping.scan_matching import icp
 from servo.laser_image.metric_map import FIELD_RESOLUTION, MetricMap
 from servo.localise import ImageLocaliser
 

@@ -21,7 +21,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from common.geometry import se2_compose, se2_inverse, thin_to_grid, transform_points
-from mapping.icp_solver import densify_scan
+from mapping.scan_matching import densify_scan
 from scenes.regions import OccupancyGrid
 from scenes.robot import RADIUS
 from servo.maps import ServoMap

@@ -1,6 +1,6 @@
 """Scan matching of the current laser scan against a servo map's stored views.
 
-`ViewMatcher` runs ICP (``mapping.icp_solver``) of the current scan on one stored view's scan
+`ViewMatcher` runs ICP (``mapping.scan_matching``) of the current scan on one stored view's scan
 (or on a given ``(tree, points)`` map) and scores a match by its overlap both ways, which is
 what tells places along a uniform corridor apart: ``ManifoldServo``'s arrival check.
 """
@@ -11,7 +11,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from common.geometry import transform_points
-from mapping.icp_solver import densify_scan, icp
+from mapping.scan_matching import densify_scan, icp
 from servo.maps import ServoMap
 
 __all__ = ["ViewMatcher"]

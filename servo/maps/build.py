@@ -44,9 +44,8 @@ from common.geometry import (
     wrap_angle,
 )
 from mapping.features import ImageFeatures
-from mapping.icp_solver import densify_scan, icp
 from mapping.manifold import ManifoldClustering
-from mapping.scan_matching import refine_poses
+from mapping.scan_matching import densify_scan, icp, refine_poses
 from scenes.families import check_world_name
 from servo.maps.file import FORMAT_VERSION, load_map, map_paths, save_map
 from servo.maps.needs import check_needs

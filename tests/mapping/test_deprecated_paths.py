@@ -10,6 +10,11 @@ MOVED = [
     ("mapping.similarity", "default_n_neighbors", "mapping.grouping"),
     ("mapping.similarity", "knn_gaussian_affinity", "mapping.grouping"),
     ("mapping.runs", "run_starts_from_groups", "mapping.run_starts"),
+    ("mapping.icp_solver", "icp", "mapping.scan_matching"),
+    ("mapping.icp_solver", "icp_batch", "mapping.scan_matching"),
+    ("mapping.icp_solver", "densify_scan", "mapping.scan_matching"),
+    ("mapping.icp_solver", "IcpResult", "mapping.scan_matching.icp_alignment"),
+    ("mapping.icp_solver", "IcpBatchResult", "mapping.scan_matching.icp_alignment"),
 ]
 
 

@@ -2,8 +2,8 @@
 
 The observation grouping of Blanco et al. assumes the poses come from a map builder (Section
 IV-A); with raw odometry, heading drift smears the sensed-space overlap. ``refine_poses``
-replaces each odometry increment by the ICP alignment (``mapping.icp_solver``) of consecutive scans,
-seeded with that increment, before the overlap is computed.
+replaces each odometry increment by the ICP alignment (``icp_alignment``) of consecutive
+scans, seeded with that increment, before the overlap is computed.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from common.geometry import se2_compose, se2_relative
-from mapping.icp_solver import densify_scan, icp_batch
 from mapping.run_starts import run_starts_from_groups
+from mapping.scan_matching.icp_alignment import densify_scan, icp_batch
 
 __all__ = ["refine_poses"]
 
