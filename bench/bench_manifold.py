@@ -34,9 +34,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import ManifoldClustering, branching_sequences
 from mapping.metrics import clustering_error
-from mapping.synthetic import branching_sequences
 
 
 def _time(fn, repeat: int = 1) -> float:

@@ -5,7 +5,7 @@
     .venv/bin/python bench/bench_partition.py --targets --carmen LOG ...  # other real logs
     .venv/bin/python bench/bench_partition.py --incremental  # partial_fit per scan at 1000
 
-All data are synthetic scans of ``mapping.synthetic_scans.office_world``: a corridor with
+All data are synthetic scans of ``mapping.grouping.office_world``: a corridor with
 rooms, a route touring every room, a 181-beam 180-degree laser with 8 m range. The office of
 the paper (4 rooms, 77 scans, one every 1.17 m) is scaled up by adding rooms. The
 association, noise and figure studies are ``python -m experiments.grouping.partition_studies``.
@@ -24,11 +24,13 @@ import numpy as np
 
 from mapping.grouping import (
     ObservationGraphPartitioner,
+    office_path,
+    office_world,
+    raycast,
     recursive_ncut_partition,
     sensed_space_overlap,
 )
 from mapping.metrics import adjusted_rand_index, purity
-from mapping.synthetic_scans import office_path, office_world, raycast
 from sim.datahome import RADISH_LOGS, RADISH_VAR, DataHomeError, radish_log
 
 STEP = 1.17  # metres between scans: 77 scans in the paper-sized office

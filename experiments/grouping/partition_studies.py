@@ -19,9 +19,9 @@ from mapping.grouping import (
     ObservationGraphPartitioner,
     recursive_ncut_partition,
     sensed_space_overlap,
+    simulate_odometry,
 )
 from mapping.metrics import adjusted_rand_index, purity
-from mapping.synthetic_scans import simulate_odometry
 
 IMG = Path(__file__).resolve().parents[2] / "docs" / "img"
 

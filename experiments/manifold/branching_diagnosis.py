@@ -1,6 +1,6 @@
 """Why ours loses to scikit-learn's 10-NN graph on the branching sequences.
 
-The sequences of `mapping.synthetic.branching_sequences` are two stars: per world a trunk
+The sequences of `mapping.manifold.branching_sequences` are two stars: per world a trunk
 and three branches that all start at the trunk's end. For each draw this script fits
 ``ManifoldClustering`` and asks where its error comes from:
 
@@ -36,14 +36,14 @@ from common.fileio import atomic_write_bytes
 from experiments.manifold.split_manifold import normalised_cut
 from mapping import ManifoldClustering, clustering_error
 from mapping.baselines.label_free import KNNSpectralClustering
+from mapping.manifold import branching_sequences
 from mapping.manifold.geometry import training_geometry
 from mapping.manifold.spectral_combine import spectral_groups
 from mapping.manifold.tree import GroupScores
 from mapping.metrics import majority_merge_error
-from mapping.synthetic import branching_sequences
 
 K, D = 8, 2000
-#: labels of the trunks in `mapping.synthetic.branching_sequences` (0..3 world one)
+#: labels of the trunks in `mapping.manifold.branching_sequences` (0..3 world one)
 TRUNKS = (0, 4)
 
 

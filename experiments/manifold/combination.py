@@ -29,9 +29,8 @@ from scipy.optimize import Bounds, LinearConstraint, linear_sum_assignment, milp
 
 import mapping.manifold.tree as tree
 from experiments.manifold.dense_vs_graph import image_split
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import SYNTHETIC_SETS, ManifoldClustering, branching_sequences
 from mapping.manifold.spectral_combine import spectral_groups
-from mapping.synthetic import SYNTHETIC_SETS, branching_sequences
 
 DEV_SEEDS = [0, *range(100, 112)]
 DEV_POOLS = [(0, 100, 101), (102, 103, 104), (105, 106, 107), (108, 109, 110), (111, 0, 103)]

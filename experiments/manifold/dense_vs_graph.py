@@ -27,9 +27,8 @@ import numpy as np
 
 import mapping.manifold.split as split_module
 from bench.bench_manifold import wall_and_cpu
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import ManifoldClustering, branching_sequences
 from mapping.metrics import clustering_error, majority_merge_error
-from mapping.synthetic import branching_sequences
 
 
 def image_split(dataset) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -117,7 +116,7 @@ def sparse_accuracy(dataset: str | None) -> None:
     """Clustering error of kernel="sparse" against the dense reference: the paper's synthetic
     sets (K = 3, Q = 20) and, given a dataset directory (``topomap collect --world all``), the
     8-manifold images as HSV histograms (K = 8, Q = 35, paper split; train / test error)."""
-    from mapping.synthetic import SYNTHETIC_SETS
+    from mapping.manifold import SYNTHETIC_SETS
 
     settings = [{"kernel": "dense"}] + [{"kernel": "sparse", "n_components": r} for r in (64, 16)]
     print("| kernel | " + " | ".join(SYNTHETIC_SETS) + " |")
@@ -144,7 +143,7 @@ def sparse_accuracy(dataset: str | None) -> None:
 
 def experiments() -> None:
     from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
-    from mapping.synthetic import make_all
+    from mapping.manifold import make_all
 
     variants = {
         "chosen (merge)": {},

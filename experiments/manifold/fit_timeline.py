@@ -20,8 +20,7 @@ import numpy as np
 
 import mapping.manifold.clustering as manifold_module
 import mapping.manifold.geometry as geometry_module
-from mapping.manifold import ManifoldClustering
-from mapping.synthetic import branching_sequences
+from mapping.manifold import ManifoldClustering, branching_sequences
 
 _PHASES = ((geometry_module, "knn_edges"), (manifold_module, "combine_tree"),
            (manifold_module, "cluster_model"))  # fmt: skip

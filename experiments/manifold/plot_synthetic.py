@@ -18,8 +18,8 @@ import numpy as np
 
 from mapping.baselines import SelfTuningSpectralClustering
 from mapping.baselines.sigma_sweep import best_sigma_ncut
+from mapping.manifold import make_all, plot_sets
 from mapping.metrics import clustering_error
-from mapping.synthetic import make_all, plot_sets
 
 _DEFAULT_OUT = Path(__file__).resolve().parent.parent / "docs" / "img" / "synthetic_sets.png"
 _K = 3  # clusters in every synthetic set (paper, Section III-A)

@@ -4,7 +4,7 @@ sequences at several n, and the paper's claim tested where it should matter.
 Per-cluster sigma should beat one sigma when no single sigma both connects the sparsest curve
 (sigma above its sampling interval) and separates the curves (sigma below the gap between
 them), i.e. when ``gap / coarsest interval`` is near or below 1, and more so the larger the
-density ratio between the curves. Two sweeps of `mapping.synthetic.lines_variable_spacing`
+density ratio between the curves. Two sweeps of `mapping.manifold.lines_variable_spacing`
 test that:
 
 * ``gap``: intervals (0.01, 0.025, 0.05) fixed, the gap between the lines from 0.5 to 6 times
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from common.fileio import atomic_write_bytes, read_json
-from mapping.synthetic import branching_sequences, lines_variable_spacing, make_all
+from mapping.manifold import branching_sequences, lines_variable_spacing, make_all
 from scripts.manifold.methods import METHODS, score_methods
 
 NOISE = 0.002

@@ -11,7 +11,9 @@ with poses grouped into local metric maps by recursive min-Ncut of their sensed-
 * ``local_maps`` -- the local maps aligned by ICP and scored;
 * ``pose_graph`` -- loop closure over the groups (GTSAM);
 * ``similarity`` -- kNN Gaussian similarity graphs of feature vectors (e.g. images), the
-  weights of a ``"precomputed"`` partition.
+  weights of a ``"precomputed"`` partition;
+* ``synthetic_scans`` -- a small office of walls, a path through it, ray-cast scans and noisy
+  odometry: scans with known rooms for tests, docs and benchmarks.
 """
 
 from common.lazy import lazy_exports
@@ -28,8 +30,12 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "map_residuals": "mapping.grouping.local_maps",
         "ncut": "mapping.grouping.normalized_cut",
         "ObservationGraphPartitioner": "mapping.grouping.partitioner",
+        "office_path": "mapping.grouping.synthetic_scans",
+        "office_world": "mapping.grouping.synthetic_scans",
+        "raycast": "mapping.grouping.synthetic_scans",
         "recursive_ncut_partition": "mapping.grouping.normalized_cut",
         "sensed_space_overlap": "mapping.grouping.overlap",
+        "simulate_odometry": "mapping.grouping.synthetic_scans",
         "spectral_bisection": "mapping.grouping.normalized_cut",
         "submap_labels": "mapping.grouping.local_maps",
         "TopologicalMap": "mapping.grouping.topology",

@@ -118,7 +118,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     Examples
     --------
     >>> from mapping import ObservationGraphPartitioner
-    >>> from mapping.synthetic_scans import office_path, office_world, raycast
+    >>> from mapping.grouping import office_path, office_world, raycast
     >>> world = office_world()
     >>> poses = office_path(world, step=1.17)
     >>> model = ObservationGraphPartitioner(scan_matching=False)

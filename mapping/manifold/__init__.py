@@ -15,7 +15,9 @@ Where each part of the paper lives:
   and a graph cluster; ``signal_solvers`` -- eq. 13's two solvers; ``stacked_signal`` -- eq. 13
   for every cluster at once;
 * ``queries`` -- ``predict``, ``predict_proba``, ``signal`` and ``signals`` of the estimator;
-* ``clustering`` -- the estimator itself.
+* ``clustering`` -- the estimator itself;
+* ``synthetic`` -- the paper's four synthetic sets (Section III-A, Figure 1) and branching
+  sequences, to cluster with known labels.
 """
 
 from common.lazy import lazy_exports
@@ -27,5 +29,13 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "EXPECTED_FAILED_CHECKS": "mapping.manifold.clustering",
         "GraphClusterModel": "mapping.manifold.graph_cluster_model",
         "ManifoldClustering": "mapping.manifold.clustering",
+        "SYNTHETIC_SETS": "mapping.manifold.synthetic",
+        "branching_sequences": "mapping.manifold.synthetic",
+        "converging_paths": "mapping.manifold.synthetic",
+        "lines_variable_spacing": "mapping.manifold.synthetic",
+        "make_all": "mapping.manifold.synthetic",
+        "parallel_lines": "mapping.manifold.synthetic",
+        "plot_sets": "mapping.manifold.synthetic",
+        "spirals_3d": "mapping.manifold.synthetic",
     },
 )

@@ -4,7 +4,7 @@ Usage::
 
     topomap reproduce --data out/dataset --out out/reproduce [--json]
 
-Synthetic (Figures 1-5): the four sets of `mapping.synthetic`, K = 3, Q = 20, clustered by
+Synthetic (Figures 1-5): the four sets of `mapping.manifold.synthetic`, K = 3, Q = 20, clustered by
 [`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering], best-sigma NCut (an oracle:
 sigma chosen on the labels, as the paper did) and self-tuning spectral clustering. Real (Figure 6):
 every second frame of each sequence of the dataset builds the map, the others are the test set, K =
@@ -37,7 +37,7 @@ from mapping import (
     clustering_error,
 )
 from mapping.baselines import SelfTuningSpectralClustering, best_sigma_ncut
-from mapping.synthetic import make_all
+from mapping.manifold import make_all
 from scripts.grouping import agg_pyplot, save_figure
 
 SYNTHETIC_K, SYNTHETIC_Q = 3, 20  # Section III-A

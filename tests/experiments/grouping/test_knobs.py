@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from experiments.grouping import knobs as gk
-from mapping.synthetic_scans import office_path, office_world, raycast
+from mapping.grouping import office_path, office_world, raycast
 
 
 def test_crop_keeps_the_view_and_the_range():

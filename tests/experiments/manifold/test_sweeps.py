@@ -11,7 +11,7 @@ from experiments.manifold.diagnosis import (
     space_summary,
 )
 from experiments.manifold.sweeps import markdown_table, plot_sweeps, sweep_points
-from mapping.synthetic import branching_sequences
+from mapping.manifold import branching_sequences
 from scripts.manifold.methods import METHODS
 
 

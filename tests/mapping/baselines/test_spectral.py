@@ -9,8 +9,8 @@ from sklearn.metrics import adjusted_rand_score
 from mapping.baselines import NormalizedCutClustering, SelfTuningSpectralClustering
 from mapping.baselines.sigma_sweep import best_sigma_ncut
 from mapping.distances import squared_distances
+from mapping.manifold import converging_paths, parallel_lines
 from mapping.metrics import clustering_error
-from mapping.synthetic import converging_paths, parallel_lines
 
 
 @pytest.fixture(scope="module")

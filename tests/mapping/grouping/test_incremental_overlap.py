@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from sklearn.base import clone
 
+from mapping.grouping import office_path, office_world, raycast
 from mapping.grouping.incremental_overlap import VoxelOverlapIndex
 from mapping.grouping.partitioner import ObservationGraphPartitioner
 from mapping.metrics import adjusted_rand_index, purity
-from mapping.synthetic_scans import office_path, office_world, raycast
 
 
 @pytest.fixture(scope="module")

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from common.geometry import transform_points
+from mapping.grouping import office_path, office_world, raycast, simulate_odometry
 from mapping.grouping.local_maps import (
     align_groups,
     localise_held_out,
     map_residuals,
     submap_labels,
 )
-from mapping.synthetic_scans import office_path, office_world, raycast, simulate_odometry
 
 
 @pytest.fixture(scope="module")

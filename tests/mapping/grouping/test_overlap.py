@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.spatial.distance import cdist
 
+from mapping.grouping import office_path, office_world, raycast
 from mapping.grouping.overlap import check_scans_and_poses, sensed_space_overlap, world_points
-from mapping.synthetic_scans import office_path, office_world, raycast
 
 
 @pytest.fixture(scope="module")

@@ -9,10 +9,10 @@ from sklearn.exceptions import NotFittedError
 from sklearn.utils._param_validation import InvalidParameterError
 from sklearn.utils.validation import check_is_fitted
 
+from mapping.grouping import office_path, office_world, raycast
 from mapping.grouping.normalized_cut import ncut, recursive_ncut_partition, spectral_bisection
 from mapping.grouping.partitioner import ObservationGraphPartitioner
 from mapping.metrics import purity
-from mapping.synthetic_scans import office_path, office_world, raycast
 from tests.mapping.grouping.weighted_graphs import UNEVEN
 
 EPS = 0.1  # the weak edge between the cliques

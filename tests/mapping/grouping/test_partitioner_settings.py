@@ -4,11 +4,10 @@ and its eigensolver, and to the topology (its reference scans and the runs)."""
 import numpy as np
 import pytest
 
-from mapping.grouping import normalized_cut
+from mapping.grouping import normalized_cut, office_path, office_world, raycast
 from mapping.grouping.normalized_cut import recursive_ncut_partition
 from mapping.grouping.partitioner import ObservationGraphPartitioner
 from mapping.scan_matching import refine_poses
-from mapping.synthetic_scans import office_path, office_world, raycast
 from tests.mapping.grouping.weighted_graphs import UNEVEN
 
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from mapping.grouping import office_path, office_world, raycast, simulate_odometry
 from mapping.grouping.pose_graph import absolute_trajectory_error, close_loops
 from mapping.scan_matching import refine_poses
-from mapping.synthetic_scans import office_path, office_world, raycast, simulate_odometry
 
 
 @pytest.fixture(scope="module")

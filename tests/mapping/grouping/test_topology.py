@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from common.geometry import se2_inverse, se2_relative, transform_points
+from mapping.grouping import office_path, office_world, raycast, simulate_odometry
 from mapping.grouping.partitioner import ObservationGraphPartitioner
 from mapping.grouping.topology import (
     build_local_maps,
@@ -11,7 +12,6 @@ from mapping.grouping.topology import (
     fill_from_nearest,
     group_frames,
 )
-from mapping.synthetic_scans import office_path, office_world, raycast, simulate_odometry
 
 
 @pytest.fixture(scope="module")

@@ -8,9 +8,8 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.metrics import adjusted_rand_score
 
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import SYNTHETIC_SETS, ManifoldClustering
 from mapping.metrics import clustering_error
-from mapping.synthetic import SYNTHETIC_SETS
 
 
 def three_lines(n=40, gap=0.3, noise=0.0, seed=0):
@@ -94,7 +93,7 @@ def test_spectral_combination_joins_branches_that_pairwise_rules_mix_up():
     # The benchmark's branching sequences (dev draw, seed 0) on the graph path: every arm of a
     # junction looks alike to a pairwise rule, which erred 0.50 here; the spectral cut of the
     # leaves errs 0.097 against the tree's majority-merge bound of 0.065 (docs, ambiguity 4).
-    from mapping.synthetic import branching_sequences
+    from mapping.manifold import branching_sequences
 
     X, y = branching_sequences(150, 2000, np.random.default_rng(0))
     model = ManifoldClustering(8, 35).fit(X)

@@ -3,14 +3,13 @@
 import numpy as np
 import pytest
 
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import SYNTHETIC_SETS, ManifoldClustering
 from mapping.manifold.ensemble_combine import (
     coassociation_groups,
     consensus_groups,
     ensemble_merge,
 )
 from mapping.metrics import clustering_error
-from mapping.synthetic import SYNTHETIC_SETS
 
 
 def same_grouping(a, b):

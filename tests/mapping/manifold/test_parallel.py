@@ -5,9 +5,8 @@ import pytest
 
 import mapping.manifold.geometry as geometry_module
 import mapping.manifold.split as split_module
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import ManifoldClustering, branching_sequences
 from mapping.manifold.geometry import GraphGeometry, knn_edges, sigma_grid
-from mapping.synthetic import branching_sequences
 
 
 @pytest.fixture(scope="module")

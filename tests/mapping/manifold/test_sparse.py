@@ -13,7 +13,7 @@ from sklearn.neighbors import NearestNeighbors
 import mapping.manifold.lowrank_kernel as lowrank
 from mapping import persistence
 from mapping.distances import squared_distances
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import SYNTHETIC_SETS, ManifoldClustering, branching_sequences
 from mapping.manifold.cluster_model import ClusterModel
 from mapping.manifold.geometry import GraphGeometry, knn_edges
 from mapping.manifold.graph_cluster_model import GraphClusterModel
@@ -22,7 +22,6 @@ from mapping.manifold.lowrank_kernel import LowRankBasis
 from mapping.manifold.split import SearchSpace, split_scores
 from mapping.manifold.tree import GroupScores, shared_kernel_merge
 from mapping.metrics import clustering_error
-from mapping.synthetic import SYNTHETIC_SETS, branching_sequences
 
 ALPHAS = np.array([0.5, 0.9, 0.99, 0.9999])
 

@@ -15,11 +15,10 @@ import numpy as np
 import pytest
 
 from mapping import persistence
-from mapping.manifold import ManifoldClustering
+from mapping.manifold import SYNTHETIC_SETS, ManifoldClustering, branching_sequences
 from mapping.manifold import stacked_signal as _manifold_stack
 from mapping.manifold.graph_cluster_model import GraphClusterModel
 from mapping.manifold.stacked_signal import Projection, Stack
-from mapping.synthetic import SYNTHETIC_SETS, branching_sequences
 
 RTOL = {np.dtype(np.float64): 1e-9, np.dtype(np.float32): 2e-5}
 

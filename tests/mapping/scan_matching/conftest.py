@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mapping.synthetic_scans import office_path, office_world, raycast
+from mapping.grouping import office_path, office_world, raycast
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from common.geometry import se2_relative
+from mapping.grouping import simulate_odometry
 from mapping.scan_matching import densify_scan, icp_batch, refine_poses
-from mapping.synthetic_scans import simulate_odometry
 
 
 @pytest.mark.parametrize("decimation", [1, 2])

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from mapping.synthetic import parallel_lines
+from mapping.manifold import parallel_lines
 from scripts.manifold.methods import METHODS, NCUT_ORACLE, OURS, bootstrap_mean, score_methods
 from scripts.manifold.protocol import load_cells, markdown, summarize
 

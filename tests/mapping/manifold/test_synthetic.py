@@ -4,7 +4,7 @@ import matplotlib
 import numpy as np
 import pytest
 
-from mapping.synthetic import (
+from mapping.manifold import (
     SYNTHETIC_SETS,
     branching_sequences,
     converging_paths,
