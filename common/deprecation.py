@@ -15,7 +15,7 @@ from importlib import import_module
 __all__ = ["moved_names"]
 
 
-def moved_names(old: str, new: dict[str, str]):
+def moved_names(old: str, new: dict[str, str], others=None):
     """The ``(__getattr__, __dir__, __all__)`` of the module left at the old path ``old``.
 
     Parameters
@@ -23,7 +23,11 @@ def moved_names(old: str, new: dict[str, str]):
     old : str
         The old module's name (``__name__`` in it).
     new : dict of str to str
-        Public name -> the module to import it from now.
+        Old public name -> ``"module"`` (the module to import it from now, under the same name)
+        or ``"module:attribute"`` (renamed: import ``attribute`` from ``module``).
+    others : callable, optional
+        The module's own ``__getattr__`` for every other name (a package face's lazy names);
+        without it, other names raise ``AttributeError``.
 
     Returns
     -------
@@ -34,14 +38,18 @@ def moved_names(old: str, new: dict[str, str]):
 
     def __getattr__(name: str):
         if name not in new:
+            if others is not None:
+                return others(name)
             raise AttributeError(f"module {old!r} has no attribute {name!r}")
+        module, _, attribute = new[name].partition(":")
+        attribute = attribute or name
         warnings.warn(
-            f"{old} is deprecated and will be removed in the next release: import {name} "
-            f"from {new[name]} instead",
+            f"{old}.{name} is deprecated and will be removed in the next release: import "
+            f"{attribute} from {module} instead",
             DeprecationWarning,
             stacklevel=2,
         )
-        return getattr(import_module(new[name]), name)
+        return getattr(import_module(module), attribute)
 
     names = sorted(new)
 

@@ -22,6 +22,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
         "SignalServo": "servo.camera_only",
         "SignalServoConfig": "servo.camera_only",
         "ManifoldServo": "servo.laser_image",
+        "ManifoldServoConfig": "servo.laser_image",
         "MapError": "servo.maps",
         "MapSettings": "servo.maps",
         "ServoMap": "servo.maps",

@@ -222,7 +222,7 @@ class SignalServoConfig:
     See Also
     --------
     servo.camera_only.SignalServo : The controller these settings tune.
-    servo.laser_image.ServoConfig : The settings of the laser + image controller.
+    servo.laser_image.ManifoldServoConfig : The settings of the laser + image controller.
     """
 
     speed: float = 1.5
