@@ -1,12 +1,15 @@
 """Mapping methods: visual-manifold clustering (Grudic & Mulligan) and laser observation
 grouping (Blanco et al.), their baselines, features and metrics.
 
-The methods are subpackages: `mapping.manifold` (the manifold clustering and its F^j(k)
-queries), `mapping.grouping` (the observation-graph partitioner, its overlap, Ncut, local
-maps and topological map), `mapping.baselines` (the spectral clusterings a user would
-compare with) and `mapping.features` (image and scan features). The modules beside them
-are shared by both methods: metrics, distances, ICP and scan matching, persistence, synthetic
-data. Public names are imported lazily so that ``import mapping`` stays cheap.
+The methods are subpackages: `mapping.manifold` (the manifold clustering, its F^j(k)
+queries and the paper's synthetic sets), `mapping.grouping` (the observation-graph
+partitioner, its overlap, Ncut, local maps, topological map and similarity graphs, and a
+synthetic office of scans), `mapping.baselines` (the spectral clusterings a user would
+compare with), `mapping.features` (image and scan features) and `mapping.scan_matching` (ICP
+and odometry refined by it, which the grouping and the servo maps share). The modules beside
+them are shared by both methods: metrics, distances, where each run of a recording begins
+(`run_starts`), the split tree, persistence and validation. Public names are imported lazily
+so that ``import mapping`` stays cheap.
 """
 
 from common.lazy import lazy_exports
