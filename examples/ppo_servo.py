@@ -18,6 +18,10 @@ Then, from any folder (``MUJOCO_GL=egl`` on a machine without a display)::
     python examples/ppo_servo.py --env topomap/Hallway-v0 --steps 2048
     python examples/ppo_servo.py --env topomap/HallwayServo-v0 --obs vector --map PATH
 
+``--curve FILE.png`` draws the learning curve (mean episode reward, and the success rate on a
+servo id or the share of episodes without a collision on a navigation id, against the steps)
+and writes its numbers beside it (``FILE.json``).
+
 (``python -m examples.ppo_servo`` works from the repository's root.) ``--map``: the ``.json``
 path of a saved servo map (``servo.save_map(m, directory)`` returns it); without it the
 world's default map is loaded from the data home (built there the first time, which collects
@@ -92,6 +96,15 @@ def make_env(
     return downscale(env, size)
 
 
+def episode_outcome(info: dict, episode_return: float) -> tuple[float, bool]:
+    """One ended episode as the curve counts it: its return and whether it went well (a
+    servo episode reached its target; a navigation episode, which never terminates, hit
+    nothing)."""
+    if "success" in info:
+        return float(episode_return), bool(info["success"])
+    return float(episode_return), episode_return == 0.0  # its only reward: the collisions
+
+
 def train(
     env_id: str,
     steps: int,
@@ -103,9 +116,24 @@ def train(
 ) -> dict:
     """PPO on `make_env` (the policy of ``obs`` in `OBSERVATIONS`, ``size`` the images of
     ``"dict"``) for ``steps`` env steps, PyTorch on ``threads`` threads; returns the steps,
-    the wall time, the steps per second, the episodes ended and their mean reward."""
+    the wall time, the steps per second, the episodes ended, their mean reward and
+    ``episodes_detail``: each ended episode's step count, return and outcome
+    (`episode_outcome`)."""
     import torch
     from stable_baselines3 import PPO  # the optional extra: pip install -e ".[rl]"
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Episodes(BaseCallback):
+        def __init__(self):
+            super().__init__()
+            self.ended = []
+
+        def _on_step(self) -> bool:
+            for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
+                if done and "episode" in info:  # Monitor's summary of the ended episode
+                    r, ok = episode_outcome(info, info["episode"]["r"])
+                    self.ended.append({"step": int(self.num_timesteps), "return": r, "ok": ok})
+            return True
 
     # One thread: the small network gains little from more, and on a busy 2-core machine
     # PyTorch's default (a thread per core) ran 256 steps in 29 s instead of 2.3 s.
@@ -114,7 +142,8 @@ def train(
     env = make_env(env_id, servo_map, size, obs=obs)
     model = PPO(OBSERVATIONS[obs], env, n_steps=256, batch_size=64, seed=seed, verbose=0)
     start = time.perf_counter()
-    model.learn(total_timesteps=steps)
+    episodes = Episodes()
+    model.learn(total_timesteps=steps, callback=episodes)
     seconds = time.perf_counter() - start
     rewards = [e["r"] for e in model.ep_info_buffer]
     env.close()
@@ -126,7 +155,54 @@ def train(
         "steps_per_s": round(model.num_timesteps / seconds, 1),
         "episodes": len(rewards),
         "mean_episode_reward": float(np.mean(rewards)) if rewards else None,
+        "episodes_detail": episodes.ended,
     }
+
+
+def plot_curve(result: dict, path: str, window: int = 10) -> None:
+    """The learning curve of a `train` result as a PNG at ``path``: the mean return and the
+    share of episodes that went well (`episode_outcome`) over the last ``window`` ended
+    episodes, against the env steps; its numbers go to the same name with ``.json``."""
+    import json
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ended = result["episodes_detail"]
+    if not ended:
+        raise ValueError(f"no episode ended in {result['steps']} steps: nothing to plot")
+    steps = np.array([e["step"] for e in ended])
+    kernel = np.ones(min(window, len(ended)))
+
+    def rolling(values):
+        return np.convolve(values, kernel, "valid") / len(kernel)
+
+    returns = rolling([e["return"] for e in ended])
+    ok = rolling([float(e["ok"]) for e in ended])
+    x = steps[len(kernel) - 1 :]
+    servo_id = "Servo" in result["env"]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
+    top.plot(x, returns)
+    top.set_ylabel(f"mean return, last {len(kernel)}")
+    bottom.plot(x, ok)
+    bottom.set_ylim(-0.05, 1.05)
+    bottom.set_ylabel("success rate" if servo_id else "share without a collision")
+    bottom.set_xlabel("env steps")
+    top.set_title(f"PPO on {result['env']}, --obs {result['obs']}", fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.stem}.tmp.png")
+    fig.savefig(tmp, dpi=100)
+    plt.close(fig)
+    tmp.replace(out)
+    numbers = out.with_suffix(".json")
+    tmp = numbers.with_name(f".{numbers.name}.tmp")
+    tmp.write_text(json.dumps(result, indent=1))
+    tmp.replace(numbers)
 
 
 def main(argv=None) -> None:
@@ -139,8 +215,13 @@ def main(argv=None) -> None:
     p.add_argument("--obs", choices=tuple(OBSERVATIONS), default="image",
                    help="what the policy sees (image: CnnPolicy; vector: MlpPolicy; dict: "
                    "MultiInputPolicy)")  # fmt: skip
+    p.add_argument("--curve", default=None, metavar="FILE.png",
+                   help="draw the learning curve there (its numbers beside it, .json)")  # fmt: skip
     a = p.parse_args(argv)
-    print(train(a.env, a.steps, a.map, a.seed, a.threads, a.obs))
+    result = train(a.env, a.steps, a.map, a.seed, a.threads, a.obs)
+    if a.curve:
+        plot_curve(result, a.curve)
+    print({k: v for k, v in result.items() if k != "episodes_detail"})
 
 
 if __name__ == "__main__":

@@ -28,9 +28,7 @@ def _env_args(env_id, lawn_map_path):
 def test_the_training_pipeline_gives_no_nan(env_id, lawn_map_path):
     env = make_env(*_env_args(env_id, lawn_map_path))
     images = [k for k in ("image", "target_image") if k in env.observation_space.spaces]
-    assert images and all(
-        env.observation_space[k].shape == (*IMAGE_SIZE, 3) for k in images
-    )
+    assert images and all(env.observation_space[k].shape == (*IMAGE_SIZE, 3) for k in images)
     flat = NormalizeObservation(FlattenObservation(env))
     flat.action_space.seed(0)
     obs, _ = flat.reset(seed=0)
@@ -99,3 +97,29 @@ def test_the_example_runs_from_a_folder_outside_the_repository(tmp_path):
                           capture_output=True, text=True, timeout=120)  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "--obs {image,vector,dict}" in done.stdout
+
+
+def test_an_episode_went_well_by_the_envs_own_terms():
+    from examples.ppo_servo import episode_outcome
+
+    assert episode_outcome({"success": True}, 3.5) == (3.5, True)
+    assert episode_outcome({"success": False}, 3.5) == (3.5, False)
+    # a navigation episode never terminates: it went well when it hit nothing
+    assert episode_outcome({"collision": False}, 0.0) == (0.0, True)
+    assert episode_outcome({"collision": False}, -2.0) == (-2.0, False)
+
+
+def test_the_learning_curve_is_drawn_with_its_numbers(tmp_path):
+    import json
+
+    from examples.ppo_servo import plot_curve
+
+    ended = [{"step": 200 * (i + 1), "return": -5.0 + i / 4, "ok": i > 12} for i in range(20)]
+    result = {"env": "topomap/Hallway-v0", "obs": "vector", "steps": 4000,
+              "episodes_detail": ended}  # fmt: skip
+    plot_curve(result, str(tmp_path / "curve" / "ppo.png"))
+    assert (tmp_path / "curve" / "ppo.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert json.loads((tmp_path / "curve" / "ppo.json").read_text()) == result
+    assert sorted(p.name for p in (tmp_path / "curve").iterdir()) == ["ppo.json", "ppo.png"]
+    with pytest.raises(ValueError, match="no episode ended in 4000 steps"):
+        plot_curve({**result, "episodes_detail": []}, str(tmp_path / "empty.png"))
