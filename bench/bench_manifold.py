@@ -194,20 +194,6 @@ def peak_memory(sizes: list[int]) -> None:
         print(f"| {n} | {X.nbytes / 2**20:.0f} MiB | {peak / 2**20:.0f} MiB |", flush=True)
 
 
-
-
-
-
-
-
-
-
-
-
-
-
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes only")
@@ -215,9 +201,12 @@ def main() -> None:
         "--one-view", action="store_true", help="fit and one-view signal/predict rows only"
     )
     parser.add_argument(
-        "--scale", type=int, nargs="*", metavar="N",
+        "--scale",
+        type=int,
+        nargs="*",
+        metavar="N",
         help="fit time against n beside sklearn instead (default sizes 300 ... 10000)",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--memory", type=int, nargs="+", metavar="N", help="peak memory of a fit of N points"
     )

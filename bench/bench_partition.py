@@ -97,22 +97,29 @@ def bench_targets(logs: list[Path], repeats: int = 5) -> None:
 
     print(f"os.cpu_count() = {os.cpu_count()}, load average = {os.getloadavg()}")
     print("best of repeats, wall-clock seconds of fit (overlap + partition + maps + topology)")
-    print(f"{'log':<22} {'scans':>5} {'pts':>5} {'fit':>7} {'groups':>6} {'exact':>7} "
-          f"{'groups':>6} {'ICP on':>7} {'ratio':>6} {'groups':>6}")  # fmt: skip
+    print(
+        f"{'log':<22} {'scans':>5} {'pts':>5} {'fit':>7} {'groups':>6} {'exact':>7} "
+        f"{'groups':>6} {'ICP on':>7} {'ratio':>6} {'groups':>6}"
+    )
     for path in logs:
         log = read_carmen(path)
         _target_row(path.name.split(".")[0], log_points(log), log.poses, repeats)
     world = office_world(n_rooms=DENSE_LOG["n_rooms"])
     poses = office_path(world, step=DENSE_LOG["step"])
     scans = raycast(
-        world.segments, poses, DENSE_LOG["n_beams"], range_noise=0.01,
+        world.segments,
+        poses,
+        DENSE_LOG["n_beams"],
+        range_noise=0.01,
         rng=np.random.default_rng(0),
-    )  # fmt: skip
+    )
     labels = _target_row("dense office (synthetic)", scans, poses, 1, exact=False, icp=False)
     truth = world.region_labels(poses)
-    print(f"  dense office: purity {purity(truth, labels):.3f}, "
-          f"ARI {adjusted_rand_index(truth, labels):+.3f}, {len(scans)} scans, "
-          f"{sum(map(len, scans))} points")  # fmt: skip
+    print(
+        f"  dense office: purity {purity(truth, labels):.3f}, "
+        f"ARI {adjusted_rand_index(truth, labels):+.3f}, {len(scans)} scans, "
+        f"{sum(map(len, scans))} points"
+    )
     print("targets: each real log <= 0.3 s, dense office <= 10 s, ICP on <= 3x ICP off")
 
 
@@ -136,22 +143,30 @@ def bench_incremental(start: int = 1000, added: int = 100) -> None:
     t_batch = _best_of(lambda: batch.fit(scans, poses), 1)
     ms = 1000 * np.array(per_scan)
     truth = world.region_labels(poses)
-    print(f"12-room office, 181 beams, 0.25 m apart: {start} scans by partial_fit in "
-          f"{t_first:.2f} s, then {added} more one at a time")  # fmt: skip
-    print(f"  per scan: median {np.median(ms):.1f} ms, 95th percentile "
-          f"{np.percentile(ms, 95):.1f} ms, max {ms.max():.1f} ms (target <= 20 ms)")  # fmt: skip
+    print(
+        f"12-room office, 181 beams, 0.25 m apart: {start} scans by partial_fit in "
+        f"{t_first:.2f} s, then {added} more one at a time"
+    )
+    print(
+        f"  per scan: median {np.median(ms):.1f} ms, 95th percentile "
+        f"{np.percentile(ms, 95):.1f} ms, max {ms.max():.1f} ms (target <= 20 ms)"
+    )
     print(f"  fit of all {len(scans)} scans: {t_batch:.2f} s")
     for name, m in (("partial_fit", model), ("fit", batch)):
-        print(f"  {name:<11} {m.n_groups_:>3} groups  purity {purity(truth, m.labels_):.3f}  "
-              f"ARI {adjusted_rand_index(truth, m.labels_):+.3f}")  # fmt: skip
+        print(
+            f"  {name:<11} {m.n_groups_:>3} groups  purity {purity(truth, m.labels_):.3f}  "
+            f"ARI {adjusted_rand_index(truth, m.labels_):+.3f}"
+        )
     print(f"  ARI between them {adjusted_rand_index(batch.labels_, model.labels_):+.3f}")
 
 
 def _target_row(tag, scans, poses, repeats, exact=True, icp=True) -> np.ndarray:
     fast = ObservationGraphPartitioner(scan_matching=False)
     t_fast = _best_of(lambda: fast.fit(scans, poses), repeats)
-    cells = [f"{tag:<22} {len(scans):>5} {max(map(len, scans)):>5} {t_fast:>7.3f}",
-             f"{fast.n_groups_:>6}"]  # fmt: skip
+    cells = [
+        f"{tag:<22} {len(scans):>5} {max(map(len, scans)):>5} {t_fast:>7.3f}",
+        f"{fast.n_groups_:>6}",
+    ]
     if exact:
         slow = ObservationGraphPartitioner(scan_matching=False, voxel_size=None)
         t_slow = _best_of(lambda: slow.fit(scans, poses), 1)
@@ -168,10 +183,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--targets", action="store_true", help="the speed targets")
     parser.add_argument(
-        "--carmen", action="append", type=Path, metavar="LOG",
+        "--carmen",
+        action="append",
+        type=Path,
+        metavar="LOG",
         help="a real Carmen log for --targets (repeatable; default: the Radish logs in the "
         f"folder {RADISH_VAR} names)",
-    )  # fmt: skip
+    )
     parser.add_argument("--incremental", action="store_true", help="partial_fit per scan")
     args = parser.parse_args()
     if args.targets:

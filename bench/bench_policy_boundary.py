@@ -35,8 +35,9 @@ def small_map(folder: Path):
     from servo.maps import MapSettings, load_or_build
     from sim.collect import CollectionSettings, collect_dataset
 
-    collect_dataset(folder / "data", CollectionSettings(worlds=("lawn:3",), frames=8), jobs=1,
-                    progress=False)  # fmt: skip
+    collect_dataset(
+        folder / "data", CollectionSettings(worlds=("lawn:3",), frames=8), jobs=1, progress=False
+    )
     settings = MapSettings(stride=1, min_cluster_size=3, image_size=(16, 12))
     return load_or_build("lawn:3", folder / "data", folder / "maps", settings, progress=False)
 
@@ -74,9 +75,15 @@ def measure(steps: int, sandbox: bool) -> dict:
             env.close()
     here_ms, there_ms, env_ms = (1e3 * float(np.median(t)) for t in (t_here, t_there, t_env))
     ratio = (env_ms + there_ms) / (env_ms + here_ms)
-    return {"steps": len(t_env), "in_process_ms": here_ms, "own_process_ms": there_ms,
-            "overhead_ms": there_ms - here_ms, "env_step_ms": env_ms, "step_ratio": ratio,
-            "sandboxed": sandbox}  # fmt: skip
+    return {
+        "steps": len(t_env),
+        "in_process_ms": here_ms,
+        "own_process_ms": there_ms,
+        "overhead_ms": there_ms - here_ms,
+        "env_step_ms": env_ms,
+        "step_ratio": ratio,
+        "sandboxed": sandbox,
+    }
 
 
 def main(argv=None) -> int:
@@ -85,14 +92,18 @@ def main(argv=None) -> int:
     p.add_argument("--sandbox", action="store_true", help="the policy's process sandboxed")
     args = p.parse_args(argv)
     r = measure(args.steps, args.sandbox)
-    print(f"cores (os.cpu_count): {os.cpu_count()}; {platform.platform()}; load "
-          f"{os.getloadavg()[0]:.2f}; steps {r['steps']}; sandboxed {r['sandboxed']}")  # fmt: skip
+    print(
+        f"cores (os.cpu_count): {os.cpu_count()}; {platform.platform()}; load "
+        f"{os.getloadavg()[0]:.2f}; steps {r['steps']}; sandboxed {r['sandboxed']}"
+    )
     print("| measure | median ms per step |\n|---|---|")
     for key in ("in_process_ms", "own_process_ms", "overhead_ms", "env_step_ms"):
         print(f"| {key} | {r[key]:.3f} |")
     met = "yes" if r["overhead_ms"] <= TARGET_MS else "no"
-    print(f"\noverhead {r['overhead_ms']:.3f} ms (target <= {TARGET_MS} ms: {met}); a step's "
-          f"whole time across the boundary / in process: {r['step_ratio']:.3f}")  # fmt: skip
+    print(
+        f"\noverhead {r['overhead_ms']:.3f} ms (target <= {TARGET_MS} ms: {met}); a step's "
+        f"whole time across the boundary / in process: {r['step_ratio']:.3f}"
+    )
     return 0
 
 

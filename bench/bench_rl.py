@@ -57,9 +57,7 @@ def measure(env_id: str, steps: int, servo_map: str | None, seconds: float) -> d
     for name, (obs, size) in PIPELINES.items():
         rows[name] = {
             "env_steps_per_s": env_steps_per_s(env_id, name, servo_map, seconds),
-            "ppo_steps_per_s": train(env_id, steps, servo_map, obs=obs, size=size)[
-                "steps_per_s"
-            ],
+            "ppo_steps_per_s": train(env_id, steps, servo_map, obs=obs, size=size)["steps_per_s"],
         }
     for row in rows.values():
         for key in ("env_steps_per_s", "ppo_steps_per_s"):

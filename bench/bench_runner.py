@@ -56,8 +56,9 @@ class _TimedPolicy:
         return ACTION
 
 
-def runner_overhead(world: str = "hallway", episodes: int = 3, max_steps: int = 200,
-                    dataset=None, cache=None) -> dict:  # fmt: skip
+def runner_overhead(
+    world: str = "hallway", episodes: int = 3, max_steps: int = 200, dataset=None, cache=None
+) -> dict:
     """Median seconds per step of the runner's own work and of the env's step, over
     ``episodes`` episodes of ``world`` (``dataset`` and ``cache``: the data home's by
     default)."""
@@ -92,12 +93,16 @@ def main() -> None:
     p.add_argument("--data", default=None, help="dataset folder (default: the data home's)")
     p.add_argument("--maps", default=None, help="servo map cache (default: the data home's)")
     args = p.parse_args()
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"load {os.getloadavg()[0]:.1f}")  # fmt: skip
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"load {os.getloadavg()[0]:.1f}"
+    )
     r = runner_overhead(args.world, args.episodes, dataset=args.data, cache=args.maps)
-    print(f"{r['world']}: runner {r['runner_ms']:.3f} ms median ({r['runner_p95_ms']:.3f} ms "
-          f"95th percentile) per step over {r['steps']} steps, beside the env step "
-          f"{r['env_step_ms']:.2f} ms median (target: runner <= 1 ms median)")  # fmt: skip
+    print(
+        f"{r['world']}: runner {r['runner_ms']:.3f} ms median ({r['runner_p95_ms']:.3f} ms "
+        f"95th percentile) per step over {r['steps']} steps, beside the env step "
+        f"{r['env_step_ms']:.2f} ms median (target: runner <= 1 ms median)"
+    )
 
 
 if __name__ == "__main__":

@@ -131,8 +131,10 @@ def main() -> None:
     for r in rows:
         print(" | ".join(f"{r[k]:.2f}" if isinstance(r[k], float) else str(r[k]) for k in keys))
     r = known_limitation()
-    print(f"known limitation {KNOWN_LIMITATION[1]} -> {KNOWN_LIMITATION[2]}: {r['reason']}, "
-          f"final distance {r['final_distance']:.2f} m")  # fmt: skip
+    print(
+        f"known limitation {KNOWN_LIMITATION[1]} -> {KNOWN_LIMITATION[2]}: {r['reason']}, "
+        f"final distance {r['final_distance']:.2f} m"
+    )
 
 
 if __name__ == "__main__":

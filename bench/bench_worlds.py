@@ -75,8 +75,12 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--seeds", type=int, default=50, help="worlds per family for the build time")
     p.add_argument("--worlds", type=int, default=20, help="worlds per family for steps/s")
-    p.add_argument("--collect", type=int, default=5, help="worlds per family to pick the "
-                   "largest from for the dataset time")  # fmt: skip
+    p.add_argument(
+        "--collect",
+        type=int,
+        default=5,
+        help="worlds per family to pick the largest from for the dataset time",
+    )
     args = p.parse_args(argv)
     print(
         f"machine: {platform.machine()}, cores: {os.cpu_count()}, "
@@ -115,8 +119,10 @@ def main(argv=None) -> None:
         largest = max(pool, key=lambda n: len(build_world(n).manifold_names))
         k = len(build_world(largest).manifold_names)
         print(f"{f'dataset, canonical {family} (s)':58s} {collect_seconds(family):8.1f}")
-        print(f"{f'dataset, {largest} ({k} manifolds) (s)':58s} {collect_seconds(largest):8.1f}"
-              "  <= 30")  # fmt: skip
+        print(
+            f"{f'dataset, {largest} ({k} manifolds) (s)':58s} {collect_seconds(largest):8.1f}"
+            "  <= 30"
+        )
 
 
 if __name__ == "__main__":

@@ -36,10 +36,23 @@ _HEADER_READERS = {
     (2, 0): np.lib.format.read_array_header_2_0,
 }
 _FAILURES = (  # what numpy and zipfile raise on damaged input
-    zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, zlib.error, ValueError,
-    SyntaxError, tokenize.TokenError, TypeError, KeyError, AttributeError, OverflowError,
-    NotImplementedError, RuntimeError, MemoryError, IndexError,
-)  # fmt: skip
+    zipfile.BadZipFile,
+    zipfile.LargeZipFile,
+    OSError,
+    EOFError,
+    zlib.error,
+    ValueError,
+    SyntaxError,
+    tokenize.TokenError,
+    TypeError,
+    KeyError,
+    AttributeError,
+    OverflowError,
+    NotImplementedError,
+    RuntimeError,
+    MemoryError,
+    IndexError,
+)
 
 
 class UnreadableNpz(ValueError):

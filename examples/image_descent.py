@@ -24,8 +24,11 @@ STEP_S = 0.1  # s per env step (sim.simulator's control period)
 
 
 def _grey(image: np.ndarray) -> np.ndarray:
-    g = cv2.resize(cv2.cvtColor(np.asarray(image, np.uint8), cv2.COLOR_RGB2GRAY), SIZE,
-                   interpolation=cv2.INTER_AREA).astype(np.float32)  # fmt: skip
+    g = cv2.resize(
+        cv2.cvtColor(np.asarray(image, np.uint8), cv2.COLOR_RGB2GRAY),
+        SIZE,
+        interpolation=cv2.INTER_AREA,
+    ).astype(np.float32)
     g -= g.mean()
     return g / max(float(np.linalg.norm(g)), 1e-6)
 

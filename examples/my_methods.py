@@ -44,8 +44,9 @@ class MyClusterer:
         self.random_state = random_state
 
     def fit(self, X):
-        self.model_ = KMeans(self.n_clusters, n_init=self.n_init,
-                             random_state=self.random_state).fit(X)  # fmt: skip
+        self.model_ = KMeans(
+            self.n_clusters, n_init=self.n_init, random_state=self.random_state
+        ).fit(X)
         self.labels_ = self.model_.labels_
         return self
 

@@ -70,11 +70,17 @@ def main(argv: list[str] | None = None) -> None:
     from servo.task import Protocol, run_protocol
 
     servo_map = args.map or load_or_build(args.world)
-    result = run_protocol(Protocol(args.world, split="dev"), servo_map, args.episodes,
-                          "examples.my_policy:make_policy", workers=1)  # fmt: skip
+    result = run_protocol(
+        Protocol(args.world, split="dev"),
+        servo_map,
+        args.episodes,
+        "examples.my_policy:make_policy",
+        workers=1,
+    )
     low, high = result["success_ci95"]
-    print(f"success {result['success_rate']:.2f} [{low:.2f}, {high:.2f}], "
-          f"reasons {result['reasons']}")  # fmt: skip
+    print(
+        f"success {result['success_rate']:.2f} [{low:.2f}, {high:.2f}], reasons {result['reasons']}"
+    )
 
 
 if __name__ == "__main__":

@@ -70,8 +70,10 @@ class RouteHoming:
 
     def __init__(self, servo_map, speed: float = 0.6, gain: float = 2.0, clearance: float = 0.0):
         if not (0 < speed <= 1.5 and gain > 0 and clearance >= 0):
-            raise ValueError(f"speed must be in (0, 1.5], gain > 0 and clearance >= 0, got "
-                             f"{speed}, {gain}, {clearance}")  # fmt: skip
+            raise ValueError(
+                f"speed must be in (0, 1.5], gain > 0 and clearance >= 0, got "
+                f"{speed}, {gain}, {clearance}"
+            )
         self.speed, self.gain, self.clearance = float(speed), float(gain), float(clearance)
         self.angles = np.asarray(servo_map.angles, float)
         self.features = _features(servo_map.images)
@@ -119,7 +121,12 @@ class RouteHoming:
         return np.array([v, omega], np.float32)
 
 
-def make_policy(servo_map, rng: np.random.Generator, speed: float = 0.6, gain: float = 2.0,
-                clearance: float = 0.0):  # fmt: skip
+def make_policy(
+    servo_map,
+    rng: np.random.Generator,
+    speed: float = 0.6,
+    gain: float = 2.0,
+    clearance: float = 0.0,
+):
     """The factory: ``--policy examples.nearest_view_homing:make_policy``."""
     return RouteHoming(servo_map, speed=float(speed), gain=float(gain), clearance=float(clearance))

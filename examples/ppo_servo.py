@@ -212,11 +212,18 @@ def main(argv=None) -> None:
     p.add_argument("--map", default=None, help="a saved servo map's .json path (servo ids)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--threads", type=int, default=1, help="PyTorch's threads")
-    p.add_argument("--obs", choices=tuple(OBSERVATIONS), default="image",
-                   help="what the policy sees (image: CnnPolicy; vector: MlpPolicy; dict: "
-                   "MultiInputPolicy)")  # fmt: skip
-    p.add_argument("--curve", default=None, metavar="FILE.png",
-                   help="draw the learning curve there (its numbers beside it, .json)")  # fmt: skip
+    p.add_argument(
+        "--obs",
+        choices=tuple(OBSERVATIONS),
+        default="image",
+        help="what the policy sees (image: CnnPolicy; vector: MlpPolicy; dict: MultiInputPolicy)",
+    )
+    p.add_argument(
+        "--curve",
+        default=None,
+        metavar="FILE.png",
+        help="draw the learning curve there (its numbers beside it, .json)",
+    )
     a = p.parse_args(argv)
     result = train(a.env, a.steps, a.map, a.seed, a.threads, a.obs)
     if a.curve:

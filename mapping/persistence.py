@@ -176,11 +176,15 @@ def _load_records(spec, where: str, arrays: dict, prefix: str) -> list:
             isinstance(item, dict) and set(item) == names,
             f"{where}.items[{i}] must have exactly the fields {sorted(names)}",
         )
-        fields = {k: _load_value(v, f"{where}.items[{i}].{k}", arrays, prefix)
-                  for k, v in item.items()}  # fmt: skip
+        fields = {
+            k: _load_value(v, f"{where}.items[{i}].{k}", arrays, prefix) for k, v in item.items()
+        }
         scalar = sorted(k for k in array_fields if not isinstance(fields[k], np.ndarray))
-        _require(not scalar, f"{where}.items[{i}].{', '.join(scalar)} must be an array "
-                             "({'array': key}), got a scalar")  # fmt: skip
+        _require(
+            not scalar,
+            f"{where}.items[{i}].{', '.join(scalar)} must be an array "
+            "({'array': key}), got a scalar",
+        )
         try:
             out.append(cls(**fields))
         except (TypeError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:

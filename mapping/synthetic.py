@@ -6,8 +6,16 @@ from common.deprecation import moved_names
 __getattr__, __dir__, __all__ = moved_names(
     __name__,
     dict.fromkeys(
-        ("SYNTHETIC_SETS", "branching_sequences", "converging_paths", "lines_variable_spacing",
-         "make_all", "parallel_lines", "plot_sets", "spirals_3d"),
+        (
+            "SYNTHETIC_SETS",
+            "branching_sequences",
+            "converging_paths",
+            "lines_variable_spacing",
+            "make_all",
+            "parallel_lines",
+            "plot_sets",
+            "spirals_3d",
+        ),
         "mapping.manifold",
     ),
-)  # fmt: skip
+)

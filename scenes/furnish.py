@@ -103,9 +103,11 @@ def place_tree(
     )
     scene.mesh_geom(f"{name}_trunk", f"{meshes_of}_trunk_mesh", (x, y, 0.0), bark_material)
     scene.mesh_geom(
-        f"{name}_crown", f"{meshes_of}_crown_mesh", (x, y, height * 0.75 + 0.4 * crown),
+        f"{name}_crown",
+        f"{meshes_of}_crown_mesh",
+        (x, y, height * 0.75 + 0.4 * crown),
         leaf_material,
-    )  # fmt: skip
+    )
 
 
 def sky_and_street_materials(scene: SceneBuilder, colour) -> None:

@@ -85,8 +85,9 @@ class ManifoldMap:
                 return name
         if label == NO_MANIFOLD:
             return None
-        raise ValueError(f"label must be one of {sorted(self.ids.values())} or {NO_MANIFOLD}, "
-                         f"got {label!r}")  # fmt: skip
+        raise ValueError(
+            f"label must be one of {sorted(self.ids.values())} or {NO_MANIFOLD}, got {label!r}"
+        )
 
     def label_at(self, xy) -> np.ndarray:
         """Manifold ids (`ids`) of points (..., 2); -1 off every manifold."""

@@ -51,8 +51,10 @@ def main(argv: list[str] | None = None) -> int:
     for p in found:
         print(f"check_report: {p}", file=sys.stderr)
     if not found:
-        print(f"check_report: {index} and the {len(referenced_files(index.read_text()))} "
-              "files it links are all there")  # fmt: skip
+        print(
+            f"check_report: {index} and the {len(referenced_files(index.read_text()))} "
+            "files it links are all there"
+        )
     return 1 if found else 0
 
 

@@ -181,12 +181,18 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
     i = sub.add_parser("import", help="a robot's ROS 1 / ROS 2 bags as a dataset (own data)")
     i.add_argument("--rosbag", nargs="+", required=True, help="bags: drives through one place")
-    i.add_argument("--scan-topic", default=None,
-                   help="sensor_msgs/LaserScan topic; leave out for a robot without a laser "
-                   "(camera and odometry only)")  # fmt: skip
-    i.add_argument("--image-topic", default=None,
-                   help="sensor_msgs/Image or CompressedImage; leave out for a robot without a "
-                   "camera (laser and odometry only)")  # fmt: skip
+    i.add_argument(
+        "--scan-topic",
+        default=None,
+        help="sensor_msgs/LaserScan topic; leave out for a robot without a laser "
+        "(camera and odometry only)",
+    )
+    i.add_argument(
+        "--image-topic",
+        default=None,
+        help="sensor_msgs/Image or CompressedImage; leave out for a robot without a "
+        "camera (laser and odometry only)",
+    )
     i.add_argument("--odom-topic", required=True, help="nav_msgs/Odometry topic")
     i.add_argument("--out", required=True, help="dataset directory (must not exist yet)")
     i.add_argument("--world", default="robot", help="name of the place (default: robot)")

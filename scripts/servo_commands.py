@@ -51,21 +51,36 @@ def cmd_servo_eval(args) -> int:
         from servo.task import sandbox_tool
 
         if sandbox_tool() is None:
-            print("topomap servo-eval: --sandbox on, but neither bwrap nor unshare can make a "
-                  "sandbox on this machine", file=sys.stderr)  # fmt: skip
+            print(
+                "topomap servo-eval: --sandbox on, but neither bwrap nor unshare can make a "
+                "sandbox on this machine",
+                file=sys.stderr,
+            )
             return 2
     data = ensure_dataset(args.data or DEFAULT_DATA, "servo-eval", progress=not args.json)
     results = []
     for world in worlds(args.world):
-        protocol = Protocol(world, args.tier, args.split, randomize=args.randomize,
-                            odometry_noise=not args.no_odometry_noise,
-                            max_steps=args.max_steps)  # fmt: skip
+        protocol = Protocol(
+            world,
+            args.tier,
+            args.split,
+            randomize=args.randomize,
+            odometry_noise=not args.no_odometry_noise,
+            max_steps=args.max_steps,
+        )
         servo_map = load_or_build(world, dataset=data, cache=args.maps)
         path, _ = map_paths(args.maps, world, servo_map.key)
-        r = run_protocol(protocol, path if path.is_file() else servo_map, args.episodes,
-                         args.policy, workers=args.workers, progress=not args.json,
-                         policy_options=dict(args.policy_arg or []),
-                         hide=[data], sandbox=sandbox)  # fmt: skip
+        r = run_protocol(
+            protocol,
+            path if path.is_file() else servo_map,
+            args.episodes,
+            args.policy,
+            workers=args.workers,
+            progress=not args.json,
+            policy_options=dict(args.policy_arg or []),
+            hide=[data],
+            sandbox=sandbox,
+        )
         not_loaded = r["reasons"].get("policy not loaded", 0)
         if not_loaded:  # every episode failed so: say why here too, not only in the records
             why = next(e["failure"] for e in r["episodes_detail"] if "failure" in e)
@@ -87,9 +102,11 @@ def cmd_servo_eval(args) -> int:
     for r in results:
         sig = r["signal"]
         if sig["pairs"]:
-            print(f"{r['world']} {r['policy']}: F toward the target rises as the true "
-                  f"distance falls in {sig['rises']:.2f} of {sig['pairs']} step pairs "
-                  f"({sig['flat_zero']:.2f}: F = 0 at both ends)")  # fmt: skip
+            print(
+                f"{r['world']} {r['policy']}: F toward the target rises as the true "
+                f"distance falls in {sig['rises']:.2f} of {sig['pairs']} step pairs "
+                f"({sig['flat_zero']:.2f}: F = 0 at both ends)"
+            )
     print()
     print(pair_table(results).to_markdown())
     return 0
@@ -105,8 +122,10 @@ def cmd_servo_compare(args) -> int:
     a, b = load_results(args.a, "A"), load_results(args.b, "B")
     rows = compare(a, b)
     if not rows:
-        raise ValueError("A and B share no world and setting (world, tier, split, randomize, "
-                         "odometry noise, max steps)")  # fmt: skip
+        raise ValueError(
+            "A and B share no world and setting (world, tier, split, randomize, "
+            "odometry noise, max steps)"
+        )
     if args.json:
         print(json.dumps([asdict(r) for r in rows], indent=2))
         return 0
@@ -129,24 +148,40 @@ def add_parsers(sub, default_out: str) -> None:
     )
     e.add_argument("--tier", default="view", help="start tier: view or anywhere")
     e.add_argument("--split", default="dev", help="episode split: dev (tuning) or test")
-    e.add_argument("--policy", type=policy_name, default="servo",
-                   help=f"one of {', '.join(POLICIES)}, or package.module:factory (its module "
-                   "is imported, running its code, as python -m does)")  # fmt: skip
-    e.add_argument("--policy-arg", type=policy_arg, action="append", metavar="KEY=VALUE",
-                   help="a keyword argument of the factory (repeatable; JSON values)")  # fmt: skip
+    e.add_argument(
+        "--policy",
+        type=policy_name,
+        default="servo",
+        help=f"one of {', '.join(POLICIES)}, or package.module:factory (its module "
+        "is imported, running its code, as python -m does)",
+    )
+    e.add_argument(
+        "--policy-arg",
+        type=policy_arg,
+        action="append",
+        metavar="KEY=VALUE",
+        help="a keyword argument of the factory (repeatable; JSON values)",
+    )
     e.add_argument("--max-steps", type=positive_int, default=600)
     e.add_argument("--workers", type=positive_int, default=None, help="default: the cores")
     e.add_argument("--randomize", action="store_true", help="random lights and colours per episode")
     e.add_argument("--no-odometry-noise", action="store_true", help="perfect wheel odometry")
-    e.add_argument("--data", default=None,
-                   help=f"dataset the map is built from (default {DEFAULT_DATA}, collected there "
-                   "when missing)")  # fmt: skip
+    e.add_argument(
+        "--data",
+        default=None,
+        help=f"dataset the map is built from (default {DEFAULT_DATA}, collected there "
+        "when missing)",
+    )
     e.add_argument("--maps", default=f"{default_out}/servo-maps", help="servo map cache")
     e.add_argument("--out", default=None, help="write the results' JSON here")
-    e.add_argument("--sandbox", choices=("auto", "on", "off"), default="auto",
-                   help="an outside policy's process in a sandbox (bwrap or unshare) that "
-                   "hides the datasets and maps: where the platform has one (auto), always "
-                   "(on: refused where there is none) or never (off); recorded")  # fmt: skip
+    e.add_argument(
+        "--sandbox",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="an outside policy's process in a sandbox (bwrap or unshare) that "
+        "hides the datasets and maps: where the platform has one (auto), always "
+        "(on: refused where there is none) or never (off); recorded",
+    )
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.set_defaults(func=cmd_servo_eval)
 

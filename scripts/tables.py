@@ -78,9 +78,12 @@ class Table:
 
     @classmethod
     def of(
-        cls, columns: Iterable[Column], rows: Iterable[Mapping], caption: str = "",
+        cls,
+        columns: Iterable[Column],
+        rows: Iterable[Mapping],
+        caption: str = "",
         notes: Sequence[str] = (),
-    ) -> Table:  # fmt: skip
+    ) -> Table:
         return cls(tuple(columns), tuple(rows), caption, tuple(notes))
 
     def _cells(self, kind: str) -> list[list[str]]:
@@ -102,18 +105,22 @@ class Table:
     def to_html(self) -> str:
         head = "".join(f"<th>{html.escape(c.header)}</th>" for c in self.columns)
         rows = [
-            "<tr>" + "".join(
+            "<tr>"
+            + "".join(
                 f"<td>{cell if cell == _MISSING['html'] else html.escape(cell)}</td>"
                 for cell in cells
-            ) + "</tr>"
+            )
+            + "</tr>"
             for cells in self._cells("html")
-        ]  # fmt: skip
+        ]
         caption = f"<caption>{html.escape(self.caption)}</caption>\n" if self.caption else ""
         notes = "".join(f"\n<p>{html.escape(n)}</p>" for n in self.notes)
         return (
             f"<table>\n{caption}<thead><tr>{head}</tr></thead>\n<tbody>\n"
-            + "\n".join(rows) + "\n</tbody>\n</table>" + notes
-        )  # fmt: skip
+            + "\n".join(rows)
+            + "\n</tbody>\n</table>"
+            + notes
+        )
 
     def to_csv(self) -> str:
         """Raw values under the column keys (a spreadsheet formats them itself)."""

@@ -10,6 +10,8 @@ if [[ -z "${TOPOMAP_RADISH:-}" && -d ../shared/data/radish ]]; then
     export TOPOMAP_RADISH="$PWD/../shared/data/radish"
 fi
 .venv/bin/ruff check .
+# the layout ruff's formatter gives (.pre-commit-config.yaml runs both before a commit)
+.venv/bin/ruff format --check .
 # the docs and the API reference (mkdocs.yml); --strict fails on a broken link or docstring.
 # Its log only on failure: --quiet would also hide the warnings from --strict's count
 if ! log=$(.venv/bin/mkdocs build --strict 2>&1); then

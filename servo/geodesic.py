@@ -81,8 +81,13 @@ class GeodesicField:
     swing wide round corners (a shortest path hugs a corner, and pure pursuit, which cuts
     inside its path, then scrapes it); distances are then such costs, >= metres."""
 
-    def __init__(self, world: World | OccupancyGrid, goal, resolution: float = RESOLUTION,
-                 keep_off: float = 0.0):  # fmt: skip
+    def __init__(
+        self,
+        world: World | OccupancyGrid,
+        goal,
+        resolution: float = RESOLUTION,
+        keep_off: float = 0.0,
+    ):
         if isinstance(world, OccupancyGrid):
             resolution = world.resolution
         elif keep_off:

@@ -73,8 +73,7 @@ class ImageLocaliser:
         shift (a step of 2 pixels is 0.025 rad).
     """
 
-    def __init__(self, servo_map: ServoMap, max_shift: int = MAX_SHIFT,
-                 refine_shift: bool = False):  # fmt: skip
+    def __init__(self, servo_map: ServoMap, max_shift: int = MAX_SHIFT, refine_shift: bool = False):
         if not isinstance(servo_map, ServoMap):
             raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
         w, h = servo_map.settings.image_size
@@ -148,8 +147,9 @@ class ImageLocaliser:
         best, yaw, _ = self.align_contrast(x, views, step)
         return best, yaw
 
-    def align_contrast(self, x: np.ndarray, views=None,
-                       step: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    def align_contrast(
+        self, x: np.ndarray, views=None, step: int = 2
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`align`, and each view's best distance over its median over the shifts: a
         real match is a sharp minimum (measured on the lawn: <= 0.21 at the view and up to
         1 m or 0.3 rad from it); grass and sky match a view turned 0.7 rad away almost as
@@ -208,8 +208,9 @@ class ImageLocaliser:
                 if abs(rel[1]) >= min_offset and abs(rel[0]) <= 1.0 and abs(rel[2]) <= 0.3:
                     yield a, b, rel
 
-    def cross_parallax(self, min_offset: float = 0.15, trust: float = 0.5,
-                       min_edges: int = 10) -> float:  # fmt: skip
+    def cross_parallax(
+        self, min_offset: float = 0.15, trust: float = 0.5, min_edges: int = 10
+    ) -> float:
         """Pixels of near-band minus far-band shift (`band_shifts`) per m of offset
         across a view's line of sight, from the map's own views as `parallax` (the
         view-graph edges with one view ``min_offset`` m or more beside the other; both bands
@@ -228,8 +229,9 @@ class ImageLocaliser:
         y = np.asarray(ys)
         return float(max(y @ np.asarray(ds) / (y @ y), 0.0))
 
-    def cross_offset(self, x: np.ndarray, view: int, pixels_per_m: float,
-                     trust: float = 0.5) -> float:  # fmt: skip
+    def cross_offset(
+        self, x: np.ndarray, view: int, pixels_per_m: float, trust: float = 0.5
+    ) -> float:
         """The robot's offset (m, left positive) across stored view ``view``'s line of sight
         from the two bands' shifts, independent of the heading: (near - far) / ``pixels_per_m``
         (`cross_parallax`). NaN where either band matches worse than ``trust`` or the

@@ -39,8 +39,9 @@ def turn_on_spot(err: float, turn_rate: float, dt: float) -> np.ndarray:
     return np.array([0.0, np.sign(err) * min(turn_rate, abs(err) / dt)])
 
 
-def pursue_route(goal: np.ndarray, reverse: bool, speed: float, careful: bool,
-                 turn_rate: float) -> np.ndarray:  # fmt: skip
+def pursue_route(
+    goal: np.ndarray, reverse: bool, speed: float, careful: bool, turn_rate: float
+) -> np.ndarray:
     """(v, omega) of `pursue` toward ``goal`` (robot frame), forward or in reverse.
 
     Reversing is pursuit of the goal mirrored through the robot (the robot turned round) with

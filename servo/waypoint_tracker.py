@@ -13,8 +13,9 @@ class WaypointTracker:
     overtakes it (or, where both are 0, the next one aligns better), or until the robot has
     driven well past the distance the map puts between them."""
 
-    def __init__(self, waypoints: list[int], directions: np.ndarray, gaps: np.ndarray,
-                 overrun: float):  # fmt: skip
+    def __init__(
+        self, waypoints: list[int], directions: np.ndarray, gaps: np.ndarray, overrun: float
+    ):
         if not len(waypoints) == len(directions) == len(gaps) or not waypoints:
             raise ValueError("waypoints, directions and gaps must be equally long, not empty")
         self.waypoints, self.directions, self.gaps = list(waypoints), directions, gaps
@@ -34,8 +35,9 @@ class WaypointTracker:
     def last(self) -> bool:
         return self.index == len(self.waypoints) - 1
 
-    def update(self, f_current: float, f_next: float, d_current: float, d_next: float,
-               moved: float) -> bool:  # fmt: skip
+    def update(
+        self, f_current: float, f_next: float, d_current: float, d_next: float, moved: float
+    ) -> bool:
         """Advance if the next waypoint has overtaken the current one; True if it did."""
         self.driven += moved
         if self.last:

@@ -327,8 +327,7 @@ def collect_dataset(
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(todo) or 1))
     problem = spawn_problem() if jobs > 1 else None
     if problem:
-        warnings.warn(f"collecting in this process, not in {jobs} workers: {problem}",
-                      stacklevel=2)  # fmt: skip
+        warnings.warn(f"collecting in this process, not in {jobs} workers: {problem}", stacklevel=2)
         jobs = 1
     try:
         if jobs == 1:

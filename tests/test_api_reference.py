@@ -10,10 +10,21 @@ import pytest
 
 API = Path(__file__).resolve().parents[1] / "docs" / "api"
 FACES = (
-    "mapping", "mapping.manifold", "mapping.grouping", "mapping.scan_matching", "mapping.baselines",
+    "mapping",
+    "mapping.manifold",
+    "mapping.grouping",
+    "mapping.scan_matching",
+    "mapping.baselines",
     "mapping.features",
-    "servo", "servo.maps", "servo.task", "servo.laser_image", "servo.camera_only",
-    "sim.readers", "sim.dataset", "sim.wrappers", "scenes",
+    "servo",
+    "servo.maps",
+    "servo.task",
+    "servo.laser_image",
+    "servo.camera_only",
+    "sim.readers",
+    "sim.dataset",
+    "sim.wrappers",
+    "scenes",
 )
 # sim's face exports nothing itself: users import its modules, which its page renders whole
 SIM_MODULES = ("sim.simulator", "sim.env", "sim.collect")
@@ -55,11 +66,17 @@ def test_every_name_a_face_exports_is_on_the_api_pages(face):
     module = importlib.import_module(face)
     shown = rendered()
     page = (API / f"{face}.md").read_text()
-    missing = [name for name in module.__all__
-               if not any(getattr(module, name) is value for value in shown)]
+    missing = [
+        name
+        for name in module.__all__
+        if not any(getattr(module, name) is value for value in shown)
+    ]
     assert not missing, f"{face}: not rendered on any page of docs/api/: {missing}"
-    unnamed = [name for name in module.__all__ if f"`{name}`" not in page
-               and not re.search(rf"^::: [\w.]*\.{name}\s*$", page, re.M)]
+    unnamed = [
+        name
+        for name in module.__all__
+        if f"`{name}`" not in page and not re.search(rf"^::: [\w.]*\.{name}\s*$", page, re.M)
+    ]
     assert not unnamed, f"docs/api/{face}.md does not name {unnamed}"
 
 
@@ -80,8 +97,7 @@ def public_classes() -> dict[str, type]:
             if inspect.isclass(value) and value.__module__ == name and value.__name__[0] != "_":
                 classes[f"{name}.{value.__qualname__}"] = value
     # an exception carries its message only; it has no parameters or attributes to document
-    return {key: value for key, value in classes.items()
-            if not issubclass(value, BaseException)}
+    return {key: value for key, value in classes.items() if not issubclass(value, BaseException)}
 
 
 @pytest.mark.parametrize("path", sorted(public_classes()))
@@ -120,9 +136,12 @@ def imported_names(page: Path) -> list[str]:
     """The names the import lines of a page's first Python block bring in, in order."""
     block = re.search(r"```python\n(.*?)```", page.read_text(), re.S)
     lines = block.group(1).splitlines() if block else []
-    return [name.strip() for line in lines
-            if (m := re.match(r"from [\w.]+ import ([\w, ]+)", line))
-            for name in m.group(1).split(",")]  # fmt: skip
+    return [
+        name.strip()
+        for line in lines
+        if (m := re.match(r"from [\w.]+ import ([\w, ]+)", line))
+        for name in m.group(1).split(",")
+    ]
 
 
 @pytest.mark.parametrize("page", sorted(API.glob("*.md")), ids=lambda page: page.stem)

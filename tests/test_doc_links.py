@@ -32,7 +32,9 @@ def _tracked_text_files() -> list[Path]:
 def test_the_pattern_finds_doc_paths():
     text = "see docs/guides/servo.md#targets, docs/img/a.png and `docs/decisions/050-x.md`."
     assert DOC_PATH.findall(text) == [
-        "docs/guides/servo.md", "docs/img/a.png", "docs/decisions/050-x.md"
+        "docs/guides/servo.md",
+        "docs/img/a.png",
+        "docs/decisions/050-x.md",
     ]
     assert DOC_PATH.findall("mydocs/x.md /abs/docs/y.md") == []
 

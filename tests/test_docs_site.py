@@ -49,8 +49,10 @@ def site(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("site")
     run = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)],
-        cwd=ROOT, capture_output=True, text=True,
-    )  # fmt: skip
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
     assert run.returncode == 0, run.stderr[-4000:]
     return out
 
@@ -114,8 +116,14 @@ def test_every_internal_link_from_the_front_page_leads_somewhere(site):
 def test_the_nav_is_by_task(site):
     text = (site / "index.html").read_text(encoding="utf-8")
     sections = re.findall(r'class="caption-text">([^<]+)<', text)
-    assert sections == ["Getting started", "Guides", "Results", "API reference", "Decisions",
-                        "Design"]  # fmt: skip
+    assert sections == [
+        "Getting started",
+        "Guides",
+        "Results",
+        "API reference",
+        "Decisions",
+        "Design",
+    ]
 
 
 def test_no_sphinx_role_is_left_on_a_page(site):
@@ -153,10 +161,15 @@ def test_a_see_also_section_becomes_a_list_of_links():
 
 
 def test_every_see_also_section_of_the_site_is_a_list_that_links(site):
-    blocks = [block for page in sorted((site / "api").rglob("*.html"))
-              for block in re.findall(r'<details class="see-also".*?</details>',
-                                      page.read_text(encoding="utf-8"), re.S)]  # fmt: skip
+    blocks = [
+        block
+        for page in sorted((site / "api").rglob("*.html"))
+        for block in re.findall(
+            r'<details class="see-also".*?</details>', page.read_text(encoding="utf-8"), re.S
+        )
+    ]
     assert len(blocks) > 30
     assert all("<ul>" in block for block in blocks)
-    assert sum("autorefs-internal" in block or "autorefs-external" in block
-               for block in blocks) > 0.9 * len(blocks)  # fmt: skip
+    assert sum(
+        "autorefs-internal" in block or "autorefs-external" in block for block in blocks
+    ) > 0.9 * len(blocks)

@@ -29,8 +29,11 @@ def public_modules() -> list[str]:
                 names.add(value.__name__)
             elif inspect.isclass(value) or inspect.isfunction(value):
                 names.add(value.__module__)
-    return sorted(name for name in names if name.split(".")[0] in
-                  {"common", "scenes", "sim", "mapping", "servo"})
+    return sorted(
+        name
+        for name in names
+        if name.split(".")[0] in {"common", "scenes", "sim", "mapping", "servo"}
+    )
 
 
 @pytest.fixture(scope="module")
@@ -39,8 +42,12 @@ def workdir(tmp_path_factory):
 
 
 def test_the_public_modules_have_examples():
-    tests = [t for name in public_modules()
-             for t in doctest.DocTestFinder().find(importlib.import_module(name)) if t.examples]
+    tests = [
+        t
+        for name in public_modules()
+        for t in doctest.DocTestFinder().find(importlib.import_module(name))
+        if t.examples
+    ]
     assert len(tests) >= 30
 
 

@@ -158,8 +158,10 @@ def test_lower_layers_never_import_higher_ones(graph):
 
 
 def test_the_layer_check_sees_the_product_import_a_study():
-    planted = {"scripts.cli": [("experiments.servo.lawn_survey", None, 7)],
-               "bench.run_all": [("scripts.tables", "Table", 3)]}  # fmt: skip
+    planted = {
+        "scripts.cli": [("experiments.servo.lawn_survey", None, 7)],
+        "bench.run_all": [("scripts.tables", "Table", 3)],
+    }
     assert _upward_imports(planted) == ["scripts.cli:7 imports experiments.servo.lawn_survey"]
 
 
@@ -195,10 +197,12 @@ def test_the_two_controllers_never_import_each_other(graph):
 
 def test_the_controller_check_sees_a_crossing():
     planted = {
-        "servo.camera_only.controller": [("servo.laser_image", "ManifoldServo", 9),
-                                         ("servo.route", "RouteGraph", 10)],
+        "servo.camera_only.controller": [
+            ("servo.laser_image", "ManifoldServo", 9),
+            ("servo.route", "RouteGraph", 10),
+        ],
         "servo.task.evaluation": [("servo.camera_only", "SignalServo", 4)],
-    }  # fmt: skip
+    }
     expected = ["servo.camera_only.controller:9 imports servo.laser_image"]
     assert _controller_crossings(planted) == expected
 

@@ -19,8 +19,18 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SELF = Path(__file__).resolve().relative_to(ROOT).as_posix()  # its table must name the labels
-SKIP_DIRS = {".git", ".venv", "venv", "out", "site", "__pycache__", ".pytest_cache",
-             ".ruff_cache", "build", "dist"}  # fmt: skip
+SKIP_DIRS = {
+    ".git",
+    ".venv",
+    "venv",
+    "out",
+    "site",
+    "__pycache__",
+    ".pytest_cache",
+    ".ruff_cache",
+    "build",
+    "dist",
+}
 
 _WORDS = r"(?:sessions?|rounds?|issues?|items?|sprints?|milestones?|work[ _-]?periods?)"
 _UNITS = r"(?:sessions?|rounds?|sprints?|milestones?|work[ _-]?periods?)"
@@ -59,8 +69,9 @@ def tracked_files() -> list[str]:
     """The files git tracks, relative to the root; outside a checkout, every file in the tree
     but those of ``SKIP_DIRS`` and packaging metadata."""
     try:
-        listed = subprocess.run(["git", "-C", str(ROOT), "ls-files", "-z"], capture_output=True,
-                                check=True, timeout=60).stdout.decode()  # fmt: skip
+        listed = subprocess.run(
+            ["git", "-C", str(ROOT), "ls-files", "-z"], capture_output=True, check=True, timeout=60
+        ).stdout.decode()
     except (OSError, subprocess.SubprocessError):
         listed = ""
     if listed:
@@ -83,28 +94,73 @@ def text_of(name: str) -> str | None:
         return None
 
 
-@pytest.mark.parametrize("text", [
-    "the code before session 18", "issue 14's speed targets", "(issue 12, item 2)",
-    "(round 10)", "Round 7 against round 8", "Rounds 13-15 named", "see issue #14",
-    "issue-14", "session#3", "docs/results/signal-round16/a.json", "servo-round3",
-    "test_cli_on_round10", "sprint 4", "Milestone 2", "work period 3", "the work-period",
-    "the fourth round", "a second session", "The Third Round", "the 18th session",
-    "a later session", "twenty-first round", "(session\n    # 20)", '"ties decided by the\n'
-    '    code before session\n    18"', "items 2 and 3",
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "text",
+    [
+        "the code before session 18",
+        "issue 14's speed targets",
+        "(issue 12, item 2)",
+        "(round 10)",
+        "Round 7 against round 8",
+        "Rounds 13-15 named",
+        "see issue #14",
+        "issue-14",
+        "session#3",
+        "docs/results/signal-round16/a.json",
+        "servo-round3",
+        "test_cli_on_round10",
+        "sprint 4",
+        "Milestone 2",
+        "work period 3",
+        "the work-period",
+        "the fourth round",
+        "a second session",
+        "The Third Round",
+        "the 18th session",
+        "a later session",
+        "twenty-first round",
+        "(session\n    # 20)",
+        '"ties decided by the\n    code before session\n    18"',
+        "items 2 and 3",
+    ],
+)
 def test_the_pattern_finds_work_period_labels(text):
     assert labels(text), text
 
 
-@pytest.mark.parametrize("text", [
-    "round to 3 decimals", "rounding to 2 places", "np.round(x, 2)", "round(x, 3)",
-    "the issue is that", "issues with the solver", "https://github.com/foo/bar/issues/123",
-    "see foo/bar#123", "around 3 m", "the ground 2 m away", "background 4", "round-off of 1e-13",
-    "round-trips 3 times", "at most 3 rounds", "lateral_rounds = 2", "a new round of the sweep",
-    "each round", "the first round-off", "items()", "spec['items'][0]", 'scope="session"',
-    "collected once per session", "the caller's Ray session", "a period of 32 pixels",
-    "eq. 13", "Figure 7", "Section II-G", "turned round, 2 m on",
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "text",
+    [
+        "round to 3 decimals",
+        "rounding to 2 places",
+        "np.round(x, 2)",
+        "round(x, 3)",
+        "the issue is that",
+        "issues with the solver",
+        "https://github.com/foo/bar/issues/123",
+        "see foo/bar#123",
+        "around 3 m",
+        "the ground 2 m away",
+        "background 4",
+        "round-off of 1e-13",
+        "round-trips 3 times",
+        "at most 3 rounds",
+        "lateral_rounds = 2",
+        "a new round of the sweep",
+        "each round",
+        "the first round-off",
+        "items()",
+        "spec['items'][0]",
+        'scope="session"',
+        "collected once per session",
+        "the caller's Ray session",
+        "a period of 32 pixels",
+        "eq. 13",
+        "Figure 7",
+        "Section II-G",
+        "turned round, 2 m on",
+    ],
+)
 def test_the_pattern_leaves_ordinary_words_alone(text):
     assert not labels(text), labels(text)
 
@@ -133,5 +189,7 @@ def test_no_file_refers_to_how_the_work_was_organised():
         if text is not None:
             hits += [f"{name}:{line}: {content}" for line, content in labels(text)]
     if hits:
-        pytest.fail(f"{len(hits)} references to how the work was organised:\n"
-                    + "\n".join(hits), pytrace=False)  # fmt: skip
+        pytest.fail(
+            f"{len(hits)} references to how the work was organised:\n" + "\n".join(hits),
+            pytrace=False,
+        )

@@ -70,9 +70,14 @@ def rendered() -> tuple[str, ...]:
 
 def on_a_page(path: str) -> bool:
     """Whether ``path`` is rendered: an API page's object, or a public member of one."""
-    return any(path == top or (path.startswith(top + ".")
-                               and not any(p.startswith("_") for p in path[len(top):].split(".")))
-               for top in rendered())  # fmt: skip
+    return any(
+        path == top
+        or (
+            path.startswith(top + ".")
+            and not any(p.startswith("_") for p in path[len(top) :].split("."))
+        )
+        for top in rendered()
+    )
 
 
 def entry(names: str, description: str) -> str:

@@ -38,8 +38,9 @@ def score_world(world: str, data_root: Path) -> dict:
     from sim.dataset import load_dataset
 
     directory = data_root / world.replace(":", "-")
-    collect_dataset(directory, CollectionSettings(worlds=(world,), frames=150, seed=0),
-                    progress=False, jobs=1)  # fmt: skip
+    collect_dataset(
+        directory, CollectionSettings(worlds=(world,), frames=150, seed=0), progress=False, jobs=1
+    )
     data = load_dataset(directory)
     train, test = data.paper_split()
     images = data.concat("images")
@@ -78,8 +79,11 @@ def main(argv=None) -> None:
     for name in names:
         e = [r["errors"][name] for r in rows]
         ok = [x for x in e if x is not None]
-        summary[name] = {"mean": float(np.mean(ok)) if ok else None, "refused": len(e) - len(ok),
-                         "past_15pct": int(sum(x > 0.15 for x in ok))}  # fmt: skip
+        summary[name] = {
+            "mean": float(np.mean(ok)) if ok else None,
+            "refused": len(e) - len(ok),
+            "past_15pct": int(sum(x > 0.15 for x in ok)),
+        }
     (a.out / "q_rule.json").write_text(json.dumps({"summary": summary, "rows": rows}, indent=1))
     for name, s in summary.items():
         print(f"{name:10s} mean {s['mean']}  past 15%: {s['past_15pct']}  refused {s['refused']}")

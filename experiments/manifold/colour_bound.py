@@ -92,8 +92,16 @@ def draw_modes(root: Path, path: Path, seed: int = DEV_SEED) -> Path:
         tiles = []
         for m, (seq, frames) in manifold_samples(data).items():
             tile = cv2.resize(seq.images[frames[1]], (160, 120), interpolation=cv2.INTER_AREA)
-            cv2.putText(tile, MANIFOLDS[m], (3, 12), cv2.FONT_HERSHEY_SIMPLEX, 0.33,
-                        (255, 255, 255), 1, cv2.LINE_AA)  # fmt: skip
+            cv2.putText(
+                tile,
+                MANIFOLDS[m],
+                (3, 12),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.33,
+                (255, 255, 255),
+                1,
+                cv2.LINE_AA,
+            )
             tiles.append(tile)
         rows.append(np.concatenate(tiles, axis=1))
     return write_png(Path(path), np.concatenate(rows, axis=0))

@@ -65,8 +65,12 @@ class Captured:
         gain[:, : min(K, L)] = self.counts[:, : min(K, L)]
         one_group = LinearConstraint(np.kron(np.eye(C), np.ones(K)), 1, 1)
         non_empty = LinearConstraint(np.kron(np.ones(C), np.eye(K)), 1, np.inf)
-        res = milp(-gain.ravel(), constraints=[one_group, non_empty],
-                   integrality=np.ones(C * K), bounds=Bounds(0, 1))  # fmt: skip
+        res = milp(
+            -gain.ravel(),
+            constraints=[one_group, non_empty],
+            integrality=np.ones(C * K),
+            bounds=Bounds(0, 1),
+        )
         return 1.0 + res.fun / self.counts.sum()
 
     def spectral(self, s: int) -> np.ndarray:
@@ -159,8 +163,14 @@ def replay(cap: Captured, rule: str) -> float:
     return np.nan if chosen is None else cap.error(chosen)
 
 
-RULES = ["spectral", "climb Omega sum", "climb NCut", "one adjacent move, Omega sum",
-         "spectral+qr", "spectral+agg"]  # fmt: skip
+RULES = [
+    "spectral",
+    "climb Omega sum",
+    "climb NCut",
+    "one adjacent move, Omega sum",
+    "spectral+qr",
+    "spectral+agg",
+]
 
 
 def _fits(root: Path):

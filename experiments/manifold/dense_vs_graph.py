@@ -199,27 +199,35 @@ def add_tie_option(parser: argparse.ArgumentParser) -> None:
     ``mapping.manifold.split.TIE`` (0: ties decided by round-off, as before the tolerance
     existed)."""
     parser.add_argument(
-        "--tie", type=float, default=split_module.TIE,
+        "--tie",
+        type=float,
+        default=split_module.TIE,
         help="near-tie tolerance of the split's choices (0: ties decided by round-off, as "
         "before the tolerance existed)",
-    )  # fmt: skip
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--experiments", action="store_true", help="ambiguity tables")
     parser.add_argument(
-        "--sparse-accuracy", nargs="?", const="", metavar="DATASET",
+        "--sparse-accuracy",
+        nargs="?",
+        const="",
+        metavar="DATASET",
         help="kernel='sparse' against 'dense' on the synthetic sets (and a dataset's images)",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--graph-vs-dense", metavar="ROOT", help="both paths on the protocol's fresh image seeds"
     )
     parser.add_argument(
-        "--seeds", type=int, nargs="+", default=list(range(1, 13)),
+        "--seeds",
+        type=int,
+        nargs="+",
+        default=list(range(1, 13)),
         help="with --graph-vs-dense: the dataset seeds (default 1-12); with --pooled: the "
         "seeds, pooled in consecutive groups of --pool",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--pooled", metavar="ROOT", help="dense against 'auto' on several seeds' frames pooled"
     )

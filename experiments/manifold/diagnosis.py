@@ -48,8 +48,6 @@ VARIANTS = {
 }
 
 
-
-
 def knn_leaf_merge(X: np.ndarray, leaves: np.ndarray, n_clusters: int, k: int = 10) -> np.ndarray:
     """A candidate combine rule, measured here only: join the leaves along the kNN graph.
 

@@ -41,8 +41,11 @@ from mapping.manifold.tree import GroupScores, adjacent_pairs
 from scripts.manifold.protocol import K
 
 #: rule name -> (ensemble_merge's rule, its ``extra``)
-VARIANTS = {"coassociation": ("coassociation", 0), "coassociation K..K+3": ("coassociation", 3),
-            "consensus": ("consensus", 0)}  # fmt: skip
+VARIANTS = {
+    "coassociation": ("coassociation", 0),
+    "coassociation K..K+3": ("coassociation", 3),
+    "consensus": ("consensus", 0),
+}
 RULES = ("spectral", *VARIANTS)
 WINDOWS = 5  # grid windows of S - (WINDOWS - 1) adjacent sigmas
 
@@ -61,8 +64,9 @@ def fitted(root: Path, cache: Path, seed: int, Q: int) -> dict:
         scores = GroupScores(geometry, leaves, model._search_space(len(y)))
         adjacent = np.array(sorted(adjacent_pairs(geometry.neighbours(10), L))).reshape(-1, 2)
         tmp = path.with_suffix(".tmp.npz")
-        np.savez(tmp, y=y, L=L, M=scores.M, sizes=scores.sizes, labels=model.labels_,
-                 adjacent=adjacent)  # fmt: skip
+        np.savez(
+            tmp, y=y, L=L, M=scores.M, sizes=scores.sizes, labels=model.labels_, adjacent=adjacent
+        )
         tmp.replace(path)
     with np.load(path, allow_pickle=False) as data:
         return {key: data[key] for key in ("y", "L", "M", "sizes", "labels", "adjacent")}
@@ -119,17 +123,28 @@ def study(fit: dict) -> dict:
     parts = {K + e: cuts(fit, K + e) for e in range(max(v[1] for v in VARIANTS.values()) + 1)}
     row = {"leaves": len(fit["sizes"]), "oracle": k_group_oracle(fit["y"], fit["L"])}
     for rule in RULES:
-        windows = [error(fit, grouping(fit, parts, rule, range(j, S - WINDOWS + 1 + j)))
-                   for j in range(WINDOWS)]  # fmt: skip
+        windows = [
+            error(fit, grouping(fit, parts, rule, range(j, S - WINDOWS + 1 + j)))
+            for j in range(WINDOWS)
+        ]
         ok = [e for e in windows if e is not None]
-        row[rule] = {"error": error(fit, grouping(fit, parts, rule, range(S))),
-                     "windows": windows, "spread": max(ok) - min(ok) if ok else None}  # fmt: skip
+        row[rule] = {
+            "error": error(fit, grouping(fit, parts, rule, range(S))),
+            "windows": windows,
+            "spread": max(ok) - min(ok) if ok else None,
+        }
     usable = [s for s in range(S) if parts[K][s] is not None]
     s = max(usable, key=lambda t: omega_total(fit, t, parts[K][t]))
-    near = [error(fit, parts[K][t]) for t in range(max(0, s - 2), min(S, s + 3))
-            if parts[K][t] is not None]  # fmt: skip
-    row["spectral"]["neighbours"] = {"sigma index": s, "errors": near,
-                                     "spread": max(near) - min(near)}  # fmt: skip
+    near = [
+        error(fit, parts[K][t])
+        for t in range(max(0, s - 2), min(S, s + 3))
+        if parts[K][t] is not None
+    ]
+    row["spectral"]["neighbours"] = {
+        "sigma index": s,
+        "errors": near,
+        "spread": max(near) - min(near),
+    }
     return row
 
 

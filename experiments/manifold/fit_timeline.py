@@ -22,8 +22,11 @@ import mapping.manifold.clustering as manifold_module
 import mapping.manifold.geometry as geometry_module
 from mapping.manifold import ManifoldClustering, branching_sequences
 
-_PHASES = ((geometry_module, "knn_edges"), (manifold_module, "combine_tree"),
-           (manifold_module, "cluster_model"))  # fmt: skip
+_PHASES = (
+    (geometry_module, "knn_edges"),
+    (manifold_module, "combine_tree"),
+    (manifold_module, "cluster_model"),
+)
 
 
 def _timed(module, name: str, log: list) -> None:
@@ -69,8 +72,10 @@ def main(argv=None) -> None:
         _timed(module, name, log)
     _timed_levels(log)
     X, _ = branching_sequences(a.n // 8, 2000, np.random.default_rng(1))
-    print(f"n = {a.n}, n_jobs = {a.n_jobs}, os.cpu_count() = {os.cpu_count()}, "
-          f"load average {os.getloadavg()[0]:.1f}")  # fmt: skip
+    print(
+        f"n = {a.n}, n_jobs = {a.n_jobs}, os.cpu_count() = {os.cpu_count()}, "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
     for fit in (1, 2):
         log.clear()
         start = time.perf_counter()

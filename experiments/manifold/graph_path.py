@@ -78,16 +78,22 @@ SETTINGS = {
     "dense": ({"kernel": "dense"}, []),
     "graph": (_SPARSE, []),
     "graph, 6 sigmas per split (the former default)": (
-        _SPARSE, [(geometry, "coarse_space", _six_sigmas)]),
+        _SPARSE,
+        [(geometry, "coarse_space", _six_sigmas)],
+    ),
     "graph, dense sub-nodes searched fully": (
-        _SPARSE, [(geometry.GraphGeometry, "sub", _full_sub)]),
+        _SPARSE,
+        [(geometry.GraphGeometry, "sub", _full_sub)],
+    ),
     "graph, n_neighbors = Q = 35": ({**_SPARSE, "n_neighbors": 35}, []),
     "graph, sigma capped at the median longest edge": (
-        _SPARSE, [(geometry.GraphGeometry, "sigma_bounds", _capped_bounds)]),
+        _SPARSE,
+        [(geometry.GraphGeometry, "sigma_bounds", _capped_bounds)],
+    ),
     "graph, n_components = 32": ({**_SPARSE, "n_components": 32}, []),
     "graph, n_components = 128": ({**_SPARSE, "n_components": 128}, []),
     "graph, n_components = 225": ({**_SPARSE, "n_components": 225}, []),
-}  # fmt: skip
+}
 
 
 @contextlib.contextmanager
@@ -115,11 +121,13 @@ def sweep(root: Path, seeds: list[int], draws: int, names: list[str]) -> None:
                     noise = np.random.default_rng(draw).standard_normal(X_train.shape)
                     X = X_train if draw == 0 else X_train * (1.0 + 1e-12 * noise)
                     model = ManifoldClustering(8, 35, **kwargs).fit(X)
-                    rows.append((
-                        clustering_error(y_train, model.labels_),
-                        clustering_error(y_test, model.predict(X_test)),
-                        majority_merge_error(y_train, model.leaf_labels_),
-                    ))  # fmt: skip
+                    rows.append(
+                        (
+                            clustering_error(y_train, model.labels_),
+                            clustering_error(y_test, model.predict(X_test)),
+                            majority_merge_error(y_train, model.leaf_labels_),
+                        )
+                    )
         train, test, bound = np.mean(rows, axis=0)
         per_seed = np.reshape(rows, (len(data), draws, 3))
         moved = int(np.sum(np.ptp(per_seed, axis=1).max(axis=1) > 0))
@@ -192,12 +200,16 @@ def sensitivity(root: Path, seed: int) -> None:
             splits = [best_split(DenseGeometry(sq), 35, space) for sq in (block, recomputed)]
         same = np.array_equal(splits[0].in_first, splits[1].in_first)
         same = same or np.array_equal(splits[0].in_first, ~splits[1].in_first)
-        print(f"node of {idx.shape[0]} points (copies differ by <= {gap:.1e}): "
-              + ("same split" if same else "DIFFERENT split"))  # fmt: skip
+        print(
+            f"node of {idx.shape[0]} points (copies differ by <= {gap:.1e}): "
+            + ("same split" if same else "DIFFERENT split")
+        )
         for name, split in zip(("block", "recomputed"), splits, strict=True):
             sides = np.bincount(y[idx][split.in_first], minlength=8).tolist()
-            print(f"  {name}: sigma {split.sigma:.4f}, alpha {split.alpha:.5f}, "
-                  f"Omega {split.omega:.4f}; p1 per manifold {sides}")  # fmt: skip
+            print(
+                f"  {name}: sigma {split.sigma:.4f}, alpha {split.alpha:.5f}, "
+                f"Omega {split.omega:.4f}; p1 per manifold {sides}"
+            )
 
 
 def main() -> None:

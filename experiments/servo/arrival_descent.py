@@ -58,8 +58,12 @@ def catchment(D: np.ndarray) -> np.ndarray:
         for j in range(n):
             ci, cj = i, j
             while True:
-                nb = [(ci + di, cj + dj) for di in (-1, 0, 1) for dj in (-1, 0, 1)
-                      if 0 <= ci + di < n and 0 <= cj + dj < n]  # fmt: skip
+                nb = [
+                    (ci + di, cj + dj)
+                    for di in (-1, 0, 1)
+                    for dj in (-1, 0, 1)
+                    if 0 <= ci + di < n and 0 <= cj + dj < n
+                ]
                 bi, bj = min(nb, key=lambda q: D[q])
                 if D[bi, bj] >= D[ci, cj]:
                     break
@@ -101,18 +105,24 @@ def main(argv=None):
     rng = np.random.default_rng(a.seed)
     try:
         for v in (int(s) for s in a.views.split(",")):
-            D, F = grid_readings(env, loc, m, m.check_view(v, "views"), offsets,
-                                 a.heading_noise, rng)  # fmt: skip
+            D, F = grid_readings(
+                env, loc, m, m.check_view(v, "views"), offsets, a.heading_noise, rng
+            )
             caught = catchment(D)
-            rings = " ".join(f"{np.mean(caught[(ring > lo) & (ring <= hi)]):.2f}"
-                             for lo, hi in RINGS if ((ring > lo) & (ring <= hi)).any())  # fmt: skip
+            rings = " ".join(
+                f"{np.mean(caught[(ring > lo) & (ring <= hi)]):.2f}"
+                for lo, hi in RINGS
+                if ((ring > lo) & (ring <= hi)).any()
+            )
             o = len(offsets) // 2
-            print(f"view {v} ({m.sequence_names[m.sequence[v]]}): F at the view "
-                  f"{F[o, o]:.2f}, median F beyond 1 m {np.median(F[ring > 1]):.2f}; "
-                  f"distance at the view {D[o, o]:.3f}, median {np.median(D):.3f}; "
-                  f"descent reaches the view from (by ring 0-1, 1-2, 2-3, 3+ m) {rings}; "
-                  f"side probe right {side_probe(D, offsets, a.probe):.2f}",
-                  flush=True)  # fmt: skip
+            print(
+                f"view {v} ({m.sequence_names[m.sequence[v]]}): F at the view "
+                f"{F[o, o]:.2f}, median F beyond 1 m {np.median(F[ring > 1]):.2f}; "
+                f"distance at the view {D[o, o]:.3f}, median {np.median(D):.3f}; "
+                f"descent reaches the view from (by ring 0-1, 1-2, 2-3, 3+ m) {rings}; "
+                f"side probe right {side_probe(D, offsets, a.probe):.2f}",
+                flush=True,
+            )
     finally:
         env.close()
 

@@ -52,9 +52,15 @@ def record(world: str, episodes: int, data, maps, out: str) -> None:
         print(spec.index, np.round(t[0], 2), flush=True)
     env.close()
     with atomic_path(out) as tmp, open(tmp, "wb") as f:  # nothing half-written on disk
-        np.savez_compressed(f, world=world, features=np.array(feats, np.float32),
-                            odometry=np.array(odos), truth=np.array(truth),
-                            start=np.array(starts), target=np.array(targets))  # fmt: skip
+        np.savez_compressed(
+            f,
+            world=world,
+            features=np.array(feats, np.float32),
+            odometry=np.array(odos),
+            truth=np.array(truth),
+            start=np.array(starts),
+            target=np.array(targets),
+        )
 
 
 def load_recording(path) -> dict:
@@ -64,23 +70,35 @@ def load_recording(path) -> dict:
         with np.load(path, allow_pickle=False) as z:
             rec = {k: z[k] for k in _KEYS}
     except (OSError, ValueError, KeyError) as err:
-        raise ValueError(f"path {str(path)!r} is not a recording of fix_offline record "
-                         f"(an .npz with {', '.join(_KEYS)}): {err}") from err  # fmt: skip
+        raise ValueError(
+            f"path {str(path)!r} is not a recording of fix_offline record "
+            f"(an .npz with {', '.join(_KEYS)}): {err}"
+        ) from err
     import sim  # noqa: F401  (GL backend first)
     from scenes import WORLDS
 
     world = str(rec["world"])
     if world not in WORLDS:
-        raise ValueError(f"recording {str(path)!r}: world must be one of {sorted(WORLDS)}, "
-                         f"got {world!r}")  # fmt: skip
+        raise ValueError(
+            f"recording {str(path)!r}: world must be one of {sorted(WORLDS)}, got {world!r}"
+        )
     n = len(rec["start"])
     feats, odo = rec["features"], rec["odometry"]
-    if not (feats.ndim == 3 and odo.ndim == 3 and odo.shape[2] == 3 and len(feats) == len(odo)
-            == n and feats.shape[1] == odo.shape[1] and rec["start"].shape[1:] == (3,)
-            and np.isfinite(odo).all() and np.isfinite(rec["start"]).all()):  # fmt: skip
-        raise ValueError(f"recording {str(path)!r}: expected features (S, T, d), odometry "
-                         f"(S, T, 3) and start (S, 3), finite; got {feats.shape}, "
-                         f"{odo.shape}, {rec['start'].shape}")  # fmt: skip
+    if not (
+        feats.ndim == 3
+        and odo.ndim == 3
+        and odo.shape[2] == 3
+        and len(feats) == len(odo) == n
+        and feats.shape[1] == odo.shape[1]
+        and rec["start"].shape[1:] == (3,)
+        and np.isfinite(odo).all()
+        and np.isfinite(rec["start"]).all()
+    ):
+        raise ValueError(
+            f"recording {str(path)!r}: expected features (S, T, d), odometry "
+            f"(S, T, 3) and start (S, 3), finite; got {feats.shape}, "
+            f"{odo.shape}, {rec['start'].shape}"
+        )
     rec["world"] = world
     return rec
 
@@ -143,8 +161,10 @@ def score(paths: list[str], data, maps, only: list[str] | None = None) -> None:
             table[name] = np.array(err)
         print(f"== {world} ({len(start)} starts)")
         for name, e in table.items():
-            print(f"{name:>14}: median {np.median(e):5.2f} m, within 2 m {np.mean(e <= 2):4.0%}"
-                  f"  | {' '.join(f'{x:.0f}' for x in e)}")  # fmt: skip
+            print(
+                f"{name:>14}: median {np.median(e):5.2f} m, within 2 m {np.mean(e <= 2):4.0%}"
+                f"  | {' '.join(f'{x:.0f}' for x in e)}"
+            )
 
 
 if __name__ == "__main__":

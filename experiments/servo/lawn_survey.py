@@ -51,8 +51,11 @@ FRAMES = 120  # ~0.25 m apart on a 30 m drive; stride 2 keeps 60 views per surve
 SEED_INDEX = 100  # survey k is seeded by (dataset seed, SEED_INDEX + k), apart from the routes'
 # ``--drives return``: each route driven back, arm -> main, as many frames as the
 # routes have (every recording drives main -> arm, so a route out of an arm faces no view)
-RETURNS = {"lawn-survey-back-left": "lawn-left", "lawn-survey-back-straight": "lawn-straight",
-           "lawn-survey-back-right": "lawn-right"}  # fmt: skip
+RETURNS = {
+    "lawn-survey-back-left": "lawn-left",
+    "lawn-survey-back-straight": "lawn-straight",
+    "lawn-survey-back-right": "lawn-right",
+}
 
 
 def collect_surveys(out: Path, source: Path, drives: str = "survey") -> Path:
@@ -68,14 +71,21 @@ def collect_surveys(out: Path, source: Path, drives: str = "survey") -> Path:
     frames = FRAMES if drives == "survey" else int(meta["settings"]["frames"])
     settings = collect.CollectionSettings(frames=frames)
     world = collect.collection_world("lawn", settings.seed, False, "default")
-    extra = SURVEY if drives == "survey" else {
-        name: world.routes[route].waypoints[::-1] for name, route in RETURNS.items()}
+    extra = (
+        SURVEY
+        if drives == "survey"
+        else {name: world.routes[route].waypoints[::-1] for name, route in RETURNS.items()}
+    )
     for k, (name, waypoints) in enumerate(extra.items()):
         world.routes[name] = Route(name, np.asarray(waypoints, float), "survey")
         arrays = collect.collect_sequence(settings, SEED_INDEX + k, "lawn", name)
         digest = dataset.write_sequence(target / f"{name}.npz", arrays)
-        meta["sequences"][name] = {"file": f"{name}.npz", "world": "lawn", "frames": frames,
-                                   "sha256": digest}  # fmt: skip
+        meta["sequences"][name] = {
+            "file": f"{name}.npz",
+            "world": "lawn",
+            "frames": frames,
+            "sha256": digest,
+        }
         print(f"recorded {name}", flush=True)
     write_json(target / dataset.META_FILE, meta)
     return target
@@ -89,14 +99,17 @@ def link_errors(m) -> None:
             continue
         true = se2_relative(m.true_poses[a], m.true_poses[b])
         key = (m.sequence_names[m.sequence[a]], m.sequence_names[m.sequence[b]])
-        rows.setdefault(key, []).append((np.hypot(*(t[:2] - true[:2])),
-                                         abs(wrap_angle(t[2] - true[2]))))  # fmt: skip
+        rows.setdefault(key, []).append(
+            (np.hypot(*(t[:2] - true[:2])), abs(wrap_angle(t[2] - true[2])))
+        )
     print("| recordings | links | median error (m) | largest (m) | median yaw error (rad) |")
     print("|---|---|---|---|---|")
     for (a, b), e in rows.items():
         e = np.array(e)
-        print(f"| {a} - {b} | {len(e)} | {np.median(e[:, 0]):.2f} | {e[:, 0].max():.2f} "
-              f"| {np.median(e[:, 1]):.3f} |")  # fmt: skip
+        print(
+            f"| {a} - {b} | {len(e)} | {np.median(e[:, 0]):.2f} | {e[:, 0].max():.2f} "
+            f"| {np.median(e[:, 1]):.3f} |"
+        )
 
 
 def oracle_map(m):
@@ -106,8 +119,9 @@ def oracle_map(m):
     edges, transforms = [], []
     for (a, b), t in zip(m.edges, m.edge_transforms, strict=True):
         true = se2_relative(m.true_poses[a], m.true_poses[b])
-        if m.sequence[a] == m.sequence[b] or (np.hypot(*(t[:2] - true[:2])) < 1.0
-                                              and abs(wrap_angle(t[2] - true[2])) < 0.1):
+        if m.sequence[a] == m.sequence[b] or (
+            np.hypot(*(t[:2] - true[:2])) < 1.0 and abs(wrap_angle(t[2] - true[2])) < 0.1
+        ):
             edges.append((int(a), int(b)))
             transforms.append(t)
     # joined by truth: the straight arm's surveys, or each route's return drive
@@ -122,8 +136,9 @@ def oracle_map(m):
                 j = int(route[np.argmin(d)])
                 edges.append((j, int(i)))
                 transforms.append(se2_relative(m.true_poses[j], m.true_poses[i]))
-    return dataclasses.replace(m, edges=np.array(edges, np.int64),
-                               edge_transforms=np.array(transforms, np.float64))  # fmt: skip
+    return dataclasses.replace(
+        m, edges=np.array(edges, np.int64), edge_transforms=np.array(transforms, np.float64)
+    )
 
 
 def keep_tasks_on_routes() -> None:
@@ -155,8 +170,12 @@ def main(argv=None) -> None:
     p.add_argument("--oracle", action="store_true", help="episodes on OUT/maps-oracle")
     p.add_argument("--config", default="{}", help="SignalServoConfig fields as JSON")
     p.add_argument("--data", type=Path, default=Path("out/dataset"), help="the routes' dataset")
-    p.add_argument("--drives", choices=["survey", "return"], default="survey",
-                   help="collect: the surveys across the lawn, or the routes driven back")
+    p.add_argument(
+        "--drives",
+        choices=["survey", "return"],
+        default="survey",
+        help="collect: the surveys across the lawn, or the routes driven back",
+    )
     a = p.parse_args(argv)
     data, maps = a.out / "dataset", a.out / "maps"
     if a.command == "collect":
@@ -172,8 +191,19 @@ def main(argv=None) -> None:
 
         keep_tasks_on_routes()
         maps = a.out / "maps-oracle" if a.oracle else maps
-        signal_servo_dev.main(["lawn", a.tier, a.episodes, "--config", a.config,
-                               "--data", str(data), "--maps", str(maps)])  # fmt: skip
+        signal_servo_dev.main(
+            [
+                "lawn",
+                a.tier,
+                a.episodes,
+                "--config",
+                a.config,
+                "--data",
+                str(data),
+                "--maps",
+                str(maps),
+            ]
+        )
 
 
 if __name__ == "__main__":

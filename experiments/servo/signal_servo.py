@@ -126,24 +126,31 @@ def episodes(env, m, world, tier, lo, hi, config, trace_from, oracle=None):
                 relocs = pol.relocalised_
                 err = last[0] - last[1]
                 err[2] = wrap_angle(err[2])
-                print(f"   relocalise #{relocs} at {steps}: bumps {pol.bumps_}, distance "
-                      f"{info['distance']:.2f}, belief error {_fmt(err)}")  # fmt: skip
+                print(
+                    f"   relocalise #{relocs} at {steps}: bumps {pol.bumps_}, distance "
+                    f"{info['distance']:.2f}, belief error {_fmt(err)}"
+                )
             if believed is not None:
                 last = (true, believed)
             if trace_from is not None and steps >= trace_from and steps % 5 == 0 and b:
-                print(f"  {steps:3d} {pol.phase_:7s} {stage:6s} d {info['distance']:.2f} true "
-                      f"{_fmt(true)} belief {_fmt(believed)} cmd {_fmt(action)} contact "
-                      f"{int(info['collision'])} bumps {pol.bumps_}")  # fmt: skip
+                print(
+                    f"  {steps:3d} {pol.phase_:7s} {stage:6s} d {info['distance']:.2f} true "
+                    f"{_fmt(true)} belief {_fmt(believed)} cmd {_fmt(action)} contact "
+                    f"{int(info['collision'])} bumps {pol.bumps_}"
+                )
             if terminated or truncated:
                 break
         wins += info["reason"] == "success"
-        head = (f"ep {spec.index:2d} {spec.start_manifold} -> {spec.target_manifold} (start "
-                f"{off:.1f} m from the nearest view): "
-                f"{info['reason']}, {steps} steps, final {info['distance']:.2f} m, ended in "
-                f"{pol.phase_}/{stage or '-'}, relocalised {pol.relocalised_}")  # fmt: skip
+        head = (
+            f"ep {spec.index:2d} {spec.start_manifold} -> {spec.target_manifold} (start "
+            f"{off:.1f} m from the nearest view): "
+            f"{info['reason']}, {steps} steps, final {info['distance']:.2f} m, ended in "
+            f"{pol.phase_}/{stage or '-'}, relocalised {pol.relocalised_}"
+        )
         if entry is not None:
-            head += (f"; arrival from step {arrive_at}: true {_fmt(entry[0])} belief "
-                     f"{_fmt(entry[1])}")  # fmt: skip
+            head += (
+                f"; arrival from step {arrive_at}: true {_fmt(entry[0])} belief {_fmt(entry[1])}"
+            )
         print(head, flush=True)
     print(f"successes {wins}/{len(specs)}")
 

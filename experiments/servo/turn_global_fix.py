@@ -35,8 +35,13 @@ from servo.maps.build import load_or_build
 from servo.task.env import ServoEnv
 from servo.task.protocol import Protocol, episode_specs, reset_options
 
-DESCRIPTORS = {"full": (0.0, None), "far": (0.0, "far"), "blur 1": (1.0, None),
-               "blur 2": (2.0, None), "blur 3": (3.0, None)}  # fmt: skip
+DESCRIPTORS = {
+    "full": (0.0, None),
+    "far": (0.0, "far"),
+    "blur 1": (1.0, None),
+    "blur 2": (2.0, None),
+    "blur 3": (3.0, None),
+}
 
 
 def record_turns(world: str, tier: str, lo: int, hi: int, m, out: Path) -> None:
@@ -58,8 +63,13 @@ def record_turns(world: str, tier: str, lo: int, hi: int, m, out: Path) -> None:
                 odometry.append(np.asarray(obs["odometry"], np.float64))
             obs, *_, info = env.step(pol.act(obs, info))
         tmp = path.with_suffix(".tmp.npz")
-        np.savez_compressed(tmp, images=np.stack(images), odometry=np.stack(odometry),
-                            start=start, fix=pol._fix_view)  # fmt: skip
+        np.savez_compressed(
+            tmp,
+            images=np.stack(images),
+            odometry=np.stack(odometry),
+            start=start,
+            fix=pol._fix_view,
+        )
         tmp.replace(path)
         print(f"recorded episode {spec.index} ({len(images)} images)", flush=True)
 
@@ -70,8 +80,10 @@ class Descriptors:
     def __init__(self, m):
         self.loc = ImageLocaliser(m)
         views = self.loc._images(m.features)
-        self.refs = {name: self.loc._crops(self._prepare(views, *how), 0)
-                     for name, how in DESCRIPTORS.items()}  # fmt: skip
+        self.refs = {
+            name: self.loc._crops(self._prepare(views, *how), 0)
+            for name, how in DESCRIPTORS.items()
+        }
 
     def _prepare(self, images: np.ndarray, blur: float, band: str | None) -> np.ndarray:
         if band is not None:
@@ -142,8 +154,10 @@ def score(m, turns: list[Path], keypoints: bool = False) -> None:
     print("|---|---|---|---|")
     for name, e in excess.items():
         e = np.array(e)
-        print(f"| {name} | {np.sum(e <= 1.5)}/{len(e)} | {np.sum(e <= 3.0)}/{len(e)} "
-              f"| {e.mean():.2f} m |")  # fmt: skip
+        print(
+            f"| {name} | {np.sum(e <= 1.5)}/{len(e)} | {np.sum(e <= 3.0)}/{len(e)} "
+            f"| {e.mean():.2f} m |"
+        )
 
 
 def main() -> None:

@@ -41,13 +41,16 @@ def main() -> None:
     start = time.perf_counter()
     verified = {v: vp.depth_model(v) is not None for v in views}
     check_ms = (time.perf_counter() - start) / len(views) * 1e3
-    print(f"{a.world}: {sum(verified.values())} of {len(views)} views verified "
-          f"({check_ms:.0f} ms per view)")  # fmt: skip
+    print(
+        f"{a.world}: {sum(verified.values())} of {len(views)} views verified "
+        f"({check_ms:.0f} ms per view)"
+    )
     rows, times = [], []
     for v in views:
         for _ in range(a.renders):
-            true = np.array([rng.uniform(-2.5, 0.5), rng.uniform(-0.8, 0.8),
-                             rng.uniform(-0.15, 0.15)])  # fmt: skip
+            true = np.array(
+                [rng.uniform(-2.5, 0.5), rng.uniform(-0.8, 0.8), rng.uniform(-0.15, 0.15)]
+            )
             env.base.sim.reset(se2_compose(m.true_poses[v], true), np.random.default_rng(0))
             image = env.base.sim.render()
             t = time.perf_counter()
@@ -63,10 +66,12 @@ def main() -> None:
         if not posed.any():
             continue
         E = E[posed]
-        print(f"{name:9s} renders {sel.sum():3d}, posed {posed.mean():.2f}; median error along "
-              f"{np.median(E[:, 0]):.3f} m, across {np.median(E[:, 1]):.3f} m, heading "
-              f"{np.median(E[:, 2]):.4f} rad; across within 0.2 m {np.mean(E[:, 1] < 0.2):.2f},"
-              f" within 0.4 m {np.mean(E[:, 1] < 0.4):.2f}")  # fmt: skip
+        print(
+            f"{name:9s} renders {sel.sum():3d}, posed {posed.mean():.2f}; median error along "
+            f"{np.median(E[:, 0]):.3f} m, across {np.median(E[:, 1]):.3f} m, heading "
+            f"{np.median(E[:, 2]):.4f} rad; across within 0.2 m {np.mean(E[:, 1] < 0.2):.2f},"
+            f" within 0.4 m {np.mean(E[:, 1] < 0.4):.2f}"
+        )
     print(f"one pose: median {np.median(times) * 1e3:.1f} ms")
 
 

@@ -76,8 +76,9 @@ class VoxelOverlapIndex:
         if not (is_real(delta) and 0 < delta < np.inf):
             raise ValueError(f"delta must be a positive finite number (metres), got {delta!r}")
         if not (is_real(voxel_size) and 0 < voxel_size <= delta):  # None is no voxel here
-            raise ValueError(f"voxel_size must be a number in (0, delta = {delta}], got "
-                             f"{voxel_size!r}")  # fmt: skip
+            raise ValueError(
+                f"voxel_size must be a number in (0, delta = {delta}], got {voxel_size!r}"
+            )
         check_voxel_size(delta, voxel_size)  # and not so fine that the disc is too large
         self.delta = delta
         self.voxel_size = voxel_size
@@ -152,10 +153,12 @@ class VoxelOverlapIndex:
             (np.ones(int(hit.sum())), (owner[hit], pos[hit])), shape=(cand.size, len(near))
         )
         dilation = sp.csr_array(
-            (np.ones(grown.size), (np.repeat(np.arange(len(keys)), grown.shape[1]),
-                                   near_inv.ravel())),
+            (
+                np.ones(grown.size),
+                (np.repeat(np.arange(len(keys)), grown.shape[1]), near_inv.ravel()),
+            ),
             shape=(len(keys), len(near)),
-        )  # fmt: skip
+        )
         matched = (dilation @ occupied.T).tocsc()
         matched.data[:] = 1.0
         pi_new = (counts.astype(float) @ matched) / n_points

@@ -344,9 +344,12 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
     def _refine(self, scans, poses, groups=None) -> np.ndarray:
         """``refine_poses`` with this estimator's ICP settings."""
         return refine_poses(
-            scans, poses, max_correspondence_distance=self.icp_max_distance, groups=groups,
+            scans,
+            poses,
+            max_correspondence_distance=self.icp_max_distance,
+            groups=groups,
             decimation=self.icp_decimation,
-        )  # fmt: skip
+        )
 
     def __getattr__(self, name: str):
         # local maps and topology after partial_fit, built on first read

@@ -127,9 +127,12 @@ def close_loops(
     steps = se2_relative(odometry[:-1], odometry[1:])
     follows = np.flatnonzero(~starts[1:]) + 1  # scans with a predecessor in their run
     seq = icp_batch(
-        [scans[i] for i in follows], [densify_scan(scans[i - 1]) for i in follows],
-        steps[follows - 1], max_correspondence_distance=0.5, workers=-1,
-    )  # fmt: skip
+        [scans[i] for i in follows],
+        [densify_scan(scans[i - 1]) for i in follows],
+        steps[follows - 1],
+        max_correspondence_distance=0.5,
+        workers=-1,
+    )
     matched = np.zeros(n, dtype=bool)
     sizes = np.array([len(scans[i]) for i in follows], dtype=int)
     ok = seq.converged & (seq.n_matches >= 0.5 * sizes)
@@ -160,10 +163,12 @@ def close_loops(
     if proposed:
         pair = np.asarray(proposed, dtype=int)
         res = icp_batch(
-            [scans[i] for i in pair[:, 0]], [densify_scan(scans[j]) for j in pair[:, 1]],
+            [scans[i] for i in pair[:, 0]],
+            [densify_scan(scans[j]) for j in pair[:, 1]],
             se2_relative(chained[pair[:, 1]], chained[pair[:, 0]]),
-            max_correspondence_distance=icp_max_distance, workers=-1,
-        )  # fmt: skip
+            max_correspondence_distance=icp_max_distance,
+            workers=-1,
+        )
         sizes = np.array([len(scans[i]) for i in pair[:, 0]], dtype=int)
         good = res.converged & (res.n_matches >= min_overlap * sizes) & (res.rmse <= max_rmse)
         loop_noise = _noise(loop_sigmas, robust)

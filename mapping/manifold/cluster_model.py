@@ -201,10 +201,18 @@ class ClusterModel(DerivedCache):
     def validate(self) -> dict[str, int]:
         """Check the fields' shapes, values and agreement (a model read from a file); returns
         the sizes ``m`` (points), ``d`` (features), ``r`` (basis). Raises ValueError."""
-        sizes = check_layout(self, {
-            "indices": ("m",), "mean": ("d",), "basis": ("r", "d"), "coords": ("m", "r"),
-            "sq_norms": ("m",), "weights": ("m", "m"), "degrees": ("m",),
-        })  # fmt: skip
+        sizes = check_layout(
+            self,
+            {
+                "indices": ("m",),
+                "mean": ("d",),
+                "basis": ("r", "d"),
+                "coords": ("m", "r"),
+                "sq_norms": ("m",),
+                "weights": ("m", "m"),
+                "degrees": ("m",),
+            },
+        )
         check_scalars(self, sizes["m"])
         if min(self.weights.min(initial=0.0), self.degrees.min(initial=0.0)) < 0:
             raise ValueError("weights and degrees must be >= 0")
@@ -243,9 +251,13 @@ class ClusterModel(DerivedCache):
         if self.inverse is None:
             return dense_signal(self.weights, self.degrees, self.alpha, w, target)
         return sparse_signal(
-            self.inverse[None], self.degrees[None], w, np.zeros(k, dtype=np.intp),
-            np.full(k, target), np.full(k, self.alpha),
-        )  # fmt: skip
+            self.inverse[None],
+            self.degrees[None],
+            w,
+            np.zeros(k, dtype=np.intp),
+            np.full(k, target),
+            np.full(k, self.alpha),
+        )
 
 
 def _span(centred: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

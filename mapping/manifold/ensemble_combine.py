@@ -111,9 +111,13 @@ def consensus_groups(partitions: np.ndarray, sizes: np.ndarray) -> np.ndarray:
 
 
 def ensemble_merge(
-    scores, n_clusters: int, rule: str, adjacent: np.ndarray | None = None,
-    sigmas: slice | None = None, extra: int = FINER,
-) -> list[list[int]] | None:  # fmt: skip
+    scores,
+    n_clusters: int,
+    rule: str,
+    adjacent: np.ndarray | None = None,
+    sigmas: slice | None = None,
+    extra: int = FINER,
+) -> list[list[int]] | None:
     """K groups of leaves by ``rule`` (one of `ENSEMBLE_RULES`) from the usable sigmas'
     cuts; None if no sigma is usable (the caller falls back to a pairwise rule).
 
@@ -129,8 +133,9 @@ def ensemble_merge(
     if len(partitions) == 0:
         return None
     if rule == "coassociation":
-        finer = [sigma_partitions(scores, n_clusters + e, adjacent, sigmas)
-                 for e in range(1, extra + 1)]  # fmt: skip
+        finer = [
+            sigma_partitions(scores, n_clusters + e, adjacent, sigmas) for e in range(1, extra + 1)
+        ]
         labels = coassociation_groups(np.concatenate([partitions, *finer]), n_clusters)
     else:
         labels = consensus_groups(partitions, scores.sizes)

@@ -194,8 +194,16 @@ class GraphGeometry:
         Processes that compute a node's eigenbases (`prefetch`; joblib's meaning).
     """
 
-    def __init__(self, X, edges, indices, rank: int, dense_below: int, n_neighbors: int = 10,
-                 n_jobs: int | None = None):  # fmt: skip
+    def __init__(
+        self,
+        X,
+        edges,
+        indices,
+        rank: int,
+        dense_below: int,
+        n_neighbors: int = 10,
+        n_jobs: int | None = None,
+    ):
         self.X, self.edges, self.indices = X, edges, indices
         self.rank, self.dense_below, self.n_neighbors = rank, dense_below, n_neighbors
         self.n_jobs = n_jobs
@@ -219,9 +227,14 @@ class GraphGeometry:
             return self  # the root: its bases serve the split, the combination and eq. 10
         edges = self.edges[idx][:, idx].tocsr()
         return GraphGeometry(
-            self.X, edges, self.indices[idx], self.rank, self.dense_below, self.n_neighbors,
+            self.X,
+            edges,
+            self.indices[idx],
+            self.rank,
+            self.dense_below,
+            self.n_neighbors,
             self.n_jobs,
-        )  # fmt: skip
+        )
 
     def basis(self, sigma: float) -> LowRankBasis:
         """The low-rank basis of S at sigma, kept (O(n_sigmas m r): the search asks only for

@@ -120,11 +120,20 @@ class GraphClusterModel(DerivedCache):
     def validate(self) -> dict[str, int]:
         """As [`ClusterModel.validate`][mapping.manifold.cluster_model.ClusterModel.validate]: sizes
         ``m``, ``d`` and ``r`` (eigenpairs)."""
-        sizes = check_layout(self, {
-            "indices": ("m",), "mean": ("d",), "points": ("m", "d"), "sq_norms": ("m",),
-            "vectors": ("m", "r"), "values": ("r",), "col_rest": ("r",),
-            "point_rest": ("m",), "degrees": ("m",),
-        })  # fmt: skip
+        sizes = check_layout(
+            self,
+            {
+                "indices": ("m",),
+                "mean": ("d",),
+                "points": ("m", "d"),
+                "sq_norms": ("m",),
+                "vectors": ("m", "r"),
+                "values": ("r",),
+                "col_rest": ("r",),
+                "point_rest": ("m",),
+                "degrees": ("m",),
+            },
+        )
         check_scalars(self, sizes["m"])
         check_number(self.n_neighbors, "n_neighbors", 1, 2**31 - 1, integer=True)
         spectra = (self.values, self.col_rest, self.point_rest)

@@ -34,8 +34,12 @@ class ManifoldQueries:
         `mapping.persistence`): labels, centres, per-cluster sigma and alpha, and one
         valid cluster model per cluster on the points of its label. Raises ValueError."""
         labels, models = getattr(self, "labels_", None), getattr(self, "_models", None)
-        if not (isinstance(labels, np.ndarray) and labels.ndim == 1 and labels.size
-                and labels.dtype.kind in "iu"):  # fmt: skip
+        if not (
+            isinstance(labels, np.ndarray)
+            and labels.ndim == 1
+            and labels.size
+            and labels.dtype.kind in "iu"
+        ):
             raise ValueError("labels_ must be a non-empty 1-D integer array")
         if not (isinstance(models, list) and models and len({type(m) for m in models}) == 1):
             raise ValueError("_models must be a non-empty list of cluster models of one class")

@@ -165,8 +165,9 @@ class Projection:
             q[:] = y_sq[:, None] - 2.0 * along + self.shift_sq
             wanted = None if needed is None else needed(q).any(axis=0)
             # centred in float64 element by element, rounded once (no float64 copy of X)
-            Xc = np.subtract(X, self.mu, out=np.empty(X.shape, self.matrix.dtype),
-                             casting="same_kind")  # fmt: skip
+            Xc = np.subtract(
+                X, self.mu, out=np.empty(X.shape, self.matrix.dtype), casting="same_kind"
+            )
             for a, b in self._runs(wanted):
                 p[:, a:b] = Xc @ self.matrix[a:b].T
         if wanted is not None:
@@ -286,9 +287,13 @@ class Stack:
         # each solve limits the BLAS threads itself where OpenBLAS would use more than one
         # (eq13._THREADED_SOLVE): a second thread only spins on these small systems
         f = sparse_signal(
-            self.inverse, self.degrees, w.reshape(K * k, -1), entry, self.centres[entry],
+            self.inverse,
+            self.degrees,
+            w.reshape(K * k, -1),
+            entry,
+            self.centres[entry],
             self.alphas[entry],
-        ).reshape(K, k)  # fmt: skip
+        ).reshape(K, k)
         for j in self.dense:
             m = self.models[j]
             w_j = w[j, :, : self.sizes[j]]

@@ -96,12 +96,16 @@ def icp(
     """
     init = np.zeros(3) if init is None else np.asarray(init, dtype=float).reshape(3)
     return icp_batch(
-        [source], [target], init[None, :],
+        [source],
+        [target],
+        init[None, :],
         max_correspondence_distance=max_correspondence_distance,
         min_correspondence_distance=min_correspondence_distance,
-        max_iterations=max_iterations, tolerance=tolerance, min_matches=min_matches,
+        max_iterations=max_iterations,
+        tolerance=tolerance,
+        min_matches=min_matches,
         target_tree=target_tree,
-    )[0]  # fmt: skip
+    )[0]
 
 
 # Candidates remembered per point between iterations (see ``icp_batch``): 6 cut the KD-tree
@@ -123,9 +127,12 @@ class IcpBatchResult:
 
     def __getitem__(self, i: int) -> IcpResult:
         return IcpResult(
-            self.transforms[i].copy(), float(self.rmse[i]), int(self.n_matches[i]),
-            int(self.n_iterations[i]), bool(self.converged[i]),
-        )  # fmt: skip
+            self.transforms[i].copy(),
+            float(self.rmse[i]),
+            int(self.n_matches[i]),
+            int(self.n_iterations[i]),
+            bool(self.converged[i]),
+        )
 
 
 def icp_batch(
@@ -205,11 +212,18 @@ def icp_batch(
 
     def run(chunk: np.ndarray) -> None:
         _iterate(
-            [sources[i] for i in chunk], [targets[i] for i in chunk], pose, chunk,
-            (rmse, n_matches, n_iterations, converged), target_tree,
-            max_correspondence_distance, min_correspondence_distance, max_iterations,
-            tolerance, min_matches,
-        )  # fmt: skip
+            [sources[i] for i in chunk],
+            [targets[i] for i in chunk],
+            pose,
+            chunk,
+            (rmse, n_matches, n_iterations, converged),
+            target_tree,
+            max_correspondence_distance,
+            min_correspondence_distance,
+            max_iterations,
+            tolerance,
+            min_matches,
+        )
 
     if len(chunks) > 1:
         with ThreadPoolExecutor(len(chunks)) as pool:
@@ -220,9 +234,18 @@ def icp_batch(
 
 
 def _iterate(
-    sources, targets, pose, pairs, out, tree, max_distance, min_distance, max_iterations,
-    tolerance, min_matches,
-) -> None:  # fmt: skip
+    sources,
+    targets,
+    pose,
+    pairs,
+    out,
+    tree,
+    max_distance,
+    min_distance,
+    max_iterations,
+    tolerance,
+    min_matches,
+) -> None:
     """The iterations of ``icp_batch`` over the pairs with enough points (batch rows
     ``0..len(pairs)-1``; ``pairs`` are their indices in the result arrays ``pose`` and
     ``out = (rmse, n_matches, n_iterations, converged)``, written in place). The working
@@ -271,8 +294,9 @@ def _iterate(
         stale = ~((dist <= room) | ((dist > max_distance) & (room > max_distance)))
         if stale.any():
             qx, qy, qs = mx[stale], my[stale], shift[row[stale]]
-            dq, iq = tree.query(np.stack([qx + qs, qy], axis=1), k=_CACHE_K,
-                                distance_upper_bound=reach)  # fmt: skip
+            dq, iq = tree.query(
+                np.stack([qx + qs, qy], axis=1), k=_CACHE_K, distance_upper_bound=reach
+            )
             dq, iq = dq.reshape(len(qx), -1), iq.reshape(len(qx), -1)
             cand_x[stale] = stacked[iq, 0] - qs[:, None]
             cand_y[stale] = stacked[iq, 1]

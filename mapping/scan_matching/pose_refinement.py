@@ -61,9 +61,10 @@ def refine_poses(
     steps = se2_relative(poses[:-1], poses[1:])
     starts = run_starts_from_groups(groups, len(poses))
     pairs = [
-        i for i in range(1, len(poses))
+        i
+        for i in range(1, len(poses))
         if not starts[i] and len(scans[i]) >= min_matches and len(scans[i - 1]) >= min_matches
-    ]  # fmt: skip
+    ]
     if pairs:
         sources = [np.asarray(scans[i], dtype=float).reshape(-1, 2)[::decimation] for i in pairs]
         res = icp_batch(

@@ -156,8 +156,9 @@ def score_submaps(
     ``labels`` gives the submap of each *training* scan (``split(groups, hold_every)[0]``);
     each submap is rebuilt by scan-to-map ICP (unless ``align`` is False) and scored.
     """
-    errors, aligned, train = submap_errors(scans, truth, poses, groups, labels, rng,
-                                           hold_every=hold_every, align=align)  # fmt: skip
+    errors, aligned, train = submap_errors(
+        scans, truth, poses, groups, labels, rng, hold_every=hold_every, align=align
+    )
     labels = np.asarray(labels)
     return {
         "submaps": len(np.unique(labels)),

@@ -70,8 +70,9 @@ def _fit(method: OutsideMethod, scans, poses, groups, given: str) -> np.ndarray:
         raise ValueError("fit left no labels_ attribute")
     labels = np.asarray(labels)
     if labels.shape != (len(poses),) or not np.issubdtype(labels.dtype, np.integer):
-        raise ValueError(f"labels_ must be {len(poses)} integers, got {labels.dtype} "
-                         f"{labels.shape}")  # fmt: skip
+        raise ValueError(
+            f"labels_ must be {len(poses)} integers, got {labels.dtype} {labels.shape}"
+        )
     # noise (-1, as DBSCAN marks it) becomes singleton groups: every scan is in some map
     if (labels < 0).any():
         labels = labels.copy()
@@ -99,17 +100,28 @@ def _local_map_records(method, scans, truth, poses, groups, rng, given, group, u
     train, held, _ = split(groups, HOLD_EVERY)
     try:
         labels = _fit(method, [scans[i] for i in train], poses[train], groups[train], given)
-        errors, _, _ = submap_errors(scans, truth, poses, groups, labels, rng,
-                                     hold_every=HOLD_EVERY)  # fmt: skip
+        errors, _, _ = submap_errors(
+            scans, truth, poses, groups, labels, rng, hold_every=HOLD_EVERY
+        )
     except Exception as err:  # an outside estimator may raise anything
-        return [{"group": group, "unit": f"{unit}/scan {int(i)}", "value": None,
-                 "failure": _failure(err)} for i in held]  # fmt: skip
-    return [{"group": group, "unit": f"{unit}/scan {int(i)}", "value": ok, "failure": None}
-            for i, ok in zip(held, _localised(errors), strict=True)]  # fmt: skip
+        return [
+            {
+                "group": group,
+                "unit": f"{unit}/scan {int(i)}",
+                "value": None,
+                "failure": _failure(err),
+            }
+            for i in held
+        ]
+    return [
+        {"group": group, "unit": f"{unit}/scan {int(i)}", "value": ok, "failure": None}
+        for i, ok in zip(held, _localised(errors), strict=True)
+    ]
 
 
-def evaluate_worlds_method(method: OutsideMethod, datasets, given="scans", local_maps=False,
-                           seed: int = 0, progress=True) -> list[dict]:  # fmt: skip
+def evaluate_worlds_method(
+    method: OutsideMethod, datasets, given="scans", local_maps=False, seed: int = 0, progress=True
+) -> list[dict]:
     """The result files of ``method`` on simulated ``datasets``: the grouping scores, and with
     ``local_maps`` the held-out localisation against its groups."""
     from tqdm.auto import tqdm
@@ -125,12 +137,16 @@ def evaluate_worlds_method(method: OutsideMethod, datasets, given="scans", local
             raise ValueError(f"{data.path}: scoring groups needs a simulated dataset")
         seed = data.meta["settings"]["seed"]
         if seed in seeds:
-            raise ValueError(f"{data.path} and {seeds[seed]} are both of seed {seed}: "
-                             "give each dataset seed once")  # fmt: skip
+            raise ValueError(
+                f"{data.path} and {seeds[seed]} are both of seed {seed}: "
+                "give each dataset seed once"
+            )
         seeds[seed] = data.path
     if DEV_SEED in seeds and len(seeds) > 1:
-        raise ValueError(f"seed {DEV_SEED} is the dev seed (the settings were chosen on it): "
-                         "evaluate it apart from fresh seeds")  # fmt: skip
+        raise ValueError(
+            f"seed {DEV_SEED} is the dev seed (the settings were chosen on it): "
+            "evaluate it apart from fresh seeds"
+        )
     split = "dev" if DEV_SEED in seeds else "test"
     cases = [(d, w, v) for d in loaded for w in d.worlds for v in POSES]
     for data, world, variant in tqdm(cases, disable=not progress, desc="group-eval"):
@@ -145,18 +161,27 @@ def evaluate_worlds_method(method: OutsideMethod, datasets, given="scans", local
             record.update(value=None, failure=_failure(err))
         else:
             score = score_groups(runs.labels, labels, runs.manifold_names)
-            record.update(value=score["ari"], failure=None, purity=score["purity"],
-                          groups=score["groups"], meets_targets=meets_targets(score),
-                          max_groups_per_manifold=score["max_groups_per_manifold"],
-                          seconds=time.perf_counter() - start)  # fmt: skip
+            record.update(
+                value=score["ari"],
+                failure=None,
+                purity=score["purity"],
+                groups=score["groups"],
+                meets_targets=meets_targets(score),
+                max_groups_per_manifold=score["max_groups_per_manifold"],
+                seconds=time.perf_counter() - start,
+            )
         scores.append(record)
         if local_maps:
-            maps += _local_map_records(method, runs.scans, runs.poses, poses, runs.groups, rng,
-                                       given, variant, unit)  # fmt: skip
+            maps += _local_map_records(
+                method, runs.scans, runs.poses, poses, runs.groups, rng, given, variant, unit
+            )
     described = {**method.describe(), "input": given}
     settings = {"datasets": [str(d.path) for d in loaded], "poses": list(POSES)}
-    out = [envelope(TASK, PROTOCOLS["worlds"], split, described, ("ari", "score"), scores,
-                    settings=settings)]  # fmt: skip
+    out = [
+        envelope(
+            TASK, PROTOCOLS["worlds"], split, described, ("ari", "score"), scores, settings=settings
+        )
+    ]
     if local_maps:
         out.append(
             envelope(
@@ -173,12 +198,16 @@ def evaluate_worlds_method(method: OutsideMethod, datasets, given="scans", local
 
 
 def _map_settings(settings: dict) -> dict:
-    return {**settings, "hold_every": HOLD_EVERY,
-            "success": {"translation_m": SUCCESS[0], "heading_deg": 2.0}}  # fmt: skip
+    return {
+        **settings,
+        "hold_every": HOLD_EVERY,
+        "success": {"translation_m": SUCCESS[0], "heading_deg": 2.0},
+    }
 
 
-def evaluate_carmen_method(method: OutsideMethod, logs, given="scans", seed: int = 0,
-                           progress=True) -> dict:  # fmt: skip
+def evaluate_carmen_method(
+    method: OutsideMethod, logs, given="scans", seed: int = 0, progress=True
+) -> dict:
     """The result file of ``method`` on Carmen ``logs``: held-out localisation against its
     groups, with each log's corrected poses."""
     from tqdm.auto import tqdm
@@ -192,12 +221,20 @@ def evaluate_carmen_method(method: OutsideMethod, logs, given="scans", seed: int
     for log in tqdm(read, disable=not progress, desc="group-eval carmen"):
         tag = log.path.name.split(".")[0]
         groups = np.zeros(len(log), dtype=int)  # one drive
-        records += _local_map_records(method, log_points(log), log.poses, log.poses, groups,
-                                      rng, given, tag, tag)  # fmt: skip
+        records += _local_map_records(
+            method, log_points(log), log.poses, log.poses, groups, rng, given, tag, tag
+        )
     described = {**method.describe(), "input": given}
     settings = _map_settings({"logs": [str(log.path) for log in read], "poses": "given"})
-    return envelope(TASK, PROTOCOLS["carmen"], "test", described, ("localised", "rate"),
-                    records, settings=settings)  # fmt: skip
+    return envelope(
+        TASK,
+        PROTOCOLS["carmen"],
+        "test",
+        described,
+        ("localised", "rate"),
+        records,
+        settings=settings,
+    )
 
 
 def file_name(result: dict) -> str:
@@ -213,10 +250,14 @@ def file_name(result: dict) -> str:
 
 def add_arguments(p) -> None:
     """The ``--method`` options of ``topomap group-eval``."""
-    p.add_argument("--method", default=None, metavar="MODULE:CLASS",
-                   help="score this estimator (fit(scans, poses), labels_) instead of running "
-                   "the built-in evaluation; its module is imported like python -m, so its "
-                   "code runs (docs/guides/benchmark-your-method.md)")  # fmt: skip
+    p.add_argument(
+        "--method",
+        default=None,
+        metavar="MODULE:CLASS",
+        help="score this estimator (fit(scans, poses), labels_) instead of running "
+        "the built-in evaluation; its module is imported like python -m, so its "
+        "code runs (docs/guides/benchmark-your-method.md)",
+    )
     p.add_argument(
         "--param",
         action="append",
@@ -240,11 +281,11 @@ def run(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.carmen:
-        results = [evaluate_carmen_method(method, args.carmen, args.input,
-                                          progress=not args.quiet)]  # fmt: skip
+        results = [evaluate_carmen_method(method, args.carmen, args.input, progress=not args.quiet)]
     else:
-        results = evaluate_worlds_method(method, args.data, args.input, args.local_maps,
-                                         progress=not args.quiet)  # fmt: skip
+        results = evaluate_worlds_method(
+            method, args.data, args.input, args.local_maps, progress=not args.quiet
+        )
     for result in results:
         path = write_result(out / file_name(result), result)
         failed = {r["failure"] for r in result["records"] if r["failure"]}

@@ -79,9 +79,15 @@ def draw_groups(
         ax.scatter(pts[:, 0], pts[:, 1], s=point_size, color=colours[i], alpha=0.35, linewidths=0)
     if arrows:
         ax.quiver(
-            poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2]),
-            color=colours, scale=40, width=0.004, zorder=3,
-        )  # fmt: skip
+            poses[:, 0],
+            poses[:, 1],
+            np.cos(poses[:, 2]),
+            np.sin(poses[:, 2]),
+            color=colours,
+            scale=40,
+            width=0.004,
+            zorder=3,
+        )
     else:
         ax.scatter(poses[:, 0], poses[:, 1], s=6, color=colours, zorder=3)
     ax.set_aspect("equal")

@@ -64,16 +64,25 @@ def _manifold(data, world) -> dict:
     labels = data.concat("labels")
     k, n = len(world.manifold_names), int(train.sum())
     rows = []
-    for name, method, q in ((OURS, OURS, MANIFOLD_Q), (OURS_SCALED, OURS, scaled_q(n, k)),
-                            (SKLEARN_DEFAULT, SKLEARN_DEFAULT, None)):  # fmt: skip
+    for name, method, q in (
+        (OURS, OURS, MANIFOLD_Q),
+        (OURS_SCALED, OURS, scaled_q(n, k)),
+        (SKLEARN_DEFAULT, SKLEARN_DEFAULT, None),
+    ):
         try:
-            [row] = score_methods(X_train, labels[train], k, q or MANIFOLD_Q, X_test,
-                                  labels[test], methods=(method,))  # fmt: skip
+            [row] = score_methods(
+                X_train, labels[train], k, q or MANIFOLD_Q, X_test, labels[test], methods=(method,)
+            )
         except ValueError as err:  # too few images for k clusters of q: the method refuses
             row = {"train_error": None, "test_error": None, "refused": str(err)}
         rows.append({**row, "method": name, "q": q})
-    return {"version": MANIFOLD_VERSION, "k": k, "n_train": n, "n_test": int(test.sum()),
-            "rows": rows}  # fmt: skip
+    return {
+        "version": MANIFOLD_VERSION,
+        "k": k,
+        "n_train": n,
+        "n_test": int(test.sum()),
+        "rows": rows,
+    }
 
 
 def _grouping(data, world) -> dict:

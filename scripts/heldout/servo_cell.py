@@ -19,8 +19,19 @@ __all__ = ["SERVO_POLICIES", "servo_task", "spread_by_junctions"]
 
 SERVO_POLICIES = ("servo", "signal")  # the laser+image controller, the camera-only one
 SERVO_SPLIT = "test"
-KEEP = ("episode", "seed", "start_manifold", "target_manifold", "junctions", "success", "reason",
-        "spl", "steps", "collisions", "final_distance")  # fmt: skip
+KEEP = (
+    "episode",
+    "seed",
+    "start_manifold",
+    "target_manifold",
+    "junctions",
+    "success",
+    "reason",
+    "spl",
+    "steps",
+    "collisions",
+    "final_distance",
+)
 
 
 def spread_by_junctions(pairs: list[tuple[str, str]], junctions, episodes: int) -> list[int]:
@@ -56,8 +67,9 @@ def servo_task(data, world, episodes: int) -> dict:
     for policy in SERVO_POLICIES:
         for tier in TIERS:
             protocol = Protocol(world.name, tier, SERVO_SPLIT)
-            r = run_protocol(protocol, m, episodes, policy, workers=1, progress=False,
-                             indices=indices)  # fmt: skip
+            r = run_protocol(
+                protocol, m, episodes, policy, workers=1, progress=False, indices=indices
+            )
             for e in r["episodes_detail"]:
                 records.append({"policy": policy, "tier": tier, **{k: e.get(k) for k in KEEP}})
     return {

@@ -42,8 +42,14 @@ def _rate(records: list[dict]) -> dict | None:
         return None
     k, n = sum(bool(r["success"]) for r in records), len(records)
     lo, hi = wilson_interval(k, n)
-    return {"successes": k, "n": n, "rate": k / n, "lo": lo, "hi": hi,
-            "spl": float(np.mean([r["spl"] for r in records]))}  # fmt: skip
+    return {
+        "successes": k,
+        "n": n,
+        "rate": k / n,
+        "lo": lo,
+        "hi": hi,
+        "spl": float(np.mean([r["spl"] for r in records])),
+    }
 
 
 def _servo_records(cells: list[dict]) -> list[dict]:
@@ -114,8 +120,9 @@ def _label(method: str) -> str:
     """A clustering method's name in the tables: ours with its Q rule."""
     from scripts.manifold import OURS
 
-    return {OURS: f"ours, Q = {MANIFOLD_Q}",
-            OURS_SCALED: f"ours, Q = n / ({Q_DIVISOR} K)"}.get(method, method)  # fmt: skip
+    return {OURS: f"ours, Q = {MANIFOLD_Q}", OURS_SCALED: f"ours, Q = n / ({Q_DIVISOR} K)"}.get(
+        method, method
+    )
 
 
 def _fmt(s: dict, pct: bool) -> str:
@@ -156,8 +163,16 @@ def format_summary(summary: dict) -> str:
                 name = _label(method.removesuffix(MINUS_SKLEARN)) + MINUS_SKLEARN
                 lines.append(_row(family, "clustering error", name, None, m, True))
             else:
-                lines.append(_row(family, "clustering error", _label(method), m["canonical"],
-                                  m["held_out"], True))  # fmt: skip
+                lines.append(
+                    _row(
+                        family,
+                        "clustering error",
+                        _label(method),
+                        m["canonical"],
+                        m["held_out"],
+                        True,
+                    )
+                )
         for key, g in fam["grouping"].items():
             task = f"grouping {key.replace('_', ' ')}"
             method = "partitioner (odometry + ICP)"
@@ -167,8 +182,10 @@ def format_summary(summary: dict) -> str:
             h, c = s["held_out"], s["canonical"]
             gap = "" if h is None or c is None else f"{100 * (h['rate'] - c['rate']):+.0f} points"
             by = " | ".join(_rate_text(s["by_junctions"].get(str(j))) for j in JUNCTIONS)
-            servo.append(f"| {family} | {policy} | {tier} | {_rate_text(c)} | {_rate_text(h)} "
-                         f"| {gap} | {by} | {s['worlds']} |")  # fmt: skip
+            servo.append(
+                f"| {family} | {policy} | {tier} | {_rate_text(c)} | {_rate_text(h)} "
+                f"| {gap} | {by} | {s['worlds']} |"
+            )
     if servo:
         lines += [
             "",

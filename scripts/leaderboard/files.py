@@ -82,10 +82,20 @@ def code_version() -> dict:
     except metadata.PackageNotFoundError:
         package = None
     try:
-        commit = subprocess.run(["git", "-C", str(_ROOT), "rev-parse", "--short", "HEAD"],
-                                capture_output=True, text=True, timeout=10, check=True)  # fmt: skip
-        dirty = subprocess.run(["git", "-C", str(_ROOT), "status", "--porcelain", "-uno"],
-                               capture_output=True, text=True, timeout=10, check=True)  # fmt: skip
+        commit = subprocess.run(
+            ["git", "-C", str(_ROOT), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
+        dirty = subprocess.run(
+            ["git", "-C", str(_ROOT), "status", "--porcelain", "-uno"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
         sha = commit.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
     except (OSError, subprocess.SubprocessError):
         sha = None
@@ -150,10 +160,15 @@ def write_result(path: str | os.PathLike, result: dict) -> Path:
             old = None  # not a result file of this format: replaced as before
         new = result["method"]
         if old is not None and _identity(old) != _identity(new):
-            raise ResultFileError(path, "method", (
-                f"holds the results of {_identity(old)[0]} with params {_identity(old)[1]}; "
-                f"refusing to replace them with those of {_identity(new)[0]} with params "
-                f"{_identity(new)[1]}: write to another folder"))  # fmt: skip
+            raise ResultFileError(
+                path,
+                "method",
+                (
+                    f"holds the results of {_identity(old)[0]} with params {_identity(old)[1]}; "
+                    f"refusing to replace them with those of {_identity(new)[0]} with params "
+                    f"{_identity(new)[1]}: write to another folder"
+                ),
+            )
     write_json(path, result)
     return path
 
@@ -182,8 +197,9 @@ def read_result(path: str | os.PathLike) -> dict:
     when it is too large, not JSON, or a field is missing or malformed."""
     path = Path(path)
     if not path.is_file():  # a named pipe would block the read, a device never end it
-        raise ResultFileError(path, "file", "not a regular file (a folder, a named pipe, a "
-                                            "device, or nothing)")  # fmt: skip
+        raise ResultFileError(
+            path, "file", "not a regular file (a folder, a named pipe, a device, or nothing)"
+        )
     size = path.stat().st_size
     if size > MAX_BYTES:
         raise ResultFileError(path, "file", f"{size} bytes, more than the {MAX_BYTES} allowed")
@@ -194,8 +210,18 @@ def read_result(path: str | os.PathLike) -> dict:
     return check_result(data, path)
 
 
-_REQUIRED = ("format", "format_version", "task", "protocol", "split", "metric", "method",
-             "code_version", "machine", "records")  # fmt: skip
+_REQUIRED = (
+    "format",
+    "format_version",
+    "task",
+    "protocol",
+    "split",
+    "metric",
+    "method",
+    "code_version",
+    "machine",
+    "records",
+)
 
 
 def check_result(data, path) -> dict:
@@ -213,20 +239,27 @@ def check_result(data, path) -> dict:
     if data["format"] != FORMAT:
         fail("format", f"expected {FORMAT!r}, got {data['format']!r}")
     if data["format_version"] != FORMAT_VERSION or isinstance(data["format_version"], bool):
-        fail("format_version", f"this reader reads version {FORMAT_VERSION}, "
-                               f"got {data['format_version']!r}")  # fmt: skip
+        fail(
+            "format_version",
+            f"this reader reads version {FORMAT_VERSION}, got {data['format_version']!r}",
+        )
     for key in ("task", "split"):
         if not _short_str(data[key]):
             fail(key, f"expected a non-empty string, got {data[key]!r}")
     p = data["protocol"]
     if not (isinstance(p, dict) and _short_str(p.get("name")) and _int(p.get("version"))):
-        fail("protocol", f"expected {{'name': str, 'version': int in [0, {MAX_VERSION}]}}, "
-                         f"got {_shown(p)}")  # fmt: skip
+        fail(
+            "protocol",
+            f"expected {{'name': str, 'version': int in [0, {MAX_VERSION}]}}, got {_shown(p)}",
+        )
     m = data["metric"]
-    if not (isinstance(m, dict) and _short_str(m.get("name")) and _short_str(m.get("kind"))
-            and m["kind"] in KINDS):  # fmt: skip
-        fail("metric", f"expected {{'name': str, 'kind': one of {tuple(KINDS)}}}, "
-                       f"got {_shown(m)}")  # fmt: skip
+    if not (
+        isinstance(m, dict)
+        and _short_str(m.get("name"))
+        and _short_str(m.get("kind"))
+        and m["kind"] in KINDS
+    ):
+        fail("metric", f"expected {{'name': str, 'kind': one of {tuple(KINDS)}}}, got {_shown(m)}")
     method = data["method"]
     if not (isinstance(method, dict) and _short_str(method.get("name"))):
         fail("method", f"expected an object with a 'name', got {_shown(method)}")
@@ -254,8 +287,10 @@ def check_result(data, path) -> dict:
         seen.add((r["group"], r["unit"]))
         for key in ("value", "failure"):
             if key not in r:
-                fail(f"{where}.{key}", "missing (every record has 'value' and 'failure', "
-                                       "null when it does not apply)")  # fmt: skip
+                fail(
+                    f"{where}.{key}",
+                    "missing (every record has 'value' and 'failure', null when it does not apply)",
+                )
         failure, value = r["failure"], r["value"]
         if failure is not None:
             if not isinstance(failure, str) or value is not None:
@@ -263,8 +298,10 @@ def check_result(data, path) -> dict:
         elif rate and not isinstance(value, bool):
             fail(f"{where}.value", f"a rate's record is true or false, got {_shown(value)}")
         elif not rate and not _finite(value):
-            fail(f"{where}.value", f"expected a finite number of size at most {MAX_VALUE:g}, "
-                                   f"got {_shown(value)}")  # fmt: skip
+            fail(
+                f"{where}.value",
+                f"expected a finite number of size at most {MAX_VALUE:g}, got {_shown(value)}",
+            )
     return data
 
 

@@ -61,8 +61,9 @@ class OutsideMethod:
         if self._signature is not None:
             unknown = sorted(set(self.params) - set(self._signature))
             if unknown:
-                raise ValueError(f"{spec} takes no parameter {unknown[0]!r} "
-                                 f"(it takes {sorted(self._signature)})")  # fmt: skip
+                raise ValueError(
+                    f"{spec} takes no parameter {unknown[0]!r} (it takes {sorted(self._signature)})"
+                )
 
     @property
     def name(self) -> str:
@@ -83,9 +84,13 @@ class OutsideMethod:
         them the protocol chose (``protocol_params``: left out of the method's label) and the
         digest of the module's source (``source``: ``common.user_modules.source_digest``)."""
         given = {k: v for k, v in defaults.items() if k not in self.params and self.accepts(k)}
-        return {"name": self.name, "spec": self.spec, "params": {**given, **self.params},
-                "protocol_params": sorted(given),
-                "source": source_digest(self.spec.partition(":")[0])}  # fmt: skip
+        return {
+            "name": self.name,
+            "spec": self.spec,
+            "params": {**given, **self.params},
+            "protocol_params": sorted(given),
+            "source": source_digest(self.spec.partition(":")[0]),
+        }
 
 
 def load_method(spec: str, required: tuple[str, ...] = ("fit",)):
@@ -108,8 +113,10 @@ def load_method(spec: str, required: tuple[str, ...] = ("fit",)):
         raise ValueError(f"--method {spec}: {qualname!r} is a {type(obj).__name__}, not a class")
     missing = [m for m in required if not callable(getattr(obj, m, None))]
     if missing:
-        raise ValueError(f"--method {spec}: the class has no {', '.join(missing)} method "
-                         f"(needs {', '.join(required)})")  # fmt: skip
+        raise ValueError(
+            f"--method {spec}: the class has no {', '.join(missing)} method "
+            f"(needs {', '.join(required)})"
+        )
     return obj
 
 

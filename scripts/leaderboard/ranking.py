@@ -187,14 +187,18 @@ def _warnings(row: Row, kind: str) -> list[str]:
     if kind == "rate" and 0 < n < MIN_EPISODES:
         out.append(f"only {n} episodes (fewer than {MIN_EPISODES}): a rough interval")
     elif kind != "rate" and 0 < n < MIN_SEEDS:
-        out.append(f"only {n} units (fewer than {MIN_SEEDS}): the bootstrap interval is no "
-                   f"wider than the spread of {n} values, too narrow")  # fmt: skip
+        out.append(
+            f"only {n} units (fewer than {MIN_SEEDS}): the bootstrap interval is no "
+            f"wider than the spread of {n} values, too narrow"
+        )
     q = row.paired
     if q.get("n") and not np.isnan(q["lo"]):
         excludes = q["lo"] > 0 or q["hi"] < 0
         if excludes != (q["p"] < 0.05):
-            out.append(f"interval and test disagree over {q['n']} units: a percentile "
-                       "bootstrap of few units is too narrow; the test decides")  # fmt: skip
+            out.append(
+                f"interval and test disagree over {q['n']} units: a percentile "
+                "bootstrap of few units is too narrow; the test decides"
+            )
     return out
 
 
@@ -209,8 +213,10 @@ def _check_reference(joined, reference):
         known = sorted({label for _, label in joined})
         raise ValueError(f"--reference {reference!r} names no method; the methods are {known}")
     if len(labels) > 1:
-        raise ValueError(f"--reference {reference!r} names several methods: {sorted(labels)}; "
-                         "give the full label")  # fmt: skip
+        raise ValueError(
+            f"--reference {reference!r} names several methods: {sorted(labels)}; "
+            "give the full label"
+        )
 
 
 def _find(rows, reference, joined, board):
@@ -235,8 +241,9 @@ def _summarise(row: Row, kind: str, rng) -> None:
 def _bootstrap(x: np.ndarray, rng) -> tuple[float, float]:
     if x.size < 2 or np.ptp(x) == 0:
         return float(x.mean()), float(x.mean())
-    res = stats.bootstrap((x,), np.mean, n_resamples=N_RESAMPLES, method="percentile",
-                          random_state=rng)  # fmt: skip
+    res = stats.bootstrap(
+        (x,), np.mean, n_resamples=N_RESAMPLES, method="percentile", random_state=rng
+    )
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
@@ -255,8 +262,14 @@ def _paired(row: Row, ref: Row, kind: str, rng) -> dict:
         p = float(stats.wilcoxon(d).pvalue) if np.any(d != 0) and d.size > 1 else 1.0
         test = "Wilcoxon signed-rank"
     lo, hi = _bootstrap(d, rng)  # over the shared units, for rates too (differences of 0/1)
-    return {"n": len(units), "diff": float(d.mean()), "lo": lo, "hi": hi, "p": float(p),
-            "test": test}  # fmt: skip
+    return {
+        "n": len(units),
+        "diff": float(d.mean()),
+        "lo": lo,
+        "hi": hi,
+        "p": float(p),
+        "test": test,
+    }
 
 
 def _fmt(value: float, kind: str) -> str:
@@ -305,8 +318,7 @@ def leaderboard_markdown(results: list[dict], reference: str | None = None) -> s
     boards = rank(results, reference)
     parts = []
     for heading, header, body in leaderboard_tables(boards, reference):
-        lines = [f"### {heading}", "", "| " + " | ".join(header) + " |",
-                 "|" + "---|" * len(header)]  # fmt: skip
+        lines = [f"### {heading}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
         lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in body]
         parts.append("\n".join(lines))
     return "\n\n".join(parts) + "\n"
@@ -315,9 +327,11 @@ def leaderboard_markdown(results: list[dict], reference: str | None = None) -> s
 def leaderboard_html(results: list[dict], reference: str | None = None) -> str:
     """The same ranking as a standalone HTML page."""
     boards = rank(results, reference)
-    out = ["<!doctype html><html><head><meta charset='utf-8'><title>leaderboard</title>",
-           "<style>table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px}"
-           "</style></head><body><h1>Leaderboard</h1>"]  # fmt: skip
+    out = [
+        "<!doctype html><html><head><meta charset='utf-8'><title>leaderboard</title>",
+        "<style>table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px}"
+        "</style></head><body><h1>Leaderboard</h1>",
+    ]
     for heading, header, body in leaderboard_tables(boards, reference):
         out.append(f"<h2>{html.escape(heading)}</h2><table><tr>")
         out += [f"<th>{html.escape(h)}</th>" for h in header]

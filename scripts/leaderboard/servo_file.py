@@ -16,25 +16,48 @@ PROTOCOL = ("servo-closed-loop", 1)
 
 
 def _group(result: dict) -> str:
-    extras = [name for name, on in (("randomize", result.get("randomize")),
-                                    ("no odometry noise", result.get("odometry_noise") is False))
-              if on]  # fmt: skip
+    extras = [
+        name
+        for name, on in (
+            ("randomize", result.get("randomize")),
+            ("no odometry noise", result.get("odometry_noise") is False),
+        )
+        if on
+    ]
     steps = result.get("max_steps")
-    return "/".join([str(result["world"]), str(result["tier"]), *extras,
-                     *([f"{steps} steps"] if steps not in (None, 600) else [])])  # fmt: skip
+    return "/".join(
+        [
+            str(result["world"]),
+            str(result["tier"]),
+            *extras,
+            *([f"{steps} steps"] if steps not in (None, 600) else []),
+        ]
+    )
 
 
 def servo_result_file(results: list[dict], policy: str, split: str) -> dict:
     """The envelope of ``results`` (``servo.task.run_protocol``'s dicts, one per world), which
     it keeps as they are under ``results``."""
     records = [
-        {"group": _group(r), "unit": f"episode {e['episode']}", "seed": e.get("seed"),
-         "value": bool(e["success"]), "failure": None}
+        {
+            "group": _group(r),
+            "unit": f"episode {e['episode']}",
+            "seed": e.get("seed"),
+            "value": bool(e["success"]),
+            "failure": None,
+        }
         for r in results
         for e in r.get("episodes_detail", [])
-    ]  # fmt: skip
-    return envelope(TASK, PROTOCOL, split, servo_method(results, policy), ("success", "rate"),
-                    records, results=results)  # fmt: skip
+    ]
+    return envelope(
+        TASK,
+        PROTOCOL,
+        split,
+        servo_method(results, policy),
+        ("success", "rate"),
+        records,
+        results=results,
+    )
 
 
 def servo_method(results: list[dict], policy: str) -> dict:
@@ -44,16 +67,21 @@ def servo_method(results: list[dict], policy: str) -> dict:
     whether its process ran in a sandbox (``sandboxed``) and its source's digest
     (``source``)."""
     policy = str(policy)
-    params = next((r["policy_params"] for r in results if isinstance(r.get("policy_params"), dict)),
-                  {})  # fmt: skip
+    params = next(
+        (r["policy_params"] for r in results if isinstance(r.get("policy_params"), dict)), {}
+    )
     if ":" not in policy:
         return {"name": policy, "spec": f"servo.task.POLICIES:{policy}", "params": params}
     module = policy.split(":", 1)[0]
     where = next((r["isolation"] for r in results if isinstance(r.get("isolation"), dict)), {})
     source = next((r["source"] for r in results if isinstance(r.get("source"), dict)), None)
-    return {"name": module.rsplit(".", 1)[-1], "spec": policy, "params": params,
-            "sandboxed": bool(where.get("sandboxed", False)),
-            "source": source or source_digest(module)}  # fmt: skip
+    return {
+        "name": module.rsplit(".", 1)[-1],
+        "spec": policy,
+        "params": params,
+        "sandboxed": bool(where.get("sandboxed", False)),
+        "source": source or source_digest(module),
+    }
 
 
 def servo_results_of(data):

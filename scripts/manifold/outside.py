@@ -103,8 +103,10 @@ def evaluate_method(
         raise ValueError(f"seeds must be integers >= 0, got {seeds}")
     if DEV_SEED in seeds and len(seeds) > 1:
         raise ValueError(f"seed {DEV_SEED} is the dev seed: evaluate it apart from fresh seeds")
-    for name, given, allowed in (("conditions", conditions, CONDITIONS),
-                                 ("features", features, ALL_FEATURES)):  # fmt: skip
+    for name, given, allowed in (
+        ("conditions", conditions, CONDITIONS),
+        ("features", features, ALL_FEATURES),
+    ):
         bad = [g for g in given if g not in allowed]
         if bad or not given:
             raise ValueError(f"{name} must be among {allowed}, got {list(given)}")
@@ -120,13 +122,18 @@ def evaluate_method(
             needed.append(dataset_dir(root, seed + 1, condition))
         for k, path in enumerate(needed):
             if not (path / "meta.json").is_file():
-                raise ValueError(manifold_dataset_message(
-                    path, seed + k, condition, seed if k else None))  # fmt: skip
+                raise ValueError(
+                    manifold_dataset_message(path, seed + k, condition, seed if k else None)
+                )
         X_train, y_train, X_test, y_test = cell_data(root, condition, feat, seed)
         if builtin:
             row = score_methods(X_train, y_train, K, Q, X_test, y_test, methods=(method,))[0]
-            record.update(value=row.pop("test_error"), failure=None, assignment="predict",
-                          **{k: v for k, v in row.items() if k != "method"})  # fmt: skip
+            record.update(
+                value=row.pop("test_error"),
+                failure=None,
+                assignment="predict",
+                **{k: v for k, v in row.items() if k != "method"},
+            )
         else:
             try:
                 record.update(_fit_outside(method, X_train, y_train, X_test, y_test, seed))
@@ -135,18 +142,33 @@ def evaluate_method(
                 record.update(value=None, failure=f"{type(err).__name__}: {err}"[:500])
         records.append(record)
     if builtin:
-        described = {"name": method, "spec": f"scripts.manifold.methods:{method}", "params": {},
-                     "protocol_params": []}  # fmt: skip
+        described = {
+            "name": method,
+            "spec": f"scripts.manifold.methods:{method}",
+            "params": {},
+            "protocol_params": [],
+        }
     else:
         described = method.describe(n_clusters=K, random_state="the dataset seed")
     assignments = sorted({r["assignment"] for r in records if r.get("failure") is None})
     if NEAREST in assignments:
         described["notes"] = f"test frames: {NEAREST} (the class has no predict)"
     return envelope(
-        TASK, PROTOCOL, "dev" if seeds == [DEV_SEED] else "test", described, METRIC, records,
-        settings={"K": K, "Q": Q, "conditions": list(conditions), "features": list(features),
-                  "seeds": seeds, "root": str(root)},
-    )  # fmt: skip
+        TASK,
+        PROTOCOL,
+        "dev" if seeds == [DEV_SEED] else "test",
+        described,
+        METRIC,
+        records,
+        settings={
+            "K": K,
+            "Q": Q,
+            "conditions": list(conditions),
+            "features": list(features),
+            "seeds": seeds,
+            "root": str(root),
+        },
+    )
 
 
 def file_name(method: dict) -> str:
@@ -174,9 +196,12 @@ docs/guides/benchmark-your-method.md."""
 
 def add_parser(sub, help_text: str):
     """Register ``manifold-eval`` on the subparsers action ``sub``."""
-    p = sub.add_parser("manifold-eval", help=help_text,
-                       description=_DESCRIPTION,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    p = sub.add_parser(
+        "manifold-eval",
+        help=help_text,
+        description=_DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--root", type=Path, required=True, help="folder of the m-data-* datasets")
     p.add_argument("--out", type=Path, required=True, help="folder for the result files")
     p.add_argument(
@@ -206,8 +231,9 @@ def add_parser(sub, help_text: str):
         help="dataset seeds (default: the test seeds 1-10; 0 is the dev seed)",
     )
     p.add_argument("--features", nargs="+", choices=ALL_FEATURES, default=["hsv"])
-    p.add_argument("--conditions", nargs="+", choices=CONDITIONS,
-                   default=["interleaved", "held-out"])  # fmt: skip
+    p.add_argument(
+        "--conditions", nargs="+", choices=CONDITIONS, default=["interleaved", "held-out"]
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
     return p
@@ -226,11 +252,13 @@ def run(args) -> int:
         methods += list(METHODS)
     args.out.mkdir(parents=True, exist_ok=True)
     for method in methods:
-        result = evaluate_method(args.root, method, args.conditions, args.features, args.seeds,
-                                 progress=not args.quiet)  # fmt: skip
+        result = evaluate_method(
+            args.root, method, args.conditions, args.features, args.seeds, progress=not args.quiet
+        )
         path = write_result(args.out / file_name(result["method"]), result)
-        failed = [f"{r['group']} {r['unit']}: {r['failure']}" for r in result["records"]
-                  if r["failure"]]  # fmt: skip
+        failed = [
+            f"{r['group']} {r['unit']}: {r['failure']}" for r in result["records"] if r["failure"]
+        ]
         print(f"wrote {path}" + "".join(f"\n  failed {f}" for f in failed))
     results = load_results([args.out])
     reference = "ours" if any(r["method"]["name"] == "ours" for r in results) else None

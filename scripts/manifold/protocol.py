@@ -217,8 +217,11 @@ def _cached_cell(path: Path) -> dict | None:
     else:
         problem = _cell_problem(data)
     if problem:
-        warnings.warn(f"{path}: computed again, the cached cell is unusable: {problem}",
-                      RuntimeWarning, stacklevel=3)  # fmt: skip
+        warnings.warn(
+            f"{path}: computed again, the cached cell is unusable: {problem}",
+            RuntimeWarning,
+            stacklevel=3,
+        )
         return None
     return data
 
@@ -234,8 +237,9 @@ def load_cells(out: Path) -> list[dict]:
             raise ValueError(f"{path}: not a protocol cell: not JSON ({err})") from err
         problem = _cell_problem(data)
         if problem:
-            raise ValueError(f"{path}: not a protocol cell (condition, features, seed, rows): "
-                             f"{problem}")  # fmt: skip
+            raise ValueError(
+                f"{path}: not a protocol cell (condition, features, seed, rows): {problem}"
+            )
         cells.append(data)
     return cells
 

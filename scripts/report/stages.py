@@ -109,8 +109,12 @@ def stage_protocol(folder: str | Path | None) -> dict:
         )
     source = Path(folder).resolve()
     shown = str(source.relative_to(REPO_ROOT)) if source.is_relative_to(REPO_ROOT) else str(folder)
-    return {"source": shown, "cells": len(cells), "rows": summarize(cells),
-            "made": _protocol_meta(Path(folder) / "meta.json")}  # fmt: skip
+    return {
+        "source": shown,
+        "cells": len(cells),
+        "rows": summarize(cells),
+        "made": _protocol_meta(Path(folder) / "meta.json"),
+    }
 
 
 def _protocol_meta(path: Path) -> dict:
@@ -158,15 +162,29 @@ def stage_servo(
             controller = policy in ("servo", "signal")
             for tier in settings.tiers if controller else settings.baseline_tiers:
                 plot = out_dir / f"{world}-{policy}-{tier}-trajectories.png"
-                r = run_protocol(Protocol(world, tier, "test"), path, settings.episodes, policy,
-                                 progress=progress, plot=plot)  # fmt: skip
+                r = run_protocol(
+                    Protocol(world, tier, "test"),
+                    path,
+                    settings.episodes,
+                    policy,
+                    progress=progress,
+                    plot=plot,
+                )
                 r["plot"] = _rel(r["plot"], root)
                 r.pop("episodes_detail", None)  # report.json keeps the tables, not every step
                 results.append(r)
         if settings.videos:
             policy = settings.policies[0]
-            evaluate(world, settings.videos, settings.seed, policy=policy, servo_map=servo_map,
-                     out=out_dir, videos=settings.videos, progress=progress)  # fmt: skip
+            evaluate(
+                world,
+                settings.videos,
+                settings.seed,
+                policy=policy,
+                servo_map=servo_map,
+                out=out_dir,
+                videos=settings.videos,
+                progress=progress,
+            )
             found = sorted(out_dir.glob(f"{world}-{policy}-episode*.mp4"))[: settings.videos]
             if found:
                 videos[f"{world}/{policy}"] = [_rel(p, root) for p in found]

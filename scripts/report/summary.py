@@ -55,11 +55,19 @@ def summarise_run(results: Mapping[str, dict]) -> list[dict]:
     return lines
 
 
-def _line(task, measure, value, interval=None, interval_kind=None, target=None, meets=None,
-          detail="") -> dict:  # fmt: skip
-    return {"task": task, "measure": measure, "value": value, "interval": interval,
-            "interval_kind": interval_kind, "target": target, "meets": meets,
-            "detail": detail}  # fmt: skip
+def _line(
+    task, measure, value, interval=None, interval_kind=None, target=None, meets=None, detail=""
+) -> dict:
+    return {
+        "task": task,
+        "measure": measure,
+        "value": value,
+        "interval": interval,
+        "interval_kind": interval_kind,
+        "target": target,
+        "meets": meets,
+        "detail": detail,
+    }
 
 
 def _manifold_line(seeds: dict | None, manifold: dict | None) -> dict:
@@ -77,8 +85,11 @@ def _manifold_line(seeds: dict | None, manifold: dict | None) -> dict:
                 task,
                 f"test error, mean over {s['n']} fresh dataset seeds (interleaved split, HSV "
                 f"histograms; {seeds['source']})",
-                s["mean"], [s["lo"], s["hi"]], "bootstrap 95%", detail=detail,
-            )  # fmt: skip
+                s["mean"],
+                [s["lo"], s["hi"]],
+                "bootstrap 95%",
+                detail=detail,
+            )
     return _line(
         task,
         "test error on this run's dataset (interleaved split, HSV histograms; one dataset "
@@ -94,10 +105,13 @@ def _own_test_error(manifold: dict | None) -> float | None:
 
     hsv = FEATURES[MANIFOLD_HEADLINE[1]][0]
     return next(
-        (r["test_error"] for r in manifold.get("real", [])
-         if r["features"] == hsv and r["method"] == MANIFOLD_HEADLINE[2]),
+        (
+            r["test_error"]
+            for r in manifold.get("real", [])
+            if r["features"] == hsv and r["method"] == MANIFOLD_HEADLINE[2]
+        ),
         None,
-    )  # fmt: skip
+    )
 
 
 def _grouping_line(grouping: dict) -> dict:
@@ -112,8 +126,13 @@ def _grouping_line(grouping: dict) -> dict:
     )
     measure = f"purity of the groups, lowest world ({shown} poses; one grouping per world)"
     if not scores or any(s["purity"] is None for s in scores.values()):
-        return _line("observation grouping (Blanco et al.)", measure, None, target=target,
-                     detail="no ground-truth labels: not scored")  # fmt: skip
+        return _line(
+            "observation grouping (Blanco et al.)",
+            measure,
+            None,
+            target=target,
+            detail="no ground-truth labels: not scored",
+        )
     worst = min(scores, key=lambda w: scores[w]["purity"])
     detail = "; ".join(
         f"{w}: purity {s['purity']:.3f}, at most {s['max_groups_per_manifold']} groups per "
@@ -121,9 +140,13 @@ def _grouping_line(grouping: dict) -> dict:
         for w, s in scores.items()
     )
     return _line(
-        "observation grouping (Blanco et al.)", measure, scores[worst]["purity"],
-        target=target, meets=all(s["meets_targets"] for s in scores.values()), detail=detail,
-    )  # fmt: skip
+        "observation grouping (Blanco et al.)",
+        measure,
+        scores[worst]["purity"],
+        target=target,
+        meets=all(s["meets_targets"] for s in scores.values()),
+        detail=detail,
+    )
 
 
 def _servo_lines(results: Sequence[dict]) -> list[dict]:

@@ -59,13 +59,17 @@ def heldout_worlds(root: Path, sources) -> str:
         err = {r["method"]: r["test_error"] for r in t.get("manifold", {}).get("rows", [])}
         servo = t.get("servo", {}).get("records", [])
         by = {p: [r["success"] for r in servo if r["policy"] == p] for p in ("servo", "signal")}
-        rows.append({
-            "world": c["world"], "manifolds": len(c["manifolds"]),
-            "depth": max(c["junctions"].values()),
-            "ours": err.get(OURS), "sklearn": err.get(SKLEARN_DEFAULT),
-            "purity": t.get("grouping", {}).get("purity"),
-            **{p: f"{sum(ok)}/{len(ok)}" if ok else "" for p, ok in by.items()},
-        })  # fmt: skip
+        rows.append(
+            {
+                "world": c["world"],
+                "manifolds": len(c["manifolds"]),
+                "depth": max(c["junctions"].values()),
+                "ours": err.get(OURS),
+                "sklearn": err.get(SKLEARN_DEFAULT),
+                "purity": t.get("grouping", {}).get("purity"),
+                **{p: f"{sum(ok)}/{len(ok)}" if ok else "" for p, ok in by.items()},
+            }
+        )
     pct = lambda v: "" if v is None else f"{100 * v:.1f}%"  # noqa: E731
     columns = (
         Column("world", "world"),

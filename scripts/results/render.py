@@ -61,15 +61,17 @@ def readme_table(root: Path, pages: Path = PAGES_DIR) -> Table:
     for row in ROWS:
         e = read_estimate(root / DATA, row.reader, row.source, **row.keys)
         title, page = PAGES[row.task]
-        rows.append({
-            "task": f"[{title}]({(pages / page).as_posix()})",
-            "data": row.data,
-            "method": row.method,
-            "measure": row.measure,
-            "estimate": _estimate_text(row, e),
-            "n": f"{e.n} {e.unit[:-1] if e.n == 1 and e.unit.endswith('s') else e.unit}",
-            "split": row.split,
-        })  # fmt: skip
+        rows.append(
+            {
+                "task": f"[{title}]({(pages / page).as_posix()})",
+                "data": row.data,
+                "method": row.method,
+                "measure": row.measure,
+                "estimate": _estimate_text(row, e),
+                "n": f"{e.n} {e.unit[:-1] if e.n == 1 and e.unit.endswith('s') else e.unit}",
+                "split": row.split,
+            }
+        )
     columns = (
         Column("task", "task"),
         Column("data", "data"),
@@ -114,8 +116,10 @@ def _grouping_tables(root: Path, sources) -> str:
 
 def _grouping_seeds(root: Path, sources) -> str:
     """The scan grouping's scores on every dataset seed, per world and pose source."""
-    files = sorted((root / DATA / sources[0]).parent.glob(Path(sources[0]).name),
-                   key=lambda f: int(f.stem.rsplit("-", 1)[1]))  # fmt: skip
+    files = sorted(
+        (root / DATA / sources[0]).parent.glob(Path(sources[0]).name),
+        key=lambda f: int(f.stem.rsplit("-", 1)[1]),
+    )
     results = [read_json(f) for f in files]
     rows = []
     for world in results[0]["default"]:
@@ -125,16 +129,25 @@ def _grouping_seeds(root: Path, sources) -> str:
             scores = [r["default"][world][variant] for r in results]
             row = {"world": world, "poses": variant, "seeds": len(scores)}
             for key in ("purity", "ari"):
-                e = read_estimate(root / DATA, "grouping-score", sources[0],
-                                  world=world, variant=variant, score=key)  # fmt: skip
+                e = read_estimate(
+                    root / DATA,
+                    "grouping-score",
+                    sources[0],
+                    world=world,
+                    variant=variant,
+                    score=key,
+                )
                 row[key] = e
             row["groups"] = [s["groups"] for s in scores]
             row["met"] = sum(bool(s["meets_targets"]) for s in scores)
             rows.append(row)
 
     def interval(e: Estimate) -> str:
-        return f"{e.value:.3f} [{e.interval[0]:.3f}, {e.interval[1]:.3f}]" if e.interval else (
-            f"{e.value:.3f}")  # fmt: skip
+        return (
+            f"{e.value:.3f} [{e.interval[0]:.3f}, {e.interval[1]:.3f}]"
+            if e.interval
+            else (f"{e.value:.3f}")
+        )
 
     columns = (
         Column("world", "world"),
@@ -182,15 +195,23 @@ def _servo_reruns(root: Path, sources) -> str:
                     and e["tier"] == rerun["tier"]
                     and e["randomize"] == rerun["randomize"]
                 )
-                same = sum(ends.get(e["episode"]) == (e["success"], e["reason"])
-                           for e in base["episodes_detail"])  # fmt: skip
-                rows.append({
-                    "world": rerun["world"], "policy": rerun["policy"],
-                    "cell": f"{rerun['tier']}/{rerun['split']}"
-                    + ("/randomize" if rerun["randomize"] else ""),
-                    "n": c.n, "committed": c.successes_a, "rerun": c.successes_b,
-                    "changed": f"+{c.gained} / -{c.lost}", "same_end": same,
-                })  # fmt: skip
+                same = sum(
+                    ends.get(e["episode"]) == (e["success"], e["reason"])
+                    for e in base["episodes_detail"]
+                )
+                rows.append(
+                    {
+                        "world": rerun["world"],
+                        "policy": rerun["policy"],
+                        "cell": f"{rerun['tier']}/{rerun['split']}"
+                        + ("/randomize" if rerun["randomize"] else ""),
+                        "n": c.n,
+                        "committed": c.successes_a,
+                        "rerun": c.successes_b,
+                        "changed": f"+{c.gained} / -{c.lost}",
+                        "same_end": same,
+                    }
+                )
     columns = (
         Column("world", "world"),
         Column("policy", "policy"),
@@ -201,8 +222,10 @@ def _servo_reruns(root: Path, sources) -> str:
         Column("changed", "gained / lost by the rerun"),
         Column("same_end", "same end (success, reason)", "d"),
     )
-    note = ("`topomap servo-compare COMMITTED RERUN` pairs a rerun with its committed cell "
-            "episode by episode.",)  # fmt: skip
+    note = (
+        "`topomap servo-compare COMMITTED RERUN` pairs a rerun with its committed cell "
+        "episode by episode.",
+    )
     return Table.of(columns, rows, notes=note).to_markdown()
 
 
@@ -305,9 +328,10 @@ def generate(root: Path) -> dict[Path, str]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog=COMMAND, description="README's Results table and docs/results/*.md, from the "
-        "committed result files under docs/results/data/."
-    )  # fmt: skip
+        prog=COMMAND,
+        description="README's Results table and docs/results/*.md, from the "
+        "committed result files under docs/results/data/.",
+    )
     parser.add_argument(
         "--check",
         action="store_true",
@@ -326,7 +350,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.check and stale:
         print(f"out of date (run {COMMAND}): {', '.join(stale)}", file=sys.stderr)
         return 1
-    print(("checked" if args.check else "wrote") + f": README.md, {FRONT_PAGE.as_posix()} and "
-          f"{len(PAGES)} results pages"
-          + (f" ({len(stale)} changed)" if stale and not args.check else ""))  # fmt: skip
+    print(
+        ("checked" if args.check else "wrote") + f": README.md, {FRONT_PAGE.as_posix()} and "
+        f"{len(PAGES)} results pages"
+        + (f" ({len(stale)} changed)" if stale and not args.check else "")
+    )
     return 0

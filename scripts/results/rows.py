@@ -47,13 +47,21 @@ _FRESH = "test frames, fresh seeds 1-10"
 def _manifold(data: str, condition: str, features: str) -> list[Row]:
     """Ours beside scikit-learn's k-NN spectral clustering on one protocol condition."""
     return [
-        Row("manifold", data, label, "test error", _FRESH, "protocol-error", _PROTOCOL,
-            {"condition": condition, "features": features, "method": method})
+        Row(
+            "manifold",
+            data,
+            label,
+            "test error",
+            _FRESH,
+            "protocol-error",
+            _PROTOCOL,
+            {"condition": condition, "features": features, "method": method},
+        )
         for label, method in (
             ("ManifoldClustering (ours)", "ours"),
             ("scikit-learn k-NN spectral (k=10)", "scikit-learn kNN (k=10)"),
         )
-    ]  # fmt: skip
+    ]
 
 
 _GROUPING_SEEDS = "grouping/simulated-seed-*.json"
@@ -61,28 +69,36 @@ _GROUPING_SEEDS = "grouping/simulated-seed-*.json"
 
 def _grouping(world: str) -> Row:
     return Row(
-        "grouping", f"simulated {world}, 3 drives, odometry + ICP",
-        "ObservationGraphPartitioner", "purity", "every frame, one dataset per seed",
-        "grouping-score", _GROUPING_SEEDS,
+        "grouping",
+        f"simulated {world}, 3 drives, odometry + ICP",
+        "ObservationGraphPartitioner",
+        "purity",
+        "every frame, one dataset per seed",
+        "grouping-score",
+        _GROUPING_SEEDS,
         {"world": world, "variant": "odometry+icp", "score": "purity"},
-    )  # fmt: skip
+    )
 
 
 def _carmen(log: str, name: str) -> Row:
     return Row(
-        "grouping", f"Radish {name} log, corrected poses", "ObservationGraphPartitioner",
-        "groups (no ground truth)", "whole log", "carmen-groups", "grouping/radish-logs.json",
+        "grouping",
+        f"Radish {name} log, corrected poses",
+        "ObservationGraphPartitioner",
+        "groups (no ground truth)",
+        "whole log",
+        "carmen-groups",
+        "grouping/radish-logs.json",
         {"log": log, "variant": "given"},
-    )  # fmt: skip
+    )
 
 
 _CONTROLLERS = {"servo": "ManifoldServo (laser + image)", "signal": "SignalServo (camera only)"}
 _TIERS = {
     "view": ("starts near a stored view", "view-test"),
     "anywhere": ("starts anywhere", "anywhere-test"),
-    "anywhere-randomize": ("starts anywhere, random lights and colours",
-                           "anywhere-randomize-test"),
-}  # fmt: skip
+    "anywhere-randomize": ("starts anywhere, random lights and colours", "anywhere-randomize-test"),
+}
 
 
 def _servo_file(policy: str, world: str, tier: str) -> str:
@@ -100,13 +116,21 @@ ROWS: tuple[Row, ...] = (
     _carmen("aces-corrected", "ACES"),
     _carmen("csail-corrected", "CSAIL"),
     *(
-        Row("servo", f"{world}, {_TIERS[tier][0]}", _CONTROLLERS[policy], "success", "test split",
-            "servo-success", _servo_file(policy, world, tier), {"world": world})
+        Row(
+            "servo",
+            f"{world}, {_TIERS[tier][0]}",
+            _CONTROLLERS[policy],
+            "success",
+            "test split",
+            "servo-success",
+            _servo_file(policy, world, tier),
+            {"world": world},
+        )
         for policy in _CONTROLLERS
         for world in ("hallway", "lawn")
         for tier in _TIERS
     ),
-)  # fmt: skip
+)
 
 
 @dataclass(frozen=True)
@@ -133,31 +157,81 @@ def _servo_sources(policy: str) -> tuple[str, ...]:
 
 
 SECTIONS: tuple[Section, ...] = (
-    Section("manifold", "The frozen protocol: every condition, features and method",
-            "protocol-summary", (_PROTOCOL,)),
-    Section("manifold", "Methods from outside, through the protocol (topomap manifold-eval)",
-            "leaderboard", ("manifold/leaderboard",)),
-    Section("grouping", "Simulated worlds over dataset seeds: the three drives of each world",
-            "grouping-seeds", (_GROUPING_SEEDS,)),
-    Section("grouping", "Simulated worlds, dataset seed 0: every case and both sensors",
-            "grouping-tables", ("grouping/simulated-seed-0.json",)),
-    Section("grouping", "Real robot logs (Radish, Carmen format)", "carmen-table",
-            ("grouping/radish-logs.json",)),
-    Section("grouping", "Methods from outside (topomap group-eval --method)", "leaderboard",
-            ("grouping/leaderboard",)),
-    *(Section("servo", f"{name}, test split, 100 episodes per cell", "servo-summary",
-              _servo_sources(policy)) for policy, name in _CONTROLLERS.items()),
-    Section("servo", "The cells above rerun at the current code, first episodes",
-            "servo-reruns", ("servo/reruns",)),
-    Section("servo", "Outside policies (examples/, run as package.module:factory), test split, "
-            "starts near a stored view, 20 episodes per world", "servo-summary",
-            _OUTSIDE_SERVO),
-    Section("servo", "Leaderboard: success per episode, starts near a stored view, test split "
-            "(topomap leaderboard, paired against ManifoldServo on the episodes both ran)",
-            "leaderboard", ("servo/servo-all-view-test-100ep.json",
-                            "servo/signal-hallway-view-test-100ep.json",
-                            "servo/signal-lawn-view-test-100ep.json", *_OUTSIDE_SERVO)),
-    Section("worlds", "Every task: the canonical world beside held-out test worlds",
-            "heldout-summary", ("worlds/heldout.json",)),
+    Section(
+        "manifold",
+        "The frozen protocol: every condition, features and method",
+        "protocol-summary",
+        (_PROTOCOL,),
+    ),
+    Section(
+        "manifold",
+        "Methods from outside, through the protocol (topomap manifold-eval)",
+        "leaderboard",
+        ("manifold/leaderboard",),
+    ),
+    Section(
+        "grouping",
+        "Simulated worlds over dataset seeds: the three drives of each world",
+        "grouping-seeds",
+        (_GROUPING_SEEDS,),
+    ),
+    Section(
+        "grouping",
+        "Simulated worlds, dataset seed 0: every case and both sensors",
+        "grouping-tables",
+        ("grouping/simulated-seed-0.json",),
+    ),
+    Section(
+        "grouping",
+        "Real robot logs (Radish, Carmen format)",
+        "carmen-table",
+        ("grouping/radish-logs.json",),
+    ),
+    Section(
+        "grouping",
+        "Methods from outside (topomap group-eval --method)",
+        "leaderboard",
+        ("grouping/leaderboard",),
+    ),
+    *(
+        Section(
+            "servo",
+            f"{name}, test split, 100 episodes per cell",
+            "servo-summary",
+            _servo_sources(policy),
+        )
+        for policy, name in _CONTROLLERS.items()
+    ),
+    Section(
+        "servo",
+        "The cells above rerun at the current code, first episodes",
+        "servo-reruns",
+        ("servo/reruns",),
+    ),
+    Section(
+        "servo",
+        "Outside policies (examples/, run as package.module:factory), test split, "
+        "starts near a stored view, 20 episodes per world",
+        "servo-summary",
+        _OUTSIDE_SERVO,
+    ),
+    Section(
+        "servo",
+        "Leaderboard: success per episode, starts near a stored view, test split "
+        "(topomap leaderboard, paired against ManifoldServo on the episodes both ran)",
+        "leaderboard",
+        (
+            "servo/servo-all-view-test-100ep.json",
+            "servo/signal-hallway-view-test-100ep.json",
+            "servo/signal-lawn-view-test-100ep.json",
+            *_OUTSIDE_SERVO,
+        ),
+    ),
+    Section(
+        "worlds",
+        "Every task: the canonical world beside held-out test worlds",
+        "heldout-summary",
+        ("worlds/heldout.json",),
+    ),
     Section("worlds", "Per world", "heldout-worlds", ("worlds/heldout.json",)),
-)  # fmt: skip
+)

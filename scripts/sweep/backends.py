@@ -63,15 +63,21 @@ class LocalBackend:
         """Every worker holds ``factory(*args)``; its ``run`` gets the tasks."""
         problem = spawn_problem()
         if problem:
-            warnings.warn(f"sweeping in this process, not in {self.workers} worker processes: "
-                          f"{problem}", RuntimeWarning, stacklevel=3)  # fmt: skip
+            warnings.warn(
+                f"sweeping in this process, not in {self.workers} worker processes: {problem}",
+                RuntimeWarning,
+                stacklevel=3,
+            )
             self.workers = 1
             # the caller's thread settings stay its own: one thread is for a pool's workers
             self._runner = factory(*args, one_thread=False)
             return
-        self._pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"),
-                                         initializer=_init_pool_worker,
-                                         initargs=(factory, args))  # fmt: skip
+        self._pool = ProcessPoolExecutor(
+            self.workers,
+            mp_context=get_context("spawn"),
+            initializer=_init_pool_worker,
+            initargs=(factory, args),
+        )
         # start the processes now (a spawned pool starts them all on its first task), so that
         # their start-up counts as the sweep's start-up on both backends; they inherit
         # ONE_THREAD from the environment they are started in
@@ -133,12 +139,18 @@ def open_backend(backend: str, workers: int, address: str | None = None):
 def add_backend_arguments(parser) -> None:
     """``--backend`` and ``--address`` on an argparse ``parser``: the options of every command
     that runs its tasks on these backends."""
-    parser.add_argument("--backend", choices=BACKENDS, default="local",
-                        help="local: processes on this machine; ray: Ray actors "
-                             "(pip install ray)")  # fmt: skip
-    parser.add_argument("--address", default=None,
-                        help="an existing Ray cluster's address (host:port or ray://host:port); "
-                             "default: start a local Ray instance")  # fmt: skip
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="local",
+        help="local: processes on this machine; ray: Ray actors (pip install ray)",
+    )
+    parser.add_argument(
+        "--address",
+        default=None,
+        help="an existing Ray cluster's address (host:port or ray://host:port); "
+        "default: start a local Ray instance",
+    )
 
 
 def default_workers() -> int:

@@ -158,20 +158,29 @@ def run_sweep(
         t0 = time.perf_counter()
         workers.start(maps, policy, max_steps)
         t1 = time.perf_counter()
-        with tqdm(total=len(tasks), desc=f"sweep {policy}", unit="episode",
-                  disable=not progress) as bar:  # fmt: skip
+        with tqdm(
+            total=len(tasks), desc=f"sweep {policy}", unit="episode", disable=not progress
+        ) as bar:
             for i, record in workers.run(tasks):
                 records[i] = record
                 bar.update(1)
         t2 = time.perf_counter()
         n = workers.workers  # fewer where none could start (a script piped to Python)
-    sweep = {"backend": backend, "num_envs": n, "startup_s": t1 - t0, "run_s": t2 - t1,
-             "episodes_per_min": 60.0 * len(tasks) / (t2 - t1)}  # fmt: skip
+    sweep = {
+        "backend": backend,
+        "num_envs": n,
+        "startup_s": t1 - t0,
+        "run_s": t2 - t1,
+        "episodes_per_min": 60.0 * len(tasks) / (t2 - t1),
+    }
     rows = []
     for world in worlds:
         for setting in settings:
-            rs = [r for r, t in zip(records, tasks, strict=True)
-                  if (t.world, t.setting) == (world, setting)]  # fmt: skip
+            rs = [
+                r
+                for r, t in zip(records, tasks, strict=True)
+                if (t.world, t.setting) == (world, setting)
+            ]
             row = {"world": world, "setting": setting, "policy": policy}
             row.update(summarise_batch(rs), worker_s=float(sum(r["wall_s"] for r in rs)), **sweep)
             rows.append(row)

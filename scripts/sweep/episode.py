@@ -52,8 +52,12 @@ def sweep_tasks(worlds, settings, seeds, episodes_per_seed: int) -> list[Episode
 # The workers are the parallelism, one per core (a Ray actor asks for one CPU); more threads only
 # contend for the cores (docs/guides/sweeps.md, "Measured"). Set in a worker's environment before it
 # starts (libraries read them on loading), and again by configure_worker.
-ONE_THREAD = {"LP_NUM_THREADS": "0", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
-              "MKL_NUM_THREADS": "1"}  # fmt: skip
+ONE_THREAD = {
+    "LP_NUM_THREADS": "0",
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
 
 
 def configure_worker() -> None:
@@ -104,8 +108,13 @@ class EpisodeRunner:
         reset_seed = episode_seeds(task.seed, task.episode + 1)[task.episode]
         policy = make_policy(self._policy, env, np.random.default_rng(reset_seed))
         record = run_episode(env, policy, reset_seed, truth=self._policy == TRUTH_POLICY)
-        record.update(seed=task.seed, episode=task.episode, reset_seed=reset_seed,
-                      pid=os.getpid(), wall_s=time.perf_counter() - t0)  # fmt: skip
+        record.update(
+            seed=task.seed,
+            episode=task.episode,
+            reset_seed=reset_seed,
+            pid=os.getpid(),
+            wall_s=time.perf_counter() - t0,
+        )
         return record
 
     def close(self) -> None:

@@ -125,14 +125,20 @@ class RayBackend:
         ray = self._ray
         if ray.is_initialized():  # the caller's own Ray session: use it as it is
             return
-        kwargs = {"include_dashboard": False, "logging_level": "warning",
-                  "runtime_env": runtime_env(self.address)}  # fmt: skip
+        kwargs = {
+            "include_dashboard": False,
+            "logging_level": "warning",
+            "runtime_env": runtime_env(self.address),
+        }
         if self.address is None:
             # "local": always a new instance (None would join a cluster `ray start` left on
             # this machine); the smallest object store that holds the maps (Ray's minimum is
             # 75 MiB)
-            kwargs.update(address="local", num_cpus=self.workers,
-                          object_store_memory=max(100 << 20, 2 * object_store_bytes))  # fmt: skip
+            kwargs.update(
+                address="local",
+                num_cpus=self.workers,
+                object_store_memory=max(100 << 20, 2 * object_store_bytes),
+            )
         else:
             kwargs.update(address=self.address)
         ray.init(**kwargs)

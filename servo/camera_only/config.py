@@ -12,8 +12,18 @@ from common.validation import check_int
 from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 # settings that may be 0 (off)
-_MAY_BE_ZERO = ("max_relocalise", "lateral_rounds", "relocalise_bumps", "bump_shift",
-                "cross_gain", "pose_every", "pose_agree", "fix_check", "look_back", "unpeaked")
+_MAY_BE_ZERO = (
+    "max_relocalise",
+    "lateral_rounds",
+    "relocalise_bumps",
+    "bump_shift",
+    "cross_gain",
+    "pose_every",
+    "pose_agree",
+    "fix_check",
+    "look_back",
+    "unpeaked",
+)
 
 
 @dataclass(frozen=True)
@@ -296,8 +306,11 @@ class SignalServoConfig:
                     raise ValueError(f"{f.name} must be a bool, got {v!r}")
             elif f.type == "int":
                 check_int(v, f.name, minimum=0 if f.name in _MAY_BE_ZERO else 1)
-            elif not (isinstance(v, int | float) and np.isfinite(v)
-                      and (v > 0 or (v == 0 and f.name in _MAY_BE_ZERO))):  # fmt: skip
+            elif not (
+                isinstance(v, int | float)
+                and np.isfinite(v)
+                and (v > 0 or (v == 0 and f.name in _MAY_BE_ZERO))
+            ):
                 bound = ">= 0" if f.name in _MAY_BE_ZERO else "> 0"
                 raise ValueError(f"{f.name} must be a finite number {bound}, got {v!r}")
         if not self.speed <= V_LIMITS[1]:
@@ -308,8 +321,16 @@ class SignalServoConfig:
             )
         if not self.turn_rate <= OMEGA_LIMIT:
             raise ValueError(f"turn_rate must be in (0, {OMEGA_LIMIT}] rad/s, got {self.turn_rate}")
-        gains = ("heading_gain", "along_gain", "cross_gain", "arrive_drop", "arrive_min",
-                 "arrive_confirm", "fix_contrast", "pose_gain")
+        gains = (
+            "heading_gain",
+            "along_gain",
+            "cross_gain",
+            "arrive_drop",
+            "arrive_min",
+            "arrive_confirm",
+            "fix_contrast",
+            "pose_gain",
+        )
         for name in gains:
             if not getattr(self, name) <= 1:
                 raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")

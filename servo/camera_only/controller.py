@@ -138,8 +138,13 @@ class SignalServo:
     servo.ServoEnv : The task it is evaluated on.
     """
 
-    def __init__(self, servo_map: ServoMap, *, config: SignalServoConfig | None = None,
-                 world: str | None = None):  # fmt: skip
+    def __init__(
+        self,
+        servo_map: ServoMap,
+        *,
+        config: SignalServoConfig | None = None,
+        world: str | None = None,
+    ):
         if not isinstance(servo_map, ServoMap):
             raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
         if world is not None:
@@ -164,11 +169,15 @@ class SignalServo:
         self.cross_parallax = k if k >= self.config.cross_min_parallax else 0.0
         # metric poses against route views from keypoints at the views' map-time depths
         # measure the offset across apart from the heading, in both worlds
-        self.poses = (PoseFixes(ViewPose(servo_map), self.config) if self.config.pose_every
-                      else None)  # fmt: skip
-        self.fixes = RouteImageFix(self.localiser, self.config, self.poses,
-                                   far_scene=self.far_scene, parallax=self.parallax,
-                                   cross_parallax=self.cross_parallax)  # fmt: skip
+        self.poses = PoseFixes(ViewPose(servo_map), self.config) if self.config.pose_every else None
+        self.fixes = RouteImageFix(
+            self.localiser,
+            self.config,
+            self.poses,
+            far_scene=self.far_scene,
+            parallax=self.parallax,
+            cross_parallax=self.cross_parallax,
+        )
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
@@ -299,9 +308,16 @@ class SignalServo:
     def _image_fix(self, x: np.ndarray) -> None:
         """Correct the belief by the image; count the steps no route view matched
         (`fix`)."""
-        fixed = self.fixes.fix(self.belief_, self.route_, x, self._image, self._odo, self._steps,
-                               reversing=self._reversing,
-                               following=self.phase_ == "follow")  # fmt: skip
+        fixed = self.fixes.fix(
+            self.belief_,
+            self.route_,
+            x,
+            self._image,
+            self._odo,
+            self._steps,
+            reversing=self._reversing,
+            following=self.phase_ == "follow",
+        )
         if fixed is not None:
             self._lost = 0 if fixed else self._lost + 1
 
@@ -315,9 +331,14 @@ class SignalServo:
             t.advance()
         if self.config.junction_fix and before < 0 < t.directions[t.index]:
             # reversing gave way to driving forward (a junction): turn on the spot there
-            self._junction = JunctionTurn.on_route(self.routes, b, self.route_,
-                                                   int(self._wp_index[t.index]), self.config,
-                                                   self.parallax)  # fmt: skip
+            self._junction = JunctionTurn.on_route(
+                self.routes,
+                b,
+                self.route_,
+                int(self._wp_index[t.index]),
+                self.config,
+                self.parallax,
+            )
         if not t.last and t.directions[t.index] > 0:
             f_cur, f_next = self.localiser.signals(x, [t.current, t.next])
             if f_cur > self.config.arrive_min and t.update(f_cur, f_next, 1.0, 1.0, 0.0):
@@ -342,13 +363,21 @@ class SignalServo:
             self._look, self._travel = None, 0.0
         self._image_fix(x)
         # pushing a wall again and again at one place: the belief is off across the route
-        walled = (c.relocalise_bumps > 0 and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
-                  and (self.phase_ == "follow" or c.bumps_arriving))  # fmt: skip
-        unpeaked = (self.phase_ == "arrive" and self._arrival.swept_peak is not None
-                    and self._arrival.swept_peak < c.unpeaked)
-        if (self.phase_ in (("follow", "arrive") if c.relocalise_arrive else ("follow",))
-                and (self._lost > c.relocalise_after or walled or unpeaked)
-                and self.relocalised_ < c.max_relocalise):  # fmt: skip
+        walled = (
+            c.relocalise_bumps > 0
+            and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
+            and (self.phase_ == "follow" or c.bumps_arriving)
+        )
+        unpeaked = (
+            self.phase_ == "arrive"
+            and self._arrival.swept_peak is not None
+            and self._arrival.swept_peak < c.unpeaked
+        )
+        if (
+            self.phase_ in (("follow", "arrive") if c.relocalise_arrive else ("follow",))
+            and (self._lost > c.relocalise_after or walled or unpeaked)
+            and self.relocalised_ < c.max_relocalise
+        ):
             self.relocalised_ += 1
             if c.exclude_fix:  # a fix found wrong (`turn_global_fix.exclude_near`)
                 moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
@@ -357,8 +386,13 @@ class SignalServo:
             return np.zeros(2)
         self._advance(x)
         t = self.tracker
-        if (c.look_back > 0 and self.phase_ == "follow" and not self.reverses
-                and t.directions[t.index] < 0 and self._travel >= c.look_back):  # fmt: skip
+        if (
+            c.look_back > 0
+            and self.phase_ == "follow"
+            and not self.reverses
+            and t.directions[t.index] < 0
+            and self._travel >= c.look_back
+        ):
             # turned round on a recording driven backwards: no view faces this way
             self._look = LookBack(float(b.pose[2]), c.look_steps, c.turn_rate)
             return self._look.step(b, CONTROL_DT)
@@ -384,9 +418,12 @@ class SignalServo:
         ``arrive_descent``, also the image distance
         (`servo.camera_only.image_descent_arrival`)."""
         b = self.belief_
-        action = self._arrival.step(b, b.path.frames[-1],
-                                    lambda: self.localiser.signal(x, self.target),
-                                    lambda: float(self.localiser.align(x, [self.target])[0][0]))
+        action = self._arrival.step(
+            b,
+            b.path.frames[-1],
+            lambda: self.localiser.signal(x, self.target),
+            lambda: float(self.localiser.align(x, [self.target])[0][0]),
+        )
         self.done_ = self._arrival.done
         self.phase_ = "done" if self.done_ else "arrive"
         return action

@@ -91,8 +91,13 @@ class DescentArrival(PeakArrival):
             self._next = self._choose()
             self._arrival = Arrival()
 
-    def step(self, belief: RouteBelief, target: np.ndarray, signal: Callable[[], float],
-             distance: Callable[[], float] | None = None) -> np.ndarray:  # fmt: skip
+    def step(
+        self,
+        belief: RouteBelief,
+        target: np.ndarray,
+        signal: Callable[[], float],
+        distance: Callable[[], float] | None = None,
+    ) -> np.ndarray:
         if distance is None:
             raise ValueError("DescentArrival.step needs distance(), the image's distance")
         self._distance = distance
@@ -101,8 +106,9 @@ class DescentArrival(PeakArrival):
             return self._search(belief, target, left)
         return super().step(belief, target, signal)
 
-    def _sweep(self, b: RouteBelief, target: np.ndarray, u: np.ndarray, left: np.ndarray,
-               f: float) -> np.ndarray:  # fmt: skip
+    def _sweep(
+        self, b: RouteBelief, target: np.ndarray, u: np.ndarray, left: np.ndarray, f: float
+    ) -> np.ndarray:
         c = self.config
         d = self._distance()
         along = float(u @ (b.pose[:2] - target[:2]))  # m past the view, by the belief

@@ -39,9 +39,18 @@ from servo.steering import turn_on_spot
 __all__ = ["JunctionTurn", "pose_from_turn", "views_near"]
 
 
-def pose_from_turn(headings, views, yaws, weights, parallax: float, prior, *,
-                   sigma_shift: float = 0.03, sigma_xy: float = 1.0,
-                   sigma_heading: float = 0.2) -> tuple[np.ndarray, float]:  # fmt: skip
+def pose_from_turn(
+    headings,
+    views,
+    yaws,
+    weights,
+    parallax: float,
+    prior,
+    *,
+    sigma_shift: float = 0.03,
+    sigma_xy: float = 1.0,
+    sigma_heading: float = 0.2,
+) -> tuple[np.ndarray, float]:
     """The position and heading offset that best explain a turn's image matches.
 
     Parameters
@@ -105,9 +114,20 @@ class JunctionTurn:
     spread of the heading (rad; after reversing, odometry's heading is good to ~0.1 rad);
     ``fix``: False turns without moving the belief (the turn alone)."""
 
-    def __init__(self, views, poses, heading: float, parallax: float, *, trust: float,
-                 facing: float, turn_rate: float, max_shift: float = 2.5,
-                 sigma_heading: float = 0.1, fix: bool = True):  # fmt: skip
+    def __init__(
+        self,
+        views,
+        poses,
+        heading: float,
+        parallax: float,
+        *,
+        trust: float,
+        facing: float,
+        turn_rate: float,
+        max_shift: float = 2.5,
+        sigma_heading: float = 0.1,
+        fix: bool = True,
+    ):
         self.views, self.poses = np.asarray(views, np.intp), np.asarray(poses, np.float64)
         self.heading, self.parallax = float(heading), float(parallax)
         self.trust, self.facing, self.turn_rate = float(trust), float(facing), float(turn_rate)
@@ -118,18 +138,27 @@ class JunctionTurn:
         self.shift_ = None  # m the fix moved the belief (None: not applied)
 
     @classmethod
-    def on_route(cls, routes, belief, route: list[int], index: int, config,
-                 parallax: float) -> JunctionTurn:  # fmt: skip
+    def on_route(
+        cls, routes, belief, route: list[int], index: int, config, parallax: float
+    ) -> JunctionTurn:
         """The turn at route view ``route[index]`` toward its heading, the candidates near
         the ``belief`` (`views_near`), with ``config``'s junction settings
         ([`SignalServoConfig`][servo.camera_only.config.SignalServoConfig]) and the map's
         ``parallax``."""
         c = config
-        views, poses = views_near(routes, belief.path, route, index, belief.pose[:2],
-                                  c.junction_radius)  # fmt: skip
-        return cls(views, poses, float(belief.path.frames[index, 2]),
-                   c.junction_parallax * parallax, trust=c.image_trust, facing=c.facing,
-                   turn_rate=c.turn_rate, fix=c.junction_position)  # fmt: skip
+        views, poses = views_near(
+            routes, belief.path, route, index, belief.pose[:2], c.junction_radius
+        )
+        return cls(
+            views,
+            poses,
+            float(belief.path.frames[index, 2]),
+            c.junction_parallax * parallax,
+            trust=c.image_trust,
+            facing=c.facing,
+            turn_rate=c.turn_rate,
+            fix=c.junction_position,
+        )
 
     def step(self, belief, x, localiser, dt: float) -> np.ndarray | None:
         """The turn's command for this image, or None once done (the belief fixed)."""
@@ -152,8 +181,15 @@ class JunctionTurn:
         if not self.fix or len(self.samples) < 3:
             return
         h, k, yaw, w = (np.array(a) for a in zip(*self.samples, strict=True))
-        xy, delta = pose_from_turn(h, self.poses[k.astype(np.intp)], yaw, w, self.parallax,
-                                   belief.pose[:2], sigma_heading=self.sigma_heading)  # fmt: skip
+        xy, delta = pose_from_turn(
+            h,
+            self.poses[k.astype(np.intp)],
+            yaw,
+            w,
+            self.parallax,
+            belief.pose[:2],
+            sigma_heading=self.sigma_heading,
+        )
         moved = float(np.hypot(*(xy - belief.pose[:2])))
         if moved > self.max_shift:  # an outlier: keep odometry's
             return

@@ -86,8 +86,9 @@ class PoseFixes:
         agreement.agrees(first, first_odo)  # sets what the second is compared with
         return agreement.agrees(second, second_odo)
 
-    def start(self, view: int, distances: np.ndarray, path: RoutePath,
-              odometry: np.ndarray) -> np.ndarray | None:  # fmt: skip
+    def start(
+        self, view: int, distances: np.ndarray, path: RoutePath, odometry: np.ndarray
+    ) -> np.ndarray | None:
         """The robot's pose in the route frame of ``path`` (which starts at the global fix's
         ``view``) from the metric poses of the two turn images that matched ``view`` best
         (``distances``: each kept image's aligned distance to it), each carried by odometry
@@ -104,8 +105,14 @@ class PoseFixes:
                 return se2_compose(measured, se2_relative(odo, odometry))
         return None
 
-    def fix(self, belief: RouteBelief, route_view: int, index: int, image: np.ndarray,
-            odometry: np.ndarray) -> bool:  # fmt: skip
+    def fix(
+        self,
+        belief: RouteBelief,
+        route_view: int,
+        index: int,
+        image: np.ndarray,
+        odometry: np.ndarray,
+    ) -> bool:
         """The metric pose of ``image`` against stored view ``route_view`` (route index
         ``index``) moves ``belief`` (`fix_pose`),
         where the pose before it agrees (``pose_agree``). Whether it did."""

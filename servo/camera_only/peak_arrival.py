@@ -77,8 +77,13 @@ class PeakArrival:
         """The robot bumped (`DescentArrival` turns
         its search across; here the sweep goes on)."""
 
-    def step(self, belief: RouteBelief, target: np.ndarray, signal: Callable[[], float],
-             distance: Callable[[], float] | None = None) -> np.ndarray:  # fmt: skip
+    def step(
+        self,
+        belief: RouteBelief,
+        target: np.ndarray,
+        signal: Callable[[], float],
+        distance: Callable[[], float] | None = None,
+    ) -> np.ndarray:
         """The command for this step; ``distance`` (the image's distance to the view) is
         `DescentArrival`'s."""
         c, b = self.config, belief
@@ -97,8 +102,9 @@ class PeakArrival:
             return self._settle(b, target, left, signal)
         return self._arrival(se2_relative(b.pose, target))  # done: hold (or correct) the pose
 
-    def _sweep(self, b: RouteBelief, target: np.ndarray, u: np.ndarray, left: np.ndarray,
-               f: float) -> np.ndarray:  # fmt: skip
+    def _sweep(
+        self, b: RouteBelief, target: np.ndarray, u: np.ndarray, left: np.ndarray, f: float
+    ) -> np.ndarray:
         c = self.config
         along = float(u @ (b.pose[:2] - target[:2]))  # m past the view, by the belief
         if f > self._peak:
@@ -134,8 +140,9 @@ class PeakArrival:
         end = self._leg * self.config.overshoot * (1.0 + 0.5 * self._legs)
         return end, (along - end) * self._leg > -0.1
 
-    def _settle_lanes(self, b: RouteBelief, target: np.ndarray,
-                      signal: Callable[[], float]) -> np.ndarray:  # fmt: skip
+    def _settle_lanes(
+        self, b: RouteBelief, target: np.ndarray, signal: Callable[[], float]
+    ) -> np.ndarray:
         """``arrive_lanes``: drive to where the view is now believed to be; there F must be
         back near its peak, or the lanes are searched again."""
         c = self.config
@@ -149,8 +156,9 @@ class PeakArrival:
         self._restart()
         return action
 
-    def _settle(self, b: RouteBelief, target: np.ndarray, left: np.ndarray,
-                signal: Callable[[], float]) -> np.ndarray:  # fmt: skip
+    def _settle(
+        self, b: RouteBelief, target: np.ndarray, left: np.ndarray, signal: Callable[[], float]
+    ) -> np.ndarray:
         """Drive to the view's place, then F there and ``lateral`` m to either side."""
         c = self.config
         offsets = (0.0, c.lateral, -c.lateral)

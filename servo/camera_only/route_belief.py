@@ -66,8 +66,9 @@ class RouteBelief:
         self.s = self.path.project(self.pose[:2], self.s, self.window)
         return ahead
 
-    def fix_reversing(self, view: int, yaw: float, parallax: float, heading_gain: float,
-                      cross_gain: float) -> float:  # fmt: skip
+    def fix_reversing(
+        self, view: int, yaw: float, parallax: float, heading_gain: float, cross_gain: float
+    ) -> float:
         """The image fix of a robot *reversing* along the route while facing the way route
         view ``view`` looks; returns the innovation (rad).
 

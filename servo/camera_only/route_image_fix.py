@@ -45,16 +45,32 @@ class RouteImageFix:
         resolve it (no fix across).
     """
 
-    def __init__(self, localiser: ImageLocaliser, config: SignalServoConfig,
-                 poses: PoseFixes | None, *, far_scene: bool, parallax: float,
-                 cross_parallax: float):  # fmt: skip
+    def __init__(
+        self,
+        localiser: ImageLocaliser,
+        config: SignalServoConfig,
+        poses: PoseFixes | None,
+        *,
+        far_scene: bool,
+        parallax: float,
+        cross_parallax: float,
+    ):
         self.localiser, self.config, self.poses = localiser, config, poses
         self.far_scene, self.parallax = bool(far_scene), float(parallax)
         self.cross_parallax = float(cross_parallax)
 
-    def fix(self, belief: RouteBelief, route: list[int], x: np.ndarray, image: np.ndarray,
-            odometry: np.ndarray, steps: int, *, reversing: bool,
-            following: bool) -> bool | None:  # fmt: skip
+    def fix(
+        self,
+        belief: RouteBelief,
+        route: list[int],
+        x: np.ndarray,
+        image: np.ndarray,
+        odometry: np.ndarray,
+        steps: int,
+        *,
+        reversing: bool,
+        following: bool,
+    ) -> bool | None:
         """Correct ``belief`` by the route view the image matches best among those about the
         current progress that look the way the robot faces (none: odometry alone).
 
@@ -108,8 +124,9 @@ class RouteImageFix:
             # belief's heading 0.45 rad the wrong way); only a sharp minimum gives a heading
             d = np.where(contrast <= c.fix_contrast, d, np.inf)
         k = int(np.argmin(d))
-        if d[k] <= c.image_trust and self.pose_fix(b, route, x, near[k:k + 1], image, odometry,
-                                                   steps):  # fmt: skip
+        if d[k] <= c.image_trust and self.pose_fix(
+            b, route, x, near[k : k + 1], image, odometry, steps
+        ):
             return True
         if not d[k] <= c.image_trust:
             return False
@@ -124,8 +141,7 @@ class RouteImageFix:
             # no fix along the route (see fix_reversing); odometry's distance is good
             # over a route's length
             g1, g2 = b.reverse_gains(c.reverse_heading_gain, self.parallax)
-            b.fix_reversing(int(near[k]), float(yaw[k]), self.parallax, g1 * metres,
-                            g2 * metres)  # fmt: skip
+            b.fix_reversing(int(near[k]), float(yaw[k]), self.parallax, g1 * metres, g2 * metres)
         else:
             b.fix(int(near[k]), float(yaw[k]), c.heading_gain, along)
         if self.cross_parallax > 0 and c.cross_gain > 0:
@@ -134,8 +150,16 @@ class RouteImageFix:
                 b.fix_across(int(near[k]), across, c.cross_gain, c.cross_gate)
         return True
 
-    def pose_fix(self, belief: RouteBelief, route: list[int], x: np.ndarray, near: np.ndarray,
-                 image: np.ndarray, odometry: np.ndarray, steps: int) -> bool:  # fmt: skip
+    def pose_fix(
+        self,
+        belief: RouteBelief,
+        route: list[int],
+        x: np.ndarray,
+        near: np.ndarray,
+        image: np.ndarray,
+        odometry: np.ndarray,
+        steps: int,
+    ) -> bool:
         """Every ``pose_every`` steps, the metric pose against the best-aligned of the route
         views ``near`` (indices into ``route``;
         `PoseFixes`). Whether it moved ``belief``."""

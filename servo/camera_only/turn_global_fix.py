@@ -36,8 +36,9 @@ EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalis
 def neighbourhood(routes: RouteGraph, view: int, radius: float) -> dict[int, np.ndarray]:
     """The views within ``radius`` m of route-graph distance of ``view``, each with its pose
     in ``view``'s frame (the graph's sensed transforms chained along shortest paths)."""
-    dist, pred = dijkstra(routes.graph, indices=int(view), limit=float(radius),
-                          return_predecessors=True)  # fmt: skip
+    dist, pred = dijkstra(
+        routes.graph, indices=int(view), limit=float(radius), return_predecessors=True
+    )
     poses = {int(view): np.zeros(3)}
     for v in np.argsort(dist):  # parents before children: nearer first
         v = int(v)
@@ -48,9 +49,16 @@ def neighbourhood(routes: RouteGraph, view: int, radius: float) -> dict[int, np.
     return poses
 
 
-def consistent_fix(samples, routes: RouteGraph, *, candidates: int = 6, radius: float = 4.0,
-                   tolerance: float = 0.35, trust: float = 0.9,
-                   share: float = 0.5) -> tuple[int, float]:  # fmt: skip
+def consistent_fix(
+    samples,
+    routes: RouteGraph,
+    *,
+    candidates: int = 6,
+    radius: float = 4.0,
+    tolerance: float = 0.35,
+    trust: float = 0.9,
+    share: float = 0.5,
+) -> tuple[int, float]:
     """The fix (view, odometry heading facing the way it looks) from the turn's ``samples``
     (aligned distance, view, odometry heading), each the best match of one image.
 
@@ -70,8 +78,11 @@ def consistent_fix(samples, routes: RouteGraph, *, candidates: int = 6, radius: 
         poses = neighbourhood(routes, view, radius)
         support: dict[int, float] = {}  # each other view once, at its best match
         for dj, vj, hj in trusted:
-            if (vj != view and vj in poses
-                    and abs(wrap_angle(hj - heading - poses[vj][2])) < tolerance):  # fmt: skip
+            if (
+                vj != view
+                and vj in poses
+                and abs(wrap_angle(hj - heading - poses[vj][2])) < tolerance
+            ):
                 support[vj] = max(support.get(vj, 0.0), 1.0 - dj / trust)
         scores.append(sum(support.values()))
     if not scores:
@@ -95,8 +106,9 @@ def _generic(samples, view: int, tolerance: float) -> bool:
     return bool(spread > 2.0 * tolerance)
 
 
-def contrast_fix(distances, yaws, headings, *, far: float = 0.6, exclude=(), verify=None,
-                 candidates: int = 0) -> tuple[int, float]:  # fmt: skip
+def contrast_fix(
+    distances, yaws, headings, *, far: float = 0.6, exclude=(), verify=None, candidates: int = 0
+) -> tuple[int, float]:
     """The global fix from the whole observing turn: the stored view whose best match over
     the turn stands out most against its matches from headings ``far`` rad or more away.
 
@@ -173,8 +185,9 @@ class TurnSamples:
         odometry heading.
     """
 
-    def __init__(self, localiser: ImageLocaliser, config: SignalServoConfig,
-                 poses: PoseFixes | None):  # fmt: skip
+    def __init__(
+        self, localiser: ImageLocaliser, config: SignalServoConfig, poses: PoseFixes | None
+    ):
         self.localiser, self.config, self.poses = localiser, config, poses
         self.samples: list[tuple[float, int, float]] = []
         self.rows: list[tuple[np.ndarray, np.ndarray, float]] = []
@@ -200,8 +213,9 @@ class TurnSamples:
         if c.contrast_fix:
             d, yaw, h = (np.array(a) for a in zip(*self.rows, strict=True))
             verify = None if self.poses is None else (lambda v: self.poses.supports(v, d[:, v]))
-            return contrast_fix(d, yaw, h, far=c.fix_far, exclude=exclude, verify=verify,
-                                candidates=c.fix_check)  # fmt: skip
+            return contrast_fix(
+                d, yaw, h, far=c.fix_far, exclude=exclude, verify=verify, candidates=c.fix_check
+            )
         if c.consistent_fix:
             return consistent_fix(self.samples, routes)
         _, view, heading = min(self.samples)

@@ -75,8 +75,13 @@ class ViewPose:
     reprojection : float  RANSAC's inlier threshold (pixels).
     """
 
-    def __init__(self, servo_map: ServoMap, n_features: int = 500, min_inliers: int = 15,
-                 reprojection: float = 2.0):  # fmt: skip
+    def __init__(
+        self,
+        servo_map: ServoMap,
+        n_features: int = 500,
+        min_inliers: int = 15,
+        reprojection: float = 2.0,
+    ):
         if not isinstance(servo_map, ServoMap):
             raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
         if int(n_features) < 8 or int(min_inliers) < 6 or not reprojection > 0:
@@ -89,8 +94,7 @@ class ViewPose:
         h, w = servo_map.images.shape[1:3]
         f = (h / 2.0) / np.tan(np.deg2rad(CAMERA_FOVY) / 2.0)
         self.K = np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
-        self._orb = cv2.ORB_create(int(n_features), fastThreshold=5, edgeThreshold=15,
-                                   patchSize=15)  # fmt: skip
+        self._orb = cv2.ORB_create(int(n_features), fastThreshold=5, edgeThreshold=15, patchSize=15)
         self._matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
         self._stored: dict[int, tuple] = {}  # view -> its image's ORB keypoints, descriptors
         self._views: dict[tuple[int, bool], _ViewPoints] = {}
@@ -160,8 +164,9 @@ class ViewPose:
         model = self.depth_model(view)
         return None if model is None else self.relative(image, view, model == "full", keypoints)
 
-    def relative(self, image: np.ndarray, view: int, upper: bool = True,
-                 keypoints=None) -> RelativePose | None:  # fmt: skip
+    def relative(
+        self, image: np.ndarray, view: int, upper: bool = True, keypoints=None
+    ) -> RelativePose | None:
         """The robot's pose in stored view ``view``'s frame from the camera ``image`` (the
         view's keypoints above the horizon used only with ``upper``), or None where too few
         keypoints match or agree (fewer than ``min_inliers``)."""
@@ -188,14 +193,20 @@ class ViewPose:
         # RANSAC's draws come from OpenCV's own fixed-seed generator: the same images give the
         # same pose on every run.
         ok, rvec, tvec, inliers = cv2.solvePnPRansac(
-            P, uv, self.K, None, iterationsCount=200, reprojectionError=self.reprojection,
+            P,
+            uv,
+            self.K,
+            None,
+            iterationsCount=200,
+            reprojectionError=self.reprojection,
             flags=cv2.SOLVEPNP_EPNP,
-        )  # fmt: skip
+        )
         if not ok or inliers is None or len(inliers) < self.min_inliers:
             return None
         idx = inliers.ravel()
-        ok, rvec, tvec = cv2.solvePnP(P[idx], uv[idx], self.K, None, rvec, tvec, True,
-                                      cv2.SOLVEPNP_ITERATIVE)  # fmt: skip
+        ok, rvec, tvec = cv2.solvePnP(
+            P[idx], uv[idx], self.K, None, rvec, tvec, True, cv2.SOLVEPNP_ITERATIVE
+        )
         if not ok:
             return None
         R, _ = cv2.Rodrigues(rvec)
@@ -219,8 +230,8 @@ class ViewPose:
         view = self.map.check_view(view, "view")
         if view not in self._models:
             self._models[view] = next(
-                (name for name, upper in MODELS
-                 if self._agrees(view, upper, tolerance)), None)  # fmt: skip
+                (name for name, upper in MODELS if self._agrees(view, upper, tolerance)), None
+            )
         return self._models[view]
 
     def _agrees(self, view: int, upper: bool, tolerance: float) -> bool:
@@ -274,5 +285,7 @@ class PoseAgreement:
             return False
         carried = se2_compose(last[0], se2_relative(last[1], odometry))
         err = measured - carried
-        return bool(np.hypot(err[0], err[1]) <= self.distance
-                    and abs(wrap_angle(err[2])) <= self.distance / 3)  # fmt: skip
+        return bool(
+            np.hypot(err[0], err[1]) <= self.distance
+            and abs(wrap_angle(err[2])) <= self.distance / 3
+        )

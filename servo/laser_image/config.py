@@ -113,6 +113,12 @@ class ManifoldServoConfig:
             raise ValueError(f"arrive_radius must be in (0, 0.35) m, got {self.arrive_radius}")
         if not 0 <= self.lost_fit <= 1:
             raise ValueError(f"lost_fit must be in [0, 1], got {self.lost_fit}")
-        for name in ("image_every", "lost_steps", "drift_window", "max_relocalisations",
-                     "stuck_steps", "backup_steps"):  # fmt: skip
+        for name in (
+            "image_every",
+            "lost_steps",
+            "drift_window",
+            "max_relocalisations",
+            "stuck_steps",
+            "backup_steps",
+        ):
             check_int(getattr(self, name), name)

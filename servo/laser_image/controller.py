@@ -123,8 +123,13 @@ class ManifoldServo:
     servo.evaluate : The closed-loop evaluation of either controller.
     """
 
-    def __init__(self, servo_map: ServoMap, *, config: ManifoldServoConfig | None = None,
-                 world: str | None = None):  # fmt: skip
+    def __init__(
+        self,
+        servo_map: ServoMap,
+        *,
+        config: ManifoldServoConfig | None = None,
+        world: str | None = None,
+    ):
         if not isinstance(servo_map, ServoMap):
             raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
         if world is not None:

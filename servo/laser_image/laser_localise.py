@@ -132,8 +132,10 @@ class GlobalLocaliser:
             k, p = np.unravel_index(flat, scores.shape)
             pose = np.array([*self.positions[p], yaws[k]])
             # one candidate per place and heading: the next best are its neighbours
-            if all(np.hypot(*(pose[:2] - q[:2])) > 1.0 or abs(wrap_angle(pose[2] - q[2])) > 0.5
-                   for q in chosen):  # fmt: skip
+            if all(
+                np.hypot(*(pose[:2] - q[:2])) > 1.0 or abs(wrap_angle(pose[2] - q[2])) > 0.5
+                for q in chosen
+            ):
                 chosen.append(pose)
                 if len(chosen) == N_REFINE:
                     break
@@ -179,8 +181,9 @@ class GlobalLocaliser:
     def _localise(self, cloud: np.ndarray, thin: np.ndarray, views: list) -> Fix:
         # a short ICP of a subsample for every candidate, the full one for the best few
         screen = thin[:: max(1, -(-len(thin) // SCREEN_POINTS))]
-        poses = np.array([self._icp(screen, init, SCREEN_ITERATIONS)
-                          for init in self.candidates(cloud)])  # fmt: skip
+        poses = np.array(
+            [self._icp(screen, init, SCREEN_ITERATIONS) for init in self.candidates(cloud)]
+        )
         best = np.argsort(-self.metric.fit(screen, poses, FIT_TOL), kind="stable")[:N_FINAL]
         refine = thin[:: max(1, -(-len(thin) // REFINE_POINTS))]
         poses = np.array([self._icp(refine, poses[k], REFINE_ITERATIONS) for k in best])
@@ -197,12 +200,18 @@ class GlobalLocaliser:
         order = np.argsort(combined)[::-1]
         best = int(order[0])
         runner = combined[order[1]] if len(order) > 1 else -np.inf
-        return Fix(poses[best], float(fits[best]), float(images[best]),
-                   float(combined[best] - runner))  # fmt: skip
+        return Fix(
+            poses[best], float(fits[best]), float(images[best]), float(combined[best] - runner)
+        )
 
     def _icp(self, points: np.ndarray, init: np.ndarray, iterations: int) -> np.ndarray:
-        res = icp(points, self.metric.points, init=init, target_tree=self.metric.tree,
-                  max_iterations=iterations)  # fmt: skip
+        res = icp(
+            points,
+            self.metric.points,
+            init=init,
+            target_tree=self.metric.tree,
+            max_iterations=iterations,
+        )
         return res.transform if np.isfinite(res.rmse) else np.asarray(init, np.float64)
 
 
@@ -217,8 +226,14 @@ class ScanTracker:
         """(pose, fit, accepted): the corrected pose (or ``predicted`` when the match is not
         trusted), the share of the scan within ``FIT_TOL`` of the map at that pose, and
         whether the correction was accepted."""
-        res = icp(points, self.metric.points, init=predicted, target_tree=self.metric.tree,
-                  max_iterations=20, max_correspondence_distance=0.4)  # fmt: skip
+        res = icp(
+            points,
+            self.metric.points,
+            init=predicted,
+            target_tree=self.metric.tree,
+            max_iterations=20,
+            max_correspondence_distance=0.4,
+        )
         ok = (
             np.isfinite(res.rmse)
             and res.rmse < 0.08

@@ -60,8 +60,12 @@ def align_views(servo_map: ServoMap) -> np.ndarray:
     for k, p in enumerate(placed):
         initial.insert(k, gtsam.Pose2(*p))
     result = gtsam.LevenbergMarquardtOptimizer(graph, initial).optimize()
-    return np.array([[result.atPose2(k).x(), result.atPose2(k).y(), result.atPose2(k).theta()]
-                     for k in range(len(m))])  # fmt: skip
+    return np.array(
+        [
+            [result.atPose2(k).x(), result.atPose2(k).y(), result.atPose2(k).theta()]
+            for k in range(len(m))
+        ]
+    )
 
 
 def _chain_recordings(m: ServoMap) -> tuple[np.ndarray, set]:
@@ -95,8 +99,11 @@ class MetricMap:
         self.map = servo_map
         self.poses = align_views(servo_map)
         scans = [servo_map.scan_points(k) for k in range(len(servo_map))]
-        placed = [transform_points(p, densify_scan(s, POINT_SPACING))
-                  for p, s in zip(self.poses, scans, strict=True) if len(s)]  # fmt: skip
+        placed = [
+            transform_points(p, densify_scan(s, POINT_SPACING))
+            for p, s in zip(self.poses, scans, strict=True)
+            if len(s)
+        ]
         self.points = thin_to_grid(np.concatenate(placed), POINT_SPACING)
         self.tree = cKDTree(self.points)
         self.origin = self.points.min(axis=0) - 2.0
@@ -134,8 +141,9 @@ class MetricMap:
         beams = np.arange(0, len(m.angles), 2)
         steps = np.arange(0.0, FREE_RANGE, FREE_RESOLUTION / 2)
         for pose, ranges in zip(self.poses, m.scans, strict=True):
-            r = np.nan_to_num(np.minimum(ranges[beams], FREE_RANGE), nan=FREE_RANGE,
-                              posinf=FREE_RANGE)  # fmt: skip
+            r = np.nan_to_num(
+                np.minimum(ranges[beams], FREE_RANGE), nan=FREE_RANGE, posinf=FREE_RANGE
+            )
             a = pose[2] + m.angles[beams]
             d = steps[None, :]
             ok = d < r[:, None] - FREE_RESOLUTION

@@ -55,8 +55,16 @@ from sim import datahome
 from sim.collect_worlds import world_digest
 from sim.dataset import Dataset, DatasetError, load_dataset, read_meta
 
-__all__ = ["MapError", "MapSettings", "ServoMap", "build_map", "load_map", "load_or_build",
-           "map_key", "save_map"]  # fmt: skip
+__all__ = [
+    "MapError",
+    "MapSettings",
+    "ServoMap",
+    "build_map",
+    "load_map",
+    "load_or_build",
+    "map_key",
+    "save_map",
+]
 
 # Everything whose code decides a map's content or file: a change to any of them is a new key.
 _KEY_PACKAGES = ("numpy", "scipy", "scikit-learn", "opencv-python-headless")
@@ -149,8 +157,9 @@ def _sequence_alignment(
         for j, heading in zip(near, yaw, strict=True):
             res = icp(points[j], dense[i], init=(0.0, 0.0, -heading))
             if _verified(res, len(points[j]), s):
-                between.append(se2_compose(se2_compose(poses[i], res.transform),
-                                           se2_inverse(poses[j])))  # fmt: skip
+                between.append(
+                    se2_compose(se2_compose(poses[i], res.transform), se2_inverse(poses[j]))
+                )
     if not between:
         return None
     between = np.array(between)
@@ -167,8 +176,9 @@ def _sequence_alignment(
     cloud_a = _sequence_cloud(poses[ia], [dense[k] for k in ia])
     cloud_b = _sequence_cloud(poses[ib], [points[k] for k in ib])
     coarse = _overlap_search(cloud_a, cloud_b, se2_mean(between[agree[mode]]))
-    return _overlap_search(cloud_a, cloud_b, coarse, reach=0.1, step=0.025, yaw_reach=0.02,
-                           yaw_step=0.01)  # fmt: skip
+    return _overlap_search(
+        cloud_a, cloud_b, coarse, reach=0.1, step=0.025, yaw_reach=0.02, yaw_step=0.01
+    )
 
 
 def _overlap_search(
@@ -393,8 +403,11 @@ def load_or_build(
             except MapError:
                 pass
         if progress:
-            print(f"topomap: building the {world} servo map into {cache} (once)",
-                  file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"topomap: building the {world} servo map into {cache} (once)",
+                file=sys.stderr,
+                flush=True,
+            )
         m = build_map(load_dataset(dataset), world, settings)
         save_map(m, cache)
     return m

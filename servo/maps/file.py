@@ -50,9 +50,22 @@ _ARRAYS = {  # name: (dtype kinds allowed, shape pattern); n = views, B = beams,
     "true_poses": ("f", ("n", 3)),
     "true_labels": ("iu", ("n",)),
 }
-_META_KEYS = {"format", "version", "world", "world_digest", "manifolds", "key", "max_range",
-              "sequence_names", "settings", "clustering", "image_features", "sha256", "probe",
-              "meta_sha256"}  # fmt: skip
+_META_KEYS = {
+    "format",
+    "version",
+    "world",
+    "world_digest",
+    "manifolds",
+    "key",
+    "max_range",
+    "sequence_names",
+    "settings",
+    "clustering",
+    "image_features",
+    "sha256",
+    "probe",
+    "meta_sha256",
+}
 _KEY = re.compile(r"[0-9a-f]{16}\Z")
 _SHA = re.compile(r"[0-9a-f]{64}\Z")
 
@@ -129,11 +142,17 @@ def _read_meta(path: Path, world: str | None) -> dict:
     except ValueError:
         named = False
     _check(named, path, "world must be 'hallway', 'lawn' or FAMILY:SEED such as 'hallway:17'")
-    _check(isinstance(meta["world_digest"], str) and bool(_SHA.match(meta["world_digest"])),
-           path, "world_digest must be 64 hex digits")  # fmt: skip
+    _check(
+        isinstance(meta["world_digest"], str) and bool(_SHA.match(meta["world_digest"])),
+        path,
+        "world_digest must be 64 hex digits",
+    )
     manifolds = meta["manifolds"]
-    _check(isinstance(manifolds, list) and all(isinstance(n, str) for n in manifolds), path,
-           "manifolds must be a list of names")  # fmt: skip
+    _check(
+        isinstance(manifolds, list) and all(isinstance(n, str) for n in manifolds),
+        path,
+        "manifolds must be a list of names",
+    )
     if world is not None and (
         meta["world"] != world or meta["world_digest"] != world_digest(world)
     ):
@@ -143,19 +162,30 @@ def _read_meta(path: Path, world: str | None) -> dict:
             f"{world_digest(world)[:12]}): build the map from the {world!r} dataset"
         )
     _check(isinstance(meta["key"], str) and bool(_KEY.match(meta["key"])), path, "bad key")
-    _check(isinstance(meta["sha256"], str) and bool(_SHA.match(meta["sha256"])), path,
-           "sha256 must be 64 hex digits")  # fmt: skip
+    _check(
+        isinstance(meta["sha256"], str) and bool(_SHA.match(meta["sha256"])),
+        path,
+        "sha256 must be 64 hex digits",
+    )
     r = meta["max_range"]
     # an int is compared as an int: np.isfinite(10**400) raises TypeError
-    _check(is_real(r) and 0 < r <= bounds.MAX_RANGE, path,
-           f"max_range must be a number of metres in (0, {bounds.MAX_RANGE:g}], got "
-           f"{repr(r)[:40]}")  # fmt: skip
+    _check(
+        is_real(r) and 0 < r <= bounds.MAX_RANGE,
+        path,
+        f"max_range must be a number of metres in (0, {bounds.MAX_RANGE:g}], got {repr(r)[:40]}",
+    )
     names = meta["sequence_names"]
-    _check(isinstance(names, list) and all(isinstance(n, str) for n in names), path,
-           "sequence_names must be a list of strings")  # fmt: skip
+    _check(
+        isinstance(names, list) and all(isinstance(n, str) for n in names),
+        path,
+        "sequence_names must be a list of strings",
+    )
     probe = meta["probe"]
-    _check(isinstance(probe, list) and all(isinstance(c, int) for c in probe), path,
-           "probe must be a list of cluster indices")  # fmt: skip
+    _check(
+        isinstance(probe, list) and all(isinstance(c, int) for c in probe),
+        path,
+        "probe must be a list of cluster indices",
+    )
     return meta
 
 
@@ -164,15 +194,21 @@ def _check_arrays(arrays: dict, path: Path, manifolds: int, sequences: int) -> N
     for name, (kinds, pattern) in _ARRAYS.items():
         _check(name in arrays, path, f"array {name!r} is missing")
         a = arrays[name]
-        _check(a.dtype.kind in kinds and a.ndim == len(pattern), path,
-               f"{name} must be a {len(pattern)}-d array of kind {kinds!r}, got {a.dtype} "
-               f"with shape {a.shape}")  # fmt: skip
+        _check(
+            a.dtype.kind in kinds and a.ndim == len(pattern),
+            path,
+            f"{name} must be a {len(pattern)}-d array of kind {kinds!r}, got {a.dtype} "
+            f"with shape {a.shape}",
+        )
         for size, want in zip(a.shape, pattern, strict=True):
             if isinstance(want, int):
                 _check(size == want, path, f"{name} has shape {a.shape}, expected {pattern}")
             else:
-                _check(dims.setdefault(want, size) == size, path,
-                       f"{name} has shape {a.shape}; {want} is {dims[want]} elsewhere")  # fmt: skip
+                _check(
+                    dims.setdefault(want, size) == size,
+                    path,
+                    f"{name} has shape {a.shape}; {want} is {dims[want]} elsewhere",
+                )
     n = dims["n"]
     _check(n > 0, path, "the map has no stored view")
     edges = arrays["edges"]
@@ -180,13 +216,19 @@ def _check_arrays(arrays: dict, path: Path, manifolds: int, sequences: int) -> N
     clusters = arrays["clusters"]
     _check(bool(np.all(clusters >= 0)), path, "clusters must be >= 0")
     _check(bool(np.all(arrays["frame"] >= 0)), path, "frame must be >= 0 (a frame index)")
-    _check(bool(np.all((arrays["sequence"] >= 0) & (arrays["sequence"] < sequences))), path,
-           f"sequence must lie in [0, {sequences}): an index into the map's {sequences} "
-           "sequence_names")  # fmt: skip
+    _check(
+        bool(np.all((arrays["sequence"] >= 0) & (arrays["sequence"] < sequences))),
+        path,
+        f"sequence must lie in [0, {sequences}): an index into the map's {sequences} "
+        "sequence_names",
+    )
     labels = arrays["true_labels"]
-    _check(bool(np.all((labels >= NO_MANIFOLD) & (labels < manifolds))), path,
-           f"true_labels must lie in [{NO_MANIFOLD}, {manifolds}): an index into the map's "
-           f"manifolds, {NO_MANIFOLD} for none")  # fmt: skip
+    _check(
+        bool(np.all((labels >= NO_MANIFOLD) & (labels < manifolds))),
+        path,
+        f"true_labels must lie in [{NO_MANIFOLD}, {manifolds}): an index into the map's "
+        f"manifolds, {NO_MANIFOLD} for none",
+    )
     for name in ("features", "edge_transforms"):
         _check(bool(np.isfinite(arrays[name]).all()), path, f"{name} holds NaN or inf")
     # the bounds every reader applies (common.bounds); ranges as the dataset stores them: +inf
@@ -204,8 +246,11 @@ def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: 
     """Every stored view's cluster is one of the loaded clustering's (the arrays are checked
     before the estimators are rebuilt, so this comes after)."""
     k = len(clustering.centers_)
-    _check(bool(np.all(clusters < k)), path, f"clusters must lie in [0, {k}), the clustering's "
-           "clusters")  # fmt: skip
+    _check(
+        bool(np.all(clusters < k)),
+        path,
+        f"clusters must lie in [0, {k}), the clustering's clusters",
+    )
 
 
 def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
@@ -252,8 +297,9 @@ def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
         features = image_features.transform(m.images[:PROBE_VIEWS])
         probe = _probe(clustering, m.features)
     except Exception as err:  # a wrong shape or value anywhere in the estimators' state
-        raise MapError(f"{path}: the stored estimators do not work ({type(err).__name__}: "
-                       f"{err})") from err  # fmt: skip
+        raise MapError(
+            f"{path}: the stored estimators do not work ({type(err).__name__}: {err})"
+        ) from err
     if not np.allclose(features, m.features[:PROBE_VIEWS], rtol=1e-4, atol=1e-6) or (
         probe != meta["probe"]
     ):

@@ -119,8 +119,11 @@ class MapSettings:
         if k is not None and (not isinstance(k, int) or isinstance(k, bool) or k < 2):
             raise ValueError(f"settings.n_clusters must be an integer >= 2 or null, got {k!r}")
         size = d["image_size"]
-        if not (isinstance(size, list) and len(size) == 2
-                and all(isinstance(v, int) and v > 0 for v in size)):  # fmt: skip
+        if not (
+            isinstance(size, list)
+            and len(size) == 2
+            and all(isinstance(v, int) and v > 0 for v in size)
+        ):
             raise ValueError(f"settings.image_size must be two positive integers, got {size!r}")
         for name in ("stride", "min_cluster_size"):
             if not isinstance(d[name], int) or isinstance(d[name], bool):

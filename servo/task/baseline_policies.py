@@ -150,8 +150,9 @@ class GreedyFProbing:
     mapping.manifold.ManifoldClustering.signal : F^j(k) of eq. 13.
     """
 
-    def __init__(self, servo_map: ServoMap, commit: int = 8, *, waypoints: bool = True,
-                 spacing: float = 0.8):  # fmt: skip
+    def __init__(
+        self, servo_map: ServoMap, commit: int = 8, *, waypoints: bool = True, spacing: float = 0.8
+    ):
         check_int(commit, "commit")
         self.map, self.commit = servo_map, int(commit)
         self.waypoints, self.spacing = bool(waypoints), float(spacing)

@@ -90,9 +90,16 @@ def episode_seeds(seed: int, episodes: int) -> list[int]:
 
 
 def run_episode(
-    env: ServoEnv, policy, seed: int, options: dict | None = None, frames=None, *,
-    truth: bool = False, act_limit_s: float = ACT_LIMIT_S, load_error: str | None = None,
-) -> dict:  # fmt: skip
+    env: ServoEnv,
+    policy,
+    seed: int,
+    options: dict | None = None,
+    frames=None,
+    *,
+    truth: bool = False,
+    act_limit_s: float = ACT_LIMIT_S,
+    load_error: str | None = None,
+) -> dict:
     """One episode; returns its record (`score_episode`; and appends video frames to
     ``frames`` if given).
 
@@ -149,10 +156,14 @@ def run_episode(
 
 
 def score_episode(
-    seed: int, infos: Sequence[dict], shortest: float, true_distance: Sequence[float],
-    act_s: Sequence[float], signal_waypoint: Sequence[float],
+    seed: int,
+    infos: Sequence[dict],
+    shortest: float,
+    true_distance: Sequence[float],
+    act_s: Sequence[float],
+    signal_waypoint: Sequence[float],
     failure: PolicyFailure | None = None,
-) -> dict:  # fmt: skip
+) -> dict:
     """An episode's record from what it produced, with no env or policy: ``infos`` (the
     reset's info, then every step's), the shortest free-space path from the start, the true
     (geodesic) distance to the target at every info, the policy's seconds per act, and F^j(k)
@@ -252,10 +263,13 @@ def summarise(records: list[dict]) -> dict:
     out["signal"] = signal_agreement(records)
     out["per_pair"] = {k: agg(v) for k, v in sorted(pairs.items())}
     out["episodes_detail"] = [
-        {k: (v.tolist() if isinstance(v, np.ndarray) and k == "start_pose" else v)
-         for k, v in r.items() if not isinstance(v, np.ndarray) or k == "start_pose"}
+        {
+            k: (v.tolist() if isinstance(v, np.ndarray) and k == "start_pose" else v)
+            for k, v in r.items()
+            if not isinstance(v, np.ndarray) or k == "start_pose"
+        }
         for r in records
-    ]  # fmt: skip
+    ]
     return out
 
 
@@ -331,8 +345,11 @@ def evaluate(
             tqdm(seeds, desc=f"servo-eval {world}/{policy}", disable=not progress)
         ):
             frames = [] if out is not None and i < videos else None
-            records.append(run_episode(env, pol, s, frames=frames, truth=policy == TRUTH_POLICY,
-                                       load_error=load_error))  # fmt: skip
+            records.append(
+                run_episode(
+                    env, pol, s, frames=frames, truth=policy == TRUTH_POLICY, load_error=load_error
+                )
+            )
             if frames:
                 write_mp4(Path(out) / f"{stem}-episode{i}.mp4", frames)
         result = summarise(records)
@@ -344,6 +361,7 @@ def evaluate(
         env.close()
         if hasattr(pol, "close"):
             pol.close()
-    result.update(world=world, policy=policy, seed=seed, randomize=randomize,
-                  odometry_noise=odometry_noise)  # fmt: skip
+    result.update(
+        world=world, policy=policy, seed=seed, randomize=randomize, odometry_noise=odometry_noise
+    )
     return result

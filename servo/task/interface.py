@@ -230,8 +230,9 @@ def load_factory(spec: str):
     Raises [`PolicyLoadError`][servo.task.interface.PolicyLoadError] naming the spec when it is
     malformed, does not import or names nothing callable."""
     if not isinstance(spec, str) or spec.count(":") != 1:
-        raise PolicyLoadError(f"policy must be a built-in name or package.module:factory, "
-                              f"got {spec!r}")  # fmt: skip
+        raise PolicyLoadError(
+            f"policy must be a built-in name or package.module:factory, got {spec!r}"
+        )
     module_name, attr = spec.split(":")
     if not module_name or not attr.isidentifier():
         raise PolicyLoadError(f"policy must be package.module:factory, got {spec!r}")

@@ -149,8 +149,9 @@ def _is_int(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
-def compare(a: list[dict], b: list[dict], rng: np.random.Generator | None = None,
-            resamples: int = BOOTSTRAP) -> list[PairedComparison]:  # fmt: skip
+def compare(
+    a: list[dict], b: list[dict], rng: np.random.Generator | None = None, resamples: int = BOOTSTRAP
+) -> list[PairedComparison]:
     """Paired comparisons of B against A for every world and setting present in both (in A's
     order); episodes that only one of them ran are left out. ``rng`` draws the bootstrap
     (default: ``numpy.random.default_rng(0)``, so the same files give the same interval)."""
@@ -182,8 +183,9 @@ def _key(result: dict) -> tuple:
     return tuple(json.dumps(result[k]) for k in SETTING)
 
 
-def _paired(setting: dict, pairs: list, rng: np.random.Generator,
-            resamples: int) -> PairedComparison:  # fmt: skip
+def _paired(
+    setting: dict, pairs: list, rng: np.random.Generator, resamples: int
+) -> PairedComparison:
     wa = np.array([ea["success"] for ea, _ in pairs])
     wb = np.array([eb["success"] for _, eb in pairs])
     gained, lost = int(np.sum(wb & ~wa)), int(np.sum(wa & ~wb))
@@ -196,11 +198,17 @@ def _paired(setting: dict, pairs: list, rng: np.random.Generator,
         n, sa, sb = by_start.get(ea["start_manifold"], (0, 0, 0))
         by_start[ea["start_manifold"]] = (n + 1, sa + int(x), sb + int(y))
     return PairedComparison(
-        setting={k: setting[k] for k in SETTING}, n=len(pairs), successes_a=int(wa.sum()),
-        successes_b=int(wb.sum()), gained=gained, lost=lost, sign_test_p=float(p),
-        difference=float(diff.mean()), difference_ci95=(float(lo), float(hi)),
+        setting={k: setting[k] for k in SETTING},
+        n=len(pairs),
+        successes_a=int(wa.sum()),
+        successes_b=int(wb.sum()),
+        gained=gained,
+        lost=lost,
+        sign_test_p=float(p),
+        difference=float(diff.mean()),
+        difference_ci95=(float(lo), float(hi)),
         by_start=dict(sorted(by_start.items())),
-    )  # fmt: skip
+    )
 
 
 def markdown(rows: list[PairedComparison], a: str = "A", b: str = "B") -> str:
@@ -213,9 +221,10 @@ def markdown(rows: list[PairedComparison], a: str = "A", b: str = "B") -> str:
     for r in rows:
         s = r.setting
         extras = ", ".join(
-            [f"{s['max_steps']} steps"] + ["randomize"] * bool(s["randomize"])
+            [f"{s['max_steps']} steps"]
+            + ["randomize"] * bool(s["randomize"])
             + ["no odometry noise"] * (not s["odometry_noise"])
-        )  # fmt: skip
+        )
         starts = "; ".join(f"{k} {sa}/{sb} of {n}" for k, (n, sa, sb) in r.by_start.items())
         lines.append(
             f"| {s['world']} | {s['tier']} | {s['split']} | {extras} | {r.n} | {r.successes_a} "

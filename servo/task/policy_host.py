@@ -32,8 +32,18 @@ from servo.task.interface import (
     reseed,
 )
 
-MAP_ARRAYS = ("images", "features", "scans", "angles", "poses", "sequence", "frame", "clusters",
-              "edges", "edge_transforms")  # fmt: skip
+MAP_ARRAYS = (
+    "images",
+    "features",
+    "scans",
+    "angles",
+    "poses",
+    "sequence",
+    "frame",
+    "clusters",
+    "edges",
+    "edge_transforms",
+)
 MAX_TO_POLICY = 4 << 30  # bytes of one message to the policy (the map is the largest)
 BUILTIN = ("servo", "signal", "greedy", "greedy-target", "random")  # all but the oracle
 # observation entries the same at every step of an episode: sent with its first act only
@@ -66,9 +76,15 @@ def map_message(m: ServoMap) -> tuple[dict, dict[str, np.ndarray]]:
     the policy's process: its sensed arrays and fitted estimators, nothing of the truth."""
     c_meta, c_arrays = persistence.dump(m.clustering, "clustering")
     f_meta, f_arrays = persistence.dump(m.image_features, "image_features")
-    values = {"world": m.world, "key": m.key, "max_range": float(m.max_range),
-              "sequence_names": list(m.sequence_names), "settings": m.settings.to_json(),
-              "clustering": c_meta, "image_features": f_meta}  # fmt: skip
+    values = {
+        "world": m.world,
+        "key": m.key,
+        "max_range": float(m.max_range),
+        "sequence_names": list(m.sequence_names),
+        "settings": m.settings.to_json(),
+        "clustering": c_meta,
+        "image_features": f_meta,
+    }
     return values, {**{k: getattr(m, k) for k in MAP_ARRAYS}, **c_arrays, **f_arrays}
 
 
@@ -76,18 +92,26 @@ def map_from_message(values: dict, arrays: dict[str, np.ndarray]) -> ServoMap:
     """The inverse of `map_message`: a sensed map, its true poses NaN and true labels
     ``NO_MANIFOLD``, its arrays read-only."""
     clustering = persistence.load(ManifoldClustering, values["clustering"], arrays, "clustering")
-    image_features = persistence.load(ImageFeatures, values["image_features"], arrays,
-                                      "image_features")  # fmt: skip
+    image_features = persistence.load(
+        ImageFeatures, values["image_features"], arrays, "image_features"
+    )
     n = len(arrays["clusters"])
     poses, labels = np.full((n, 3), np.nan), np.full(n, NO_MANIFOLD, np.int64)
     poses.flags.writeable = labels.flags.writeable = False
-    return ServoMap(world=str(values["world"]), key=str(values["key"]),
-                    max_range=float(values["max_range"]),
-                    sequence_names=[str(s) for s in values["sequence_names"]],
-                    settings=MapSettings.from_json(values["settings"]), clustering=clustering,
-                    image_features=image_features, true_poses=poses, true_labels=labels,
-                    manifold_names=(), world_digest=None,
-                    **{k: arrays[k] for k in MAP_ARRAYS})  # fmt: skip
+    return ServoMap(
+        world=str(values["world"]),
+        key=str(values["key"]),
+        max_range=float(values["max_range"]),
+        sequence_names=[str(s) for s in values["sequence_names"]],
+        settings=MapSettings.from_json(values["settings"]),
+        clustering=clustering,
+        image_features=image_features,
+        true_poses=poses,
+        true_labels=labels,
+        manifold_names=(),
+        world_digest=None,
+        **{k: arrays[k] for k in MAP_ARRAYS},
+    )
 
 
 def _make(values: dict, arrays: dict):

@@ -307,15 +307,25 @@ def run_protocol(
             specs = episode_specs(protocol, m.true_labels, max(indices) + 1, m.manifold_names)
             specs = [specs[i] for i in indices]
         isolation["hide"] = [str(Path(map_path).parent), *(str(h) for h in hide)]
-        args = (protocol, map_path, policy, params, policy_seed, act_limit_s, isolation,
-                reset_options)  # fmt: skip
+        args = (
+            protocol,
+            map_path,
+            policy,
+            params,
+            policy_seed,
+            act_limit_s,
+            isolation,
+            reset_options,
+        )
         name = f"servo {protocol.world}/{protocol.tier}/{protocol.split}/{policy}"
         bar = tqdm(total=len(specs), disable=not progress, desc=name)
         records = []
         problem = spawn_problem() if workers > 1 else None
         if problem:
-            warnings.warn(f"running the episodes in this process, not in {workers} workers: "
-                          f"{problem}", stacklevel=2)  # fmt: skip
+            warnings.warn(
+                f"running the episodes in this process, not in {workers} workers: {problem}",
+                stacklevel=2,
+            )
             workers = 1
         if workers == 1:
             init_worker(*args)
@@ -327,16 +337,23 @@ def run_protocol(
                 close_worker()
         else:
             ctx = get_context("spawn")  # no forked MuJoCo / GL state
-            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=init_worker,
-                                     initargs=args) as pool:  # fmt: skip
+            with ProcessPoolExecutor(
+                workers, mp_context=ctx, initializer=init_worker, initargs=args
+            ) as pool:
                 for r in pool.map(run_spec, specs):
                     records.append(r)
                     bar.update()
         bar.close()
     result = summarise(records)
     where = {k: isolation[k] for k in ("process", "sandboxed", "sandbox")}
-    result.update(asdict(protocol), policy=policy, workers=workers, policy_params=params,
-                  policy_seed=policy_seed, isolation=where)  # fmt: skip
+    result.update(
+        asdict(protocol),
+        policy=policy,
+        workers=workers,
+        policy_params=params,
+        policy_seed=policy_seed,
+        isolation=where,
+    )
     if is_policy_spec(policy):  # provenance: the digest of the module's source
         from common.user_modules import source_digest
 

@@ -41,8 +41,10 @@ from servo.task.policy_host import EPISODE_CONSTANT, map_message
 START_LIMIT_S = 120.0  # s to start the process, rebuild the map and run the factory
 MAX_FROM_POLICY = 1 << 16  # bytes of one answer: an action, a waypoint, a failure's text
 _ROOT = Path(__file__).resolve().parents[2]
-_UNSHARE_SCRIPT = ('n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "$1" || exit 97; '
-                   'shift; n=$((n-1)); done; exec "$@"')  # fmt: skip
+_UNSHARE_SCRIPT = (
+    'n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "$1" || exit 97; '
+    'shift; n=$((n-1)); done; exec "$@"'
+)
 
 
 def default_hidden() -> list[str]:
@@ -52,8 +54,12 @@ def default_hidden() -> list[str]:
     exist; not a folder that holds the repository or the current directory."""
     from sim.datahome import ENV_VAR, user_cache_dir
 
-    found = [os.environ.get(ENV_VAR) or "", str(user_cache_dir()), str(_ROOT / "out"),
-             tempfile.gettempdir()]  # fmt: skip
+    found = [
+        os.environ.get(ENV_VAR) or "",
+        str(user_cache_dir()),
+        str(_ROOT / "out"),
+        tempfile.gettempdir(),
+    ]
     return sorted({str(Path(p).resolve()) for p in found if p and Path(p).is_dir()})
 
 
@@ -84,11 +90,33 @@ def _off_the_path(folder: Path, needed) -> list[Path]:
 def _prefix(tool: str, hide: list[str]) -> list[str]:
     if tool == "bwrap":
         mounts = [a for d in hide for a in ("--tmpfs", d)]
-        return ["bwrap", "--dev-bind", "/", "/", "--unshare-pid", "--proc", "/proc",
-                "--die-with-parent", *mounts]  # fmt: skip
-    return ["unshare", "--user", "--map-root-user", "--mount", "--pid", "--fork",
-            "--mount-proc", "--kill-child", "sh", "-c", _UNSHARE_SCRIPT, "sh", str(len(hide)),
-            *hide]  # fmt: skip
+        return [
+            "bwrap",
+            "--dev-bind",
+            "/",
+            "/",
+            "--unshare-pid",
+            "--proc",
+            "/proc",
+            "--die-with-parent",
+            *mounts,
+        ]
+    return [
+        "unshare",
+        "--user",
+        "--map-root-user",
+        "--mount",
+        "--pid",
+        "--fork",
+        "--mount-proc",
+        "--kill-child",
+        "sh",
+        "-c",
+        _UNSHARE_SCRIPT,
+        "sh",
+        str(len(hide)),
+        *hide,
+    ]
 
 
 @functools.cache
@@ -106,8 +134,9 @@ def sandbox_tool() -> str | None:
         if shutil.which(tool) is None:
             continue
         try:
-            done = subprocess.run([*_prefix(tool, [str(_ROOT)]), "true"], timeout=20,
-                                  capture_output=True)  # fmt: skip
+            done = subprocess.run(
+                [*_prefix(tool, [str(_ROOT)]), "true"], timeout=20, capture_output=True
+            )
         except (OSError, subprocess.SubprocessError):
             continue
         if done.returncode == 0:
@@ -172,21 +201,35 @@ class RemotePolicy:
     servo.task.Policy : The interface it has, as the policy in its process does.
     """
 
-    def __init__(self, spec: str, servo_map: ServoMap, policy_seed: int = 0,
-                 params: dict | None = None, *, sandbox: bool = False, hide=(),
-                 start_limit_s: float = START_LIMIT_S):  # fmt: skip
+    def __init__(
+        self,
+        spec: str,
+        servo_map: ServoMap,
+        policy_seed: int = 0,
+        params: dict | None = None,
+        *,
+        sandbox: bool = False,
+        hide=(),
+        start_limit_s: float = START_LIMIT_S,
+    ):
         self.spec, self.params, self.policy_seed = spec, dict(params or {}), int(policy_seed)
         self.sandboxed = bool(sandbox)
         tool = sandbox_tool() if sandbox else None
         if sandbox and tool is None:
-            raise ValueError("no sandbox on this platform: neither bwrap nor unshare can make "
-                             "a mount namespace here")  # fmt: skip
+            raise ValueError(
+                "no sandbox on this platform: neither bwrap nor unshare can make "
+                "a mount namespace here"
+            )
         self.hidden = outermost([*default_hidden(), *hide]) if tool else []
         self._prefix = _prefix(tool, self.hidden) if tool else []
         self._views = len(servo_map)
         values, self._arrays = map_message(sensed_map(servo_map))
-        self._init = {"spec": spec, "params": self.params, "policy_seed": self.policy_seed,
-                      "map": values}  # fmt: skip
+        self._init = {
+            "spec": spec,
+            "params": self.params,
+            "policy_seed": self.policy_seed,
+            "map": values,
+        }
         self.limit_s, self.start_limit_s = ACT_LIMIT_S, float(start_limit_s)
         self.waypoint_ = None
         self._proc = self._sock = None
@@ -199,15 +242,22 @@ class RemotePolicy:
         self._sent = {}  # a fresh process knows nothing of the episode
         env = {k: v for k, v in os.environ.items() if not k.startswith("TOPOMAP_")}
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_ROOT), env.get("PYTHONPATH")]))
-        command = [*self._prefix, sys.executable, "-m", "servo.task.policy_host",
-                   str(child.fileno())]  # fmt: skip
+        command = [
+            *self._prefix,
+            sys.executable,
+            "-m",
+            "servo.task.policy_host",
+            str(child.fileno()),
+        ]
         try:
-            self._proc = subprocess.Popen(command, pass_fds=[child.fileno()], env=env,
-                                          stdin=subprocess.DEVNULL, stdout=2)  # fmt: skip
+            self._proc = subprocess.Popen(
+                command, pass_fds=[child.fileno()], env=env, stdin=subprocess.DEVNULL, stdout=2
+            )
         except OSError as err:  # no python, no sandbox tool any more, no processes left
             parent.close()
-            raise PolicyLoadError(f"policy {self.spec!r}: its process did not start "
-                                  f"({type(err).__name__}: {err})") from None  # fmt: skip
+            raise PolicyLoadError(
+                f"policy {self.spec!r}: its process did not start ({type(err).__name__}: {err})"
+            ) from None
         finally:
             child.close()
         self._sock = parent

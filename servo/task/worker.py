@@ -22,9 +22,16 @@ def param_names(options) -> list[str]:
     return []
 
 
-def init_worker(protocol, map_path: str, policy: str, options: dict,
-                 seed: int = 0, act_limit_s: float | None = None,
-                 isolation: dict | None = None, reset_options=None) -> None:  # fmt: skip
+def init_worker(
+    protocol,
+    map_path: str,
+    policy: str,
+    options: dict,
+    seed: int = 0,
+    act_limit_s: float | None = None,
+    isolation: dict | None = None,
+    reset_options=None,
+) -> None:
     """Make this worker's env and policy (``run_protocol``'s pool initializer): the policy in
     its own process where ``isolation["process"]`` (sandboxed where ``isolation["sandboxed"]``,
     its ``hide`` folders emptied), else here; ``reset_options`` is
@@ -47,8 +54,14 @@ def init_worker(protocol, map_path: str, policy: str, options: dict,
     pol, load_error, rng = None, None, np.random.default_rng(seed)
     try:  # in its own process (an outside policy always), or ours in this one
         if isolation["process"]:
-            pol = RemotePolicy(policy, env.map, seed, options, sandbox=isolation["sandboxed"],
-                               hide=isolation["hide"])  # fmt: skip
+            pol = RemotePolicy(
+                policy,
+                env.map,
+                seed,
+                options,
+                sandbox=isolation["sandboxed"],
+                hide=isolation["hide"],
+            )
         else:
             pol = make_policy(policy, env, rng, **options)
     except PolicyLoadError as err:  # every episode fails with the reason; the run goes on
@@ -65,9 +78,17 @@ def init_worker(protocol, map_path: str, policy: str, options: dict,
     # keep the one generator of the worker, as their published numbers were made with it
     # the protocol's reset options (servo.task.protocol.reset_options), passed in: this module
     # is imported by the protocol's, not the other way round
-    _WORKER.update(reset_options=reset_options, env=env, protocol=protocol, policy=pol,
-                   load_error=load_error, truth=policy == TRUTH_POLICY, act_limit_s=limit,
-                   policy_seed=seed, rng=rng if is_policy_spec(policy) else None)  # fmt: skip
+    _WORKER.update(
+        reset_options=reset_options,
+        env=env,
+        protocol=protocol,
+        policy=pol,
+        load_error=load_error,
+        truth=policy == TRUTH_POLICY,
+        act_limit_s=limit,
+        policy_seed=seed,
+        rng=rng if is_policy_spec(policy) else None,
+    )
 
 
 def close_worker() -> None:
@@ -90,10 +111,14 @@ def run_spec(spec) -> dict:
         else:
             reseed(_WORKER["rng"], spec.seed, _WORKER["policy_seed"])
     record = run_episode(
-        env, policy, spec.seed, _WORKER["reset_options"](env, spec, protocol.tier),
-        truth=_WORKER["truth"], act_limit_s=_WORKER["act_limit_s"],
+        env,
+        policy,
+        spec.seed,
+        _WORKER["reset_options"](env, spec, protocol.tier),
+        truth=_WORKER["truth"],
+        act_limit_s=_WORKER["act_limit_s"],
         load_error=_WORKER["load_error"],
-    )  # fmt: skip
+    )
     record["episode"] = spec.index
     return record
 

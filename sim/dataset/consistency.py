@@ -45,8 +45,10 @@ def _fov(directory: Path, meta: dict) -> float | None:
     if not is_real(value):
         return None
     if not abs(value) <= FULL_TURN + SPAN_TOLERANCE:  # NaN too; a 400-digit int compares
-        raise DatasetError(f"{directory / META_FILE}: settings.laser.fov must be a field of "
-                           f"view of at most 2 pi rad, got {repr(value)[:40]}")  # fmt: skip
+        raise DatasetError(
+            f"{directory / META_FILE}: settings.laser.fov must be a field of "
+            f"view of at most 2 pi rad, got {repr(value)[:40]}"
+        )
     return abs(float(value))
 
 
@@ -61,8 +63,7 @@ def _span_problem(angles: np.ndarray, fov: float) -> str | None:
     span = abs(float(angles[-1]) - float(angles[0]))
     if min(abs(span - fov), abs(span - fov * (n - 1) / n)) <= SPAN_TOLERANCE:
         return None
-    return (f"beam angles span {span:.6g} rad, but {META_FILE}'s settings.laser.fov is "
-            f"{fov:.6g} rad")  # fmt: skip
+    return f"beam angles span {span:.6g} rad, but {META_FILE}'s settings.laser.fov is {fov:.6g} rad"
 
 
 def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
@@ -70,8 +71,10 @@ def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
     sequence and its file when a sequence's beams, angles, image size or world disagrees with the
     first sequence's or with the settings of ``meta`` (``sequences``: loaded
     [`Sequence`][sim.dataset.model.Sequence] by name)."""
-    where = {name: f"{directory}: sequence {name!r} ({meta['sequences'][name]['file']})"
-             for name in sequences}  # fmt: skip
+    where = {
+        name: f"{directory}: sequence {name!r} ({meta['sequences'][name]['file']})"
+        for name in sequences
+    }
     beams, fov = _setting(meta, "laser", "beams"), _fov(directory, meta)
     width, height = _setting(meta, "camera", "width"), _setting(meta, "camera", "height")
     worlds = (meta.get("settings") or {}).get("worlds")
@@ -79,8 +82,10 @@ def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
     for name, s in sequences.items():
         if s.angles is not None:
             if beams is not None and len(s.angles) != beams:
-                raise DatasetError(f"{where[name]}: {len(s.angles)} beams, but {META_FILE}'s "
-                                   f"settings.laser.beams is {beams}")  # fmt: skip
+                raise DatasetError(
+                    f"{where[name]}: {len(s.angles)} beams, but {META_FILE}'s "
+                    f"settings.laser.beams is {beams}"
+                )
             problem = None if fov is None else _span_problem(s.angles, fov)
             if problem:
                 raise DatasetError(f"{where[name]}: {problem}")
@@ -99,8 +104,10 @@ def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
         if s.images is not None:
             h, w = s.images.shape[1:3]
             if None not in (width, height) and (w, h) != (width, height):
-                raise DatasetError(f"{where[name]}: images of {w}x{h}, but {META_FILE}'s "
-                                   f"settings.camera is {width}x{height}")  # fmt: skip
+                raise DatasetError(
+                    f"{where[name]}: images of {w}x{h}, but {META_FILE}'s "
+                    f"settings.camera is {width}x{height}"
+                )
             if s.images.shape[1:] != first.images.shape[1:]:
                 raise DatasetError(
                     f"{where[name]}: images of shape {s.images.shape[1:]}, but sequence "
@@ -108,5 +115,7 @@ def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
                     "dataset keep one camera"
                 )
         if isinstance(worlds, list) and s.world not in worlds:
-            raise DatasetError(f"{where[name]}: world {s.world!r} is not among {META_FILE}'s "
-                               f"settings.worlds {worlds}")  # fmt: skip
+            raise DatasetError(
+                f"{where[name]}: world {s.world!r} is not among {META_FILE}'s "
+                f"settings.worlds {worlds}"
+            )

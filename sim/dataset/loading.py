@@ -86,11 +86,14 @@ def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str 
                 f"is -1 (on none) or in 0..{manifolds - 1}"
             )
     checks = [
-        ("scans", bounds.range_problem), ("angles", bounds.angle_problem),
-        ("odometry", bounds.pose_problem), ("poses", bounds.pose_problem),
-        ("commands", bounds.command_problem), ("times", bounds.time_problem),
+        ("scans", bounds.range_problem),
+        ("angles", bounds.angle_problem),
+        ("odometry", bounds.pose_problem),
+        ("poses", bounds.pose_problem),
+        ("commands", bounds.command_problem),
+        ("times", bounds.time_problem),
         ("depth", bounds.range_problem),
-    ]  # fmt: skip
+    ]
     for key, check in checks:
         problem = check(arrays[key], key) if key in arrays else None
         if problem:
@@ -152,11 +155,12 @@ def load_sequence(
             form = ", ".join([*lead, *("*" if w < 0 else str(w) for w in want)])
             fail(f"{k} has shape {arrays[k].shape}; expected ({form})")
     if laser and arrays["scans"].shape[1] != len(arrays["angles"]):
-        fail(f"scans have {arrays['scans'].shape[1]} beams but angles has "
-             f"{len(arrays['angles'])}")  # fmt: skip
+        fail(f"scans have {arrays['scans'].shape[1]} beams but angles has {len(arrays['angles'])}")
     if camera and "depth" in arrays and arrays["depth"].shape[1:] != arrays["images"].shape[1:3]:
-        fail(f"depth has shape {arrays['depth'].shape}; expected (frames, "
-             f"{', '.join(map(str, arrays['images'].shape[1:3]))}), the images' size")  # fmt: skip
+        fail(
+            f"depth has shape {arrays['depth'].shape}; expected (frames, "
+            f"{', '.join(map(str, arrays['images'].shape[1:3]))}), the images' size"
+        )
     problem = _value_problem(arrays, manifolds)
     if problem:
         fail(problem)

@@ -109,8 +109,10 @@ def read_meta(directory: str | os.PathLike) -> dict:
         check_entry(path, name, entry)
         other = files.setdefault(entry["file"], name)
         if other != name:  # its frames would be counted twice
-            raise DatasetError(f"{path}: sequences {other!r} and {name!r} both name the file "
-                               f"{entry['file']!r}; each sequence has its own file")  # fmt: skip
+            raise DatasetError(
+                f"{path}: sequences {other!r} and {name!r} both name the file "
+                f"{entry['file']!r}; each sequence has its own file"
+            )
     _check_optional_keys(path, meta)
     return meta
 
@@ -129,12 +131,15 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
         raise DatasetError(f"{path}: 'settings.laser' must be an object, got {laser!r}")
     camera = settings.get("camera")
     if camera is not None and not isinstance(camera, dict):
-        raise DatasetError(f"{path}: 'settings.camera' must be an object or null, got "
-                           f"{repr(camera)[:40]}")  # fmt: skip
+        raise DatasetError(
+            f"{path}: 'settings.camera' must be an object or null, got {repr(camera)[:40]}"
+        )
     r = laser.get("max_range", 1.0)
     if not (is_real(r) and 0 < r <= MAX_RANGE):  # an int of 400 digits compares exactly
-        raise DatasetError(f"{path}: 'settings.laser.max_range' must be a number of metres in "
-                           f"(0, {MAX_RANGE:g}], got {repr(r)[:40]}")  # fmt: skip
+        raise DatasetError(
+            f"{path}: 'settings.laser.max_range' must be a number of metres in "
+            f"(0, {MAX_RANGE:g}], got {repr(r)[:40]}"
+        )
     manifolds = meta.get("manifolds", [])
     if not (isinstance(manifolds, list) and all(isinstance(m, str) for m in manifolds)):
         raise DatasetError(f"{path}: 'manifolds' must be a list of names, got {manifolds!r}")
@@ -142,8 +147,10 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
         if not isinstance(meta.get(sensor, True), bool):
             raise DatasetError(f"{path}: '{sensor}' must be true or false, got {meta[sensor]!r}")
     if not (meta.get("camera", True) or meta.get("laser", True)):
-        raise DatasetError(f"{path}: 'camera' and 'laser' are both false; a dataset records "
-                           "at least one of the two sensors")  # fmt: skip
+        raise DatasetError(
+            f"{path}: 'camera' and 'laser' are both false; a dataset records "
+            "at least one of the two sensors"
+        )
     if not isinstance(meta.get("complete", False), bool):
         raise DatasetError(f"{path}: 'complete' must be true or false, got {meta['complete']!r}")
 

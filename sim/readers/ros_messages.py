@@ -192,8 +192,10 @@ def nesting_problem(fielddefs: dict, msgtype: str) -> str | None:
             loop = " -> ".join((*chain[chain.index(name) :], name))
             raise _Nesting(f"message type {name} refers to itself ({loop})")
         if len(chain) >= MAX_MESSAGE_NESTING:
-            raise _Nesting(f"message type {chain[0]} nests more than MAX_MESSAGE_NESTING = "
-                           f"{MAX_MESSAGE_NESTING} types deep")  # fmt: skip
+            raise _Nesting(
+                f"message type {chain[0]} nests more than MAX_MESSAGE_NESTING = "
+                f"{MAX_MESSAGE_NESTING} types deep"
+            )
         if name not in depth:
             inner = [walk(sub, (*chain, name)) for sub in _named(fielddefs.get(name))]
             depth[name] = 1 + max(inner, default=0)
@@ -277,8 +279,11 @@ def check_bag_path(bag: Path) -> None:
     if not bag.exists():
         raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
     # a named pipe or a device (or a link to one) would block the reader or never end
-    special = [p for p in (bag, *(bag.iterdir() if bag.is_dir() else ()))
-               if not (p.is_file() or p.is_dir())]  # fmt: skip
+    special = [
+        p
+        for p in (bag, *(bag.iterdir() if bag.is_dir() else ()))
+        if not (p.is_file() or p.is_dir())
+    ]
     if special:
         raise RosbagImportError(
             f"{special[0]}: neither a regular file nor a directory (a named pipe, a device, or "

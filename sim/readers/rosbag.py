@@ -98,9 +98,14 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
 
     bag = Path(bag)
     check_bag_path(bag)
-    scans, images, odom = (Stream(bag, t) for t in (settings.scan_topic or "no laser",
-                                                      settings.image_topic or "no camera",
-                                                      settings.odom_topic))  # fmt: skip
+    scans, images, odom = (
+        Stream(bag, t)
+        for t in (
+            settings.scan_topic or "no laser",
+            settings.image_topic or "no camera",
+            settings.odom_topic,
+        )
+    )
     try:
         with AnyReader([bag], default_typestore=get_typestore(Stores.LATEST)) as reader:
             conns = _connections(reader, bag, settings)

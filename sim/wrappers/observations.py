@@ -34,20 +34,25 @@ def _dict_space(env: gym.Env, wrapper: str, keys: tuple[str, ...]) -> spaces.Dic
     """The env's ``Dict`` observation space, checked to hold ``keys``."""
     space = env.observation_space
     if not isinstance(space, spaces.Dict):
-        raise TypeError(f"{wrapper} wraps an env with a Dict observation (a topomap env), got "
-                        f"{type(space).__name__}")  # fmt: skip
+        raise TypeError(
+            f"{wrapper} wraps an env with a Dict observation (a topomap env), got "
+            f"{type(space).__name__}"
+        )
     missing = [k for k in keys if k not in space.spaces]
     if missing:
-        raise ValueError(f"{wrapper} needs the observation keys {missing}, which this env lacks "
-                         f"(it has {sorted(space.spaces)})")  # fmt: skip
+        raise ValueError(
+            f"{wrapper} needs the observation keys {missing}, which this env lacks "
+            f"(it has {sorted(space.spaces)})"
+        )
     return space
 
 
 def _max_range(space: spaces.Dict, key: str, wrapper: str) -> float:
     high = float(space[key].high.max())
     if not np.isfinite(high):
-        raise ValueError(f"{wrapper} needs finite ranges: make the env with "
-                         "no_return='max_range' (the default)")  # fmt: skip
+        raise ValueError(
+            f"{wrapper} needs finite ranges: make the env with no_return='max_range' (the default)"
+        )
     return high
 
 
@@ -112,8 +117,9 @@ class ImageObservation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
         gym.utils.RecordConstructorArgs.__init__(self, keys=keys, size=size, grayscale=grayscale)
         gym.ObservationWrapper.__init__(self, env)
         if isinstance(keys, str) or not keys or any(k not in IMAGE_KEYS for k in keys):
-            raise ValueError(f"keys must be a non-empty tuple of names from {IMAGE_KEYS}, got "
-                             f"{keys!r}")  # fmt: skip
+            raise ValueError(
+                f"keys must be a non-empty tuple of names from {IMAGE_KEYS}, got {keys!r}"
+            )
         self.keys = tuple(keys)
         space = _dict_space(env, "ImageObservation", self.keys)
         h, w = space[self.keys[0]].shape[:2]
@@ -124,9 +130,7 @@ class ImageObservation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
         self.size = (h, w)
         self.grayscale = check_bool(grayscale, "grayscale")
         channels = 1 if self.grayscale else 3
-        self.observation_space = spaces.Box(
-            0, 255, (h, w * len(self.keys), channels), np.uint8
-        )
+        self.observation_space = spaces.Box(0, 255, (h, w * len(self.keys), channels), np.uint8)
 
     def _one(self, image: np.ndarray) -> np.ndarray:
         h, w = self.size
@@ -252,8 +256,10 @@ class ScanOdometryObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def _vector(self, observation: dict, info: dict) -> np.ndarray:
         pose = se2_relative(self._start, np.asarray(info["odometry"], np.float64))
-        parts = [_reduce(np.asarray(observation[k], np.float32), self._starts) * self._scale
-                 for k in self.keys]  # fmt: skip
+        parts = [
+            _reduce(np.asarray(observation[k], np.float32), self._starts) * self._scale
+            for k in self.keys
+        ]
         parts.append(np.array([pose[0], pose[1], np.cos(pose[2]), np.sin(pose[2])]))
         return np.concatenate(parts).astype(np.float32)
 

@@ -79,8 +79,11 @@ def test_special_files_are_refused_before_they_are_read(tmp_path):
     os.mkfifo(pipe)  # no writer: a blocking open would never return
     link = tmp_path / "zero.json"
     link.symlink_to("/dev/zero")
-    for path, what in ((pipe, "a named pipe"), (link, "a link to a character device"),
-                       (tmp_path, "a folder")):  # fmt: skip
+    for path, what in (
+        (pipe, "a named pipe"),
+        (link, "a link to a character device"),
+        (tmp_path, "a folder"),
+    ):
         with pytest.raises(NotARegularFile, match=f"is {what}, not a regular file"):
             open_regular(path)
         with pytest.raises(UnreadableJSON, match=what):

@@ -50,9 +50,14 @@ print("sequences", len(load_dataset(path).sequences))
 def test_the_library_runs_from_a_script_piped_to_python(tmp_path):
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONPATH": str(ROOT)}
     done = subprocess.run(
-        [sys.executable, "-"], input=SCRIPT.format(out=str(tmp_path / "data")), text=True,
-        capture_output=True, cwd=ROOT, env=env, timeout=300,
-    )  # fmt: skip
+        [sys.executable, "-"],
+        input=SCRIPT.format(out=str(tmp_path / "data")),
+        text=True,
+        capture_output=True,
+        cwd=ROOT,
+        env=env,
+        timeout=300,
+    )
     if done.returncode != 0:
         pytest.fail(f"exit {done.returncode}: {done.stderr[-2000:]}")
     assert "sequences 3" in done.stdout

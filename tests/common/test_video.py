@@ -53,8 +53,9 @@ def test_mp4_codecs_tells_the_mpeg4_part2_that_browsers_refuse(tmp_path):
     import cv2
 
     frames = _frames(h=60, w=84)
-    writer = cv2.VideoWriter(str(tmp_path / "old.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), 10,
-                             (84, 60))  # fmt: skip
+    writer = cv2.VideoWriter(
+        str(tmp_path / "old.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), 10, (84, 60)
+    )
     for f in frames:
         writer.write(f)
     writer.release()

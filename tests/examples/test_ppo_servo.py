@@ -90,11 +90,19 @@ def test_the_example_runs_from_a_folder_outside_the_repository(tmp_path):
     """``python examples/ppo_servo.py`` by its path, the working folder elsewhere; the
     project on the import path as an install puts it."""
     root = Path(__file__).resolve().parents[2]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        [str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}  # fmt: skip
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(root), *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
     script = str(root / "examples" / "ppo_servo.py")
-    done = subprocess.run([sys.executable, script, "--help"], cwd=tmp_path, env=env,
-                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, script, "--help"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     assert "--obs {image,vector,dict}" in done.stdout
 
@@ -115,8 +123,7 @@ def test_the_learning_curve_is_drawn_with_its_numbers(tmp_path):
     from examples.ppo_servo import plot_curve
 
     ended = [{"step": 200 * (i + 1), "return": -5.0 + i / 4, "ok": i > 12} for i in range(20)]
-    result = {"env": "topomap/Hallway-v0", "obs": "vector", "steps": 4000,
-              "episodes_detail": ended}  # fmt: skip
+    result = {"env": "topomap/Hallway-v0", "obs": "vector", "steps": 4000, "episodes_detail": ended}
     plot_curve(result, str(tmp_path / "curve" / "ppo.png"))
     assert (tmp_path / "curve" / "ppo.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((tmp_path / "curve" / "ppo.json").read_text()) == result

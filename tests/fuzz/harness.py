@@ -45,9 +45,31 @@ __all__ = [
 
 ENV = "TOPOMAP_FUZZ_CASES"
 SPECIAL_FILES = ("pipe", "link to /dev/zero", "link to a pipe", "folder", "dangling link")
-ODD_VALUES = (None, True, False, -1, 0, 2, 1.5, 10**400, -(10**400), 1e308, -1e308,
-              float("nan"), float("inf"), float("-inf"), "x", "", "9" * 400, [], [1, "a"], {},
-              {"a": None}, [[[[]]]], "../x.npz")  # fmt: skip
+ODD_VALUES = (
+    None,
+    True,
+    False,
+    -1,
+    0,
+    2,
+    1.5,
+    10**400,
+    -(10**400),
+    1e308,
+    -1e308,
+    float("nan"),
+    float("inf"),
+    float("-inf"),
+    "x",
+    "",
+    "9" * 400,
+    [],
+    [1, "a"],
+    {},
+    {"a": None},
+    [[[[]]]],
+    "../x.npz",
+)
 
 
 def case_count(default: int) -> int:
@@ -205,10 +227,10 @@ class Judge:
         """One line per kind: how many cases were refused, read and escaped."""
         kinds = sorted({kind for kind, _ in self.outcomes})
         return "\n".join(
-            f"{kind}: " + ", ".join(f"{o} {self.outcomes[kind, o]}"
-                                    for o in ("refused", "read", "escaped"))
+            f"{kind}: "
+            + ", ".join(f"{o} {self.outcomes[kind, o]}" for o in ("refused", "read", "escaped"))
             for kind in kinds
-        )  # fmt: skip
+        )
 
     def assert_clean(self, least: int) -> None:
         """Fail listing every escape, or when fewer than ``least`` cases ran."""

@@ -22,8 +22,18 @@ from tests.sim.readers.fuzzing import SPECIAL_TEXT
 from tests.sim.readers.test_fuzz import _assert_valid, _flaser_log, _robotlaser_log
 
 CAP = 1 << 20  # MAX_LOG_BYTES during the fuzz: a bomb is refused after 1 MiB, not 1 GiB
-KINDS = ("truncated", "flipped", "field", "huge count", "beams", "lone CR", "gz", "bomb",
-         "special file", "max range")  # fmt: skip
+KINDS = (
+    "truncated",
+    "flipped",
+    "field",
+    "huge count",
+    "beams",
+    "lone CR",
+    "gz",
+    "bomb",
+    "special file",
+    "max range",
+)
 
 
 def _damaged(text: str, kind: str, rng: np.random.Generator) -> tuple[bytes, int | None]:

@@ -28,8 +28,9 @@ def _never(_map) -> None:
 def test_the_builder_refuses_every_damaged_dataset_naming_it(clean, tmp_path):  # noqa: F811
     rng = np.random.default_rng(600)
     maps = tmp_path / "maps"
-    judge = Judge(lambda p: load_or_build("lawn", p, maps, progress=False),
-                  (DatasetError, MapError), _never)  # fmt: skip
+    judge = Judge(
+        lambda p: load_or_build("lawn", p, maps, progress=False), (DatasetError, MapError), _never
+    )
     n = case_count(30)
     for case in range(n):
         kind = KINDS[case % len(KINDS)]
@@ -47,8 +48,19 @@ def _through_servo_eval(judge, kind, path, maps):
     err = io.StringIO()
     try:
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-            status = main(["servo-eval", "--world", "lawn", "--episodes", "1", "--data",
-                           str(path), "--maps", str(maps)])  # fmt: skip
+            status = main(
+                [
+                    "servo-eval",
+                    "--world",
+                    "lawn",
+                    "--episodes",
+                    "1",
+                    "--data",
+                    str(path),
+                    "--maps",
+                    str(maps),
+                ]
+            )
     except Exception as exc:  # what the fuzz looks for
         judge.escapes.append(f"{kind}: topomap servo-eval raised {type(exc).__name__}: {exc}")
         return
@@ -67,12 +79,20 @@ def _short(tmp_path, beams: int, frames: int):
 @pytest.mark.parametrize(
     ("beams", "frames", "says"),
     [
-        (61, 100, r"the scans have 61 beams; .* needs at least 141 beams per scan: record with "
-                  r"a laser of more beams"),
-        (MIN_BEAMS, 20, r"give 10 stored views .* needs 32: collect at least 64 frames per "
-                        r"sequence \(topomap collect --frames\)"),
+        (
+            61,
+            100,
+            r"the scans have 61 beams; .* needs at least 141 beams per scan: record with "
+            r"a laser of more beams",
+        ),
+        (
+            MIN_BEAMS,
+            20,
+            r"give 10 stored views .* needs 32: collect at least 64 frames per "
+            r"sequence \(topomap collect --frames\)",
+        ),
     ],
-)  # fmt: skip
+)
 def test_servo_eval_on_a_dataset_that_cannot_give_a_map_says_what_to_collect(
     tmp_path, beams, frames, says
 ):
@@ -81,8 +101,19 @@ def test_servo_eval_on_a_dataset_that_cannot_give_a_map_says_what_to_collect(
     data = _short(tmp_path, beams, frames)
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        status = main(["servo-eval", "--world", "lawn", "--episodes", "1", "--data", str(data),
-                       "--maps", str(tmp_path / "maps")])  # fmt: skip
+        status = main(
+            [
+                "servo-eval",
+                "--world",
+                "lawn",
+                "--episodes",
+                "1",
+                "--data",
+                str(data),
+                "--maps",
+                str(tmp_path / "maps"),
+            ]
+        )
     assert status == 2 and "Traceback" not in err.getvalue()
     assert re.search(says, err.getvalue()), err.getvalue()
     assert f"topomap servo-eval: {data}: " in err.getvalue()

@@ -26,9 +26,23 @@ from tests.fuzz.harness import (
 )
 from tests.sim.dataset_fixtures import sequence_arrays, write_dataset
 
-KINDS = ("array", "meta", "truncated", "flipped", "beams", "image size", "angles", "world",
-         "file twice", "labels", "no manifolds", "max range", "special file", "bomb",
-         "settings")  # fmt: skip
+KINDS = (
+    "array",
+    "meta",
+    "truncated",
+    "flipped",
+    "beams",
+    "image size",
+    "angles",
+    "world",
+    "file twice",
+    "labels",
+    "no manifolds",
+    "max range",
+    "special file",
+    "bomb",
+    "settings",
+)
 CAP = 1 << 20  # the arrays' bytes read per file during the fuzz
 
 
@@ -38,10 +52,16 @@ def clean(tmp_path_factory):
     path = write_dataset(tmp_path_factory.mktemp("clean"))
     write_sequence(path / "lawn-right.npz", sequence_arrays())
     meta = json.loads((path / "meta.json").read_text())
-    meta["sequences"]["lawn-right"] = dict(meta["sequences"]["lawn-left"], file="lawn-right.npz",
-                                           sha256=file_sha256(path / "lawn-right.npz"))  # fmt: skip
-    meta["settings"] = {"laser": {"max_range": 10.0, "beams": 4, "fov": np.pi},
-                        "camera": {"width": 6, "height": 4}, "worlds": ["lawn"]}  # fmt: skip
+    meta["sequences"]["lawn-right"] = dict(
+        meta["sequences"]["lawn-left"],
+        file="lawn-right.npz",
+        sha256=file_sha256(path / "lawn-right.npz"),
+    )
+    meta["settings"] = {
+        "laser": {"max_range": 10.0, "beams": 4, "fov": np.pi},
+        "camera": {"width": 6, "height": 4},
+        "worlds": ["lawn"],
+    }
     (path / "meta.json").write_text(json.dumps(meta))
     assert len(load_dataset(path).sequences) == 2
     return path
@@ -114,8 +134,7 @@ def _case(clean, path, kind, rng, case):
     elif kind == "world":
         meta["sequences"][name]["world"] = str(rng.choice(["hallway", "lawn:3", "x", "../lawn"]))
     elif kind == "file twice":
-        meta["sequences"][name] = dict(meta["sequences"]["lawn-left" if case % 2 else
-                                                         "lawn-right"])  # fmt: skip
+        meta["sequences"][name] = dict(meta["sequences"]["lawn-left" if case % 2 else "lawn-right"])
     elif kind == "labels":
         arrays["labels"] = np.full(5, int(rng.choice([2, 7, 999, -2, 32767])), np.int16)
         _write(path, name, arrays, meta)
@@ -144,9 +163,10 @@ def _case(clean, path, kind, rng, case):
             odd = (1.0, 2 * np.pi, -np.pi, 7.0, float("nan"), 10**400, True, "3.14")
             section = meta["settings"]["laser" if key == "fov" else "camera"]
             meta["settings"]["laser" if key == "fov" else "camera"] = (
-                dict(section, fov=odd[int(rng.integers(len(odd)))]) if key == "fov"
+                dict(section, fov=odd[int(rng.integers(len(odd)))])
+                if key == "fov"
                 else odd[int(rng.integers(len(odd)))]
-            )  # fmt: skip
+            )
         elif key == "worlds":
             meta["settings"]["worlds"] = ["hallway"]
         else:

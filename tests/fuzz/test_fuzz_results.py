@@ -26,10 +26,31 @@ from tests.fuzz.harness import (
 )
 from tests.scripts.leaderboard.test_files_fuzz import _result
 
-KINDS = ("member", "member", "value", "truncated", "flipped", "nesting", "special file",
-         "folder", "rate")  # fmt: skip
-VALUES = (1e308, -1e308, 1e12, 1e13, 10**400, -(10**13), float("nan"), float("inf"), 5e-324,
-          -0.0, True, "0.5")  # fmt: skip
+KINDS = (
+    "member",
+    "member",
+    "value",
+    "truncated",
+    "flipped",
+    "nesting",
+    "special file",
+    "folder",
+    "rate",
+)
+VALUES = (
+    1e308,
+    -1e308,
+    1e12,
+    1e13,
+    10**400,
+    -(10**13),
+    float("nan"),
+    float("inf"),
+    5e-324,
+    -0.0,
+    True,
+    "0.5",
+)
 
 
 def _ranked(path) -> str:
@@ -38,8 +59,11 @@ def _ranked(path) -> str:
 
 def _valid(text: str) -> None:
     """Every number the table shows (not the method's parameters or notes) is finite."""
-    rows = [line.strip("|").split(" | ") for line in text.splitlines()
-             if line[:2] == "| " and line[2:3].isdigit()]  # fmt: skip
+    rows = [
+        line.strip("|").split(" | ")
+        for line in text.splitlines()
+        if line[:2] == "| " and line[2:3].isdigit()
+    ]
     assert rows, f"no ranked row: {text[:300]}"
     for cells in rows:
         shown = " ".join([cells[0], *cells[2:-1]])

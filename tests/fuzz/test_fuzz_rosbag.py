@@ -23,11 +23,9 @@ from tests.sim.readers import rosbag_fixtures
 from tests.sim.readers.rosbag_fixtures import ODOM, write_bag
 from tests.sim.readers.test_rosbag import TINY, _tiny_drive
 
-KINDS = ("truncated", "flipped", "value", "value", "beams", "png", "loop", "setups",
-         "special file")  # fmt: skip
+KINDS = ("truncated", "flipped", "value", "value", "beams", "png", "loop", "setups", "special file")
 NUMBERS = (np.nan, np.inf, -np.inf, 1e300, -1e300, -1.0, 0.0, 1e-320, 1e7, -(2.0**63))
-FIELDS = ("ranges", "angles", "poses", "velocities", "t_scan", "t_odom", "t_image",
-          "range_max")  # fmt: skip
+FIELDS = ("ranges", "angles", "poses", "velocities", "t_scan", "t_odom", "t_image", "range_max")
 
 
 def _png_claiming(width: int, height: int) -> np.ndarray:
@@ -61,16 +59,18 @@ def _loop_bag(path, ros: int):
     latest = get_typestore(Stores.LATEST)
     if ros == 2:
         with Writer2(path, version=9) as writer:
-            conn = writer.add_connection("/scan", msgtype, msgdef=msgdef,
-                                         rihs01="RIHS01_" + "0" * 64)  # fmt: skip
+            conn = writer.add_connection(
+                "/scan", msgtype, msgdef=msgdef, rihs01="RIHS01_" + "0" * 64
+            )
             writer.write(conn, 1, b"\x00" * 16)
             writer.add_connection(ODOM, "nav_msgs/msg/Odometry", typestore=latest)
         return path
     store = get_typestore(Stores.EMPTY)
     store.register(get_types_from_msg(msgdef, msgtype))
     with Writer(path) as writer:
-        conn = writer.add_connection("/scan", msgtype, msgdef=msgdef,
-                                     md5sum=store.generate_msgdef(msgtype)[1])  # fmt: skip
+        conn = writer.add_connection(
+            "/scan", msgtype, msgdef=msgdef, md5sum=store.generate_msgdef(msgtype)[1]
+        )
         writer.write(conn, 1, b"\x00" * 16)
         writer.add_connection(ODOM, "nav_msgs/msg/Odometry", typestore=latest)
     return path
@@ -103,8 +103,9 @@ def _case(folder, kind, rng, case, monkeypatch):
         bag = write_bag(name, drive, ros=ros)
     if kind == "setups":  # a second bag of another laser
         angles = np.linspace(-1.0, 1.0, 5)
-        other = write_bag(folder / ("other.bag" if ros == 1 else "other"),
-                          _tiny_drive(angles=angles), ros=ros)  # fmt: skip
+        other = write_bag(
+            folder / ("other.bag" if ros == 1 else "other"), _tiny_drive(angles=angles), ros=ros
+        )
         return [bag, other]
     target = bag if ros == 1 else next(bag.glob("*.db3"))
     if kind in ("truncated", "flipped"):
@@ -120,8 +121,9 @@ def _import(bags):
     out = bags[0].parent / "out"
     loop = bags[0].stem == "loop"
     try:
-        import_rosbags(bags, out, dataclasses.replace(TINY, image_topic=None) if loop else TINY,
-                       progress=False)  # fmt: skip
+        import_rosbags(
+            bags, out, dataclasses.replace(TINY, image_topic=None) if loop else TINY, progress=False
+        )
     finally:
         left = [p.name for p in bags[0].parent.iterdir() if p.name.startswith((".out", "out"))]
         assert not left or (out / "meta.json").is_file(), f"left half-written: {left}"

@@ -67,10 +67,19 @@ def _case(path, saved, kind, rng, case):
         name = sorted(arrays)[int(rng.integers(len(arrays)))]
         _, arrays[name] = odd_array(arrays[name], rng)
     elif kind == "index":  # one value no map can hold
-        name, value = [("true_poses", np.nan), ("true_poses", 1e300), ("poses", -np.inf),
-                       ("frame", -3), ("sequence", 7), ("sequence", -1), ("clusters", 99),
-                       ("edges", 10**6), ("true_labels", 99), ("scans", np.nan),
-                       ("angles", 1e9)][int(rng.integers(11))]  # fmt: skip
+        name, value = [
+            ("true_poses", np.nan),
+            ("true_poses", 1e300),
+            ("poses", -np.inf),
+            ("frame", -3),
+            ("sequence", 7),
+            ("sequence", -1),
+            ("clusters", 99),
+            ("edges", 10**6),
+            ("true_labels", 99),
+            ("scans", np.nan),
+            ("angles", 1e9),
+        ][int(rng.integers(11))]
         a = arrays[name].copy()
         a.flat[int(rng.integers(a.size))] = value
         arrays[name] = a

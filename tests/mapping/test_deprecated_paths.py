@@ -15,11 +15,23 @@ MOVED = [
     ("mapping.icp_solver", "densify_scan", "mapping.scan_matching"),
     ("mapping.icp_solver", "IcpResult", "mapping.scan_matching.icp_alignment"),
     ("mapping.icp_solver", "IcpBatchResult", "mapping.scan_matching.icp_alignment"),
-    *(("mapping.synthetic", name, "mapping.manifold") for name in (
-        "SYNTHETIC_SETS", "branching_sequences", "converging_paths", "lines_variable_spacing",
-        "make_all", "parallel_lines", "plot_sets", "spirals_3d")),
-    *(("mapping.synthetic_scans", name, "mapping.grouping") for name in (
-        "office_path", "office_world", "raycast", "simulate_odometry")),
+    *(
+        ("mapping.synthetic", name, "mapping.manifold")
+        for name in (
+            "SYNTHETIC_SETS",
+            "branching_sequences",
+            "converging_paths",
+            "lines_variable_spacing",
+            "make_all",
+            "parallel_lines",
+            "plot_sets",
+            "spirals_3d",
+        )
+    ),
+    *(
+        ("mapping.synthetic_scans", name, "mapping.grouping")
+        for name in ("office_path", "office_world", "raycast", "simulate_odometry")
+    ),
     ("mapping.synthetic_scans", "OfficeWorld", "mapping.grouping.synthetic_scans"),
 ]
 

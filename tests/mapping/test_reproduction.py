@@ -1,7 +1,6 @@
 """The paper reproductions of docs/guides/manifold-clustering.md, pinned: the synthetic table and
 the 8-manifold image result, on the real default dataset (collected once per session)."""
 
-
 import numpy as np
 import pytest
 from scipy.stats import binomtest

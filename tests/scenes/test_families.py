@@ -139,8 +139,11 @@ def test_hard_mode_shares_the_main_manifolds_materials():
     import xml.etree.ElementTree as ET
 
     def materials(world, prefix):
-        return {g.get("material") for g in ET.fromstring(world.xml).iter("geom")
-                if g.get("name").startswith(prefix)}  # fmt: skip
+        return {
+            g.get("material")
+            for g in ET.fromstring(world.xml).iter("geom")
+            if g.get("name").startswith(prefix)
+        }
 
     default, hard = build_world("hallway:5"), build_world("hallway:5", appearance="hard")
     assert len(materials(hard, "wall")) == 1 < len(materials(default, "wall"))

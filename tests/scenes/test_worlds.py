@@ -159,8 +159,10 @@ def _surfaces(world) -> dict[str, dict[str, set]]:
             }
             for a, p in areas.items()
         }
-    floors = {a: {m for n, m in mats.items() if n.startswith(f"{p}_") and n.endswith("_floor")}
-              for a, p in areas.items()}  # fmt: skip
+    floors = {
+        a: {m for n, m in mats.items() if n.startswith(f"{p}_") and n.endswith("_floor")}
+        for a, p in areas.items()
+    }
     return {"floor": floors, "walls": walls}
 
 

@@ -57,8 +57,19 @@ def test_a_data_folder_that_is_not_the_default_is_never_collected(empty_folder):
 def test_manifold_eval_names_the_seed_and_the_condition_that_needs_it(empty_folder, capsys):
     (empty_folder / "root" / "m-data-1").mkdir(parents=True)
     (empty_folder / "root" / "m-data-1" / "meta.json").write_text("{}")
-    argv = ["manifold-eval", "--root", "root", "--out", "o", "--baselines", "--seeds", "1",
-            "--conditions", "held-out", "--quiet"]  # fmt: skip
+    argv = [
+        "manifold-eval",
+        "--root",
+        "root",
+        "--out",
+        "o",
+        "--baselines",
+        "--seeds",
+        "1",
+        "--conditions",
+        "held-out",
+        "--quiet",
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "`topomap collect --world all --seed 2 --out root/m-data-2`" in err
@@ -66,8 +77,19 @@ def test_manifold_eval_names_the_seed_and_the_condition_that_needs_it(empty_fold
 
 
 def test_manifold_eval_names_the_flags_of_a_randomized_dataset(empty_folder, capsys):
-    argv = ["manifold-eval", "--root", "root", "--out", "o", "--baselines", "--seeds", "3",
-            "--conditions", "randomized", "--quiet"]  # fmt: skip
+    argv = [
+        "manifold-eval",
+        "--root",
+        "root",
+        "--out",
+        "o",
+        "--baselines",
+        "--seeds",
+        "3",
+        "--conditions",
+        "randomized",
+        "--quiet",
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "`topomap collect --world all --seed 3 --randomize --out root/m-data-r3`" in err

@@ -62,8 +62,15 @@ def test_group_eval_runs_without_ground_truth(imported, tmp_path, capsys):
     html = report.section_grouping(result)
     assert "No ground-truth labels" in html and "&ndash;" in html
     # the import changes nothing the grouping sees: the same groups as the simulated odometry
-    evaluate_grouping(sim, tmp_path / "sim", true_poses=False, loop=False, compare=False,
-                      figures=False, progress=False)  # fmt: skip
+    evaluate_grouping(
+        sim,
+        tmp_path / "sim",
+        true_poses=False,
+        loop=False,
+        compare=False,
+        figures=False,
+        progress=False,
+    )
     with np.load(tmp_path / "sim" / "groups.npz", allow_pickle=False) as z:
         np.testing.assert_array_equal(groups, z["default/hallway/odometry+icp"])
 

@@ -78,9 +78,13 @@ MANIFOLD = {
     "timings": {"synthetic": 1.0},
 }
 _PAIR = {
-    "episodes": 2, "success_rate": 0.5, "success_ci95": [0.09, 0.91], "spl": 0.4,
-    "final_distance": 0.3, "collisions": 0.0,
-}  # fmt: skip
+    "episodes": 2,
+    "success_rate": 0.5,
+    "success_ci95": [0.09, 0.91],
+    "spl": 0.4,
+    "final_distance": 0.3,
+    "collisions": 0.0,
+}
 SERVO = {
     "world": "hallway",
     "policy": "servo",
@@ -281,8 +285,10 @@ def test_run_pipeline_writes_a_complete_report(tmp_path):
     assert "numpy" in data["info"]["versions"]
     assert list(data) == ["summary", "worlds", "manifold", "seeds", "servo", "grouping", "info"]
     assert [line["task"].split(" (")[0] for line in data["summary"]] == [
-        "manifold clustering", "observation grouping", "servo: ManifoldServo"
-    ]  # fmt: skip
+        "manifold clustering",
+        "observation grouping",
+        "servo: ManifoldServo",
+    ]
     assert page.index('<section id="summary">') < page.index('<section id="worlds">')
     assert data["seeds"] == {"source": None, "rows": []}  # no --protocol: said, not computed
     assert "Not part of this run" in page and "topomap run --protocol DIR" in page
@@ -551,8 +557,14 @@ def _stub_internals(monkeypatch):
 
     def run_protocol(protocol, servo_map, episodes, policy="servo", *, plot=None, **kw):
         Path(plot).write_bytes(PNG)
-        return {**SERVO, "world": protocol.world, "policy": policy, "tier": protocol.tier,
-                "split": protocol.split, "plot": str(plot)}  # fmt: skip
+        return {
+            **SERVO,
+            "world": protocol.world,
+            "policy": policy,
+            "tier": protocol.tier,
+            "split": protocol.split,
+            "plot": str(plot),
+        }
 
     monkeypatch.setattr("servo.task.evaluation.evaluate", evaluate)
     monkeypatch.setattr("servo.task.protocol.run_protocol", run_protocol)
@@ -595,8 +607,10 @@ def test_check_report_finds_missing_and_outside_links(tmp_path, capsys):
     (tmp_path.parent / "x.png").write_bytes(PNG)
     index = tmp_path / report.INDEX
     index.write_text(page)
-    assert problems(index) == ["../x.png: not a path inside " + str(tmp_path.resolve()),
-                               "b.png: missing"]  # fmt: skip
+    assert problems(index) == [
+        "../x.png: not a path inside " + str(tmp_path.resolve()),
+        "b.png: missing",
+    ]
     assert main([str(index)]) == 1
     assert "b.png: missing" in capsys.readouterr().err
     assert problems(tmp_path / "nope.html") == [f"{tmp_path / 'nope.html'} does not exist"]
@@ -625,8 +639,9 @@ def test_run_shows_the_committed_protocol_cells_unless_told_not_to():
     from scripts.report.settings import COMMITTED_PROTOCOL
 
     committed = chosen("committed")
-    assert committed == (str(COMMITTED_PROTOCOL) if (COMMITTED_PROTOCOL / "cells").is_dir()
-                         else None)  # fmt: skip
+    assert committed == (
+        str(COMMITTED_PROTOCOL) if (COMMITTED_PROTOCOL / "cells").is_dir() else None
+    )
     assert chosen("none") is None and chosen("some/dir") == "some/dir"
     if committed is not None:  # the repository's own cells pass the report's checks
         result = report.stage_protocol(committed)

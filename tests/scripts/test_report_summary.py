@@ -12,9 +12,15 @@ HSV = FEATURES["hsv"][0]
 
 
 def _protocol_row(condition, method, mean, lo, hi, features="hsv", dev=0.03):
-    return {"condition": condition, "features": features, "method": method, "dev_error": dev,
-            "seeds": list(range(1, 11)), "errors": [mean] * 10,
-            "summary": {"mean": mean, "lo": lo, "hi": hi, "n": 10}}  # fmt: skip
+    return {
+        "condition": condition,
+        "features": features,
+        "method": method,
+        "dev_error": dev,
+        "seeds": list(range(1, 11)),
+        "errors": [mean] * 10,
+        "summary": {"mean": mean, "lo": lo, "hi": hi, "n": 10},
+    }
 
 
 SEEDS = {
@@ -41,20 +47,29 @@ def _score(purity, max_groups, meets):
 
 def _grouping(hallway, lawn):
     return {
-        "settings": {"targets": {"purity_min": 0.9, "max_groups_per_manifold": 3},
-                     "shown": "odometry+icp"},
+        "settings": {
+            "targets": {"purity_min": 0.9, "max_groups_per_manifold": 3},
+            "shown": "odometry+icp",
+        },
         "default": {
             "hallway": {"frames": 450, "odometry": _score(0.5, 9, False), "odometry+icp": hallway},
             "lawn": {"frames": 450, "odometry": _score(0.99, 1, True), "odometry+icp": lawn},
         },
-    }  # fmt: skip
+    }
 
 
 def _servo(world, policy, tier, successes, episodes=20, randomize=False):
-    return {"world": world, "policy": policy, "tier": tier, "split": "test",
-            "randomize": randomize, "episodes": episodes, "successes": successes,
-            "success_rate": successes / episodes,
-            "success_ci95": list(wilson_interval(successes, episodes))}  # fmt: skip
+    return {
+        "world": world,
+        "policy": policy,
+        "tier": tier,
+        "split": "test",
+        "randomize": randomize,
+        "episodes": episodes,
+        "successes": successes,
+        "success_rate": successes / episodes,
+        "success_ci95": list(wilson_interval(successes, episodes)),
+    }
 
 
 def test_the_manifold_line_is_the_protocols_headline_cell_with_its_interval():
@@ -117,8 +132,11 @@ def test_a_servo_line_per_policy_and_start_condition_with_the_worst_world():
     ]
     servo, signal, randomized, oracle, view = lines
     # ManifoldServo's target from anywhere is 95 % in every world: 19/20 meets it
-    assert (servo["value"], servo["target"], servo["meets"]) == (0.95, ">= 0.95 in every world",
-                                                                 True)  # fmt: skip
+    assert (servo["value"], servo["target"], servo["meets"]) == (
+        0.95,
+        ">= 0.95 in every world",
+        True,
+    )
     assert servo["interval"] == list(wilson_interval(19, 20))
     assert servo["measure"] == "success rate on the test split, lowest world (hallway; 20 episodes)"
     assert "lawn: 20/20 = 1.00" in servo["detail"]
@@ -165,8 +183,10 @@ def test_the_summary_table_shows_each_line_with_interval_target_and_verdict(page
     assert "<td>0.930</td><td>purity &gt;= 0.9 and &lt;= 3 groups" in grouping
     assert "<td>no</td>" in grouping
     lo, hi = wilson_interval(11, 20)
-    assert f"<td>0.550 [{lo:.3f}, {hi:.3f}] (Wilson 95%)</td><td>&gt;= 0.80 in every world</td>" \
-        "<td>no</td>" in signal  # fmt: skip
+    assert (
+        f"<td>0.550 [{lo:.3f}, {hi:.3f}] (Wilson 95%)</td><td>&gt;= 0.80 in every world</td>"
+        "<td>no</td>" in signal
+    )
 
 
 def test_the_summary_opens_the_page(page_lines):

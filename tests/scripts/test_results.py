@@ -79,8 +79,9 @@ def test_readme_states_no_result_outside_its_generated_tables():
     for start, end in ((START, END), (HELDOUT_START, HELDOUT_END)):
         text = text[: text.index(start)] + text[text.index(end) :]
     # "95% interval" names the interval a result is given with, not a result
-    stated = [line for line in text.splitlines()
-              if re.search(r"\d%", line.replace("95% interval", ""))]  # fmt: skip
+    stated = [
+        line for line in text.splitlines() if re.search(r"\d%", line.replace("95% interval", ""))
+    ]
     assert not stated, "README states results outside its generated tables:\n" + "\n".join(stated)
 
 
@@ -119,7 +120,8 @@ def test_a_held_out_file_without_cells_is_refused(copy):
         generate(copy)
     readme = copy / "README.md"
     readme.write_text(readme.read_text().replace("<!-- heldout:end -->", ""))
-    path.write_text(json.dumps({"cells": [{"world": "lawn", "family": "lawn", "frames": 150,
-                                           "tasks": {}}]}))  # fmt: skip
+    path.write_text(
+        json.dumps({"cells": [{"world": "lawn", "family": "lawn", "frames": 150, "tasks": {}}]})
+    )
     with pytest.raises(ValueError, match="heldout:end"):
         generate(copy)

@@ -16,23 +16,34 @@ def test_every_setting_that_changes_the_episodes_is_in_the_file_name():
     others = {
         _name("--world", "lawn", "--tier", "anywhere", "--split", "test"),
         _name("--world", "hallway", "--tier", "anywhere", "--split", "test", "--randomize"),
-        _name("--world", "hallway", "--tier", "anywhere", "--split", "test",
-              "--no-odometry-noise"),
+        _name("--world", "hallway", "--tier", "anywhere", "--split", "test", "--no-odometry-noise"),
         _name("--world", "hallway", "--tier", "anywhere", "--split", "test", "--episodes", "20"),
         _name("--world", "hallway", "--tier", "anywhere", "--split", "test", "--max-steps", "900"),
         _name("--world", "hallway", "--tier", "anywhere", "--split", "test", "--policy", "signal"),
         _name("--world", "hallway", "--tier", "view", "--split", "test"),
         _name("--world", "hallway", "--tier", "anywhere", "--split", "dev"),
-    }  # fmt: skip
+    }
     assert base not in others and len(others) == 8
     assert "randomize" in _name("--randomize") and "900steps" in _name("--max-steps", "900")
 
 
 def _servo_eval(tmp_path, out: str) -> list[str]:
     # --data names no dataset: the run must stop at --out, before it reads any data
-    return ["servo-eval", "--world", "hallway", "--episodes", "1", "--policy", "random",
-            "--data", str(tmp_path / "no-dataset"), "--maps", str(tmp_path / "maps"),
-            "--out", out]  # fmt: skip
+    return [
+        "servo-eval",
+        "--world",
+        "hallway",
+        "--episodes",
+        "1",
+        "--policy",
+        "random",
+        "--data",
+        str(tmp_path / "no-dataset"),
+        "--maps",
+        str(tmp_path / "maps"),
+        "--out",
+        out,
+    ]
 
 
 def test_a_bad_out_is_reported_before_any_episode(tmp_path, capsys, monkeypatch):
@@ -43,8 +54,10 @@ def test_a_bad_out_is_reported_before_any_episode(tmp_path, capsys, monkeypatch)
 
     monkeypatch.setattr(servo.task.protocol, "run_protocol", pytest.fail)
     (tmp_path / "afile").write_text("x")
-    for out, why in ((tmp_path / "afile", "must be a folder, got the file"),
-                     (tmp_path / "afile" / "sub", "Not a directory")):  # fmt: skip
+    for out, why in (
+        (tmp_path / "afile", "must be a folder, got the file"),
+        (tmp_path / "afile" / "sub", "Not a directory"),
+    ):
         assert main(_servo_eval(tmp_path, str(out))) == 2
         err = capsys.readouterr().err
         assert err.startswith("topomap servo-eval: --out must be a folder") and why in err
@@ -86,8 +99,7 @@ def test_main_reports_an_os_error_in_one_line(tmp_path, capsys, monkeypatch):
     assert err == f"topomap preview: [Errno 13] Permission denied: '{tmp_path / 'x.png'}'\n"
 
 
-def test_the_sandbox_option_is_parsed_and_a_missing_sandbox_refused(tmp_path, capsys,
-                                                                    monkeypatch):  # fmt: skip
+def test_the_sandbox_option_is_parsed_and_a_missing_sandbox_refused(tmp_path, capsys, monkeypatch):
     import servo.task
     from scripts.cli import main
     from servo.task import remote

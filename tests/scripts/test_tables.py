@@ -16,11 +16,25 @@ COLUMNS = (
     Column("n", "episodes", "d"),
 )
 ROWS = (
-    {"world": "hall<way>", "rate": np.float64(0.5), "delta": -0.25, "per": [2, 1],
-     "met": np.bool_(True), "n": np.int64(20), "extra": "not shown"},
-    {"world": "lawn", "rate": None, "delta": float("nan"), "per": (), "met": False, "n": 3,
-     "extra": 1},
-)  # fmt: skip
+    {
+        "world": "hall<way>",
+        "rate": np.float64(0.5),
+        "delta": -0.25,
+        "per": [2, 1],
+        "met": np.bool_(True),
+        "n": np.int64(20),
+        "extra": "not shown",
+    },
+    {
+        "world": "lawn",
+        "rate": None,
+        "delta": float("nan"),
+        "per": (),
+        "met": False,
+        "n": 3,
+        "extra": 1,
+    },
+)
 
 
 def table() -> Table:
@@ -52,8 +66,14 @@ def test_csv_and_json_keep_raw_values_under_the_keys():
     assert rows[1][:3] == ["hall<way>", "0.5", "-0.25"]
     assert rows[2][1:3] == ["", ""]
     data = json.loads(table().render("json"))
-    assert data["rows"][0] == {"world": "hall<way>", "rate": 0.5, "delta": -0.25, "per": [2, 1],
-                               "met": True, "n": 20}  # fmt: skip
+    assert data["rows"][0] == {
+        "world": "hall<way>",
+        "rate": 0.5,
+        "delta": -0.25,
+        "per": [2, 1],
+        "met": True,
+        "n": 20,
+    }
     assert data["rows"][1]["delta"] is None  # NaN is not JSON
     assert [c["header"] for c in data["columns"]][1] == "success"
 
@@ -71,7 +91,10 @@ def test_bad_tables_and_kinds_are_refused(tmp_path):
 def test_write_puts_every_format_beside_the_stem(tmp_path):
     paths = table().write(tmp_path / "sub" / "servo", kinds=("md", "html", "csv", "json"))
     assert sorted(p.name for p in paths.values()) == [
-        "servo.csv", "servo.html", "servo.json", "servo.md"
-    ]  # fmt: skip
+        "servo.csv",
+        "servo.html",
+        "servo.json",
+        "servo.md",
+    ]
     assert paths["md"].read_text() == table().to_markdown()
     assert not [p for p in (tmp_path / "sub").iterdir() if p.name.startswith(".")]

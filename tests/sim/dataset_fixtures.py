@@ -45,10 +45,13 @@ def write_dataset(directory: Path, arrays: dict | None = None, **meta_changes) -
         "manifolds": MANIFOLDS,
         "sequences": {
             "lawn-left": {
-                "file": "lawn-left.npz", "world": "lawn", "frames": frames, "sha256": digest,
+                "file": "lawn-left.npz",
+                "world": "lawn",
+                "frames": frames,
+                "sha256": digest,
             }
         },
-    }  # fmt: skip
+    }
     meta.update(meta_changes)
     (directory / "meta.json").write_text(json.dumps(meta))
     return directory

@@ -64,8 +64,7 @@ def test_default_dataset_is_collected_once_and_reused(tmp_path, monkeypatch):
     def fake_collect(directory, settings, progress=True, **kw):
         calls.append((directory, progress))
         directory.mkdir(parents=True, exist_ok=True)
-        meta = {"format": "topomap-dataset", "schema_version": 1, "complete": True,
-                "sequences": {}}  # fmt: skip
+        meta = {"format": "topomap-dataset", "schema_version": 1, "complete": True, "sequences": {}}
         (directory / "meta.json").write_text(json.dumps(meta))
         return directory
 
@@ -121,9 +120,10 @@ def test_radish_log_is_read_from_the_variable_only(tmp_path, monkeypatch):
         datahome.radish_log("aces-corrected.log.gz")
     (tmp_path / "logs").mkdir()
     (tmp_path / "logs" / "aces-corrected.log.gz").write_bytes(b"")
-    assert datahome.radish_log("aces-corrected.log.gz") == (
-        tmp_path / "logs" / "aces-corrected.log.gz"
-    ).resolve()
+    assert (
+        datahome.radish_log("aces-corrected.log.gz")
+        == (tmp_path / "logs" / "aces-corrected.log.gz").resolve()
+    )
     with pytest.raises(DataHomeError, match="holds no csail-corrected"):
         datahome.radish_log("csail-corrected.log.gz")
 

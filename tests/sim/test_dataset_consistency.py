@@ -23,9 +23,11 @@ def _two_sequences(tmp_path, second: dict, **meta_changes):
     arrays = {**sequence_arrays(), **second}
     digest = write_sequence(d / "lawn-right.npz", arrays)
     meta["sequences"]["lawn-right"] = {
-        "file": "lawn-right.npz", "world": "lawn", "frames": len(arrays["times"]),
+        "file": "lawn-right.npz",
+        "world": "lawn",
+        "frames": len(arrays["times"]),
         "sha256": digest,
-    }  # fmt: skip
+    }
     (d / "meta.json").write_text(json.dumps(meta))
     return d
 
@@ -37,13 +39,17 @@ def _angles(beams):
 @pytest.mark.parametrize(
     ("second", "match"),
     [
-        ({"scans": np.ones((5, 6), np.float32), "angles": _angles(6)},
-         r"lawn-right.npz\): 6 beams, but sequence 'lawn-left' has 4"),
+        (
+            {"scans": np.ones((5, 6), np.float32), "angles": _angles(6)},
+            r"lawn-right.npz\): 6 beams, but sequence 'lawn-left' has 4",
+        ),
         ({"angles": _angles(4) * 0.5}, r"beam angles differ from sequence 'lawn-left'"),
-        ({"images": np.zeros((5, 8, 6, 3), np.uint8)},
-         r"images of shape \(8, 6, 3\), but sequence 'lawn-left' has \(4, 6, 3\)"),
+        (
+            {"images": np.zeros((5, 8, 6, 3), np.uint8)},
+            r"images of shape \(8, 6, 3\), but sequence 'lawn-left' has \(4, 6, 3\)",
+        ),
     ],
-)  # fmt: skip
+)
 def test_sequences_that_disagree_are_refused(tmp_path, second, match):
     d = _two_sequences(tmp_path, second)
     with pytest.raises(DatasetError, match=match) as err:
@@ -60,14 +66,20 @@ def test_angles_within_the_tolerance_are_the_same_beams(tmp_path):
     ("settings", "match"),
     [
         ({"laser": {"max_range": 10.0, "beams": 361}}, "4 beams, but meta.json's settings"),
-        ({"laser": {"max_range": 10.0}, "camera": {"width": 320, "height": 240}},
-         "images of 6x4, but meta.json's settings.camera is 320x240"),
-        ({"laser": {"max_range": 10.0}, "worlds": ["hallway"]},
-         r"world 'lawn' is not among meta.json's settings.worlds \['hallway'\]"),
-        ({"laser": {"max_range": 10.0, "fov": 1.0}},
-         r"beam angles span 3.14159 rad, but meta.json's settings.laser.fov is 1 rad"),
+        (
+            {"laser": {"max_range": 10.0}, "camera": {"width": 320, "height": 240}},
+            "images of 6x4, but meta.json's settings.camera is 320x240",
+        ),
+        (
+            {"laser": {"max_range": 10.0}, "worlds": ["hallway"]},
+            r"world 'lawn' is not among meta.json's settings.worlds \['hallway'\]",
+        ),
+        (
+            {"laser": {"max_range": 10.0, "fov": 1.0}},
+            r"beam angles span 3.14159 rad, but meta.json's settings.laser.fov is 1 rad",
+        ),
     ],
-)  # fmt: skip
+)
 def test_settings_that_contradict_the_arrays_are_refused(tmp_path, settings, match):
     d = write_dataset(tmp_path / "d", settings=settings)
     with pytest.raises(DatasetError, match=match) as err:
@@ -76,8 +88,11 @@ def test_settings_that_contradict_the_arrays_are_refused(tmp_path, settings, mat
 
 
 def test_settings_that_agree_are_read(tmp_path):
-    settings = {"laser": {"max_range": 10.0, "beams": 4, "fov": np.pi},
-                "camera": {"width": 6, "height": 4}, "worlds": ["lawn"]}  # fmt: skip
+    settings = {
+        "laser": {"max_range": 10.0, "beams": 4, "fov": np.pi},
+        "camera": {"width": 6, "height": 4},
+        "worlds": ["lawn"],
+    }
     assert len(load_dataset(write_dataset(tmp_path / "d", settings=settings)).sequences) == 1
 
 
@@ -100,8 +115,11 @@ def test_a_full_turn_spans_one_beam_less_than_its_field_of_view(tmp_path):
 @pytest.mark.parametrize("fov", [-7.0, 7.0, 10**400, float("nan")])
 def test_a_field_of_view_beyond_a_full_turn_is_refused(tmp_path, fov):
     d = write_dataset(tmp_path / "d", settings={"laser": {"max_range": 10.0, "fov": fov}})
-    with pytest.raises(DatasetError, match=r"meta.json: settings.laser.fov must be a field of "
-                                           r"view of at most 2 pi rad"):  # fmt: skip
+    with pytest.raises(
+        DatasetError,
+        match=r"meta.json: settings.laser.fov must be a field of "
+        r"view of at most 2 pi rad",
+    ):
         load_dataset(d)
 
 

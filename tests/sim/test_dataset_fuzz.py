@@ -17,8 +17,24 @@ from tests.sim.dataset_fixtures import sequence_arrays, write_dataset
 from tests.sim.readers.fuzzing import SPECIAL_NUMBERS, budget, flipped, truncated
 
 CASE_BUDGET_S = 2.0
-META_VALUES = (True, False, None, -1, 0, 2, 1.5, 1e308, "x" * 300, "../x.npz", [], {}, "2",
-               10**400, -(10**400), 1e4 + 1)  # fmt: skip
+META_VALUES = (
+    True,
+    False,
+    None,
+    -1,
+    0,
+    2,
+    1.5,
+    1e308,
+    "x" * 300,
+    "../x.npz",
+    [],
+    {},
+    "2",
+    10**400,
+    -(10**400),
+    1e4 + 1,
+)
 
 
 @pytest.fixture(scope="module")

@@ -128,8 +128,11 @@ def test_forked_vector_env_after_rendering_works_or_fails_at_once(threads):
         env["LP_NUM_THREADS"] = threads
     run = subprocess.run(
         [sys.executable, "-c", _FORK_AFTER_RENDER],
-        env=env, capture_output=True, text=True, timeout=240,
-    )  # fmt: skip
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     if threads is None:
         assert run.returncode == 0 and "ok (2, 48, 64, 3)" in run.stdout, run.stderr[-2000:]
     else:
@@ -213,9 +216,12 @@ def test_every_argument_is_checked_and_named(kwargs, error, match):
 
 def test_configs_as_dicts_and_the_ids_own_world():
     env = gym.make(
-        "topomap/Lawn-v0", world="lawn", camera={"width": 64, "height": 48},
-        laser={"beams": 91}, odometry={"translation": 0.0},
-    )  # fmt: skip
+        "topomap/Lawn-v0",
+        world="lawn",
+        camera={"width": 64, "height": 48},
+        laser={"beams": 91},
+        odometry={"translation": 0.0},
+    )
     obs, _ = env.reset(seed=0)
     assert obs["image"].shape == (48, 64, 3) and obs["scan"].shape == (91,)
     assert env.unwrapped.world_name == "lawn"

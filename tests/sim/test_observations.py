@@ -96,12 +96,18 @@ def test_scan_and_odometry_on_both_envs(servo_env_args):
 
 def test_gymnasium_wrappers_take_them_without_options(servo_env_args):
     colour = ImageObservation(_navigation())
-    _run(FrameStackObservation(NormalizeObservation(GrayscaleObservation(
-        ResizeObservation(colour, (42, 42)))), 4), steps=4)  # fmt: skip
+    _run(
+        FrameStackObservation(
+            NormalizeObservation(GrayscaleObservation(ResizeObservation(colour, (42, 42)))), 4
+        ),
+        steps=4,
+    )
     gray = ImageObservation(_navigation(), size=(84, 84), grayscale=True)
     _run(FrameStackObservation(NormalizeObservation(ResizeObservation(gray, (42, 42))), 4), 4)
-    for wrapped in (ScanObservation(gym.make("topomap/Lawn-v0", sensors=("scan",)), 36),
-                    ScanOdometryObservation(_servo(servo_env_args))):  # fmt: skip
+    for wrapped in (
+        ScanObservation(gym.make("topomap/Lawn-v0", sensors=("scan",)), 36),
+        ScanOdometryObservation(_servo(servo_env_args)),
+    ):
         _run(FrameStackObservation(NormalizeObservation(wrapped), 4), steps=4)
 
 
@@ -140,7 +146,10 @@ def test_stable_baselines3_policies_take_them():
     image = ImageObservation(_navigation(), size=(84, 84), grayscale=True)
     check_env(image)
     PPO("CnnPolicy", image, n_steps=32, batch_size=32, n_epochs=1, seed=0).learn(32)
-    vector = VecNormalize(DummyVecEnv([lambda: ScanOdometryObservation(
-        gym.make("topomap/Lawn-v0", sensors=("scan",)))]))  # fmt: skip
+    vector = VecNormalize(
+        DummyVecEnv(
+            [lambda: ScanOdometryObservation(gym.make("topomap/Lawn-v0", sensors=("scan",)))]
+        )
+    )
     PPO("MlpPolicy", vector, n_steps=32, batch_size=32, n_epochs=1, seed=0).learn(32)
     assert np.isfinite(vector.obs_rms.mean).all()

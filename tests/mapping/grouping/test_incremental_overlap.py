@@ -166,8 +166,9 @@ def test_partial_fit_rebuilds_what_it_read_and_keeps_no_tree(office):
     assert model.affinity_matrix_.shape == (n, n) and model.n_groups_ > first[0]
     assert len(model.local_maps_) == model.topology_.frames.shape[0] == model.n_groups_
     assert not hasattr(model, "split_tree_")
-    with pytest.raises(AttributeError, match="^'ObservationGraphPartitioner' object has no "
-                       "attribute 'nothing_'$"):  # fmt: skip
+    with pytest.raises(
+        AttributeError, match="^'ObservationGraphPartitioner' object has no attribute 'nothing_'$"
+    ):
         _ = model.nothing_
 
 
@@ -180,8 +181,11 @@ def test_partial_fit_topology_nodes_are_its_groups(office):
 
 def test_partial_fit_needs_the_scans_overlap():
     model = ObservationGraphPartitioner(affinity="precomputed")
-    with pytest.raises(ValueError, match=r"^partial_fit needs affinity='sso' and a voxel_size "
-                       r"\(not None\)$"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"^partial_fit needs affinity='sso' and a voxel_size "
+        r"\(not None\)$",
+    ):
         model.partial_fit([np.ones((3, 2))], np.zeros((1, 3)))
     with pytest.raises(ValueError, match=r"^X must be the scans, .* \(affinity='sso'\), got None$"):
         ObservationGraphPartitioner().partial_fit(None, np.zeros((1, 3)))

@@ -294,8 +294,11 @@ def test_scans_in_other_forms_and_their_errors():
     assert W[0, 0] == 0.0 and W[1, 2] == 1.0
     with pytest.raises(ValueError, match=r"^scans\[2\] must have shape \(M, 2\)"):
         sensed_space_overlap([np.array([]), pts, np.zeros((2, 3))], np.zeros((3, 3)), 0.1)
-    with pytest.raises(ValueError, match=r"drop missed beams before calling \(an all-missed scan "
-                       r"is an empty \(0, 2\) array\)$"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"drop missed beams before calling \(an all-missed scan "
+        r"is an empty \(0, 2\) array\)$",
+    ):
         sensed_space_overlap([pts, [[0.0, np.inf]]], np.zeros((2, 3)), 0.1)
     with pytest.raises(ValueError, match="^scans must be a sequence of .* got ndarray$"):
         sensed_space_overlap(np.array(3.0), np.zeros((1, 3)), 0.1)

@@ -450,8 +450,6 @@ def test_fit_predict_passes_the_groups_on(office):
     assert labels[n] == labels[n + 1] != labels[n - 1]
 
 
-
-
 def test_the_recursion_bisects_with_the_chosen_laplacian():
     splits = {}
     for laplacian in ("normalized", "unnormalized"):

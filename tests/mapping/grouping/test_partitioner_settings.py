@@ -56,11 +56,13 @@ def test_laplacian_reaches_the_recursion():
     W = UNEVEN  # its normalized and unnormalized bisections differ
     first = {}
     for laplacian in ("normalized", "unnormalized"):
-        model = ObservationGraphPartitioner(affinity="precomputed", threshold=2.0,
-                                            laplacian=laplacian).fit(W)  # fmt: skip
+        model = ObservationGraphPartitioner(
+            affinity="precomputed", threshold=2.0, laplacian=laplacian
+        ).fit(W)
         _, tree = recursive_ncut_partition(W, threshold=2.0, laplacian=laplacian)
-        np.testing.assert_array_equal(model.split_tree_.children[0].indices,
-                                      tree.children[0].indices)  # fmt: skip
+        np.testing.assert_array_equal(
+            model.split_tree_.children[0].indices, tree.children[0].indices
+        )
         first[laplacian] = tuple(tree.children[0].indices)
     assert first["normalized"] != first["unnormalized"]
 

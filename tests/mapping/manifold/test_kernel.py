@@ -236,8 +236,9 @@ def test_spectral_basis_falls_back_when_divide_and_conquer_fails(monkeypatch):
     got = mk.SpectralBasis.from_sq_distances(d, 1.0)
     np.testing.assert_allclose(got.values, expected.values, atol=1e-10)
     # eigenvectors up to sign: the projector onto the top one is the same
-    np.testing.assert_allclose(np.abs(got.vectors[:, -1]), np.abs(expected.vectors[:, -1]),
-                               atol=1e-8)  # fmt: skip
+    np.testing.assert_allclose(
+        np.abs(got.vectors[:, -1]), np.abs(expected.vectors[:, -1]), atol=1e-8
+    )
 
 
 def test_manifold_kernel_takes_a_given_beta():
@@ -273,5 +274,6 @@ def test_group_gram_is_the_gram_matrix_of_the_group_sums():
     for a, alpha in enumerate(alphas):
         U = basis.dense_kernel(alpha) / (1.0 - alpha)  # (I - alpha S)^-1
         sums = U @ (member * inv_nu[:, None])
-        np.testing.assert_allclose(basis.group_gram(g, a, member, inv_nu), sums.T @ sums,
-                                   rtol=1e-10)  # fmt: skip
+        np.testing.assert_allclose(
+            basis.group_gram(g, a, member, inv_nu), sums.T @ sums, rtol=1e-10
+        )

@@ -27,8 +27,9 @@ def _clusters(rng, isolated=False):
     """Three random-walk clusters of different sizes, sigmas and alphas; with ``isolated`` the
     last gets a far training point of degree 0 (no H: the dense fallback)."""
     sizes, sigmas, alphas = (12, 20, 31), (0.012, 0.02, 0.5), (0.99, 0.9, 0.7)
-    parts = [np.cumsum(rng.normal(scale=0.1, size=(m, 5)), axis=0) + 4.0 * j
-             for j, m in enumerate(sizes)]  # fmt: skip
+    parts = [
+        np.cumsum(rng.normal(scale=0.1, size=(m, 5)), axis=0) + 4.0 * j for j, m in enumerate(sizes)
+    ]
     if isolated:
         parts[-1] = np.vstack([parts[-1], parts[-1][-1] + 50.0])
     X = np.vstack(parts)
@@ -86,9 +87,13 @@ def test_sparse_solver_matches_dense_solver_on_random_affinities():
     for target in (0, 7, m - 1):
         dense = dense_signal(model.weights, model.degrees, model.alpha, w, target)
         sparse = sparse_signal(
-            model.inverse[None], model.degrees[None], w, np.zeros(60, dtype=np.intp),
-            np.full(60, target), np.full(60, model.alpha),
-        )  # fmt: skip
+            model.inverse[None],
+            model.degrees[None],
+            w,
+            np.zeros(60, dtype=np.intp),
+            np.full(60, target),
+            np.full(60, model.alpha),
+        )
         np.testing.assert_allclose(sparse, dense, rtol=1e-10, atol=0)
         reachable = w.sum(axis=1) > 1e-300
         assert not reachable[:5].any() and reachable.sum() > 40

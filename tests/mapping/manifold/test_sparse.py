@@ -212,8 +212,11 @@ def test_shared_kernel_merge_joins_the_pieces_of_each_line():
     # into 12 leaves become the 3 lines.
     X, y = SYNTHETIC_SETS["parallel_lines"](noise=0.002, rng=np.random.default_rng(0))
     geo = GraphGeometry(X, knn_edges(X, 10), np.arange(X.shape[0]), rank=32, dense_below=64)
-    leaves = [np.flatnonzero((y == c) & (np.arange(len(y)) % 100 // 25 == q))
-              for c in range(3) for q in range(4)]  # fmt: skip
+    leaves = [
+        np.flatnonzero((y == c) & (np.arange(len(y)) % 100 // 25 == q))
+        for c in range(3)
+        for q in range(4)
+    ]
     space = geo.search_space(SearchSpace())
     groups = shared_kernel_merge(geo, leaves, 3, GroupScores(geo, leaves, space))
     assert sorted(map(sorted, groups)) == [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]

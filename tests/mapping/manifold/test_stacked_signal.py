@@ -179,8 +179,9 @@ def test_pruned_clusters_are_beyond_underflow(curves, dtype):
 
 
 @pytest.mark.parametrize("load, one_thread", [(0.2, False), (1.4, False), (1.5, True), (6.0, True)])
-def test_a_view_is_projected_on_one_blas_thread_only_on_a_busy_machine(monkeypatch, load,
-                                                                        one_thread):  # fmt: skip
+def test_a_view_is_projected_on_one_blas_thread_only_on_a_busy_machine(
+    monkeypatch, load, one_thread
+):
     """Two cores: a second BLAS thread streams twice the bytes where a core is free, and
     spins where none is (load average >= cores - 0.5)."""
     from contextlib import nullcontext

@@ -29,9 +29,11 @@ def test_refine_poses_decimation_matches_every_kth_source_point(office):
     halved = refine_poses(scans[:6], odo, decimation=2)
     # the same as ICP of every second point onto the whole previous scan
     res = icp_batch(
-        [s[::2] for s in scans[1:6]], [densify_scan(s) for s in scans[:5]],
-        se2_relative(odo[:-1], odo[1:]), min_matches=10,
-    )  # fmt: skip
+        [s[::2] for s in scans[1:6]],
+        [densify_scan(s) for s in scans[:5]],
+        se2_relative(odo[:-1], odo[1:]),
+        min_matches=10,
+    )
     assert res.converged.all()
     np.testing.assert_allclose(se2_relative(halved[:-1], halved[1:]), res.transforms, atol=1e-12)
     assert not np.allclose(halved, refine_poses(scans[:6], odo))

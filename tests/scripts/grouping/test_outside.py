@@ -59,10 +59,10 @@ def test_an_estimator_gets_scans_poses_and_drives_and_is_scored_on_the_truth(dat
 
 
 def test_a_plain_clusterer_on_positions_and_the_local_maps(data):
-    method = OutsideMethod("sklearn.cluster:AgglomerativeClustering", ("fit",),
-                           {"n_clusters": 2})  # fmt: skip
-    scores, maps = outside.evaluate_worlds_method(method, [data], "positions", local_maps=True,
-                                                  progress=False)  # fmt: skip
+    method = OutsideMethod("sklearn.cluster:AgglomerativeClustering", ("fit",), {"n_clusters": 2})
+    scores, maps = outside.evaluate_worlds_method(
+        method, [data], "positions", local_maps=True, progress=False
+    )
     assert scores["method"]["input"] == "positions"
     assert all(r["failure"] is None for r in scores["records"])
     assert maps["metric"] == {"name": "localised", "kind": "rate"}
@@ -71,8 +71,7 @@ def test_a_plain_clusterer_on_positions_and_the_local_maps(data):
 
 def test_a_carmen_log_is_scored_by_held_out_localisation(aces_slice_log):
     method = OutsideMethod("sklearn.cluster:DBSCAN", ("fit",), {"eps": 1.0})
-    result = outside.evaluate_carmen_method(method, [aces_slice_log], "positions",
-                                            progress=False)  # fmt: skip
+    result = outside.evaluate_carmen_method(method, [aces_slice_log], "positions", progress=False)
     units = [r["unit"] for r in result["records"]]
     assert units and all(u.startswith("aces-every-third-scan/scan ") for u in units)
     assert len(set(units)) == len(units)
@@ -85,8 +84,18 @@ def test_an_estimator_without_labels_fails_per_case_and_the_command_goes_on(
     data, user_module, tmp_path, capsys
 ):
     out = tmp_path / "out"
-    code = cli_main(["group-eval", "--method", "by_drive_mod:NoLabels", "--data", str(data),
-                     "--out", str(out), "--quiet"])  # fmt: skip
+    code = cli_main(
+        [
+            "group-eval",
+            "--method",
+            "by_drive_mod:NoLabels",
+            "--data",
+            str(data),
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert code == 0
     (path,) = out.glob("*.json")
     records = read_result(path)["records"]

@@ -4,10 +4,18 @@ from scripts.report.sections import section_grouping
 
 
 def _score(**over):
-    s = {"frames": 450, "groups": 7, "purity": 0.9512, "ari": 0.5291,
-         "groups_per_manifold": {"main": 2, "left": 1}, "max_groups_touching": 5,
-         "max_groups_per_manifold": 2, "max_drift_m": 0.234, "seconds": 1.5,
-         "meets_targets": True}  # fmt: skip
+    s = {
+        "frames": 450,
+        "groups": 7,
+        "purity": 0.9512,
+        "ari": 0.5291,
+        "groups_per_manifold": {"main": 2, "left": 1},
+        "max_groups_touching": 5,
+        "max_groups_per_manifold": 2,
+        "max_drift_m": 0.234,
+        "seconds": 1.5,
+        "meets_targets": True,
+    }
     return {**s, **over}
 
 
@@ -32,10 +40,15 @@ def test_one_table_for_the_command_line_and_the_report():
 
 
 def test_unscored_groups_read_as_missing_with_a_note():
-    bare = _score(purity=None, ari=None, groups_per_manifold={}, max_groups_touching=None,
-                  max_drift_m=None, meets_targets=None)  # fmt: skip
-    result = {"default": {"x": {"given": bare}}, "loop": {}, "compare": {},
-              "ground_truth": False}  # fmt: skip
+    bare = _score(
+        purity=None,
+        ari=None,
+        groups_per_manifold={},
+        max_groups_touching=None,
+        max_drift_m=None,
+        meets_targets=None,
+    )
+    result = {"default": {"x": {"given": bare}}, "loop": {}, "compare": {}, "ground_truth": False}
     md = format_report(result)
     assert "| x | given | 450 | 7 | -- | -- | -- | -- | -- | 1.50 | -- |" in md
     assert NO_LABELS in md

@@ -27,8 +27,12 @@ def test_the_servo_task_runs_both_controllers_and_tiers(cell_dirs):
     servo = cell["tasks"]["servo"]
     assert servo["split"] == "test" and servo["episodes"] == 1 and servo["map_views"] > 0
     keys = [(r["policy"], r["tier"]) for r in servo["records"]]
-    assert keys == [("servo", "view"), ("servo", "anywhere"), ("signal", "view"),
-                    ("signal", "anywhere")]  # fmt: skip
+    assert keys == [
+        ("servo", "view"),
+        ("servo", "anywhere"),
+        ("signal", "view"),
+        ("signal", "anywhere"),
+    ]
     for r in servo["records"]:
         assert r["junctions"] == 1 and isinstance(r["success"], bool)
         assert {r["start_manifold"], r["target_manifold"]} == set(cell["manifolds"])
@@ -77,8 +81,7 @@ def test_the_manifold_task_scales_q_to_the_data_and_records_a_refusal(cell_dirs)
 
 def test_episodes_spread_over_junction_counts_in_turn():
     pairs = [("m", "a"), ("m", "b"), ("m", "c"), ("a", "b"), ("a", "c"), ("b", "c")]
-    far = {("m", "a"): 1, ("m", "b"): 1, ("m", "c"): 2, ("a", "b"): 2, ("a", "c"): 5,
-           ("b", "c"): 3}  # fmt: skip
+    far = {("m", "a"): 1, ("m", "b"): 1, ("m", "c"): 2, ("a", "b"): 2, ("a", "c"): 5, ("b", "c"): 3}
     assert spread_by_junctions(pairs, lambda a, b: far[a, b], 4) == [0, 2, 4, 1]
     assert spread_by_junctions(pairs, lambda a, b: far[a, b], 8) == [0, 2, 4, 1, 3, 5, 6, 7]
     assert spread_by_junctions(pairs[:2], lambda a, b: 1, 2) == [0, 1]

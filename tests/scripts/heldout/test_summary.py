@@ -69,8 +69,13 @@ def _servo_cell(world, records):
 
 
 def _ep(policy, tier, junctions, success):
-    return {"policy": policy, "tier": tier, "junctions": junctions, "success": success,
-            "spl": 0.8 * success}  # fmt: skip
+    return {
+        "policy": policy,
+        "tier": tier,
+        "junctions": junctions,
+        "success": success,
+        "spl": 0.8 * success,
+    }
 
 
 def test_servo_success_is_counted_per_controller_tier_and_junctions():

@@ -15,9 +15,30 @@ from tests.fuzz.harness import odd_member
 from tests.sim.readers.fuzzing import budget
 
 CASES = 150
-ODD_VALUES = (None, True, False, -1, 0, 2, 10**400, -(10**400), 1e308, -1e308, 1e13,
-              float("nan"), float("inf"), "x", "", [], ["error"], {}, {"a": None}, [[[[]]]],
-              "9" * 400, 0.5)  # fmt: skip
+ODD_VALUES = (
+    None,
+    True,
+    False,
+    -1,
+    0,
+    2,
+    10**400,
+    -(10**400),
+    1e308,
+    -1e308,
+    1e13,
+    float("nan"),
+    float("inf"),
+    "x",
+    "",
+    [],
+    ["error"],
+    {},
+    {"a": None},
+    [[[[]]]],
+    "9" * 400,
+    0.5,
+)
 
 
 def _result() -> dict:
@@ -25,8 +46,9 @@ def _result() -> dict:
         {"group": "g", "unit": f"seed {i}", "value": 0.1 * i, "failure": None} for i in range(4)
     ] + [{"group": "g", "unit": "seed 9", "value": None, "failure": "ValueError: no"}]
     method = {"name": "M", "spec": "pkg.mod:M", "params": {"k": 3}, "notes": "a note"}
-    return json.loads(json.dumps(
-        envelope("task", ("proto", 2), "test", method, ("err", "error"), records)))  # fmt: skip
+    return json.loads(
+        json.dumps(envelope("task", ("proto", 2), "test", method, ("err", "error"), records))
+    )
 
 
 def _ranked(path) -> str:

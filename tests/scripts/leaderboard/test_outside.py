@@ -11,10 +11,14 @@ from scripts.leaderboard import OutsideMethod, load_method, parse_params
 
 def test_params_are_literals_or_text():
     assert parse_params(["k=3", "a=0.5", "x=None", "name=rbf", "t=(1, 2)", "s='q'"]) == {
-        "k": 3, "a": 0.5, "x": None, "name": "rbf", "t": (1, 2), "s": "q"
-    }  # fmt: skip
-    for bad, match in (("k", "KEY=VALUE"), ("1k=2", "KEY=VALUE"),
-                       ("a=1e999", "finite")):  # fmt: skip
+        "k": 3,
+        "a": 0.5,
+        "x": None,
+        "name": "rbf",
+        "t": (1, 2),
+        "s": "q",
+    }
+    for bad, match in (("k", "KEY=VALUE"), ("1k=2", "KEY=VALUE"), ("a=1e999", "finite")):
         if match:
             with pytest.raises(ValueError, match=match):
                 parse_params([bad])
@@ -52,8 +56,12 @@ def test_a_module_that_raises_on_import_is_reported(tmp_path, monkeypatch):
 def test_n_clusters_is_passed_only_where_taken_and_never_over_the_users():
     spectral = OutsideMethod("sklearn.cluster:SpectralClustering", ("fit",))
     assert spectral.make(n_clusters=8).n_clusters == 8
-    assert OutsideMethod("sklearn.cluster:SpectralClustering", ("fit",),
-                         {"n_clusters": 3}).make(n_clusters=8).n_clusters == 3  # fmt: skip
+    assert (
+        OutsideMethod("sklearn.cluster:SpectralClustering", ("fit",), {"n_clusters": 3})
+        .make(n_clusters=8)
+        .n_clusters
+        == 3
+    )
     hdbscan = OutsideMethod("sklearn.cluster:HDBSCAN", ("fit",))
     assert hdbscan.describe(n_clusters=8)["params"] == {}
     assert spectral.describe(n_clusters=8)["protocol_params"] == ["n_clusters"]

@@ -10,12 +10,17 @@ from scripts.leaderboard import envelope, leaderboard_html, load_results, rank, 
 
 def _write(folder, name, values, kind="error", version=1, failures=(), group="g"):
     records = [
-        {"group": group, "unit": f"seed {i}", "value": None if i in failures else v,
-         "failure": "RuntimeError: x" if i in failures else None}
+        {
+            "group": group,
+            "unit": f"seed {i}",
+            "value": None if i in failures else v,
+            "failure": "RuntimeError: x" if i in failures else None,
+        }
         for i, v in enumerate(values)
-    ]  # fmt: skip
-    result = envelope("task", ("proto", version), "test", {"name": name, "params": {}},
-                      ("err", kind), records)  # fmt: skip
+    ]
+    result = envelope(
+        "task", ("proto", version), "test", {"name": name, "params": {}}, ("err", kind), records
+    )
     return write_result(folder / f"{name}-v{version}.json", result)
 
 
@@ -77,8 +82,18 @@ def test_the_command_writes_markdown_and_html(tmp_path, capsys):
     _write(tmp_path, "a", [0.1, 0.2, 0.3])
     _write(tmp_path, "b<x>", [0.2, 0.3, 0.4])
     md, page = tmp_path / "out" / "board.md", tmp_path / "out" / "board.html"
-    code = cli_main(["leaderboard", str(tmp_path), "--reference", "a", "--markdown", str(md),
-                     "--html", str(page)])  # fmt: skip
+    code = cli_main(
+        [
+            "leaderboard",
+            str(tmp_path),
+            "--reference",
+            "a",
+            "--markdown",
+            str(md),
+            "--html",
+            str(page),
+        ]
+    )
     assert code == 0
     text = md.read_text()
     assert "| 1 | a | 3 | 0 | 20.0% [" in text and "paired vs a" in text
@@ -118,28 +133,47 @@ def test_a_result_file_of_another_method_is_not_replaced(tmp_path):
 
     path = tmp_path / "manifold-KMeans.json"
     records = [{"group": "g", "unit": "seed 1", "value": 0.1, "failure": None}]
-    write_result(path, envelope("t", ("p", 1), "test", method("sklearn.cluster:KMeans"),
-                                ("err", "error"), records))  # fmt: skip
-    write_result(path, envelope("t", ("p", 1), "test", method("sklearn.cluster:KMeans"),
-                                ("err", "error"), records))  # the same method: a rerun  # fmt: skip
+    write_result(
+        path,
+        envelope(
+            "t", ("p", 1), "test", method("sklearn.cluster:KMeans"), ("err", "error"), records
+        ),
+    )
+    write_result(
+        path,
+        envelope(
+            "t", ("p", 1), "test", method("sklearn.cluster:KMeans"), ("err", "error"), records
+        ),
+    )  # the same method: a rerun
     with pytest.raises(ResultFileError, match="sklearn.cluster:KMeans.*refusing.*mine:KMeans"):
-        write_result(path, envelope("t", ("p", 1), "test", method("mine:KMeans"),
-                                    ("err", "error"), records))  # fmt: skip
+        write_result(
+            path, envelope("t", ("p", 1), "test", method("mine:KMeans"), ("err", "error"), records)
+        )
     # names that cannot meet: the full spec, and the params' digest
-    tags = {file_tag("sklearn.cluster:KMeans", {}), file_tag("mine:KMeans", {}),
-            file_tag("mine:KMeans", {"k": 3}), file_tag("mine:KMeans", {"k": 4})}  # fmt: skip
+    tags = {
+        file_tag("sklearn.cluster:KMeans", {}),
+        file_tag("mine:KMeans", {}),
+        file_tag("mine:KMeans", {"k": 3}),
+        file_tag("mine:KMeans", {"k": 4}),
+    }
     assert len(tags) == 4 and all(":" not in t for t in tags)
 
 
 def test_an_unsandboxed_outside_policy_and_its_source_are_shown(tmp_path):
     from scripts.leaderboard import leaderboard_markdown
 
-    records = [{"group": "g", "unit": f"episode {i}", "value": True, "failure": None}
-               for i in range(20)]  # fmt: skip
+    records = [
+        {"group": "g", "unit": f"episode {i}", "value": True, "failure": None} for i in range(20)
+    ]
     source = {"module": "mine", "files": 1, "sha256": "ab" * 32}
     for name, sandboxed in (("mine", False), ("theirs", True)):
-        m = {"name": name, "spec": f"{name}:make", "params": {}, "sandboxed": sandboxed,
-             "source": source}  # fmt: skip
+        m = {
+            "name": name,
+            "spec": f"{name}:make",
+            "params": {},
+            "sandboxed": sandboxed,
+            "source": source,
+        }
         result = envelope("servo", ("p", 1), "test", m, ("success", "rate"), records)
         write_result(tmp_path / f"{name}.json", result)
     text = leaderboard_markdown(load_results([tmp_path]))

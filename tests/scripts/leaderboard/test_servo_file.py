@@ -8,11 +8,23 @@ from servo.task import load_results as servo_load_results
 
 
 def _results(wins, policy):
-    episodes = [{"episode": i, "seed": 100 + i, "success": bool(w), "start_manifold": "m"}
-                for i, w in enumerate(wins)]  # fmt: skip
-    return [dict(world="hallway", tier="anywhere", split="test", randomize=False,
-                 odometry_noise=True, max_steps=600, policy=policy, extra_field=[1, 2],
-                 episodes_detail=episodes)]  # fmt: skip
+    episodes = [
+        {"episode": i, "seed": 100 + i, "success": bool(w), "start_manifold": "m"}
+        for i, w in enumerate(wins)
+    ]
+    return [
+        dict(
+            world="hallway",
+            tier="anywhere",
+            split="test",
+            randomize=False,
+            odometry_noise=True,
+            max_steps=600,
+            policy=policy,
+            extra_field=[1, 2],
+            episodes_detail=episodes,
+        )
+    ]
 
 
 def test_the_envelope_keeps_the_results_and_every_reader_reads_them(tmp_path, capsys):
@@ -42,9 +54,12 @@ def test_an_outside_policy_is_named_by_its_spec_with_its_parameters():
     r[0]["policy_params"] = {"clearance": 0.6}
     method = servo_result_file(r, "examples.nearest_view_homing:make_policy", "test")["method"]
     source = method.pop("source")
-    assert method == {"name": "nearest_view_homing", "params": {"clearance": 0.6},
-                      "spec": "examples.nearest_view_homing:make_policy",
-                      "sandboxed": False}  # fmt: skip
+    assert method == {
+        "name": "nearest_view_homing",
+        "params": {"clearance": 0.6},
+        "spec": "examples.nearest_view_homing:make_policy",
+        "sandboxed": False,
+    }
     assert source["module"] == "examples.nearest_view_homing" and len(source["sha256"]) == 64
     builtin = servo_result_file(_results([1], "signal"), "signal", "test")["method"]
     assert (builtin["name"], builtin["params"]) == ("signal", {})

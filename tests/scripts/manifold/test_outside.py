@@ -33,8 +33,9 @@ def root(tmp_path_factory):
 
     root = tmp_path_factory.mktemp("manifold_eval")
     for seed in (1, 2, 3):
-        settings = CollectionSettings(worlds=("lawn",), frames=16, seed=seed,
-                                      camera=CameraConfig(32, 24))  # fmt: skip
+        settings = CollectionSettings(
+            worlds=("lawn",), frames=16, seed=seed, camera=CameraConfig(32, 24)
+        )
         collect_dataset(mp.dataset_dir(root, seed), settings, jobs=1, progress=False)
     return root
 
@@ -47,47 +48,65 @@ def small_k(monkeypatch):
 
 def test_a_clusterer_without_predict_is_scored_by_nearest_neighbour(root, small_k):
     method = OutsideMethod("sklearn.cluster:SpectralClustering", ("fit",), {"n_init": 2})
-    result = outside.evaluate_method(root, method, ("interleaved", "held-out"), ("hsv",),
-                                     (1, 2), progress=False)  # fmt: skip
+    result = outside.evaluate_method(
+        root, method, ("interleaved", "held-out"), ("hsv",), (1, 2), progress=False
+    )
     assert result["method"]["params"] == {
-        "n_clusters": 3, "random_state": "the dataset seed", "n_init": 2
-    }  # fmt: skip
+        "n_clusters": 3,
+        "random_state": "the dataset seed",
+        "n_init": 2,
+    }
     assert result["method"]["protocol_params"] == ["n_clusters", "random_state"]
     assert result["protocol"] == {"name": mp.PROTOCOL[0], "version": mp.PROTOCOL[1]}
     assert result["split"] == "test"
     assert [(r["group"], r["unit"]) for r in result["records"]] == [
-        ("interleaved/hsv", "seed 1"), ("interleaved/hsv", "seed 2"),
-        ("held-out/hsv", "seed 1"), ("held-out/hsv", "seed 2"),
-    ]  # fmt: skip
+        ("interleaved/hsv", "seed 1"),
+        ("interleaved/hsv", "seed 2"),
+        ("held-out/hsv", "seed 1"),
+        ("held-out/hsv", "seed 2"),
+    ]
     for r in result["records"]:
         assert r["failure"] is None and 0.0 <= r["value"] <= 1.0
         assert r["assignment"] == outside.NEAREST and r["clusters"] <= 3
     assert "nearest training neighbour" in result["method"]["notes"]
-    again = outside.evaluate_method(root, method, ("interleaved",), ("hsv",), (1,),
-                                    progress=False)  # fmt: skip
+    again = outside.evaluate_method(root, method, ("interleaved",), ("hsv",), (1,), progress=False)
     assert again["records"][0]["value"] == result["records"][0]["value"]  # same seed, same
 
 
 def test_a_builtin_method_gets_the_protocols_own_number(root, small_k, monkeypatch):
     monkeypatch.setattr(mp, "K", 3)
     monkeypatch.setattr(mp, "Q", 3)
-    result = outside.evaluate_method(root, "ours", ("interleaved",), ("hsv",), (1,),
-                                     progress=False)  # fmt: skip
+    result = outside.evaluate_method(root, "ours", ("interleaved",), ("hsv",), (1,), progress=False)
     (record,) = result["records"]
     (row,) = mp.cell(root, "interleaved", "hsv", 1, ("ours",))["rows"]
     assert record["value"] == row["test_error"] and record["assignment"] == "predict"
     assert result["method"]["name"] == "ours"
 
 
-def test_a_failing_seed_is_recorded_and_the_run_goes_on(root, small_k, tmp_path, monkeypatch,
-                                                        capsys):  # fmt: skip
+def test_a_failing_seed_is_recorded_and_the_run_goes_on(
+    root, small_k, tmp_path, monkeypatch, capsys
+):
     (tmp_path / "fails_once_mod.py").write_text(FAILS_ONCE)
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(sys, "path", list(sys.path))
     out = tmp_path / "out"
-    code = cli_main(["manifold-eval", "--root", str(root), "--out", str(out), "--quiet",
-                     "--method", "fails_once_mod:FailsOnce", "--seeds", "1", "2",
-                     "--conditions", "interleaved"])  # fmt: skip
+    code = cli_main(
+        [
+            "manifold-eval",
+            "--root",
+            str(root),
+            "--out",
+            str(out),
+            "--quiet",
+            "--method",
+            "fails_once_mod:FailsOnce",
+            "--seeds",
+            "1",
+            "2",
+            "--conditions",
+            "interleaved",
+        ]
+    )
     assert code == 0
     (path,) = out.glob("*.json")
     first, second = read_result(path)["records"]
@@ -116,6 +135,5 @@ def test_bad_input_is_one_clear_line(root, tmp_path, capsys, argv, match):
 def test_a_missing_dataset_is_named(tmp_path):
     method = OutsideMethod("sklearn.cluster:KMeans", ("fit",))
     with pytest.raises(ValueError, match="m-data-4.*not collected"):
-        outside.evaluate_method(tmp_path, method, ("interleaved",), ("hsv",), (4,),
-                                progress=False)  # fmt: skip
+        outside.evaluate_method(tmp_path, method, ("interleaved",), ("hsv",), (4,), progress=False)
     assert json.dumps(outside.file_name(method.describe(n_clusters=8))).endswith('.json"')

@@ -119,8 +119,18 @@ def test_scored_as_servo_evaluate(rows, hallway_map):
     finally:
         env.close()
     assert got["reset_seed"] == seed
-    for k in ("success", "reason", "spl", "shortest_path", "path_length", "final_distance",
-              "final_heading_error_deg", "steps", "collisions", "target_view"):  # fmt: skip
+    for k in (
+        "success",
+        "reason",
+        "spl",
+        "shortest_path",
+        "path_length",
+        "final_distance",
+        "final_heading_error_deg",
+        "steps",
+        "collisions",
+        "target_view",
+    ):
         assert got[k] == pytest.approx(want[k]), k
     assert np.allclose(got["start_pose"], want["trail"][0])
 
@@ -209,11 +219,23 @@ def test_a_sweep_runs_from_a_script_piped_to_python(rows, hallway_map, servo_dat
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[3]
-    script = PIPED.format(seeds=SEEDS, episodes=EPISODES, max_steps=MAX_STEPS,
-                          dataset=str(servo_dataset), cache=str(cache))  # fmt: skip
+    script = PIPED.format(
+        seeds=SEEDS,
+        episodes=EPISODES,
+        max_steps=MAX_STEPS,
+        dataset=str(servo_dataset),
+        cache=str(cache),
+    )
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONPATH": str(root)}
-    done = subprocess.run([sys.executable, "-"], input=script, text=True, capture_output=True,
-                          cwd=root, env=env, timeout=300)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-"],
+        input=script,
+        text=True,
+        capture_output=True,
+        cwd=root,
+        env=env,
+        timeout=300,
+    )
     if done.returncode != 0:
         pytest.fail(f"exit {done.returncode}: {done.stderr[-2000:]}")
     assert "sweeping in this process, not in 2 worker processes" in done.stderr

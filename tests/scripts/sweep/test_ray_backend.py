@@ -33,9 +33,18 @@ def hallway_map(servo_maps):
 
 
 def _sweep(hallway_map, backend, num_envs, settings=SETTINGS):
-    return run_sweep(["hallway"], SEEDS, settings, policy="servo", episodes_per_seed=EPISODES,
-                     num_envs=num_envs, progress=False, max_steps=MAX_STEPS,
-                     maps={"hallway": hallway_map}, backend=backend)  # fmt: skip
+    return run_sweep(
+        ["hallway"],
+        SEEDS,
+        settings,
+        policy="servo",
+        episodes_per_seed=EPISODES,
+        num_envs=num_envs,
+        progress=False,
+        max_steps=MAX_STEPS,
+        maps={"hallway": hallway_map},
+        backend=backend,
+    )
 
 
 def _table(rows):
@@ -43,8 +52,9 @@ def _table(rows):
     out = []
     for r in rows:
         row = {k: v for k, v in r.items() if k not in (*TIME_KEYS, *SWEEP_KEYS, "episodes_detail")}
-        row["episodes"] = [{k: v for k, v in d.items() if k not in TIME_KEYS}
-                           for d in r["episodes_detail"]]  # fmt: skip
+        row["episodes"] = [
+            {k: v for k, v in d.items() if k not in TIME_KEYS} for d in r["episodes_detail"]
+        ]
         out.append(row)
     return out
 
@@ -70,8 +80,13 @@ def test_ray_starts_and_stops_its_own_local_instance(ray, hallway_map, local_row
 @pytest.fixture(scope="module")
 def ray_session(ray):
     """A small local Ray the backend finds already running (and leaves running)."""
-    ray.init(address="local", num_cpus=2, include_dashboard=False, object_store_memory=200 << 20,
-             logging_level="warning")  # fmt: skip
+    ray.init(
+        address="local",
+        num_cpus=2,
+        include_dashboard=False,
+        object_store_memory=200 << 20,
+        logging_level="warning",
+    )
     yield ray
     ray.shutdown()
 
@@ -119,8 +134,15 @@ def test_unreachable_address_fails_at_once(ray, hallway_map):
     address = f"127.0.0.1:{_free_port()}"
     t0 = time.monotonic()
     with pytest.raises(ConnectionError, match=f"no Ray cluster answers at address '{address}'"):
-        run_sweep(["hallway"], [0], policy="random", backend="ray", address=address,
-                  progress=False, maps={"hallway": hallway_map})  # fmt: skip
+        run_sweep(
+            ["hallway"],
+            [0],
+            policy="random",
+            backend="ray",
+            address=address,
+            progress=False,
+            maps={"hallway": hallway_map},
+        )
     assert time.monotonic() - t0 < HANG
 
 
@@ -152,8 +174,10 @@ def test_cli_unreachable_address(ray, capsys):
     from scripts.cli import main
 
     address = f"127.0.0.1:{_free_port()}"
-    assert main(["sweep", "--world", "hallway", "--backend", "ray", "--address", address,
-                 "--quiet"]) == 2  # fmt: skip
+    assert (
+        main(["sweep", "--world", "hallway", "--backend", "ray", "--address", address, "--quiet"])
+        == 2
+    )
     err = capsys.readouterr().err
     assert err.startswith("topomap sweep: no Ray cluster answers") and "ray start --head" in err
 
@@ -166,9 +190,17 @@ def test_held_out_cells_run_on_ray_actors(ray_session, tmp_path):
     from scripts.heldout.evaluate import CellRunner
     from scripts.sweep.backends import open_backend
 
-    cell = {"version": CELL_VERSION, "world": "lawn:11001", "family": "lawn", "seed": 0,
-            "frames": 150, "tasks": {"manifold": {"version": MANIFOLD_VERSION, "rows": []},
-                                     "servo": {"episodes": 3, "indices": [0, 2, 1]}}}  # fmt: skip
+    cell = {
+        "version": CELL_VERSION,
+        "world": "lawn:11001",
+        "family": "lawn",
+        "seed": 0,
+        "frames": 150,
+        "tasks": {
+            "manifold": {"version": MANIFOLD_VERSION, "rows": []},
+            "servo": {"episodes": 3, "indices": [0, 2, 1]},
+        },
+    }
     path = cell_path(tmp_path, "lawn:11001", 0, 150)
     path.parent.mkdir(parents=True)
     write_json(path, cell)

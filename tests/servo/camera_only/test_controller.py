@@ -188,9 +188,7 @@ def test_reversing_fix_is_stable_where_the_forward_fix_is_not():
     forward fix (heading toward the shift) lets the offset run away while reversing."""
     g1, g2 = RouteBelief.reverse_gains(1.0, 0.17)
     assert g2 * 0.17 - g1 == pytest.approx(2.0 * np.sqrt(g1 * 0.17))  # critical damping
-    y, y_hat = _reverse_along(
-        lambda b, v, yaw: b.fix_reversing(v, yaw, 0.17, 0.05 * g1, 0.05 * g2)
-    )
+    y, y_hat = _reverse_along(lambda b, v, yaw: b.fix_reversing(v, yaw, 0.17, 0.05 * g1, 0.05 * g2))
     assert abs(y) < 0.1 and abs(y - y_hat) < 0.1
     y, y_hat = _reverse_along(lambda b, v, yaw: b.fix(v, yaw, 0.5, 0.0))
     assert abs(y) > 0.5
@@ -212,8 +210,10 @@ def test_route_out_of_a_recording_is_reversed(servo_maps):
     assert all(a <= 0 for a in v) and min(v) < -0.2
     assert ctl.reverses
     # turned round instead: reversing off, or a map with less parallax than reversing needs
-    for config in (SignalServoConfig(reverse=False),
-                   SignalServoConfig(reverse_parallax=ctl.parallax + 0.01)):  # fmt: skip
+    for config in (
+        SignalServoConfig(reverse=False),
+        SignalServoConfig(reverse_parallax=ctl.parallax + 0.01),
+    ):
         forward = SignalServo(m, config=config, world="hallway")
         assert not forward.reverses
         forward.reset(ctl.target)
@@ -229,8 +229,7 @@ def test_turned_round_robot_looks_back_every_look_back_metres(servo_maps):
     start = 60
     behind = (m.sequence == m.sequence[start]) & (m.frame < m.frame[start] - 10)
     probe = SignalServo(m, world="hallway")
-    config = SignalServoConfig(reverse_parallax=probe.parallax + 0.01, look_back=1.0,
-                               look_steps=4)  # fmt: skip
+    config = SignalServoConfig(reverse_parallax=probe.parallax + 0.01, look_back=1.0, look_steps=4)
     ctl = SignalServo(m, config=config, world="hallway")
     assert not ctl.reverses
     ctl.reset(int(np.flatnonzero(behind)[0]))
@@ -537,8 +536,9 @@ def test_image_fixes_compare_only_views_the_alignment_can_measure(servo_maps):
     reach = loc.max_shift * loc.radians_per_pixel
     w, h = m.settings.image_size
     turned = 0.36  # the camera this far left of the view: its scene moves right
-    image = np.roll(m.features[start].reshape(h, w, -1), round(turned / loc.radians_per_pixel),
-                    axis=1).ravel()  # fmt: skip
+    image = np.roll(
+        m.features[start].reshape(h, w, -1), round(turned / loc.radians_per_pixel), axis=1
+    ).ravel()
     best, yaw, contrast = loc.align_contrast(image, [start])
     default = SignalServoConfig()
     assert best[0] < default.image_trust and contrast[0] < default.fix_contrast  # trusted

@@ -24,8 +24,9 @@ def test_three_headings_fix_position_and_heading():
     headings = [0.02, 0.0, -1.5, 1.6]
     truth, delta = np.array([0.7, -0.4]), 0.05
     yaws = _matches(truth, delta, views, headings)
-    xy, d = pose_from_turn(headings, views, yaws, np.ones(4), C, (0.0, 0.0), sigma_xy=100.0,
-                           sigma_heading=100.0)  # fmt: skip
+    xy, d = pose_from_turn(
+        headings, views, yaws, np.ones(4), C, (0.0, 0.0), sigma_xy=100.0, sigma_heading=100.0
+    )
     np.testing.assert_allclose(xy, truth, atol=1e-4)
     assert d == pytest.approx(delta, abs=1e-4)
 
@@ -37,8 +38,9 @@ def test_two_headings_fix_the_position_where_the_heading_is_known():
     headings = [0.02, 0.0, -1.5, -1.6]
     truth = np.array([0.7, -0.4])
     yaws = _matches(truth, 0.0, views, headings)
-    xy, d = pose_from_turn(headings, views, yaws, np.ones(4), C, (0.0, 0.0), sigma_xy=100.0,
-                           sigma_heading=0.001)  # fmt: skip
+    xy, d = pose_from_turn(
+        headings, views, yaws, np.ones(4), C, (0.0, 0.0), sigma_xy=100.0, sigma_heading=0.001
+    )
     np.testing.assert_allclose(xy, truth, atol=1e-3)
     assert abs(d) < 1e-3
 
@@ -77,14 +79,22 @@ class _Aligner:
 
 
 def test_junction_turn_turns_to_the_heading_then_moves_the_belief():
-    path = RoutePath(np.array([[0.0, 0.0, np.pi], [-1.0, 0.0, np.pi], [-1.0, -1.0, -np.pi / 2],
-                               [-1.0, -2.0, -np.pi / 2]]))  # fmt: skip
-    poses = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [-1.0, -1.5, -np.pi / 2],
-                      [-1.0, -2.5, -np.pi / 2]])  # fmt: skip
+    path = RoutePath(
+        np.array(
+            [
+                [0.0, 0.0, np.pi],
+                [-1.0, 0.0, np.pi],
+                [-1.0, -1.0, -np.pi / 2],
+                [-1.0, -2.0, -np.pi / 2],
+            ]
+        )
+    )
+    poses = np.array(
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [-1.0, -1.5, -np.pi / 2], [-1.0, -2.5, -np.pi / 2]]
+    )
     belief = RouteBelief(path, [-0.4, 0.0, 0.0])  # facing along views 0 and 1 (reversing)
     aligner = _Aligner(poses, truth=(-1.0, 0.0))
-    turn = JunctionTurn(np.arange(4), poses, -np.pi / 2, C, trust=0.9, facing=0.6,
-                        turn_rate=1.2)  # fmt: skip
+    turn = JunctionTurn(np.arange(4), poses, -np.pi / 2, C, trust=0.9, facing=0.6, turn_rate=1.2)
     for _ in range(40):
         aligner.heading = belief.pose[2]
         action = turn.step(belief, None, aligner, 0.1)
@@ -100,8 +110,16 @@ def test_junction_turn_turns_to_the_heading_then_moves_the_belief():
 def test_junction_turn_without_the_fix_only_turns():
     path = RoutePath(np.array([[0.0, 0.0, np.pi], [-1.0, 0.0, np.pi]]))
     belief = RouteBelief(path, [-0.4, 0.0, 0.0])
-    turn = JunctionTurn(np.zeros(0, np.intp), np.zeros((0, 3)), np.pi / 2, C, trust=0.9,
-                        facing=0.6, turn_rate=1.2, fix=False)  # fmt: skip
+    turn = JunctionTurn(
+        np.zeros(0, np.intp),
+        np.zeros((0, 3)),
+        np.pi / 2,
+        C,
+        trust=0.9,
+        facing=0.6,
+        turn_rate=1.2,
+        fix=False,
+    )
     for _ in range(40):
         action = turn.step(belief, None, None, 0.1)
         if action is None:

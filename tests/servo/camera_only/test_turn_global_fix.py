@@ -74,6 +74,7 @@ def test_a_fix_without_metric_support_gives_way_to_the_next_supported_view():
         def check(view):
             asked.append(view)
             return view in supported
+
         return check
 
     view, heading = contrast_fix(d, y, h, verify=verify({2, 3}), candidates=3)

@@ -133,8 +133,14 @@ def test_pose_fixes_are_on_by_default_and_validated(servo_maps):
     assert isinstance(SignalServo(servo_maps["hallway"]).poses.view_pose, ViewPose)
     assert SignalServo(servo_maps["hallway"], config=SignalServoConfig(pose_every=0)).poses is None
     assert SignalServoConfig().fix_check == 8 and SignalServoConfig(fix_check=0).fix_check == 0
-    for bad in ({"pose_every": -1}, {"pose_gain": 1.5}, {"pose_gate": 0.0},
-                {"pose_agree": -0.1}, {"fix_check": -1}, {"fix_check": 2.5}):
+    for bad in (
+        {"pose_every": -1},
+        {"pose_gain": 1.5},
+        {"pose_gate": 0.0},
+        {"pose_agree": -0.1},
+        {"fix_check": -1},
+        {"fix_check": 2.5},
+    ):
         with pytest.raises(ValueError, match=next(iter(bad))):
             SignalServoConfig(**bad)
 

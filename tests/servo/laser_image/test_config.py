@@ -10,10 +10,16 @@ from servo.laser_image import ManifoldServoConfig
 
 @pytest.mark.parametrize(
     ("field", "value", "match"),
-    [("speed", 2.0, "speed"), ("turn_rate", 0.0, "turn_rate"), ("lost_fit", 1.5, "lost_fit"),
-     ("lost_steps", 0, "lost_steps"), ("max_drift", -1.0, "max_drift"),
-     ("arrive_radius", 0.4, "arrive_radius"), ("keep_off", float("nan"), "keep_off")],
-)  # fmt: skip
+    [
+        ("speed", 2.0, "speed"),
+        ("turn_rate", 0.0, "turn_rate"),
+        ("lost_fit", 1.5, "lost_fit"),
+        ("lost_steps", 0, "lost_steps"),
+        ("max_drift", -1.0, "max_drift"),
+        ("arrive_radius", 0.4, "arrive_radius"),
+        ("keep_off", float("nan"), "keep_off"),
+    ],
+)
 def test_servo_config_refuses_bad_values(field, value, match):
     with pytest.raises(ValueError, match=match):
         ManifoldServoConfig(**{field: value})

@@ -171,11 +171,17 @@ def test_the_cache_key_covers_the_code_that_builds_a_map(servo_dataset, monkeypa
     meta, settings = read_meta(servo_dataset), MapSettings()
     sources = map_store._key_sources()
     names = {name for name, _ in sources}
-    assert {"mapping/scan_matching/icp_alignment.py", "mapping/features/images.py",
-            "mapping/persistence.py",
-            "mapping/manifold/clustering.py", "mapping/manifold/kernel.py",
-            "servo/maps/build.py", "servo/maps/file.py", "sim/dataset/loading.py",
-            "sim/dataset/schema.py"} <= names  # fmt: skip
+    assert {
+        "mapping/scan_matching/icp_alignment.py",
+        "mapping/features/images.py",
+        "mapping/persistence.py",
+        "mapping/manifold/clustering.py",
+        "mapping/manifold/kernel.py",
+        "servo/maps/build.py",
+        "servo/maps/file.py",
+        "sim/dataset/loading.py",
+        "sim/dataset/schema.py",
+    } <= names
     key = map_store.map_key(meta, "hallway", settings)
     extra = tmp_path / "topology.py"
     extra.write_text("# one more line of code\n")

@@ -15,8 +15,24 @@ from sim.dataset import write_sequence
 from tests.sim.readers.fuzzing import OverBudget, budget, flipped, truncated
 
 CASES = 12  # per kind
-ODD_VALUES = (None, True, -1, 0, 1e308, float("nan"), "x", "", [], [1, "a"], {}, {"a": None},
-              [[[[]]]], "9" * 400, 10**400, -(10**400))  # fmt: skip
+ODD_VALUES = (
+    None,
+    True,
+    -1,
+    0,
+    1e308,
+    float("nan"),
+    "x",
+    "",
+    [],
+    [1, "a"],
+    {},
+    {"a": None},
+    [[[[]]]],
+    "9" * 400,
+    10**400,
+    -(10**400),
+)
 WORLD = "lawn:3"  # the small map of the session fixture generated_servo_map: quick to load
 
 

@@ -18,8 +18,15 @@ from tests.servo.task import attacks
 
 ATTACKS = "tests.servo.task.attacks"
 KEYS = ("steps", "reason", "path_length", "final_distance", "collisions", "success")
-SANDBOX = [False, pytest.param(True, marks=pytest.mark.skipif(
-    sandbox_tool() is None, reason="neither bwrap nor unshare makes a sandbox here"))]  # fmt: skip
+SANDBOX = [
+    False,
+    pytest.param(
+        True,
+        marks=pytest.mark.skipif(
+            sandbox_tool() is None, reason="neither bwrap nor unshare makes a sandbox here"
+        ),
+    ),
+]
 
 
 @pytest.fixture(scope="module")
@@ -33,8 +40,7 @@ def task(generated_servo_map):
 
 def _episode(task, name, sandbox, **params):
     env, spec, data = task
-    policy = RemotePolicy(f"{ATTACKS}:{name}", env.map, params=params, sandbox=sandbox,
-                          hide=[data])  # fmt: skip
+    policy = RemotePolicy(f"{ATTACKS}:{name}", env.map, params=params, sandbox=sandbox, hide=[data])
     try:
         return run_episode(env, policy, spec.seed, reset_options(env, spec, "view"))
     finally:
@@ -64,15 +70,24 @@ def test_the_sandbox_hides_the_maps_and_datasets_on_disk(task, generated_servo_m
     assert record["reason"] == RAISED and "found the truth" in record["failure"]
     # through the runner: its temporary copy of the map is hidden too, and it is recorded
     m, _ = generated_servo_map
-    r = run_protocol(Protocol("lawn:3", split="test", max_steps=3), m, 1,
-                     f"{ATTACKS}:disk_scanner", workers=1, progress=False, sandbox=True,
-                     hide=[task[2]], policy_options={"roots": [task[2]]})  # fmt: skip
+    r = run_protocol(
+        Protocol("lawn:3", split="test", max_steps=3),
+        m,
+        1,
+        f"{ATTACKS}:disk_scanner",
+        workers=1,
+        progress=False,
+        sandbox=True,
+        hide=[task[2]],
+        policy_options={"roots": [task[2]]},
+    )
     assert "failure" not in r["episodes_detail"][0], r["episodes_detail"][0].get("failure")
     assert r["isolation"] == {"process": True, "sandboxed": True, "sandbox": sandbox_tool()}
 
 
-@pytest.mark.parametrize(("name", "finds"), [("stack_walker", "run_episode:info"),
-                                             ("gc_searcher", "GeodesicField")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("name", "finds"), [("stack_walker", "run_episode:info"), ("gc_searcher", "GeodesicField")]
+)
 def test_in_the_evaluators_process_the_attacks_would_find_the_truth(task, name, finds):
     env, spec, _ = task
     policy = make_outside_policy(f"{ATTACKS}:{name}", env.map, np.random.default_rng(0))

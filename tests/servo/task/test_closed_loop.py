@@ -169,7 +169,6 @@ def test_baselines_run(envs):
             obs, _, _, _, info = env.step(a)
 
 
-
 def test_arrival_radius():
     """The arrival law stops driving within its radius (the controller's ``arrive_radius``)."""
     from servo.steering import Arrival
@@ -263,8 +262,13 @@ def test_baselines_refuse_bad_use(envs):
     for hold in (0, -1, 1.5, "5"):
         with pytest.raises(ValueError, match="hold must be an integer >= 1"):
             RandomPolicy(np.random.default_rng(0), hold=hold)
-    for bad in (dict(speed=float("nan")), dict(speed=0.0), dict(lookahead=-1.0),
-                dict(lookahead=float("inf")), dict(speed="x")):  # fmt: skip
+    for bad in (
+        dict(speed=float("nan")),
+        dict(speed=0.0),
+        dict(lookahead=-1.0),
+        dict(lookahead=float("inf")),
+        dict(speed="x"),
+    ):
         name = next(iter(bad))
         with pytest.raises(ValueError, match=f"{name} must be a finite number"):
             OraclePolicy(env.base.world, **bad)

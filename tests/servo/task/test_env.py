@@ -282,8 +282,12 @@ def test_no_return_inf_keeps_the_raw_ranges(env, servo_maps):
     raw = ServoEnv("hallway", servo_maps["hallway"], max_steps=50, no_return="inf")
     try:
         assert set(raw.observation_space) == {
-            "image", "scan", "odometry", "target_image", "target_scan"
-        }  # fmt: skip
+            "image",
+            "scan",
+            "odometry",
+            "target_image",
+            "target_scan",
+        }
         assert raw.observation_space["scan"].high.max() == np.inf
         obs_raw, _ = raw.reset(seed=4)
         obs, _ = env.reset(seed=4)

@@ -72,8 +72,12 @@ class _Robot:
         self.actions = []
 
     def _info(self, pose, collision):
-        return {"pose": pose, "odometry": pose.copy(), "collision": collision,
-                "manifold": "hallway"}  # fmt: skip
+        return {
+            "pose": pose,
+            "odometry": pose.copy(),
+            "collision": collision,
+            "manifold": "hallway",
+        }
 
     def reset(self, seed=None, options=None):
         self.k = 0
@@ -124,14 +128,21 @@ def test_reset_reports_the_task_and_the_normalised_signal():
 
 
 def test_reward_is_the_signal_gain_plus_arrival_and_contact_terms():
-    script = [((2.0, 0.0, 0.0), False, 100), ((1.0, 0.0, 0.0), True, 80),
-              ((0.5, 0.0, -0.3), False, 190)]  # fmt: skip
+    script = [
+        ((2.0, 0.0, 0.0), False, 100),
+        ((1.0, 0.0, 0.0), True, 80),
+        ((0.5, 0.0, -0.3), False, 190),
+    ]
     env = _env(script, signal_weight=2.0, success_reward=3.0, collision_penalty=0.25)
     _, steps = _run(env, (3.0, 0.0, 0.0))
-    parts = np.array([[s[4]["reward_signal"], s[4]["reward_success"], s[4]["reward_collision"]]
-                      for s in steps])  # fmt: skip
-    np.testing.assert_allclose(parts, [[2.0 * 60 / 200, 0.0, 0.0], [2.0 * -20 / 200, 0.0, -0.25],
-                                       [2.0 * 110 / 200, 3.0, 0.0]], atol=1e-12)  # fmt: skip
+    parts = np.array(
+        [[s[4]["reward_signal"], s[4]["reward_success"], s[4]["reward_collision"]] for s in steps]
+    )
+    np.testing.assert_allclose(
+        parts,
+        [[2.0 * 60 / 200, 0.0, 0.0], [2.0 * -20 / 200, 0.0, -0.25], [2.0 * 110 / 200, 3.0, 0.0]],
+        atol=1e-12,
+    )
     np.testing.assert_allclose([s[1] for s in steps], parts.sum(axis=1), atol=1e-12)
     assert [s[4]["signal"] for s in steps] == pytest.approx([0.5, 0.4, 0.95])
     # 1 m, 1 m, then 0.5 m: the path walked, and the last pose within 0.5 m and 0.3 rad

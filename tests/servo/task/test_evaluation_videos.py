@@ -11,8 +11,17 @@ def test_evaluate_writes_episode_videos_browsers_play(servo_maps, tmp_path):
 
     from servo.task import evaluate
 
-    result = evaluate("hallway", 1, 0, policy="oracle", servo_map=servo_maps["hallway"],
-                      out=tmp_path, videos=1, max_steps=4, progress=False)  # fmt: skip
+    result = evaluate(
+        "hallway",
+        1,
+        0,
+        policy="oracle",
+        servo_map=servo_maps["hallway"],
+        out=tmp_path,
+        videos=1,
+        max_steps=4,
+        progress=False,
+    )
     path = tmp_path / "hallway-oracle-episode0.mp4"
     assert mp4_codecs(path) == ["avc1"]
     # ffmpeg decodes every frame: one per step of the episode

@@ -197,13 +197,21 @@ def test_a_policy_that_cannot_be_made_is_named(env, spec, says):
 def test_the_run_goes_on_past_failing_episodes(servo_maps):
     protocol = Protocol("hallway", split="dev", max_steps=4)
     # the factory itself, as its import path
-    r = run_protocol(protocol, servo_maps["hallway"], 3, faulty, workers=1,
-                     progress=False, policy_options={"how": "nan", "at": 3})  # fmt: skip
+    r = run_protocol(
+        protocol,
+        servo_maps["hallway"],
+        3,
+        faulty,
+        workers=1,
+        progress=False,
+        policy_options={"how": "nan", "at": 3},
+    )
     assert r["episodes"] == 3 and r["reasons"] == {INVALID_ACTION: 3}
     assert r["policy"] == f"{HERE}:faulty" and r["policy_params"] == {"how": "nan", "at": 3}
     assert [e["steps"] for e in r["episodes_detail"]] == [2, 2, 2]
-    r = run_protocol(protocol, servo_maps["hallway"], 2, "no_such_package.policy:make",
-                     workers=1, progress=False)  # fmt: skip
+    r = run_protocol(
+        protocol, servo_maps["hallway"], 2, "no_such_package.policy:make", workers=1, progress=False
+    )
     assert r["reasons"] == {NOT_LOADED: 2}
     assert all("does not import" in e["failure"] for e in r["episodes_detail"])
 
@@ -216,8 +224,7 @@ def test_an_outside_policy_draws_the_same_per_episode_whatever_ran_before(servo_
     protocol = Protocol("hallway", split="dev", max_steps=40)
     spec, params = "examples.image_descent:make_policy", {"patience": 1}  # tumbles often
     path = str(save_map(servo_maps["hallway"], tmp_path))
-    both = run_protocol(protocol, path, 2, spec, workers=1, progress=False,
-                        policy_options=params)  # fmt: skip
+    both = run_protocol(protocol, path, 2, spec, workers=1, progress=False, policy_options=params)
     # episode 1 alone, in a fresh worker that never ran episode 0 (as in a pool of workers)
     specs = runner.episode_specs(protocol, servo_maps["hallway"].true_labels, 2)
     worker.init_worker(protocol, path, spec, params, reset_options=runner.reset_options)
@@ -239,16 +246,43 @@ def test_load_factory_imports_like_python_m():
         make_policy("no colon", None, np.random.default_rng(0))
 
 
-def test_servo_eval_runs_an_outside_policy_and_compares_it(servo_dataset, map_cache, tmp_path,
-                                                           capsys):  # fmt: skip
+def test_servo_eval_runs_an_outside_policy_and_compares_it(
+    servo_dataset, map_cache, tmp_path, capsys
+):
     from scripts.cli import main
 
-    common = ["--world", "hallway", "--episodes", "2", "--max-steps", "5", "--workers", "1",
-              "--data", str(servo_dataset), "--maps", str(map_cache)]  # fmt: skip
+    common = [
+        "--world",
+        "hallway",
+        "--episodes",
+        "2",
+        "--max-steps",
+        "5",
+        "--workers",
+        "1",
+        "--data",
+        str(servo_dataset),
+        "--maps",
+        str(map_cache),
+    ]
     assert main(["servo-eval", *common, "--policy", "random", "--out", str(tmp_path / "a")]) == 0
-    assert main(["servo-eval", *common, "--policy", "examples.image_descent:make_policy",
-                 "--policy-arg", "speed=0.4", "--policy-arg", "patience=3",
-                 "--out", str(tmp_path / "b")]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "servo-eval",
+                *common,
+                "--policy",
+                "examples.image_descent:make_policy",
+                "--policy-arg",
+                "speed=0.4",
+                "--policy-arg",
+                "patience=3",
+                "--out",
+                str(tmp_path / "b"),
+            ]
+        )
+        == 0
+    )
     (a,) = (tmp_path / "a").glob("*.json")
     (b,) = (tmp_path / "b").glob("*.json")
     result = json.loads(b.read_text())["results"][0]  # inside the result file's envelope
@@ -267,8 +301,9 @@ def test_servo_eval_runs_an_outside_policy_and_compares_it(servo_dataset, map_ca
 def test_chosen_episode_indices_are_the_protocols_episodes(servo_maps):
     protocol = Protocol("hallway", split="dev", max_steps=4)
     first = run_protocol(protocol, servo_maps["hallway"], 3, "random", workers=1, progress=False)
-    chosen = run_protocol(protocol, servo_maps["hallway"], 1, "random", workers=1,
-                          progress=False, indices=[2, 0])  # fmt: skip
+    chosen = run_protocol(
+        protocol, servo_maps["hallway"], 1, "random", workers=1, progress=False, indices=[2, 0]
+    )
     ends = {e["episode"]: e["seed"] for e in first["episodes_detail"]}
     assert [(e["episode"], e["seed"]) for e in chosen["episodes_detail"]] == [
         (2, ends[2]),
@@ -276,5 +311,6 @@ def test_chosen_episode_indices_are_the_protocols_episodes(servo_maps):
     ]
     for bad in ([], [1, 1], [-1], [0.5], "01", 3, [True]):
         with pytest.raises(ValueError, match="indices must be a list of distinct integers"):
-            run_protocol(protocol, servo_maps["hallway"], 1, "random", workers=1,
-                         progress=False, indices=bad)  # fmt: skip
+            run_protocol(
+                protocol, servo_maps["hallway"], 1, "random", workers=1, progress=False, indices=bad
+            )

@@ -15,8 +15,15 @@ RESULTS = Path(__file__).resolve().parents[3] / "docs" / "results" / "data" / "s
 
 
 def _result(wins, world="hallway", starts=None, seeds=None, **setting):
-    base = dict(world=world, tier="anywhere", split="test", randomize=False,
-                odometry_noise=True, max_steps=600, policy="signal")  # fmt: skip
+    base = dict(
+        world=world,
+        tier="anywhere",
+        split="test",
+        randomize=False,
+        odometry_noise=True,
+        max_steps=600,
+        policy="signal",
+    )
     base.update(setting)
     starts = starts or ["hallway"] * len(wins)
     seeds = seeds or [100 + i for i in range(len(wins))]
@@ -159,7 +166,7 @@ def test_malformed_results_are_named(tmp_path):
         ([_result([1], tier=7)], r"^R\[0\]: 'world' and 'tier' must be strings$"),
         ([{**_result([1]), "episodes_detail": {}}], r"^R\[0\]: 'episodes_detail' must be a list"),
         ([{**_result([1]), "episodes_detail": [5]}], r"^R\[0\]\.episodes_detail\[0\]: expected an"),
-    ]  # fmt: skip
+    ]
     for data, match in cases:
         with pytest.raises(ValueError, match=match):
             cmp.load_results(_write(tmp_path / "r.json", data), "R")

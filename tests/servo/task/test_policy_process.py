@@ -20,8 +20,12 @@ MISBEHAVING = "tests.servo.task.misbehaving:make"
 
 
 def test_a_message_round_trips_as_plain_arrays():
-    arrays = {"image": np.arange(24, dtype=np.uint8).reshape(2, 4, 3), "a": np.array([0.5, -1.0]),
-              "ok": np.array([True, False]), "i": np.arange(3, dtype=">i8")}  # fmt: skip
+    arrays = {
+        "image": np.arange(24, dtype=np.uint8).reshape(2, 4, 3),
+        "a": np.array([0.5, -1.0]),
+        "ok": np.array([True, False]),
+        "i": np.arange(3, dtype=">i8"),
+    }
     kind, values, got = wire.decode(wire.encode("act", {"view": 3}, arrays), 1 << 20)
     assert kind == "act" and values == {"view": 3}
     for name, a in arrays.items():
@@ -83,8 +87,12 @@ def remote(generated_servo_map):
 
 
 def _observation(m):
-    return {"image": m.images[1], "scan": m.scans[1], "odometry": np.zeros(3),
-            "target_image": m.images[0]}  # fmt: skip
+    return {
+        "image": m.images[1],
+        "scan": m.scans[1],
+        "odometry": np.zeros(3),
+        "target_image": m.images[0],
+    }
 
 
 @pytest.mark.parametrize(
@@ -97,8 +105,9 @@ def _observation(m):
         ("raise", RAISED, "RuntimeError: lost"),
     ],
 )
-def test_a_misbehaving_policy_process_fails_with_the_reason(remote, generated_servo_map, mode,
-                                                            reason, says):  # fmt: skip
+def test_a_misbehaving_policy_process_fails_with_the_reason(
+    remote, generated_servo_map, mode, reason, says
+):
     from tests.servo.task.misbehaving import MODES
 
     m, _ = generated_servo_map
@@ -128,8 +137,16 @@ def test_a_factory_that_fails_in_its_process_is_named(generated_servo_map):
 def test_the_run_goes_on_past_dead_policy_processes(generated_servo_map):
     m, _ = generated_servo_map
     protocol = Protocol("lawn:3", split="dev", max_steps=3)
-    r = run_protocol(protocol, m, 2, MISBEHAVING, workers=1, progress=False, sandbox=False,
-                     policy_options={"how": "die"})  # fmt: skip
+    r = run_protocol(
+        protocol,
+        m,
+        2,
+        MISBEHAVING,
+        workers=1,
+        progress=False,
+        sandbox=False,
+        policy_options={"how": "die"},
+    )
     assert r["reasons"] == {DIED: 2} and r["episodes"] == 2
     assert r["isolation"] == {"process": True, "sandboxed": False, "sandbox": None}
     with pytest.raises(ValueError, match="isolate=False is refused"):
@@ -140,8 +157,9 @@ def test_our_controller_runs_the_same_in_its_own_process(generated_servo_map):
     m, _ = generated_servo_map
     protocol = Protocol("lawn:3", split="dev", max_steps=8)
     here = run_protocol(protocol, m, 2, "random", workers=1, progress=False)
-    there = run_protocol(protocol, m, 2, "random", workers=1, progress=False, isolate=True,
-                         sandbox=False)  # fmt: skip
+    there = run_protocol(
+        protocol, m, 2, "random", workers=1, progress=False, isolate=True, sandbox=False
+    )
     assert here["isolation"]["process"] is False and there["isolation"]["process"] is True
     keys = ("steps", "reason", "path_length", "final_distance", "collisions", "success")
     assert [{k: e[k] for k in keys} for e in here["episodes_detail"]] == [

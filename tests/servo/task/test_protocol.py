@@ -74,12 +74,21 @@ def test_anywhere_starts_lie_on_the_start_manifold(hallway_env, servo_maps):
 
 def test_summary_has_intervals_pairs_and_signal():
     def record(success, start="a", f=(0.1, 0.2, 0.3), d=(3.0, 2.0, 1.0)):
-        return {"success": success, "spl": 0.8 * success, "final_distance": 0.3,
-                "final_heading_error_deg": 5.0, "steps": 100, "collisions": 0,
-                "reason": "success" if success else "time limit", "act_ms": 1.0,
-                "start_manifold": start, "target_manifold": "b",
-                "signal_target": np.array(f), "true_distance": np.array(d),
-                "trail": np.zeros((3, 3))}  # fmt: skip
+        return {
+            "success": success,
+            "spl": 0.8 * success,
+            "final_distance": 0.3,
+            "final_heading_error_deg": 5.0,
+            "steps": 100,
+            "collisions": 0,
+            "reason": "success" if success else "time limit",
+            "act_ms": 1.0,
+            "start_manifold": start,
+            "target_manifold": "b",
+            "signal_target": np.array(f),
+            "true_distance": np.array(d),
+            "trail": np.zeros((3, 3)),
+        }
 
     records = [record(True), record(False, "c", f=(0.3, 0.2, 0.1)), record(True)]
     s = summarise(records)
@@ -181,10 +190,20 @@ def test_score_episode_is_a_function_of_the_infos_alone():
     from servo.task.evaluation import score_episode
 
     def info(x, **over):
-        base = {"pose": np.array([x, 0.0, 0.0]), "signal": x / 4, "collision": False,
-                "path_length": x, "success": False, "reason": None, "distance": 4 - x,
-                "heading_error": 0.0, "start_manifold": "a", "target_manifold": "b",
-                "target_view": 7, "target_pose": np.array([4.0, 0.0, 0.0])}  # fmt: skip
+        base = {
+            "pose": np.array([x, 0.0, 0.0]),
+            "signal": x / 4,
+            "collision": False,
+            "path_length": x,
+            "success": False,
+            "reason": None,
+            "distance": 4 - x,
+            "heading_error": 0.0,
+            "start_manifold": "a",
+            "target_manifold": "b",
+            "target_view": 7,
+            "target_pose": np.array([4.0, 0.0, 0.0]),
+        }
         return {**base, **over}
 
     infos = [

@@ -315,9 +315,13 @@ def test_angle_max_one_float32_increment_beyond_the_last_beam_is_accepted(beams)
     f = np.float32
     angle_min, inc = f(-np.pi), f(2 * np.pi / beams)
     msg = SimpleNamespace(
-        ranges=np.ones(beams, np.float32), angle_min=angle_min, angle_increment=inc,
-        angle_max=f(angle_min + f(beams) * inc), range_min=f(0.1), range_max=f(30.0),
-    )  # fmt: skip
+        ranges=np.ones(beams, np.float32),
+        angle_min=angle_min,
+        angle_increment=inc,
+        angle_max=f(angle_min + f(beams) * inc),
+        range_min=f(0.1),
+        range_max=f(30.0),
+    )
     assert scan_geometry(msg, "scan")[0] == beams  # the span: beams + 1.00001, not > beams + 1
     msg.angle_max = f(angle_min + f(beams + 1) * inc)
     with pytest.raises(RosbagImportError, match="give"):

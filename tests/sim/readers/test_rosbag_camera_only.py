@@ -17,8 +17,11 @@ from tests.sim.readers.rosbag_fixtures import IMAGE, ODOM, SCAN, drive_from_sequ
 FULL = ImportSettings(SCAN, IMAGE, ODOM, world="lawn", min_travel=0.0)
 CAMERA_ONLY = dataclasses.replace(FULL, scan_topic=None)
 LASER_ONLY = dataclasses.replace(FULL, image_topic=None)
-BAGS = {"ros1": ("drive.bag", 1, False), "ros2-sqlite3": ("drive", 2, False),
-        "ros2-mcap": ("drive", 2, True)}  # fmt: skip
+BAGS = {
+    "ros1": ("drive.bag", 1, False),
+    "ros2-sqlite3": ("drive", 2, False),
+    "ros2-mcap": ("drive", 2, True),
+}
 
 
 def _sequence(frames=12, beams=5):
@@ -63,8 +66,9 @@ def test_a_camera_only_bag_imports_as_its_images_and_odometry(tmp_path, kind):
     np.testing.assert_array_equal(got.images, drive.images[: len(t)])
     np.testing.assert_allclose(got.times, t - t[0], atol=1e-9)
     # odometry and velocity interpolated at the image stamps between the odometry messages
-    poses = _interp(t, drive.t_odom, np.column_stack(
-        [drive.poses[:, :2], np.unwrap(drive.poses[:, 2])]))  # fmt: skip
+    poses = _interp(
+        t, drive.t_odom, np.column_stack([drive.poses[:, :2], np.unwrap(drive.poses[:, 2])])
+    )
     np.testing.assert_allclose(got.odometry[:, :2], poses[:, :2], atol=1e-9)
     np.testing.assert_allclose(np.cos(got.odometry[:, 2] - poses[:, 2]), 1.0, atol=1e-12)
     np.testing.assert_allclose(got.commands, _interp(t, drive.t_odom, drive.velocities), atol=1e-9)
@@ -78,15 +82,19 @@ def test_the_camera_only_import_of_a_full_bag_keeps_its_images(tmp_path):
     a = load_dataset(import_rosbags([full], tmp_path / "a", CAMERA_ONLY, progress=False))
     b = load_dataset(import_rosbags([camera_only], tmp_path / "b", CAMERA_ONLY, progress=False))
     for key in ("images", "odometry", "commands", "times"):
-        np.testing.assert_array_equal(getattr(a.sequences["drive"], key),
-                                      getattr(b.sequences["drive"], key))  # fmt: skip
+        np.testing.assert_array_equal(
+            getattr(a.sequences["drive"], key), getattr(b.sequences["drive"], key)
+        )
 
 
 def test_the_laser_is_missing_from_a_camera_only_dataset(tmp_path):
     _, bag = _bag(tmp_path, laser=False)
     data = load_dataset(import_rosbags([bag], tmp_path / "d", CAMERA_ONLY, progress=False))
-    for call in (lambda: data.concat("scans"), lambda: data.concat("angles"),
-                 lambda: data.runs("lawn")):  # fmt: skip
+    for call in (
+        lambda: data.concat("scans"),
+        lambda: data.concat("angles"),
+        lambda: data.runs("lawn"),
+    ):
         with pytest.raises(MissingSensorError, match="has no laser") as caught:
             call()
         assert caught.value.sensor == "laser" and caught.value.path == data.path
@@ -114,8 +122,11 @@ def test_the_methods_on_images_refuse_a_dataset_without_a_camera(tmp_path):
 
     _, bag = _bag(tmp_path, camera=False)
     data = load_dataset(import_rosbags([bag], tmp_path / "d", LASER_ONLY, progress=False))
-    for call in (lambda: data.concat("images"), lambda: feature_sets(data),
-                 lambda: build_map(data, "lawn")):  # fmt: skip
+    for call in (
+        lambda: data.concat("images"),
+        lambda: feature_sets(data),
+        lambda: build_map(data, "lawn"),
+    ):
         with pytest.raises(MissingSensorError, match="has no camera") as caught:
             call()
         assert caught.value.sensor == "camera" and str(data.path) in str(caught.value)
@@ -126,8 +137,20 @@ def test_cli_imports_a_camera_only_bag(tmp_path, capsys):
     from scripts.cli import main
 
     drive, bag = _bag(tmp_path, "ros1", laser=False)
-    args = ["import", "--rosbag", str(bag), "--image-topic", IMAGE, "--odom-topic", ODOM,
-            "--out", str(tmp_path / "d"), "--min-travel", "0", "--quiet"]  # fmt: skip
+    args = [
+        "import",
+        "--rosbag",
+        str(bag),
+        "--image-topic",
+        IMAGE,
+        "--odom-topic",
+        ODOM,
+        "--out",
+        str(tmp_path / "d"),
+        "--min-travel",
+        "0",
+        "--quiet",
+    ]
     assert main(args) == 0
     data = load_dataset(tmp_path / "d")
     assert f"drive: {len(data.sequences['drive'])} frames" in capsys.readouterr().out

@@ -45,8 +45,14 @@ def test_the_header_states_the_size(ext):
 
 def test_a_compressed_image_claiming_40000x40000_is_refused_before_decoding():
     msg = SimpleNamespace(data=np.frombuffer(_png_claiming(40000, 40000), np.uint8), format="png")
-    with budget(5), pytest.raises(RosbagImportError, match=r"bag.bag: /cam message 3: a 40000x"
-                                  r"40000 image; at most MAX_IMAGE_PIXELS = 16777216"):  # fmt: skip
+    with (
+        budget(5),
+        pytest.raises(
+            RosbagImportError,
+            match=r"bag.bag: /cam message 3: a 40000x"
+            r"40000 image; at most MAX_IMAGE_PIXELS = 16777216",
+        ),
+    ):
         decode_image(msg, COMPRESSED, "bag.bag: /cam message 3")
 
 
@@ -58,8 +64,9 @@ def test_an_image_opencv_refuses_is_an_import_error(monkeypatch):
 
 
 def test_a_raw_image_beyond_the_cap_is_refused():
-    msg = SimpleNamespace(data=np.zeros(12, np.uint8), encoding="rgb8", height=5000,
-                          width=5000, step=15000)  # fmt: skip
+    msg = SimpleNamespace(
+        data=np.zeros(12, np.uint8), encoding="rgb8", height=5000, width=5000, step=15000
+    )
     with pytest.raises(RosbagImportError, match="a 5000x5000 image"):
         decode_image(msg, "sensor_msgs/msg/Image", "bag.bag: /cam message 0")
     assert 4096 * 4096 == MAX_IMAGE_PIXELS
@@ -93,13 +100,20 @@ def test_a_bag_whose_scan_definition_refers_to_itself_is_refused(tmp_path):
     store.register(get_types_from_msg(msgdef, msgtype))
     bag = tmp_path / "loop.bag"
     with Writer(bag) as writer:  # its hash as the bag's reader computes it: past that check
-        conn = writer.add_connection("/scan", msgtype, msgdef=msgdef,
-                                     md5sum=store.generate_msgdef(msgtype)[1])  # fmt: skip
+        conn = writer.add_connection(
+            "/scan", msgtype, msgdef=msgdef, md5sum=store.generate_msgdef(msgtype)[1]
+        )
         writer.write(conn, 1, b"\x00" * 16)
         writer.add_connection(ODOM, "nav_msgs/msg/Odometry", typestore=get_typestore(Stores.LATEST))
     laser_only = dataclasses.replace(TINY, image_topic=None)
-    with budget(10), pytest.raises(RosbagImportError, match=r"loop.bag: /scan: message type "
-                                   r"sensor_msgs/msg/LaserScan refers to itself"):  # fmt: skip
+    with (
+        budget(10),
+        pytest.raises(
+            RosbagImportError,
+            match=r"loop.bag: /scan: message type "
+            r"sensor_msgs/msg/LaserScan refers to itself",
+        ),
+    ):
         import_rosbags([bag], tmp_path / "out", laser_only, progress=False)
     assert not (tmp_path / "out").exists()
 

@@ -28,15 +28,18 @@ def aces(aces_log):
 def _drive(log, part, camera: bool) -> Drive:
     t = log.timestamps[part] - log.timestamps[0] + 0.5
     n = len(t)
-    images = (np.arange(n)[:, None, None, None] * 4 % 256 * np.ones((1, 4, 6, 3))).astype(
-        np.uint8
-    )
+    images = (np.arange(n)[:, None, None, None] * 4 % 256 * np.ones((1, 4, 6, 3))).astype(np.uint8)
     return Drive(
-        t_scan=t, ranges=log.ranges[part], angles=log.angles,
-        t_image=t if camera else t[:0], images=images if camera else images[:0],
-        t_odom=t, poses=log.odometry[part], velocities=np.zeros((n, 2)),
+        t_scan=t,
+        ranges=log.ranges[part],
+        angles=log.angles,
+        t_image=t if camera else t[:0],
+        images=images if camera else images[:0],
+        t_odom=t,
+        poses=log.odometry[part],
+        velocities=np.zeros((n, 2)),
         range_max=log.max_range,
-    )  # fmt: skip
+    )
 
 
 def _groups(scans, odometry):
@@ -48,9 +51,11 @@ def _groups(scans, odometry):
 def test_a_real_log_round_trips_through_every_bag_format(aces, tmp_path, ros, mcap, camera):
     log, part = aces
     bag = write_bag(
-        tmp_path / ("aces.bag" if ros == 1 else "aces"), _drive(log, part, camera), ros=ros,
+        tmp_path / ("aces.bag" if ros == 1 else "aces"),
+        _drive(log, part, camera),
+        ros=ros,
         mcap=mcap,
-    )  # fmt: skip
+    )
     settings = WITH_CAMERA if camera else LASER_ONLY
     data = load_dataset(import_rosbags([bag], tmp_path / "data", settings, progress=False))
     seq = data.sequences["aces"]
