@@ -18,9 +18,9 @@ Then, from any folder (``MUJOCO_GL=egl`` on a machine without a display)::
     python examples/ppo_servo.py --env topomap/Hallway-v0 --steps 2048
     python examples/ppo_servo.py --env topomap/HallwayServo-v0 --obs vector --map PATH
 
-``--curve FILE.png`` draws the learning curve (mean episode reward, and the success rate on a
-servo id or the share of episodes without a collision on a navigation id, against the steps)
-and writes its numbers beside it (``FILE.json``).
+``--curve FILE.png`` draws the learning curve (mean episode reward; the success rate on a
+servo id or the share of episodes without a collision on a navigation id; the metres driven
+per episode; against the steps) and writes its numbers beside it (``FILE.json``).
 
 (``python -m examples.ppo_servo`` works from the repository's root.) ``--map``: the ``.json``
 path of a saved servo map (``servo.save_map(m, directory)`` returns it); without it the
@@ -117,8 +117,8 @@ def train(
     """PPO on `make_env` (the policy of ``obs`` in `OBSERVATIONS`, ``size`` the images of
     ``"dict"``) for ``steps`` env steps, PyTorch on ``threads`` threads; returns the steps,
     the wall time, the steps per second, the episodes ended, their mean reward and
-    ``episodes_detail``: each ended episode's step count, return and outcome
-    (`episode_outcome`)."""
+    ``episodes_detail``: each ended episode's step count, return, outcome
+    (`episode_outcome`) and the metres the robot drove in it."""
     import torch
     from stable_baselines3 import PPO  # the optional extra: pip install -e ".[rl]"
     from stable_baselines3.common.callbacks import BaseCallback
@@ -126,13 +126,25 @@ def train(
     class Episodes(BaseCallback):
         def __init__(self):
             super().__init__()
-            self.ended = []
+            self.ended, self.metres, self.last = [], {}, {}
 
         def _on_step(self) -> bool:
-            for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
+            for i, (done, info) in enumerate(
+                zip(self.locals["dones"], self.locals["infos"], strict=True)
+            ):
+                # the distance driven: whether the robot learned to drive, or only to stop
+                pose = np.asarray(info["pose"][:2], float) if "pose" in info else None
+                if pose is not None and self.last.get(i) is not None:
+                    self.metres[i] = self.metres.get(i, 0.0) + float(
+                        np.hypot(*(pose - self.last[i]))
+                    )
+                self.last[i] = None if done else pose
                 if done and "episode" in info:  # Monitor's summary of the ended episode
                     r, ok = episode_outcome(info, info["episode"]["r"])
-                    self.ended.append({"step": int(self.num_timesteps), "return": r, "ok": ok})
+                    metres = round(self.metres.pop(i, 0.0), 2)
+                    self.ended.append(
+                        {"step": int(self.num_timesteps), "return": r, "ok": ok, "metres": metres}
+                    )
             return True
 
     # One thread: the small network gains little from more, and on a busy 2-core machine
@@ -160,9 +172,10 @@ def train(
 
 
 def plot_curve(result: dict, path: str, window: int = 10) -> None:
-    """The learning curve of a `train` result as a PNG at ``path``: the mean return and the
-    share of episodes that went well (`episode_outcome`) over the last ``window`` ended
-    episodes, against the env steps; its numbers go to the same name with ``.json``."""
+    """The learning curve of a `train` result as a PNG at ``path``: the mean return, the
+    share of episodes that went well (`episode_outcome`) and the metres driven, over the last
+    ``window`` ended episodes, against the env steps; its numbers go to the same name with
+    ``.json``."""
     import json
     from pathlib import Path
 
@@ -182,14 +195,18 @@ def plot_curve(result: dict, path: str, window: int = 10) -> None:
 
     returns = rolling([e["return"] for e in ended])
     ok = rolling([float(e["ok"]) for e in ended])
+    metres = rolling([e.get("metres", np.nan) for e in ended])
     x = steps[len(kernel) - 1 :]
     servo_id = "Servo" in result["env"]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
+    fig, (top, middle, bottom) = plt.subplots(3, 1, figsize=(6, 6.5), sharex=True)
     top.plot(x, returns)
     top.set_ylabel(f"mean return, last {len(kernel)}")
-    bottom.plot(x, ok)
-    bottom.set_ylim(-0.05, 1.05)
-    bottom.set_ylabel("success rate" if servo_id else "share without a collision")
+    middle.plot(x, ok)
+    middle.set_ylim(-0.05, 1.05)
+    middle.set_ylabel("success rate" if servo_id else "share without\na collision")
+    bottom.plot(x, metres)
+    bottom.set_ylim(bottom=0)
+    bottom.set_ylabel("metres driven\nper episode")
     bottom.set_xlabel("env steps")
     top.set_title(f"PPO on {result['env']}, --obs {result['obs']}", fontsize=10)
     fig.tight_layout()

@@ -122,7 +122,10 @@ def test_the_learning_curve_is_drawn_with_its_numbers(tmp_path):
 
     from examples.ppo_servo import plot_curve
 
-    ended = [{"step": 200 * (i + 1), "return": -5.0 + i / 4, "ok": i > 12} for i in range(20)]
+    ended = [
+        {"step": 200 * (i + 1), "return": -5.0 + i / 4, "ok": i > 12, "metres": 3.0 + i}
+        for i in range(20)
+    ]
     result = {"env": "topomap/Hallway-v0", "obs": "vector", "steps": 4000, "episodes_detail": ended}
     plot_curve(result, str(tmp_path / "curve" / "ppo.png"))
     assert (tmp_path / "curve" / "ppo.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
