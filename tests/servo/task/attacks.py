@@ -57,12 +57,14 @@ def search_gc() -> list[str]:
     return found
 
 
-def follow_map(servo_map, roots) -> list[str]:
+def follow_map(servo_map, roots, budget_s: float | None = SEARCH_BUDGET_S) -> list[str]:
     """The map's own keys to the disk: its recordings' names and frame indices looked up in
-    every dataset under ``roots``, the data home and ``out/``; its key as a map file's name."""
+    every dataset under ``roots``, the data home and ``out/``; its key as a map file's name.
+    Within ``budget_s`` seconds (None: no limit)."""
     from sim.dataset import load_dataset
 
-    found, deadline = [], time.monotonic() + SEARCH_BUDGET_S
+    found = []
+    deadline = float("inf") if budget_s is None else time.monotonic() + budget_s
     for root in _roots(roots):
         metas = glob.iglob(os.path.join(root, "**", "meta.json"), recursive=True)
         for meta in _within_budget(itertools.islice(metas, 50), deadline):
@@ -72,8 +74,9 @@ def follow_map(servo_map, roots) -> list[str]:
                 continue
             for i, name in enumerate(servo_map.sequence_names):
                 seq = data.sequences.get(name) if hasattr(data.sequences, "get") else None
-                if seq is not None:
-                    frames = servo_map.frame[servo_map.sequence == i]
+                frames = servo_map.frame[servo_map.sequence == i]
+                # another dataset may hold a recording of the same name but not these frames
+                if seq is not None and len(frames) and frames.max() < len(seq.poses):
                     found.append(f"{name}: poses {np.asarray(seq.poses)[frames][:1].tolist()}")
         named = glob.iglob(os.path.join(root, "**", f"*{servo_map.key}*"), recursive=True)
         found += _within_budget(named, deadline)

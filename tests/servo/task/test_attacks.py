@@ -5,6 +5,8 @@ nothing and drives exactly as a blind policy, on the test split, with and withou
 sandbox (the disk scanner: with it); run in the evaluator's process, the first two find the
 truth, which is why the process boundary is there."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -97,4 +99,6 @@ def test_in_the_evaluators_process_the_attacks_would_find_the_truth(task, name, 
 
 def test_the_maps_own_names_would_lead_to_the_recordings(task):
     env, _, data = task
-    assert attacks.follow_map(env.map, [data])  # the map the env keeps: its true names
+    # the map the env keeps: its true names, in the dataset it was built from
+    datasets = sorted(str(p) for p in Path(data).glob("generated-data*"))
+    assert datasets and attacks.follow_map(env.map, datasets, budget_s=None)
