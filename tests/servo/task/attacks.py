@@ -10,6 +10,7 @@ import glob
 import itertools
 import os
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -119,15 +120,32 @@ def _roots(roots) -> list[str]:
 
 
 class Attacker:
-    """Searches with ``search`` at every reset and every act."""
+    """Searches with ``search`` at every reset and every act. A search of the disk
+    (``background=True``) runs in a thread of its own and is waited for at most
+    ``SEARCH_BUDGET_S`` a call: one slow file read or folder walk then cannot make the policy
+    too slow to answer, and what it finds later fails a later call."""
 
-    def __init__(self, search):
-        self.search = search
+    def __init__(self, search, background: bool = False):
+        self.search, self.background = search, background
+        self._thread, self._found = None, None
 
     def _check(self, when: str):
-        found = self.search()
+        found = self._search_in_background() if self.background else self.search()
         if found:
             raise RuntimeError(f"found the truth at {when}: {found[:3]}")
+
+    def _search_in_background(self) -> list[str]:
+        if self._thread is None:
+            self._found = []
+            self._thread = threading.Thread(
+                target=lambda: self._found.extend(self.search()), daemon=True
+            )
+            self._thread.start()
+        self._thread.join(SEARCH_BUDGET_S)
+        if self._thread.is_alive():
+            return []  # nothing yet: asked again at the next call
+        self._thread = None  # done: the next call searches anew
+        return self._found
 
     def reset(self, target):
         self._check("reset")
@@ -146,11 +164,11 @@ def gc_searcher(servo_map, rng):
 
 
 def recordings_opener(servo_map, rng, roots=()):
-    return Attacker(lambda: follow_map(servo_map, roots))
+    return Attacker(lambda: follow_map(servo_map, roots), background=True)
 
 
 def disk_scanner(servo_map, rng, roots=()):
-    return Attacker(lambda: scan_disk(roots))
+    return Attacker(lambda: scan_disk(roots), background=True)
 
 
 def blind(servo_map, rng):
