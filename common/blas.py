@@ -63,7 +63,8 @@ def single_threaded_blas() -> _OneBlasThread:
 def on_one_blas_thread(fn, *args):
     """``fn(*args)`` under `single_threaded_blas`: what a worker process of a parallel
     fit runs, so that its result is the one the fit computes in the parent (which holds the
-    same context), to the bit."""
+    same context), to the bit.
+    """
     with single_threaded_blas():
         return fn(*args)
 
@@ -72,7 +73,8 @@ def busy() -> bool:
     """Whether the machine has no core to spare: the 1-minute load average at least the cores
     less half a core. A second OpenBLAS thread then spin-waits for a descheduled partner (a
     40 x 230400 float32 GEMV: ~1.7 ms on one thread, ~12 ms on two at load 4-5 on 2 cores);
-    with a core free it halves a memory-bound product (52 against 26 GB/s here)."""
+    with a core free it halves a memory-bound product (52 against 26 GB/s here).
+    """
     try:
         return os.getloadavg()[0] >= available_cores() - 0.5
     except OSError:  # no load average on this platform

@@ -68,7 +68,8 @@ def _bounded(values, bound: float, what: str, unit: str) -> str | None:
 
 def pose_problem(poses, what: str = "pose") -> str | None:
     """What is wrong with poses ``(..., 3)`` of ``(x, y, theta)``, or None: each must be
-    finite with ``|x|, |y| <= MAX_COORDINATE`` and ``|theta| <= MAX_HEADING``."""
+    finite with ``|x|, |y| <= MAX_COORDINATE`` and ``|theta| <= MAX_HEADING``.
+    """
     poses = np.asarray(poses, dtype=float)
     return _bounded(poses[..., :2], MAX_COORDINATE, f"{what} position", "m") or _bounded(
         poses[..., 2], MAX_HEADING, f"{what} heading", "rad"
@@ -77,7 +78,8 @@ def pose_problem(poses, what: str = "pose") -> str | None:
 
 def range_problem(ranges, what: str = "range") -> str | None:
     """What is wrong with laser readings, or None: no NaN, none negative, finite ones at most
-    ``MAX_RANGE``; ``+inf`` (no return) is fine."""
+    ``MAX_RANGE``; ``+inf`` (no return) is fine.
+    """
     ranges = np.asarray(ranges, dtype=float)
     if np.isnan(ranges).any():
         return f"{what} holds NaN (at {_first_bad(np.isnan(ranges))})"
@@ -99,13 +101,15 @@ def angle_problem(angles, what: str = "beam angle") -> str | None:
 
 def command_problem(commands, what: str = "command") -> str | None:
     """What is wrong with commands ``(..., 2)`` of ``(v, omega)``, or None: finite, each at
-    most ``MAX_SPEED`` in size."""
+    most ``MAX_SPEED`` in size.
+    """
     return _bounded(commands, MAX_SPEED, what, "m/s or rad/s")
 
 
 def time_problem(times, what: str = "time") -> str | None:
     """What is wrong with time stamps in recording order, or None: finite, ``|t| <=
-    MAX_TIME``, never going backwards (equal stamps are fine)."""
+    MAX_TIME``, never going backwards (equal stamps are fine).
+    """
     times = np.asarray(times, dtype=float)
     problem = _bounded(times, MAX_TIME, what, "s")
     if problem:

@@ -1,5 +1,6 @@
 """How many cores this process may run on (its CPU affinity, not the machine's core count),
-and whether it can start worker processes at all."""
+and whether it can start worker processes at all.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ import sys
 
 def available_cores() -> int:
     """Cores this process may run on: its affinity where the platform has one (Linux), else
-    ``os.cpu_count()``; at least 1."""
+    ``os.cpu_count()``; at least 1.
+    """
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))
     return os.cpu_count() or 1
@@ -24,7 +26,8 @@ def spawn_problem() -> str | None:
     dies at start (``BrokenProcessPool``). A daemonic process (a worker of Stable-Baselines3's
     ``SubprocVecEnv``, of Gymnasium's ``AsyncVectorEnv``, of a ``multiprocessing`` pool) may
     start no children at all (``AssertionError: daemonic processes are not allowed to have
-    children``)."""
+    children``).
+    """
     if multiprocessing.current_process().daemon:
         return (
             "this process is a daemonic worker (a vector env's or a pool's), which may start no "

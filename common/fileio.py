@@ -41,7 +41,8 @@ MAX_JSON_BYTES = 64 << 20
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """A temporary path beside ``path`` to write to; renamed onto ``path`` when the block ends
-    without error, removed when it raises (for writers that need a file name, e.g. a zip)."""
+    without error, removed when it raises (for writers that need a file name, e.g. a zip).
+    """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
@@ -101,7 +102,8 @@ def _key(key):
 
 class NotARegularFile(OSError):
     """A path that is no regular file (a folder, a named pipe, a device, a socket, or a link
-    to one of these): reading it could block forever or never end."""
+    to one of these): reading it could block forever or never end.
+    """
 
 
 _KINDS = (
@@ -153,7 +155,8 @@ def read_json(path: str | os.PathLike, max_bytes: int | None = None):
     no regular file (`open_regular`), a file of more than ``max_bytes`` (default
     `MAX_JSON_BYTES`), bad UTF-8, bad syntax, an integer of more digits than Python
     converts, or nesting deeper than the parser's stack (100,000 ``[`` raise RecursionError,
-    which is no ValueError), so that each reader turns all into its own error."""
+    which is no ValueError), so that each reader turns all into its own error.
+    """
     limit = MAX_JSON_BYTES if max_bytes is None else max_bytes
     try:
         with open_regular(path) as f:

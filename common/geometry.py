@@ -76,7 +76,8 @@ def se2_mean(poses: ArrayLike) -> np.ndarray:
 
 def thin_to_grid(points: ArrayLike, spacing: float) -> np.ndarray:
     """One point per occupied ``spacing`` cell (the cell's centre): a point cloud gathered from
-    overlapping scans, thinned so well-seen walls do not weigh more than others."""
+    overlapping scans, thinned so well-seen walls do not weigh more than others.
+    """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     cells = np.unique(np.floor(points / spacing).astype(np.int64), axis=0)
     return (cells + 0.5) * spacing

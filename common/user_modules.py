@@ -1,6 +1,7 @@
 """A user's own module, named on a command line or in a spec (``package.module:name``),
 imported as ``python -m`` would: the current directory first on ``sys.path``, so a module
-beside the user's working directory is found. Importing it runs its code."""
+beside the user's working directory is found. Importing it runs its code.
+"""
 
 from __future__ import annotations
 

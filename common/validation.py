@@ -1,5 +1,6 @@
 """Checks of scalar arguments shared across the layers, each raising an error that names the
-parameter and the expected form."""
+parameter and the expected form.
+"""
 
 from __future__ import annotations
 
@@ -24,7 +25,8 @@ __all__ = [
 
 def check_int(value, name: str, minimum: int = 1) -> int:
     """``value`` as an ``int``: a whole number (``3``, ``np.int64(3)`` or ``3.0``) at least
-    ``minimum``; anything else raises ``ValueError`` naming ``name``."""
+    ``minimum``; anything else raises ``ValueError`` naming ``name``.
+    """
     try:
         whole = int(value) == value
     except (TypeError, ValueError, OverflowError):
@@ -37,7 +39,8 @@ def check_int(value, name: str, minimum: int = 1) -> int:
 def is_real(value) -> bool:
     """Whether ``value`` is a real number, numpy's included; not a bool (``np.bool_`` is no
     ``Real`` either) and not a string of digits. The test every scalar check here starts with;
-    callers add their own range."""
+    callers add their own range.
+    """
     return isinstance(value, Real) and not isinstance(value, bool)
 
 
@@ -50,7 +53,8 @@ def check_finite(value, name: str) -> float:
 
 def check_bool(value, name: str) -> bool:
     """``value`` as a ``bool``: ``True`` or ``False`` (numpy's ``np.bool_`` too); anything else,
-    ``1`` and ``"yes"`` included, raises ``ValueError`` naming ``name``."""
+    ``1`` and ``"yes"`` included, raises ``ValueError`` naming ``name``.
+    """
     if not isinstance(value, bool | np.bool_):
         raise ValueError(f"{name} must be True or False, got {value!r}")
     return bool(value)
@@ -59,7 +63,8 @@ def check_bool(value, name: str) -> bool:
 def check_keys(value, allowed: Iterable[str], name: str) -> dict:
     """``value`` as a dict whose keys are among ``allowed``: None gives ``{}``; a value that is
     no mapping raises ``TypeError``, an unknown key ``ValueError``, each naming ``name``, the
-    allowed keys and, for a misspelt key, the closest one ("did you mean")."""
+    allowed keys and, for a misspelt key, the closest one ("did you mean").
+    """
     allowed = tuple(allowed)
     if value is None:
         return {}
@@ -80,7 +85,8 @@ def check_keywords(func, args: tuple, kwargs: Mapping, name: str) -> None:
     positional arguments than it takes or a keyword it does not take, before it runs: a
     ``TypeError`` naming ``name`` (what is being made), the unknown keyword, the closest known
     one ("did you mean") and every keyword accepted. Python's own error names only the
-    keyword, which says nothing of what to write instead."""
+    keyword, which says nothing of what to write instead.
+    """
     params = list(inspect.signature(func).parameters.values())[1:]  # without self
     if any(p.kind is p.VAR_KEYWORD for p in params):
         return
@@ -104,7 +110,8 @@ class CheckedKeywords:
     """A mixin that checks the keywords of a construction against ``__init__``'s before
     ``__init__`` runs ([`check_keywords`][common.validation.check_keywords]), so
     ``gym.make(env_id, camra=...)`` and ``Env(camra=...)`` alike name what is accepted.
-    Put it first among the bases; it adds no state, and pickling is unchanged."""
+    Put it first among the bases; it adds no state, and pickling is unchanged.
+    """
 
     def __new__(cls, *args, **kwargs):
         check_keywords(cls.__init__, args, kwargs, cls.__name__)

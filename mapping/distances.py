@@ -1,6 +1,7 @@
 """Pairwise squared distances, the input of every affinity in ``mapping``: the manifold
 method's kernel (Grudic & Mulligan, Section II-A), the spectral baselines, the label-free
-variants and the image similarity graph all start from `squared_distances`."""
+variants and the image similarity graph all start from `squared_distances`.
+"""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """Deprecated: ICP moved to ``mapping.scan_matching`` (defined in
 ``mapping.scan_matching.icp_alignment``). This path works, with a ``DeprecationWarning``, for one
-release."""
+release.
+"""
 
 from common.deprecation import moved_names
 

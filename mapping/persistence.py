@@ -195,7 +195,8 @@ def _load_records(spec, where: str, arrays: dict, prefix: str) -> list:
 
 def load(cls, meta: dict, arrays: dict[str, np.ndarray], prefix: str):
     """Rebuild an estimator of class ``cls`` (one of `ESTIMATORS`) from `dump`'s
-    output; ``meta`` and ``arrays`` are untrusted (see the module docstring)."""
+    output; ``meta`` and ``arrays`` are untrusted (see the module docstring).
+    """
     _require(ESTIMATORS.get(cls.__name__) is cls, f"{cls.__name__} cannot be loaded")
     _require(isinstance(meta, dict), f"{prefix}: the description must be a JSON object")
     keys = {"class", "params", "fitted", "records", "skipped"}

@@ -61,5 +61,6 @@ def run_starts_from_groups(groups: ArrayLike | None, n: int) -> np.ndarray:
 
 def _repeated(values: np.ndarray) -> list:
     """The values that occur more than once; by hashing, so that labels numpy cannot sort
-    (ints mixed with strings in an object array) work too."""
+    (ints mixed with strings in an object array) work too.
+    """
     return [v for v, count in Counter(values.tolist()).items() if count > 1]

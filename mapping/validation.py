@@ -99,7 +99,8 @@ def check_span(X: np.ndarray) -> float:
 
 def _projected_count(X: np.ndarray) -> int:
     """Distinct values of one projection of the rows of X: never more than the distinct rows
-    (copies project alike), and as many on every ordinary data set."""
+    (copies project alike), and as many on every ordinary data set.
+    """
     # a fixed projection with unequal weights, so that rows with permuted coordinates differ
     with np.errstate(over="ignore", invalid="ignore"):
         return int(np.unique(X @ np.linspace(1.0, 2.0, X.shape[1])).size)
@@ -107,7 +108,8 @@ def _projected_count(X: np.ndarray) -> int:
 
 def first_copies(X: np.ndarray) -> np.ndarray | None:
     """Index of the first copy of each distinct row of X, ascending; None when no two rows are
-    equal (found without sorting the rows when a projection already tells them apart)."""
+    equal (found without sorting the rows when a projection already tells them apart).
+    """
     if _projected_count(X) == X.shape[0]:
         return None
     _, first = np.unique(X, axis=0, return_index=True)

@@ -36,7 +36,8 @@ APPEARANCE_MODES = ("default", "hard")
 @dataclass(frozen=True)
 class Appearance:
     """One draw from [`RANDOMIZATION`][scenes.appearance.RANDOMIZATION] plus the generator that made
-    the textures, and the appearance mode (one of `APPEARANCE_MODES`)."""
+    the textures, and the appearance mode (one of `APPEARANCE_MODES`).
+    """
 
     params: dict
     texture_rng: np.random.Generator = field(compare=False, repr=False)
@@ -84,7 +85,8 @@ def check_appearance_mode(mode) -> str:
 def draw_appearance(rng: np.random.Generator | None, mode: str = "default") -> Appearance:
     """Defaults and canonical textures without an RNG; a randomised draw with one. ``mode``
     only changes which materials the builders assign, never what the generators draw, so a
-    hard world has the same textures, lights and clutter draws as its default twin."""
+    hard world has the same textures, lights and clutter draws as its default twin.
+    """
     mode = check_appearance_mode(mode)
     if rng is None:
         params = {k: v[0] for k, v in RANDOMIZATION.items()}

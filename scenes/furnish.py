@@ -90,7 +90,8 @@ def place_tree(
 ) -> None:
     """The geoms of a tree of ``shape`` (height, trunk radius, crown radius) at ``(x, y)``:
     its collision cylinder and the visual meshes ``{meshes_of}_trunk_mesh`` and
-    ``{meshes_of}_crown_mesh``, made beforehand (one shape may be planted many times)."""
+    ``{meshes_of}_crown_mesh``, made beforehand (one shape may be planted many times).
+    """
     height, radius, crown = shape
     scene.cylinder(
         f"{name}_trunk_collider",
@@ -112,7 +113,8 @@ def place_tree(
 
 def sky_and_street_materials(scene: SceneBuilder, colour) -> None:
     """The outdoor worlds' sky box and the materials of cars, their windows and mailboxes
-    (``colour``: the appearance's colour jitter, ``Appearance.colour``)."""
+    (``colour``: the appearance's colour jitter, ``Appearance.colour``).
+    """
     scene.builtin_texture(
         "tex_sky",
         type="skybox",

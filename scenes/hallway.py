@@ -48,7 +48,8 @@ SEGMENTS = {  # name: (floor rectangle, walled sides)
 
 def _regions() -> ManifoldMap:
     """The junction square is split by its diagonals: a robot is on a branch once it has
-    crossed the junction's centre toward that branch."""
+    crossed the junction's centre toward that branch.
+    """
     x0, x1 = MAIN_LENGTH, MAIN_LENGTH + CORRIDOR_WIDTH
     c = (_JX, 0.0)
     far = x1 + BRANCH_LENGTH

@@ -82,7 +82,8 @@ def add_walls(
 
 def wall_anchor(rect: Rect, side: str, along: float, offset: float) -> tuple[float, float, float]:
     """A point on the inside face of a wall: ``along`` metres from the wall's start (west or
-    south end), ``offset`` metres into the room; returns (x, y, yaw facing into the room)."""
+    south end), ``offset`` metres into the room; returns (x, y, yaw facing into the room).
+    """
     if side == "n":
         return rect.x0 + along, rect.y1 - offset, -np.pi / 2
     if side == "s":

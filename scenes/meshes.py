@@ -116,7 +116,8 @@ def gable_roof(length: float, depth: float, height: float) -> Mesh:
 def floor_slab(ring: np.ndarray, centre, thickness: float, texture_scale: float = 1.0) -> Mesh:
     """A flat prism over a polygon ``ring`` (counter-clockwise) that is star-shaped from
     ``centre`` (a junction's hub), top face at z = 0, with texture coordinates in metres /
-    ``texture_scale`` so that it tiles like the floor slabs around it."""
+    ``texture_scale`` so that it tiles like the floor slabs around it.
+    """
     ring = np.asarray(ring, np.float64)
     m = len(ring)
     p = np.vstack([np.asarray(centre, np.float64), ring])

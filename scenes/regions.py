@@ -135,7 +135,8 @@ class Footprint:
 @dataclass(frozen=True)
 class OccupancyGrid:
     """Free space on a regular grid: ``free[i, j]`` is the cell centred at
-    ``(xmin + (j + 0.5) res, ymin + (i + 0.5) res)``."""
+    ``(xmin + (j + 0.5) res, ymin + (i + 0.5) res)``.
+    """
 
     free: np.ndarray
     origin: tuple[float, float]

@@ -149,7 +149,8 @@ class World:
 
     def junctions_between(self, a: str, b: str) -> int:
         """How many junctions lie between manifolds ``a`` and ``b`` (0 for one manifold; two
-        branches of one junction are 1 apart)."""
+        branches of one junction are 1 apart).
+        """
 
         def up(m):
             if m not in self.parents:
@@ -168,7 +169,8 @@ class World:
 
     def manifold_at(self, xy) -> np.ndarray:
         """Manifold ids at points (..., 2): indices into
-        [`scenes.names.MANIFOLDS`][scenes.names.MANIFOLDS], -1 off."""
+        [`scenes.names.MANIFOLDS`][scenes.names.MANIFOLDS], -1 off.
+        """
         return self.manifolds.label_at(xy)
 
     def free_space(self, resolution: float = 0.05, inflation: float = 0.0) -> OccupancyGrid:

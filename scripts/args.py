@@ -1,6 +1,7 @@
 """Argument types shared by the command-line parsers (``topomap`` and its subcommands): each
 parses one string or raises ``argparse.ArgumentTypeError`` naming the expected form; and
-`output_folder`, the check every ``--out`` gets before any work runs."""
+`output_folder`, the check every ``--out`` gets before any work runs.
+"""
 
 from __future__ import annotations
 
@@ -25,7 +26,8 @@ WORLD_HELP = "all (the canonical worlds), hallway, lawn or FAMILY:SEED such as h
 
 def _int_at_least(text: str, minimum: int) -> int:
     """``text`` as an integer >= ``minimum``; a ValueError for a non-integer (argparse then
-    says "invalid ... value"), an ArgumentTypeError naming the bound for a smaller one."""
+    says "invalid ... value"), an ArgumentTypeError naming the bound for a smaller one.
+    """
     value = int(text)
     if value < minimum:
         raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text}")
@@ -61,7 +63,8 @@ def non_negative_float(text: str) -> float:
 def world_choice(text: str) -> str:
     """A ``--world`` value: ``all``, or a world name (``hallway``, ``lawn`` or
     ``FAMILY:SEED``), normalised (``hallway:0`` is ``hallway``); an ArgumentTypeError naming
-    the accepted forms otherwise, which argparse prints as a usage error."""
+    the accepted forms otherwise, which argparse prints as a usage error.
+    """
     from scenes.families import check_world_name
 
     if text == "all":
@@ -92,7 +95,8 @@ def policies(text: str) -> tuple[str, ...]:
 
 def policy_name(text: str) -> str:
     """A servo policy: one of ``servo.task.policies.POLICIES`` or an outside factory
-    ``package.module:factory`` (imported when the run starts, not here)."""
+    ``package.module:factory`` (imported when the run starts, not here).
+    """
     from servo.task import POLICIES
 
     if text in POLICIES:
@@ -107,7 +111,8 @@ def policy_name(text: str) -> str:
 
 def policy_arg(text: str) -> tuple[str, object]:
     """``KEY=VALUE``, a keyword argument of a policy's factory: the value as JSON if it reads
-    as JSON (``3``, ``0.5``, ``true``, ``"text"``), else as the text itself."""
+    as JSON (``3``, ``0.5``, ``true``, ``"text"``), else as the text itself.
+    """
     import json
 
     key, sep, value = text.partition("=")
@@ -125,7 +130,8 @@ def policy_arg(text: str) -> tuple[str, object]:
 def output_folder(value: str, option: str = "--out") -> Path:
     """The output folder ``value``, created now and probed for writing, so that a bad
     ``--out`` is reported before any work runs rather than after it (a servo evaluation
-    writes its file only once every episode has run). Raises ValueError naming ``option``."""
+    writes its file only once every episode has run). Raises ValueError naming ``option``.
+    """
     path = Path(value)
     if path.exists() and not path.is_dir():
         raise ValueError(f"{option} must be a folder, got the file {value}")

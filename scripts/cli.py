@@ -1,5 +1,6 @@
 """The ``topomap`` command line. ``topomap --help`` lists every subcommand with the one-line
-``help=`` it is registered with (`command_listing`), so the list cannot go stale."""
+``help=`` it is registered with (`command_listing`), so the list cannot go stale.
+"""
 
 from __future__ import annotations
 
@@ -78,7 +79,8 @@ def cmd_worlds(args) -> int:
 
 def _protocol_folder(value: str | None) -> str | None:
     """``--protocol``: "committed" (the default) is the repository's
-    ``docs/results/data/manifold/protocol`` when present, "none" shows no spread, else a folder."""
+    ``docs/results/data/manifold/protocol`` when present, "none" shows no spread, else a folder.
+    """
     from scripts.report import COMMITTED_PROTOCOL
 
     if value == "committed":
@@ -88,7 +90,8 @@ def _protocol_folder(value: str | None) -> str | None:
 
 def cmd_run(args) -> int:
     """The main job, end to end on the default worlds: collect the default dataset (reused when
-    present), evaluate both mapping methods and the servo, and write ``<out>/report/``."""
+    present), evaluate both mapping methods and the servo, and write ``<out>/report/``.
+    """
     from scripts.report import OutputError, RunSettings, StageError, run_pipeline
 
     settings = RunSettings(
@@ -163,7 +166,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The ``topomap`` parser. With ``command``, the subcommands whose options are declared
     by a heavy module (``reproduce``, ``group-eval``: scikit-learn, the experiments) get
     them only if they are ``command`` ("": neither); the others list them all, so ``topomap
-    --help`` need not import every experiment (it took ~3 s)."""
+    --help`` need not import every experiment (it took ~3 s).
+    """
     from scripts.collect_command import add_parser as add_collect_parser
     from scripts.servo_commands import add_parsers as add_servo_parsers
 
@@ -300,7 +304,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def command_listing(sub: argparse.Action) -> str:
     """One line per subcommand registered on the subparsers action ``sub``, in the order
-    registered: its name, then the ``help=`` it was added with (blank without one)."""
+    registered: its name, then the ``help=`` it was added with (blank without one).
+    """
     # argparse keeps each help= in _choices_actions (what its own listing reads; no public
     # accessor) and leaves out a subcommand added without one: the names come from choices
     helps = {a.dest: a.help for a in sub._choices_actions}
@@ -311,7 +316,8 @@ def command_listing(sub: argparse.Action) -> str:
 
 def _os_message(err: OSError) -> str:
     """One line for an OSError: what failed on which path (``str(err)`` already names the
-    path for the errors ``open`` and ``mkdir`` raise)."""
+    path for the errors ``open`` and ``mkdir`` raise).
+    """
     text = str(err) or type(err).__name__
     return text if err.filename is not None else f"{type(err).__name__}: {text}"
 

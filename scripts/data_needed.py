@@ -29,13 +29,15 @@ def is_collected(path: str | Path) -> bool:
 
 def _holds_a_dataset(path: str | Path) -> bool:
     """Whether ``path`` holds a ``meta.json`` at all: a damaged or unfinished one is then the
-    reader's to report, with what is wrong, rather than a dataset to collect."""
+    reader's to report, with what is wrong, rather than a dataset to collect.
+    """
     return (Path(path) / "meta.json").exists()
 
 
 def collect_command(out: str | Path, seed: int | None = None, condition: str = "interleaved"):
     """The ``topomap collect`` command line that collects the dataset ``out``: the default
-    settings, with ``seed`` and the flags of the manifold protocol's ``condition``."""
+    settings, with ``seed`` and the flags of the manifold protocol's ``condition``.
+    """
     flags = {"randomized": " --randomize", "hard": " --appearance hard"}.get(condition, "")
     seed_flag = "" if seed is None else f" --seed {seed}"
     return f"topomap collect --world all{seed_flag}{flags} --out {out}"
@@ -54,7 +56,8 @@ def ensure_dataset(path: str | Path, command: str, progress: bool = True) -> str
     is collected there when missing (or resumed when unfinished), with a line on stderr saying
     so; any other folder without a ``meta.json`` raises ``ValueError`` with
     `missing_dataset_message` (one with a ``meta.json`` goes to the reader, which says what is
-    wrong with it)."""
+    wrong with it).
+    """
     default = Path(path) == Path(DEFAULT_DATA)
     if is_collected(path) or (_holds_a_dataset(path) and not default):
         return str(path)
@@ -74,7 +77,8 @@ def ensure_dataset(path: str | Path, command: str, progress: bool = True) -> str
 def manifold_dataset_message(path: Path, seed: int, condition: str, held_out_of: int | None):
     """What to do about the protocol dataset ``path`` of ``seed`` and ``condition`` not being
     collected; ``held_out_of``: the seed whose held-out condition needs it (seed - 1), when
-    only that condition does."""
+    only that condition does.
+    """
     command = collect_command(path, seed, condition)
     message = f"dataset {path} not collected: `{command}` collects it"
     if held_out_of is not None:

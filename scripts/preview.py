@@ -24,7 +24,8 @@ def contact_sheet(
     colours=MANIFOLD_COLOURS,
 ) -> np.ndarray:
     """Thumbnails of every ``every``-th frame, each captioned with its index and manifold
-    (``names`` of the label ids: the dataset's manifolds; ``colours`` of the names)."""
+    (``names`` of the label ids: the dataset's manifolds; ``colours`` of the names).
+    """
     idx = np.arange(0, len(images), every)
     rows = int(np.ceil(len(idx) / columns))
     w, h = THUMB

@@ -1,5 +1,6 @@
 """``topomap servo-eval`` (the closed-loop benchmark protocol, ours or an outside policy) and
-``topomap servo-compare`` (two of its result files, episode by episode)."""
+``topomap servo-compare`` (two of its result files, episode by episode).
+"""
 
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from scripts.data_needed import DEFAULT_DATA, ensure_dataset
 
 def servo_eval_name(args) -> str:
     """The results file of ``servo-eval --out``: every setting that changes the episodes is in
-    the name, so runs of other worlds or settings into one folder do not overwrite each other."""
+    the name, so runs of other worlds or settings into one folder do not overwrite each other.
+    """
     extras = "-randomize" * bool(args.randomize) + "-no-odometry-noise" * bool(
         args.no_odometry_noise
     )
@@ -39,7 +41,8 @@ def servo_eval_name(args) -> str:
 def cmd_servo_eval(args) -> int:
     """Closed-loop servo evaluation by the benchmark protocol (``servo.task.protocol``): one start
     tier and split, in one world or both, episodes in parallel over the cores; ``--policy``
-    one of ours or an outside factory ``package.module:factory`` with ``--policy-arg``s."""
+    one of ours or an outside factory ``package.module:factory`` with ``--policy-arg``s.
+    """
     from servo.maps import load_or_build, map_paths
     from servo.task import Protocol, run_protocol
 
@@ -114,7 +117,8 @@ def cmd_servo_eval(args) -> int:
 
 def cmd_servo_compare(args) -> int:
     """Two ``servo-eval --out`` files compared episode by episode
-    (``servo.task.paired_comparison``)."""
+    (``servo.task.paired_comparison``).
+    """
     from dataclasses import asdict
 
     from servo.task import compare, load_results, markdown
@@ -138,7 +142,8 @@ def cmd_servo_compare(args) -> int:
 
 def add_parsers(sub, default_out: str) -> None:
     """The ``servo-eval`` and ``servo-compare`` subcommands on the ``topomap`` parser's
-    subparsers ``sub`` (``default_out``: the folder of the data and maps by default)."""
+    subparsers ``sub`` (``default_out``: the folder of the data and maps by default).
+    """
     from servo.task import POLICIES
 
     e = sub.add_parser("servo-eval", help="closed-loop servoing between manifolds")

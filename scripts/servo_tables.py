@@ -1,6 +1,7 @@
 """The closed-loop servo results' tables, defined once: ``topomap servo-eval`` prints them as
 markdown and the HTML report renders the same tables (``servo.task.evaluation.summarise`` results,
-one per world and policy; protocol results add the tier and split)."""
+one per world and policy; protocol results add the tier and split).
+"""
 
 from __future__ import annotations
 
@@ -55,7 +56,8 @@ def _condition(r: dict) -> str | None:
 
 def summary_table(results: Sequence[dict]) -> Table:
     """One row per result (world and policy); the starts / split column only for protocol
-    results (``servo.task.protocol``), which have them."""
+    results (``servo.task.protocol``), which have them.
+    """
     rows = [{**r, "condition": _condition(r)} for r in results]
     columns = SUMMARY_COLUMNS
     if all(r["condition"] is None for r in rows):

@@ -31,7 +31,8 @@ def _grid_graph(space: World | OccupancyGrid, resolution: float, keep_off: float
     """The free cells' 8-connected graph, built once per world or grid (it does not depend on
     goals). A world's free space is its ground truth grown by the robot's radius and a margin;
     a grid (a map's sensed free space) is taken as it is. ``keep_off`` (m): see
-    `GeodesicField`."""
+    `GeodesicField`.
+    """
     key = (id(space), resolution, keep_off)
     if key not in _GRAPHS:
         if isinstance(space, OccupancyGrid):
@@ -79,7 +80,8 @@ class GeodesicField:
     ``keep_off`` (m, grids only): cells nearer than this to the grid's edge cost up to
     ``1 + KEEP_OFF_WEIGHT`` times their length, so paths keep to the middle of a passage and
     swing wide round corners (a shortest path hugs a corner, and pure pursuit, which cuts
-    inside its path, then scrapes it); distances are then such costs, >= metres."""
+    inside its path, then scrapes it); distances are then such costs, >= metres.
+    """
 
     def __init__(
         self,
@@ -117,7 +119,8 @@ class GeodesicField:
 
     def path(self, xy, max_points: int = 2000) -> np.ndarray:
         """Cell centres from ``xy`` down the distance field (at most ``max_points`` steps),
-        ending with the goal itself when it is reached; (k, 2)."""
+        ending with the goal itself when it is reached; (k, 2).
+        """
         i, j = self._nearest_free(xy)
         h, w = self.distance_grid.shape
         centers = self.grid.cell_centers()

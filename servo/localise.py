@@ -42,7 +42,8 @@ def check_image(image, shape: tuple[int, ...], name: str = "observation['image']
     """``image`` as an array of ``shape`` holding pixel values: a real numeric dtype (the env
     gives uint8; a float copy of it works as well) and finite values in [0, 255]. Anything
     else raises (TypeError for the dtype, ValueError for the shape or values), naming
-    ``name``: a controller would otherwise act on it as on a real image."""
+    ``name``: a controller would otherwise act on it as on a real image.
+    """
     image = np.asarray(image)
     if image.dtype.kind not in "uif":  # not bool, complex, str or object
         raise TypeError(f"{name} must hold real numbers (uint8 pixels), got dtype {image.dtype}")
@@ -105,13 +106,15 @@ class ImageLocaliser:
     def _band_rows(self) -> dict[str, slice]:
         """The rows of the two bands `cross_offset` aligns: the top half (sky, trees,
         far walls: far, little parallax) and the bottom third (the ground and the bases of
-        walls near the robot: near, much parallax)."""
+        walls near the robot: near, much parallax).
+        """
         h = self._wh[1]
         return {"far": slice(0, h // 2), "near": slice(2 * h // 3, h)}
 
     def _shifted_crops(self, band: np.ndarray) -> np.ndarray:
         """(2 max_shift + 1, D): `_crops` of one image's ``band`` (rows, w, channels)
-        at every shift from -max_shift to max_shift, built at once from a sliding window."""
+        at every shift from -max_shift to max_shift, built at once from a sliding window.
+        """
         s = self.max_shift
         w = band.shape[1] - 2 * s
         windows = np.lib.stride_tricks.sliding_window_view(band, w, axis=1)  # (r, 2s+1, c, w)
@@ -122,7 +125,8 @@ class ImageLocaliser:
     def band_shifts(self, x: np.ndarray, views) -> tuple[np.ndarray, np.ndarray]:
         """Best horizontal shift (feature-image pixels; crop offset, as `align` before
         its sign and scale) and its squared distance (0..4) of the far and the near band of
-        ``x`` against each stored view in ``views``: arrays (len(views), 2), columns far, near."""
+        ``x`` against each stored view in ``views``: arrays (len(views), 2), columns far, near.
+        """
         views = np.atleast_1d(np.asarray(views, np.intp))
         cur = self._images(np.asarray(x)[None])[0]
         shifts = np.zeros((len(views), 2))
@@ -143,7 +147,8 @@ class ImageLocaliser:
     def align(self, x: np.ndarray, views=None, step: int = 2) -> tuple[np.ndarray, np.ndarray]:
         """Squared distance (0..4) of the unit-norm crops of ``x`` to each stored view in
         ``views`` (default: all), minimised over shifts, and the heading error (rad) of the
-        best shift: turning by it (positive = left) lines the image up with the view."""
+        best shift: turning by it (positive = left) lines the image up with the view.
+        """
         best, yaw, _ = self.align_contrast(x, views, step)
         return best, yaw
 
@@ -153,7 +158,8 @@ class ImageLocaliser:
         """`align`, and each view's best distance over its median over the shifts: a
         real match is a sharp minimum (measured on the lawn: <= 0.21 at the view and up to
         1 m or 0.3 rad from it); grass and sky match a view turned 0.7 rad away almost as
-        well at every shift (0.68-0.87), so that best shift says nothing of the heading."""
+        well at every shift (0.68-0.87), so that best shift says nothing of the heading.
+        """
         ref = self._views if views is None else self._views[np.atleast_1d(views)]
         cur = self._images(np.asarray(x)[None])
         shifts = np.arange(-self.max_shift, self.max_shift + 1, step)
@@ -167,18 +173,20 @@ class ImageLocaliser:
         return best, -shift * self.radians_per_pixel, contrast
 
     def manifold_scores(self, x: np.ndarray) -> np.ndarray:
-        """eq. 13's normalised F^j(k) over clusters, as probabilities (``predict_proba``)."""
+        """Eq. 13's normalised F^j(k) over clusters, as probabilities (``predict_proba``)."""
         return self.map.clustering.predict_proba(np.asarray(x, np.float32)[None])[0]
 
     def signal(self, x: np.ndarray, view: int) -> float:
         """F^j(k) of eq. 13 toward stored view ``view`` in its cluster, divided by F at the
-        view itself: 1 at the view, 0 where its cluster gives no signal."""
+        view itself: 1 at the view, 0 where its cluster gives no signal.
+        """
         return float(self.signals(x, [view])[0])
 
     def signals(self, x: np.ndarray, views) -> np.ndarray:
         """`signal` toward each of ``views``, the image's squared distances to a
         cluster's points (the costly part: a projection of the whole image) computed once per
-        cluster rather than once per view. Same numbers as ``clustering.signal``."""
+        cluster rather than once per view. Same numbers as ``clustering.signal``.
+        """
         views = [int(v) for v in np.atleast_1d(views)]
         clustering = self.map.clustering
         for view in views:
@@ -190,7 +198,8 @@ class ImageLocaliser:
 
     def localise(self, x: np.ndarray, top: int = 2) -> tuple[int, float, float]:
         """Global fix from one image: among the views of the ``top`` clusters by eq. 13, the
-        best-aligned one. Returns (view, heading error to it in rad, its aligned distance)."""
+        best-aligned one. Returns (view, heading error to it in rad, its aligned distance).
+        """
         proba = self.manifold_scores(x)
         clusters = np.argsort(proba)[::-1][: max(1, int(top))]
         views = np.flatnonzero(np.isin(self.map.clusters, clusters))
@@ -202,7 +211,8 @@ class ImageLocaliser:
         """(a, b, pose of view b in view a's frame) for each direction of every view-graph
         edge whose sensed transform puts one view ``min_offset`` m or more beside the other,
         nearly parallel (within 0.3 rad) and within 1 m along: the map's own evidence of
-        what an offset across a view's sight does to the image."""
+        what an offset across a view's sight does to the image.
+        """
         for (i, j), t in zip(self.map.edges, self.map.edge_transforms, strict=True):
             for a, b, rel in ((i, j, t), (j, i, se2_relative(t, np.zeros(3)))):
                 if abs(rel[1]) >= min_offset and abs(rel[0]) <= 1.0 and abs(rel[2]) <= 0.3:
@@ -217,7 +227,8 @@ class ImageLocaliser:
         within ``trust``, the near one not at the largest shift), least squares through 0.
         A turn moves both bands alike; an offset moves the near ground far more than the far
         scene, so the difference is the offset alone. 0 where fewer than ``min_edges`` edges
-        qualify or the slope is not positive (then `cross_offset` is never used)."""
+        qualify or the slope is not positive (then `cross_offset` is never used).
+        """
         ys, ds = [], []
         for a, b, rel in self._side_by_side(min_offset):
             shift, dist = self.band_shifts(self.map.features[b], [a])
@@ -235,7 +246,8 @@ class ImageLocaliser:
         """The robot's offset (m, left positive) across stored view ``view``'s line of sight
         from the two bands' shifts, independent of the heading: (near - far) / ``pixels_per_m``
         (`cross_parallax`). NaN where either band matches worse than ``trust`` or the
-        near band's shift is at the largest tried (the offset is beyond what it measures)."""
+        near band's shift is at the largest tried (the offset is beyond what it measures).
+        """
         if not pixels_per_m > 0:
             return float("nan")
         shift, dist = self.band_shifts(x, [view])
@@ -244,13 +256,14 @@ class ImageLocaliser:
         return float((shift[0, 1] - shift[0, 0]) / pixels_per_m)
 
     def parallax(self, min_offset: float = 0.15, trust: float = 0.9) -> float:
-        """rad of best shift per m of offset across a view's line of sight, from the map's own
+        """Rad of best shift per m of offset across a view's line of sight, from the map's own
         views: for every view-graph edge whose sensed transform puts one view ``min_offset``
         m or more beside the other (nearly parallel, within 1 m along), the aligned shift
         minus the transform's heading change, regressed on the offset (least squares through
         0). The shift is z = theta + c y (a robot left of a view sees the scene shifted the
         way a right turn would): c ~ 1 / the scene's depth, about 0.15 in the hallway and 0.05
-        on the lawn. Needs no ground truth (edges are scan-matched); 0 if no edge qualifies."""
+        on the lawn. Needs no ground truth (edges are scan-matched); 0 if no edge qualifies.
+        """
         ys, zs = [], []
         for a, b, rel in self._side_by_side(min_offset):
             d, yaw = self.align(self.map.features[b], [a])
@@ -269,7 +282,8 @@ def refined_shift(d: np.ndarray, k: np.ndarray) -> np.ndarray:
     k - 1, k and k + 1, within half a step (0 at either end of the search, or where the three
     do not bend upward). Sub-step shifts matter where a heading and an offset are told apart
     by how the shift drifts as the robot moves (the reversing fix: 0.025 rad, one step, is
-    0.16 m across in the hallway)."""
+    0.16 m across in the hallway).
+    """
     rows = np.arange(len(d))
     inner = (k > 0) & (k < d.shape[1] - 1)
     lo, hi = np.clip(k - 1, 0, d.shape[1] - 1), np.clip(k + 1, 0, d.shape[1] - 1)

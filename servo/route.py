@@ -1,6 +1,7 @@
 """The route graph of a servo map: stored views joined along recordings and across the links
 where recordings meet, weighted by the scan-matched odometry between them (no ground truth).
-Routes are shortest paths in it; waypoints are route views about ``spacing`` apart."""
+Routes are shortest paths in it; waypoints are route views about ``spacing`` apart.
+"""
 
 from __future__ import annotations
 
@@ -57,7 +58,8 @@ class RouteGraph:
         """Route views about ``spacing`` m apart along the route (the last is the target) and
         each one's direction of travel: +1 when the next waypoint lies ahead of the view's
         heading (drive forward facing it), -1 when behind (the recording is driven backwards:
-        reverse, still facing the way the view looks)."""
+        reverse, still facing the way the view looks).
+        """
         if not spacing > 0:
             raise ValueError(f"spacing must be > 0 m, got {spacing}")
         f = self.frames(route)
@@ -112,7 +114,8 @@ class RoutePath:
     def project(self, xy, near: float, window: float) -> float:
         """Arc length of the point of the polyline nearest ``xy`` among the segments within
         ``window`` m of arc ``near``: a window, so that where the route passes a place twice
-        (a junction driven out and back) progress does not jump to the other pass."""
+        (a junction driven out and back) progress does not jump to the other pass.
+        """
         xy = np.asarray(xy, np.float64)
         if len(self.frames) == 1:
             return 0.0

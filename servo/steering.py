@@ -35,7 +35,8 @@ def pursue(point: np.ndarray, speed: float) -> np.ndarray:
 
 def turn_on_spot(err: float, turn_rate: float, dt: float) -> np.ndarray:
     """(0, omega) turning by ``err`` rad the short way: ``turn_rate``, slowed over the last
-    step so as not to overshoot."""
+    step so as not to overshoot.
+    """
     return np.array([0.0, np.sign(err) * min(turn_rate, abs(err) / dt)])
 
 
@@ -96,7 +97,8 @@ class Arrival:
 class StallWindow:
     """Commanded motion that odometry does not see: over the last ``steps`` steps the net
     odometry displacement is below a quarter of the commanded distance (a robot pushing a
-    wall jitters in place, and its per-step distances summed would look like motion)."""
+    wall jitters in place, and its per-step distances summed would look like motion).
+    """
 
     def __init__(self, steps: int):
         self._moves: deque = deque(maxlen=int(steps))
@@ -106,7 +108,8 @@ class StallWindow:
 
     def stalled(self, speed: float, odometry) -> bool:
         """Add a step (commanded ``speed`` m/s, ``odometry`` x, y, yaw after it); whether the
-        window is full and shows a stall."""
+        window is full and shows a stall.
+        """
         self._moves.append((abs(float(speed)), float(odometry[0]), float(odometry[1])))
         if len(self._moves) < self._moves.maxlen:
             return False

@@ -1,7 +1,8 @@
 """``WaypointTracker``: which waypoint view a view-sequence navigator servoes to, advancing when
 F^j(k) toward the next waypoint overtakes F toward the current one (Section II-G's signal used
 as in view-sequence navigation); shared by [`SignalServo`][servo.camera_only.controller.SignalServo]
-and the greedy F-probing baseline (`servo.task.baseline_policies`)."""
+and the greedy F-probing baseline (`servo.task.baseline_policies`).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import numpy as np
 class WaypointTracker:
     """Which waypoint view the robot is servoing to: the current one until F toward the next
     overtakes it (or, where both are 0, the next one aligns better), or until the robot has
-    driven well past the distance the map puts between them."""
+    driven well past the distance the map puts between them.
+    """
 
     def __init__(
         self, waypoints: list[int], directions: np.ndarray, gaps: np.ndarray, overrun: float

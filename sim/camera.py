@@ -21,7 +21,8 @@ MAX_SIZE = 4096
 @dataclass(frozen=True)
 class CameraConfig:
     """Image size (pixels), vertical field of view (degrees), depth and shadow switches.
-    320x240 is the paper's image size."""
+    320x240 is the paper's image size.
+    """
 
     width: int = 320
     height: int = 240

@@ -122,7 +122,8 @@ class CollectionSettings:
     def to_json(self) -> dict:
         """The settings as ``meta.json`` stores them. ``appearance`` is written only when it is
         not ``"default"``: datasets made before the option existed are default ones, and so
-        keep their bytes, stay resumable and compare equal (a missing key means default)."""
+        keep their bytes, stay resumable and compare equal (a missing key means default).
+        """
         d = asdict(self)
         d["worlds"] = list(self.worlds)
         d["teleop"]["start_jitter"] = list(self.teleop.start_jitter)
@@ -133,26 +134,30 @@ class CollectionSettings:
     def sequences(self) -> list[tuple[int, str, str]]:
         """(stable index, world, route name); the index seeds the sequence, so collecting one
         world gives the same sequences as collecting all (see
-        `sim.collect_worlds.world_sequences`)."""
+        `sim.collect_worlds.world_sequences`).
+        """
         return [s for w in self.worlds for s in world_sequences(w)]
 
     def manifolds(self) -> list[str]:
         """The dataset's manifold names, which its labels index
-        (`sim.collect_worlds.label_space`)."""
+        (`sim.collect_worlds.label_space`).
+        """
         return label_space(self.worlds)
 
 
 def frame_bytes(camera: CameraConfig, laser: LaserConfig) -> int:
     """Bytes one frame adds to a sequence's arrays (see
     [`collect_sequence`][sim.collect.collect_sequence]): the RGB image, the depth image when
-    recorded, the scan, and pose, odometry, command, label, time."""
+    recorded, the scan, and pose, odometry, command, label, time.
+    """
     pixels = camera.height * camera.width
     return pixels * 3 + pixels * 4 * bool(camera.depth) + laser.beams * 4 + 3 * 3 * 8 + 2 + 8
 
 
 def check_sequence_size(frames: int, camera: CameraConfig, laser: LaserConfig) -> None:
     """Refuse ``frames`` per sequence above `MAX_FRAMES`, or whose arrays would take more
-    than `MAX_SEQUENCE_BYTES` of memory with these camera and laser settings."""
+    than `MAX_SEQUENCE_BYTES` of memory with these camera and laser settings.
+    """
     if frames > MAX_FRAMES:
         raise ValueError(f"frames must be an integer in [2, {MAX_FRAMES}], got {frames}")
     size = frames * frame_bytes(camera, laser) + laser.beams * 4
@@ -170,7 +175,8 @@ def check_sequence_size(frames: int, camera: CameraConfig, laser: LaserConfig) -
 def collection_world(name: str, seed: int, randomize: bool, appearance: str = "default") -> World:
     """The world a collection of ``seed`` drives in: canonical, or (``randomize``) the
     randomised draw of that seed and world, in the ``appearance`` mode; built once per
-    process."""
+    process.
+    """
     rng = np.random.default_rng(randomisation_key(name, seed)) if randomize else None
     return build_world(name, rng, appearance)
 
@@ -180,7 +186,8 @@ def collect_sequence(
 ) -> dict[str, np.ndarray]:
     """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays.
     ``index`` is the sequence's seeding index
-    ([`CollectionSettings.sequences`][sim.collect.CollectionSettings.sequences])."""
+    ([`CollectionSettings.sequences`][sim.collect.CollectionSettings.sequences]).
+    """
     world = collection_world(world_name, settings.seed, settings.randomize, settings.appearance)
     entropy = sequence_entropy(settings.seed, index)
     teleop_rng, noise_rng, odo_rng = np.random.default_rng(entropy).spawn(3)
@@ -231,7 +238,8 @@ def collect_sequence(
 
 def _stall_message(route_name: str, teleop: ScriptedTeleop, steps: int, config) -> str:
     """Why a sequence could not be collected: the driver stalled short of the route's end,
-    which its jitter makes likelier (``TeleopConfig.scaled``)."""
+    which its jitter makes likelier (``TeleopConfig.scaled``).
+    """
     return (
         f"teleop on {route_name} stalled at {teleop.progress:.1f} m of "
         f"{teleop.route.length:.1f} m after {steps} steps; the teleop jitter (speed "
@@ -365,7 +373,8 @@ def collect_dataset(
 
 def _old_meta(directory: Path, overwrite: bool) -> dict | None:
     """The dataset metadata already in ``directory``; None where it cannot be read and
-    ``overwrite`` replaces it, else FileExistsError saying why it cannot be read."""
+    ``overwrite`` replaces it, else FileExistsError saying why it cannot be read.
+    """
     try:
         return ds.read_meta(directory)
     except ds.DatasetError as err:

@@ -76,7 +76,8 @@ def folder_lock(folder: Path, what: str = "the data home", lock_file: str | None
     processes (two notebooks, the workers of a vector env starting together) never make the
     same files at once: the first makes them, the others wait, then find them made. The lock
     is on the folder itself (nothing is written), or on its file ``lock_file`` where given. A
-    process that has to wait says so on stderr, naming ``what``."""
+    process that has to wait says so on stderr, naming ``what``.
+    """
     try:
         import fcntl
     except ImportError:  # not POSIX: no cross-process lock, the atomic writes still hold

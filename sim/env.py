@@ -31,7 +31,8 @@ COLLISION_PENALTY = 1.0
 def sensor_config(value, cls, name: str):
     """``value`` as an instance of the dataclass ``cls`` (``CameraConfig``, ``LaserConfig``,
     ``OdometryConfig``): None gives the default, a dict its fields (a spec that stays JSON);
-    anything else, or an unknown field, an error naming ``name``."""
+    anything else, or an unknown field, an error naming ``name``.
+    """
     if value is None:
         return cls()
     if isinstance(value, cls):
@@ -48,7 +49,8 @@ def check_world(world, registered_world) -> str:
     """The world to build, normalised: ``world``, else the one the env id names
     (``registered_world``, passed by the registry), else "hallway". A generated world
     (``FAMILY:SEED``) must be of the id's family; a ``world`` that contradicts the id is an
-    error rather than the other world under the id's name."""
+    error rather than the other world under the id's name.
+    """
     world = None if world is None else check_world_name(world, "world")
     if registered_world is not None:
         registered_world = check_world_name(registered_world, "registered_world")
@@ -66,7 +68,8 @@ def check_world(world, registered_world) -> str:
 
 def check_sensors(sensors) -> tuple[str, ...]:
     """``sensors`` as a tuple of distinct names from ``SENSORS``; a bare string (which would
-    split into letters) is refused, naming the tuple to write."""
+    split into letters) is refused, naming the tuple to write.
+    """
     if isinstance(sensors, str):
         raise ValueError(
             f"sensors must be a tuple of names from {SENSORS}, got the string {sensors!r}; "
@@ -89,7 +92,8 @@ def check_pose_option(value) -> np.ndarray:
     """``options['pose']`` of ``reset`` as a float64 (x, y, yaw): three finite real numbers;
     anything else (None, a string, complex or ragged values) a ValueError naming it. Shared
     with ``servo.task.env.ServoEnv``, which samples its task from the pose before this env sees
-    it."""
+    it.
+    """
     try:
         pose = np.asarray(value)
     except (TypeError, ValueError):  # ragged nesting
@@ -271,7 +275,8 @@ class NavigationEnv(CheckedKeywords, gym.Env):
     # -- helpers ----------------------------------------------------------------------------
     def scan_spaces(self, key: str) -> dict[str, spaces.Space]:
         """The observation's spaces of a scan under ``key``: ``no_return="max_range"`` gives
-        ``Box(0, max_range)`` and its mask ``{key}_valid``; ``"inf"`` ``Box(0, inf)`` alone."""
+        ``Box(0, max_range)`` and its mask ``{key}_valid``; ``"inf"`` ``Box(0, inf)`` alone.
+        """
         beams = self.laser_config.beams
         if self.no_return == "inf":
             return {key: spaces.Box(0.0, np.inf, (beams,), np.float32)}
@@ -285,7 +290,8 @@ class NavigationEnv(CheckedKeywords, gym.Env):
         """``ranges`` (+inf: no return) as the observation's entries of
         [`scan_spaces`][sim.env.NavigationEnv.scan_spaces]: a copy, with no return (and a return
         pushed past the maximum range by the range noise) at the maximum range and ``{key}_valid`` 1
-        where the beam returned."""
+        where the beam returned.
+        """
         if self.no_return == "inf":
             return {key: np.array(ranges, np.float32)}
         valid = np.isfinite(ranges)
@@ -377,7 +383,8 @@ class NavigationEnv(CheckedKeywords, gym.Env):
 
     def draw(self, target=None) -> np.ndarray:
         """The top-down map: regions, the robot, its last scan, its trail since the reset and,
-        if given, a ``target`` pose (x, y, yaw) in outline. RGB uint8."""
+        if given, a ``target`` pose (x, y, yaw) in outline. RGB uint8.
+        """
         if self._view is None:
             self._view = TopDownView(self.world)
         return self._view.draw(

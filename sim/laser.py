@@ -22,7 +22,8 @@ MAX_BEAMS = 100_000
 @dataclass(frozen=True)
 class LaserConfig:
     """Field of view (rad, centred on the robot's heading), beam count, max range (m) and
-    range noise standard deviation (m). Defaults: a SICK LMS-200-like 180 deg, 0.5 deg beams."""
+    range noise standard deviation (m). Defaults: a SICK LMS-200-like 180 deg, 0.5 deg beams.
+    """
 
     fov: float = np.pi
     beams: int = 361
@@ -71,7 +72,8 @@ class Laser:
 
     def scan(self, data: mujoco.MjData, rng: np.random.Generator | None = None) -> np.ndarray:
         """Ranges (float32, ``beams``) from the current state; requires positions to be fresh
-        (``mj_forward`` or ``mj_kinematics`` after the last ``mj_step``)."""
+        (``mj_forward`` or ``mj_kinematics`` after the last ``mj_step``).
+        """
         origin, heading = self.origin_and_heading(data)
         a = self._angles + heading
         vec = self._vec.reshape(-1, 3)

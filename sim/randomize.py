@@ -48,7 +48,8 @@ class AppearanceRandomizer:
 
         One intensity gain and one per-channel tint for every light (the headlight too), and
         per material a per-channel colour factor ``1 + U(colour_jitter)`` divided by its
-        largest channel (a hue shift; see the module doc)."""
+        largest channel (a hue shift; see the module doc).
+        """
         self._restore()
         if rng is None:
             return {}

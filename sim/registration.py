@@ -18,7 +18,8 @@ def register_per_world(
     The id's world goes in as ``registered_world``, not ``world``: ``gym.make``'s keyword
     arguments replace the registered ones, so a ``world=`` that contradicts the id could not
     be told from the id's own; the env checks the two agree. ``additional_wrappers``
-    (``gymnasium.envs.registration.WrapperSpec``) go on top of the ``TimeLimit``."""
+    (``gymnasium.envs.registration.WrapperSpec``) go on top of the ``TimeLimit``.
+    """
     for env_id, world in env_ids.items():
         if env_id not in gym.registry:
             gym.register(

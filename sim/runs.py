@@ -77,7 +77,8 @@ class Runs:
     ) -> Runs:
         """Concatenate ``sequences`` (all of one world, with the same beam count and image
         size); ``max_range`` is the laser's (None: the longest return seen stands for it);
-        ``manifold_names`` names the label ids."""
+        ``manifold_names`` names the label ids.
+        """
         if not sequences:
             raise ValueError("sequences is empty")
         worlds = {s.world for s in sequences}

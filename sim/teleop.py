@@ -26,7 +26,8 @@ MAX_JITTER = 2.0
 class TeleopConfig:
     """Driver settings: nominal speed (m/s), relative speed jitter, turn-rate jitter (rad/s),
     lateral wander (m), its correlation length (m), pure-pursuit look-ahead (m), and the start
-    pose jitter (m, rad)."""
+    pose jitter (m, rad).
+    """
 
     speed: float = 0.6
     speed_jitter: float = 0.12
@@ -48,7 +49,8 @@ class TeleopConfig:
         """The same driver with every random term (speed and turn jitter, lateral wander,
         start jitter) times ``jitter``: 0 drives the route's centre line at constant speed,
         the same pass for every seed; 1 is this config; at most `MAX_JITTER`, beyond
-        which the driver can stall before the route's end."""
+        which the driver can stall before the route's end.
+        """
         if not (np.isfinite(jitter) and jitter >= 0):
             raise ValueError(f"teleop jitter must be a finite number >= 0, got {jitter}")
         if jitter > MAX_JITTER:

@@ -106,7 +106,8 @@ class TopDownView:
 
     def draw_robot(self, img, pose, colour, outline_only: bool = False) -> None:
         """Draw the robot at ``pose`` (x, y, yaw) on ``img`` in place: a disc of its radius
-        (only the outline with ``outline_only``, as for a target) and a heading tick."""
+        (only the outline with ``outline_only``, as for a target) and a heading tick.
+        """
         from scenes.robot import RADIUS
 
         c = np.round(self.to_pixels(pose[:2])).astype(int)

@@ -78,7 +78,8 @@ def _top_eigenvalues(S: np.ndarray, count: int) -> np.ndarray:
 
 def _check_training_points(X: np.ndarray, n_clusters: int) -> None:
     """At least ``n_clusters`` samples, as many distinct ones, and a span float64 distances
-    can hold (1e200 overflows them, 1e-200 underflows them to "all identical")."""
+    can hold (1e200 overflows them, 1e-200 underflows them to "all identical").
+    """
     if n_clusters > X.shape[0]:
         raise ValueError(f"n_clusters={n_clusters} exceeds n_samples ({X.shape[0]})")
     if not check_span(X) > 0:

@@ -69,7 +69,8 @@ class _SpectralBase(ClusterMixin, TransformerMixin, BaseEstimator):
 
     def _check_samples(self, X: np.ndarray) -> None:
         """The checks of the training points themselves: their number, a span float64
-        distances can hold, and at least ``n_clusters`` distinct rows."""
+        distances can hold, and at least ``n_clusters`` distinct rows.
+        """
         self._check_n_samples(X.shape[0])
         if not check_span(X) > 0:
             raise ValueError("X: all samples are identical; there is nothing to cluster")
@@ -307,7 +308,8 @@ class SelfTuningSpectralClustering(_SpectralBase):
 
     def _local_scales(self, D2: np.ndarray, exclude_self: bool) -> np.ndarray:
         """Each row's scale: the distance to its ``n_neighbors``-th nearest distinct training
-        position (copies of a training point count once; a row's own copies are skipped)."""
+        position (copies of a training point count once; a row's own copies are skipped).
+        """
         kth = self.n_neighbors if exclude_self else self.n_neighbors - 1
         distinct = getattr(self, "_distinct", None)  # None: every training row is distinct
         if distinct is not None:

@@ -1,5 +1,6 @@
 """Input checks both image transformers share: sizes and grids as pairs of positive ints, and
-the scikit-learn tags that say their input is a batch of images."""
+the scikit-learn tags that say their input is a batch of images.
+"""
 
 from __future__ import annotations
 

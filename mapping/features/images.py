@@ -38,7 +38,8 @@ _VALUES = "uint8, uint16, other integers in 0-255, or floats in [0, 1] (or 0-255
 def _image_batch(images: np.ndarray) -> np.ndarray:
     """``images`` as a batch ``(n, H, W, 3)`` or ``(n, H, W)``: (H, W) is one grey image,
     (H, W, 3) one colour image and any other 3-D array a grey batch, except a last axis of 4:
-    RGBA, refused (one RGBA image would be read as H grey images 4 pixels wide)."""
+    RGBA, refused (one RGBA image would be read as H grey images 4 pixels wide).
+    """
     if images.ndim in (3, 4) and images.shape[0] == 0:
         raise ValueError("images is empty")
     if images.ndim in (3, 4) and images.shape[-1] == 4:

@@ -131,7 +131,8 @@ def scan_vectors(
 
 def fitted_max_range(ranges: np.ndarray, max_range: float | None) -> float:
     """The laser's range limit: ``max_range`` when given, else the largest finite positive
-    reading of the training scans (a scan transformer's ``max_range_``)."""
+    reading of the training scans (a scan transformer's ``max_range_``).
+    """
     if max_range is not None:
         return float(max_range)
     seen = ranges[np.isfinite(ranges) & (ranges > 0)]

@@ -318,7 +318,8 @@ def partition_checked(
 ) -> tuple[np.ndarray, NcutNode]:
     """``recursive_ncut_partition`` on arguments already checked (a valid, non-empty ``W``):
     for callers that re-partition many small graphs, such as ``partial_fit``. Weights of huge
-    magnitude are rescaled first (``RESCALE_ABOVE``)."""
+    magnitude are rescaled first (``RESCALE_ABOVE``).
+    """
     W = _rescaled(W)
     n = W.shape[0]
     if n > DENSE_INDEX_MAX_NODES:

@@ -332,7 +332,8 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
 
     def _chain(self, state: dict, scans: list, given: np.ndarray) -> np.ndarray:
         """Poses of the new scans: as given, or ICP-refined increments chained from the last
-        refined pose (``refine_poses`` on the previous scan and the new ones)."""
+        refined pose (``refine_poses`` on the previous scan and the new ones).
+        """
         if not self.scan_matching:
             return given
         if not state["scans"]:

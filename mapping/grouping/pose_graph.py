@@ -196,7 +196,8 @@ def close_loops(
 def absolute_trajectory_error(estimate: ArrayLike, truth: ArrayLike) -> dict:
     """Position error of ``estimate`` against ``truth`` in the common frame (both anchored at
     the same start pose, so no alignment is fitted): RMSE, mean and max in metres, and the
-    RMSE of the heading in degrees."""
+    RMSE of the heading in degrees.
+    """
     estimate, truth = np.asarray(estimate, dtype=float), np.asarray(truth, dtype=float)
     d = np.hypot(*(estimate[:, :2] - truth[:, :2]).T)
     dyaw = np.angle(np.exp(1j * (estimate[:, 2] - truth[:, 2])))

@@ -24,7 +24,8 @@ __all__ = ["default_n_neighbors", "knn_gaussian_affinity"]
 
 def default_n_neighbors(n: int) -> int:
     """``ceil(sqrt(n))``, at least 1 and at most ``n - 1``: the usual rule of thumb for kNN
-    graphs (connected with high probability, yet local)."""
+    graphs (connected with high probability, yet local).
+    """
     return max(1, min(n - 1, math.ceil(math.sqrt(n))))
 
 

@@ -57,13 +57,14 @@ class OfficeWorld:
 
     def region_labels(self, poses: np.ndarray) -> np.ndarray:
         """Ground-truth region of each pose: room ``k`` (0-based, left to right) or the
-        corridor (label ``n_rooms``)."""
+        corridor (label ``n_rooms``).
+        """
         poses = np.asarray(poses, dtype=float)
         room = np.clip((poses[:, 0] // self.room_width).astype(int), 0, self.n_rooms - 1)
         return np.where(poses[:, 1] > self.corridor_width, room, self.n_rooms)
 
     def door_x(self, k: int) -> float:
-        """x of the centre of room ``k``'s door."""
+        """X of the centre of room ``k``'s door."""
         return (k + 0.5) * self.room_width
 
 

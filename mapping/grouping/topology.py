@@ -40,7 +40,8 @@ __all__ = [
 
 def _check_labels(labels: ArrayLike, n: int | None = None) -> np.ndarray:
     """``labels`` as a 1-D integer array (one per scan when ``n`` is given) of group labels
-    ``>= -1`` (-1: no group), or a ValueError naming ``labels``."""
+    ``>= -1`` (-1: no group), or a ValueError naming ``labels``.
+    """
     labels = np.asarray(labels)
     if labels.size == 0 and labels.ndim == 1:
         labels = labels.astype(np.intp)  # [] is float64 to numpy

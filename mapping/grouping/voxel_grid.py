@@ -34,7 +34,8 @@ MAX_DISC_RADIUS = 50
 
 def check_voxel_size(delta: float, voxel_size: float | None) -> None:
     """Refuse a ``voxel_size`` outside ``(0, delta]``, or finer than ``delta / MAX_DISC_RADIUS``
-    (see ``voxel_offsets``); ``None`` (the exact overlap) passes."""
+    (see ``voxel_offsets``); ``None`` (the exact overlap) passes.
+    """
     if voxel_size is None:
         return
     if not (np.isscalar(voxel_size) and 0 < voxel_size <= delta):
@@ -71,7 +72,8 @@ def voxel_offsets(radius_cells: float) -> np.ndarray:
 
 def _voxel_cells(points: np.ndarray, voxel_size: float) -> np.ndarray:
     """Integer voxel coordinates ``(P, 2)`` of world points, refusing coordinates so far out
-    that int64 cannot hold them (checked in floating point, before the cast)."""
+    that int64 cannot hold them (checked in floating point, before the cast).
+    """
     with np.errstate(over="ignore"):
         scaled = np.floor(points / voxel_size)
     if not np.abs(scaled).max() <= CELL_MAX:  # also NaN, from points overflowed to inf
@@ -87,7 +89,8 @@ def _voxel_cells(points: np.ndarray, voxel_size: float) -> np.ndarray:
 
 def _box_cells(cells: np.ndarray, pad: int = 0) -> tuple[np.ndarray, list[int]]:
     """Lower corner and size (Python ints: no overflow) of the bounding box of ``cells``
-    grown by ``pad`` on every side."""
+    grown by ``pad`` on every side.
+    """
     lo = cells.min(axis=0) - pad
     span = [int(h) - int(low) + pad + 1 for h, low in zip(cells.max(axis=0), lo, strict=True)]
     return lo, span

@@ -200,7 +200,8 @@ class ClusterModel(DerivedCache):
 
     def validate(self) -> dict[str, int]:
         """Check the fields' shapes, values and agreement (a model read from a file); returns
-        the sizes ``m`` (points), ``d`` (features), ``r`` (basis). Raises ValueError."""
+        the sizes ``m`` (points), ``d`` (features), ``r`` (basis). Raises ValueError.
+        """
         sizes = check_layout(
             self,
             {
@@ -282,7 +283,8 @@ def _span(centred: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.n
 
 def check_scalars(model, m: int) -> None:
     """The scalar fields every cluster model has: sigma > 0, alpha in (0, 1), centre one of its
-    m points, scale >= 0, all finite."""
+    m points, scale >= 0, all finite.
+    """
     check_number(model.sigma, "sigma", _TINY, _BIG)
     check_number(model.alpha, "alpha", _TINY, _ALPHA_MAX)
     check_number(model.centre, "centre", 0, m - 1, integer=True)

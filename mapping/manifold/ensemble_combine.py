@@ -96,7 +96,8 @@ def coassociation_groups(partitions: np.ndarray, n_clusters: int) -> np.ndarray:
 
 def consensus_groups(partitions: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     """The partition of largest mean NMI with the others, each leaf counted by its size
-    (Strehl & Ghosh 2002, the ANMI criterion restricted to the ensemble's members)."""
+    (Strehl & Ghosh 2002, the ANMI criterion restricted to the ensemble's members).
+    """
     from sklearn.metrics import normalized_mutual_info_score
 
     if len(partitions) == 1:
@@ -123,7 +124,8 @@ def ensemble_merge(
 
     ``extra`` > 0 (default `FINER`) adds, for "coassociation", the cuts into K + 1 ..
     K + extra groups at every usable sigma (Fred & Jain's ensembles of finer partitions, cut
-    into K by the linkage)."""
+    into K by the linkage).
+    """
     if rule not in ENSEMBLE_RULES:
         raise ValueError(f"rule must be one of {ENSEMBLE_RULES}, got {rule!r}")
     n_leaves = scores.sizes.shape[0]

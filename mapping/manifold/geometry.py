@@ -51,7 +51,8 @@ def sigma_grid(lo: float, hi: float, n_sigmas: int) -> tuple[np.ndarray, list[fl
     """The split search's sigmas: ``n_sigmas`` log-spaced from ``lo`` to ``hi``, as their logs
     and as floats. One function for every caller: the graph path's cached eigenbases are keyed
     by these floats, so the split, the combination and eq. 10 must build them bit for bit
-    alike."""
+    alike.
+    """
     logs = np.linspace(np.log(lo), np.log(hi), n_sigmas)
     return logs, [float(np.exp(ls)) for ls in logs]
 
@@ -107,12 +108,14 @@ class DenseGeometry:
 
     def has_extent(self) -> bool:
         """Whether any two of the node's points differ (a node of copies of one point, say a
-        robot standing still, has no sigma to search and stays a leaf)."""
+        robot standing still, has no sigma to search and stays a leaf).
+        """
         return bool(self.sq_dist.max() > 0)
 
     def prefetch(self, sigmas) -> None:
         """Nothing: a dense node's bases are exact ``eigh`` calls its search makes as it goes
-        (with Brent's refinement of sigma, not only a grid)."""
+        (with Brent's refinement of sigma, not only a grid).
+        """
 
     def portable(self) -> DenseGeometry:
         """This node as sent to a worker process for its split: as it is (m x m)."""
@@ -221,7 +224,8 @@ class GraphGeometry:
 
     def node(self, idx: np.ndarray) -> GraphGeometry:
         """The graph restricted to the points ``idx``, at any size (eq. 13's cluster models
-        use the graph kernel their sigma_j was chosen on, also for small clusters)."""
+        use the graph kernel their sigma_j was chosen on, also for small clusters).
+        """
         idx = np.asarray(idx)
         if idx.shape[0] == self.size and np.array_equal(idx, np.arange(self.size)):
             return self  # the root: its bases serve the split, the combination and eq. 10
@@ -239,7 +243,8 @@ class GraphGeometry:
     def basis(self, sigma: float) -> LowRankBasis:
         """The low-rank basis of S at sigma, kept (O(n_sigmas m r): the search asks only for
         its grid's sigmas): the root's are asked for by its split, the combination (on the
-        same grid) and eq. 10."""
+        same grid) and eq. 10.
+        """
         if sigma not in self._bases:
             self._bases[sigma] = LowRankBasis.from_edges(self.edges, sigma, self.rank)
         return self._bases[sigma]
@@ -265,7 +270,8 @@ class GraphGeometry:
     def portable(self) -> GraphGeometry:
         """This node as sent to a worker process for its split, which needs only the graph:
         without the training points (n x d) and on one job. Where no edge has a positive
-        length, sigma's bounds come from the points' distances; then their rows go along."""
+        length, sigma's bounds come from the points' distances; then their rows go along.
+        """
         E = self.edges
         if E.data.size and E.data.max() > 0:
             X, indices = None, self.indices
@@ -287,7 +293,8 @@ class GraphGeometry:
     def sigma_bounds(self) -> tuple[float, float]:
         """As `sigma_bounds`, with the nearest neighbour and the diameter taken on the
         graph's edges: beyond the longest edge the affinities only approach 1 (a kernel wider
-        than the graph has no meaning), so that is the upper bound."""
+        than the graph has no meaning), so that is the upper bound.
+        """
         nn = np.full(self.size, np.inf)
         lengths = np.sqrt(self.edges.data)
         has = np.diff(self.edges.indptr) > 0

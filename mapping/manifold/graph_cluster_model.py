@@ -119,7 +119,8 @@ class GraphClusterModel(DerivedCache):
 
     def validate(self) -> dict[str, int]:
         """As [`ClusterModel.validate`][mapping.manifold.cluster_model.ClusterModel.validate]: sizes
-        ``m``, ``d`` and ``r`` (eigenpairs)."""
+        ``m``, ``d`` and ``r`` (eigenpairs).
+        """
         sizes = check_layout(
             self,
             {

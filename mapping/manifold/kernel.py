@@ -170,7 +170,7 @@ class SpectralBasis:
 
 
 def unit_outliers(basis, g) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """eq. 10 without forming D_M: ``O_d[i] = mean_j (1 - v_i . v_j) = 1 - v_i . (sum_j v_j) / m``.
+    """Eq. 10 without forming D_M: ``O_d[i] = mean_j (1 - v_i . v_j) = 1 - v_i . (sum_j v_j) / m``.
 
     ``basis`` is a `SpectralBasis` or a ``mapping.manifold.lowrank_kernel.LowRankBasis`` and
     g its gains at a batch of alphas. Returns ``1 / |u_i|`` (m, A), the coordinates of

@@ -77,7 +77,8 @@ def _top_eigenpairs(block: sp.csr_matrix, k: int) -> tuple[np.ndarray, np.ndarra
 @dataclass(frozen=True)
 class LowRankGains:
     """Gains at a batch of A alphas: ``top`` (r, A) of the kept eigenpairs, ``col_rest`` (r, A)
-    the rest-gain of each column's component, ``point_rest`` (m, A) that of each point's."""
+    the rest-gain of each column's component, ``point_rest`` (m, A) that of each point's.
+    """
 
     top: np.ndarray
     col_rest: np.ndarray
@@ -207,7 +208,8 @@ class LowRankBasis:
         """C x C matrix of ``(U w_b) . (U w_c)`` for ``w_b = member[:, b] / |u|`` at alpha a.
 
         Many groups (the leaves of a large fit) go through a sparse membership matrix, O(m r)
-        for one group per point instead of O(m r C); ``member`` may be given sparse."""
+        for one group per point instead of O(m r C); ``member`` may be given sparse.
+        """
         if sp.issparse(member):
             weights = sp.csr_matrix(member.multiply(inv_nu[:, None]))
             rest_w = sp.csr_matrix(weights.multiply((g.point_rest[:, a] ** 2)[:, None]))

@@ -27,12 +27,14 @@ _QUERY_BOUND = {np.dtype(np.float64): 1e150, np.dtype(np.float32): 1e15}
 
 class ManifoldQueries:
     """eq. 13 on new views, for an estimator whose ``fit`` set ``labels_``, ``centers_`` and
-    one cluster model per cluster in ``_models``."""
+    one cluster model per cluster in ``_models``.
+    """
 
     def _check_fitted_state(self) -> None:
         """The state the queries read, as ``fit`` leaves it (an estimator read from a file,
         `mapping.persistence`): labels, centres, per-cluster sigma and alpha, and one
-        valid cluster model per cluster on the points of its label. Raises ValueError."""
+        valid cluster model per cluster on the points of its label. Raises ValueError.
+        """
         labels, models = getattr(self, "labels_", None), getattr(self, "_models", None)
         if not (
             isinstance(labels, np.ndarray)

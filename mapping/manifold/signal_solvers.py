@@ -29,8 +29,9 @@ _THREADED_SOLVE = 64
 def dense_signal(
     weights: np.ndarray, degrees: np.ndarray, alpha: float, w: np.ndarray, target: int
 ) -> np.ndarray:
-    """eq. 13 by the m x m solve of A per row, for a cluster with a training point of degree 0
-    (no H). ``weights`` (m, m) and ``degrees`` (m,) are W and d; ``w`` (k, m) the affinities."""
+    """Eq. 13 by the m x m solve of A per row, for a cluster with a training point of degree 0
+    (no H). ``weights`` (m, m) and ``degrees`` (m,) are W and d; ``w`` (k, m) the affinities.
+    """
     total = w.sum(axis=1)
     out = np.zeros(w.shape[0])
     rows = np.flatnonzero(total > _TINY)
@@ -64,7 +65,7 @@ def sparse_signal(
     target: np.ndarray,
     alpha: np.ndarray,
 ) -> np.ndarray:
-    """eq. 13 by Woodbury on the support S of w, for B (row, cluster) pairs.
+    """Eq. 13 by Woodbury on the support S of w, for B (row, cluster) pairs.
 
     ``inverse`` (K, m, m) and ``degrees`` (K, m) are H and d of each cluster (padding: H 0,
     d 1); ``w`` (B, m) the affinities (padding 0); ``cluster``, ``target`` and ``alpha`` (B,)

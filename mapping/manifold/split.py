@@ -247,7 +247,8 @@ class _NodeSearch:
 
 def _first_best(values: np.ndarray) -> np.ndarray:
     """Per column, the lowest row index whose value is within `TIE` of the column's
-    maximum (``argmax`` with near-ties broken by index, not by round-off)."""
+    maximum (``argmax`` with near-ties broken by index, not by round-off).
+    """
     return np.argmax(values >= values.max(axis=0) - TIE, axis=0)
 
 

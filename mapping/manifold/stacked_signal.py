@@ -153,7 +153,8 @@ class Projection:
         In float64, from ``x . x`` and ``x . [delta_j, mu]``: ``y = x - mu`` has
         ``|y|^2 = |x|^2 - 2 x . mu + |mu|^2`` and ``y . delta_j = x . delta_j - mu . delta_j``
         (float64 keeps these differences to ~1e-16 of |x|^2, far below the float32
-        projection's round-off); y itself is only formed rounded to the storage dtype."""
+        projection's round-off); y itself is only formed rounded to the storage dtype.
+        """
         k = X.shape[0]
         K = self.shifts.shape[0]
         norms = np.einsum("ij,ij->i", X, X, dtype=np.float64)  # float32 queries too
@@ -245,7 +246,8 @@ class Stack:
         ``(sqrt(q) - radius_j)^2`` (Cauchy-Schwarz), so where that bound times
         ``1 / (2 sigma_j^2)`` exceeds ``UNDERFLOW`` every affinity ``exp(-d^2 / 2 sigma_j^2)``
         is exactly 0 in float64 (below exp(-745)), with margin for round-off, and the
-        cluster's F^j is exactly 0 without its coordinates."""
+        cluster's F^j is exactly 0 without its coordinates.
+        """
         return q < self.reach_sq
 
     def sq_distances(self, X: np.ndarray, prune: bool = False) -> np.ndarray:
@@ -272,7 +274,8 @@ class Stack:
         and ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K) for the rows where every F is 0
         (other rows: infinite for the clusters they cannot reach, which were not projected
         on: `reachable`; a query near one or two of the clusters reads their bases
-        only, a third of the bytes on the benchmark's images)."""
+        only, a third of the bytes on the benchmark's images).
+        """
         f, nearest = self._scores(X, normalize, prune=True)
         lost = np.flatnonzero(~(f.max(axis=1) > 0))
         if len(lost):  # the fallback needs every cluster's nearest point
@@ -306,7 +309,8 @@ class Stack:
 class DerivedCache:
     """Base of the frozen per-cluster records: their ``_stacks`` dict (set on construction)
     keeps the `Stack` / `Projection` built from them on the first ``predict``.
-    Pickles and deep copies leave it out (a copy builds its own), as saved files do."""
+    Pickles and deep copies leave it out (a copy builds its own), as saved files do.
+    """
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -323,7 +327,8 @@ def projection_threads(rows: int, matrix: np.ndarray):
     matrix (a memory-bound GEMV; ``_FEW_ROWS``) one on a `busy`
     machine, where a second would spin, and the default where a core is free (idle, 2 cores:
     ``predict`` of one 320x240x3 view 3.6 -> 2.6 ms); the default otherwise (a product of
-    many rows is compute-bound, as in ``fit``; a small one is not worth the switch)."""
+    many rows is compute-bound, as in ``fit``; a small one is not worth the switch).
+    """
     if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX and busy():
         return single_threaded_blas()
     return nullcontext()
@@ -342,7 +347,8 @@ def _cached(cls, models: list, *args):
 
 def _widened_product(basis: np.ndarray, vector: np.ndarray) -> np.ndarray:
     """``basis @ vector`` in float64 for a float32 or float64 basis, a block of columns at a
-    time (no float64 copy of a whole image-sized basis)."""
+    time (no float64 copy of a whole image-sized basis).
+    """
     out = np.zeros(basis.shape[0])
     for start in range(0, basis.shape[1], _OFFSET_COLUMNS):
         cols = slice(start, start + _OFFSET_COLUMNS)

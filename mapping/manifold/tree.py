@@ -170,7 +170,7 @@ class GroupScores:
         self.n = n
 
     def omega(self, within: np.ndarray, total: np.ndarray, size: np.ndarray) -> np.ndarray:
-        """eq. 9 with p1 = a group (sum of its block ``within``, of its rows ``total``)."""
+        """Eq. 9 with p1 = a group (sum of its block ``within``, of its rows ``total``)."""
         rest = self.n - size
         e_within = 1.0 - within / (size * size)
         e_between = 1.0 - (total - within) / (size * rest)
@@ -263,7 +263,8 @@ def _merge(scores: GroupScores, n_clusters: int) -> list[list[int]]:
 
 def cut_tree(root: ManifoldNode, n_clusters: int) -> list[list[ManifoldNode]]:
     """Alternative combination: expand the tree from the root, always splitting the frontier
-    node of highest Omega, until there are K subtrees; each becomes one cluster."""
+    node of highest Omega, until there are K subtrees; each becomes one cluster.
+    """
     frontier = [root]
     while len(frontier) < n_clusters:
         inner = [node for node in frontier if not node.is_leaf]
@@ -274,7 +275,7 @@ def cut_tree(root: ManifoldNode, n_clusters: int) -> list[list[ManifoldNode]]:
 
 
 def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpace):
-    """max over (sigma, alpha) of ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` on the union of a, b.
+    """Max over (sigma, alpha) of ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` on the union of a, b.
 
     eq. 9's spread with the labels fixed, symmetric in a and b and without the balance factor
     (which would make every small group look inseparable). The kernel is the pair's own, so
@@ -384,7 +385,8 @@ def shared_kernel_merge(
 
 def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpace, rule: str):
     """The leaves of ``root`` combined into ``n_clusters`` groups by ``rule`` (one of
-    `COMBINE_RULES`; ambiguity 4), with each group's (sigma, alpha, omega)."""
+    `COMBINE_RULES`; ambiguity 4), with each group's (sigma, alpha, omega).
+    """
     leaves = [leaf.indices for leaf in root.leaves()]
     if n_clusters == 1:
         one = (np.array([root.sigma]), np.array([root.alpha]), np.array([root.omega]))

@@ -249,7 +249,8 @@ def _iterate(
     """The iterations of ``icp_batch`` over the pairs with enough points (batch rows
     ``0..len(pairs)-1``; ``pairs`` are their indices in the result arrays ``pose`` and
     ``out = (rmse, n_matches, n_iterations, converged)``, written in place). The working
-    arrays hold one entry per point of the rows still iterating and shrink as rows leave."""
+    arrays hold one entry per point of the rows still iterating and shrink as rows leave.
+    """
     rmse, n_matches, n_iterations, converged = out
     reach = max(float(np.abs(s).max()) for s in sources) + float(np.abs(pose[pairs, :2]).max())
     reach += max(float(np.abs(t).max()) for t in targets) + 2.0 * max_distance + 1.0
@@ -344,7 +345,8 @@ def _iterate(
 
 def _kabsch_sums(n, spx, spy, sqx, sqy, sxx, sxy, syx, syy):
     """``_kabsch_2d`` of many point sets from their sums: counts ``n``, coordinate sums of
-    ``p`` and ``q`` and the sums of ``p_x q_x``, ``p_x q_y``, ``p_y q_x``, ``p_y q_y``."""
+    ``p`` and ``q`` and the sums of ``p_x q_x``, ``p_x q_y``, ``p_y q_x``, ``p_y q_y``.
+    """
     n_safe = np.maximum(n, 1.0)
     pcx, pcy, qcx, qcy = spx / n_safe, spy / n_safe, sqx / n_safe, sqy / n_safe
     theta = np.arctan2(

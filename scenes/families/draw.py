@@ -112,7 +112,8 @@ def _child_turns(kind: str, rng: np.random.Generator, spec: FamilySpec) -> list[
 
 def branch_names(turns: list[float]) -> list[str]:
     """Names of a junction's children, right to left: ``right``/``straight``/``left`` by the
-    turn where one child is within 20 degrees of straight on, else by rank."""
+    turn where one child is within 20 degrees of straight on, else by rank.
+    """
     if len(turns) == 3:
         return ["right", "straight", "left"]
     ahead = [abs(np.rad2deg(t)) < 20.0 for t in turns]

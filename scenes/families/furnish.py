@@ -20,7 +20,8 @@ def along(
     layout: Layout, i: int, s: float, side: float, inset: float
 ) -> tuple[float, float, float]:
     """A point of stretch ``i``: ``s`` metres along its centre line, on its left (``side`` 1)
-    or right (-1) side ``inset`` metres in from the wall; returns ``(x, y, heading)``."""
+    or right (-1) side ``inset`` metres in from the wall; returns ``(x, y, heading)``.
+    """
     st = layout.stretches[i]
     u = np.array([np.cos(st.heading), np.sin(st.heading)])
     n = np.array([-u[1], u[0]])
@@ -49,7 +50,8 @@ def look_materials(
 ) -> list[tuple[str, str]]:
     """Wall and floor materials of every stretch, ``[(wall, floor), ...]``: one texture pair
     per distinct look, its colours jittered by ``rng`` (this world's) and by the appearance
-    draw. In the hard mode every stretch gets the main stretch's pair."""
+    draw. In the hard mode every stretch gets the main stretch's pair.
+    """
     made: dict[str, tuple[str, str]] = {}
     # one jitter per look and part, drawn whichever looks are made, so that the hard mode
     # leaves the generator where the default mode does (the furnishing draws from it next)
@@ -80,7 +82,8 @@ def add_floors(
     scene: SceneBuilder, layout: Layout, floor_materials: list[str], z: float = 0.0
 ) -> None:
     """A floor slab under every stretch's rectangle and every junction's hub; a hub wears the
-    floor of the stretch that arrives at it (as the canonical junctions do)."""
+    floor of the stretch that arrives at it (as the canonical junctions do).
+    """
     for i in range(len(layout.stretches)):
         s0, s1 = layout.extent(i)
         x, y, heading = along(layout, i, (s0 + s1) / 2, 0.0, 0.0)
@@ -112,7 +115,8 @@ def add_walls(
 ) -> None:
     """A box along every wall of ``layout``, just outside the floor, in its stretch's
     material; walls meet at outer corners and stop short of sharp inner ones
-    (`Wall`)."""
+    (`Wall`).
+    """
     for k, wall in enumerate(layout.walls()):
         centre, half_length, yaw = wall.box(thickness)
         scene.box(

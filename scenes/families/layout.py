@@ -97,7 +97,8 @@ class Junction:
     def sector(self, i: int, half_width: float) -> np.ndarray:
         """The part of the hub that belongs to exit ``i``: a robot is on that exit's manifold
         once it has crossed the centre toward it (the canonical worlds split their junction
-        square by its diagonals for the same reason)."""
+        square by its diagonals for the same reason).
+        """
         k = len(self.exits)
         direction = self.exits[i][1]
         u, n = _unit(direction), _left(direction)
@@ -118,7 +119,8 @@ class Junction:
 def _simplify(ring: np.ndarray) -> np.ndarray:
     """``ring`` without repeated points and without vertices on a straight line between their
     neighbours (a bend's centre lies on its sectors' edge): rounding there would make the
-    polygon cross itself by a hair."""
+    polygon cross itself by a hair.
+    """
     ring = ring[np.linalg.norm(ring - np.roll(ring, 1, axis=0), axis=1) > 1e-7]
     while len(ring) > 3:
         prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
@@ -184,7 +186,8 @@ class Wall:
 
 def _corner_shift(gap: float) -> float:
     """Per metre of wall thickness: extend past an outer corner; stop short of an inner corner
-    sharper than a right angle (its solid wedge is narrower than the wall is thick)."""
+    sharper than a right angle (its solid wedge is narrower than the wall is thick).
+    """
     if gap > np.pi + 1e-6:
         return 1.0
     if gap < np.pi / 2:
@@ -337,7 +340,8 @@ class Layout:
     # -- routes -----------------------------------------------------------------------------
     def routes(self) -> dict[str, Route]:
         """One teleop route per leaf: from the main stretch's start through each junction's
-        centre to the leaf's closed end, named after the leaf's manifold."""
+        centre to the leaf's closed end, named after the leaf's manifold.
+        """
         out = {}
         for leaf in self.leaves():
             path = self.path(leaf)

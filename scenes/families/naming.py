@@ -78,7 +78,8 @@ def parse_world_name(name) -> WorldName:
 
 def check_world_name(name, argument: str = "world") -> str:
     """The normalised spelling of a world name (``"hallway:0"`` -> ``"hallway"``); a
-    ValueError that names ``argument`` and the accepted forms otherwise."""
+    ValueError that names ``argument`` and the accepted forms otherwise.
+    """
     try:
         return str(parse_world_name(name))
     except ValueError:

@@ -45,7 +45,8 @@ def _materials(scene: SceneBuilder, app: Appearance) -> None:
 
 class _TreePool:
     """A few tree shapes made once per world and planted many times: a lumpy crown costs
-    ~15 ms to make, and a world plants up to ~40 trees. Collision is the trunk's cylinder."""
+    ~15 ms to make, and a world plants up to ~40 trees. Collision is the trunk's cylinder.
+    """
 
     def __init__(self, scene: SceneBuilder, rng: np.random.Generator, shapes: int = 4):
         self.scene, self.shapes = scene, []

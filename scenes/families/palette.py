@@ -152,7 +152,8 @@ OUTDOOR_LOOKS = (
 
 def draw_looks(layout: Layout, palette: tuple[Look, ...], rng: np.random.Generator) -> list[Look]:
     """One look per stretch of ``layout``: the main stretch's drawn first; each other differs
-    from its parent's and siblings' where the palette allows."""
+    from its parent's and siblings' where the palette allows.
+    """
     first = int(rng.integers(len(palette)))
     looks = [first]
     for i, s in enumerate(layout.stretches[1:], start=1):

@@ -186,7 +186,8 @@ def split_worlds(family: str, split: str, count: int | None = None) -> list[str]
 def structure(layout: Layout) -> tuple:
     """A floor plan quantised to what tells two worlds apart: per stretch its branch, its
     turn from its parent (15 degree steps) and its length (2 m steps), and the width (0.4 m
-    steps). Equal structures are one world for the methods; different ones are not."""
+    steps). Equal structures are one world for the methods; different ones are not.
+    """
     out = [round(2 * layout.half_width / WIDTH_STEP)]
     for s in layout.stretches:
         parent = 0.0 if s.parent is None else layout.stretches[s.parent].heading
@@ -198,7 +199,8 @@ def structure(layout: Layout) -> tuple:
 def held_out_worlds(family: str, count: int, train_structures: set | None = None) -> list[str]:
     """The first ``count`` test worlds of ``family`` whose structure is not a training
     world's: those listed in `REPEATED_TEST_SEEDS` are skipped, or, given
-    ``train_structures`` (a set of `structure`), those whose structure is in it."""
+    ``train_structures`` (a set of `structure`), those whose structure is in it.
+    """
     from scenes.families.build import family_layout
 
     repeated = REPEATED_TEST_SEEDS[family] if train_structures is None else {}

@@ -43,7 +43,8 @@ def group_log(
     log: CarmenLog, scans: Sequence[np.ndarray], scan_matching: bool
 ) -> tuple[ObservationGraphPartitioner, dict]:
     """The partitioner at default settings on one log with its own poses; the fitted model
-    and a summary of its groups."""
+    and a summary of its groups.
+    """
     model = ObservationGraphPartitioner(scan_matching=scan_matching)
     start = time.perf_counter()
     model.fit(scans, log.poses)

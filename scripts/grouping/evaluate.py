@@ -55,7 +55,8 @@ LABELS_FILE = "groups.npz"  # per case and variant, the group of every frame (nu
 def group_scans(runs: Runs, poses: str) -> tuple[ObservationGraphPartitioner, dict]:
     """The partitioner at default settings on ``runs`` with ``poses`` in {"true", "odometry",
     "odometry+icp"}; returns the fitted model and its scores (None without ground truth),
-    drift (None without true poses) and time."""
+    drift (None without true poses) and time.
+    """
     if poses == "true" and runs.poses is None:
         raise ValueError(f"{runs.world}: no true poses to group with (no ground truth)")
     model = ObservationGraphPartitioner(scan_matching=poses == "odometry+icp")
@@ -227,7 +228,8 @@ def evaluate_grouping(
 
 def format_report(result: dict) -> str:
     """Markdown tables of the groupings and of the four-way comparison
-    (``scripts.grouping.tables``, the same tables the HTML report shows)."""
+    (``scripts.grouping.tables``, the same tables the HTML report shows).
+    """
     tables = [grouping_table(result)]
     if result["compare"]:
         tables.append(comparison_table(result))
@@ -267,7 +269,8 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
 
 def one_dataset(args) -> None:
     """``args.data`` as the one dataset the built-in evaluations read (several only with
-    ``--method``)."""
+    ``--method``).
+    """
     if isinstance(args.data, list):
         if len(args.data) > 1:
             raise ValueError("--data is given once, except with --method")

@@ -68,7 +68,8 @@ def simulated_odometry(poses: np.ndarray, seed: int = 0) -> np.ndarray:
 
 def split(groups: np.ndarray, hold_every: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Training scans, held-out scans (every ``hold_every``-th of each run, never a run's
-    first) and each held-out scan's anchor (the training scan just before it)."""
+    first) and each held-out scan's anchor (the training scan just before it).
+    """
     n = len(groups)
     starts = run_starts_from_groups(groups, n)
     run_index = np.arange(n) - np.maximum.accumulate(np.where(starts, np.arange(n), 0))
@@ -169,7 +170,8 @@ def score_submaps(
 
 def submap_errors(scans, truth, poses, groups, labels, rng, *, hold_every=5, align=True):
     """``(errors, aligned training poses, training indices)`` of `score_submaps`:
-    each held-out scan's translation and heading error (``inf``: ICP did not converge)."""
+    each held-out scan's translation and heading error (``inf``: ICP did not converge).
+    """
     train, held, anchor = split(groups, hold_every)
     labels = np.asarray(labels)
     if labels.shape != (len(train),):

@@ -36,7 +36,8 @@ U_TURN_OFFSET = 0.35  # m; fits the narrowest corridor (2.4 m) with the robot's 
 def has_loop(world: str) -> bool:
     """Whether ``world`` has a loop: a canonical world does (one junction whose three branch
     routes `loop_route` joins); a generated world's tree of junctions has none yet, and
-    a name that is no world has none."""
+    a name that is no world has none.
+    """
     try:
         return parse_world_name(world).canonical
     except (TypeError, ValueError):
@@ -70,7 +71,8 @@ def loop_route(world) -> Route:
 
 def loop_frames(world, route: Route, frames_per_route: int) -> int:
     """Frames for the loop at the default dataset's spacing: ``frames_per_route`` frames over
-    the length of the world's straight route."""
+    the length of the world's straight route.
+    """
     straight = world.routes[names.manifold_name(world.name, "straight")]
     return max(2, round(frames_per_route * route.length / straight.length))
 

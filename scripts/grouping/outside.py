@@ -55,7 +55,8 @@ DEV_SEED = 0  # the dataset the partitioner's settings were chosen on
 
 def _fit(method: OutsideMethod, scans, poses, groups, given: str) -> np.ndarray:
     """The estimator's groups of one case (``ValueError`` when it leaves no proper
-    ``labels_``)."""
+    ``labels_``).
+    """
     model = method.make()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the estimator's warnings are its own business here
@@ -123,7 +124,8 @@ def evaluate_worlds_method(
     method: OutsideMethod, datasets, given="scans", local_maps=False, seed: int = 0, progress=True
 ) -> list[dict]:
     """The result files of ``method`` on simulated ``datasets``: the grouping scores, and with
-    ``local_maps`` the held-out localisation against its groups."""
+    ``local_maps`` the held-out localisation against its groups.
+    """
     from tqdm.auto import tqdm
 
     from sim.dataset import load_dataset
@@ -209,7 +211,8 @@ def evaluate_carmen_method(
     method: OutsideMethod, logs, given="scans", seed: int = 0, progress=True
 ) -> dict:
     """The result file of ``method`` on Carmen ``logs``: held-out localisation against its
-    groups, with each log's corrected poses."""
+    groups, with each log's corrected poses.
+    """
     from tqdm.auto import tqdm
 
     from scripts.grouping.carmen_logs import log_points
@@ -239,7 +242,8 @@ def evaluate_carmen_method(
 
 def file_name(result: dict) -> str:
     """``<protocol>-<input>-<spec>[-<params digest>].json``
-    (``scripts.leaderboard.files.file_tag``), safe on every file system."""
+    (``scripts.leaderboard.files.file_tag``), safe on every file system.
+    """
     from scripts.leaderboard import file_tag
 
     m = result["method"]

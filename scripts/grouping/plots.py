@@ -111,7 +111,8 @@ def draw_local_maps(axes, local_maps: Sequence[np.ndarray], labels: np.ndarray) 
 
 def draw_weights(ax, W, labels: np.ndarray, title: str = "weights, sorted by group") -> None:
     """The weight matrix with rows and columns sorted by group and each group's block drawn
-    as a dotted square (Fig. 3f). Entries are shown on a 0..1 grey scale."""
+    as a dotted square (Fig. 3f). Entries are shown on a 0..1 grey scale.
+    """
     import matplotlib.patches as mpatches
 
     W = W.toarray() if hasattr(W, "toarray") else np.asarray(W)
@@ -131,7 +132,8 @@ def draw_topology(
 ) -> None:
     """Nodes at the local-map frames, arcs between them: solid where the trajectory crosses
     between the groups, dashed where only their scans overlap; width grows with the number of
-    scan pairs averaged into the arc's transformation."""
+    scan pairs averaged into the arc's transformation.
+    """
     if background is not None:
         background(ax)
     frames = topology.frames
@@ -157,7 +159,8 @@ def write_grouping_figures(
     """The four figures of one fitted ``ObservationGraphPartitioner``: groups over the map,
     local maps, weights and topology, as ``{tag}_groups.png``, ``_local_maps``, ``_weights``
     and ``_topology`` in ``out_dir``. ``background(ax)`` draws the map under the groups and
-    the topology; ``caption`` is added to the title of the groups figure."""
+    the topology; ``caption`` is added to the title of the groups figure.
+    """
     plt = agg_pyplot()
     out_dir = Path(out_dir)
     written = []
@@ -192,7 +195,8 @@ def write_grouping_figures(
 
 def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
     """`write_grouping_figures` of one grouping of a ``sim.runs.Runs``, over the map of
-    the true manifolds for a simulated world of ours (none for an imported dataset)."""
+    the true manifolds for a simulated world of ours (none for an imported dataset).
+    """
     draw_map = _map_background(runs.world) if runs.has_ground_truth else None
     caption = "; background: true manifolds" if draw_map is not None else ""
     return write_grouping_figures(out_dir, tag, runs.scans, model, draw_map, caption)
@@ -200,7 +204,8 @@ def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
 
 def _map_background(world_name: str) -> Callable[[object], None] | None:
     """A function drawing the top-down map of one of our worlds into an axis; None for a
-    world that is not ours (an imported dataset)."""
+    world that is not ours (an imported dataset).
+    """
     from scenes import build_world
     from scenes.families import parse_world_name
 

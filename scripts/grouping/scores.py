@@ -1,6 +1,7 @@
 """How a grouping is scored against the ground-truth manifolds (purity, ARI, groups per
 manifold, the targets), and the four-way comparison of both methods on both sensors; used by
-``scripts.grouping.evaluate``."""
+``scripts.grouping.evaluate``.
+"""
 
 from __future__ import annotations
 
@@ -70,7 +71,8 @@ def meets_targets(score: dict) -> bool:
 
 def unscored(frames: int, labels: np.ndarray) -> dict:
     """The keys of `score_groups` for groups that cannot be scored (no ground truth):
-    the counts, and None for every score."""
+    the counts, and None for every score.
+    """
     keys = ("purity", "ari", "max_groups_per_manifold", "max_groups_touching")
     return {
         "frames": frames,

@@ -1,5 +1,6 @@
 """The observation grouping's result tables (``scripts.grouping.evaluate``), defined once: the
-command line prints them as markdown and the HTML report renders the same tables."""
+command line prints them as markdown and the HTML report renders the same tables.
+"""
 
 from __future__ import annotations
 
@@ -35,7 +36,8 @@ COMPARISON_COLUMNS = (
 
 def grouping_table(result: dict) -> Table:
     """One row per case (world, and its loop) and pose source, from ``evaluate_grouping``'s
-    result; unscored cells (no ground truth) read as missing."""
+    result; unscored cells (no ground truth) read as missing.
+    """
     rows = []
     for part in ("default", "loop"):
         for world, entry in result.get(part, {}).items():

@@ -1,5 +1,6 @@
 """Held-out evaluation: every mapping task on test worlds the methods were never tuned on,
-beside the canonical world of each family (``topomap heldout``)."""
+beside the canonical world of each family (``topomap heldout``).
+"""
 
 from scripts.heldout.cells import TASKS, run_cell
 from scripts.heldout.evaluate import build_parser as heldout_parser

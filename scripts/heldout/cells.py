@@ -39,7 +39,8 @@ def scaled_q(n: int, k: int) -> int:
     """Q scaled to the data: ``n // (3 k)`` within [8, 35] (``n`` training images, ``k``
     manifolds). A generated world's drive crosses several stretches, so a short leaf gets
     fewer training frames than the protocol's Q = 35 (which the canonical worlds' leaves, at
-    37-41, just exceed); with Q above a manifold's size no cluster can hold it."""
+    37-41, just exceed); with Q above a manifold's size no cluster can hold it.
+    """
     return int(np.clip(n // (Q_DIVISOR * k), Q_MIN, MANIFOLD_Q))
 
 
@@ -168,7 +169,8 @@ def run_cell(
 
 def _cached(path: Path) -> dict:
     """A cached cell of the current version, or an empty one (a stale or unreadable file is
-    recomputed, not trusted)."""
+    recomputed, not trusted).
+    """
     if not path.is_file():
         return {}
     try:
@@ -182,7 +184,8 @@ def _cached(path: Path) -> dict:
 
 def manifold_errors(cells: list[dict], method: str) -> np.ndarray:
     """Test error of ``method`` per cell (cells without the manifold task, and cells where the
-    method refused the data, are left out: `manifold_refusals` counts those)."""
+    method refused the data, are left out: `manifold_refusals` counts those).
+    """
     out = []
     for c in cells:
         rows = c.get("tasks", {}).get("manifold", {}).get("rows", [])

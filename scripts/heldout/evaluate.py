@@ -41,7 +41,8 @@ class CellRunner:
     """Runs held-out cells in one sweep worker (``scripts.sweep.backends``): a task is
     ``(world, seed, episodes)``; the rest of `scripts.heldout.cells.run_cell`'s
     arguments are the runner's. The process is set to one thread unless ``one_thread`` is
-    false (the cells then run in the calling process, whose threads are its own)."""
+    false (the cells then run in the calling process, whose threads are its own).
+    """
 
     def __init__(self, out, data_root, frames: int, tasks, one_thread: bool = True):
         import sim  # noqa: F401  (headless GL before mujoco in a fresh worker)
@@ -79,7 +80,8 @@ def evaluate_heldout(
     """Run (or resume) every cell of `plan` on ``backend`` with ``jobs`` workers, then
     `summarise` them into ``out/heldout.json`` and ``out/heldout.md``; returns the
     summary. ``episodes``: servo episodes per controller and start tier in a held-out world
-    (the canonical world gets `CANONICAL_EPISODES` times as many)."""
+    (the canonical world gets `CANONICAL_EPISODES` times as many).
+    """
     from tqdm.auto import tqdm
 
     from scripts.sweep import open_backend

@@ -39,7 +39,8 @@ def spread_by_junctions(pairs: list[tuple[str, str]], junctions, episodes: int) 
     ``i`` on pair ``i``): junction counts taken in turn (1, 2, 3 or more, 1, ...; a count the
     world lacks is skipped), each count's pairs in the protocol's order; ``junctions(a, b)``
     counts them. When every pair is taken, the protocol's next episodes (pair ``i mod P``)
-    follow."""
+    follow.
+    """
     by: dict[int, list[int]] = {}
     for i, (a, b) in enumerate(pairs):
         by.setdefault(min(junctions(a, b), 3), []).append(i)
@@ -56,7 +57,8 @@ def servo_task(data, world, episodes: int) -> dict:
     ``scenes.World``) on a map built
     from ``data`` (the cell's dataset), chosen by `spread_by_junctions`; returns the
     map's size and one record per episode (`KEEP`'s fields, plus ``policy`` and
-    ``tier``)."""
+    ``tier``).
+    """
     from servo.maps import build_map
     from servo.task import Protocol, manifold_pairs, run_protocol
 

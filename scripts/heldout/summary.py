@@ -151,7 +151,8 @@ def _rate_text(r: dict | None) -> str:
 def format_summary(summary: dict) -> str:
     """The summary as markdown: a mapping table (canonical, held-out and gap per family, task
     and method) and, where servo episodes ran, a servo table (success per controller and tier,
-    canonical beside held-out, and held-out by junctions between start and target)."""
+    canonical beside held-out, and held-out by junctions between start and target).
+    """
     lines = [
         "| family | task | method | canonical world | held-out worlds [95% interval] | gap | n |",
         "|---|---|---|---|---|---|---|",

@@ -74,7 +74,8 @@ class ResultFileError(ValueError):
 
 def code_version() -> dict:
     """The package version and, in a git checkout, the commit (with ``+dirty`` when the tree
-    has uncommitted changes); ``commit`` is None outside a checkout."""
+    has uncommitted changes); ``commit`` is None outside a checkout.
+    """
     from importlib import metadata
 
     try:
@@ -124,7 +125,8 @@ def envelope(
     """A result file's object: ``task``, ``protocol`` (name, version), ``split``, ``method``
     (``name``, ``spec``, ``params``, optional ``notes``), ``metric`` (name, kind of
     ``KINDS``), the ``records`` and the evaluation's own ``extra`` keys; the code version and
-    machine are added here."""
+    machine are added here.
+    """
     name, kind = metric
     if kind not in KINDS:
         raise ValueError(f"metric kind must be one of {tuple(KINDS)}, got {kind!r}")
@@ -150,7 +152,8 @@ def write_result(path: str | os.PathLike, result: dict) -> Path:
     """Write ``result`` (an [`envelope`][scripts.leaderboard.files.envelope]) to ``path``
     atomically, after checking it as the reader will (a writer must not produce a file its own
     reader refuses). A file there of another method (its ``spec`` or ``params`` differ) is not
-    replaced: [`ResultFileError`][scripts.leaderboard.files.ResultFileError] names both."""
+    replaced: [`ResultFileError`][scripts.leaderboard.files.ResultFileError] names both.
+    """
     path = Path(path)
     check_result(result, path)
     if path.exists():
@@ -183,7 +186,8 @@ def file_tag(spec: str, params: dict | None) -> str:
     digits and ``._-`` as ``_``) and, with params, the first 8 hex digits of their SHA-256,
     so that two methods of one class name, or one method with other params, never share a
     file. ``file_tag("sklearn.cluster:KMeans", {"n_init": 3})`` starts
-    ``sklearn.cluster.KMeans-``."""
+    ``sklearn.cluster.KMeans-``.
+    """
     tag = re.sub(r"[^A-Za-z0-9._-]+", "_", str(spec).replace(":", "."))[:120]
     if params:
         blob = json.dumps(params, sort_keys=True, default=str).encode()
@@ -194,7 +198,8 @@ def file_tag(spec: str, params: dict | None) -> str:
 def read_result(path: str | os.PathLike) -> dict:
     """The checked result file at ``path``;
     [`ResultFileError`][scripts.leaderboard.files.ResultFileError] naming the file and the field
-    when it is too large, not JSON, or a field is missing or malformed."""
+    when it is too large, not JSON, or a field is missing or malformed.
+    """
     path = Path(path)
     if not path.is_file():  # a named pipe would block the read, a device never end it
         raise ResultFileError(
@@ -226,7 +231,8 @@ _REQUIRED = (
 
 def check_result(data, path) -> dict:
     """``data`` if it is a well-formed result of this format version, else
-    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] for ``path``."""
+    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] for ``path``.
+    """
 
     def fail(field, problem):
         raise ResultFileError(path, field, problem)
@@ -321,7 +327,8 @@ def _int(value) -> bool:
 
 def _finite(value) -> bool:
     """A number within ``MAX_VALUE`` (NaN is not: it compares false; an int of 400 digits is
-    compared exactly, where ``math.isfinite`` would raise OverflowError)."""
+    compared exactly, where ``math.isfinite`` would raise OverflowError).
+    """
     if isinstance(value, bool) or not isinstance(value, int | float):
         return False
     return abs(value) <= MAX_VALUE

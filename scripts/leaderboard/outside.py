@@ -21,7 +21,8 @@ _SPEC = re.compile(r"^([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*):([A-Za-z_]\w*(?:\.[A-Za-
 def parse_params(items) -> dict:
     """``["k=v", ...]`` as a dict; each value is a Python literal (``3``, ``0.5``,
     ``'rbf'``, ``None``, ``(1, 2)``) or, failing that, the text itself. A key given twice, an
-    item without ``=``, a key that is no identifier and a non-finite number are refused."""
+    item without ``=``, a key that is no identifier and a non-finite number are refused.
+    """
     params = {}
     for item in items or ():
         key, sep, text = str(item).partition("=")
@@ -75,14 +76,16 @@ class OutsideMethod:
 
     def make(self, **defaults):
         """A new instance with ``params``; ``defaults`` (e.g. the protocol's ``n_clusters``)
-        fill in what the user did not set, where the constructor takes them."""
+        fill in what the user did not set, where the constructor takes them.
+        """
         given = {k: v for k, v in defaults.items() if k not in self.params and self.accepts(k)}
         return self.cls(**given, **self.params)
 
     def describe(self, **defaults) -> dict:
         """The method block of a result file: name, spec, every parameter passed, which of
         them the protocol chose (``protocol_params``: left out of the method's label) and the
-        digest of the module's source (``source``: ``common.user_modules.source_digest``)."""
+        digest of the module's source (``source``: ``common.user_modules.source_digest``).
+        """
         given = {k: v for k, v in defaults.items() if k not in self.params and self.accepts(k)}
         return {
             "name": self.name,
@@ -97,7 +100,8 @@ def load_method(spec: str, required: tuple[str, ...] = ("fit",)):
     """The class named by ``spec`` (``package.module:Class``), imported like ``python -m``
     would (the current directory first on the path); ``ValueError`` when the spec is malformed,
     the module does not import, the name is missing or not a class, or the class lacks one of
-    ``required``."""
+    ``required``.
+    """
     if not isinstance(spec, str) or not _SPEC.match(spec):
         raise ValueError(f"--method must be package.module:Class, got {spec!r}")
     module_name, _, qualname = spec.partition(":")
@@ -122,7 +126,8 @@ def load_method(spec: str, required: tuple[str, ...] = ("fit",)):
 
 def _init_parameters(cls) -> set[str] | None:
     """The keyword parameters of ``cls.__init__``; None when it takes ``**kwargs`` or has no
-    readable signature (then any parameter is passed on and the class judges it)."""
+    readable signature (then any parameter is passed on and the class judges it).
+    """
     try:
         params = inspect.signature(cls).parameters.values()
     except (TypeError, ValueError):

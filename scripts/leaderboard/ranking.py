@@ -39,7 +39,8 @@ def load_results(paths) -> list[dict]:
     """The result files among ``paths``: a file is read and checked (refused with
     [`ResultFileError`][scripts.leaderboard.files.ResultFileError] when it is no result file); a
     folder contributes the ``*.json`` files directly in it whose ``format`` is a result file's
-    (other JSON there, such as a protocol's cells, is passed over)."""
+    (other JSON there, such as a protocol's cells, is passed over).
+    """
     results = []
     for given in paths:
         given = Path(given)
@@ -66,7 +67,8 @@ def _looks_like_result(path: Path) -> bool:
 
 def method_label(method: dict) -> str:
     """``name`` with the parameters the user chose (those the protocol chose, such as the
-    manifold protocol's ``n_clusters``, are left out)."""
+    manifold protocol's ``n_clusters``, are left out).
+    """
     chosen = method.get("protocol_params", ["n_clusters"])
     chosen = chosen if isinstance(chosen, list) else []
     params = {k: v for k, v in method.get("params", {}).items() if k not in chosen}
@@ -93,7 +95,8 @@ def rank(results: list[dict], reference: str | None = None) -> dict:
 
     ``reference`` names a method (its label, name or spec) every other is compared with;
     ``ValueError`` when it names none or several, or when two files share a protocol name
-    but not its version."""
+    but not its version.
+    """
     _check_versions(results)
     joined = _join(results)
     if reference is not None:
@@ -169,7 +172,8 @@ def _join(results) -> dict:
 
 def _method_notes(method: dict) -> str:
     """The notes a method's file gives, its source's digest, and a warning where an outside
-    policy's process ran without a sandbox (it could read the datasets on disk)."""
+    policy's process ran without a sandbox (it could read the datasets on disk).
+    """
     notes = [method.get("notes") or ""]
     source = method.get("source")
     if isinstance(source, dict) and isinstance(source.get("sha256"), str):
@@ -278,7 +282,8 @@ def _fmt(value: float, kind: str) -> str:
 
 def leaderboard_tables(boards: dict, reference: str | None):
     """(heading, header, rows of cells) per board of [`rank`][scripts.leaderboard.ranking.rank] and
-    group: what the markdown and HTML forms show."""
+    group: what the markdown and HTML forms show.
+    """
     for (task, protocol, version, split, metric, kind), groups in boards.items():
         for group, rows in groups.items():
             heading = f"{task}: {protocol} v{version}, split {split}, {group} ({metric}, " + (
@@ -314,7 +319,8 @@ def leaderboard_tables(boards: dict, reference: str | None):
 
 def leaderboard_markdown(results: list[dict], reference: str | None = None) -> str:
     """The ranking of [`rank`][scripts.leaderboard.ranking.rank] as markdown: a heading and a table
-    per board and group."""
+    per board and group.
+    """
     boards = rank(results, reference)
     parts = []
     for heading, header, body in leaderboard_tables(boards, reference):

@@ -1,6 +1,7 @@
 """The result file of ``topomap servo-eval --out``: the evaluation's own results (``results``,
 one entry per world, unchanged) inside the envelope of ``scripts.leaderboard.files``, with
-one record per episode (success or not) for the leaderboard."""
+one record per episode (success or not) for the leaderboard.
+"""
 
 from __future__ import annotations
 
@@ -37,7 +38,8 @@ def _group(result: dict) -> str:
 
 def servo_result_file(results: list[dict], policy: str, split: str) -> dict:
     """The envelope of ``results`` (``servo.task.run_protocol``'s dicts, one per world), which
-    it keeps as they are under ``results``."""
+    it keeps as they are under ``results``.
+    """
     records = [
         {
             "group": _group(r),
@@ -65,7 +67,8 @@ def servo_method(results: list[dict], policy: str) -> dict:
     (``servo.task.POLICIES``), an outside one by its ``package.module:factory`` spec, named
     by its module's last part, with the ``--policy-arg`` parameters its results record,
     whether its process ran in a sandbox (``sandboxed``) and its source's digest
-    (``source``)."""
+    (``source``).
+    """
     policy = str(policy)
     params = next(
         (r["policy_params"] for r in results if isinstance(r.get("policy_params"), dict)), {}
@@ -86,7 +89,8 @@ def servo_method(results: list[dict], policy: str) -> dict:
 
 def servo_results_of(data):
     """The servo-eval results in ``data`` as read from a file: a result file's ``results``,
-    or ``data`` itself (files written before the envelope: a list, or one object)."""
+    or ``data`` itself (files written before the envelope: a list, or one object).
+    """
     if isinstance(data, dict) and data.get("format") == "topomap-result":
         return data.get("results")
     return data

@@ -93,7 +93,8 @@ def seed_error_row(errors, rng: np.random.Generator, **labels) -> dict:
 
 def seed_error_table(rows, group: Column, method_header: str, per_seed_header: str) -> Table:
     """`seed_error_row` rows as a table: the group, the method, the mean with its
-    interval and the error of every seed (percent)."""
+    interval and the error of every seed (percent).
+    """
 
     def interval(s: dict) -> str:
         return f"{100 * s['mean']:.1f}% [{100 * s['lo']:.1f}, {100 * s['hi']:.1f}]"

@@ -95,7 +95,8 @@ def evaluate_method(
     of ``METHODS``.
 
     The split is ``dev`` for the dev seed alone and ``test`` for fresh seeds; the two are not
-    mixed in one file (the settings were chosen on the dev seed)."""
+    mixed in one file (the settings were chosen on the dev seed).
+    """
     from tqdm.auto import tqdm
 
     seeds = [int(s) for s in seeds]
@@ -174,7 +175,8 @@ def evaluate_method(
 def file_name(method: dict) -> str:
     """``manifold-<spec>[-<params digest>].json`` (``scripts.leaderboard.files.file_tag``):
     the full ``package.module:Class``, so a class of the same name elsewhere never shares
-    the file, safe on every file system."""
+    the file, safe on every file system.
+    """
     from scripts.leaderboard import file_tag
 
     chosen = method.get("protocol_params", [])
@@ -241,7 +243,8 @@ def add_parser(sub, help_text: str):
 
 def run(args) -> int:
     """``topomap manifold-eval``: one result file per method in ``--out``, then the
-    leaderboard of the folder (reference: ours where present)."""
+    leaderboard of the folder (reference: ours where present).
+    """
     from scripts.leaderboard import leaderboard_markdown, load_results
 
     if not args.method and not args.baselines:

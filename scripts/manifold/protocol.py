@@ -92,7 +92,8 @@ def dataset_dir(root: Path, seed: int, condition: str = "interleaved") -> Path:
 
 def load_for(path: Path, condition: str):
     """The labelled dataset at ``path``, refused unless its ``meta.json`` says it was collected
-    for ``condition`` (randomised or not, its appearance mode)."""
+    for ``condition`` (randomised or not, its appearance mode).
+    """
     from sim.dataset import load_dataset
 
     _check_condition(condition)
@@ -115,7 +116,8 @@ def load_for(path: Path, condition: str):
 
 def cell_data(root: Path, condition: str, features: str, seed: int):
     """``(X_train, y_train, X_test, y_test)`` of one (condition, features, seed) cell: the
-    features fitted on the training frames, the labels of both splits."""
+    features fitted on the training frames, the labels of both splits.
+    """
     _check_condition(condition)
     if features not in ALL_FEATURES:
         raise ValueError(f"features must be one of {ALL_FEATURES}, got {features!r}")
@@ -147,7 +149,8 @@ def cell(
     root: Path, condition: str, features: str, seed: int, methods: tuple[str, ...] = METHODS
 ) -> dict:
     """Errors of ``methods`` (default: every method) in one (condition, features, seed) cell of
-    the protocol."""
+    the protocol.
+    """
     X_train, y_train, X_test, y_test = cell_data(root, condition, features, seed)
     rows = score_methods(X_train, y_train, K, Q, X_test, y_test, methods=tuple(methods))
     return {
@@ -174,7 +177,8 @@ def run_cells(
 ) -> None:
     """Compute the cells of ``plan`` not cached yet, for ``methods``; a cached cell that lacks
     some of them gets only those added. A dataset not collected (or not completely) is skipped
-    with a message."""
+    with a message.
+    """
     from tqdm.auto import tqdm
 
     from sim.dataset import DatasetError
@@ -207,7 +211,8 @@ def run_cells(
 def _cached_cell(path: Path) -> dict | None:
     """The cell cached at ``path``; None where there is none, and where the file is not a
     cell (unreadable, damaged or foreign: `_cell_problem`), which is then computed
-    again with a warning, as any cache would be."""
+    again with a warning, as any cache would be.
+    """
     if not path.exists():
         return None
     try:
@@ -228,7 +233,8 @@ def _cached_cell(path: Path) -> dict | None:
 
 def load_cells(out: Path) -> list[dict]:
     """Every cached cell under ``out/cells``, checked for the fields the summary reads (the
-    files may come from elsewhere: the report reads a folder it is given)."""
+    files may come from elsewhere: the report reads a folder it is given).
+    """
     cells = []
     for path in sorted((Path(out) / "cells").glob("*.json")):
         try:
@@ -267,7 +273,8 @@ def _cell_problem(data) -> str | None:
 
 def summarize(cells: list[dict], seed: int = 0) -> list[dict]:
     """Per (condition, features, method): test errors over the fresh seeds (dev seed left
-    out) as mean and bootstrap 95% interval, the dev seed's error beside them."""
+    out) as mean and bootstrap 95% interval, the dev seed's error beside them.
+    """
     rng = np.random.default_rng(seed)
     groups: dict[tuple, dict] = {}
     for c in cells:

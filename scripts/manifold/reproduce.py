@@ -68,7 +68,8 @@ def _progress(total: int, enabled: bool, desc: str):
 
 def _fit_three(X, y, K, Q, X_test=None):
     """(method, train labels, test labels or None, extra) for the three methods; without
-    labels ``y`` (None) the oracle best-sigma NCut is left out."""
+    labels ``y`` (None) the oracle best-sigma NCut is left out.
+    """
     ours = ManifoldClustering(K, Q).fit(X)
     tuned = SelfTuningSpectralClustering(K).fit(X)
     fitted = [("ours", ours, {"leaves": int(ours.leaf_labels_.max() + 1)})]
@@ -106,7 +107,7 @@ def synthetic_rows(progress: bool = True) -> tuple[list[dict], dict]:
 
 
 def feature_sets(dataset) -> dict[str, tuple[str, object, np.ndarray]]:
-    """name -> (sensor, transformer, raw readings) of the three compared feature sets."""
+    """Name -> (sensor, transformer, raw readings) of the three compared feature sets."""
     images = dataset.concat("images")
     scans = dataset.concat("scans")
     max_range = dataset.max_range
@@ -124,7 +125,8 @@ def feature_sets(dataset) -> dict[str, tuple[str, object, np.ndarray]]:
 
 def paper_error(features: str, method: str) -> float | None:
     """The paper's error for ``method``, only beside the feature set it was measured on (raw
-    pixels): beside HSV histograms or laser ranges it would read as a claim it never made."""
+    pixels): beside HSV histograms or laser ranges it would read as a claim it never made.
+    """
     return PAPER_REAL.get(method) if features == PAPER_FEATURES else None
 
 
@@ -132,7 +134,8 @@ def real_rows(
     dataset, progress: bool = True, n_clusters: int | None = None
 ) -> tuple[list[dict], dict]:
     """Train and test error of the three methods on each feature set (paper split), K
-    ``n_clusters`` (default the paper's 8). Without ground truth: the clusters, no errors."""
+    ``n_clusters`` (default the paper's 8). Without ground truth: the clusters, no errors.
+    """
     truth = dataset.has_ground_truth
     train, test = dataset.paper_split()
     y = dataset.concat("labels") if truth else np.full(len(train), -1)
@@ -175,7 +178,8 @@ def real_rows(
 def plot_labels(panels: dict[str, tuple[np.ndarray, dict]], path: Path, xlabel: str) -> Path:
     """Paper-style plot (Figures 2-6): true label (red stars) and predicted label (blue
     squares, mapped to the true labels by the Hungarian matching) against the index. A panel
-    whose true labels are None (no ground truth) shows the predicted clusters as they are."""
+    whose true labels are None (no ground truth) shows the predicted clusters as they are.
+    """
     from mapping.metrics import best_matching
 
     plt = agg_pyplot()

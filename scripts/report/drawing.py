@@ -1,5 +1,6 @@
 """Drawing for the ``worlds`` stage: per manifold sample frames, the laser scan
-on a crop of the map, and the contact sheet of the samples."""
+on a crop of the map, and the contact sheet of the samples.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ __all__ = ["laser_crop", "manifold_samples", "sample_sheet"]
 
 def manifold_samples(dataset) -> dict[int, tuple]:
     """Per manifold id: (sequence, three frame indices spread over the frames on it, at 1/6,
-    1/2 and 5/6) from the sequence with the most frames on it."""
+    1/2 and 5/6) from the sequence with the most frames on it.
+    """
     best: dict[int, tuple] = {}
     for seq in dataset.sequences.values():
         for m in np.unique(seq.labels[seq.labels >= 0]):
@@ -25,7 +27,8 @@ def manifold_samples(dataset) -> dict[int, tuple]:
 
 def laser_crop(view, pose, scan, angles, trail, size: int, half_m: float = 8.0) -> np.ndarray:
     """A ``size`` x ``size`` square of the map, ``2 half_m`` metres wide, centred on the robot,
-    with its trail, its laser rays (every 8th) and hits in red."""
+    with its trail, its laser rays (every 8th) and hits in red.
+    """
     import cv2
 
     img = view.draw(pose=pose, trail=trail)

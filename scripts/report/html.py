@@ -1,5 +1,6 @@
 """HTML pieces of the report: escaping, cell formatting, tables, figures, sections, the whole
-page, and writing it after checking every file it references is beside it."""
+page, and writing it after checking every file it references is beside it.
+"""
 
 from __future__ import annotations
 
@@ -36,7 +37,8 @@ def esc(value) -> str:
 
 def fmt(value, digits: int = 3) -> str:
     """A table cell: floats to ``digits`` decimals below 10 (fewer above: 12.35, 123.5), None
-    as a dash, booleans as yes / no, lists comma-separated."""
+    as a dash, booleans as yes / no, lists comma-separated.
+    """
     if value is None:
         return "&ndash;"
     if isinstance(value, bool | np.bool_):
@@ -70,7 +72,8 @@ def figure(src: str, caption: str) -> str:
 
 def video(src: str, caption: str) -> str:
     """A video by relative path, played in the page (``<video controls>``), with a caption
-    and a link to the file."""
+    and a link to the file.
+    """
     path = Path(src)
     src = esc(path.as_posix())
     return (

@@ -1,5 +1,6 @@
 """One builder per section of the report page, each of a plain dict (the stage's result), so
-each can be tested on fake inputs; paths in the dicts are relative to the report's root."""
+each can be tested on fake inputs; paths in the dicts are relative to the report's root.
+"""
 
 from __future__ import annotations
 
@@ -33,7 +34,8 @@ PAPER = {
 def section_summary(lines: Sequence[dict]) -> str:
     """The page's opening summary: one row per line of ``scripts.report.summary.summarise_run``
     (the task, what its number is, the number with its 95% interval, the target and whether the
-    number meets it)."""
+    number meets it).
+    """
     rows = []
     for line in lines:
         value, interval = line["value"], line["interval"]
@@ -60,7 +62,8 @@ def section_summary(lines: Sequence[dict]) -> str:
 
 def section_worlds(result: dict) -> str:
     """``result``: {"topdown": {world: path}, "manifolds": {manifold: {"image", "frames"}}}
-    (paths relative to the report's root)."""
+    (paths relative to the report's root).
+    """
     parts = [
         "<p>Top-down views: manifold regions in colour, obstacles dark, the dataset's true "
         "trajectories on them. Per manifold: three camera frames spread over its stretch of "
@@ -134,7 +137,8 @@ def section_protocol(result: dict) -> str:
     """``result`` of ``stage_protocol``: {"source": folder or None, "rows": the rows of
     ``scripts.manifold.protocol.summarize``}. One table per condition and features: a row per
     method, a column per seed (the dev seed first), then min / median / max and the mean with
-    its bootstrap 95% interval over the fresh seeds."""
+    its bootstrap 95% interval over the fresh seeds.
+    """
     intro = (
         "<p>The manifold-clustering tables above are <strong>one dataset seed</strong>: seed 0, "
         "the dev seed on which the features and the merge rule were chosen. What the method "
@@ -192,7 +196,8 @@ def section_protocol(result: dict) -> str:
 
 def section_grouping(result: dict, prefix: str = "") -> str:
     """``result`` of ``scripts.grouping.evaluate.evaluate_grouping``; figures under ``prefix``.
-    The tables are ``scripts.grouping.tables``', the ones the command line prints."""
+    The tables are ``scripts.grouping.tables``', the ones the command line prints.
+    """
     targets = result.get("settings", {}).get("targets", {})
     purity_min, max_groups = targets.get("purity_min"), targets.get("max_groups_per_manifold")
     parts = [
@@ -225,7 +230,8 @@ def _no_labels_note(result: dict) -> str:
 
 def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
     """``results``: ``servo.task.evaluation.evaluate`` dicts (with ``plot`` relative to the root);
-    ``videos``: per "world/policy", video paths relative to the root."""
+    ``videos``: per "world/policy", video paths relative to the root.
+    """
     summary, pairs = summary_table(results).to_html(), pair_table(results).to_html()
     parts = [
         "<p>The servo benchmark's test split (never used for tuning): each episode starts the "
@@ -284,7 +290,8 @@ def section_reproduce(info: dict) -> str:
 
 def section_leaderboards(result: dict) -> str:
     """The committed leaderboards of `scripts.report.stages.stage_leaderboards`: per
-    task, ours beside the methods from outside, from the result files named under each."""
+    task, ours beside the methods from outside, from the result files named under each.
+    """
     if not result["boards"]:
         return section("leaderboards", "Leaderboards", f"<p>{esc(result['missing'])}</p>")
     parts = [

@@ -1,5 +1,6 @@
 """What a run does (`RunSettings`) and how it fails (`StageError`,
-`OutputError`); shared by the stages and the pipeline."""
+`OutputError`); shared by the stages and the pipeline.
+"""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """The report's stages proper: each runs one part of the evaluation into its own folder of
 the report and returns a plain dict for its section (paths relative to the report's root).
-`scripts.report.pipeline` wraps them as named stages."""
+`scripts.report.pipeline` wraps them as named stages.
+"""
 
 from __future__ import annotations
 
@@ -70,7 +71,8 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
 def _gallery(out_dir: Path, root: Path) -> dict:
     """The committed galleries of generated worlds (``docs/img/gallery_*.png``, drawn by
     ``python -m scripts.world_gallery``; a test checks they match the generator), copied beside
-    the report: drawing 24 worlds would add ~12 s to the run."""
+    the report: drawing 24 worlds would add ~12 s to the run.
+    """
     import shutil
 
     out = {}
@@ -96,7 +98,8 @@ def stage_protocol(folder: str | Path | None) -> dict:
     """The frozen protocol's per-seed errors from ``folder`` (``scripts.manifold.protocol``'s
     ``--out``), summarised per condition, features and method; ``{"source": None}`` without one.
     The cells are files from disk: ``load_cells`` checks their form. An optional
-    ``meta.json`` of strings (how and at which commit the cells were made) is shown beside."""
+    ``meta.json`` of strings (how and at which commit the cells were made) is shown beside.
+    """
     if folder is None:
         return {"source": None, "rows": []}
     from scripts.manifold import load_cells, summarize
@@ -150,7 +153,8 @@ def stage_servo(
 ) -> dict:
     """The servo benchmark's test split (``servo.task.protocol``): every policy from every start
     tier, ``settings.episodes`` episodes each, in parallel over the cores; videos of the first
-    policy's own episodes (``servo.task.evaluation.evaluate``)."""
+    policy's own episodes (``servo.task.evaluation.evaluate``).
+    """
     from servo.maps import load_or_build, map_paths
     from servo.task import Protocol, evaluate, run_protocol
 
@@ -195,7 +199,8 @@ def stage_leaderboards(repo: Path = REPO_ROOT) -> dict:
     """The committed leaderboards (``docs/results/data``: ours beside methods from outside,
     each run by its protocol and kept as result files), ranked as ``topomap leaderboard``
     ranks them; nothing is run. ``missing`` says why there are none (an installed package
-    without the repository's docs)."""
+    without the repository's docs).
+    """
     from scripts.leaderboard import leaderboard_tables, rank
     from scripts.results import SECTIONS, leaderboard_inputs
 

@@ -72,7 +72,8 @@ def _line(
 
 def _manifold_line(seeds: dict | None, manifold: dict | None) -> dict:
     """The frozen protocol's mean test error over fresh dataset seeds when the run shows it,
-    else this run's own dataset seed (one number, no interval)."""
+    else this run's own dataset seed (one number, no interval).
+    """
     task = "manifold clustering (Grudic & Mulligan)"
     own = _own_test_error(manifold)
     own_text = "" if own is None else f"this run's dataset: test error {own:.3f}"
@@ -116,7 +117,8 @@ def _own_test_error(manifold: dict | None) -> float | None:
 
 def _grouping_line(grouping: dict) -> dict:
     """The lowest purity over the worlds, with the pose source the report draws (odometry and
-    ICP when run); the target is purity and groups per manifold in every world."""
+    ICP when run); the target is purity and groups per manifold in every world.
+    """
     settings = grouping["settings"]
     targets, shown = settings["targets"], settings["shown"]
     scores = {w: entry[shown] for w, entry in grouping["default"].items()}
@@ -151,7 +153,8 @@ def _grouping_line(grouping: dict) -> dict:
 
 def _servo_lines(results: Sequence[dict]) -> list[dict]:
     """One line per policy and start condition: the lowest world's success rate with its
-    Wilson 95% interval, against the policy's target for that condition."""
+    Wilson 95% interval, against the policy's target for that condition.
+    """
     from servo.task import SUCCESS_TARGETS
 
     cells: dict[tuple, list[dict]] = {}

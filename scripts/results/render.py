@@ -177,7 +177,8 @@ def _servo_summary(root: Path, sources) -> str:
 
 def _servo_reruns(root: Path, sources) -> str:
     """Each rerun's episodes against the same episodes of the committed cell of its controller
-    (``servo.task.compare``): whether the current code ends them as the committed run did."""
+    (``servo.task.compare``): whether the current code ends them as the committed run did.
+    """
     from servo.task import compare
 
     committed = dict.fromkeys(row.source for row in ROWS if row.reader == "servo-success")
@@ -232,7 +233,8 @@ def _servo_reruns(root: Path, sources) -> str:
 def leaderboard_inputs(root: Path, sources) -> tuple[list[dict], str | None]:
     """The result files of a leaderboard section and its reference method: the files in a
     folder, paired against the method its ``meta.json`` names as ``reference``; or the files
-    ``sources`` names, paired against the first file's method."""
+    ``sources`` names, paired against the first file's method.
+    """
     from scripts.leaderboard import load_results
 
     paths = [root / DATA / source for source in sources]

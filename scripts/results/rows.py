@@ -136,7 +136,8 @@ ROWS: tuple[Row, ...] = (
 @dataclass(frozen=True)
 class Section:
     """One table of a task's page: its heading, the files it reads (under
-    ``docs/results/data/``) and the renderer (``scripts.results.render.RENDERERS``)."""
+    ``docs/results/data/``) and the renderer (``scripts.results.render.RENDERERS``).
+    """
 
     task: str
     heading: str

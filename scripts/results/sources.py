@@ -69,7 +69,8 @@ def _mean_over_seeds(values: list[float], unit: str = "seeds") -> Estimate:
 
 def _protocol_error(folder: Path, condition: str, features: str, method: str) -> Estimate:
     """Test error of ``method`` over the protocol's fresh seeds (the dev seed left out, as in
-    ``scripts.manifold.summarize``), bootstrap 95%."""
+    ``scripts.manifold.summarize``), bootstrap 95%.
+    """
     from scripts.manifold import load_cells, summarize
 
     for row in summarize(load_cells(folder), seed=BOOTSTRAP_SEED):
@@ -82,7 +83,8 @@ def _protocol_error(folder: Path, condition: str, features: str, method: str) ->
 
 def _grouping_score(folder: Path, pattern: str, world: str, variant: str, score: str) -> Estimate:
     """``score`` (purity, ARI) of the scan grouping of ``world`` with ``variant`` poses, mean
-    over the group-eval files matching ``pattern`` (one per dataset seed), bootstrap 95%."""
+    over the group-eval files matching ``pattern`` (one per dataset seed), bootstrap 95%.
+    """
     files = sorted(folder.glob(pattern))
     if not files:
         raise ValueError(f"{folder}: no file matches {pattern!r}")
@@ -118,7 +120,8 @@ def read_estimate(data_dir: Path, reader: str, source: str, **keys) -> Estimate:
 
 def provenance(data_dir: Path, source: str) -> dict:
     """How ``source`` was made: command, commit, machine, date (and notes), from the
-    ``meta.json`` beside it (a folder's own ``meta.json``, else its folder's entry for it)."""
+    ``meta.json`` beside it (a folder's own ``meta.json``, else its folder's entry for it).
+    """
     path = data_dir / source
     if path.is_dir():
         return dict(read_json(path / "meta.json"))

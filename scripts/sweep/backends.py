@@ -46,7 +46,8 @@ class LocalBackend:
 
     Where no worker process can start (a script piped to Python: ``common.cores.spawn_problem``)
     the episodes run one after another in the calling process, with a warning saying why, and
-    ``workers`` becomes 1; the records are the same (each episode depends on its task alone)."""
+    ``workers`` becomes 1; the records are the same (each episode depends on its task alone).
+    """
 
     name = "local"
 
@@ -124,7 +125,8 @@ def check_backend(backend: str, workers, address) -> None:
 @contextmanager
 def open_backend(backend: str, workers: int, address: str | None = None):
     """The backend ``backend`` with ``workers`` workers, closed (its workers stopped, a Ray
-    instance it started shut down) on leaving the block."""
+    instance it started shut down) on leaving the block.
+    """
     check_backend(backend, workers, address)
     if backend == "ray":
         b = RayBackend(workers, address)  # fails here if Ray is missing or address unreachable
@@ -138,7 +140,8 @@ def open_backend(backend: str, workers: int, address: str | None = None):
 
 def add_backend_arguments(parser) -> None:
     """``--backend`` and ``--address`` on an argparse ``parser``: the options of every command
-    that runs its tasks on these backends."""
+    that runs its tasks on these backends.
+    """
     parser.add_argument(
         "--backend",
         choices=BACKENDS,

@@ -201,7 +201,8 @@ def sweep_table(rows: list[dict], meta: dict) -> Table:
 
 def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[str, Path]:
     """``sweep.md`` and ``sweep.csv`` (`sweep_table`) and ``sweep.json`` (every row with
-    its episodes, and ``meta``) in ``out``, each written atomically."""
+    its episodes, and ``meta``) in ``out``, each written atomically.
+    """
     out = Path(out)
     paths = sweep_table(rows, meta).write(out / "sweep", kinds=("md", "csv"))
     paths["json"] = out / "sweep.json"
@@ -211,7 +212,8 @@ def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[st
 
 def sweep_meta(rows: list[dict], seeds, episodes_per_seed: int, max_steps: int, wall_s: float):
     """The footer's facts: what was swept, on which backend, how many cores and workers, in how
-    long, and the throughput (episodes per minute of running episodes)."""
+    long, and the throughput (episodes per minute of running episodes).
+    """
     return {
         "worlds": list(dict.fromkeys(r["world"] for r in rows)),
         "settings": list(dict.fromkeys(r["setting"] for r in rows)),

@@ -63,7 +63,8 @@ ONE_THREAD = {
 def configure_worker() -> None:
     """Run this worker on one core (`ONE_THREAD`), where the process was started without
     that environment: Mesa reads ``LP_NUM_THREADS`` at the first GL context (envs are built
-    lazily, after this), and ``threadpoolctl`` limits the BLAS and OpenMP pools already loaded."""
+    lazily, after this), and ``threadpoolctl`` limits the BLAS and OpenMP pools already loaded.
+    """
     from threadpoolctl import threadpool_limits
 
     os.environ.update(ONE_THREAD)
@@ -98,7 +99,8 @@ class EpisodeRunner:
     def run(self, task: EpisodeTask) -> dict:
         """``servo.task.evaluation.run_episode``'s record of ``task``, plus its ``seed``,
         ``episode``, ``reset_seed``, the worker's process id and the episode's wall time
-        ``wall_s``."""
+        ``wall_s``.
+        """
         import numpy as np
 
         from servo.task import TRUTH_POLICY, episode_seeds, make_policy, run_episode

@@ -44,7 +44,8 @@ def require_ray():
 
 def parse_address(address: str) -> tuple[str, int] | None:
     """``(host, port)`` of a Ray address (``host:port``; ``ray://host[:port]``, the Ray Client;
-    the port defaults to Ray's), or None for ``auto`` (the cluster running on this machine)."""
+    the port defaults to Ray's), or None for ``auto`` (the cluster running on this machine).
+    """
     if address == "auto":
         return None
     rest, client = (address[6:], True) if address.startswith("ray://") else (address, False)
@@ -61,7 +62,8 @@ def probe_address(address: str, timeout: float = PROBE_TIMEOUT_S) -> None:
     accepts a connection at ``address`` (see `parse_address`; ``auto`` is not probed: Ray
     itself fails at once where no local cluster runs); the same where what answers is not a
     gRPC server. ``ray.init`` alone retries an unreachable GCS for minutes (measured: over 3
-    minutes with Ray 2.60)."""
+    minutes with Ray 2.60).
+    """
     if (parsed := parse_address(address)) is None:
         return
     host, port = parsed
@@ -91,7 +93,8 @@ def runtime_env(address: str | None) -> dict:
     """The actors' runtime env: the GL backend and data home from this process, and our code:
     on a local instance the same checkout (``PYTHONPATH``); on a cluster our packages, uploaded
     (``py_modules``: Ray takes local folders only in the job's runtime env, so
-    `RayBackend` passes this to ``ray.init`` and the ``env_vars`` to each actor)."""
+    `RayBackend` passes this to ``ray.init`` and the ``env_vars`` to each actor).
+    """
     env = {k: os.environ[k] for k in _PASS_ENV if k in os.environ} | ONE_THREAD
     if address is None:
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
@@ -109,7 +112,8 @@ def _nbytes(obj) -> int:
 class RayBackend:
     """``workers`` Ray actors (1 CPU each). ``address``: None starts a local Ray instance (or
     uses the one this process already has); otherwise the cluster there (``ray.init(address)``
-    after `probe_address`)."""
+    after `probe_address`).
+    """
 
     name = "ray"
 
@@ -146,12 +150,14 @@ class RayBackend:
 
     def start(self, maps: dict, policy: str, max_steps: int) -> None:
         """``maps``: ``{world: ServoMap}``, sent once through the object store (a cluster's
-        nodes need not share our disk)."""
+        nodes need not share our disk).
+        """
         self.start_runner(EpisodeRunner, maps, policy, max_steps, _put=maps)
 
     def start_runner(self, factory, *args, _put=None) -> None:
         """One actor per worker, each ``factory(*args)`` (``_put``: the first argument, sent
-        once through the object store instead)."""
+        once through the object store instead).
+        """
         ray = self._ray
         self._init(_nbytes(args if _put is None else _put))
         cpus = ray.cluster_resources().get("CPU", 0)

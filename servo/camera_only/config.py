@@ -1,6 +1,7 @@
 """``SignalServoConfig``: every setting of
 [`SignalServo`][servo.camera_only.controller.SignalServo], in one frozen dataclass validated on
-construction."""
+construction.
+"""
 
 from __future__ import annotations
 

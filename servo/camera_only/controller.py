@@ -256,7 +256,8 @@ class SignalServo:
         branch the reversing fix leaves the belief ~0.7 m off, and without it every back-off
         and retry drives the same line into the same wall (dev traces: 10-12 bumps at one
         place). Forward, the image fix's funnel corrects the offset, and shifting did not
-        help on dev."""
+        help on dev.
+        """
         self._stall.clear()
         self._backup = self.config.backup_steps
         self._careful = 3 * self.config.backup_steps
@@ -307,7 +308,8 @@ class SignalServo:
 
     def _image_fix(self, x: np.ndarray) -> None:
         """Correct the belief by the image; count the steps no route view matched
-        (`fix`)."""
+        (`fix`).
+        """
         fixed = self.fixes.fix(
             self.belief_,
             self.route_,
@@ -323,7 +325,8 @@ class SignalServo:
 
     def _advance(self, x: np.ndarray) -> None:
         """Next waypoint when F toward it overtakes F toward the current one (then the robot
-        is past the current one), or when the belief has passed the current one."""
+        is past the current one), or when the belief has passed the current one.
+        """
         t, b = self.tracker, self.belief_
         arc = b.path.arc[self._wp_index]
         before = t.directions[t.index]
@@ -405,7 +408,8 @@ class SignalServo:
         """Pure pursuit toward ``goal`` (robot frame): forward, or in reverse where the route
         drives its recording backwards (``WaypointTracker.directions`` < 0) on a map that
         reverses, so the camera keeps facing the way the stored views look and image fixes
-        stay available (`pursue_route`)."""
+        stay available (`pursue_route`).
+        """
         c, t = self.config, self.tracker
         reverse = self.reverses and not t.directions[t.index] > 0
         careful = self._careful > 0
@@ -416,7 +420,8 @@ class SignalServo:
     def _arrive(self, x: np.ndarray) -> np.ndarray:
         """At the target: the F peak (`PeakArrival`); with
         ``arrive_descent``, also the image distance
-        (`servo.camera_only.image_descent_arrival`)."""
+        (`servo.camera_only.image_descent_arrival`).
+        """
         b = self.belief_
         action = self._arrival.step(
             b,

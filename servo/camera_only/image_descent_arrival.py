@@ -50,7 +50,8 @@ SEARCH_WIDTH = 3.0  # m either side of the route's end the search across goes at
 def parabola_vertex(left: float, centre: float, right: float, step: float) -> float:
     """Where, across (m, left positive), the distance read at ``-step`` (``right``), ``0``
     (``centre``) and ``+step`` (``left``) is least by the parabola through the three; where
-    they do not curve up, the lower side; within ``1.5 step`` of the centre."""
+    they do not curve up, the lower side; within ``1.5 step`` of the centre.
+    """
     curve = left - 2.0 * centre + right
     if curve > 1e-12:
         offset = 0.5 * step * (right - left) / curve
@@ -85,7 +86,8 @@ class DescentArrival(PeakArrival):
 
     def blocked(self) -> None:
         """The robot bumped: while searching across, the point it was driving to reads as no
-        match (the search turns the other way)."""
+        match (the search turns the other way).
+        """
         if self.stage == "across" and self._next is not None:
             self._read[self._next] = np.inf
             self._next = self._choose()
@@ -133,7 +135,8 @@ class DescentArrival(PeakArrival):
 
     def _choose(self) -> float | None:
         """The next point across to read, or None where the least reading has readings on
-        both sides (or the search has gone ``SEARCH_WIDTH`` m)."""
+        both sides (or the search has gone ``SEARCH_WIDTH`` m).
+        """
         best = min(self._read, key=self._read.get)
         for side in (1.0, -1.0) if best >= 0 else (-1.0, 1.0):
             o = round(best + side * self._step, 6)

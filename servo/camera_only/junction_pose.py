@@ -94,7 +94,8 @@ def views_near(routes, path, route: list[int], index: int, centre, radius: float
     """The stored views within ``radius`` m of ``centre`` (route frame), any recording's,
     with their poses in the route frame: the view graph's sensed transforms chained from
     route view ``route[index]`` (`neighbourhood`). Returns
-    (views (m,), poses (m, 3))."""
+    (views (m,), poses (m, 3)).
+    """
     near = neighbourhood(routes, route[index], radius + 2.0)
     views = np.array(sorted(near), np.intp)
     poses = np.array([se2_compose(path.frames[index], near[int(v)]) for v in views])
@@ -112,7 +113,8 @@ class JunctionTurn:
     within which a view's heading must lie of the robot's to be compared; ``max_shift``: a
     fix that would move the belief farther (m) is dropped; ``sigma_heading``: the prior's
     spread of the heading (rad; after reversing, odometry's heading is good to ~0.1 rad);
-    ``fix``: False turns without moving the belief (the turn alone)."""
+    ``fix``: False turns without moving the belief (the turn alone).
+    """
 
     def __init__(
         self,
@@ -144,7 +146,8 @@ class JunctionTurn:
         """The turn at route view ``route[index]`` toward its heading, the candidates near
         the ``belief`` (`views_near`), with ``config``'s junction settings
         ([`SignalServoConfig`][servo.camera_only.config.SignalServoConfig]) and the map's
-        ``parallax``."""
+        ``parallax``.
+        """
         c = config
         views, poses = views_near(
             routes, belief.path, route, index, belief.pose[:2], c.junction_radius

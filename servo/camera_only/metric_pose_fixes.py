@@ -49,7 +49,8 @@ class PoseFixes:
         in the order taken; None where either gives none. Computed once per turn, view and
         pair of images (`supports` checks the fix's view, then `start` poses
         against it), each image's keypoints detected once (the check poses them against
-        several views)."""
+        several views).
+        """
         images = self.turn_images
         if len(images) != len(distances) or len(images) < 2:
             return None
@@ -77,7 +78,8 @@ class PoseFixes:
     def supports(self, view: int, distances: np.ndarray) -> bool:
         """Whether the two turn images that matched ``view`` best both pose against it and
         agree (``pose_agree``, carried by odometry from one to the other): the observing
-        turn's metric support for a global fix on ``view``."""
+        turn's metric support for a global fix on ``view``.
+        """
         poses = self._two_poses(view, distances)
         if poses is None:
             return False
@@ -92,7 +94,8 @@ class PoseFixes:
         """The robot's pose in the route frame of ``path`` (which starts at the global fix's
         ``view``) from the metric poses of the two turn images that matched ``view`` best
         (``distances``: each kept image's aligned distance to it), each carried by odometry
-        to now, where they agree; else None. Starts a new route's agreement."""
+        to now, where they agree; else None. Starts a new route's agreement.
+        """
         self._agreement = PoseAgreement(self.config.pose_agree) if self.config.pose_agree else None
         poses = self._two_poses(view, distances)
         self.turn_images, self._turn_keypoints, self._turn_poses = [], {}, {}
@@ -115,7 +118,8 @@ class PoseFixes:
     ) -> bool:
         """The metric pose of ``image`` against stored view ``route_view`` (route index
         ``index``) moves ``belief`` (`fix_pose`),
-        where the pose before it agrees (``pose_agree``). Whether it did."""
+        where the pose before it agrees (``pose_agree``). Whether it did.
+        """
         rel = self.view_pose.pose(image, route_view)
         if rel is None:
             return False

@@ -40,7 +40,8 @@ from servo.steering import Arrival
 def line_drive(goal: np.ndarray) -> np.ndarray:
     """(v, omega) toward ``goal`` (x, y, yaw in the robot frame) forward or backward along
     the robot's heading, never turning away from the goal's heading (the camera keeps
-    facing the way the target view looks)."""
+    facing the way the target view looks).
+    """
     v = float(np.clip(1.2 * goal[0], -0.45, 0.6))
     v = float(np.sign(goal[0])) * max(abs(v), 0.2)
     omega = float(np.clip(2.0 * goal[2] + 1.0 * goal[1] * np.sign(v), -1.0, 1.0))
@@ -75,7 +76,8 @@ class PeakArrival:
 
     def blocked(self) -> None:
         """The robot bumped (`DescentArrival` turns
-        its search across; here the sweep goes on)."""
+        its search across; here the sweep goes on).
+        """
 
     def step(
         self,
@@ -85,7 +87,8 @@ class PeakArrival:
         distance: Callable[[], float] | None = None,
     ) -> np.ndarray:
         """The command for this step; ``distance`` (the image's distance to the view) is
-        `DescentArrival`'s."""
+        `DescentArrival`'s.
+        """
         c, b = self.config, belief
         u = np.array([np.cos(target[2]), np.sin(target[2])])
         left = np.array([-u[1], u[0]])
@@ -136,7 +139,8 @@ class PeakArrival:
 
     def _leg_end(self, along: float) -> tuple[float, bool]:
         """Where the sweep's current leg ends (m along the view's sight; each leg longer than
-        the last) and whether the robot, ``along`` m past the view, has reached it."""
+        the last) and whether the robot, ``along`` m past the view, has reached it.
+        """
         end = self._leg * self.config.overshoot * (1.0 + 0.5 * self._legs)
         return end, (along - end) * self._leg > -0.1
 
@@ -144,7 +148,8 @@ class PeakArrival:
         self, b: RouteBelief, target: np.ndarray, signal: Callable[[], float]
     ) -> np.ndarray:
         """``arrive_lanes``: drive to where the view is now believed to be; there F must be
-        back near its peak, or the lanes are searched again."""
+        back near its peak, or the lanes are searched again.
+        """
         c = self.config
         action = self._arrival(se2_relative(b.pose, target))
         if not self._arrival.done:

@@ -47,7 +47,8 @@ class RouteBelief:
 
     def facing(self, views: np.ndarray, tolerance: float) -> np.ndarray:
         """Those of the route views ``views`` (indices into the route) that look within
-        ``tolerance`` rad of the robot's heading: only their images can match the camera's."""
+        ``tolerance`` rad of the robot's heading: only their images can match the camera's.
+        """
         views = np.asarray(views, np.intp)
         off = wrap_angle(self.path.frames[views, 2] - self.pose[2])
         return views[np.abs(off) < tolerance]
@@ -56,7 +57,8 @@ class RouteBelief:
         """Correct the pose by an image fix against route view ``view`` (index into the
         route) whose best shift says turning ``yaw`` rad lines the image up with it: the
         heading toward ``frame yaw - yaw``, the position along the view's line of sight
-        toward the view. Returns the along-sight offset (m) the fix found before correcting."""
+        toward the view. Returns the along-sight offset (m) the fix found before correcting.
+        """
         frame = self.path.frames[int(view)]
         err = wrap_angle(frame[2] - yaw - self.pose[2])
         self.pose[2] = wrap_angle(self.pose[2] + heading_gain * err)
@@ -82,7 +84,8 @@ class RouteBelief:
         make it stable: the offset becomes observable through the motion. Here
         ``heading_gain`` is |g1| and ``cross_gain`` g2 per step (per metre times the step's
         length). Nothing is fixed along the route: reversing, the robot moves away from the
-        views it sees, and at a junction the nearest of them stays behind it."""
+        views it sees, and at a junction the nearest of them stays behind it.
+        """
         frame = self.path.frames[int(view)]
         rel = se2_relative(frame, self.pose)  # belief in the view's frame
         r = wrap_angle(frame[2] - yaw - self.pose[2]) - parallax * float(rel[1])
@@ -96,7 +99,8 @@ class RouteBelief:
         """Correct the offset across route view ``view``'s line of sight toward ``offset``
         (m, left positive: `servo.localise.ImageLocaliser.cross_offset`) by the share
         ``gain``; a measurement more than ``gate`` m from the belief is taken for a mismatch
-        and ignored. Returns the innovation (m; NaN if ignored)."""
+        and ignored. Returns the innovation (m; NaN if ignored).
+        """
         frame = self.path.frames[int(view)]
         innovation = float(offset) - float(se2_relative(frame, self.pose)[1])
         if not abs(innovation) <= gate:
@@ -107,14 +111,16 @@ class RouteBelief:
 
     def measured(self, view: int, pose) -> np.ndarray:
         """A pose measured in route view ``view``'s frame (x ahead along its sight, y left,
-        yaw: `servo.camera_only.view_pose.ViewPose.pose`) in the route frame."""
+        yaw: `servo.camera_only.view_pose.ViewPose.pose`) in the route frame.
+        """
         return se2_compose(self.path.frames[int(view)], np.asarray(pose, np.float64))
 
     def fix_pose(self, measured, gain: float, gate: float) -> float:
         """Correct the pose toward a ``measured`` pose in the route frame (`measured`)
         by the share ``gain``, position and heading alike; a measurement more than ``gate`` m
         from the belief is taken for a mismatch and ignored. Returns the innovation's length
-        (m; NaN if ignored)."""
+        (m; NaN if ignored).
+        """
         measured = np.asarray(measured, np.float64)
         innovation = measured[:2] - self.pose[:2]
         distance = float(np.hypot(*innovation))
@@ -130,7 +136,8 @@ class RouteBelief:
         """The reversing fix's gains per metre: |g1| = ``heading_gain`` and the cross gain g2
         that puts both error modes of `fix_reversing` at one rate (critical damping:
         trace^2 = 4 det, g2 c - |g1| = 2 sqrt(|g1| c)); the modes then decay as
-        exp(-sqrt(|g1| c) s) over s metres reversed (~2.5 m in the hallway at |g1| = 1)."""
+        exp(-sqrt(|g1| c) s) over s metres reversed (~2.5 m in the hallway at |g1| = 1).
+        """
         if not (heading_gain > 0 and parallax > 0):
             raise ValueError(f"gain and parallax must be > 0, got {heading_gain}, {parallax}")
         return heading_gain, (heading_gain + 2.0 * np.sqrt(heading_gain * parallax)) / parallax
@@ -145,7 +152,8 @@ class RouteBelief:
         With ``parallax`` c > 0 the heading turns by -c times the shift as well, so that
         theta + c y, what the image's shift measures (`fix_reversing`), stays as it
         was: the shift moves the belief along what the image cannot tell apart, and the
-        next image fixes do not undo it."""
+        next image fixes do not undo it.
+        """
         a = self.path.point(max(self.s - 0.25, 0.0))
         b = self.path.point(min(self.s + 0.25, self.path.length))
         if float(np.hypot(*(b - a))) < 1e-6:
@@ -164,7 +172,8 @@ class RouteBelief:
 
     def shift_along(self, metres: float) -> None:
         """Move the belief ``metres`` along the route's direction at the current progress
-        (an F peak passed says how far past a view the robot is)."""
+        (an F peak passed says how far past a view the robot is).
+        """
         a = self.path.point(self.s)
         b = self.path.point(self.s + 0.5)
         if self.s + 0.5 > self.path.length:

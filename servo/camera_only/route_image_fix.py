@@ -162,7 +162,8 @@ class RouteImageFix:
     ) -> bool:
         """Every ``pose_every`` steps, the metric pose against the best-aligned of the route
         views ``near`` (indices into ``route``;
-        `PoseFixes`). Whether it moved ``belief``."""
+        `PoseFixes`). Whether it moved ``belief``.
+        """
         if self.poses is None or steps % self.config.pose_every or len(near) == 0:
             return False
         if len(near) > 1:

@@ -35,7 +35,8 @@ EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalis
 
 def neighbourhood(routes: RouteGraph, view: int, radius: float) -> dict[int, np.ndarray]:
     """The views within ``radius`` m of route-graph distance of ``view``, each with its pose
-    in ``view``'s frame (the graph's sensed transforms chained along shortest paths)."""
+    in ``view``'s frame (the graph's sensed transforms chained along shortest paths).
+    """
     dist, pred = dijkstra(
         routes.graph, indices=int(view), limit=float(radius), return_predecessors=True
     )
@@ -68,7 +69,8 @@ def consistent_fix(
     heading in the candidate's frame; each supporting view counts once, 1 - d / trust at its
     best match. Views matched over a wide range of headings (`_generic`) neither
     stand nor support. The best trusted match stands unless its support is below ``share``
-    of the best-supported candidate's, which then wins; with none trusted, the best match."""
+    of the best-supported candidate's, which then wins; with none trusted, the best match.
+    """
     samples = sorted((float(d), int(v), float(h)) for d, v, h in samples)
     if not samples:
         raise ValueError("the turn gave no localisation")
@@ -98,7 +100,8 @@ def consistent_fix(
 def _generic(samples, view: int, tolerance: float) -> bool:
     """Whether ``view`` is the best match of images more than 2 ``tolerance`` apart in
     heading: a view that matches whichever way the camera looks (open grass, sky) says
-    nothing about the place, and its matches would support each other."""
+    nothing about the place, and its matches would support each other.
+    """
     h = np.array([s[2] for s in samples if s[1] == view])
     if len(h) < 2:
         return False
@@ -126,7 +129,8 @@ def contrast_fix(
     `supports`) a fix it does not support gives
     way to the first of the next ``candidates`` views by score that it supports (a look-alike down a
     symmetric corridor matches as well as the place, but keypoints at known depths pose the robot
-    only against the place). Returns (view, heading)."""
+    only against the place). Returns (view, heading).
+    """
     score, facing = contrast_scores(distances, yaws, headings, far=far)
     out = np.zeros(len(score), bool)
     out[np.asarray(list(exclude), int)] = True
@@ -144,7 +148,8 @@ def contrast_scores(
 ) -> tuple[np.ndarray, np.ndarray]:
     """`contrast_fix`'s score of every stored view (smaller: its best match over the
     turn stands out more) and the odometry heading that faces the way each looks; arguments
-    as there. Returns two (N,) arrays."""
+    as there. Returns two (N,) arrays.
+    """
     d = np.asarray(distances, np.float64)
     y = np.asarray(yaws, np.float64)
     h = np.asarray(headings, np.float64)
@@ -208,7 +213,8 @@ class TurnSamples:
 
     def fix(self, routes: RouteGraph, exclude=()) -> tuple[int, float]:
         """The global fix (view, odometry heading facing it): `contrast_fix` (views in
-        ``exclude`` only if every view is), `consistent_fix`, or the best match."""
+        ``exclude`` only if every view is), `consistent_fix`, or the best match.
+        """
         c = self.config
         if c.contrast_fix:
             d, yaw, h = (np.array(a) for a in zip(*self.rows, strict=True))
@@ -231,7 +237,8 @@ def exclude_near(routes: RouteGraph, exclude: list[int], view: int, moved: float
     ``view`` (a look-alike that won once wins again from nearby), added to ``exclude``. Only
     once the robot has driven farther (``moved`` m) from where it fixed than that
     neighbourhood's radius: then the robot is not there even if the fix was right. A
-    ``view`` below 0 (no fix yet) excludes nothing more."""
+    ``view`` below 0 (no fix yet) excludes nothing more.
+    """
     if view >= 0 and moved > EXCLUDE_RADIUS:
         near = neighbourhood(routes, view, EXCLUDE_RADIUS)
         return sorted(set(exclude) | set(near))

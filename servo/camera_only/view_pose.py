@@ -45,7 +45,8 @@ SCAN_GAP = 0.05
 class RelativePose:
     """The robot (its axle, as the map's poses) in a stored view's frame: ``along`` m ahead of
     the view along its sight, ``left`` m to its left, ``yaw`` rad turned left from it;
-    ``inliers`` of ``matches`` keypoint matches agreed with it."""
+    ``inliers`` of ``matches`` keypoint matches agreed with it.
+    """
 
     along: float
     left: float
@@ -102,7 +103,8 @@ class ViewPose:
 
     def keypoints(self, image: np.ndarray):
         """The ORB keypoints and descriptors of a camera image (H, W, 3) uint8: pass them to
-        `pose` to pose one image against several views with one detection."""
+        `pose` to pose one image against several views with one detection.
+        """
         image = np.asarray(image)
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
             raise ValueError(f"image must be (H, W, 3) uint8, got {image.shape} {image.dtype}")
@@ -110,7 +112,8 @@ class ViewPose:
 
     def _stored_keypoints(self, view: int):
         """ORB keypoints of stored view ``view``'s image, computed once: both depth models
-        of the view and the map check of its linked views use them."""
+        of the view and the map check of its linked views use them.
+        """
         if view not in self._stored:
             self._stored[view] = self.keypoints(self.map.images[view])
         return self._stored[view]
@@ -129,7 +132,8 @@ class ViewPose:
         view's scan hit at that bearing (`FAR_DEPTH` where it hit nothing) and the floor
         (below the horizon, the camera `CAMERA_HEIGHT` above it).
         ``upper=False``: NaN above the horizon, where the scan's plane says nothing of what
-        the camera sees over it (the lawn's trees and houses over its fences and hedges)."""
+        the camera sees over it (the lawn's trees and houses over its fences and hedges).
+        """
         f, cx, cy = self.K[0, 0], self.K[0, 2], self.K[1, 2]
         r = np.asarray(self.map.scans[view], np.float64)
         a = np.asarray(self.map.angles, np.float64)
@@ -160,7 +164,8 @@ class ViewPose:
         """The robot's pose in stored view ``view``'s frame from the camera ``image`` with the
         view's verified depth model (`depth_model`); None where the view has none or
         too few keypoints match or agree. ``keypoints``: the image's `keypoints`, if
-        already detected."""
+        already detected.
+        """
         model = self.depth_model(view)
         return None if model is None else self.relative(image, view, model == "full", keypoints)
 
@@ -169,7 +174,8 @@ class ViewPose:
     ) -> RelativePose | None:
         """The robot's pose in stored view ``view``'s frame from the camera ``image`` (the
         view's keypoints above the horizon used only with ``upper``), or None where too few
-        keypoints match or agree (fewer than ``min_inliers``)."""
+        keypoints match or agree (fewer than ``min_inliers``).
+        """
         view = self.map.check_view(view, "view")
         keypoints = self.keypoints(image) if keypoints is None else keypoints
         return self._posed(keypoints, view, bool(upper))
@@ -278,7 +284,8 @@ class PoseAgreement:
 
     def agrees(self, measured, odometry) -> bool:
         """Whether ``measured`` (x, y, yaw in the route frame) agrees with the last
-        measurement moved by the odometry (x, y, yaw) since; it becomes the last."""
+        measurement moved by the odometry (x, y, yaw) since; it becomes the last.
+        """
         measured, odometry = np.asarray(measured, np.float64), np.asarray(odometry, np.float64)
         last, self._last = self._last, (measured.copy(), odometry.copy())
         if last is None:

@@ -1,6 +1,7 @@
 """``ManifoldServoConfig``: every setting of
 [`ManifoldServo`][servo.laser_image.controller.ManifoldServo], in one frozen dataclass validated
-on construction."""
+on construction.
+"""
 
 from __future__ import annotations
 

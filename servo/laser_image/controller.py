@@ -152,7 +152,8 @@ class ManifoldServo:
     # -- API --------------------------------------------------------------------------------
     def reset(self, target: int, info: dict | None = None) -> None:
         """Start a new episode toward stored view ``target`` (``info`` is ignored: the
-        controller never reads the simulator's truth)."""
+        controller never reads the simulator's truth).
+        """
         self.target = self.map.check_view(target, "target")
         if self.target not in self._fields:
             self._fields[self.target] = GeodesicField(

@@ -34,7 +34,8 @@ class Fix:
     """A global fix: ``pose`` (map frame), the share of the scan within ``FIT_TOL`` of the
     map (``fit``), the mean aligned image distance to the nearby views (``image``, 0..4; NaN
     with no view near) and the runner-up's combined score (``margin``: how much better this
-    one is)."""
+    one is).
+    """
 
     pose: np.ndarray
     fit: float
@@ -65,7 +66,8 @@ VIEW_HEADING = np.deg2rad(40.0)  # ... when they look within this of the image's
 def candidate_positions(metric_map: MetricMap) -> np.ndarray:
     """(k, 2) places the robot may be at, on a ``COARSE_STEP`` lattice: the map's sensed free
     space and up to ``BEYOND_SEEN`` beyond it (a start may lie where no recorded beam went,
-    e.g. behind where a recording began, facing away from it), clear of map points."""
+    e.g. behind where a recording began, facing away from it), clear of map points.
+    """
     grid = metric_map.grid
     beyond = ndimage.distance_transform_edt(~grid.free) * grid.resolution <= BEYOND_SEEN
     centers = grid.cell_centers()
@@ -81,7 +83,8 @@ class CoarseField:
     for scoring every candidate position under many headings by lookups alone: a rotated scan
     point's offset is rounded to whole cells, so a candidate's score is a sum over the mask
     at its own cell plus those offsets (within half a cell, 2.5 cm, of the exact lookup).
-    Points farther than ``reach`` (m) from the robot count as misses."""
+    Points farther than ``reach`` (m) from the robot count as misses.
+    """
 
     def __init__(self, metric_map: MetricMap, positions: np.ndarray, reach: float):
         near = metric_map.field <= COARSE_TOL
@@ -146,7 +149,8 @@ class GlobalLocaliser:
         offset from the pose) of the aligned distance to the best stored view near the pose
         (``VIEW_RADIUS``, or ``FAR_VIEW_RADIUS`` when none is that near) looking the image's
         way (NaN: none). Each image is aligned once, against the stored
-        views any of the poses needs."""
+        views any of the poses needs.
+        """
         poses = np.atleast_2d(poses)
         stored = self.metric.poses
         gap = stored[None, :, :2] - poses[:, None, :2]
@@ -173,7 +177,8 @@ class GlobalLocaliser:
         """The best pose for an all-round ``cloud`` (robot frame, now) and the turn's images
         ``views`` (features, heading of the image relative to the robot now). The cloud is
         thinned to one point per ``REFINE_SPACING`` cell before ICP (a turn's ~45 scans
-        overlap: the thinned cloud holds the same walls in a fifth of the points)."""
+        overlap: the thinned cloud holds the same walls in a fifth of the points).
+        """
         thin = thin_to_grid(cloud, REFINE_SPACING)
         with single_threaded_blas():  # small products; spinning BLAS threads only cost
             return self._localise(cloud, thin, views)
@@ -225,7 +230,8 @@ class ScanTracker:
     def correct(self, points: np.ndarray, predicted: np.ndarray) -> tuple[np.ndarray, float, bool]:
         """(pose, fit, accepted): the corrected pose (or ``predicted`` when the match is not
         trusted), the share of the scan within ``FIT_TOL`` of the map at that pose, and
-        whether the correction was accepted."""
+        whether the correction was accepted.
+        """
         res = icp(
             points,
             self.metric.points,

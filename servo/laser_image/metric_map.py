@@ -40,7 +40,8 @@ LINK_SIGMAS = (0.03, 0.03, 0.01)  # a link between recordings (ICP of two views'
 def align_views(servo_map: ServoMap) -> np.ndarray:
     """(n, 3): every stored view's pose in the frame of view 0, by least squares over the view
     graph's edges (a 2-D pose graph, Levenberg-Marquardt). Views of recordings the graph does
-    not join to view 0 keep their own recording's odometry, anchored at its first view."""
+    not join to view 0 keep their own recording's odometry, anchored at its first view.
+    """
     m = servo_map
     graph = gtsam.NonlinearFactorGraph()
     initial = gtsam.Values()
@@ -71,7 +72,8 @@ def align_views(servo_map: ServoMap) -> np.ndarray:
 def _chain_recordings(m: ServoMap) -> tuple[np.ndarray, set]:
     """Each recording's odometry poses moved into view 0's frame through the first link that
     reaches it (breadth first over recordings), and the recordings reached; the others keep
-    their own frame."""
+    their own frame.
+    """
     out = np.asarray(m.poses, np.float64).copy()
     reached, queue = {int(m.sequence[0])}, [int(m.sequence[0])]
     while queue:
@@ -91,7 +93,8 @@ def _chain_recordings(m: ServoMap) -> tuple[np.ndarray, set]:
 
 class MetricMap:
     """A servo map's views placed in one frame, their scans as a point map, and free space
-    (see the module docstring). ``poses`` (n, 3): the views' poses in the map frame."""
+    (see the module docstring). ``poses`` (n, 3): the views' poses in the map frame.
+    """
 
     def __init__(self, servo_map: ServoMap):
         if not isinstance(servo_map, ServoMap):
@@ -133,7 +136,8 @@ class MetricMap:
 
     def _free_space(self, scans: list) -> OccupancyGrid:
         """Cells crossed by the views' beams (up to ``FREE_RANGE``), kept ``RADIUS +
-        PLAN_MARGIN`` away from every map point: where the robot may plan to drive."""
+        PLAN_MARGIN`` away from every map point: where the robot may plan to drive.
+        """
         m = self.map
         h = int(np.ceil((self.field.shape[0] * FIELD_RESOLUTION) / FREE_RESOLUTION))
         w = int(np.ceil((self.field.shape[1] * FIELD_RESOLUTION) / FREE_RESOLUTION))
@@ -162,7 +166,8 @@ class MetricMap:
 
     def fit(self, points: np.ndarray, poses: np.ndarray, tol: float) -> np.ndarray:
         """Share of ``points`` (robot frame) within ``tol`` of the map, for each of ``poses``
-        (P, 3): the score of candidate poses in global localisation."""
+        (P, 3): the score of candidate poses in global localisation.
+        """
         poses = np.atleast_2d(poses)
         c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         x = poses[:, None, 0] + c[:, None] * points[None, :, 0] - s[:, None] * points[None, :, 1]

@@ -33,7 +33,8 @@ class ViewMatcher:
 
     def match(self, points: np.ndarray, view: int, init, iterations: int = 20, target=None):
         """ICP of ``points`` on view ``view``'s scan (or on ``target``, a ``(tree, points)``
-        local map); returns the result and the share of ``points`` matched."""
+        local map); returns the result and the share of ``points`` matched.
+        """
         tree, dense = self.tree(view) if target is None else target
         res = icp(points, dense, init=init, target_tree=tree, max_iterations=iterations)
         frac = res.n_matches / max(len(points), 1)
@@ -42,7 +43,8 @@ class ViewMatcher:
     def score(self, points: np.ndarray, view: int, init) -> tuple[float, np.ndarray]:
         """ICP of the current scan on a stored view's, scored by the overlap both ways: the
         share of current points matched and of the view's points matched. The second term is
-        what tells places along a uniform corridor apart (the end wall must match too)."""
+        what tells places along a uniform corridor apart (the end wall must match too).
+        """
         res, frac = self.match(points, view, init, iterations=30)
         if not np.isfinite(res.rmse):
             return -np.inf, res.transform

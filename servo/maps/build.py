@@ -76,7 +76,8 @@ MIN_LINKS = 3  # agreeing links needed to join two sequences
 def _key_sources() -> list[tuple[str, Path]]:
     """``(name, path)`` of every source file whose code decides a map's content or file: the
     whole ``mapping`` package, this package and the dataset reader, each named by its path
-    below the repository's root."""
+    below the repository's root.
+    """
     maps_dir = Path(__file__).resolve().parent
     mapping_dir = Path(mapping.__file__).resolve().parent
     root = mapping_dir.parent
@@ -108,7 +109,8 @@ def map_key(meta: dict, world: str, settings: MapSettings) -> str:
     clustering's K among them,
     [`MapSettings.clusters_for`][servo.maps.types.MapSettings.clusters_for]), the source of every
     module that builds or stores a map (the whole ``mapping`` package, the servo map modules, the
-    dataset reader) and the numeric libraries' versions."""
+    dataset reader) and the numeric libraries' versions.
+    """
     h = hashlib.sha256()
     world = check_world_name(world)
     entries = {n: e["sha256"] for n, e in meta["sequences"].items() if e["world"] == world}
@@ -148,7 +150,8 @@ def _sequence_alignment(
     A verified pair implies a transform between the two frames; the answer is the mean of
     those agreeing with the one most others agree with (within ``CONSENSUS``), so a look-alike
     place elsewhere (a mirrored branch, a uniform stretch of corridor where ICP slides) is
-    outvoted. None when fewer than ``MIN_LINKS`` agree: the sequences are not joined."""
+    outvoted. None when fewer than ``MIN_LINKS`` agree: the sequences are not joined.
+    """
     between = []
     for i in ia[::2]:  # plenty of pairs to vote
         d = np.sum((feats[ib] - feats[i]) ** 2, axis=1)
@@ -192,7 +195,8 @@ def _overlap_search(
     tol: float = 0.05,
 ) -> np.ndarray:
     """The pose (within ``reach`` m / ``yaw_reach`` rad of ``init``, on a grid) that puts
-    the most of ``cloud_b`` within ``tol`` of ``cloud_a`` (a distance-transform lookup)."""
+    the most of ``cloud_b`` within ``tol`` of ``cloud_a`` (a distance-transform lookup).
+    """
     res = tol / 2
     lo = cloud_a.min(axis=0) - 1.0
     cells = np.floor((cloud_a - lo) / res).astype(np.int64)
@@ -239,7 +243,8 @@ def _link_sequences(
     first aligned by sensing (`_sequence_alignment`); then each view is linked to the
     view of the other sequence nearest in image features among those within ``link_radius``
     under that alignment, kept when ICP of the two scans (seeded by the alignment, so it
-    cannot slide along a uniform corridor) converges with a small residual."""
+    cannot slide along a uniform corridor) converges with a small residual.
+    """
     edges, transforms = [], []
     seqs = np.unique(seq)
     for a in seqs:
@@ -265,7 +270,8 @@ def _link_sequences(
 
 def sequence_origin(odometry: np.ndarray) -> np.ndarray:
     """Odometry re-expressed from its own first pose: a recording knows where it went, not
-    where it started (the dataset's simulated odometry starts at the true pose)."""
+    where it started (the dataset's simulated odometry starts at the true pose).
+    """
     odometry = np.asarray(odometry, np.float64)
     return se2_relative(odometry[0], odometry)
 
@@ -276,7 +282,8 @@ def build_map(
     """Fit the servo map of ``world`` (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``) from a
     dataset (see the module docstring); a dataset that cannot give what a map needs
     (`servo.maps.needs`: beams, frames per manifold) raises ``DatasetError`` naming the
-    shortfall."""
+    shortfall.
+    """
     world = check_world_name(world)
     settings = settings or MapSettings()
     if not isinstance(dataset, Dataset):

@@ -82,7 +82,8 @@ def _probe(clustering: ManifoldClustering, features: np.ndarray) -> list[int]:
 
 def meta_digest(meta: dict) -> str:
     """SHA-256 of the description itself (all but this field, canonical JSON): an edited or
-    damaged ``.json`` is caught like a damaged ``.npz``."""
+    damaged ``.json`` is caught like a damaged ``.npz``.
+    """
     body = {k: v for k, v in meta.items() if k != "meta_sha256"}
     return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
 
@@ -244,7 +245,8 @@ def _check_arrays(arrays: dict, path: Path, manifolds: int, sequences: int) -> N
 
 def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: Path) -> None:
     """Every stored view's cluster is one of the loaded clustering's (the arrays are checked
-    before the estimators are rebuilt, so this comes after)."""
+    before the estimators are rebuilt, so this comes after).
+    """
     k = len(clustering.centers_)
     _check(
         bool(np.all(clusters < k)),

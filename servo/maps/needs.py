@@ -32,7 +32,8 @@ def views_needed(world: str, settings: MapSettings) -> int:
 def check_needs(dataset: Dataset, world: str, names: list[str], settings: MapSettings) -> None:
     """Raise [`DatasetError`][sim.dataset.schema.DatasetError] when the sequences ``names`` of
     ``dataset`` (those of ``world``) have fewer than `MIN_BEAMS` beams or give fewer stored views
-    than `views_needed`, naming the shortfall and the frames per sequence to collect."""
+    than `views_needed`, naming the shortfall and the frames per sequence to collect.
+    """
     beams = len(dataset.sequences[names[0]].angles)
     if beams < MIN_BEAMS:
         raise DatasetError(

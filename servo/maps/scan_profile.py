@@ -24,7 +24,8 @@ def profile_distances(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mean range difference of the current clipped ``ranges`` (B,) to each clipped stored
     profile in ``table`` (n, B), minimised over beam shifts of up to ``max_shift`` beams (every
-    5th), and the heading (rad, ``shift * beam_step``) of the best shift per view."""
+    5th), and the heading (rad, ``shift * beam_step``) of the best shift per view.
+    """
     n = len(ranges)
     if n <= max_shift:  # a shift would leave nothing to compare (servo.maps.needs: MIN_BEAMS)
         raise ValueError(f"a scan of {n} beams cannot be shifted by up to {max_shift} beams")

@@ -24,7 +24,8 @@ from sim.collect_worlds import world_manifold_names
 def prior_clusters(world: str) -> int:
     """The default K of a map of ``world``: the number of manifolds its plan was drawn with
     (``World.manifold_names``: a main corridor or lawn and its branches), a prior, not a count
-    of labels; 2 for a place that is no world of this testbed."""
+    of labels; 2 for a place that is no world of this testbed.
+    """
     try:
         parse_world_name(world)
     except ValueError:
@@ -109,7 +110,8 @@ class MapSettings:
     def from_json(cls, d) -> MapSettings:
         """The inverse of [`to_json`][servo.maps.types.MapSettings.to_json], for untrusted input:
         exactly these keys, each of the declared type (``n_clusters`` may be missing, as in a file
-        written before it was a setting: None); raises ``ValueError`` naming the field."""
+        written before it was a setting: None); raises ``ValueError`` naming the field.
+        """
         fields = {f.name for f in dataclasses.fields(cls)}
         if isinstance(d, dict) and "n_clusters" not in d:
             d = {**d, "n_clusters": None}
@@ -262,7 +264,8 @@ class ServoMap:
     @property
     def manifold_graph(self) -> np.ndarray:
         """(K, K) bool: cluster b follows cluster a somewhere in a recorded sequence (both ways
-        stored: a robot may drive a corridor either way)."""
+        stored: a robot may drive a corridor either way).
+        """
         K = self.n_clusters
         adj = np.zeros((K, K), bool)
         for s in np.unique(self.sequence):
@@ -278,7 +281,8 @@ class ServoMap:
 
     def check_view(self, view, name: str = "target") -> int:
         """``view`` as a valid stored-view index, or a ``MapError`` naming ``name``: an integer
-        or an object that is one (``__index__``, as ``servo.task.Target``)."""
+        or an object that is one (``__index__``, as ``servo.task.Target``).
+        """
         if isinstance(view, bool | np.bool_) or not hasattr(type(view), "__index__"):
             raise MapError(f"{name} must be the integer index of a stored view, got {view!r}")
         view = operator.index(view)
@@ -291,7 +295,8 @@ class ServoMap:
 
     def check_world(self, world: str, digest: str | None = None) -> None:
         """Raise ``MapError`` unless this map was built for ``world`` (and, where both are
-        known, for a floor plan of this ``digest``: a generator that changed)."""
+        known, for a floor plan of this ``digest``: a generator that changed).
+        """
         if world != self.world or (digest and self.world_digest and digest != self.world_digest):
             raise MapError(
                 f"this servo map was fitted on the {self.world!r} world and cannot be used in "

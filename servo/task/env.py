@@ -253,7 +253,8 @@ class ServoEnv(CheckedKeywords, gym.Env):
     # -- task sampling ----------------------------------------------------------------------
     def _map_label(self, manifold: str | None) -> int:
         """The map's label of the world's manifold ``manifold`` (the map's labels index the
-        dataset's manifolds, not the world's ids); -2, which no view has, where it has none."""
+        dataset's manifolds, not the world's ids); -2, which no view has, where it has none.
+        """
         names = self.map.manifold_names
         return names.index(manifold) if manifold in names else -2
 
@@ -282,7 +283,8 @@ class ServoEnv(CheckedKeywords, gym.Env):
     def _candidates(self, ok: np.ndarray, options: dict, what: str) -> np.ndarray:
         """The views where ``ok``; none means the options contradict ``cross_manifold``
         (e.g. a start manifold that is the target's), which is said rather than left to
-        ``rng.integers(0)`` ("high <= 0")."""
+        ``rng.integers(0)`` ("high <= 0").
+        """
         cands = np.flatnonzero(ok)
         if len(cands) == 0 and not self.cross_manifold:
             raise ValueError(f"the {self.map.world} map has no stored view on a manifold")
@@ -333,7 +335,8 @@ class ServoEnv(CheckedKeywords, gym.Env):
 
     def _junctions_between(self, start: str | None, target: int) -> int | None:
         """Junctions between the start's manifold and the target view's (evaluation only);
-        None where either is on no manifold of the world."""
+        None where either is on no manifold of the world.
+        """
         world, end = getattr(self.base, "world", None), self.map.true_manifold(target)
         if world is None or start is None or end not in world.manifold_ids:  # None: a stand-in
             return None

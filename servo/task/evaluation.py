@@ -46,7 +46,8 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
     the next waypoint view of the route
     ([`GreedyFProbing`][servo.task.baseline_policies.GreedyFProbing]); ``greedy-target``: the
     earlier variant that probes toward the final target only (labelled as such: its cluster gives no
-    signal from another manifold)."""
+    signal from another manifold).
+    """
     check_policy_name(name)
     if is_policy_spec(name):
         from servo.task.remote import RemotePolicy
@@ -59,7 +60,8 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
 
 def check_policy_name(name) -> str:
     """``name`` if it is one of [`POLICIES`][servo.task.evaluation.POLICIES] or has the form
-    ``package.module:factory``; else ``ValueError``."""
+    ``package.module:factory``; else ``ValueError``.
+    """
     if name in POLICIES or is_policy_spec(name):
         return name
     raise ValueError(f"policy must be one of {POLICIES} or package.module:factory, got {name!r}")
@@ -70,7 +72,8 @@ _F_AT_VIEW: dict[tuple[str, int], float] = {}
 
 def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
     """F^j(k) of eq. 13 toward stored view ``view`` in its cluster, divided by F at the view
-    itself (1 at the view, 0 where the cluster gives no signal)."""
+    itself (1 at the view, 0 where the cluster gives no signal).
+    """
     c = int(m.clusters[view])
     key = (m.key, int(view))
     # one BLAS thread whatever the load (as ServoEnv's reward): the episode's record of F
@@ -85,7 +88,8 @@ def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
 
 def episode_seeds(seed: int, episodes: int) -> list[int]:
     """Episode ``i``'s seed: the ``i``-th child of ``SeedSequence(seed)``, so a run is
-    reproducible and a longer run extends a shorter one."""
+    reproducible and a longer run extends a shorter one.
+    """
     return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
 
 
@@ -168,7 +172,8 @@ def score_episode(
     reset's info, then every step's), the shortest free-space path from the start, the true
     (geodesic) distance to the target at every info, the policy's seconds per act, and F^j(k)
     toward the policy's waypoint view after every step (NaN: none). ``failure``: the policy
-    ended the episode (a failure whatever the pose; its reason, and ``failure`` its detail)."""
+    ended the episode (a failure whatever the pose; its reason, and ``failure`` its detail).
+    """
     if len(infos) < (1 if failure is not None else 2):
         raise ValueError(f"infos must hold the reset's and at least one step's, got {len(infos)}")
     last = infos[-1]
@@ -213,7 +218,8 @@ def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
     """How often F^j(k) toward the target rises as the true distance falls (the paper's
     premise, Section II-G), over step pairs ``lag`` apart whose geodesic distance to the
     target fell by at least ``SIGNAL_MIN_DROP``: ``rises`` (share where F rose), ``flat_zero``
-    (share where F was 0 at both ends: no signal, e.g. on another manifold), ``pairs``."""
+    (share where F was 0 at both ends: no signal, e.g. on another manifold), ``pairs``.
+    """
     rises = zero = pairs = 0
     for r in records:
         f, d = r.get("signal_target"), r.get("true_distance")
@@ -235,7 +241,8 @@ def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
 
 def summarise(records: list[dict]) -> dict:
     """Aggregate episode records: overall and per (start manifold, target manifold), success
-    with its Wilson 95% interval, and F along the trajectories (`signal_agreement`)."""
+    with its Wilson 95% interval, and F along the trajectories (`signal_agreement`).
+    """
 
     def agg(rs):
         ok = [r for r in rs if r["success"]]
@@ -275,7 +282,8 @@ def summarise(records: list[dict]) -> dict:
 
 def plot_trajectories(world, records: list[dict], path: Path, limit: int = 24) -> Path:
     """Trails over the top-down map of ``world`` (a ``scenes.World``): green succeeded, red
-    failed; targets as outlines."""
+    failed; targets as outlines.
+    """
     from sim.topdown import TopDownView
 
     view = TopDownView(world, max_size=720)

@@ -1,5 +1,6 @@
 """A policy's calls, guarded: an error, a bad action or a slow step ends its episode as a
-failure with the reason, and the run goes on to the next episode."""
+failure with the reason, and the run goes on to the next episode.
+"""
 
 from __future__ import annotations
 
@@ -25,7 +26,8 @@ FAILURES = (NOT_LOADED, RAISED, INVALID_ACTION, TOO_SLOW, DIED, GARBAGE)
 
 class PolicyFailure(Exception):
     """A policy's episode ended by the policy: ``reason`` one of
-    [`FAILURES`][servo.task.guard.FAILURES], ``detail`` what happened."""
+    [`FAILURES`][servo.task.guard.FAILURES], ``detail`` what happened.
+    """
 
     def __init__(self, reason: str, detail: str):
         super().__init__(f"{reason}: {detail}")
@@ -34,7 +36,8 @@ class PolicyFailure(Exception):
 
 class _Overtime(BaseException):
     """Raised into a policy's call by the alarm; a BaseException, so that a policy's own
-    ``except Exception`` does not swallow it."""
+    ``except Exception`` does not swallow it.
+    """
 
 
 def _on_alarm(signum, frame):
@@ -60,7 +63,8 @@ def _alarm(seconds: float):
 
 def call(fn, *args, limit: float = ACT_LIMIT_S):
     """``fn(*args)``, or [`PolicyFailure`][servo.task.guard.PolicyFailure] when it raises or takes
-    over ``limit`` s."""
+    over ``limit`` s.
+    """
     t0 = time.perf_counter()
     try:
         with _alarm(limit):
@@ -83,7 +87,8 @@ def _name(fn) -> str:
 
 def check_action(action, low: np.ndarray, high: np.ndarray) -> None:
     """Raise [`PolicyFailure`][servo.task.guard.PolicyFailure] unless ``action`` is two finite
-    numbers inside ``[low, high]`` (the env's action space)."""
+    numbers inside ``[low, high]`` (the env's action space).
+    """
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):

@@ -178,7 +178,8 @@ def sensed_map(m: ServoMap) -> ServoMap:
     ``true_labels`` ``NO_MANIFOLD``, no ``manifold_names`` and no ``world_digest``: a
     generated world's manifold names would tell its layout), no key to the files it was built
     from (`neutral_names`), and its arrays read-only views, so that a policy can neither
-    read the truth nor change the map the env scores with."""
+    read the truth nor change the map the env scores with.
+    """
     fields = {}
     for f in dataclasses.fields(m):
         value = getattr(m, f.name)
@@ -198,7 +199,8 @@ def neutral_names(m: ServoMap) -> dict:
     ``sequence_names`` ``recording-0``, ``recording-1``, ... (a recording's name is its true
     branch), ``frame`` each view's place in its recording (0, 1, 2, ...; not the index of a
     frame in the dataset) and ``key`` a digest of the stored features (the cache key names
-    the map's file in the data home). Read-only arrays."""
+    the map's file in the data home). Read-only arrays.
+    """
     frame = np.zeros(len(m.sequence), np.int64)
     for s in np.unique(m.sequence):
         at = np.flatnonzero(m.sequence == s)
@@ -213,7 +215,8 @@ def neutral_names(m: ServoMap) -> dict:
 def reseed(rng: np.random.Generator, episode_seed: int, policy_seed: int = 0) -> None:
     """Set ``rng`` (the generator a factory was given) to the state of episode
     ``episode_seed`` and run seed ``policy_seed``, in place: an outside policy's draws then
-    depend on the episode only, not on which worker ran which episodes before it."""
+    depend on the episode only, not on which worker ran which episodes before it.
+    """
     seq = np.random.SeedSequence(int(episode_seed), spawn_key=(2, int(policy_seed)))
     rng.bit_generator.state = type(rng.bit_generator)(seq).state
 
@@ -228,7 +231,8 @@ def load_factory(spec: str):
     would: the module's code runs, with the current directory first on ``sys.path``.
 
     Raises [`PolicyLoadError`][servo.task.interface.PolicyLoadError] naming the spec when it is
-    malformed, does not import or names nothing callable."""
+    malformed, does not import or names nothing callable.
+    """
     if not isinstance(spec, str) or spec.count(":") != 1:
         raise PolicyLoadError(
             f"policy must be a built-in name or package.module:factory, got {spec!r}"
@@ -249,7 +253,8 @@ def load_factory(spec: str):
 def make_outside_policy(spec: str, servo_map: ServoMap, rng: np.random.Generator, **params):
     """The policy the factory ``spec`` makes from the sensed ``servo_map``; raises
     [`PolicyLoadError`][servo.task.interface.PolicyLoadError] when it cannot be loaded, raises, or
-    gives an object without ``reset`` and ``act``."""
+    gives an object without ``reset`` and ``act``.
+    """
     factory = load_factory(spec)
     try:
         policy = factory(sensed_map(servo_map), rng, **params)

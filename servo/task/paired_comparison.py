@@ -99,7 +99,8 @@ class PairedComparison:
 
 def load_results(path: str | Path, name: str = "results") -> list[dict]:
     """The result dicts of a ``topomap servo-eval --out`` file, each checked for the fields
-    the comparison reads; a clear error naming ``name`` otherwise."""
+    the comparison reads; a clear error naming ``name`` otherwise.
+    """
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{name}: {path} is not a file")
@@ -154,7 +155,8 @@ def compare(
 ) -> list[PairedComparison]:
     """Paired comparisons of B against A for every world and setting present in both (in A's
     order); episodes that only one of them ran are left out. ``rng`` draws the bootstrap
-    (default: ``numpy.random.default_rng(0)``, so the same files give the same interval)."""
+    (default: ``numpy.random.default_rng(0)``, so the same files give the same interval).
+    """
     rng = np.random.default_rng(0) if rng is None else rng
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")

@@ -73,7 +73,8 @@ def builtin_policy(name: str, m: ServoMap, rng: np.random.Generator, **options):
 
 def map_message(m: ServoMap) -> tuple[dict, dict[str, np.ndarray]]:
     """The values and arrays that carry the sensed map ``m`` (``interface.sensed_map``) to
-    the policy's process: its sensed arrays and fitted estimators, nothing of the truth."""
+    the policy's process: its sensed arrays and fitted estimators, nothing of the truth.
+    """
     c_meta, c_arrays = persistence.dump(m.clustering, "clustering")
     f_meta, f_arrays = persistence.dump(m.image_features, "image_features")
     values = {
@@ -90,7 +91,8 @@ def map_message(m: ServoMap) -> tuple[dict, dict[str, np.ndarray]]:
 
 def map_from_message(values: dict, arrays: dict[str, np.ndarray]) -> ServoMap:
     """The inverse of `map_message`: a sensed map, its true poses NaN and true labels
-    ``NO_MANIFOLD``, its arrays read-only."""
+    ``NO_MANIFOLD``, its arrays read-only.
+    """
     clustering = persistence.load(ManifoldClustering, values["clustering"], arrays, "clustering")
     image_features = persistence.load(
         ImageFeatures, values["image_features"], arrays, "image_features"

@@ -161,7 +161,8 @@ class EpisodeSpec:
 
 def manifold_pairs(true_labels: np.ndarray, names: tuple[str, ...]) -> list[tuple[str, str]]:
     """Ordered pairs of distinct manifolds that both hold stored views (evaluation labels,
-    indices into ``names``: the map's ``manifold_names``)."""
+    indices into ``names``: the map's ``manifold_names``).
+    """
     present = [names[i] for i in np.unique(true_labels) if i >= 0]
     return [(a, b) for a in present for b in present if a != b]
 
@@ -172,7 +173,8 @@ def episode_specs(
     """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
     one). Seeds depend on the split and the world only, so tiers and settings share episodes.
     ``names``: the manifolds ``true_labels`` index (the map's ``manifold_names``); None: those
-    of a dataset of the protocol's world (`sim.collect_worlds.label_space`)."""
+    of a dataset of the protocol's world (`sim.collect_worlds.label_space`).
+    """
     check_int(episodes, "episodes")
     names = tuple(label_space((protocol.world,))) if names is None else names
     pairs = manifold_pairs(true_labels, names)
@@ -189,7 +191,8 @@ def episode_specs(
 def protocol_spawn_key(protocol: Protocol) -> tuple[int, ...]:
     """The spawn key of a protocol's episode seeds: ``(split, world)`` for a canonical world
     (its published episodes), ``(split, 2 + family, seed)`` for a generated one, which no
-    canonical key equals."""
+    canonical key equals.
+    """
     world = parse_world_name(protocol.world)
     family = WORLDS.index(world.family)
     if world.canonical:

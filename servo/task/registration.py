@@ -1,5 +1,6 @@
 """Gymnasium registration of the servo tasks with string entry points, and the wrapper that
-names the reason of a truncation by an outer ``TimeLimit``."""
+names the reason of a truncation by an outer ``TimeLimit``.
+"""
 
 from __future__ import annotations
 
@@ -64,7 +65,8 @@ class TruncationReason(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def step(self, action):
         """The wrapped env's step, with ``info["reason"] = "time limit"`` on a truncation
-        that had no reason."""
+        that had no reason.
+        """
         obs, reward, terminated, truncated, info = self.env.step(action)
         if truncated and not terminated and info.get("reason") is None:
             info = {**info, "reason": "time limit"}
@@ -74,7 +76,8 @@ class TruncationReason(gym.Wrapper, gym.utils.RecordConstructorArgs):
 def spec_with_own_limit(spec, max_steps: int):
     """``ServoEnv.spec``: the spec ``gym.make`` gave with ``max_episode_steps`` the env's own
     limit where the registry set none (the servo ids add no ``TimeLimit``: one clock, which
-    names its reason), so tools that read the limit from the spec see it."""
+    names its reason), so tools that read the limit from the spec see it.
+    """
     if spec is None or spec.max_episode_steps is not None:
         return spec
     return dataclasses.replace(spec, max_episode_steps=max_steps)

@@ -51,7 +51,8 @@ def default_hidden() -> list[str]:
     """Folders a policy's sandbox hides whatever the run: the data home (``sim.datahome``),
     ``TOPOMAP_HOME``, the repository's ``out/`` and the temporary folder (where every run
     keeps its copy of the map, the truth included; the policy gets an empty one), those that
-    exist; not a folder that holds the repository or the current directory."""
+    exist; not a folder that holds the repository or the current directory.
+    """
     from sim.datahome import ENV_VAR, user_cache_dir
 
     found = [
@@ -67,7 +68,8 @@ def outermost(folders) -> list[str]:
     """The folders that lie in no other of ``folders``, resolved. A folder that holds the
     repository or the current directory (hiding it would hide the code; a clone in the
     temporary folder) is replaced by its subfolders off the path to them, so everything else
-    in it is still hidden."""
+    in it is still hidden.
+    """
     needed = (_ROOT, Path.cwd().resolve())
     keep: list[Path] = []
     for f in folders:

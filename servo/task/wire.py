@@ -43,7 +43,8 @@ class Timeout(WireError):
 
 def encode(kind: str, values: dict | None = None, arrays: dict | None = None) -> bytes:
     """The message ``kind`` with the JSON-able ``values`` and the numeric ``arrays`` (each
-    array's bytes copied once, into the message)."""
+    array's bytes copied once, into the message).
+    """
     specs, parts = [], []
     for name, a in (arrays or {}).items():
         a = np.ascontiguousarray(a)
@@ -65,7 +66,8 @@ def encode(kind: str, values: dict | None = None, arrays: dict | None = None) ->
 
 def decode(data: bytes | bytearray, max_bytes: int) -> tuple[str, dict, dict[str, np.ndarray]]:
     """``(kind, values, arrays)`` of an untrusted message; the arrays are read-only views of
-    ``data``. Raises `WireError` naming the fault."""
+    ``data``. Raises `WireError` naming the fault.
+    """
     if len(data) > max_bytes:
         raise WireError(f"{len(data)} bytes, more than the {max_bytes} allowed")
     if len(data) < 8 or data[:4] != MAGIC:
@@ -120,7 +122,8 @@ def _array_spec(spec) -> tuple[str, str, tuple[int, ...]]:
 
 def send(sock: socket.socket, message: bytes) -> None:
     """Write one frame (length, then ``message``); raises `Closed` if the other end
-    is gone."""
+    is gone.
+    """
     try:  # the length, then the message itself: no copy of a large message
         sock.sendall(struct.pack(">Q", len(message)))
         sock.sendall(message)
@@ -130,7 +133,8 @@ def send(sock: socket.socket, message: bytes) -> None:
 
 def receive(sock: socket.socket, max_bytes: int, timeout: float | None = None) -> bytearray:
     """One frame's message, of at most ``max_bytes``, within ``timeout`` seconds (None: wait
-    as long as it takes). Raises `Timeout`, `Closed` or `WireError`."""
+    as long as it takes). Raises `Timeout`, `Closed` or `WireError`.
+    """
     deadline = None if timeout is None else time.monotonic() + timeout
     head = _read(sock, 8, deadline)
     (size,) = struct.unpack(">Q", bytes(head))

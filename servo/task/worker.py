@@ -1,6 +1,7 @@
 """The runner's worker: one env and one policy per worker process (``run_protocol`` spawns
 them, or runs one in its own process), the policy in the worker or in a process of its own
-(``servo.task.remote``)."""
+(``servo.task.remote``).
+"""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ _WORKER: dict = {}
 
 def param_names(options) -> list[str]:
     """The names a policy's params may have: identifiers (they become keyword arguments); the
-    values go to the policy, which checks them."""
+    values go to the policy, which checks them.
+    """
     if isinstance(options, dict):
         bad = [k for k in options if not (isinstance(k, str) and k.isidentifier())]
         if bad:
@@ -35,7 +37,8 @@ def init_worker(
     """Make this worker's env and policy (``run_protocol``'s pool initializer): the policy in
     its own process where ``isolation["process"]`` (sandboxed where ``isolation["sandboxed"]``,
     its ``hide`` folders emptied), else here; ``reset_options`` is
-    ``servo.task.protocol.reset_options`` (passed in: that module imports this one)."""
+    ``servo.task.protocol.reset_options`` (passed in: that module imports this one).
+    """
     import sim  # noqa: F401  (the GL backend before mujoco, in a spawned process)
     from servo.task.env import ServoEnv
     from servo.task.evaluation import make_policy

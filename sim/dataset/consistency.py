@@ -40,7 +40,8 @@ def _fov(directory: Path, meta: dict) -> float | None:
     """The size of ``meta["settings"]["laser"]["fov"]`` when it is a real number (refused
     beyond a full turn), else None (not recorded). The ROS bag importer records the span of
     the beam angles, last minus first: negative for a scan of decreasing angles, 0 for one
-    beam."""
+    beam.
+    """
     value = ((meta.get("settings") or {}).get("laser") or {}).get("fov")
     if not is_real(value):
         return None
@@ -56,7 +57,8 @@ def _span_problem(angles: np.ndarray, fov: float) -> str | None:
     """Why beam ``angles`` cannot be those of a laser of field of view ``fov``, or None: the
     angles span ``fov`` (the first beam at one edge, the last at the other, as a ROS scan's
     angle_min and angle_max and a collection's laser have them), or ``fov (n - 1) / n`` for a
-    full turn (the last beam one step short of the first)."""
+    full turn (the last beam one step short of the first).
+    """
     n = len(angles)
     if n < 2:
         return None
@@ -70,7 +72,8 @@ def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
     """Raise [`DatasetError`][sim.dataset.schema.DatasetError] naming the dataset's folder, the
     sequence and its file when a sequence's beams, angles, image size or world disagrees with the
     first sequence's or with the settings of ``meta`` (``sequences``: loaded
-    [`Sequence`][sim.dataset.model.Sequence] by name)."""
+    [`Sequence`][sim.dataset.model.Sequence] by name).
+    """
     where = {
         name: f"{directory}: sequence {name!r} ({meta['sequences'][name]['file']})"
         for name in sequences

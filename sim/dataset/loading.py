@@ -1,5 +1,6 @@
 """Sequence files written and read: an ``.npz`` written atomically with its SHA-256, read
-without pickle, checked against its ``meta.json`` entry and `common.bounds`."""
+without pickle, checked against its ``meta.json`` entry and `common.bounds`.
+"""
 
 from __future__ import annotations
 
@@ -31,7 +32,8 @@ from sim.dataset.schema import (
 
 def write_sequence(path: Path, arrays: dict[str, np.ndarray], compresslevel: int = 1) -> str:
     """Write arrays as an ``.npz`` (deflate level 1: most of the size win at a fraction of the
-    time), atomically; return its SHA-256."""
+    time), atomically; return its SHA-256.
+    """
     with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
             for key in sorted(arrays):
@@ -59,7 +61,8 @@ def read_npz(
 ) -> dict[str, np.ndarray]:
     """The arrays of an ``.npz`` (as [`write_sequence`][sim.dataset.loading.write_sequence] writes
     them), read without pickle after checking its SHA-256 when ``sha256`` is given; a missing,
-    modified or unreadable file raises ``error`` starting with ``context``."""
+    modified or unreadable file raises ``error`` starting with ``context``.
+    """
     if not path.is_file():  # a pipe or a device there would block or never end a read
         raise error(f"{context}{path} is {'missing' if not path.exists() else SPECIAL}")
     if sha256 is not None and file_sha256(path) != sha256:
@@ -72,7 +75,8 @@ def read_npz(
 
 def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str | None:
     """What is wrong with the values of a sequence's arrays (`common.bounds`), or None;
-    ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any."""
+    ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any.
+    """
     image_shape = arrays["images"].shape[1:] if "images" in arrays else (1, 1, 3)
     beams = len(arrays["angles"]) if "angles" in arrays else 1
     if 0 in image_shape[:2] or beams == 0:
@@ -114,7 +118,8 @@ def load_sequence(
     """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
     whether ``poses`` and ``labels`` must be there (True) or must not (False); ``manifolds``
     how many manifolds its labels may name (None: not checked); ``camera`` whether ``images``
-    must be there (True) or must not (False), ``laser`` the same of ``scans`` and ``angles``."""
+    must be there (True) or must not (False), ``laser`` the same of ``scans`` and ``angles``.
+    """
     path = Path(directory) / entry["file"]
     arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
 

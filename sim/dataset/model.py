@@ -1,6 +1,7 @@
 """The loaded dataset: [`Sequence`][sim.dataset.model.Sequence] (one drive's arrays) and
 [`Dataset`][sim.dataset.model.Dataset] (its ``meta.json`` and sequences), as
-[`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] returns them."""
+[`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] returns them.
+"""
 
 from __future__ import annotations
 
@@ -150,7 +151,8 @@ class Dataset:
     def require(self, sensor: str, needed_by: str) -> None:
         """Raise [`MissingSensorError`][sim.dataset.schema.MissingSensorError] naming this dataset,
         ``sensor`` (``"camera"`` or ``"laser"``) and ``needed_by`` (what needs it) unless the sensor
-        was recorded."""
+        was recorded.
+        """
         if sensor not in SENSORS:
             raise ValueError(f"sensor must be one of {list(SENSORS)}, got {sensor!r}")
         if not (self.has_camera if sensor == "camera" else self.has_laser):
@@ -159,7 +161,8 @@ class Dataset:
     @property
     def max_range(self) -> float | None:
         """The laser's maximum range (m) from the settings; readings at or beyond it are no
-        return. None when the settings do not say (or there is no laser)."""
+        return. None when the settings do not say (or there is no laser).
+        """
         value = (self.meta.get("settings", {}).get("laser") or {}).get("max_range")
         return None if value is None else float(value)
 
@@ -197,6 +200,7 @@ class Dataset:
     def paper_split(self) -> tuple[np.ndarray, np.ndarray]:
         """Boolean masks (train, test) over [`concat`][sim.dataset.model.Dataset.concat] order:
         every second frame of each sequence builds the map (frames 0, 2, 4, ...) and the others test
-        it, as in the paper."""
+        it, as in the paper.
+        """
         train = np.concatenate([np.arange(len(s)) % 2 == 0 for s in self.sequences.values()])
         return train, ~train

@@ -1,5 +1,6 @@
 """The dataset's schema: the arrays of a sequence and their forms, ``meta.json`` and its
-checks, and the error every dataset reader raises (the format: `sim.dataset`)."""
+checks, and the error every dataset reader raises (the format: `sim.dataset`).
+"""
 
 from __future__ import annotations
 
@@ -57,7 +58,8 @@ class DatasetError(ValueError):
 class MissingSensorError(DatasetError):
     """A dataset recorded without the sensor a method needs: the grouping needs the laser's
     scans, the methods on images the camera's. ``path`` is the dataset's folder and ``sensor``
-    ``"camera"`` or ``"laser"``."""
+    ``"camera"`` or ``"laser"``.
+    """
 
     def __init__(self, path, sensor: str, needed_by: str):
         self.path, self.sensor = Path(path), sensor
@@ -120,7 +122,8 @@ def read_meta(directory: str | os.PathLike) -> dict:
 def _check_optional_keys(path: Path, meta: dict) -> None:
     """The other keys the code reads, where present: ``settings`` (its ``laser`` and that
     one's ``max_range``, the laser's range, and its ``camera``), ``manifolds`` and
-    ``complete``. They may be absent (a dataset of schema version 1, a collection just started)."""
+    ``complete``. They may be absent (a dataset of schema version 1, a collection just started).
+    """
     settings = meta.get("settings", {})
     if not isinstance(settings, dict):
         raise DatasetError(f"{path}: 'settings' must be an object, got {settings!r}")
@@ -157,7 +160,8 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
 
 def check_entry(path: Path, name: str, entry) -> None:
     """A sequence entry of ``meta.json``: a plain ``.npz`` file name inside the dataset folder
-    (never a path elsewhere), a world name, a frame count and a SHA-256."""
+    (never a path elsewhere), a world name, a frame count and a SHA-256.
+    """
     fields = ("file", "world", "frames", "sha256")
     if not isinstance(entry, dict) or any(k not in entry for k in fields):
         raise DatasetError(f"{path}: sequence {name!r} must have the fields {list(fields)}")

@@ -121,7 +121,8 @@ class ImportSettings:
 def align(scans: Stream, images: Stream, odom: Stream, settings: ImportSettings):
     """Which messages of the frame clock (the scans, or the images without a laser) become
     frames (``frames["clock"]``), their image (index into the image topic), odometry and
-    velocity; and how many were dropped, by reason."""
+    velocity; and how many were dropped, by reason.
+    """
     clock = scans if settings.laser else images
     t = np.asarray(clock.stamps, dtype=np.int64)
     if not settings.camera or not settings.laser:  # one sensor: each of its messages may be a
@@ -172,7 +173,8 @@ def align(scans: Stream, images: Stream, odom: Stream, settings: ImportSettings)
 
 def spaced(pose: np.ndarray, min_travel: float, min_turn: float) -> np.ndarray:
     """Indices of the frames kept: the first, then each that moved ``min_travel`` or turned
-    ``min_turn`` since the last kept one (either at 0 keeps every frame)."""
+    ``min_turn`` since the last kept one (either at 0 keeps every frame).
+    """
     keep = [0] if len(pose) else []
     for i in range(1, len(pose)):
         last = pose[keep[-1]]

@@ -234,7 +234,8 @@ def _checked(path: Path, line_no: int, scan: dict) -> dict:
 def _check_geometry(path: Path, line_no: int, n: int, head: np.ndarray) -> None:
     """A ``ROBOTLASER1`` header: start angle within a full turn, angular resolution in (0,
     2 pi] (0 allowed for one beam), field of view in (0, 2 pi] (0 allowed for one beam) and
-    maximum range in (0, MAX_RANGE]."""
+    maximum range in (0, MAX_RANGE].
+    """
     start, fov, resolution, max_range = (float(v) for v in head[1:5])
     if n > 1 and resolution == 0:
         raise CarmenError(

@@ -59,7 +59,8 @@ def yaw_of(q) -> float:
 
 def odometry_values(msg, where: str) -> tuple[float, float, float, float, float]:
     """(x, y, yaw, v, omega) of an odometry message; ``where`` (bag, topic, message index)
-    names it in the error if a value, or the orientation quaternion, is not finite."""
+    names it in the error if a value, or the orientation quaternion, is not finite.
+    """
     p, t = msg.pose.pose, msg.twist.twist
     q = p.orientation
     quaternion = (q.x, q.y, q.z, q.w)
@@ -166,7 +167,8 @@ _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0
 
 def compressed_size(data: bytes) -> tuple[int, int] | None:
     """(width, height) that a PNG's IHDR or a JPEG's start-of-frame states, read from the
-    header without decoding; None for another format or a header too short to say."""
+    header without decoding; None for another format or a header too short to say.
+    """
     if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24 and data[12:16] == b"IHDR":
         return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
     if data[:2] != b"\xff\xd8":
@@ -184,7 +186,8 @@ def compressed_size(data: bytes) -> tuple[int, int] | None:
 def nesting_problem(fielddefs: dict, msgtype: str) -> str | None:
     """What is wrong with the definition of ``msgtype`` in a typestore's ``fielddefs``, or
     None: a type that refers to itself, or types nested deeper than
-    `MAX_MESSAGE_NESTING`. Walked without recursion past the cap."""
+    `MAX_MESSAGE_NESTING`. Walked without recursion past the cap.
+    """
     depth: dict[str, int] = {}
 
     def walk(name: str, chain: tuple[str, ...]) -> int:
@@ -214,7 +217,8 @@ class _Nesting(Exception):
 
 def _named(definition) -> list[str]:
     """The message types the fields of ``definition`` (``(constants, fields)``) name, inside
-    arrays and sequences too."""
+    arrays and sequences too.
+    """
     out = []
     for _, desc in definition[1] if definition else ():
         while int(desc[0]) in (3, 4):  # rosbags' Nodetype ARRAY, SEQUENCE: (element, count)
@@ -251,7 +255,8 @@ class Stream:
 def damage_errors() -> tuple[type[BaseException], ...]:
     """What rosbags and the libraries under it raise on a damaged bag: its readers' own
     errors, SQLite's (ROS 2 ``.db3``), and the plain errors of a truncated record, a corrupt
-    index or a message definition whose type names are damaged."""
+    index or a message definition whose type names are damaged.
+    """
     import sqlite3
     import struct
     import zlib
@@ -275,7 +280,8 @@ def damage_errors() -> tuple[type[BaseException], ...]:
 def check_bag_path(bag: Path) -> None:
     """Refuse a path that is no bag: missing, a named pipe or a device (or a directory
     holding one), or a directory without a ROS 2 bag's ``metadata.yaml`` (an empty directory,
-    say)."""
+    say).
+    """
     if not bag.exists():
         raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
     # a named pipe or a device (or a link to one) would block the reader or never end

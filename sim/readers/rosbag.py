@@ -91,7 +91,8 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
 def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = True) -> dict:
     """One bag's aligned frames: the arrays of one dataset sequence (see the module
     docstring), plus ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans, or images
-    without a laser, left out, by reason)."""
+    without a laser, left out, by reason).
+    """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
     from tqdm.auto import tqdm

@@ -58,7 +58,8 @@ def _max_range(space: spaces.Dict, key: str, wrapper: str) -> float:
 
 def _beam_groups(total: int, beams) -> np.ndarray | None:
     """The first beam of each of ``beams`` contiguous groups of ``total`` beams; None keeps
-    every beam."""
+    every beam.
+    """
     if beams is None:
         return None
     beams = check_int(beams, "beams")
