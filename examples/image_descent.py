@@ -1,4 +1,4 @@
-"""An outside baseline on the servo benchmark: descent on the image difference to the target.
+r"""An outside baseline on the servo benchmark: descent on the image difference to the target.
 
 The simplest homing a user might try without any map structure: the difference between the
 camera image and the target's image should fall as the robot nears the target, so descend it
@@ -52,7 +52,7 @@ class RunAndTumble:
         self.rng, self.speed, self.patience = rng, float(speed), int(patience)
 
     def reset(self, target) -> None:
-        """A new episode toward the view whose image is ``target.image``."""
+        """Start a new episode toward the view whose image is ``target.image``."""
         self.goal = _grey(target.image)
         self.best, self.since, self.turn = np.inf, 0, 0
 
@@ -75,5 +75,5 @@ class RunAndTumble:
 
 
 def make_policy(servo_map, rng: np.random.Generator, speed: float = 0.5, patience: int = 8):
-    """The factory: ``--policy examples.image_descent:make_policy``."""
+    """Make the policy: the factory of ``--policy examples.image_descent:make_policy``."""
     return RunAndTumble(rng, speed=float(speed), patience=int(patience))

@@ -1,4 +1,4 @@
-"""Templates of an outside method for each benchmark: copy one, put your method in ``fit``.
+r"""Templates of an outside method for each benchmark: copy one, put your method in ``fit``.
 
 Clustering (``topomap manifold-eval``): ``fit(X)`` on the training frames' features, then
 ``labels_``; ``predict(X)`` for the test frames is optional (without it, each test frame
@@ -44,6 +44,7 @@ class MyClusterer:
         self.random_state = random_state
 
     def fit(self, X):
+        """Cluster the training frames' features ``X``, shape (n, d)."""
         self.model_ = KMeans(
             self.n_clusters, n_init=self.n_init, random_state=self.random_state
         ).fit(X)
@@ -51,6 +52,7 @@ class MyClusterer:
         return self
 
     def predict(self, X):
+        """Return the cluster of each test frame's features in ``X``."""
         return self.model_.predict(X)
 
 
@@ -67,6 +69,7 @@ class MyGrouping:
         self.length = length
 
     def fit(self, scans, poses, groups=None):
+        """Group the scans by the distance travelled along ``poses``."""
         poses = np.asarray(poses, dtype=float)
         travelled = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
         labels = np.floor(travelled / self.length).astype(int)

@@ -1,4 +1,4 @@
-"""A policy of your own on the servo benchmark: the template.
+r"""A policy of your own on the servo benchmark: the template.
 
 A policy is an object with ``reset(target)`` and ``act(observation) -> (v, omega)``
 (``servo.task.Policy``); a factory ``factory(servo_map, rng, **params)`` makes it
@@ -39,7 +39,7 @@ class WallAvoider:
         self.angles, self.rng, self.speed = np.asarray(angles), rng, float(speed)
 
     def reset(self, target) -> None:
-        """A new episode toward stored view ``target.view`` (its image: ``target.image``)."""
+        """Start a new episode toward stored view ``target.view`` (its image: ``target.image``)."""
         self.target = target.view
 
     def act(self, observation: dict) -> np.ndarray:
@@ -54,11 +54,15 @@ class WallAvoider:
 
 
 def make_policy(servo_map, rng: np.random.Generator, speed: float = 0.5) -> WallAvoider:
-    """The factory ``topomap servo-eval --policy examples.my_policy:make_policy`` calls."""
+    """Make the policy.
+
+    The factory ``topomap servo-eval --policy examples.my_policy:make_policy`` calls.
+    """
     return WallAvoider(servo_map.angles, rng, speed=float(speed))
 
 
 def main(argv: list[str] | None = None) -> None:
+    """Run the policy on the dev split's episodes and print its results."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--world", default="hallway", help="hallway or lawn")
     p.add_argument("--episodes", type=int, default=4, help="episodes of the dev split")

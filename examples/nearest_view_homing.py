@@ -1,4 +1,4 @@
-"""An outside baseline on the servo benchmark: homing along a route of stored views.
+r"""An outside baseline on the servo benchmark: homing along a route of stored views.
 
 What a user of a topological map would write first ("teach and repeat"): find the stored view
 the current image looks most like, plan the shortest route to the target over the map's view
@@ -40,8 +40,11 @@ def _features(images: np.ndarray) -> np.ndarray:
 
 
 def _shift(a: np.ndarray, b: np.ndarray) -> tuple[int, float]:
-    """The column shift s maximising the overlap of ``a[:, s:]`` and ``b[:, :-s]`` (or the
-    other way for s < 0), and that correlation."""
+    """Return the column shift of best overlap between two images, and its correlation.
+
+    The shift s maximises the overlap of ``a[:, s:]`` and ``b[:, :-s]`` (or the other way
+    for s < 0).
+    """
     best, score = 0, -np.inf
     w = a.shape[1]
     for s in range(-MAX_SHIFT, MAX_SHIFT + 1):
@@ -83,7 +86,7 @@ class RouteHoming:
         self.graph = coo_matrix((length, (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
 
     def reset(self, target) -> None:
-        """A new episode toward stored view ``target.view``."""
+        """Start a new episode toward stored view ``target.view``."""
         self.target = int(target.view)
         self.route: list[int] | None = None
         self.k = 0
@@ -128,5 +131,5 @@ def make_policy(
     gain: float = 2.0,
     clearance: float = 0.0,
 ):
-    """The factory: ``--policy examples.nearest_view_homing:make_policy``."""
+    """Make the policy: the factory of ``--policy examples.nearest_view_homing:make_policy``."""
     return RouteHoming(servo_map, speed=float(speed), gain=float(gain), clearance=float(clearance))

@@ -51,8 +51,11 @@ CNN_SIZE = (84, 84)  # (height, width) of the grayscale image of --obs image
 
 
 def downscale(env: gym.Env, size: tuple[int, int] = IMAGE_SIZE) -> gym.Env:
-    """``env`` with its camera images (``IMAGE_KEYS``) resized to ``size`` (height, width) by
-    area averaging; the other keys pass unchanged. Images already that size are left alone."""
+    """Wrap ``env`` so that its camera images are resized to ``size`` (height, width).
+
+    The images (``IMAGE_KEYS``) are resized by area averaging; the other keys pass unchanged.
+    Images already that size are left alone.
+    """
     h, w = size
     spaces = dict(env.observation_space.spaces)
     keys = [k for k in IMAGE_KEYS if k in spaces and spaces[k].shape[:2] != (h, w)]
@@ -73,11 +76,13 @@ def downscale(env: gym.Env, size: tuple[int, int] = IMAGE_SIZE) -> gym.Env:
 def make_env(
     env_id: str, servo_map: str | None = None, size=IMAGE_SIZE, obs: str = "dict"
 ) -> gym.Env:
-    """The env the policy trains on: ``env_id`` seen through ``obs`` (`OBSERVATIONS`). A
-    servo id takes ``servo_map`` (a saved map's path, or None for the world's default map)
+    """Make the env the policy trains on: ``env_id`` seen through ``obs`` (`OBSERVATIONS`).
+
+    A servo id takes ``servo_map`` (a saved map's path, or None for the world's default map)
     and ends its episodes after ``SERVO_STEPS``. ``"dict"``: the images at ``size``, which a
     navigation id renders itself; ``"image"``: 84 x 84 grayscale; ``"vector"``: scan and
-    odometry, the navigation id without its camera."""
+    odometry, the navigation id without its camera.
+    """
     if obs not in OBSERVATIONS:
         raise ValueError(f"obs must be one of {tuple(OBSERVATIONS)}, got {obs!r}")
     servo_id = "Servo" in env_id
@@ -97,9 +102,11 @@ def make_env(
 
 
 def episode_outcome(info: dict, episode_return: float) -> tuple[float, bool]:
-    """One ended episode as the curve counts it: its return and whether it went well (a
-    servo episode reached its target; a navigation episode, which never terminates, hit
-    nothing)."""
+    """Return one ended episode as the curve counts it: its return and whether it went well.
+
+    A servo episode went well if it reached its target; a navigation episode, which never
+    terminates, if it hit nothing.
+    """
     if "success" in info:
         return float(episode_return), bool(info["success"])
     return float(episode_return), episode_return == 0.0  # its only reward: the collisions
@@ -114,11 +121,14 @@ def train(
     obs: str = "image",
     size=IMAGE_SIZE,
 ) -> dict:
-    """PPO on `make_env` (the policy of ``obs`` in `OBSERVATIONS`, ``size`` the images of
-    ``"dict"``) for ``steps`` env steps, PyTorch on ``threads`` threads; returns the steps,
-    the wall time, the steps per second, the episodes ended, their mean reward and
-    ``episodes_detail``: each ended episode's step count, return, outcome
-    (`episode_outcome`) and the metres the robot drove in it."""
+    """Train PPO on `make_env` and return its timing and episodes.
+
+    PPO (the policy of ``obs`` in `OBSERVATIONS`, ``size`` the images of ``"dict"``) runs for
+    ``steps`` env steps, PyTorch on ``threads`` threads; returns the steps, the wall time, the
+    steps per second, the episodes ended, their mean reward and ``episodes_detail``: each ended
+    episode's step count, return, outcome (`episode_outcome`) and the metres the robot drove
+    in it.
+    """
     import torch
     from stable_baselines3 import PPO  # the optional extra: pip install -e ".[rl]"
     from stable_baselines3.common.callbacks import BaseCallback
@@ -172,10 +182,12 @@ def train(
 
 
 def plot_curve(result: dict, path: str, window: int = 10) -> None:
-    """The learning curve of a `train` result as a PNG at ``path``: the mean return, the
-    share of episodes that went well (`episode_outcome`) and the metres driven, over the last
-    ``window`` ended episodes, against the env steps; its numbers go to the same name with
-    ``.json``."""
+    """Plot the learning curve of a `train` result as a PNG at ``path``.
+
+    It shows the mean return, the share of episodes that went well (`episode_outcome`) and
+    the metres driven, over the last ``window`` ended episodes, against the env steps; its
+    numbers go to the same name with ``.json``.
+    """
     import json
     from pathlib import Path
 
@@ -223,6 +235,7 @@ def plot_curve(result: dict, path: str, window: int = 10) -> None:
 
 
 def main(argv=None) -> None:
+    """Train PPO on a topomap env from the command line."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--env", default="topomap/HallwayServo-v0", help="a topomap env id")
     p.add_argument("--steps", type=int, default=2048, help="env steps to train for")

@@ -1,5 +1,6 @@
-"""A griffe extension for the API pages: a numpydoc "See Also" section renders as a list whose
-names link to their pages.
+"""A griffe extension for the API pages: "See Also" sections as lists of links.
+
+A numpydoc "See Also" section renders as a list whose names link to their pages.
 
 The docstrings keep numpydoc's form (``name[, name] : description``, a description's further
 lines indented), which ``help()`` shows as written; griffe's numpy parser reads the section as
@@ -30,8 +31,19 @@ NEXT_SECTION = re.compile(r"^\S[^\n]*\n-{3,}$", re.M)
 
 
 def canonical(name: str) -> str | None:
-    """The path where ``name`` (``package.module.Object[.member]``) is defined, or None when it
-    is not one of the repository's objects or does not import."""
+    """Return the path where ``name`` is defined.
+
+    Parameters
+    ----------
+    name : str
+        A dotted name, ``package.module.Object[.member]``.
+
+    Returns
+    -------
+    str or None
+        The defining path, or None when ``name`` is not one of the repository's objects or
+        does not import.
+    """
     if name.split(".")[0] not in PACKAGES:
         return None
     if str(ROOT) not in sys.path:
@@ -63,7 +75,7 @@ def canonical(name: str) -> str | None:
 
 @cache
 def rendered() -> tuple[str, ...]:
-    """The objects the API pages render (their ``::: path`` directives)."""
+    """Return the objects the API pages render (their ``::: path`` directives)."""
     pages = sorted((ROOT / "docs" / "api").glob("*.md"))
     return tuple(path for page in pages for path in DIRECTIVE.findall(page.read_text()))
 
@@ -81,6 +93,7 @@ def on_a_page(path: str) -> bool:
 
 
 def entry(names: str, description: str) -> str:
+    """Return one "See Also" line as a list item whose names link to their pages."""
     links = []
     for name in (n.strip().removesuffix("()") for n in names.split(",")):
         target = canonical(name)
@@ -114,6 +127,7 @@ class SeeAlsoLinks(Extension):
     """Rewrites each docstring's See Also section before it is parsed."""
 
     def on_object(self, *, obj, **kwargs) -> None:
+        """Rewrite the "See Also" section of ``obj``'s docstring as a list of links."""
         docstring = obj.docstring
         if docstring is not None and "See Also" in docstring.value:
             docstring.value = see_also_as_list(docstring.value)
