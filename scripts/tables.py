@@ -35,6 +35,17 @@ class Column:
 
     ``fmt`` is a `format` spec (``".3f"``, ``"+.2f"``, ``"d"``, ``""``) or a function of
     the value returning the text; booleans read yes / no, sequences are joined with ``sep``.
+
+    Parameters
+    ----------
+    key : str
+        The row key it shows.
+    header : str
+        Its header.
+    fmt : str or callable, default ""
+        The format spec, or a function of the value returning the text.
+    sep : str, default " / "
+        What joins the items of a sequence.
     """
 
     key: str
@@ -70,7 +81,16 @@ class Column:
 class Table:
     """Rows (mappings from column key to value) under typed `Column` s.
 
-    ``notes`` are lines shown under the table (markdown, HTML) and kept in its JSON.
+    Parameters
+    ----------
+    columns : tuple of Column
+        The columns, with distinct keys.
+    rows : tuple of Mapping
+        The rows, each holding every column's key.
+    caption : str, default ""
+        The caption.
+    notes : tuple of str, default ()
+        Lines shown under the table (markdown, HTML) and kept in its JSON.
     """
 
     columns: tuple[Column, ...]
