@@ -1,0 +1,1 @@
+"""The ``topomap`` command line and the scripts behind its experiments, tables and report."""

@@ -1,5 +1,6 @@
-"""Argument types shared by the command-line parsers (``topomap`` and its subcommands): each
-parses one string or raises ``argparse.ArgumentTypeError`` naming the expected form; and
+"""Argument types shared by the command-line parsers (``topomap`` and its subcommands).
+
+Each parses one string or raises ``argparse.ArgumentTypeError`` naming the expected form; and
 `output_folder`, the check every ``--out`` gets before any work runs.
 """
 
@@ -25,8 +26,10 @@ WORLD_HELP = "all (the canonical worlds), hallway, lawn or FAMILY:SEED such as h
 
 
 def _int_at_least(text: str, minimum: int) -> int:
-    """``text`` as an integer >= ``minimum``; a ValueError for a non-integer (argparse then
-    says "invalid ... value"), an ArgumentTypeError naming the bound for a smaller one.
+    """Parse ``text`` as an integer >= ``minimum``.
+
+    A ValueError for a non-integer (argparse then says "invalid ... value"), an
+    ArgumentTypeError naming the bound for a smaller one.
     """
     value = int(text)
     if value < minimum:
@@ -35,22 +38,66 @@ def _int_at_least(text: str, minimum: int) -> int:
 
 
 def positive_int(text: str) -> int:
-    """An integer >= 1."""
+    """Parse an integer >= 1.
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    int
+        The integer.
+    """
     return _int_at_least(text, 1)
 
 
 def non_negative_int(text: str) -> int:
-    """An integer >= 0, such as a seed (numpy refuses negative seeds)."""
+    """Parse an integer >= 0, such as a seed (numpy refuses negative seeds).
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    int
+        The integer.
+    """
     return _int_at_least(text, 0)
 
 
 def frame_count(text: str) -> int:
-    """Frames per sequence: an integer >= 2 (a sequence runs from its start to its end)."""
+    """Parse frames per sequence: an integer >= 2 (a sequence runs from its start to its end).
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    int
+        The frame count.
+    """
     return _int_at_least(text, 2)
 
 
 def non_negative_float(text: str) -> float:
-    """A finite number >= 0."""
+    """Parse a finite number >= 0.
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    float
+        The number.
+    """
     try:
         value = float(text)
     except ValueError:
@@ -61,9 +108,21 @@ def non_negative_float(text: str) -> float:
 
 
 def world_choice(text: str) -> str:
-    """A ``--world`` value: ``all``, or a world name (``hallway``, ``lawn`` or
-    ``FAMILY:SEED``), normalised (``hallway:0`` is ``hallway``); an ArgumentTypeError naming
-    the accepted forms otherwise, which argparse prints as a usage error.
+    """Parse a ``--world`` value: ``all``, or a world name, normalised.
+
+    A world name is ``hallway``, ``lawn`` or ``FAMILY:SEED``, normalised (``hallway:0`` is
+    ``hallway``); an ArgumentTypeError naming the accepted forms otherwise, which argparse
+    prints as a usage error.
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    str
+        ``all`` or the normalised world name.
     """
     from scenes.families import check_world_name
 
@@ -76,14 +135,36 @@ def world_choice(text: str) -> str:
 
 
 def worlds(choice: str) -> tuple[str, ...]:
-    """The worlds a ``--world`` choice names: one, or every world for ``all``."""
+    """Return the worlds a ``--world`` choice names: one, or every world for ``all``.
+
+    Parameters
+    ----------
+    choice : str
+        A value parsed by `world_choice`.
+
+    Returns
+    -------
+    tuple of str
+        The world names.
+    """
     from scenes import WORLDS
 
     return WORLDS if choice == "all" else (choice,)
 
 
 def policies(text: str) -> tuple[str, ...]:
-    """A comma-separated list of servo policies, each one of ``servo.task.policies.POLICIES``."""
+    """Parse a comma-separated list of servo policies, each one of ``servo.task.policies.POLICIES``.
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    tuple of str
+        The policy names, blanks dropped.
+    """
     from servo.task import POLICIES
 
     names = tuple(n.strip() for n in text.split(",") if n.strip())
@@ -94,8 +175,19 @@ def policies(text: str) -> tuple[str, ...]:
 
 
 def policy_name(text: str) -> str:
-    """A servo policy: one of ``servo.task.policies.POLICIES`` or an outside factory
-    ``package.module:factory`` (imported when the run starts, not here).
+    """Parse a servo policy: one of ``servo.task.policies.POLICIES`` or an outside factory.
+
+    An outside factory is ``package.module:factory`` (imported when the run starts, not here).
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    str
+        ``text`` unchanged.
     """
     from servo.task import POLICIES
 
@@ -110,8 +202,20 @@ def policy_name(text: str) -> str:
 
 
 def policy_arg(text: str) -> tuple[str, object]:
-    """``KEY=VALUE``, a keyword argument of a policy's factory: the value as JSON if it reads
-    as JSON (``3``, ``0.5``, ``true``, ``"text"``), else as the text itself.
+    """Parse ``KEY=VALUE``, a keyword argument of a policy's factory.
+
+    The value is read as JSON if it reads as JSON (``3``, ``0.5``, ``true``, ``"text"``), else
+    as the text itself.
+
+    Parameters
+    ----------
+    text : str
+        The argument as given.
+
+    Returns
+    -------
+    tuple of (str, object)
+        The key and the parsed value.
     """
     import json
 
@@ -128,9 +232,28 @@ def policy_arg(text: str) -> tuple[str, object]:
 
 
 def output_folder(value: str, option: str = "--out") -> Path:
-    """The output folder ``value``, created now and probed for writing, so that a bad
-    ``--out`` is reported before any work runs rather than after it (a servo evaluation
-    writes its file only once every episode has run). Raises ValueError naming ``option``.
+    """Create the output folder ``value`` now and probe it for writing.
+
+    A bad ``--out`` is thus reported before any work runs rather than after it (a servo
+    evaluation writes its file only once every episode has run).
+
+    Parameters
+    ----------
+    value : str
+        The folder as given.
+    option : str, default "--out"
+        The option's name, for the error message.
+
+    Returns
+    -------
+    Path
+        The folder.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is a file or a folder this user cannot create and write; it names
+        ``option``.
     """
     path = Path(value)
     if path.exists() and not path.is_dir():

@@ -15,7 +15,18 @@ from scripts.report import referenced_files
 
 
 def problems(index: Path) -> list[str]:
-    """What is wrong with the report at ``index`` (empty: nothing)."""
+    """List what is wrong with the report at ``index`` (empty: nothing).
+
+    Parameters
+    ----------
+    index : Path
+        The report's ``index.html``.
+
+    Returns
+    -------
+    list of str
+        One line per problem.
+    """
     if not index.is_file():
         return [f"{index} does not exist"]
     root = index.parent.resolve()
@@ -42,6 +53,18 @@ def _video_problems(ref: str, target: Path) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Check the report named on the command line, printing what is wrong.
+
+    Parameters
+    ----------
+    argv : list of str or None, default None
+        The arguments (the path of ``index.html``); None reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: 0 when whole, 1 when something is wrong, 2 for a bad usage.
+    """
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 1:
         print("usage: python -m scripts.check_report PATH/TO/index.html", file=sys.stderr)

@@ -1,5 +1,7 @@
-"""The ``topomap`` command line. ``topomap --help`` lists every subcommand with the one-line
-``help=`` it is registered with (`command_listing`), so the list cannot go stale.
+"""The ``topomap`` command line.
+
+``topomap --help`` lists every subcommand with the one-line ``help=`` it is registered with
+(`command_listing`), so the list cannot go stale.
 """
 
 from __future__ import annotations
@@ -30,7 +32,18 @@ SUMMARY = (
 
 
 def cmd_import(args) -> int:
-    """A robot's ROS 1 / ROS 2 bags as a dataset (``sim.readers.rosbag``)."""
+    """Import a robot's ROS 1 / ROS 2 bags as a dataset (``sim.readers.rosbag``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap import``.
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 2 when the dataset exists already.
+    """
     from sim.dataset import load_dataset
     from sim.readers import ImportSettings, import_rosbags
 
@@ -59,6 +72,18 @@ def cmd_import(args) -> int:
 
 
 def cmd_preview(args) -> int:
+    """Write contact sheets and trajectory maps of a dataset.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap preview``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     from scripts.preview import write_previews
     from sim.dataset import load_dataset
 
@@ -69,6 +94,18 @@ def cmd_preview(args) -> int:
 
 
 def cmd_worlds(args) -> int:
+    """Write the worlds' MJCF and textures (for MuJoCo's viewer).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap worlds``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     from scenes import build_world
 
     output_folder(args.out)
@@ -78,8 +115,10 @@ def cmd_worlds(args) -> int:
 
 
 def _protocol_folder(value: str | None) -> str | None:
-    """``--protocol``: "committed" (the default) is the repository's
-    ``docs/results/data/manifold/protocol`` when present, "none" shows no spread, else a folder.
+    """Return the folder a ``--protocol`` value names, or None.
+
+    "committed" (the default) is the repository's ``docs/results/data/manifold/protocol`` when
+    present, "none" shows no spread, else a folder.
     """
     from scripts.report import COMMITTED_PROTOCOL
 
@@ -89,8 +128,20 @@ def _protocol_folder(value: str | None) -> str | None:
 
 
 def cmd_run(args) -> int:
-    """The main job, end to end on the default worlds: collect the default dataset (reused when
-    present), evaluate both mapping methods and the servo, and write ``<out>/report/``.
+    """Run the main job, end to end on the default worlds.
+
+    It collects the default dataset (reused when present), evaluates both mapping methods and
+    the servo, and writes ``<out>/report/``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap run``.
+
+    Returns
+    -------
+    int
+        The exit status: 0, 2 for a bad output folder or dataset, 1 for a failed stage.
     """
     from scripts.report import OutputError, RunSettings, StageError, run_pipeline
 
@@ -137,6 +188,18 @@ def cmd_run(args) -> int:
 
 
 def cmd_group_eval(args) -> int:
+    """Evaluate the laser observation grouping (Blanco et al.).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap group-eval``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     output_folder(args.out)
     from scripts.grouping import carmen_eval, group_eval, local_maps_eval
 
@@ -156,6 +219,18 @@ def cmd_group_eval(args) -> int:
 
 
 def cmd_reproduce(args) -> int:
+    """Reproduce the manifold-clustering paper's experiments.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap reproduce``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     from scripts.manifold import reproduce_command
 
     output_folder(args.out)
@@ -163,10 +238,22 @@ def cmd_reproduce(args) -> int:
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The ``topomap`` parser. With ``command``, the subcommands whose options are declared
-    by a heavy module (``reproduce``, ``group-eval``: scikit-learn, the experiments) get
-    them only if they are ``command`` ("": neither); the others list them all, so ``topomap
-    --help`` need not import every experiment (it took ~3 s).
+    """Build the ``topomap`` parser.
+
+    With ``command``, the subcommands whose options are declared by a heavy module
+    (``reproduce``, ``group-eval``: scikit-learn, the experiments) get them only if they are
+    ``command`` ("": neither); the others list them all, so ``topomap --help`` need not import
+    every experiment (it took ~3 s).
+
+    Parameters
+    ----------
+    command : str or None, default None
+        The subcommand about to run; None declares every subcommand's options.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser.
     """
     from scripts.collect_command import add_parser as add_collect_parser
     from scripts.servo_commands import add_parsers as add_servo_parsers
@@ -303,8 +390,20 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 
 def command_listing(sub: argparse.Action) -> str:
-    """One line per subcommand registered on the subparsers action ``sub``, in the order
-    registered: its name, then the ``help=`` it was added with (blank without one).
+    """List the subcommands registered on the subparsers action ``sub``, one line each.
+
+    In the order registered: its name, then the ``help=`` it was added with (blank without
+    one).
+
+    Parameters
+    ----------
+    sub : argparse.Action
+        The subparsers action.
+
+    Returns
+    -------
+    str
+        The lines, joined by newlines.
     """
     # argparse keeps each help= in _choices_actions (what its own listing reads; no public
     # accessor) and leaves out a subcommand added without one: the names come from choices
@@ -315,14 +414,28 @@ def command_listing(sub: argparse.Action) -> str:
 
 
 def _os_message(err: OSError) -> str:
-    """One line for an OSError: what failed on which path (``str(err)`` already names the
-    path for the errors ``open`` and ``mkdir`` raise).
+    """Return one line for an OSError: what failed on which path.
+
+    ``str(err)`` already names the path for the errors ``open`` and ``mkdir`` raise.
     """
     text = str(err) or type(err).__name__
     return text if err.filename is not None else f"{type(err).__name__}: {text}"
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``topomap`` command line.
+
+    Parameters
+    ----------
+    argv : list of str or None, default None
+        The arguments; None reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: the subcommand's, 2 for bad settings, 1 for a file that cannot be
+        read or written.
+    """
     import sim  # noqa: F401  (chooses the headless GL backend before mujoco loads)
 
     argv = sys.argv[1:] if argv is None else list(argv)

@@ -36,6 +36,18 @@ def _settings(args):
 
 
 def cmd_collect(args) -> int:
+    """Collect a teleop dataset with the settings given.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap collect``.
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 2 when a dataset with other settings exists already.
+    """
     from sim.collect import collect_dataset
 
     settings = _settings(args)  # bad settings are refused before the folder is made
@@ -51,7 +63,13 @@ def cmd_collect(args) -> int:
 
 
 def add_parser(sub) -> None:
-    """The ``collect`` subcommand on the ``topomap`` parser's subparsers ``sub``."""
+    """Add the ``collect`` subcommand to the ``topomap`` parser's subparsers ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``topomap`` parser.
+    """
     from scenes.appearance import APPEARANCE_MODES
 
     c = sub.add_parser("collect", help="collect a teleop dataset (resumable)")

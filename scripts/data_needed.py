@@ -18,7 +18,18 @@ DEFAULT_DATA = "out/dataset"  # topomap run's dataset: the default --data of the
 
 
 def is_collected(path: str | Path) -> bool:
-    """Whether ``path`` holds a dataset whose ``meta.json`` says it is complete."""
+    """Check whether ``path`` holds a dataset whose ``meta.json`` says it is complete.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset folder.
+
+    Returns
+    -------
+    bool
+        True for a complete dataset.
+    """
     from sim.dataset import DatasetError, read_meta
 
     try:
@@ -28,15 +39,32 @@ def is_collected(path: str | Path) -> bool:
 
 
 def _holds_a_dataset(path: str | Path) -> bool:
-    """Whether ``path`` holds a ``meta.json`` at all: a damaged or unfinished one is then the
-    reader's to report, with what is wrong, rather than a dataset to collect.
+    """Check whether ``path`` holds a ``meta.json`` at all.
+
+    A damaged or unfinished one is then the reader's to report, with what is wrong, rather than
+    a dataset to collect.
     """
     return (Path(path) / "meta.json").exists()
 
 
 def collect_command(out: str | Path, seed: int | None = None, condition: str = "interleaved"):
-    """The ``topomap collect`` command line that collects the dataset ``out``: the default
-    settings, with ``seed`` and the flags of the manifold protocol's ``condition``.
+    """Return the ``topomap collect`` command line that collects the dataset ``out``.
+
+    The default settings, with ``seed`` and the flags of the manifold protocol's ``condition``.
+
+    Parameters
+    ----------
+    out : str or Path
+        The dataset folder.
+    seed : int or None, default None
+        The ``--seed``; None leaves it out.
+    condition : str, default "interleaved"
+        The manifold protocol's condition ("randomized" and "hard" add their flags).
+
+    Returns
+    -------
+    str
+        The command line.
     """
     flags = {"randomized": " --randomize", "hard": " --appearance hard"}.get(condition, "")
     seed_flag = "" if seed is None else f" --seed {seed}"
@@ -44,7 +72,20 @@ def collect_command(out: str | Path, seed: int | None = None, condition: str = "
 
 
 def missing_dataset_message(path: str | Path, option: str = "--data") -> str:
-    """What to do about a folder ``path`` that holds no (complete) dataset."""
+    """Say what to do about a folder ``path`` that holds no (complete) dataset.
+
+    Parameters
+    ----------
+    path : str or Path
+        The folder.
+    option : str, default "--data"
+        The option that points elsewhere.
+
+    Returns
+    -------
+    str
+        The message.
+    """
     return (
         f"no collected dataset at {path}: `{collect_command(path)}` collects the default one "
         f"(about 30 s on 2 cores), or point {option} at a collected dataset"
@@ -52,11 +93,30 @@ def missing_dataset_message(path: str | Path, option: str = "--data") -> str:
 
 
 def ensure_dataset(path: str | Path, command: str, progress: bool = True) -> str:
-    """``path`` as a dataset for ``command`` (``"servo-eval"``): the default ``out/dataset``
-    is collected there when missing (or resumed when unfinished), with a line on stderr saying
-    so; any other folder without a ``meta.json`` raises ``ValueError`` with
-    `missing_dataset_message` (one with a ``meta.json`` goes to the reader, which says what is
-    wrong with it).
+    """Return ``path`` as a dataset for ``command``, collecting the default one when missing.
+
+    The default ``out/dataset`` is collected there when missing (or resumed when unfinished),
+    with a line on stderr saying so; one with a ``meta.json`` goes to the reader, which says
+    what is wrong with it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset folder.
+    command : str
+        The subcommand that reads it, such as ``"servo-eval"``.
+    progress : bool, default True
+        Whether a collection shows a progress bar.
+
+    Returns
+    -------
+    str
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        For any other folder without a ``meta.json``, with `missing_dataset_message`.
     """
     default = Path(path) == Path(DEFAULT_DATA)
     if is_collected(path) or (_holds_a_dataset(path) and not default):
@@ -75,9 +135,25 @@ def ensure_dataset(path: str | Path, command: str, progress: bool = True) -> str
 
 
 def manifold_dataset_message(path: Path, seed: int, condition: str, held_out_of: int | None):
-    """What to do about the protocol dataset ``path`` of ``seed`` and ``condition`` not being
-    collected; ``held_out_of``: the seed whose held-out condition needs it (seed - 1), when
-    only that condition does.
+    """Say what to do about the protocol dataset ``path`` of ``seed`` and ``condition``.
+
+    The message is for a dataset not collected.
+
+    Parameters
+    ----------
+    path : Path
+        The dataset folder.
+    seed : int
+        Its seed.
+    condition : str
+        Its condition.
+    held_out_of : int or None
+        The seed whose held-out condition needs it (seed - 1), when only that condition does.
+
+    Returns
+    -------
+    str
+        The message.
     """
     command = collect_command(path, seed, condition)
     message = f"dataset {path} not collected: `{command}` collects it"

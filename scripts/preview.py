@@ -23,8 +23,27 @@ def contact_sheet(
     columns: int = 5,
     colours=MANIFOLD_COLOURS,
 ) -> np.ndarray:
-    """Thumbnails of every ``every``-th frame, each captioned with its index and manifold
-    (``names`` of the label ids: the dataset's manifolds; ``colours`` of the names).
+    """Draw thumbnails of every ``every``-th frame, each captioned with its index and manifold.
+
+    Parameters
+    ----------
+    images : ndarray of shape (n, h, w, 3)
+        The frames.
+    labels : ndarray of shape (n,)
+        Their manifold ids (negative: none).
+    names : sequence of str
+        The names of the label ids: the dataset's manifolds.
+    every : int, default 10
+        The step between frames shown.
+    columns : int, default 5
+        Thumbnails per row.
+    colours : dict, default MANIFOLD_COLOURS
+        The caption colour of each name.
+
+    Returns
+    -------
+    ndarray of uint8
+        The sheet.
     """
     idx = np.arange(0, len(images), every)
     rows = int(np.ceil(len(idx) / columns))
@@ -51,7 +70,20 @@ def contact_sheet(
 
 
 def write_previews(dataset: Dataset, out: str | Path) -> list[Path]:
-    """Write contact sheets, first/middle/last frames and a trajectory map per world."""
+    """Write contact sheets, first/middle/last frames and a trajectory map per world.
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The dataset.
+    out : str or Path
+        The folder, created when missing.
+
+    Returns
+    -------
+    list of Path
+        The images written.
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = []

@@ -1,5 +1,7 @@
-"""``topomap servo-eval`` (the closed-loop benchmark protocol, ours or an outside policy) and
-``topomap servo-compare`` (two of its result files, episode by episode).
+"""The ``topomap servo-eval`` and ``topomap servo-compare`` commands.
+
+``topomap servo-eval`` runs the closed-loop benchmark protocol, ours or an outside policy;
+``topomap servo-compare`` compares two of its result files, episode by episode.
 """
 
 from __future__ import annotations
@@ -21,8 +23,20 @@ from scripts.data_needed import DEFAULT_DATA, ensure_dataset
 
 
 def servo_eval_name(args) -> str:
-    """The results file of ``servo-eval --out``: every setting that changes the episodes is in
-    the name, so runs of other worlds or settings into one folder do not overwrite each other.
+    """Name the results file of ``servo-eval --out``.
+
+    Every setting that changes the episodes is in the name, so runs of other worlds or settings
+    into one folder do not overwrite each other.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap servo-eval``.
+
+    Returns
+    -------
+    str
+        The file name.
     """
     extras = "-randomize" * bool(args.randomize) + "-no-odometry-noise" * bool(
         args.no_odometry_noise
@@ -39,9 +53,21 @@ def servo_eval_name(args) -> str:
 
 
 def cmd_servo_eval(args) -> int:
-    """Closed-loop servo evaluation by the benchmark protocol (``servo.task.protocol``): one start
-    tier and split, in one world or both, episodes in parallel over the cores; ``--policy``
-    one of ours or an outside factory ``package.module:factory`` with ``--policy-arg``s.
+    """Run the closed-loop servo evaluation by the benchmark protocol (``servo.task.protocol``).
+
+    One start tier and split, in one world or both, episodes in parallel over the cores;
+    ``--policy`` one of ours or an outside factory ``package.module:factory`` with
+    ``--policy-arg``s.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap servo-eval``.
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 2 when ``--sandbox on`` finds no sandbox tool.
     """
     from servo.maps import load_or_build, map_paths
     from servo.task import Protocol, run_protocol
@@ -116,8 +142,22 @@ def cmd_servo_eval(args) -> int:
 
 
 def cmd_servo_compare(args) -> int:
-    """Two ``servo-eval --out`` files compared episode by episode
-    (``servo.task.paired_comparison``).
+    """Compare two ``servo-eval --out`` files episode by episode (``servo.task.paired_comparison``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap servo-compare``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+
+    Raises
+    ------
+    ValueError
+        If the files share no world and setting.
     """
     from dataclasses import asdict
 
@@ -141,8 +181,14 @@ def cmd_servo_compare(args) -> int:
 
 
 def add_parsers(sub, default_out: str) -> None:
-    """The ``servo-eval`` and ``servo-compare`` subcommands on the ``topomap`` parser's
-    subparsers ``sub`` (``default_out``: the folder of the data and maps by default).
+    """Add the ``servo-eval`` and ``servo-compare`` subcommands to the subparsers ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``topomap`` parser.
+    default_out : str
+        The folder of the data and maps by default.
     """
     from servo.task import POLICIES
 

@@ -1,6 +1,8 @@
-"""The closed-loop servo results' tables, defined once: ``topomap servo-eval`` prints them as
-markdown and the HTML report renders the same tables (``servo.task.evaluation.summarise`` results,
-one per world and policy; protocol results add the tier and split).
+"""The closed-loop servo results' tables, defined once.
+
+``topomap servo-eval`` prints them as markdown and the HTML report renders the same tables
+(``servo.task.evaluation.summarise`` results, one per world and policy; protocol results add
+the tier and split).
 """
 
 from __future__ import annotations
@@ -55,8 +57,20 @@ def _condition(r: dict) -> str | None:
 
 
 def summary_table(results: Sequence[dict]) -> Table:
-    """One row per result (world and policy); the starts / split column only for protocol
-    results (``servo.task.protocol``), which have them.
+    """Tabulate one row per result (world and policy).
+
+    The starts / split column appears only for protocol results (``servo.task.protocol``),
+    which have them.
+
+    Parameters
+    ----------
+    results : sequence of dict
+        ``servo.task.evaluation.summarise`` results.
+
+    Returns
+    -------
+    Table
+        The summary table.
     """
     rows = [{**r, "condition": _condition(r)} for r in results]
     columns = SUMMARY_COLUMNS
@@ -66,7 +80,18 @@ def summary_table(results: Sequence[dict]) -> Table:
 
 
 def pair_table(results: Sequence[dict]) -> Table:
-    """One row per (result, start manifold -> target manifold)."""
+    """Tabulate one row per (result, start manifold -> target manifold).
+
+    Parameters
+    ----------
+    results : sequence of dict
+        ``servo.task.evaluation.summarise`` results, with their ``per_pair`` entries.
+
+    Returns
+    -------
+    Table
+        The per-pair table.
+    """
     rows = [
         {**s, "world": r["world"], "policy": r["policy"], "pair": pair}
         for r in results

@@ -35,6 +35,17 @@ class Column:
 
     ``fmt`` is a `format` spec (``".3f"``, ``"+.2f"``, ``"d"``, ``""``) or a function of
     the value returning the text; booleans read yes / no, sequences are joined with ``sep``.
+
+    Parameters
+    ----------
+    key : str
+        The row key it shows.
+    header : str
+        Its header.
+    fmt : str or callable, default ""
+        The format spec, or a function of the value returning the text.
+    sep : str, default " / "
+        What joins the items of a sequence.
     """
 
     key: str
@@ -43,7 +54,18 @@ class Column:
     sep: str = " / "
 
     def text(self, value) -> str | None:
-        """The cell's text, or None for a missing value (each renderer writes its own)."""
+        """Return the cell's text, or None for a missing value (each renderer writes its own).
+
+        Parameters
+        ----------
+        value : object
+            The row's value.
+
+        Returns
+        -------
+        str or None
+            The text.
+        """
         if value is None or (isinstance(value, float | np.floating) and math.isnan(value)):
             return None
         if callable(self.fmt):
@@ -59,7 +81,16 @@ class Column:
 class Table:
     """Rows (mappings from column key to value) under typed `Column` s.
 
-    ``notes`` are lines shown under the table (markdown, HTML) and kept in its JSON.
+    Parameters
+    ----------
+    columns : tuple of Column
+        The columns, with distinct keys.
+    rows : tuple of Mapping
+        The rows, each holding every column's key.
+    caption : str, default ""
+        The caption.
+    notes : tuple of str, default ()
+        Lines shown under the table (markdown, HTML) and kept in its JSON.
     """
 
     columns: tuple[Column, ...]
@@ -68,6 +99,7 @@ class Table:
     notes: tuple[str, ...] = field(default=())
 
     def __post_init__(self) -> None:
+        """Check that the column keys are distinct and that every row has them."""
         keys = [c.key for c in self.columns]
         if len(set(keys)) != len(keys):
             raise ValueError(f"columns must have distinct keys, got {keys}")
@@ -84,6 +116,24 @@ class Table:
         caption: str = "",
         notes: Sequence[str] = (),
     ) -> Table:
+        """Build a table from any iterables of columns, rows and notes.
+
+        Parameters
+        ----------
+        columns : iterable of Column
+            The columns.
+        rows : iterable of Mapping
+            The rows, from column key to value.
+        caption : str, default ""
+            The caption.
+        notes : sequence of str, default ()
+            Lines shown under the table.
+
+        Returns
+        -------
+        Table
+            The table.
+        """
         return cls(tuple(columns), tuple(rows), caption, tuple(notes))
 
     def _cells(self, kind: str) -> list[list[str]]:
@@ -93,6 +143,13 @@ class Table:
         ]
 
     def to_markdown(self) -> str:
+        """Render the table as markdown: the caption in bold, the rows, then the notes.
+
+        Returns
+        -------
+        str
+            The markdown.
+        """
         head = "| " + " | ".join(c.header for c in self.columns) + " |"
         rule = "|" + "|".join("---" for _ in self.columns) + "|"
         body = ["| " + " | ".join(cells) + " |" for cells in self._cells("md")]
@@ -103,6 +160,13 @@ class Table:
         return "\n".join(lines) + "\n"
 
     def to_html(self) -> str:
+        """Render the table as an HTML ``<table>``, the notes as paragraphs after it.
+
+        Returns
+        -------
+        str
+            The HTML.
+        """
         head = "".join(f"<th>{html.escape(c.header)}</th>" for c in self.columns)
         rows = [
             "<tr>"
@@ -123,7 +187,13 @@ class Table:
         )
 
     def to_csv(self) -> str:
-        """Raw values under the column keys (a spreadsheet formats them itself)."""
+        """Render raw values under the column keys (a spreadsheet formats them itself).
+
+        Returns
+        -------
+        str
+            The CSV text.
+        """
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
         writer.writerow([c.key for c in self.columns])
@@ -133,7 +203,13 @@ class Table:
         return buf.getvalue()
 
     def to_json(self) -> dict:
-        """Columns, raw rows (only the columns' keys), caption and notes, JSON-ready."""
+        """Return columns, raw rows (only the columns' keys), caption and notes, JSON-ready.
+
+        Returns
+        -------
+        dict
+            The table as JSON values.
+        """
         return {
             "caption": self.caption,
             "columns": [{"key": c.key, "header": c.header} for c in self.columns],
@@ -145,6 +221,18 @@ class Table:
         }
 
     def render(self, kind: str) -> str:
+        """Render the table in one of `FORMATS`.
+
+        Parameters
+        ----------
+        kind : str
+            "md", "html", "csv" or "json".
+
+        Returns
+        -------
+        str
+            The text.
+        """
         if kind not in FORMATS:
             raise ValueError(f"kind must be one of {FORMATS}, got {kind!r}")
         if kind == "json":
@@ -154,7 +242,20 @@ class Table:
     def write(
         self, stem: str | os.PathLike, kinds: Sequence[str] = ("md", "csv", "json")
     ) -> dict[str, Path]:
-        """``stem.md``, ``stem.csv``, ... each written atomically (temporary file, rename)."""
+        """Write ``stem.md``, ``stem.csv``, ... each atomically (temporary file, rename).
+
+        Parameters
+        ----------
+        stem : str or os.PathLike
+            The path without the suffix; its folder is created when missing.
+        kinds : sequence of str, default ("md", "csv", "json")
+            The formats written.
+
+        Returns
+        -------
+        dict of str to Path
+            The path written per format.
+        """
         stem = Path(stem)
         texts = {kind: self.render(kind) for kind in kinds}  # all rendered before any write
         stem.parent.mkdir(parents=True, exist_ok=True)

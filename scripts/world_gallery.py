@@ -1,5 +1,7 @@
-"""A gallery of generated worlds: each drawn from above with its manifolds, obstacles and
-teleop routes, captioned with its name, manifold count and depth (no rendering, no GL).
+"""A gallery of generated worlds, each drawn from above (no rendering, no GL).
+
+Each world is drawn with its manifolds, obstacles and teleop routes, captioned with its name,
+manifold count and depth.
 
 ``python -m scripts.world_gallery --family hallway --out docs/img/gallery_hallway.png`` draws
 the first 12 train worlds of a family; the docs and the report show these figures.
@@ -23,7 +25,20 @@ CAPTION = 22  # pixels of caption under it
 
 
 def world_tile(name: str, size: int = TILE) -> np.ndarray:
-    """One world from above: manifolds, obstacles and routes (red), with a caption."""
+    """Draw one world from above: manifolds, obstacles and routes (red), with a caption.
+
+    Parameters
+    ----------
+    name : str
+        The world.
+    size : int, default TILE
+        Pixels per side of the drawing.
+
+    Returns
+    -------
+    ndarray of uint8 of shape (size + CAPTION, size, 3)
+        The tile.
+    """
     world = build_world(name)
     view = TopDownView(world, max_size=size - 8)
     img = view.draw()
@@ -43,7 +58,22 @@ def world_tile(name: str, size: int = TILE) -> np.ndarray:
 
 
 def gallery(names: list[str], columns: int = 4, size: int = TILE) -> np.ndarray:
-    """The tiles of ``names`` in rows of ``columns``."""
+    """Lay out the tiles of ``names`` in rows of ``columns``.
+
+    Parameters
+    ----------
+    names : list of str
+        The worlds.
+    columns : int, default 4
+        Tiles per row; blank tiles fill the last.
+    size : int, default TILE
+        Pixels per side of one tile's drawing.
+
+    Returns
+    -------
+    ndarray of uint8
+        The gallery image.
+    """
     tiles = [world_tile(n, size) for n in names]
     blank = np.full_like(tiles[0], 255)
     tiles += [blank] * (-len(tiles) % columns)
@@ -52,6 +82,18 @@ def gallery(names: list[str], columns: int = 4, size: int = TILE) -> np.ndarray:
 
 
 def main(argv=None) -> int:
+    """Draw the gallery of a family's split and write it as PNG.
+
+    Parameters
+    ----------
+    argv : list of str or None, default None
+        The arguments; None reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--family", choices=("hallway", "lawn"), required=True)
     parser.add_argument("--split", choices=("train", "dev", "test"), default="train")

@@ -20,7 +20,20 @@ from scenes.families import FAMILIES, SPLITS, SPLITS_VERSION, family_layout, spl
 
 
 def repeats(family: str, progress: bool = True) -> dict:
-    """The counts of one family: distinct train structures, test worlds, repeated ones."""
+    """Count one family's distinct train structures, test worlds and repeated ones.
+
+    Parameters
+    ----------
+    family : str
+        The family.
+    progress : bool, default True
+        Whether to show progress bars.
+
+    Returns
+    -------
+    dict
+        The counts, and ``repeats``: the train world each repeating test world copies.
+    """
     train: dict[tuple, str] = {}  # structure -> the first train world that has it
     for name in tqdm(split_worlds(family, "train"), desc=f"{family} train", disable=not progress):
         train.setdefault(structure(family_layout(name)), name)
@@ -36,6 +49,18 @@ def repeats(family: str, progress: bool = True) -> dict:
 
 
 def main(argv=None) -> int:
+    """Count the repeats of every family, print them as JSON and write them to ``--out``.
+
+    Parameters
+    ----------
+    argv : list of str or None, default None
+        The arguments; None reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", help="write the counts here as JSON")
     args = parser.parse_args(argv)

@@ -1,5 +1,7 @@
-"""Held-out evaluation: every mapping task on test worlds the methods were never tuned on,
-beside the canonical world of each family (``topomap heldout``).
+"""Held-out evaluation (``topomap heldout``).
+
+Every mapping task on test worlds the methods were never tuned on, beside the canonical world of
+each family.
 """
 
 from scripts.heldout.cells import TASKS, run_cell

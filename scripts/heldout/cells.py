@@ -36,20 +36,69 @@ MANIFOLD_VERSION = 2  # the manifold task's own: a cell of another is scored aga
 
 
 def scaled_q(n: int, k: int) -> int:
-    """Q scaled to the data: ``n // (3 k)`` within [8, 35] (``n`` training images, ``k``
-    manifolds). A generated world's drive crosses several stretches, so a short leaf gets
+    """Scale Q to the data: ``n // (3 k)`` within [8, 35].
+
+    A generated world's drive crosses several stretches, so a short leaf gets
     fewer training frames than the protocol's Q = 35 (which the canonical worlds' leaves, at
     37-41, just exceed); with Q above a manifold's size no cluster can hold it.
+
+    Parameters
+    ----------
+    n : int
+        Training images.
+    k : int
+        Manifolds.
+
+    Returns
+    -------
+    int
+        Q.
     """
     return int(np.clip(n // (Q_DIVISOR * k), Q_MIN, MANIFOLD_Q))
 
 
 def cell_path(out: Path, world: str, seed: int, frames: int) -> Path:
+    """Return the cached JSON file of a cell: ``out/cells/<world>-s<seed>-f<frames>.json``.
+
+    Parameters
+    ----------
+    out : Path
+        The evaluation's output folder.
+    world : str
+        The world.
+    seed : int
+        The dataset seed.
+    frames : int
+        Frames per sequence.
+
+    Returns
+    -------
+    Path
+        The file.
+    """
     stem = parse_world_name(world).file_stem
     return Path(out) / "cells" / f"{stem}-s{seed}-f{frames}.json"
 
 
 def dataset_dir(data_root: Path, world: str, seed: int, frames: int) -> Path:
+    """Return the dataset folder of a cell: ``data_root/<world>-s<seed>-f<frames>``.
+
+    Parameters
+    ----------
+    data_root : Path
+        The folder of the cells' datasets.
+    world : str
+        The world.
+    seed : int
+        The dataset seed.
+    frames : int
+        Frames per sequence.
+
+    Returns
+    -------
+    Path
+        The folder.
+    """
     return Path(data_root) / f"{parse_world_name(world).file_stem}-s{seed}-f{frames}"
 
 
@@ -109,9 +158,29 @@ def run_cell(
 ) -> dict:
     """Score ``tasks`` on ``world``'s dataset of ``seed``; cached in ``out/cells``.
 
-    ``episodes``: servo episodes per controller and start tier (a cached servo task run with
-    another count is run again). Returns the cell: world, family, seed, frames, the world's
-    manifolds and, per manifold, the junctions from the main one, then one entry per task.
+    Parameters
+    ----------
+    world : str
+        The world's name.
+    seed : int
+        The dataset seed.
+    out : Path
+        The evaluation's output folder.
+    data_root : Path
+        The folder of the cells' datasets.
+    frames : int, default 150
+        Frames per sequence.
+    tasks : sequence of str, default TASKS
+        A subset of `TASKS`.
+    episodes : int, default 3
+        Servo episodes per controller and start tier (a cached servo task run with another
+        count is run again).
+
+    Returns
+    -------
+    dict
+        The cell: world, family, seed, frames, the world's manifolds and, per manifold, the
+        junctions from the main one, then one entry per task.
     """
     from scenes import build_world
     from scripts.heldout.servo_cell import servo_task
@@ -168,8 +237,9 @@ def run_cell(
 
 
 def _cached(path: Path) -> dict:
-    """A cached cell of the current version, or an empty one (a stale or unreadable file is
-    recomputed, not trusted).
+    """Read a cached cell of the current version, or return an empty one.
+
+    A stale or unreadable file is recomputed, not trusted.
     """
     if not path.is_file():
         return {}
@@ -183,8 +253,22 @@ def _cached(path: Path) -> dict:
 
 
 def manifold_errors(cells: list[dict], method: str) -> np.ndarray:
-    """Test error of ``method`` per cell (cells without the manifold task, and cells where the
-    method refused the data, are left out: `manifold_refusals` counts those).
+    """Return the test error of ``method`` per cell.
+
+    Cells without the manifold task, and cells where the method refused the data, are left
+    out: `manifold_refusals` counts those.
+
+    Parameters
+    ----------
+    cells : list of dict
+        Cells of `run_cell`.
+    method : str
+        The method's name in the manifold rows.
+
+    Returns
+    -------
+    ndarray of float
+        The test errors.
     """
     out = []
     for c in cells:
@@ -198,7 +282,20 @@ def manifold_errors(cells: list[dict], method: str) -> np.ndarray:
 
 
 def manifold_refusals(cells: list[dict], method: str) -> int:
-    """Cells where ``method`` refused the data (fewer images than K clusters of Q)."""
+    """Count the cells where ``method`` refused the data (fewer images than K clusters of Q).
+
+    Parameters
+    ----------
+    cells : list of dict
+        Cells of `run_cell`.
+    method : str
+        The method's name in the manifold rows.
+
+    Returns
+    -------
+    int
+        The count.
+    """
     return sum(
         r["method"] == method and r.get("test_error") is None
         for c in cells

@@ -1,5 +1,6 @@
-"""Every mapping task on held-out worlds: the test worlds of each family beside the canonical
-world, with the gap.
+"""Every mapping task on each family's held-out test worlds beside its canonical world.
+
+The summary gives the gap between the two.
 
     topomap heldout --worlds 20 --out out/heldout [--jobs 2] [--seeds 0] [--backend ray]
 
@@ -29,7 +30,22 @@ CANONICAL_EPISODES = 4  # the canonical world's servo episodes, as a multiple of
 
 
 def plan(families, count: int, seeds) -> list[tuple[str, int]]:
-    """(world, seed) of every cell: each family's canonical world and held-out test worlds."""
+    """List (world, seed) of every cell: each family's canonical world and held-out test worlds.
+
+    Parameters
+    ----------
+    families : iterable of str
+        The families.
+    count : int
+        Held-out test worlds per family.
+    seeds : iterable of int
+        Dataset seeds per world.
+
+    Returns
+    -------
+    list of tuple of (str, int)
+        The cells.
+    """
     out = []
     for family in families:
         for world in (family, *held_out_worlds(family, count)):
@@ -38,10 +54,24 @@ def plan(families, count: int, seeds) -> list[tuple[str, int]]:
 
 
 class CellRunner:
-    """Runs held-out cells in one sweep worker (``scripts.sweep.backends``): a task is
-    ``(world, seed, episodes)``; the rest of `scripts.heldout.cells.run_cell`'s
+    """Run held-out cells in one sweep worker (``scripts.sweep.backends``).
+
+    A task is ``(world, seed, episodes)``; the rest of `scripts.heldout.cells.run_cell`'s
     arguments are the runner's. The process is set to one thread unless ``one_thread`` is
     false (the cells then run in the calling process, whose threads are its own).
+
+    Parameters
+    ----------
+    out : str or Path
+        The evaluation's output folder.
+    data_root : str or Path
+        The folder of the cells' datasets.
+    frames : int
+        Frames per sequence.
+    tasks : iterable of str
+        The tasks of each cell.
+    one_thread : bool, default True
+        Whether to set the process to one BLAS thread.
     """
 
     def __init__(self, out, data_root, frames: int, tasks, one_thread: bool = True):
@@ -54,6 +84,18 @@ class CellRunner:
         self._args = (Path(out), Path(data_root), int(frames), tuple(tasks))
 
     def run(self, task: tuple) -> dict:
+        """Run one cell.
+
+        Parameters
+        ----------
+        task : tuple of (str, int, int)
+            The world, the dataset seed and the servo episodes.
+
+        Returns
+        -------
+        dict
+            The cell of `scripts.heldout.cells.run_cell`.
+        """
         world, seed, episodes = task
         out, data_root, frames, tasks = self._args
         return run_cell(world, seed, out, data_root, frames, tasks, episodes)
@@ -77,10 +119,42 @@ def evaluate_heldout(
     backend: str = "local",
     address: str | None = None,
 ) -> dict:
-    """Run (or resume) every cell of `plan` on ``backend`` with ``jobs`` workers, then
-    `summarise` them into ``out/heldout.json`` and ``out/heldout.md``; returns the
-    summary. ``episodes``: servo episodes per controller and start tier in a held-out world
-    (the canonical world gets `CANONICAL_EPISODES` times as many).
+    """Run (or resume) every cell of `plan` on ``backend``, then summarise them.
+
+    The summary (`summarise`) is written to ``out/heldout.json`` and ``out/heldout.md``.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+    families : iterable of str, default FAMILIES
+        The families.
+    count : int, default 20
+        Held-out test worlds per family.
+    seeds : iterable of int, default (0,)
+        Dataset seeds per world.
+    frames : int, default 150
+        Frames per drive.
+    tasks : sequence of str, default TASKS
+        The tasks of each cell.
+    jobs : int or None, default None
+        Workers; None: the cores (never more than the cells).
+    data_root : Path or None, default None
+        The folder of the cells' datasets; None: ``out/data``.
+    progress : bool, default True
+        Whether to show a progress bar.
+    episodes : int, default 3
+        Servo episodes per controller and start tier in a held-out world (the canonical
+        world gets `CANONICAL_EPISODES` times as many).
+    backend : str, default "local"
+        The sweep backend (``scripts.sweep.backends``).
+    address : str or None, default None
+        The Ray cluster's address, for the Ray backend.
+
+    Returns
+    -------
+    dict
+        The summary.
     """
     from tqdm.auto import tqdm
 
@@ -106,6 +180,18 @@ def evaluate_heldout(
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
+    """Declare the options of ``topomap heldout``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser or None, default None
+        The parser to declare them on; None makes a new one.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser.
+    """
     from scripts.args import positive_int
     from scripts.sweep import add_backend_arguments
 
@@ -136,6 +222,18 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
 
 
 def run(args) -> int:
+    """Run the held-out evaluation and print its summary.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of ``topomap heldout``.
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 2 when the backend is not there.
+    """
     if any(s < 0 for s in args.seeds):
         raise SystemExit("topomap heldout: --seeds must be integers >= 0")
     try:
@@ -161,6 +259,18 @@ def run(args) -> int:
 
 
 def main(argv=None) -> int:
+    """Run the held-out evaluation from the command line.
+
+    Parameters
+    ----------
+    argv : list of str or None, default None
+        The arguments; None reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     return run(build_parser().parse_args(argv))
 
 

@@ -1,5 +1,7 @@
-"""The servo task of a held-out cell: a servo map built from the cell's own dataset, then the
-benchmark protocol's test episodes for both controllers and both start tiers.
+"""The servo task of a held-out cell.
+
+A servo map is built from the cell's own dataset, then the benchmark protocol's test episodes
+run for both controllers and both start tiers.
 
 Each world's map comes from its own recordings (``servo.maps.build_map``, default settings, K
 the world's manifold count), so nothing of the canonical worlds' maps is reused. The episodes
@@ -35,11 +37,25 @@ KEEP = (
 
 
 def spread_by_junctions(pairs: list[tuple[str, str]], junctions, episodes: int) -> list[int]:
-    """Indices of ``episodes`` of ``pairs`` (the protocol's ordered manifold pairs, episode
-    ``i`` on pair ``i``): junction counts taken in turn (1, 2, 3 or more, 1, ...; a count the
-    world lacks is skipped), each count's pairs in the protocol's order; ``junctions(a, b)``
-    counts them. When every pair is taken, the protocol's next episodes (pair ``i mod P``)
-    follow.
+    """Choose the indices of ``episodes`` of ``pairs``, spread over junction counts.
+
+    Junction counts are taken in turn (1, 2, 3 or more, 1, ...; a count the world lacks is
+    skipped), each count's pairs in the protocol's order. When every pair is taken, the
+    protocol's next episodes (pair ``i mod P``) follow.
+
+    Parameters
+    ----------
+    pairs : list of tuple of (str, str)
+        The protocol's ordered manifold pairs, episode ``i`` on pair ``i``.
+    junctions : callable
+        ``junctions(a, b)``: the junctions between manifolds ``a`` and ``b``.
+    episodes : int
+        How many episodes.
+
+    Returns
+    -------
+    list of int
+        The episode indices.
     """
     by: dict[int, list[int]] = {}
     for i, (a, b) in enumerate(pairs):
@@ -53,11 +69,24 @@ def spread_by_junctions(pairs: list[tuple[str, str]], junctions, episodes: int) 
 
 
 def servo_task(data, world, episodes: int) -> dict:
-    """Run ``episodes`` test episodes per controller and start tier in ``world`` (the built
-    ``scenes.World``) on a map built
-    from ``data`` (the cell's dataset), chosen by `spread_by_junctions`; returns the
-    map's size and one record per episode (`KEEP`'s fields, plus ``policy`` and
-    ``tier``).
+    """Run ``episodes`` test episodes per controller and start tier in ``world``.
+
+    The episodes run on a map built from ``data`` and are chosen by `spread_by_junctions`.
+
+    Parameters
+    ----------
+    data : Dataset
+        The cell's dataset.
+    world : scenes.World
+        The built world.
+    episodes : int
+        Episodes per controller and start tier.
+
+    Returns
+    -------
+    dict
+        The map's size and one record per episode (`KEEP`'s fields, plus ``policy`` and
+        ``tier``).
     """
     from servo.maps import build_map
     from servo.task import Protocol, manifold_pairs, run_protocol

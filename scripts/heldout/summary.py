@@ -1,5 +1,6 @@
-"""The held-out evaluation's summary: per family and task, the canonical world beside the
-held-out test worlds, with the gap.
+"""The held-out evaluation's summary.
+
+Per family and task, the canonical world beside the held-out test worlds, with the gap:
 
 * clustering error: mean over worlds with its bootstrap 95% interval, ours paired against
   scikit-learn's (the same worlds), and the worlds past `ERROR_TARGET`;
@@ -61,7 +62,7 @@ def _servo_records(cells: list[dict]) -> list[dict]:
 
 
 def _servo(held: list[dict], canon: list[dict]) -> dict:
-    """Per ``policy/tier``: held-out and canonical success, and held-out by junctions."""
+    """Rate held-out and canonical success per ``policy/tier``, and held-out by junctions."""
     held_r, canon_r = _servo_records(held), _servo_records(canon)
     out = {}
     for key in dict.fromkeys((r["policy"], r["tier"]) for r in held_r + canon_r):
@@ -79,7 +80,20 @@ def _servo(held: list[dict], canon: list[dict]) -> dict:
 
 
 def summarise(cells: list[dict], frames: int) -> dict:
-    """Per family: each task on the canonical world and over the held-out worlds."""
+    """Summarise each task per family on the canonical world and over the held-out worlds.
+
+    Parameters
+    ----------
+    cells : list of dict
+        Cells of `scripts.heldout.cells.run_cell`.
+    frames : int
+        Frames per drive, recorded in the summary.
+
+    Returns
+    -------
+    dict
+        The summary: per family, the manifold, grouping and servo results.
+    """
     from scripts.manifold import OURS, SKLEARN_DEFAULT
 
     out = {"splits_version": SPLITS_VERSION, "frames": frames, "q": MANIFOLD_Q, "families": {}}
@@ -117,7 +131,7 @@ def summarise(cells: list[dict], frames: int) -> dict:
 
 
 def _label(method: str) -> str:
-    """A clustering method's name in the tables: ours with its Q rule."""
+    """Name a clustering method in the tables: ours with its Q rule."""
     from scripts.manifold import OURS
 
     return {OURS: f"ours, Q = {MANIFOLD_Q}", OURS_SCALED: f"ours, Q = n / ({Q_DIVISOR} K)"}.get(
@@ -131,7 +145,7 @@ def _fmt(s: dict, pct: bool) -> str:
 
 
 def _row(family, task, method, canonical: float | None, held: dict, pct: bool) -> str:
-    """One row of the mapping table; the gap in points (rates) or units (other values)."""
+    """Write one row of the mapping table; the gap in points (rates) or units (other values)."""
     if canonical is None:
         canon = gap = ""
     elif pct:
@@ -149,9 +163,21 @@ def _rate_text(r: dict | None) -> str:
 
 
 def format_summary(summary: dict) -> str:
-    """The summary as markdown: a mapping table (canonical, held-out and gap per family, task
-    and method) and, where servo episodes ran, a servo table (success per controller and tier,
-    canonical beside held-out, and held-out by junctions between start and target).
+    """Write the summary as markdown tables.
+
+    A mapping table (canonical, held-out and gap per family, task and method) and, where servo
+    episodes ran, a servo table (success per controller and tier, canonical beside held-out,
+    and held-out by junctions between start and target).
+
+    Parameters
+    ----------
+    summary : dict
+        A summary of `summarise`.
+
+    Returns
+    -------
+    str
+        The markdown.
     """
     lines = [
         "| family | task | method | canonical world | held-out worlds [95% interval] | gap | n |",

@@ -1,5 +1,7 @@
-"""Drawing for the ``worlds`` stage: per manifold sample frames, the laser scan
-on a crop of the map, and the contact sheet of the samples.
+"""Drawing for the ``worlds`` stage.
+
+Per manifold sample frames, the laser scan on a crop of the map, and the contact sheet of the
+samples.
 """
 
 from __future__ import annotations
@@ -10,8 +12,18 @@ __all__ = ["laser_crop", "manifold_samples", "sample_sheet"]
 
 
 def manifold_samples(dataset) -> dict[int, tuple]:
-    """Per manifold id: (sequence, three frame indices spread over the frames on it, at 1/6,
-    1/2 and 5/6) from the sequence with the most frames on it.
+    """Pick three sample frames per manifold from the sequence with the most frames on it.
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The dataset.
+
+    Returns
+    -------
+    dict of int to tuple
+        Per manifold id: (sequence, three frame indices spread over the frames on it, at 1/6,
+        1/2 and 5/6).
     """
     best: dict[int, tuple] = {}
     for seq in dataset.sequences.values():
@@ -26,8 +38,31 @@ def manifold_samples(dataset) -> dict[int, tuple]:
 
 
 def laser_crop(view, pose, scan, angles, trail, size: int, half_m: float = 8.0) -> np.ndarray:
-    """A ``size`` x ``size`` square of the map, ``2 half_m`` metres wide, centred on the robot,
-    with its trail, its laser rays (every 8th) and hits in red.
+    """Draw a square of the map centred on the robot, with its trail, laser rays and hits.
+
+    The rays (every 8th) and the hits are drawn in red.
+
+    Parameters
+    ----------
+    view : TopDownView
+        The world's top-down view.
+    pose : ndarray of shape (3,)
+        The robot's pose (x, y in metres, yaw in radians).
+    scan : ndarray of shape (beams,)
+        The laser ranges in metres (non-finite: no return).
+    angles : array_like of shape (beams,)
+        The beams' angles relative to the robot, in radians.
+    trail : ndarray
+        The robot's past positions, drawn as its trail.
+    size : int
+        Pixels per side of the result.
+    half_m : float, default 8.0
+        Half the square's width, in metres.
+
+    Returns
+    -------
+    ndarray of uint8 of shape (size, size, 3)
+        The crop.
     """
     import cv2
 
@@ -49,7 +84,20 @@ def laser_crop(view, pose, scan, angles, trail, size: int, half_m: float = 8.0) 
 
 
 def sample_sheet(rows: dict[str, list[tuple[str, np.ndarray]]], scale: float = 0.5) -> np.ndarray:
-    """The manifolds' sample rows at ``scale``, one column per world, each row labelled."""
+    """Lay out the manifolds' sample rows at ``scale``, one column per world, each row labelled.
+
+    Parameters
+    ----------
+    rows : dict of str to list of tuple of (str, ndarray)
+        Per world: (manifold name, image row) pairs.
+    scale : float, default 0.5
+        The rows' scale.
+
+    Returns
+    -------
+    ndarray of uint8
+        The sheet.
+    """
     import cv2
 
     columns = []

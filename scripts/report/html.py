@@ -1,5 +1,7 @@
-"""HTML pieces of the report: escaping, cell formatting, tables, figures, sections, the whole
-page, and writing it after checking every file it references is beside it.
+"""HTML pieces of the report.
+
+Escaping, cell formatting, tables, figures, sections, the whole page, and writing it after
+checking every file it references is beside it.
 """
 
 from __future__ import annotations
@@ -32,12 +34,38 @@ INDEX = "index.html"
 
 
 def esc(value) -> str:
+    """Escape ``str(value)`` for HTML text and attributes (quotes included).
+
+    Parameters
+    ----------
+    value : object
+        The value.
+
+    Returns
+    -------
+    str
+        The escaped text.
+    """
     return html.escape(str(value), quote=True)
 
 
 def fmt(value, digits: int = 3) -> str:
-    """A table cell: floats to ``digits`` decimals below 10 (fewer above: 12.35, 123.5), None
-    as a dash, booleans as yes / no, lists comma-separated.
+    """Format a table cell as HTML.
+
+    Floats to ``digits`` decimals below 10 (fewer above: 12.35, 123.5), None as a dash,
+    booleans as yes / no, lists comma-separated.
+
+    Parameters
+    ----------
+    value : object
+        The cell's value.
+    digits : int, default 3
+        Decimals of a float below 10.
+
+    Returns
+    -------
+    str
+        The cell's HTML.
     """
     if value is None:
         return "&ndash;"
@@ -52,7 +80,22 @@ def fmt(value, digits: int = 3) -> str:
 
 
 def table(caption: str, header: Sequence[str], rows: Iterable[Sequence]) -> str:
-    """An HTML table with a caption; cells go through `fmt`."""
+    """Build an HTML table with a caption; cells go through `fmt`.
+
+    Parameters
+    ----------
+    caption : str
+        The caption.
+    header : sequence of str
+        The column headers.
+    rows : iterable of sequence
+        The rows' cells.
+
+    Returns
+    -------
+    str
+        The HTML.
+    """
     head = "".join(f"<th>{esc(h)}</th>" for h in header)
     body = "\n".join("<tr>" + "".join(f"<td>{fmt(c)}</td>" for c in row) + "</tr>" for row in rows)
     return (
@@ -62,7 +105,20 @@ def table(caption: str, header: Sequence[str], rows: Iterable[Sequence]) -> str:
 
 
 def figure(src: str, caption: str) -> str:
-    """An image by relative path, with a caption; clicking opens it full size."""
+    """Show an image by relative path, with a caption; clicking opens it full size.
+
+    Parameters
+    ----------
+    src : str
+        The image's path, relative to the page.
+    caption : str
+        The caption.
+
+    Returns
+    -------
+    str
+        The ``<figure>`` HTML.
+    """
     src = esc(Path(src).as_posix())
     return (
         f'<figure><a href="{src}"><img src="{src}" alt="{esc(caption)}"></a>'
@@ -71,8 +127,21 @@ def figure(src: str, caption: str) -> str:
 
 
 def video(src: str, caption: str) -> str:
-    """A video by relative path, played in the page (``<video controls>``), with a caption
-    and a link to the file.
+    """Show a video by relative path, played in the page (``<video controls>``).
+
+    It has a caption and a link to the file.
+
+    Parameters
+    ----------
+    src : str
+        The video's path, relative to the page.
+    caption : str
+        The caption.
+
+    Returns
+    -------
+    str
+        The ``<figure>`` HTML.
     """
     path = Path(src)
     src = esc(path.as_posix())
@@ -84,6 +153,22 @@ def video(src: str, caption: str) -> str:
 
 
 def section(anchor: str, title: str, *parts: str) -> str:
+    """Wrap ``parts`` in a ``<section>`` with an anchor and a heading.
+
+    Parameters
+    ----------
+    anchor : str
+        The section's id.
+    title : str
+        Its heading.
+    *parts : str
+        Its HTML pieces, one per line.
+
+    Returns
+    -------
+    str
+        The HTML.
+    """
     return (
         f'<section id="{esc(anchor)}">\n<h2>{esc(title)}</h2>\n' + "\n".join(parts) + "\n</section>"
     )
@@ -103,7 +188,22 @@ figcaption { font-size: 0.85em; max-width: 560px; }
 
 
 def build_html(title: str, sections: Sequence[str], summary: str = "") -> str:
-    """The whole page: a table of contents of the sections, then the sections."""
+    """Build the whole page: a table of contents of the sections, then the sections.
+
+    Parameters
+    ----------
+    title : str
+        The page's title and heading.
+    sections : sequence of str
+        The sections of `section`.
+    summary : str, default ""
+        HTML shown before the table of contents.
+
+    Returns
+    -------
+    str
+        The page.
+    """
     toc = "".join(
         f'<li><a href="#{a}">{t}</a></li>'
         for a, t in (
@@ -120,13 +220,42 @@ def build_html(title: str, sections: Sequence[str], summary: str = "") -> str:
 
 
 def referenced_files(page: str) -> list[str]:
-    """The local files an HTML page references (``src`` and ``href`` that are not anchors)."""
+    """List the local files an HTML page references (``src`` and ``href`` not anchors).
+
+    Parameters
+    ----------
+    page : str
+        The HTML.
+
+    Returns
+    -------
+    list of str
+        The references, sorted, each once.
+    """
     refs = re.findall(r'(?:src|href)="([^"#][^"]*)"', page)
     return sorted({html.unescape(r) for r in refs})
 
 
 def write_report(root: str | os.PathLike, page: str) -> Path:
-    """Write ``index.html`` atomically after checking every file it references is in ``root``."""
+    """Write ``index.html`` atomically after checking every file it references is in ``root``.
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The report folder.
+    page : str
+        The HTML.
+
+    Returns
+    -------
+    Path
+        The page's path.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the page references a file that is not in ``root`` or a URL.
+    """
     root = Path(root)
     missing = [r for r in referenced_files(page) if "://" in r or not (root / r).is_file()]
     if missing:

@@ -1,6 +1,7 @@
-"""The run as a registry of named stages: `STAGES` lists them in order, and
-`run_pipeline` runs whichever sequence of `Stage` it is given (by default
-`STAGES`), so tests pass fake stages instead of patching this module.
+"""The run as a registry of named stages.
+
+`STAGES` lists them in order, and `run_pipeline` runs whichever sequence of `Stage` it is
+given (by default `STAGES`), so tests pass fake stages instead of patching this module.
 
 Each stage gets the `RunContext` (output folders, settings, the results of the stages
 before it) and returns a dict; the pipeline times it, turns a failure into a
@@ -52,7 +53,21 @@ TITLE = "topomap-testbed: run report"
 
 @dataclass
 class RunContext:
-    """What the stages of one run share; ``results`` fills in as the stages finish."""
+    """What the stages of one run share; ``results`` fills in as the stages finish.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder, absolute.
+    shown : Path
+        ``out`` as given, for the page.
+    settings : RunSettings
+        What the run does.
+    progress : bool
+        Whether the stages show progress.
+    results : dict of str to Any, optional
+        The results of the stages finished so far, by stage name.
+    """
 
     out: Path  # absolute
     shown: Path  # ``out`` as given, for the page
@@ -67,10 +82,22 @@ class RunContext:
 
     @property
     def data_dir(self) -> Path:
+        """The dataset's folder: ``<out>/dataset``."""
         return self.out / "dataset"
 
     def dir(self, stage: str) -> Path:
-        """The folder of a stage's files: ``<out>/report/<stage>``."""
+        """Return the folder of a stage's files: ``<out>/report/<stage>``.
+
+        Parameters
+        ----------
+        stage : str
+            The stage's name.
+
+        Returns
+        -------
+        Path
+            The folder.
+        """
         return self.root / stage
 
     @property
@@ -88,13 +115,25 @@ class RunContext:
 class Stage:
     """One named step of the run.
 
-    run : the work; returns a dict (the stage's result).
-    section : the page's section of the result; None: no section.
-    folder : whether the stage gets ``<out>/report/<name>/`` (made before any stage runs).
-    recorded : whether ``report.json`` holds the result.
-    saved_as : a file the stage writes its result to in its folder; ``report.json`` then
-        holds its path instead of the result (after the results held inline).
-    describe : entries the stage adds to the page's settings table.
+    Parameters
+    ----------
+    name : str
+        The stage's name.
+    run : callable
+        The work: a function of the `RunContext` returning a dict (the stage's result).
+    section : callable or None, default None
+        The page's section of the result (a function of the result and the context); None:
+        no section.
+    folder : bool, default True
+        Whether the stage gets ``<out>/report/<name>/`` (made before any stage runs).
+    recorded : bool, default True
+        Whether ``report.json`` holds the result.
+    saved_as : str or None, default None
+        A file the stage writes its result to in its folder; ``report.json`` then holds its
+        path instead of the result (after the results held inline).
+    describe : callable or None, default None
+        Entries the stage adds to the page's settings table (a function of the result and the
+        context).
     """
 
     name: str
@@ -107,7 +146,25 @@ class Stage:
 
 
 def replace_runs(stages: Sequence[Stage], **runs: Callable[[RunContext], dict]) -> tuple:
-    """``stages`` with the ``run`` of the named ones replaced (a KeyError for unknown names)."""
+    """Return ``stages`` with the ``run`` of the named ones replaced.
+
+    Parameters
+    ----------
+    stages : sequence of Stage
+        The stages.
+    **runs : callable
+        The new ``run`` of each stage, by stage name.
+
+    Returns
+    -------
+    tuple of Stage
+        The stages.
+
+    Raises
+    ------
+    KeyError
+        For a name that is not a stage's.
+    """
     unknown = set(runs) - {s.name for s in stages}
     if unknown:
         raise KeyError(f"no stages {sorted(unknown)} in {[s.name for s in stages]}")
@@ -118,7 +175,18 @@ def replace_runs(stages: Sequence[Stage], **runs: Callable[[RunContext], dict]) 
 
 
 def collect(ctx: RunContext) -> dict:
-    """Collect the default dataset into ``<out>/dataset`` (reused when present) and load it."""
+    """Collect the default dataset into ``<out>/dataset`` (reused when present) and load it.
+
+    Parameters
+    ----------
+    ctx : RunContext
+        The run.
+
+    Returns
+    -------
+    dict
+        ``dataset``: the loaded dataset; ``collection``: its collection settings.
+    """
     from sim.collect import CollectionSettings, collect_dataset
     from sim.dataset import load_dataset
 
@@ -128,6 +196,20 @@ def collect(ctx: RunContext) -> dict:
 
 
 def describe_dataset(result: dict, ctx: RunContext) -> dict[str, str]:
+    """Describe the dataset for the page's settings table: its folder, size and settings.
+
+    Parameters
+    ----------
+    result : dict
+        The result of `collect`.
+    ctx : RunContext
+        The run.
+
+    Returns
+    -------
+    dict of str to str
+        The ``dataset`` and ``collection`` entries.
+    """
     dataset = result["dataset"]
     return {
         "dataset": f"{ctx.shown / 'dataset'} ({len(dataset.sequences)} sequences, "
@@ -218,12 +300,35 @@ def run_pipeline(
     command: str = "topomap run",
     stages: Sequence[Stage] = STAGES,
 ) -> Path:
-    """Run ``stages`` in order (by default `STAGES`: collect the default dataset into
-    ``<out>/dataset``, reused when present, then the four stages into
-    ``<out>/report/<stage>/``) and write ``<out>/report/index.html``; returns it.
+    """Run ``stages`` in order and write ``<out>/report/index.html``.
 
-    Raises `StageError` (naming the stage) if any stage fails, `OutputError` if
-    ``out`` cannot be written.
+    By default the stages are `STAGES`: collect the default dataset into ``<out>/dataset``,
+    reused when present, then the four stages into ``<out>/report/<stage>/``.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder.
+    settings : RunSettings or None, default None
+        What the run does; None: the defaults.
+    progress : bool, default True
+        Whether to print the stages and show progress.
+    command : str, default "topomap run"
+        The command line the page records.
+    stages : sequence of Stage, default STAGES
+        The stages.
+
+    Returns
+    -------
+    Path
+        The page, ``<out>/report/index.html``.
+
+    Raises
+    ------
+    StageError
+        If any stage fails (naming the stage).
+    OutputError
+        If ``out`` cannot be written.
     """
     settings = settings or RunSettings()
     shown = Path(out)

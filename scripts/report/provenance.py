@@ -15,6 +15,13 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def versions() -> dict[str, str]:
+    """Return the versions of Python and of `VERSION_PACKAGES` ("not installed" if missing).
+
+    Returns
+    -------
+    dict of str to str
+        The version per name.
+    """
     from importlib.metadata import PackageNotFoundError, version
 
     out = {"python": platform.python_version()}
@@ -27,6 +34,13 @@ def versions() -> dict[str, str]:
 
 
 def machine() -> dict[str, str]:
+    """Describe the machine: CPU model, core count, platform and ``MUJOCO_GL``.
+
+    Returns
+    -------
+    dict of str to str
+        The entries, by label.
+    """
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -44,7 +58,18 @@ def machine() -> dict[str, str]:
 
 
 def git_commit(repo: Path | None = None) -> str | None:
-    """The checked-out commit, read-only; None outside a git checkout."""
+    """Read the checked-out commit, read-only; None outside a git checkout.
+
+    Parameters
+    ----------
+    repo : Path or None, default None
+        The checkout; None: the repository's root, `REPO_ROOT`.
+
+    Returns
+    -------
+    str or None
+        The commit's hash.
+    """
     repo = repo or REPO_ROOT
     try:
         out = subprocess.run(

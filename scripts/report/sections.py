@@ -1,5 +1,6 @@
-"""One builder per section of the report page, each of a plain dict (the stage's result), so
-each can be tested on fake inputs; paths in the dicts are relative to the report's root.
+"""One builder per section of the report page, each of a plain dict (the stage's result).
+
+Each can thus be tested on fake inputs; paths in the dicts are relative to the report's root.
 """
 
 from __future__ import annotations
@@ -32,9 +33,20 @@ PAPER = {
 
 
 def section_summary(lines: Sequence[dict]) -> str:
-    """The page's opening summary: one row per line of ``scripts.report.summary.summarise_run``
-    (the task, what its number is, the number with its 95% interval, the target and whether the
-    number meets it).
+    """Build the page's opening summary: one row per line of the run's summary.
+
+    Each row gives the task, what its number is, the number with its 95% interval, the target
+    and whether the number meets it.
+
+    Parameters
+    ----------
+    lines : sequence of dict
+        The lines of ``scripts.report.summary.summarise_run``.
+
+    Returns
+    -------
+    str
+        The section's HTML.
     """
     rows = []
     for line in lines:
@@ -61,8 +73,18 @@ def section_summary(lines: Sequence[dict]) -> str:
 
 
 def section_worlds(result: dict) -> str:
-    """``result``: {"topdown": {world: path}, "manifolds": {manifold: {"image", "frames"}}}
-    (paths relative to the report's root).
+    """Build the worlds section: top-down views, per manifold samples, the gallery.
+
+    Parameters
+    ----------
+    result : dict
+        {"topdown": {world: path}, "manifolds": {manifold: {"image", "frames"}}}, and
+        optionally "gallery": {family: path} (paths relative to the report's root).
+
+    Returns
+    -------
+    str
+        The section's HTML.
     """
     parts = [
         "<p>Top-down views: manifold regions in colour, obstacles dark, the dataset's true "
@@ -87,7 +109,18 @@ def section_worlds(result: dict) -> str:
 
 
 def section_manifold(result: dict) -> str:
-    """``result`` of ``scripts.manifold.reproduce.reproduce`` (paths relative to the root)."""
+    """Build the manifold-clustering section: synthetic and real tables, and the figures.
+
+    Parameters
+    ----------
+    result : dict
+        The result of ``scripts.manifold.reproduce.reproduce`` (paths relative to the root).
+
+    Returns
+    -------
+    str
+        The section's HTML.
+    """
     synthetic = table(
         "Synthetic sets: clustering error, ours beside the paper's claim",
         ("set", "method", "error", "paper"),
@@ -134,10 +167,22 @@ PROTOCOL_HOWTO = (
 
 
 def section_protocol(result: dict) -> str:
-    """``result`` of ``stage_protocol``: {"source": folder or None, "rows": the rows of
-    ``scripts.manifold.protocol.summarize``}. One table per condition and features: a row per
-    method, a column per seed (the dev seed first), then min / median / max and the mean with
-    its bootstrap 95% interval over the fresh seeds.
+    """Build the section of the frozen protocol's errors over dataset seeds.
+
+    One table per condition and features: a row per method, a column per seed (the dev seed
+    first), then min / median / max and the mean with its bootstrap 95% interval over the fresh
+    seeds. Without a source, the section says how to make one.
+
+    Parameters
+    ----------
+    result : dict
+        The result of ``stage_protocol``: {"source": folder or None, "rows": the rows of
+        ``scripts.manifold.protocol.summarize``}.
+
+    Returns
+    -------
+    str
+        The section's HTML.
     """
     intro = (
         "<p>The manifold-clustering tables above are <strong>one dataset seed</strong>: seed 0, "
@@ -195,8 +240,21 @@ def section_protocol(result: dict) -> str:
 
 
 def section_grouping(result: dict, prefix: str = "") -> str:
-    """``result`` of ``scripts.grouping.evaluate.evaluate_grouping``; figures under ``prefix``.
+    """Build the observation-grouping section: its tables and figures.
+
     The tables are ``scripts.grouping.tables``', the ones the command line prints.
+
+    Parameters
+    ----------
+    result : dict
+        The result of ``scripts.grouping.evaluate.evaluate_grouping``.
+    prefix : str, default ""
+        The folder of the figures, relative to the report's root.
+
+    Returns
+    -------
+    str
+        The section's HTML.
     """
     targets = result.get("settings", {}).get("targets", {})
     purity_min, max_groups = targets.get("purity_min"), targets.get("max_groups_per_manifold")
@@ -218,7 +276,7 @@ def section_grouping(result: dict, prefix: str = "") -> str:
 
 
 def _no_labels_note(result: dict) -> str:
-    """A note for results of a dataset without ground truth (imported from a robot's log)."""
+    """Note results of a dataset without ground truth (imported from a robot's log)."""
     if result.get("ground_truth", True):
         return ""
     return (
@@ -229,8 +287,19 @@ def _no_labels_note(result: dict) -> str:
 
 
 def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
-    """``results``: ``servo.task.evaluation.evaluate`` dicts (with ``plot`` relative to the root);
-    ``videos``: per "world/policy", video paths relative to the root.
+    """Build the closed-loop servoing section: tables, trajectory plots and videos.
+
+    Parameters
+    ----------
+    results : sequence of dict
+        ``servo.task.evaluation.evaluate`` dicts (with ``plot`` relative to the root).
+    videos : dict of str to list of str
+        Per "world/policy", video paths relative to the root.
+
+    Returns
+    -------
+    str
+        The section's HTML.
     """
     summary, pairs = summary_table(results).to_html(), pair_table(results).to_html()
     parts = [
@@ -272,7 +341,18 @@ def section_servo(results: Sequence[dict], videos: dict[str, list[str]]) -> str:
 
 
 def section_reproduce(info: dict) -> str:
-    """``info``: {"command", "settings", "versions", "machine", "commit", "timings", "total"}."""
+    """Build the section of what reproduces the report: command, settings, versions, timings.
+
+    Parameters
+    ----------
+    info : dict
+        {"command", "settings", "versions", "machine", "commit", "timings", "total"}.
+
+    Returns
+    -------
+    str
+        The section's HTML.
+    """
     rows = [[k, v] for k, v in info["settings"].items()]
     timings = [[k, v] for k, v in info["timings"].items()] + [["total", info["total"]]]
     return section(
@@ -289,8 +369,19 @@ def section_reproduce(info: dict) -> str:
 
 
 def section_leaderboards(result: dict) -> str:
-    """The committed leaderboards of `scripts.report.stages.stage_leaderboards`: per
-    task, ours beside the methods from outside, from the result files named under each.
+    """Build the section of the committed leaderboards.
+
+    Per task, ours beside the methods from outside, from the result files named under each.
+
+    Parameters
+    ----------
+    result : dict
+        The result of `scripts.report.stages.stage_leaderboards`.
+
+    Returns
+    -------
+    str
+        The section's HTML.
     """
     if not result["boards"]:
         return section("leaderboards", "Leaderboards", f"<p>{esc(result['missing'])}</p>")

@@ -1,5 +1,6 @@
-"""What a run does (`RunSettings`) and how it fails (`StageError`,
-`OutputError`); shared by the stages and the pipeline.
+"""What a run does (`RunSettings`) and how it fails (`StageError`, `OutputError`).
+
+Shared by the stages and the pipeline.
 """
 
 from __future__ import annotations
@@ -22,19 +23,30 @@ COMMITTED_PROTOCOL = REPO_ROOT / "docs" / "results" / "data" / "manifold" / "pro
 class RunSettings:
     """What ``topomap run`` does; the defaults finish within 10 minutes on 2 cores.
 
-    seed : seeds the dataset and the servo episodes.
-    episodes : servo episodes per world, start tier and policy, on the benchmark protocol's
-        ``test`` split (``servo.task.protocol``; at least 20 in the run and 100 in the
-        headline tables of ``topomap servo-eval``).
-    policies : servo policies evaluated (``servo`` first; see ``servo.task.policies.POLICIES``).
-    tiers : the protocol's start tiers the two controllers (``servo``, ``signal``) run on:
+    Parameters
+    ----------
+    seed : int, default 0
+        Seeds the dataset and the servo episodes.
+    episodes : int, default 20
+        Servo episodes per world, start tier and policy, on the benchmark protocol's ``test``
+        split (``servo.task.protocol``; at least 20 in the run and 100 in the headline tables
+        of ``topomap servo-eval``).
+    policies : tuple of str, default ("servo", "signal")
+        Servo policies evaluated (``servo`` first; see ``servo.task.policies.POLICIES``).
+    tiers : tuple of str, default ("anywhere",)
+        The protocol's start tiers the two controllers (``servo``, ``signal``) run on:
         ``anywhere`` by default (the hard one; 20 episodes of both controllers from both tiers
         and the oracle took ~14 minutes on 2 cores, over the run's 10).
-    baseline_tiers : the tiers the other policies (oracle, random, greedy) run on.
-    videos : episode videos per world, of the ``servo`` policy.
-    grouping_loop : also drive and group a loop through each world (``eval_grouping``).
-    jobs : worker processes for the collection (None: one per core).
-    protocol : a folder written by ``python -m scripts.manifold.protocol --out`` (its
+    baseline_tiers : tuple of str, default ("anywhere",)
+        The tiers the other policies (oracle, random, greedy) run on.
+    videos : int, default 1
+        Episode videos per world, of the ``servo`` policy.
+    grouping_loop : bool, default False
+        Also drive and group a loop through each world (``eval_grouping``).
+    jobs : int or None, default None
+        Worker processes for the collection (None: one per core).
+    protocol : str or None, default None
+        A folder written by ``python -m scripts.manifold.protocol --out`` (its
         ``cells/*.json``), whose per-seed errors the report shows; None: the report says how to
         make one. The run does not compute it: ten more datasets and their fits would take
         far longer than the run's 10 minutes on 2 cores.
@@ -51,6 +63,7 @@ class RunSettings:
     protocol: str | None = None
 
     def __post_init__(self):
+        """Check the settings, so that a bad one fails before minutes of work."""
         # checked here, not when the stage reads it, so a typo fails before minutes of work
         if self.protocol is not None and not (Path(self.protocol) / "cells").is_dir():
             raise ValueError(

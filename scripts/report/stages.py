@@ -1,5 +1,7 @@
-"""The report's stages proper: each runs one part of the evaluation into its own folder of
-the report and returns a plain dict for its section (paths relative to the report's root).
+"""The report's stages proper.
+
+Each runs one part of the evaluation into its own folder of the report and returns a plain dict
+for its section (paths relative to the report's root).
 `scripts.report.pipeline` wraps them as named stages.
 """
 
@@ -26,13 +28,30 @@ __all__ = [
 
 
 def _rel(path, root: Path) -> str:
-    """``path`` relative to the report root (paths may come absolute or relative to it)."""
+    """Return ``path`` relative to the report root (paths may come absolute or relative to it)."""
     p = Path(path)
     return (p.resolve().relative_to(root.resolve()) if p.is_absolute() else p).as_posix()
 
 
 def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
-    """Top-down views with trajectories, and per manifold camera frames beside the laser."""
+    """Draw top-down views with trajectories, and per manifold camera frames beside the laser.
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The run's dataset.
+    out_dir : Path
+        The stage's folder.
+    root : Path
+        The report's folder.
+
+    Returns
+    -------
+    dict
+        ``topdown`` (image per world), ``manifolds`` (image and frames per manifold),
+        ``sheet`` (the samples' sheet) and ``gallery`` (image per family), paths relative to
+        ``root``.
+    """
     import cv2
 
     from scenes import build_world
@@ -69,9 +88,10 @@ def stage_worlds(dataset, out_dir: Path, root: Path) -> dict:
 
 
 def _gallery(out_dir: Path, root: Path) -> dict:
-    """The committed galleries of generated worlds (``docs/img/gallery_*.png``, drawn by
-    ``python -m scripts.world_gallery``; a test checks they match the generator), copied beside
-    the report: drawing 24 worlds would add ~12 s to the run.
+    """Copy the committed galleries of generated worlds beside the report.
+
+    The galleries are ``docs/img/gallery_*.png``, drawn by ``python -m scripts.world_gallery``
+    (a test checks they match the generator); drawing 24 worlds would add ~12 s to the run.
     """
     import shutil
 
@@ -86,6 +106,24 @@ def _gallery(out_dir: Path, root: Path) -> dict:
 
 
 def stage_manifold(dataset_dir: Path, out_dir: Path, root: Path, progress: bool) -> dict:
+    """Run the manifold-clustering reproduction (``scripts.manifold``) on the run's dataset.
+
+    Parameters
+    ----------
+    dataset_dir : Path
+        The dataset's folder.
+    out_dir : Path
+        The stage's folder.
+    root : Path
+        The report's folder.
+    progress : bool
+        Whether to show progress.
+
+    Returns
+    -------
+    dict
+        The reproduction's result, its ``figures`` relative to ``root``.
+    """
     from scripts.manifold import run_reproduction
 
     result = run_reproduction(dataset_dir, out_dir, progress=progress)
@@ -95,10 +133,27 @@ def stage_manifold(dataset_dir: Path, out_dir: Path, root: Path, progress: bool)
 
 
 def stage_protocol(folder: str | Path | None) -> dict:
-    """The frozen protocol's per-seed errors from ``folder`` (``scripts.manifold.protocol``'s
-    ``--out``), summarised per condition, features and method; ``{"source": None}`` without one.
-    The cells are files from disk: ``load_cells`` checks their form. An optional
-    ``meta.json`` of strings (how and at which commit the cells were made) is shown beside.
+    """Read the frozen protocol's per-seed errors from ``folder``.
+
+    They are summarised per condition, features and method. The cells are files from disk:
+    ``load_cells`` checks their form. An optional ``meta.json`` of strings (how and at which
+    commit the cells were made) is shown beside.
+
+    Parameters
+    ----------
+    folder : str or Path or None
+        ``scripts.manifold.protocol``'s ``--out``, or None.
+
+    Returns
+    -------
+    dict
+        ``source`` (the folder as shown), ``cells`` (their count), ``rows`` (the summary) and
+        ``made`` (the ``meta.json``); ``{"source": None, "rows": []}`` without a folder.
+
+    Raises
+    ------
+    ValueError
+        If the folder holds no cells or a ``meta.json`` that is not an object of strings.
     """
     if folder is None:
         return {"source": None, "rows": []}
@@ -121,7 +176,7 @@ def stage_protocol(folder: str | Path | None) -> dict:
 
 
 def _protocol_meta(path: Path) -> dict:
-    """``meta.json`` beside the cells: a JSON object of short strings, else refused."""
+    """Read ``meta.json`` beside the cells: a JSON object of short strings, else refused."""
     if not path.is_file():
         return {}
     try:
@@ -137,6 +192,24 @@ def _protocol_meta(path: Path) -> dict:
 
 
 def stage_grouping(dataset, out_dir: Path, settings: RunSettings, progress: bool) -> dict:
+    """Evaluate the observation grouping (``scripts.grouping.evaluate_grouping``).
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The run's dataset.
+    out_dir : Path
+        The stage's folder.
+    settings : RunSettings
+        The run's settings (``grouping_loop``).
+    progress : bool
+        Whether to show progress.
+
+    Returns
+    -------
+    dict
+        The evaluation's result.
+    """
     from scripts.grouping import evaluate_grouping
 
     return evaluate_grouping(dataset, out_dir, loop=settings.grouping_loop, progress=progress)
@@ -151,9 +224,34 @@ def stage_servo(
     maps_dir: Path,
     progress: bool,
 ) -> dict:
-    """The servo benchmark's test split (``servo.task.protocol``): every policy from every start
-    tier, ``settings.episodes`` episodes each, in parallel over the cores; videos of the first
-    policy's own episodes (``servo.task.evaluation.evaluate``).
+    """Run the servo benchmark's test split (``servo.task.protocol``) for every policy.
+
+    Every policy runs from every start tier, ``settings.episodes`` episodes each, in parallel
+    over the cores; videos are of the first policy's own episodes
+    (``servo.task.evaluation.evaluate``).
+
+    Parameters
+    ----------
+    data_dir : Path
+        The dataset's folder, which the servo maps are built from.
+    worlds : sequence of str
+        The worlds.
+    out_dir : Path
+        The stage's folder.
+    root : Path
+        The report's folder.
+    settings : RunSettings
+        The run's settings.
+    maps_dir : Path
+        The servo map cache.
+    progress : bool
+        Whether to show progress.
+
+    Returns
+    -------
+    dict
+        ``results`` (one protocol result per world, policy and tier) and ``videos`` (per
+        "world/policy", paths relative to ``root``).
     """
     from servo.maps import load_or_build, map_paths
     from servo.task import Protocol, evaluate, run_protocol
@@ -196,10 +294,21 @@ def stage_servo(
 
 
 def stage_leaderboards(repo: Path = REPO_ROOT) -> dict:
-    """The committed leaderboards (``docs/results/data``: ours beside methods from outside,
-    each run by its protocol and kept as result files), ranked as ``topomap leaderboard``
-    ranks them; nothing is run. ``missing`` says why there are none (an installed package
-    without the repository's docs).
+    """Rank the committed leaderboards as ``topomap leaderboard`` ranks them; nothing is run.
+
+    The leaderboards are in ``docs/results/data``: ours beside methods from outside, each run by
+    its protocol and kept as result files.
+
+    Parameters
+    ----------
+    repo : Path, default REPO_ROOT
+        The repository's root.
+
+    Returns
+    -------
+    dict
+        ``boards`` (per leaderboard section: task, heading, tables and files) and ``missing``
+        (why there are none: an installed package without the repository's docs; else None).
     """
     from scripts.leaderboard import leaderboard_tables, rank
     from scripts.results import SECTIONS, leaderboard_inputs

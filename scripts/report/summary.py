@@ -1,5 +1,7 @@
-"""The report's opening summary: one line per task with its headline number, that number's 95%
-interval and whether it meets its target, built from the results the stages already computed.
+"""The report's opening summary, built from the results the stages already computed.
+
+One line per task with its headline number, that number's 95% interval and whether it meets its
+target.
 
 Where a task is measured on several worlds, the line shows the worst world: each target holds
 per world (docs/guides/servo.md, docs/guides/observation-grouping.md), so the worst one
@@ -27,8 +29,9 @@ POLICY_NAMES = {
 
 
 def summarise_run(results: Mapping[str, dict]) -> list[dict]:
-    """The summary lines of a run from its stages' results (by stage name; a stage that did not
-    run gives no line).
+    """Build the summary lines of a run from its stages' results.
+
+    The results are by stage name; a stage that did not run gives no line.
 
     Parameters
     ----------
@@ -71,8 +74,10 @@ def _line(
 
 
 def _manifold_line(seeds: dict | None, manifold: dict | None) -> dict:
-    """The frozen protocol's mean test error over fresh dataset seeds when the run shows it,
-    else this run's own dataset seed (one number, no interval).
+    """Build the manifold clustering's line from the frozen protocol or this run's dataset.
+
+    It gives the frozen protocol's mean test error over fresh dataset seeds when the run shows
+    it, else this run's own dataset seed (one number, no interval).
     """
     task = "manifold clustering (Grudic & Mulligan)"
     own = _own_test_error(manifold)
@@ -116,8 +121,10 @@ def _own_test_error(manifold: dict | None) -> float | None:
 
 
 def _grouping_line(grouping: dict) -> dict:
-    """The lowest purity over the worlds, with the pose source the report draws (odometry and
-    ICP when run); the target is purity and groups per manifold in every world.
+    """Build the grouping's line: the lowest purity over the worlds.
+
+    The purity is that of the pose source the report draws (odometry and ICP when run); the
+    target is purity and groups per manifold in every world.
     """
     settings = grouping["settings"]
     targets, shown = settings["targets"], settings["shown"]
@@ -152,8 +159,10 @@ def _grouping_line(grouping: dict) -> dict:
 
 
 def _servo_lines(results: Sequence[dict]) -> list[dict]:
-    """One line per policy and start condition: the lowest world's success rate with its
-    Wilson 95% interval, against the policy's target for that condition.
+    """Build one line per policy and start condition.
+
+    Each gives the lowest world's success rate with its Wilson 95% interval, against the
+    policy's target for that condition.
     """
     from servo.task import SUCCESS_TARGETS
 

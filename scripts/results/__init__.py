@@ -1,6 +1,7 @@
-"""``python -m scripts.results``: README's Results table and the results pages under
-``docs/results/``, generated from the committed result files under ``docs/results/data/``
-(the rows in ``rows``, read by ``sources``, written by ``render``).
+"""``python -m scripts.results``: README's Results table and the results pages.
+
+The table and the pages under ``docs/results/`` are generated from the committed result files
+under ``docs/results/data/`` (the rows in ``rows``, read by ``sources``, written by ``render``).
 """
 
 from common.lazy import lazy_exports

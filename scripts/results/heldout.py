@@ -1,5 +1,6 @@
-"""The held-out worlds' tables, from the committed ``topomap heldout`` file: README's block
-(canonical beside held-out, with the gap) and the page's per-world table.
+"""The held-out worlds' tables, from the committed ``topomap heldout`` file.
+
+README's block (canonical beside held-out, with the gap) and the page's per-world table.
 
 The summary is recomputed from the file's cells (``scripts.heldout.summarise``), so the tables
 show what the cells hold, whatever summary the file carries.
@@ -18,7 +19,23 @@ HELDOUT_SOURCE = "worlds/heldout.json"
 
 
 def heldout_cells(path: Path) -> tuple[list[dict], int]:
-    """The cells of a ``topomap heldout`` file and their frames per drive."""
+    """Read the cells of a ``topomap heldout`` file and their frames per drive.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    tuple of (list of dict, int)
+        The cells and their frames per drive.
+
+    Raises
+    ------
+    ValueError
+        If the file holds no list of cells, or cells of several frame counts.
+    """
     data = read_json(path)
     cells = data.get("cells") if isinstance(data, dict) else None
     if not isinstance(cells, list) or not cells or not all(isinstance(c, dict) for c in cells):
@@ -30,7 +47,20 @@ def heldout_cells(path: Path) -> tuple[list[dict], int]:
 
 
 def heldout_summary(root: Path, sources) -> str:
-    """The summary tables (``scripts.heldout.format_summary``) of the file, with a legend."""
+    """Write the summary tables (``scripts.heldout.format_summary``) of the file, with a legend.
+
+    Parameters
+    ----------
+    root : Path
+        The folder of the result files.
+    sources : sequence of str
+        The section's sources; the first is the ``topomap heldout`` file.
+
+    Returns
+    -------
+    str
+        The markdown.
+    """
     from scripts.heldout import format_summary, summarise
 
     cells, frames = heldout_cells(root / sources[0])
@@ -49,7 +79,20 @@ def heldout_summary(root: Path, sources) -> str:
 
 
 def heldout_worlds(root: Path, sources) -> str:
-    """One row per world: its size and each task's number."""
+    """Tabulate one row per world: its size and each task's number.
+
+    Parameters
+    ----------
+    root : Path
+        The folder of the result files.
+    sources : sequence of str
+        The section's sources; the first is the ``topomap heldout`` file.
+
+    Returns
+    -------
+    str
+        The markdown table.
+    """
     from scripts.manifold import OURS, SKLEARN_DEFAULT
 
     cells, _ = heldout_cells(root / sources[0])

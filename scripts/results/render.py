@@ -52,10 +52,20 @@ def _estimate_text(row: Row, e: Estimate) -> str:
 
 
 def readme_table(root: Path, pages: Path = PAGES_DIR) -> Table:
-    """One row per `ROWS` entry: the estimate with its 95% interval and what it rests on.
+    """Tabulate one row per `ROWS` entry: the estimate with its 95% interval and what it rests on.
 
-    ``pages`` is the results pages' folder as the page holding the table links it: README's
-    ``docs/results``, the docs front page's ``results``.
+    Parameters
+    ----------
+    root : Path
+        The repository.
+    pages : Path, default PAGES_DIR
+        The results pages' folder as the page holding the table links it: README's
+        ``docs/results``, the docs front page's ``results``.
+
+    Returns
+    -------
+    Table
+        The results table.
     """
     rows = []
     for row in ROWS:
@@ -115,7 +125,7 @@ def _grouping_tables(root: Path, sources) -> str:
 
 
 def _grouping_seeds(root: Path, sources) -> str:
-    """The scan grouping's scores on every dataset seed, per world and pose source."""
+    """Tabulate the scan grouping's scores on every dataset seed, per world and pose source."""
     files = sorted(
         (root / DATA / sources[0]).parent.glob(Path(sources[0]).name),
         key=lambda f: int(f.stem.rsplit("-", 1)[1]),
@@ -176,8 +186,10 @@ def _servo_summary(root: Path, sources) -> str:
 
 
 def _servo_reruns(root: Path, sources) -> str:
-    """Each rerun's episodes against the same episodes of the committed cell of its controller
-    (``servo.task.compare``): whether the current code ends them as the committed run did.
+    """Compare each rerun's episodes with the committed cell of its controller.
+
+    The same episodes are paired (``servo.task.compare``): whether the current code ends them
+    as the committed run did.
     """
     from servo.task import compare
 
@@ -231,9 +243,22 @@ def _servo_reruns(root: Path, sources) -> str:
 
 
 def leaderboard_inputs(root: Path, sources) -> tuple[list[dict], str | None]:
-    """The result files of a leaderboard section and its reference method: the files in a
-    folder, paired against the method its ``meta.json`` names as ``reference``; or the files
-    ``sources`` names, paired against the first file's method.
+    """Load the result files of a leaderboard section and name its reference method.
+
+    The files in a folder are paired against the method its ``meta.json`` names as
+    ``reference``; the files ``sources`` names, against the first file's method.
+
+    Parameters
+    ----------
+    root : Path
+        The repository.
+    sources : sequence of str
+        The section's sources under ``docs/results/data/``: one folder, or files.
+
+    Returns
+    -------
+    tuple of (list of dict, str or None)
+        The results and the reference method's name.
     """
     from scripts.leaderboard import load_results
 
@@ -246,7 +271,7 @@ def leaderboard_inputs(root: Path, sources) -> tuple[list[dict], str | None]:
 
 
 def _leaderboard(root: Path, sources) -> str:
-    """``topomap leaderboard`` of a section's result files (`leaderboard_inputs`)."""
+    """Rank a section's result files (`leaderboard_inputs`) as ``topomap leaderboard`` does."""
     from scripts.leaderboard import leaderboard_markdown
 
     results, reference = leaderboard_inputs(root, sources)
@@ -268,7 +293,7 @@ _MADE = ("command", "commit", "machine", "date")
 
 
 def _made_by(root: Path, source: str) -> str:
-    """How a file was made, from its meta.json entry: every key, the four named first."""
+    """List how a file was made, from its meta.json entry: every key, the four named first."""
     meta = provenance(root / DATA, source)
     missing = [k for k in _MADE if k not in meta]
     if missing:
@@ -286,7 +311,20 @@ def _section(root: Path, section: Section) -> str:
 
 
 def page(root: Path, task: str) -> str:
-    """The results page of ``task``: its rows of the README table, then its full tables."""
+    """Write the results page of ``task``: its rows of the README table, then its full tables.
+
+    Parameters
+    ----------
+    root : Path
+        The repository.
+    task : str
+        A key of `PAGES`.
+
+    Returns
+    -------
+    str
+        The page's markdown.
+    """
     title, _ = PAGES[task]
     table = readme_table(root)
     own = [r for r, row in zip(table.rows, ROWS, strict=True) if row.task == task]
@@ -303,7 +341,7 @@ def page(root: Path, task: str) -> str:
 
 
 def _between(text: str, start: str, end: str, body: str, where: Path) -> str:
-    """``text`` with what lies between its one ``start`` and one ``end`` marker replaced."""
+    """Replace what lies between the one ``start`` and one ``end`` marker of ``text``."""
     if text.count(start) != 1 or text.count(end) != 1 or text.index(start) > text.index(end):
         raise ValueError(f"{where}: needs one {start} before one {end}")
     head, rest = text.split(start)
@@ -312,7 +350,18 @@ def _between(text: str, start: str, end: str, body: str, where: Path) -> str:
 
 
 def generate(root: Path) -> dict[Path, str]:
-    """Every generated file (relative path -> text) for the repository at ``root``."""
+    """Generate every file (relative path -> text) for the repository at ``root``.
+
+    Parameters
+    ----------
+    root : Path
+        The repository.
+
+    Returns
+    -------
+    dict of Path to str
+        The text of each generated file, by path relative to ``root``.
+    """
     readme_path = root / "README.md"
     readme = readme_path.read_text(encoding="utf-8")
     readme = _between(readme, START, END, readme_table(root).to_markdown(), readme_path)
@@ -329,6 +378,18 @@ def generate(root: Path) -> dict[Path, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Write (or with ``--check``, check) README's Results table and the results pages.
+
+    Parameters
+    ----------
+    argv : list of str or None, default None
+        The arguments; None reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 1 when ``--check`` finds a file out of date.
+    """
     parser = argparse.ArgumentParser(
         prog=COMMAND,
         description="README's Results table and docs/results/*.md, from the "

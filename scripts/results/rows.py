@@ -1,6 +1,7 @@
-"""The results table, as data: one `Row` per task, method and setting, naming the
-committed file it reads and how (``scripts.results.sources``), and the pages that show each
-task's full tables.
+"""The results table, as data, and the pages that show each task's full tables.
+
+One `Row` per task, method and setting names the committed file it reads and how
+(``scripts.results.sources``).
 
 A new result is a new row here (and its file with its ``meta.json`` entry under
 ``docs/results/data/``); nothing else changes.
@@ -25,9 +26,26 @@ PAGES = {
 class Row:
     """One row of README's results table.
 
-    ``task`` keys `PAGES`; ``data`` and ``method`` say what was run on what; ``measure``
-    names the number (``"test error"``, ``"success"``...), ``split`` which data it was measured
-    on; ``reader``, ``source`` and ``keys`` say where the number is (``sources.read_estimate``).
+    ``reader``, ``source`` and ``keys`` say where the number is (``sources.read_estimate``).
+
+    Parameters
+    ----------
+    task : str
+        A key of `PAGES`.
+    data : str
+        What was run on.
+    method : str
+        What was run.
+    measure : str
+        The number's name (``"test error"``, ``"success"``...).
+    split : str
+        Which data it was measured on.
+    reader : str
+        The reader of ``sources.READERS``.
+    source : str
+        The file or folder under ``docs/results/data/``.
+    keys : dict, optional
+        Which number in it the row shows.
     """
 
     task: str
@@ -135,8 +153,18 @@ ROWS: tuple[Row, ...] = (
 
 @dataclass(frozen=True)
 class Section:
-    """One table of a task's page: its heading, the files it reads (under
-    ``docs/results/data/``) and the renderer (``scripts.results.render.RENDERERS``).
+    """One table of a task's page.
+
+    Parameters
+    ----------
+    task : str
+        A key of `PAGES`.
+    heading : str
+        The table's heading.
+    renderer : str
+        The renderer (a key of ``scripts.results.render.RENDERERS``).
+    sources : tuple of str
+        The files it reads (under ``docs/results/data/``).
     """
 
     task: str

@@ -1,5 +1,6 @@
-"""Reading the committed result files: one estimate with its interval per row of the results
-table, and where each file came from.
+"""Reading the committed result files.
+
+One estimate with its interval per row of the results table, and where each file came from.
 
 Every reader takes a file (or folder) under ``docs/results/data/`` and a few keys saying which
 number in it a row shows, and returns an `Estimate`. Rates come with their Wilson 95%
@@ -26,9 +27,16 @@ BOOTSTRAP_SEED = 0  # the protocol summary's own generator seed (scripts.manifol
 class Estimate:
     """One number of the results table.
 
-    ``value`` is the estimate, ``interval`` its 95% interval (None where there is none: a
-    single real log without ground truth), ``n`` how many independent units it rests on and
-    ``unit`` what they are (episodes, seeds, logs).
+    Parameters
+    ----------
+    value : float
+        The estimate.
+    interval : tuple of (float, float) or None
+        Its 95% interval (None where there is none: a single real log without ground truth).
+    n : int
+        How many independent units it rests on.
+    unit : str
+        What they are (episodes, seeds, logs).
     """
 
     value: float
@@ -38,7 +46,23 @@ class Estimate:
 
 
 def servo_results(path: Path) -> list[dict]:
-    """The entries of a ``topomap servo-eval --out`` file (one per world)."""
+    """Read the entries of a ``topomap servo-eval --out`` file (one per world).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    list of dict
+        The entries.
+
+    Raises
+    ------
+    ValueError
+        If the file holds no list of entries.
+    """
     from scripts.leaderboard import servo_results_of
 
     data = servo_results_of(read_json(path))
@@ -48,7 +72,7 @@ def servo_results(path: Path) -> list[dict]:
 
 
 def _servo_success(path: Path, world: str) -> Estimate:
-    """Successes over episodes of ``world`` in a servo-eval file, Wilson 95%."""
+    """Rate the successes over episodes of ``world`` in a servo-eval file, Wilson 95%."""
     from servo.task import wilson_interval
 
     entries = [e for e in servo_results(path) if e.get("world") == world]
@@ -68,8 +92,9 @@ def _mean_over_seeds(values: list[float], unit: str = "seeds") -> Estimate:
 
 
 def _protocol_error(folder: Path, condition: str, features: str, method: str) -> Estimate:
-    """Test error of ``method`` over the protocol's fresh seeds (the dev seed left out, as in
-    ``scripts.manifold.summarize``), bootstrap 95%.
+    """Average the test error of ``method`` over the protocol's fresh seeds, bootstrap 95%.
+
+    The dev seed is left out, as in ``scripts.manifold.summarize``.
     """
     from scripts.manifold import load_cells, summarize
 
@@ -82,8 +107,10 @@ def _protocol_error(folder: Path, condition: str, features: str, method: str) ->
 
 
 def _grouping_score(folder: Path, pattern: str, world: str, variant: str, score: str) -> Estimate:
-    """``score`` (purity, ARI) of the scan grouping of ``world`` with ``variant`` poses, mean
-    over the group-eval files matching ``pattern`` (one per dataset seed), bootstrap 95%.
+    """Average ``score`` (purity, ARI) of the scan grouping of ``world`` over dataset seeds.
+
+    The scan grouping is the one with ``variant`` poses; the mean is over the group-eval files
+    matching ``pattern`` (one per dataset seed), bootstrap 95%.
     """
     files = sorted(folder.glob(pattern))
     if not files:
@@ -93,7 +120,7 @@ def _grouping_score(folder: Path, pattern: str, world: str, variant: str, score:
 
 
 def _carmen_groups(path: Path, log: str, variant: str) -> Estimate:
-    """Groups of a real log (no ground truth: the count itself, no interval)."""
+    """Count the groups of a real log (no ground truth: the count itself, no interval)."""
     entry = read_json(path)["logs"][log]
     return Estimate(float(entry[variant]["groups"]), None, 1, f"log ({entry['scans']} scans)")
 
@@ -107,7 +134,24 @@ READERS: dict[str, Callable[..., Estimate]] = {
 
 
 def read_estimate(data_dir: Path, reader: str, source: str, **keys) -> Estimate:
-    """The estimate ``reader`` takes from ``data_dir / source`` with ``keys``."""
+    """Read the estimate ``reader`` takes from ``data_dir / source`` with ``keys``.
+
+    Parameters
+    ----------
+    data_dir : Path
+        The folder of the result files.
+    reader : str
+        One of `READERS`.
+    source : str
+        The file or folder under ``data_dir`` (for ``grouping-score``, a file pattern).
+    **keys
+        Which number in it the row shows, passed to the reader.
+
+    Returns
+    -------
+    Estimate
+        The estimate.
+    """
     if reader not in READERS:
         raise ValueError(f"reader must be one of {sorted(READERS)}, got {reader!r}")
     path = data_dir / source
@@ -119,8 +163,22 @@ def read_estimate(data_dir: Path, reader: str, source: str, **keys) -> Estimate:
 
 
 def provenance(data_dir: Path, source: str) -> dict:
-    """How ``source`` was made: command, commit, machine, date (and notes), from the
-    ``meta.json`` beside it (a folder's own ``meta.json``, else its folder's entry for it).
+    """Read how ``source`` was made: command, commit, machine, date (and notes).
+
+    They come from the ``meta.json`` beside it (a folder's own ``meta.json``, else its folder's
+    entry for it).
+
+    Parameters
+    ----------
+    data_dir : Path
+        The folder of the result files.
+    source : str
+        The file or folder under ``data_dir``.
+
+    Returns
+    -------
+    dict
+        The entries.
     """
     path = data_dir / source
     if path.is_dir():
