@@ -1,5 +1,6 @@
-"""The servo task and how it is measured: the env (``env``, registered by ``registration``),
-the closed-loop evaluation (``evaluation``), the frozen benchmark protocol (``protocol``), the
+"""The servo task and how it is measured.
+
+The subpackage holds the env (``env``, registered by ``registration``), the closed-loop evaluation (``evaluation``), the frozen benchmark protocol (``protocol``), the
 policies it can run (``policies``: their names; ``baseline_policies``: random, greedy F
 probing and the oracle), what a policy under evaluation is and is given (``interface``: the
 [`Policy`][servo.task.interface.Policy] interface, its factory, the target and the map as sensed),
