@@ -27,7 +27,7 @@ class WaypointTracker:
     gaps : ndarray
         The distance the map puts before each waypoint's successor, m.
     overrun : float
-        Moves on once the robot has driven ``overrun`` times the gap plus 0.5 m.
+        Moves on when the robot has driven more than ``overrun`` times the gap plus 0.5 m.
     """
 
     def __init__(
