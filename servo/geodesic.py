@@ -28,10 +28,11 @@ _MAX_GRAPHS = 8
 
 
 def _grid_graph(space: World | OccupancyGrid, resolution: float, keep_off: float = 0.0):
-    """The free cells' 8-connected graph, built once per world or grid (it does not depend on
-    goals). A world's free space is its ground truth grown by the robot's radius and a margin;
-    a grid (a map's sensed free space) is taken as it is. ``keep_off`` (m): see
-    `GeodesicField`.
+    """Return the free cells' 8-connected graph, built once per world or grid.
+
+    It does not depend on goals. A world's free space is its ground truth grown by the robot's
+    radius and a margin; a grid (a map's sensed free space) is taken as it is. ``keep_off`` (m):
+    see `GeodesicField`.
     """
     key = (id(space), resolution, keep_off)
     if key not in _GRAPHS:
@@ -73,14 +74,24 @@ def _build_graph(grid, keep_off: float = 0.0):
 
 
 class GeodesicField:
-    """Distance (m) from every free cell to ``goal`` (x, y) through free space: a world's
-    (ground truth, for the oracle and SPL) or an ``OccupancyGrid`` (a map's sensed free
-    space, for a controller; ``resolution`` is then the grid's).
+    """Distance (m) from every free cell to ``goal`` (x, y) through free space.
 
-    ``keep_off`` (m, grids only): cells nearer than this to the grid's edge cost up to
-    ``1 + KEEP_OFF_WEIGHT`` times their length, so paths keep to the middle of a passage and
-    swing wide round corners (a shortest path hugs a corner, and pure pursuit, which cuts
-    inside its path, then scrapes it); distances are then such costs, >= metres.
+    The free space is a world's (ground truth, for the oracle and SPL) or an ``OccupancyGrid``
+    (a map's sensed free space, for a controller; ``resolution`` is then the grid's).
+
+    Parameters
+    ----------
+    world : World or OccupancyGrid
+        The free space.
+    goal : array_like
+        The goal (x, y, ...); only x and y are read.
+    resolution : float, default RESOLUTION
+        Metres per cell of a world's grid.
+    keep_off : float, default 0.0
+        Metres, grids only: cells nearer than this to the grid's edge cost up to
+        ``1 + KEEP_OFF_WEIGHT`` times their length, so paths keep to the middle of a passage
+        and swing wide round corners (a shortest path hugs a corner, and pure pursuit, which
+        cuts inside its path, then scrapes it); distances are then such costs, >= metres.
     """
 
     def __init__(
@@ -112,14 +123,38 @@ class GeodesicField:
         return int(free[k, 0]), int(free[k, 1])
 
     def distance(self, xy) -> float:
-        """Geodesic distance from ``xy`` to the goal (inf when unreachable)."""
+        """Return the geodesic distance from ``xy`` to the goal (inf when unreachable).
+
+        Parameters
+        ----------
+        xy : array_like of shape (2,)
+            The point, m.
+
+        Returns
+        -------
+        float
+            The distance, m.
+        """
         i, j = self._nearest_free(xy)
         d_cell = np.hypot(*(self.grid.cell_centers()[i, j] - np.asarray(xy)[:2]))
         return float(self.distance_grid[i, j] + d_cell)
 
     def path(self, xy, max_points: int = 2000) -> np.ndarray:
-        """Cell centres from ``xy`` down the distance field (at most ``max_points`` steps),
-        ending with the goal itself when it is reached; (k, 2).
+        """Return the cell centres from ``xy`` down the distance field.
+
+        The path ends with the goal itself when it is reached.
+
+        Parameters
+        ----------
+        xy : array_like of shape (2,)
+            The start, m.
+        max_points : int, default 2000
+            The most steps taken.
+
+        Returns
+        -------
+        ndarray of shape (k, 2)
+            The path's points.
         """
         i, j = self._nearest_free(xy)
         h, w = self.distance_grid.shape

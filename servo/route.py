@@ -1,6 +1,8 @@
-"""The route graph of a servo map: stored views joined along recordings and across the links
-where recordings meet, weighted by the scan-matched odometry between them (no ground truth).
-Routes are shortest paths in it; waypoints are route views about ``spacing`` apart.
+"""The route graph of a servo map, its shortest routes and their waypoints.
+
+Stored views are joined along recordings and across the links where recordings meet, weighted
+by the scan-matched odometry between them (no ground truth). Routes are shortest paths in it;
+waypoints are route views about ``spacing`` apart.
 """
 
 from __future__ import annotations
@@ -18,7 +20,15 @@ LINK_PENALTY = 1.0  # m added to a link between recordings: stay on one recordin
 
 
 class RouteGraph:
-    """Shortest routes over the view graph of ``servo_map`` (its ``edges``)."""
+    """Shortest routes over the view graph of ``servo_map`` (its ``edges``).
+
+    Parameters
+    ----------
+    servo_map : ServoMap
+        The map.
+    link_penalty : float, default LINK_PENALTY
+        Metres added to a link between recordings.
+    """
 
     def __init__(self, servo_map: ServoMap, link_penalty: float = LINK_PENALTY):
         if not isinstance(servo_map, ServoMap):
@@ -35,7 +45,20 @@ class RouteGraph:
             self.transform[(int(j), int(i))] = se2_relative(t, np.zeros(3))
 
     def route(self, start: int, target: int) -> list[int]:
-        """Stored views from ``start`` to ``target`` (both included) along the shortest path."""
+        """Return the stored views from ``start`` to ``target`` along the shortest path.
+
+        Both ends are included; ``MapError`` where ``target`` is unreachable.
+
+        Parameters
+        ----------
+        start, target : int
+            Stored-view indices.
+
+        Returns
+        -------
+        list of int
+            The route's views.
+        """
         start = self.map.check_view(start, "start")
         target = self.map.check_view(target, "target")
         _, pred = dijkstra(self.graph, indices=start, return_predecessors=True)
@@ -48,17 +71,43 @@ class RouteGraph:
         return route[::-1]
 
     def frames(self, route: list[int]) -> np.ndarray:
-        """(len(route), 3): each route view's pose in the first one's frame (edges chained)."""
+        """Return each route view's pose in the first one's frame (edges chained).
+
+        Parameters
+        ----------
+        route : list of int
+            Consecutive views joined by edges (`route`).
+
+        Returns
+        -------
+        ndarray of shape (len(route), 3)
+            The poses (x, y, yaw).
+        """
         out = [np.zeros(3)]
         for i, j in itertools.pairwise(route):
             out.append(se2_compose(out[-1], self.transform[(i, j)]))
         return np.array(out)
 
     def waypoints(self, route: list[int], spacing: float) -> tuple[list[int], np.ndarray]:
-        """Route views about ``spacing`` m apart along the route (the last is the target) and
-        each one's direction of travel: +1 when the next waypoint lies ahead of the view's
-        heading (drive forward facing it), -1 when behind (the recording is driven backwards:
-        reverse, still facing the way the view looks).
+        """Return route views about ``spacing`` m apart, and each one's direction of travel.
+
+        The last waypoint is the target. The direction is +1 when the next waypoint lies ahead
+        of the view's heading (drive forward facing it), -1 when behind (the recording is
+        driven backwards: reverse, still facing the way the view looks).
+
+        Parameters
+        ----------
+        route : list of int
+            The route's views (`route`).
+        spacing : float
+            Metres between waypoints along the route.
+
+        Returns
+        -------
+        waypoints : list of int
+            The waypoint views.
+        directions : ndarray of shape (len(waypoints),)
+            +1 or -1 per waypoint.
         """
         if not spacing > 0:
             raise ValueError(f"spacing must be > 0 m, got {spacing}")
@@ -81,7 +130,18 @@ class RouteGraph:
         return [route[k] for k in keep], np.array(direction)
 
     def manifold_route(self, route: list[int]) -> list[int]:
-        """The clusters the route crosses, in order (the manifold graph's path)."""
+        """Return the clusters the route crosses, in order (the manifold graph's path).
+
+        Parameters
+        ----------
+        route : list of int
+            The route's views.
+
+        Returns
+        -------
+        list of int
+            The clusters, consecutive repeats merged.
+        """
         c = self.map.clusters[route]
         return [int(v) for v in c[np.r_[True, c[1:] != c[:-1]]]]
 
@@ -89,8 +149,13 @@ class RouteGraph:
 class RoutePath:
     """A route's views as a polyline in the route frame (the first view's), by arc length.
 
-    ``frames`` (n, 3): each route view's pose there (`RouteGraph.frames`); the robot's
-    progress along the route is the arc length of the nearest point of the polyline.
+    The robot's progress along the route is the arc length of the nearest point of the
+    polyline.
+
+    Parameters
+    ----------
+    frames : ndarray of shape (n, 3)
+        Each route view's pose in the route frame (`RouteGraph.frames`), n >= 1.
     """
 
     def __init__(self, frames: np.ndarray):
@@ -104,17 +169,45 @@ class RoutePath:
 
     @property
     def length(self) -> float:
+        """The route's length, m."""
         return float(self.arc[-1])
 
     def point(self, s: float) -> np.ndarray:
-        """The (x, y) at arc length ``s`` (clipped to the route)."""
+        """Return the (x, y) at arc length ``s`` (clipped to the route).
+
+        Parameters
+        ----------
+        s : float
+            Arc length, m.
+
+        Returns
+        -------
+        ndarray of shape (2,)
+            The point in the route frame.
+        """
         s = float(np.clip(s, 0.0, self.length))
         return np.array([np.interp(s, self.arc, self.frames[:, k]) for k in (0, 1)])
 
     def project(self, xy, near: float, window: float) -> float:
-        """Arc length of the point of the polyline nearest ``xy`` among the segments within
-        ``window`` m of arc ``near``: a window, so that where the route passes a place twice
-        (a junction driven out and back) progress does not jump to the other pass.
+        """Return the arc length of the point of the polyline nearest ``xy``, near ``near``.
+
+        Only the segments within ``window`` m of arc ``near`` are searched: a window, so that
+        where the route passes a place twice (a junction driven out and back) progress does not
+        jump to the other pass.
+
+        Parameters
+        ----------
+        xy : array_like of shape (2,)
+            The point, in the route frame.
+        near : float
+            Arc length the search is centred on, m.
+        window : float
+            Arc length either side of ``near`` searched, m.
+
+        Returns
+        -------
+        float
+            The arc length, m (``near`` clipped to the route where no segment is in the window).
         """
         xy = np.asarray(xy, np.float64)
         if len(self.frames) == 1:
@@ -129,5 +222,18 @@ class RoutePath:
         return float(s[k]) if np.isfinite(d[k]) else float(np.clip(near, 0.0, self.length))
 
     def within(self, s: float, behind: float, ahead: float) -> np.ndarray:
-        """Indices of the route views whose arc length lies in [s - behind, s + ahead]."""
+        """Return the indices of the route views whose arc length lies in [s - behind, s + ahead].
+
+        Parameters
+        ----------
+        s : float
+            Arc length, m.
+        behind, ahead : float
+            Metres of arc before and after ``s``.
+
+        Returns
+        -------
+        ndarray of int
+            The indices into the route.
+        """
         return np.flatnonzero((self.arc >= s - behind) & (self.arc <= s + ahead))

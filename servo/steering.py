@@ -20,7 +20,20 @@ RESUME_RADIUS = 0.35  # m: hysteresis: a turning robot drives again only beyond 
 
 
 def pursue(point: np.ndarray, speed: float) -> np.ndarray:
-    """(v, omega) of pure pursuit toward ``point`` (robot frame): curvature 2 y / d^2."""
+    """Return (v, omega) of pure pursuit toward ``point`` (robot frame): curvature 2 y / d^2.
+
+    Parameters
+    ----------
+    point : ndarray of shape (2,)
+        The point (x ahead, y left), m.
+    speed : float
+        Cruise speed, m/s.
+
+    Returns
+    -------
+    ndarray of shape (2,)
+        The command (v m/s, omega rad/s).
+    """
     x, y = float(point[0]), float(point[1])
     bearing = np.arctan2(y, x)
     if abs(bearing) > TURN_IN_PLACE:
@@ -34,8 +47,23 @@ def pursue(point: np.ndarray, speed: float) -> np.ndarray:
 
 
 def turn_on_spot(err: float, turn_rate: float, dt: float) -> np.ndarray:
-    """(0, omega) turning by ``err`` rad the short way: ``turn_rate``, slowed over the last
-    step so as not to overshoot.
+    """Return (0, omega) turning by ``err`` rad the short way.
+
+    The rate is ``turn_rate``, slowed over the last step so as not to overshoot.
+
+    Parameters
+    ----------
+    err : float
+        The heading error, rad.
+    turn_rate : float
+        The turn rate, rad/s.
+    dt : float
+        The control step, s.
+
+    Returns
+    -------
+    ndarray of shape (2,)
+        The command (0, omega rad/s).
     """
     return np.array([0.0, np.sign(err) * min(turn_rate, abs(err) / dt)])
 
@@ -43,12 +71,30 @@ def turn_on_spot(err: float, turn_rate: float, dt: float) -> np.ndarray:
 def pursue_route(
     goal: np.ndarray, reverse: bool, speed: float, careful: bool, turn_rate: float
 ) -> np.ndarray:
-    """(v, omega) of `pursue` toward ``goal`` (robot frame), forward or in reverse.
+    """Return (v, omega) of `pursue` toward ``goal`` (robot frame), forward or in reverse.
 
     Reversing is pursuit of the goal mirrored through the robot (the robot turned round) with
     the speed's sign flipped; the turn rate is the same. ``careful`` (just backed off a wall,
     which stops a turn as well as a drive, so pursuit would drive into it turning): face the
     goal on the spot first, at ``turn_rate``, then drive at half speed.
+
+    Parameters
+    ----------
+    goal : ndarray of shape (2,)
+        The goal (x ahead, y left), m.
+    reverse : bool
+        Drive in reverse.
+    speed : float
+        Cruise speed, m/s.
+    careful : bool
+        Face the goal on the spot first, then drive at half speed.
+    turn_rate : float
+        The turn rate on the spot, rad/s.
+
+    Returns
+    -------
+    ndarray of shape (2,)
+        The command (v m/s, omega rad/s).
     """
     sign = -1.0 if reverse else 1.0
     goal = sign * np.asarray(goal, np.float64)
@@ -62,11 +108,15 @@ def pursue_route(
 
 
 class Arrival:
-    """Drive to a pose, then turn to its heading; ``done`` once within tolerance (``radius``
-    m, default ``ARRIVE_RADIUS``).
+    """Drive to a pose, then turn to its heading; ``done`` once within tolerance.
 
     A two-stage law with hysteresis: position first (slowing with distance), then the heading
     on the spot, resuming the drive only if the position error grows past ``RESUME_RADIUS``.
+
+    Parameters
+    ----------
+    radius : float, default ARRIVE_RADIUS
+        Position tolerance, m, in (0, ``RESUME_RADIUS``).
     """
 
     def __init__(self, radius: float = ARRIVE_RADIUS) -> None:
@@ -77,7 +127,7 @@ class Arrival:
         self.done = False
 
     def __call__(self, goal: np.ndarray) -> np.ndarray:
-        """``goal``: the target pose (x, y, yaw) in the robot frame."""
+        """Return the command toward ``goal``, the target pose (x, y, yaw) in the robot frame."""
         d = float(np.hypot(goal[0], goal[1]))
         if d > (RESUME_RADIUS if self.turning else self.radius):
             self.turning = self.done = False
@@ -95,20 +145,39 @@ class Arrival:
 
 
 class StallWindow:
-    """Commanded motion that odometry does not see: over the last ``steps`` steps the net
-    odometry displacement is below a quarter of the commanded distance (a robot pushing a
-    wall jitters in place, and its per-step distances summed would look like motion).
+    """Commanded motion that odometry does not see.
+
+    Over the last ``steps`` steps the net odometry displacement is below a quarter of the
+    commanded distance (a robot pushing a wall jitters in place, and its per-step distances
+    summed would look like motion).
+
+    Parameters
+    ----------
+    steps : int
+        The window's length, steps.
     """
 
     def __init__(self, steps: int):
         self._moves: deque = deque(maxlen=int(steps))
 
     def clear(self) -> None:
+        """Empty the window."""
         self._moves.clear()
 
     def stalled(self, speed: float, odometry) -> bool:
-        """Add a step (commanded ``speed`` m/s, ``odometry`` x, y, yaw after it); whether the
-        window is full and shows a stall.
+        """Add a step and tell whether the window is full and shows a stall.
+
+        Parameters
+        ----------
+        speed : float
+            The commanded speed, m/s.
+        odometry : array_like of shape (3,)
+            The odometry pose (x, y, yaw) after the step.
+
+        Returns
+        -------
+        bool
+            True on a stall.
         """
         self._moves.append((abs(float(speed)), float(odometry[0]), float(odometry[1])))
         if len(self._moves) < self._moves.maxlen:

@@ -1,7 +1,9 @@
-"""``WaypointTracker``: which waypoint view a view-sequence navigator servoes to, advancing when
-F^j(k) toward the next waypoint overtakes F toward the current one (Section II-G's signal used
-as in view-sequence navigation); shared by [`SignalServo`][servo.camera_only.controller.SignalServo]
-and the greedy F-probing baseline (`servo.task.baseline_policies`).
+"""``WaypointTracker``: which waypoint view a view-sequence navigator servoes to.
+
+It advances when F^j(k) toward the next waypoint overtakes F toward the current one (Section
+II-G's signal used as in view-sequence navigation); shared by
+[`SignalServo`][servo.camera_only.controller.SignalServo] and the greedy F-probing baseline
+(`servo.task.baseline_policies`).
 """
 
 from __future__ import annotations
@@ -10,9 +12,22 @@ import numpy as np
 
 
 class WaypointTracker:
-    """Which waypoint view the robot is servoing to: the current one until F toward the next
-    overtakes it (or, where both are 0, the next one aligns better), or until the robot has
-    driven well past the distance the map puts between them.
+    """Which waypoint view the robot is servoing to.
+
+    The current one until F toward the next overtakes it (or, where both are 0, the next one
+    aligns better), or until the robot has driven well past the distance the map puts between
+    them.
+
+    Parameters
+    ----------
+    waypoints : list of int
+        The waypoint views, in order (not empty).
+    directions : ndarray
+        Each waypoint's direction of travel (+1 or -1).
+    gaps : ndarray
+        The distance the map puts before each waypoint's successor, m.
+    overrun : float
+        Moves on when the robot has driven more than ``overrun`` times the gap plus 0.5 m.
     """
 
     def __init__(
@@ -27,20 +42,38 @@ class WaypointTracker:
 
     @property
     def current(self) -> int:
+        """The waypoint view servoed to."""
         return self.waypoints[self.index]
 
     @property
     def next(self) -> int | None:
+        """The waypoint view after it (None at the last)."""
         return self.waypoints[self.index + 1] if self.index + 1 < len(self.waypoints) else None
 
     @property
     def last(self) -> bool:
+        """Whether the current waypoint is the last."""
         return self.index == len(self.waypoints) - 1
 
     def update(
         self, f_current: float, f_next: float, d_current: float, d_next: float, moved: float
     ) -> bool:
-        """Advance if the next waypoint has overtaken the current one; True if it did."""
+        """Advance if the next waypoint has overtaken the current one.
+
+        Parameters
+        ----------
+        f_current, f_next : float
+            F toward the current and the next waypoint.
+        d_current, d_next : float
+            How well each aligns (compared where both F are 0: the smaller wins).
+        moved : float
+            Metres driven since the last update.
+
+        Returns
+        -------
+        bool
+            True if it advanced.
+        """
         self.driven += moved
         if self.last:
             return False

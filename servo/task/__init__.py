@@ -1,12 +1,13 @@
-"""The servo task and how it is measured: the env (``env``, registered by ``registration``),
-the closed-loop evaluation (``evaluation``), the frozen benchmark protocol (``protocol``), the
-policies it can run (``policies``: their names; ``baseline_policies``: random, greedy F
-probing and the oracle), what a policy under evaluation is and is given (``interface``: the
-[`Policy`][servo.task.interface.Policy] interface, its factory, the target and the map as sensed),
-its calls guarded (``guard``: an error, a bad action or a slow step fails the episode), an outside
-policy in its own process (``remote``, ``policy_host``, their messages ``wire``; the runner's worker
-``worker``), two evaluations paired episode by episode (``paired_comparison``) and the Wilson
-interval of a success rate (``stats``).
+"""The servo task and how it is measured.
+
+The subpackage holds the env (``env``, registered by ``registration``), the closed-loop evaluation
+(``evaluation``), the frozen benchmark protocol (``protocol``), the policies it can run
+(``policies``: their names; ``baseline_policies``: random, greedy F probing and the oracle), what a
+policy under evaluation is and is given (``interface``: the [`Policy`][servo.task.interface.Policy]
+interface, its factory, the target and the map as sensed), its calls guarded (``guard``: an error, a
+bad action or a slow step fails the episode), an outside policy in its own process (``remote``,
+``policy_host``, their messages ``wire``; the runner's worker ``worker``), two evaluations paired
+episode by episode (``paired_comparison``) and the Wilson interval of a success rate (``stats``).
 """
 
 from common.lazy import lazy_exports

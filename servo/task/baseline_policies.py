@@ -1,5 +1,7 @@
-"""What ``ManifoldServo`` is compared with: a random policy, the paper's literal greedy
-F-probing, and an oracle that knows the true pose (the upper bound).
+"""What ``ManifoldServo`` is compared with: random, greedy F-probing and an oracle.
+
+The three are a random policy, the paper's literal greedy F-probing, and an oracle that knows
+the true pose (the upper bound).
 
 Every policy has ``reset(target, info)`` and ``act(observation, info) -> (v, omega)``; only the
 oracle reads ``info`` (the simulator's truth).
@@ -23,7 +25,10 @@ from sim.simulator import OMEGA_LIMIT, V_LIMITS
 
 
 def _positive(value, name: str) -> float:
-    """A finite number > 0 (m/s or m): NaN or a negative would steer nowhere, silently."""
+    """Check that ``value`` is a finite number > 0 (m/s or m).
+
+    NaN or a negative would steer nowhere, silently.
+    """
     value = check_finite(value, name)
     if value <= 0:
         raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
@@ -69,11 +74,32 @@ class RandomPolicy:
         self._left, self._action = 0, np.zeros(2)
 
     def reset(self, target: int, info: dict | None = None) -> None:
-        """Start a new episode: the next step draws a new command."""
+        """Start a new episode: the next step draws a new command.
+
+        Parameters
+        ----------
+        target : int
+            The target view (not read).
+        info : dict, optional
+            The env's info (not read).
+        """
         self._left = 0
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
-        """The current random command, drawn anew every ``hold`` steps."""
+        """Return the current random command, drawn anew every ``hold`` steps.
+
+        Parameters
+        ----------
+        observation : dict
+            The env's observation (not read).
+        info : dict, optional
+            The env's info (not read).
+
+        Returns
+        -------
+        ndarray of shape (2,), float32
+            The command (v m/s, omega rad/s).
+        """
         if self._left == 0:
             self._action = self.rng.uniform((V_LIMITS[0], -OMEGA_LIMIT), (V_LIMITS[1], OMEGA_LIMIT))
             self._left = self.hold
@@ -162,7 +188,15 @@ class GreedyFProbing:
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
-        """Start a new episode toward stored view ``target`` (``info`` is not read)."""
+        """Start a new episode toward stored view ``target``.
+
+        Parameters
+        ----------
+        target : int or Target
+            The target's stored-view index.
+        info : dict, optional
+            The env's info (not read).
+        """
         self.target = self.map.check_view(target, "target")
         self.waypoint_ = self.target
         self.tracker = None
@@ -180,7 +214,20 @@ class GreedyFProbing:
         self.waypoint_ = self.tracker.current
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
-        """The command (v, omega): the next probe, its undoing, or the best probe held."""
+        """Return the command (v, omega): the next probe, its undoing, or the best probe held.
+
+        Parameters
+        ----------
+        observation : dict
+            The env's observation; its ``image`` is read.
+        info : dict, optional
+            The env's info (not read).
+
+        Returns
+        -------
+        ndarray of shape (2,), float32
+            The command (v m/s, omega rad/s).
+        """
         with single_threaded_blas():  # small products: BLAS threads only spin (SignalServo)
             return self._act(observation)
 
@@ -272,7 +319,15 @@ class OraclePolicy:
         self.field = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
-        """Start a new episode toward ``info["target_pose"]`` (the env's truth)."""
+        """Start a new episode toward ``info["target_pose"]`` (the env's truth).
+
+        Parameters
+        ----------
+        target : int
+            The target view (not read: the pose is taken from ``info``).
+        info : dict
+            The env's info, holding ``target_pose``.
+        """
         if info is None or "target_pose" not in info:
             raise ValueError("OraclePolicy.reset needs the env's info (target_pose)")
         self.target_pose = np.asarray(info["target_pose"], np.float64)
@@ -280,7 +335,22 @@ class OraclePolicy:
         self._arrival = Arrival()
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
-        """The command (v, omega) along the shortest path from ``info["pose"]`` (the truth)."""
+        """Return the command (v, omega) along the shortest path from ``info["pose"]``.
+
+        The pose is the env's truth.
+
+        Parameters
+        ----------
+        observation : dict
+            The env's observation (not read).
+        info : dict
+            The env's info, holding the true ``pose``.
+
+        Returns
+        -------
+        ndarray of shape (2,), float32
+            The command (v m/s, omega rad/s).
+        """
         if self.field is None:
             raise RuntimeError("call reset(target, info) before act(observation, info)")
         if info is None or "pose" not in info:

@@ -252,8 +252,10 @@ class ServoEnv(CheckedKeywords, gym.Env):
 
     # -- task sampling ----------------------------------------------------------------------
     def _map_label(self, manifold: str | None) -> int:
-        """The map's label of the world's manifold ``manifold`` (the map's labels index the
-        dataset's manifolds, not the world's ids); -2, which no view has, where it has none.
+        """Return the map's label of the world's manifold ``manifold``.
+
+        The map's labels index the dataset's manifolds, not the world's ids; -2, which no view
+        has, where it has none.
         """
         names = self.map.manifold_names
         return names.index(manifold) if manifold in names else -2
@@ -281,9 +283,10 @@ class ServoEnv(CheckedKeywords, gym.Env):
         return base.copy()
 
     def _candidates(self, ok: np.ndarray, options: dict, what: str) -> np.ndarray:
-        """The views where ``ok``; none means the options contradict ``cross_manifold``
-        (e.g. a start manifold that is the target's), which is said rather than left to
-        ``rng.integers(0)`` ("high <= 0").
+        """Return the views where ``ok``, or raise where there are none.
+
+        None means the options contradict ``cross_manifold`` (e.g. a start manifold that is the
+        target's), which is said rather than left to ``rng.integers(0)`` ("high <= 0").
         """
         cands = np.flatnonzero(ok)
         if len(cands) == 0 and not self.cross_manifold:
@@ -334,8 +337,9 @@ class ServoEnv(CheckedKeywords, gym.Env):
         return pose, target
 
     def _junctions_between(self, start: str | None, target: int) -> int | None:
-        """Junctions between the start's manifold and the target view's (evaluation only);
-        None where either is on no manifold of the world.
+        """Count the junctions between the start's manifold and the target view's.
+
+        For evaluation only; None where either is on no manifold of the world.
         """
         world, end = getattr(self.base, "world", None), self.map.true_manifold(target)
         if world is None or start is None or end not in world.manifold_ids:  # None: a stand-in
@@ -380,7 +384,23 @@ class ServoEnv(CheckedKeywords, gym.Env):
         return info
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Start an episode: start and target as ``options`` say (see the class), from ``seed``."""
+        """Start an episode: start and target as ``options`` say (see the class), from ``seed``.
+
+        Parameters
+        ----------
+        seed : int, optional
+            The seed of the env's generator (Gymnasium's ``reset``).
+        options : dict, optional
+            The reset options of the class: ``target``, ``target_manifold``, ``start_view``,
+            ``start_manifold`` or ``pose``.
+
+        Returns
+        -------
+        observation : dict
+            The first observation.
+        info : dict
+            The first info.
+        """
         super().reset(seed=seed)
         options = check_keys(options, RESET_OPTIONS, "options")
         task_rng, base_seed = self.np_random.spawn(1)[0], int(self.np_random.integers(2**31))
@@ -401,7 +421,26 @@ class ServoEnv(CheckedKeywords, gym.Env):
         return self._obs(obs, info["odometry"]), info
 
     def step(self, action):
-        """Hold ``action`` (v, omega) for one control step; the usual Gymnasium five-tuple."""
+        """Hold ``action`` (v, omega) for one control step; the usual Gymnasium five-tuple.
+
+        Parameters
+        ----------
+        action : array_like of shape (2,)
+            The command (v m/s, omega rad/s).
+
+        Returns
+        -------
+        observation : dict
+            The observation after the step.
+        reward : float
+            The sum of the reward parts.
+        terminated : bool
+            Success, or stuck.
+        truncated : bool
+            ``max_steps`` reached.
+        info : dict
+            The step's info, with ``reason``.
+        """
         before = self.base.sim.pose
         obs, _, _, _, info = self.base.step(action)
         self._steps += 1
@@ -430,7 +469,13 @@ class ServoEnv(CheckedKeywords, gym.Env):
         return self._obs(obs, info["odometry"]), reward, terminated, truncated, info
 
     def render(self):
-        """The top-down map: robot, laser, trail and target (``"rgb_array"``), else None."""
+        """Draw the top-down map: robot, laser, trail and target.
+
+        Returns
+        -------
+        ndarray of shape (H, W, 3) or None
+            The image with ``render_mode="rgb_array"``, else None.
+        """
         if self.render_mode != "rgb_array":
             return None
         return self.base.draw(target=self._target_pose)

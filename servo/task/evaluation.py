@@ -1,5 +1,7 @@
-"""Closed-loop evaluation: success rate, SPL, final errors, steps and collisions per manifold
-pair, with trajectory plots over the top-down map and videos of chosen episodes.
+"""Closed-loop evaluation: success rate, SPL, final errors, steps and collisions per pair.
+
+The figures are given per manifold pair, with trajectory plots over the top-down map and videos
+of chosen episodes.
 
 SPL (Anderson et al. 2018, "On evaluation of embodied navigation agents"):
 ``mean_i S_i l_i / max(p_i, l_i)`` with l_i the shortest free-space path length from the start
@@ -37,7 +39,9 @@ BOUNDARY_MARGIN_S = 5.0  # s the alarm waits beyond a policy process's own time 
 
 
 def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
-    """The policy ``name`` for ``env`` (``options``: its keyword arguments): one of
+    """Make the policy ``name`` for ``env``.
+
+    ``name`` is one of
     [`POLICIES`][servo.task.evaluation.POLICIES], or an outside factory ``package.module:factory``
     ([`PolicyFactory`][servo.task.interface.PolicyFactory]), which runs in its own process
     ([`RemotePolicy`][servo.task.remote.RemotePolicy], policy seed 0, no sandbox; raises
@@ -47,6 +51,22 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
     ([`GreedyFProbing`][servo.task.baseline_policies.GreedyFProbing]); ``greedy-target``: the
     earlier variant that probes toward the final target only (labelled as such: its cluster gives no
     signal from another manifold).
+
+    Parameters
+    ----------
+    name : str
+        A policy name of ``POLICIES`` or an outside factory ``package.module:factory``.
+    env : ServoEnv
+        The env the policy acts in (its map, and its world for the oracle).
+    rng : numpy.random.Generator
+        The generator a built-in policy draws from.
+    **options
+        The policy's keyword arguments.
+
+    Returns
+    -------
+    object
+        The policy, with ``reset`` and ``act``.
     """
     check_policy_name(name)
     if is_policy_spec(name):
@@ -59,8 +79,20 @@ def make_policy(name: str, env: ServoEnv, rng: np.random.Generator, **options):
 
 
 def check_policy_name(name) -> str:
-    """``name`` if it is one of [`POLICIES`][servo.task.evaluation.POLICIES] or has the form
-    ``package.module:factory``; else ``ValueError``.
+    """Check that ``name`` is one of `POLICIES` or an outside factory.
+
+    ``name`` is returned if it is one of [`POLICIES`][servo.task.evaluation.POLICIES] or has the
+    form ``package.module:factory``; else ``ValueError``.
+
+    Parameters
+    ----------
+    name : str
+        The policy name to check.
+
+    Returns
+    -------
+    str
+        ``name`` itself.
     """
     if name in POLICIES or is_policy_spec(name):
         return name
@@ -71,8 +103,24 @@ _F_AT_VIEW: dict[tuple[str, int], float] = {}
 
 
 def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
-    """F^j(k) of eq. 13 toward stored view ``view`` in its cluster, divided by F at the view
-    itself (1 at the view, 0 where the cluster gives no signal).
+    """Return F^j(k) of eq. 13 toward stored view ``view``, relative to F at the view.
+
+    F is taken in the view's cluster and divided by F at the view itself (1 at the view, 0 where
+    the cluster gives no signal).
+
+    Parameters
+    ----------
+    m : ServoMap
+        The map holding the view, its cluster and its features.
+    image : ndarray of shape (H, W, 3)
+        The camera image.
+    view : int
+        The stored view's index.
+
+    Returns
+    -------
+    float
+        F toward the view, divided by F at the view.
     """
     c = int(m.clusters[view])
     key = (m.key, int(view))
@@ -87,8 +135,22 @@ def signal_toward(m: ServoMap, image: np.ndarray, view: int) -> float:
 
 
 def episode_seeds(seed: int, episodes: int) -> list[int]:
-    """Episode ``i``'s seed: the ``i``-th child of ``SeedSequence(seed)``, so a run is
+    """Return the episodes' seeds, derived from ``seed``.
+
+    Episode ``i``'s seed is the ``i``-th child of ``SeedSequence(seed)``, so a run is
     reproducible and a longer run extends a shorter one.
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed.
+    episodes : int
+        The number of episodes.
+
+    Returns
+    -------
+    list of int
+        One seed per episode.
     """
     return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(episodes)]
 
@@ -104,8 +166,9 @@ def run_episode(
     act_limit_s: float = ACT_LIMIT_S,
     load_error: str | None = None,
 ) -> dict:
-    """One episode; returns its record (`score_episode`; and appends video frames to
-    ``frames`` if given).
+    """Run one episode and return its record.
+
+    The record is `score_episode`'s; video frames are appended to ``frames`` if given.
 
     The policy is given the target as a [`Target`][servo.task.interface.Target] and the env's
     observations only: ``policy.reset(target)``, ``policy.act(observation)``. With ``truth``
@@ -114,6 +177,30 @@ def run_episode(
     action space, or takes over ``act_limit_s`` for a call ends the episode as a failure with
     that reason (``servo.task.guard``); ``load_error``: the policy could not be made, and the
     episode fails so at once.
+
+    Parameters
+    ----------
+    env : ServoEnv
+        The env to run the episode in.
+    policy : object
+        The policy, with ``reset`` and ``act`` (None where ``load_error`` is given).
+    seed : int
+        The episode's seed, passed to ``env.reset``.
+    options : dict, optional
+        The reset's options.
+    frames : list, optional
+        A list the video frames (camera view beside the top-down map) are appended to.
+    truth : bool, default False
+        Give the policy the env's info too (the oracle).
+    act_limit_s : float, default ACT_LIMIT_S
+        Seconds a policy call may take.
+    load_error : str, optional
+        Why the policy could not be made; the episode then fails at once.
+
+    Returns
+    -------
+    dict
+        The episode's record (`score_episode`).
     """
     obs, info = env.reset(seed=seed, options=options)
     field = GeodesicField(env.base.world, info["target_pose"])
@@ -168,11 +255,31 @@ def score_episode(
     signal_waypoint: Sequence[float],
     failure: PolicyFailure | None = None,
 ) -> dict:
-    """An episode's record from what it produced, with no env or policy: ``infos`` (the
-    reset's info, then every step's), the shortest free-space path from the start, the true
-    (geodesic) distance to the target at every info, the policy's seconds per act, and F^j(k)
-    toward the policy's waypoint view after every step (NaN: none). ``failure``: the policy
-    ended the episode (a failure whatever the pose; its reason, and ``failure`` its detail).
+    """Build an episode's record from what it produced, with no env or policy.
+
+    Parameters
+    ----------
+    seed : int
+        The episode's seed.
+    infos : sequence of dict
+        The reset's info, then every step's.
+    shortest : float
+        The shortest free-space path length from the start to the target (m).
+    true_distance : sequence of float
+        The true (geodesic) distance to the target at every info (m).
+    act_s : sequence of float
+        The policy's seconds per act.
+    signal_waypoint : sequence of float
+        F^j(k) toward the policy's waypoint view after every step (NaN: none).
+    failure : PolicyFailure, optional
+        The policy ended the episode: a failure whatever the pose, with its reason, and
+        ``failure`` its detail.
+
+    Returns
+    -------
+    dict
+        The record: success, reason, SPL, path lengths, final errors, steps, collisions, act
+        time, the trail and F along it.
     """
     if len(infos) < (1 if failure is not None else 2):
         raise ValueError(f"infos must hold the reset's and at least one step's, got {len(infos)}")
@@ -215,10 +322,24 @@ def _fit(top: np.ndarray, image: np.ndarray) -> np.ndarray:
 
 
 def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
-    """How often F^j(k) toward the target rises as the true distance falls (the paper's
-    premise, Section II-G), over step pairs ``lag`` apart whose geodesic distance to the
-    target fell by at least ``SIGNAL_MIN_DROP``: ``rises`` (share where F rose), ``flat_zero``
-    (share where F was 0 at both ends: no signal, e.g. on another manifold), ``pairs``.
+    """Measure how often F^j(k) toward the target rises as the true distance falls.
+
+    This is the paper's premise (Section II-G), checked over step pairs ``lag`` apart whose
+    geodesic distance to the target fell by at least ``SIGNAL_MIN_DROP``.
+
+    Parameters
+    ----------
+    records : list of dict
+        Episode records (`score_episode`).
+    lag : int, default SIGNAL_LAG
+        Steps between the two ends of a pair.
+
+    Returns
+    -------
+    dict
+        ``rises`` (share where F rose), ``flat_zero`` (share where F was 0 at both ends: no
+        signal, e.g. on another manifold), ``pairs`` and ``lag``; the shares are None without
+        pairs.
     """
     rises = zero = pairs = 0
     for r in records:
@@ -240,8 +361,21 @@ def signal_agreement(records: list[dict], lag: int = SIGNAL_LAG) -> dict:
 
 
 def summarise(records: list[dict]) -> dict:
-    """Aggregate episode records: overall and per (start manifold, target manifold), success
-    with its Wilson 95% interval, and F along the trajectories (`signal_agreement`).
+    """Aggregate episode records, overall and per (start manifold, target manifold).
+
+    The summary holds success with its Wilson 95% interval, and F along the trajectories
+    (`signal_agreement`).
+
+    Parameters
+    ----------
+    records : list of dict
+        Episode records (`score_episode`).
+
+    Returns
+    -------
+    dict
+        The overall figures, with ``act_ms``, ``signal``, ``per_pair`` and ``episodes_detail``
+        (the records without their arrays but the start pose).
     """
 
     def agg(rs):
@@ -281,8 +415,25 @@ def summarise(records: list[dict]) -> dict:
 
 
 def plot_trajectories(world, records: list[dict], path: Path, limit: int = 24) -> Path:
-    """Trails over the top-down map of ``world`` (a ``scenes.World``): green succeeded, red
-    failed; targets as outlines.
+    """Draw the trails over the top-down map of ``world`` and write it as a PNG.
+
+    Green: succeeded, red: failed; targets as outlines.
+
+    Parameters
+    ----------
+    world : scenes.World
+        The world whose top-down map is drawn.
+    records : list of dict
+        Episode records (`score_episode`).
+    path : Path
+        The PNG file to write.
+    limit : int, default 24
+        The number of records drawn (the first ones).
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     from sim.topdown import TopDownView
 
@@ -313,8 +464,9 @@ def evaluate(
     videos: int = 0,
     progress: bool = True,
 ) -> dict:
-    """Run ``episodes`` servo episodes in ``world`` and summarise them (see
-    [`summarise`][servo.task.evaluation.summarise]).
+    """Run ``episodes`` servo episodes in ``world`` and summarise them.
+
+    The summary is [`summarise`][servo.task.evaluation.summarise]'s.
 
     ``policy``: one of [`POLICIES`][servo.task.evaluation.POLICIES] or an outside factory
     ``package.module:factory`` ([`make_policy`][servo.task.evaluation.make_policy]; one that cannot
@@ -324,6 +476,40 @@ def evaluate(
     episodes (``common.video.write_mp4``: the camera view beside the top-down map). Without
     ``servo_map``, the world's map is loaded from (or built in) the data home ``home`` (see
     ``sim.datahome``: the argument, then ``TOPOMAP_HOME``, then the per-user cache).
+
+    Parameters
+    ----------
+    world : str
+        The world's name.
+    episodes : int
+        The number of episodes.
+    seed : int
+        The run's seed.
+    policy : str, default "servo"
+        A policy name or an outside factory ``package.module:factory``.
+    randomize : bool, default False
+        Lights and colours drawn anew each episode.
+    odometry_noise : bool, default True
+        Odometry with random-walk drift.
+    cross_manifold : bool, default True
+        Targets on another manifold than the start.
+    max_steps : int, default 600
+        Steps per episode.
+    servo_map : ServoMap, optional
+        The map; loaded or built when not given.
+    home : str or Path, optional
+        The data home the map is loaded from or built in.
+    out : str or Path, optional
+        The folder the plot and videos are written to.
+    videos : int, default 0
+        The number of first episodes written as videos (with ``out``).
+    progress : bool, default True
+        Show progress bars.
+
+    Returns
+    -------
+    dict
+        The summary, with the run's settings (and ``plot``, the plot's path, with ``out``).
     """
     from tqdm.auto import tqdm
 

@@ -1,5 +1,6 @@
-"""A policy's calls, guarded: an error, a bad action or a slow step ends its episode as a
-failure with the reason, and the run goes on to the next episode.
+"""A policy's calls, guarded: an error, a bad action or a slow step ends its episode.
+
+The episode ends as a failure with the reason, and the run goes on to the next episode.
 """
 
 from __future__ import annotations
@@ -25,8 +26,19 @@ FAILURES = (NOT_LOADED, RAISED, INVALID_ACTION, TOO_SLOW, DIED, GARBAGE)
 
 
 class PolicyFailure(Exception):
-    """A policy's episode ended by the policy: ``reason`` one of
-    [`FAILURES`][servo.task.guard.FAILURES], ``detail`` what happened.
+    """A policy's episode ended by the policy.
+
+    Parameters
+    ----------
+    reason : str
+        One of [`FAILURES`][servo.task.guard.FAILURES].
+    detail : str
+        What happened.
+
+    Attributes
+    ----------
+    reason, detail
+        The parameters.
     """
 
     def __init__(self, reason: str, detail: str):
@@ -35,8 +47,9 @@ class PolicyFailure(Exception):
 
 
 class _Overtime(BaseException):
-    """Raised into a policy's call by the alarm; a BaseException, so that a policy's own
-    ``except Exception`` does not swallow it.
+    """Raised into a policy's call by the alarm.
+
+    A BaseException, so that a policy's own ``except Exception`` does not swallow it.
     """
 
 
@@ -62,8 +75,24 @@ def _alarm(seconds: float):
 
 
 def call(fn, *args, limit: float = ACT_LIMIT_S):
-    """``fn(*args)``, or [`PolicyFailure`][servo.task.guard.PolicyFailure] when it raises or takes
-    over ``limit`` s.
+    """Return ``fn(*args)``, guarded.
+
+    Raises [`PolicyFailure`][servo.task.guard.PolicyFailure] when ``fn`` raises or takes over
+    ``limit`` s.
+
+    Parameters
+    ----------
+    fn : callable
+        The policy's method.
+    *args
+        Its arguments.
+    limit : float, default ACT_LIMIT_S
+        Seconds the call may take.
+
+    Returns
+    -------
+    object
+        What ``fn`` returned.
     """
     t0 = time.perf_counter()
     try:
@@ -86,8 +115,16 @@ def _name(fn) -> str:
 
 
 def check_action(action, low: np.ndarray, high: np.ndarray) -> None:
-    """Raise [`PolicyFailure`][servo.task.guard.PolicyFailure] unless ``action`` is two finite
-    numbers inside ``[low, high]`` (the env's action space).
+    """Raise [`PolicyFailure`][servo.task.guard.PolicyFailure] unless ``action`` is valid.
+
+    A valid action is two finite numbers inside ``[low, high]`` (the env's action space).
+
+    Parameters
+    ----------
+    action : array_like
+        The policy's action.
+    low, high : ndarray of shape (2,)
+        The action space's bounds.
     """
     try:
         a = np.asarray(action, dtype=np.float64)

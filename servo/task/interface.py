@@ -67,6 +67,7 @@ class Target:
     image: np.ndarray
 
     def __post_init__(self):
+        """Check the view and store a read-only copy of the image."""
         if isinstance(self.view, bool) or not isinstance(self.view, int | np.integer):
             raise TypeError(f"view must be an integer, got {self.view!r}")
         image = np.array(self.image, dtype=np.uint8)  # a copy: the map's array stays untouched
@@ -75,13 +76,15 @@ class Target:
         object.__setattr__(self, "image", image)
 
     def __index__(self) -> int:
+        """Return the view's index."""
         return self.view
 
 
 @runtime_checkable
 class Policy(Protocol):
-    """The interface of a policy under evaluation
-    ([`servo.task.run_episode`][servo.task.evaluation.run_episode] calls it).
+    """The interface of a policy under evaluation.
+
+    [`servo.task.run_episode`][servo.task.evaluation.run_episode] calls it.
 
     ``reset(target)`` starts an episode toward ``target`` (a
     [`Target`][servo.task.interface.Target]); ``act(observation)`` gives the command for one step
@@ -90,6 +93,11 @@ class Policy(Protocol):
     in m/s and rad/s, finite, inside the env's action space ``[-0.5, 1.5] x [-1.5, 1.5]``.
 
     An interface: a policy's own constructor (called by its factory) takes what it needs.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        None taken: an interface (a ``typing.Protocol``) is not instantiated.
 
     Attributes
     ----------
@@ -116,10 +124,27 @@ class Policy(Protocol):
     """
 
     def reset(self, target: Target) -> None:
-        """Start an episode toward ``target``."""
+        """Start an episode toward ``target``.
+
+        Parameters
+        ----------
+        target : Target
+            The target's stored view.
+        """
 
     def act(self, observation: dict) -> np.ndarray:
-        """The command ``(v, omega)`` for this observation."""
+        """Return the command ``(v, omega)`` for this observation.
+
+        Parameters
+        ----------
+        observation : dict
+            The env's observation.
+
+        Returns
+        -------
+        ndarray of shape (2,)
+            The command, m/s and rad/s.
+        """
 
 
 class PolicyFactory(Protocol):
@@ -133,6 +158,11 @@ class PolicyFactory(Protocol):
     params (Python does for named keyword arguments).
 
     A callable; a module-level function is the usual form.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        None taken: an interface (a ``typing.Protocol``) is not instantiated.
 
     Examples
     --------
@@ -156,7 +186,7 @@ class PolicyFactory(Protocol):
     """
 
     def __call__(self, servo_map: ServoMap, rng: np.random.Generator, **params) -> Policy:
-        """A policy for ``servo_map``.
+        """Make a policy for ``servo_map``.
 
         Parameters
         ----------
@@ -170,15 +200,28 @@ class PolicyFactory(Protocol):
         Returns
         -------
         Policy
+            The policy.
         """
 
 
 def sensed_map(m: ServoMap) -> ServoMap:
-    """``m`` as a policy may see it: its evaluation-only fields blanked (``true_poses`` NaN,
-    ``true_labels`` ``NO_MANIFOLD``, no ``manifold_names`` and no ``world_digest``: a
-    generated world's manifold names would tell its layout), no key to the files it was built
-    from (`neutral_names`), and its arrays read-only views, so that a policy can neither
-    read the truth nor change the map the env scores with.
+    """Return ``m`` as a policy may see it.
+
+    Its evaluation-only fields are blanked (``true_poses`` NaN, ``true_labels``
+    ``NO_MANIFOLD``, no ``manifold_names`` and no ``world_digest``: a generated world's
+    manifold names would tell its layout), it holds no key to the files it was built from
+    (`neutral_names`), and its arrays are read-only views, so that a policy can neither read
+    the truth nor change the map the env scores with.
+
+    Parameters
+    ----------
+    m : ServoMap
+        The map.
+
+    Returns
+    -------
+    ServoMap
+        The sensed map.
     """
     fields = {}
     for f in dataclasses.fields(m):
@@ -195,11 +238,22 @@ def sensed_map(m: ServoMap) -> ServoMap:
 
 
 def neutral_names(m: ServoMap) -> dict:
-    """The fields of ``m`` that would lead to the files it was built from, made neutral:
+    """Return the fields of ``m`` that would lead to the files it was built from, made neutral.
+
     ``sequence_names`` ``recording-0``, ``recording-1``, ... (a recording's name is its true
     branch), ``frame`` each view's place in its recording (0, 1, 2, ...; not the index of a
     frame in the dataset) and ``key`` a digest of the stored features (the cache key names
     the map's file in the data home). Read-only arrays.
+
+    Parameters
+    ----------
+    m : ServoMap
+        The map.
+
+    Returns
+    -------
+    dict
+        The neutral ``sequence_names``, ``frame`` and ``key``.
     """
     frame = np.zeros(len(m.sequence), np.int64)
     for s in np.unique(m.sequence):
@@ -213,25 +267,58 @@ def neutral_names(m: ServoMap) -> dict:
 
 
 def reseed(rng: np.random.Generator, episode_seed: int, policy_seed: int = 0) -> None:
-    """Set ``rng`` (the generator a factory was given) to the state of episode
-    ``episode_seed`` and run seed ``policy_seed``, in place: an outside policy's draws then
+    """Set ``rng`` to the state of episode ``episode_seed`` and run seed ``policy_seed``.
+
+    ``rng`` is the generator a factory was given, set in place: an outside policy's draws then
     depend on the episode only, not on which worker ran which episodes before it.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator to set.
+    episode_seed : int
+        The episode's seed.
+    policy_seed : int, default 0
+        The run's policy seed.
     """
     seq = np.random.SeedSequence(int(episode_seed), spawn_key=(2, int(policy_seed)))
     rng.bit_generator.state = type(rng.bit_generator)(seq).state
 
 
 def is_policy_spec(name: str) -> bool:
-    """Whether ``name`` names an outside factory (``package.module:factory``)."""
+    """Tell whether ``name`` names an outside factory (``package.module:factory``).
+
+    Parameters
+    ----------
+    name : str
+        A policy name.
+
+    Returns
+    -------
+    bool
+        True for a string holding ``:``.
+    """
     return isinstance(name, str) and ":" in name
 
 
 def load_factory(spec: str):
-    """The factory ``spec`` names (``package.module:factory``), imported as ``python -m``
-    would: the module's code runs, with the current directory first on ``sys.path``.
+    """Import the factory ``spec`` names (``package.module:factory``).
+
+    It is imported as ``python -m`` would: the module's code runs, with the current directory
+    first on ``sys.path``.
 
     Raises [`PolicyLoadError`][servo.task.interface.PolicyLoadError] naming the spec when it is
     malformed, does not import or names nothing callable.
+
+    Parameters
+    ----------
+    spec : str
+        ``package.module:factory``.
+
+    Returns
+    -------
+    callable
+        The factory.
     """
     if not isinstance(spec, str) or spec.count(":") != 1:
         raise PolicyLoadError(
@@ -251,9 +338,26 @@ def load_factory(spec: str):
 
 
 def make_outside_policy(spec: str, servo_map: ServoMap, rng: np.random.Generator, **params):
-    """The policy the factory ``spec`` makes from the sensed ``servo_map``; raises
-    [`PolicyLoadError`][servo.task.interface.PolicyLoadError] when it cannot be loaded, raises, or
-    gives an object without ``reset`` and ``act``.
+    """Return the policy the factory ``spec`` makes from the sensed ``servo_map``.
+
+    Raises [`PolicyLoadError`][servo.task.interface.PolicyLoadError] when the factory cannot be
+    loaded, raises, or gives an object without ``reset`` and ``act``.
+
+    Parameters
+    ----------
+    spec : str
+        The factory, ``package.module:factory``.
+    servo_map : ServoMap
+        The map; the factory is given it as sensed.
+    rng : numpy.random.Generator
+        The policy's generator.
+    **params
+        The factory's keyword arguments.
+
+    Returns
+    -------
+    Policy
+        The policy.
     """
     factory = load_factory(spec)
     try:

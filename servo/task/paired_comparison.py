@@ -1,5 +1,6 @@
-"""Two evaluations of the benchmark protocol compared on the same episodes (``topomap
-servo-compare``).
+"""Two evaluations of the benchmark protocol compared on the same episodes.
+
+The command is ``topomap servo-compare``.
 
 The protocol's episodes are deterministic from the split (``servo.task.protocol``): two controllers,
 or two versions of one, run on the same starts and targets, so their difference is measured
@@ -98,8 +99,22 @@ class PairedComparison:
 
 
 def load_results(path: str | Path, name: str = "results") -> list[dict]:
-    """The result dicts of a ``topomap servo-eval --out`` file, each checked for the fields
-    the comparison reads; a clear error naming ``name`` otherwise.
+    """Read the result dicts of a ``topomap servo-eval --out`` file.
+
+    Each is checked for the fields the comparison reads; a ``ValueError`` naming ``name`` is
+    raised otherwise.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file (a result, a list of results, or a leaderboard envelope around them).
+    name : str, default "results"
+        The name errors give the file.
+
+    Returns
+    -------
+    list of dict
+        The results.
     """
     path = Path(path)
     if not path.is_file():
@@ -153,9 +168,24 @@ def _is_int(value) -> bool:
 def compare(
     a: list[dict], b: list[dict], rng: np.random.Generator | None = None, resamples: int = BOOTSTRAP
 ) -> list[PairedComparison]:
-    """Paired comparisons of B against A for every world and setting present in both (in A's
-    order); episodes that only one of them ran are left out. ``rng`` draws the bootstrap
-    (default: ``numpy.random.default_rng(0)``, so the same files give the same interval).
+    """Compare B against A, paired, for every world and setting present in both.
+
+    The comparisons are in A's order; episodes that only one of them ran are left out.
+
+    Parameters
+    ----------
+    a, b : list of dict
+        The results of A and of B ([`load_results`][servo.task.paired_comparison.load_results]).
+    rng : numpy.random.Generator, optional
+        Draws the bootstrap (default: ``numpy.random.default_rng(0)``, so the same files give
+        the same interval).
+    resamples : int, default BOOTSTRAP
+        The bootstrap's resamples.
+
+    Returns
+    -------
+    list of PairedComparison
+        One per world and setting both ran.
     """
     rng = np.random.default_rng(0) if rng is None else rng
     if not isinstance(rng, np.random.Generator):
@@ -214,7 +244,20 @@ def _paired(
 
 
 def markdown(rows: list[PairedComparison], a: str = "A", b: str = "B") -> str:
-    """The comparisons as a markdown table, one row per world and setting."""
+    """Write the comparisons as a markdown table, one row per world and setting.
+
+    Parameters
+    ----------
+    rows : list of PairedComparison
+        The comparisons.
+    a, b : str, default "A", "B"
+        The names the table gives the two sides.
+
+    Returns
+    -------
+    str
+        The table.
+    """
     lines = [
         f"| world | tier | split | settings | episodes | {a} | {b} | gained / lost by {b} | "
         f"sign test p | {b} - {a} [95% bootstrap] | by start manifold ({a} / {b}) |",

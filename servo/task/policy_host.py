@@ -51,7 +51,24 @@ EPISODE_CONSTANT = ("target_image", "target_scan", "target_scan_valid")
 
 
 def builtin_policy(name: str, m: ServoMap, rng: np.random.Generator, **options):
-    """Our controller ``name`` (one of `BUILTIN`) on the sensed map ``m``."""
+    """Make our controller ``name`` (one of `BUILTIN`) on the sensed map ``m``.
+
+    Parameters
+    ----------
+    name : str
+        One of `BUILTIN`.
+    m : ServoMap
+        The sensed map.
+    rng : numpy.random.Generator
+        The generator of the random policy.
+    **options
+        The controller's keyword arguments.
+
+    Returns
+    -------
+    object
+        The policy, with ``reset`` and ``act``.
+    """
     if name == "servo":
         from servo.laser_image import ManifoldServo
 
@@ -72,8 +89,22 @@ def builtin_policy(name: str, m: ServoMap, rng: np.random.Generator, **options):
 
 
 def map_message(m: ServoMap) -> tuple[dict, dict[str, np.ndarray]]:
-    """The values and arrays that carry the sensed map ``m`` (``interface.sensed_map``) to
-    the policy's process: its sensed arrays and fitted estimators, nothing of the truth.
+    """Return the values and arrays that carry the sensed map ``m`` to the policy's process.
+
+    ``m`` is the map as sensed (``interface.sensed_map``); the message holds its sensed arrays
+    and fitted estimators, nothing of the truth.
+
+    Parameters
+    ----------
+    m : ServoMap
+        The sensed map.
+
+    Returns
+    -------
+    values : dict
+        The JSON-able values.
+    arrays : dict of str to ndarray
+        The arrays.
     """
     c_meta, c_arrays = persistence.dump(m.clustering, "clustering")
     f_meta, f_arrays = persistence.dump(m.image_features, "image_features")
@@ -90,8 +121,21 @@ def map_message(m: ServoMap) -> tuple[dict, dict[str, np.ndarray]]:
 
 
 def map_from_message(values: dict, arrays: dict[str, np.ndarray]) -> ServoMap:
-    """The inverse of `map_message`: a sensed map, its true poses NaN and true labels
-    ``NO_MANIFOLD``, its arrays read-only.
+    """Rebuild a sensed map from its message: the inverse of `map_message`.
+
+    The map's true poses are NaN and true labels ``NO_MANIFOLD``, its arrays read-only.
+
+    Parameters
+    ----------
+    values : dict
+        The message's values.
+    arrays : dict of str to ndarray
+        The message's arrays.
+
+    Returns
+    -------
+    ServoMap
+        The sensed map.
     """
     clustering = persistence.load(ManifoldClustering, values["clustering"], arrays, "clustering")
     image_features = persistence.load(
@@ -134,7 +178,13 @@ def _error(sock, stage: str, err: BaseException) -> None:
 
 
 def serve(sock: socket.socket) -> None:
-    """Answer the evaluator's messages on ``sock`` until it says ``close`` or goes away."""
+    """Answer the evaluator's messages on ``sock`` until it says ``close`` or goes away.
+
+    Parameters
+    ----------
+    sock : socket.socket
+        The socket connected to the evaluator.
+    """
     policy = rng = None
     kept: dict = {}  # the episode's constant observation entries, as first sent
     while True:
@@ -183,7 +233,18 @@ def _action_message(action, waypoint) -> bytes:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Serve on the inherited socket whose descriptor is the one argument."""
+    """Serve on the inherited socket whose descriptor is the one argument.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; ``sys.argv[1:]`` when not given.
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 2 for a wrong usage.
+    """
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 1 or not argv[0].isdigit():
         print("usage: python -m servo.task.policy_host FD", file=sys.stderr)

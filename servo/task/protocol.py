@@ -1,6 +1,7 @@
-"""The servo benchmark protocol: named start tiers, named splits, deterministic episode sets,
-and a parallel runner over the machine's cores (success rates carry the Wilson intervals of
-`servo.task.stats`).
+"""The servo benchmark protocol: start tiers, splits, episode sets and a parallel runner.
+
+The tiers and splits are named, the episode sets deterministic, and the runner works over the
+machine's cores (success rates carry the Wilson intervals of `servo.task.stats`).
 
 Tiers
     ``view``: today's starts, within 0.4 m and 17 deg of a stored view of the start manifold
@@ -99,6 +100,7 @@ class Protocol:
     max_steps: int = 600
 
     def __post_init__(self):
+        """Check the fields and store the world's canonical name."""
         object.__setattr__(self, "world", check_world_name(self.world))
         if self.tier not in TIERS:
             raise ValueError(f"tier must be one of {TIERS}, got {self.tier!r}")
@@ -120,8 +122,9 @@ SUCCESS_TARGETS = {
 
 @dataclass(frozen=True)
 class EpisodeSpec:
-    """One episode of a [`Protocol`][servo.task.protocol.Protocol]: its index, seed and manifold
-    pair.
+    """One episode of a [`Protocol`][servo.task.protocol.Protocol].
+
+    The episode is given by its index, seed and manifold pair.
 
     Parameters
     ----------
@@ -160,8 +163,19 @@ class EpisodeSpec:
 
 
 def manifold_pairs(true_labels: np.ndarray, names: tuple[str, ...]) -> list[tuple[str, str]]:
-    """Ordered pairs of distinct manifolds that both hold stored views (evaluation labels,
-    indices into ``names``: the map's ``manifold_names``).
+    """Return the ordered pairs of distinct manifolds that both hold stored views.
+
+    Parameters
+    ----------
+    true_labels : ndarray of shape (n,)
+        The views' evaluation labels, indices into ``names`` (negative: on no manifold).
+    names : tuple of str
+        The manifolds' names (the map's ``manifold_names``).
+
+    Returns
+    -------
+    list of (str, str)
+        The (start, target) pairs.
     """
     present = [names[i] for i in np.unique(true_labels) if i >= 0]
     return [(a, b) for a in present for b in present if a != b]
@@ -170,10 +184,27 @@ def manifold_pairs(true_labels: np.ndarray, names: tuple[str, ...]) -> list[tupl
 def episode_specs(
     protocol: Protocol, true_labels: np.ndarray, episodes: int, names: tuple[str, ...] | None = None
 ) -> list[EpisodeSpec]:
-    """The first ``episodes`` episodes of ``protocol``'s split (a longer set extends a shorter
-    one). Seeds depend on the split and the world only, so tiers and settings share episodes.
-    ``names``: the manifolds ``true_labels`` index (the map's ``manifold_names``); None: those
-    of a dataset of the protocol's world (`sim.collect_worlds.label_space`).
+    """Return the first ``episodes`` episodes of ``protocol``'s split.
+
+    A longer set extends a shorter one. Seeds depend on the split and the world only, so tiers
+    and settings share episodes.
+
+    Parameters
+    ----------
+    protocol : Protocol
+        The benchmark cell.
+    true_labels : ndarray of shape (n,)
+        The map's views' evaluation labels, indices into ``names``.
+    episodes : int
+        The number of episodes.
+    names : tuple of str, optional
+        The manifolds ``true_labels`` index (the map's ``manifold_names``); None: those of a
+        dataset of the protocol's world (`sim.collect_worlds.label_space`).
+
+    Returns
+    -------
+    list of EpisodeSpec
+        The episodes.
     """
     check_int(episodes, "episodes")
     names = tuple(label_space((protocol.world,))) if names is None else names
@@ -189,9 +220,20 @@ def episode_specs(
 
 
 def protocol_spawn_key(protocol: Protocol) -> tuple[int, ...]:
-    """The spawn key of a protocol's episode seeds: ``(split, world)`` for a canonical world
-    (its published episodes), ``(split, 2 + family, seed)`` for a generated one, which no
-    canonical key equals.
+    """Return the spawn key of a protocol's episode seeds.
+
+    The key is ``(split, world)`` for a canonical world (its published episodes),
+    ``(split, 2 + family, seed)`` for a generated one, which no canonical key equals.
+
+    Parameters
+    ----------
+    protocol : Protocol
+        The benchmark cell.
+
+    Returns
+    -------
+    tuple of int
+        The spawn key.
     """
     world = parse_world_name(protocol.world)
     family = WORLDS.index(world.family)
@@ -201,7 +243,24 @@ def protocol_spawn_key(protocol: Protocol) -> tuple[int, ...]:
 
 
 def reset_options(env, spec: EpisodeSpec, tier: str) -> dict:
-    """``ServoEnv.reset`` options of one episode (the ``anywhere`` pose from its seed)."""
+    """Return the ``ServoEnv.reset`` options of one episode.
+
+    The ``anywhere`` tier's pose is drawn from the episode's seed.
+
+    Parameters
+    ----------
+    env : ServoEnv
+        The env (its base env draws the ``anywhere`` pose).
+    spec : EpisodeSpec
+        The episode.
+    tier : {"view", "anywhere"}
+        The start tier.
+
+    Returns
+    -------
+    dict
+        The reset options.
+    """
     if tier == "view":
         return {"start_manifold": spec.start_manifold, "target_manifold": spec.target_manifold}
     if tier == "anywhere":
@@ -213,7 +272,7 @@ def reset_options(env, spec: EpisodeSpec, tier: str) -> dict:
 
 # -- the runner (one env and policy per worker process: servo.task.worker) ----------------------
 def _check_indices(indices) -> list[int]:
-    """``indices`` as a list of distinct integers >= 0, or a ValueError naming the form."""
+    """Return ``indices`` as a list of distinct integers >= 0, or raise a ValueError."""
     if isinstance(indices, str | bytes) or not hasattr(indices, "__iter__"):
         raise ValueError(f"indices must be a list of distinct integers >= 0, got {indices!r}")
     out = list(indices)
@@ -245,31 +304,61 @@ def run_protocol(
     sandbox: bool | None = None,
     hide=(),
 ) -> dict:
-    """Run the first ``episodes`` episodes of ``protocol`` and summarise them
-    (``servo.task.evaluation.summarise``: success with its Wilson 95% interval, SPL, final errors,
-    steps, collisions, failure reasons, per start -> target pair, F along the trajectories).
+    """Run the first ``episodes`` episodes of ``protocol`` and summarise them.
 
-    ``servo_map``: a ``ServoMap`` or the path of a saved one (workers load it by path).
-    ``workers``: processes (spawned, each with its own env and policy); default: the cores
-    this process may use; 1 runs in this process. ``plot``: write the trails over the world's
-    top-down map there (``servo.task.evaluation.plot_trajectories``; the result's ``plot``).
+    The summary is ``servo.task.evaluation.summarise``'s: success with its Wilson 95% interval,
+    SPL, final errors, steps, collisions, failure reasons, per start -> target pair, F along the
+    trajectories.
 
-    ``policy``: one of ``servo.task.POLICIES`` or an outside factory ``package.module:factory``
-    (``servo.task.PolicyFactory``, or the factory itself if it is a module-level function; its
-    module is imported in each worker, running its code as ``python -m`` would), made with
-    ``policy_options`` as its params and a generator that is set anew for every episode from
-    the episode's seed and ``policy_seed`` (``servo.task.interface.reseed``; ours keep one
-    generator per worker, ``default_rng(policy_seed)``). ``act_limit_s``: seconds a policy's
-    call may take before its episode fails (default ``servo.task.guard.ACT_LIMIT_S``).
-    ``indices``: run these episodes of the protocol's list instead (distinct integers >= 0;
-    ``episodes`` is then ignored), each the same episode as in a run of the first ones.
-    ``isolate``: run the policy in its own process (``servo.task.remote.RemotePolicy``);
-    None: an outside policy does (always: ``False`` is refused for one), ours run in the
-    worker. ``sandbox``: run that process in a sandbox (``servo.task.remote.sandbox_tool``)
-    with the map's folder, ``hide`` (the datasets, say) and the data home emptied; None: where
-    the platform has one; True: refused where it has none.
-    The result records ``policy``, ``policy_params``, ``policy_seed`` and ``isolation``
-    (``process``, ``sandboxed``, ``sandbox``).
+    Parameters
+    ----------
+    protocol : Protocol
+        The benchmark cell to run.
+    servo_map : ServoMap, str or path
+        The map, or the path of a saved one (workers load it by path).
+    episodes : int
+        The number of episodes, the first of the protocol's list.
+    policy : str or callable, default "servo"
+        One of ``servo.task.POLICIES`` or an outside factory ``package.module:factory``
+        (``servo.task.PolicyFactory``, or the factory itself if it is a module-level function;
+        its module is imported in each worker, running its code as ``python -m`` would), made
+        with ``policy_options`` as its params and a generator that is set anew for every
+        episode from the episode's seed and ``policy_seed`` (``servo.task.interface.reseed``;
+        ours keep one generator per worker, ``default_rng(policy_seed)``).
+    workers : int, optional
+        Processes (spawned, each with its own env and policy); default: the cores this process
+        may use; 1 runs in this process.
+    policy_options : dict, optional
+        The policy's params.
+    progress : bool, default True
+        Show a progress bar.
+    plot : str or path, optional
+        Write the trails over the world's top-down map there
+        (``servo.task.evaluation.plot_trajectories``; the result's ``plot``).
+    policy_seed : int, default 0
+        The run's policy seed.
+    act_limit_s : float, optional
+        Seconds a policy's call may take before its episode fails (default
+        ``servo.task.guard.ACT_LIMIT_S``).
+    indices : sequence of int, optional
+        Run these episodes of the protocol's list instead (distinct integers >= 0;
+        ``episodes`` is then ignored), each the same episode as in a run of the first ones.
+    isolate : bool, optional
+        Run the policy in its own process (``servo.task.remote.RemotePolicy``); None: an
+        outside policy does (always: ``False`` is refused for one), ours run in the worker.
+    sandbox : bool, optional
+        Run that process in a sandbox (``servo.task.remote.sandbox_tool``) with the map's
+        folder, ``hide`` and the data home emptied; None: where the platform has one; True:
+        refused where it has none.
+    hide : sequence of str or path, default ()
+        Further folders the sandbox empties (the datasets, say).
+
+    Returns
+    -------
+    dict
+        The summary, with the protocol's fields, ``policy``, ``workers``, ``policy_params``,
+        ``policy_seed`` and ``isolation`` (``process``, ``sandboxed``, ``sandbox``); ``source``
+        (the digest of an outside policy's module) and ``plot`` where they apply.
     """
     from tqdm.auto import tqdm
 

@@ -1,5 +1,7 @@
-"""Gymnasium registration of the servo tasks with string entry points, and the wrapper that
-names the reason of a truncation by an outer ``TimeLimit``.
+"""Gymnasium registration of the servo tasks, and the wrapper that names a truncation's reason.
+
+The tasks are registered with string entry points; the wrapper names the reason of a truncation
+by an outer ``TimeLimit``.
 """
 
 from __future__ import annotations
@@ -64,8 +66,25 @@ class TruncationReason(gym.Wrapper, gym.utils.RecordConstructorArgs):
         gym.Wrapper.__init__(self, env)
 
     def step(self, action):
-        """The wrapped env's step, with ``info["reason"] = "time limit"`` on a truncation
-        that had no reason.
+        """Step the wrapped env, naming the reason of a truncation that had none.
+
+        ``info["reason"]`` is set to ``"time limit"`` on such a truncation.
+
+        Parameters
+        ----------
+        action : object
+            The wrapped env's action.
+
+        Returns
+        -------
+        observation : object
+            The wrapped env's observation.
+        reward : float
+            Its reward.
+        terminated, truncated : bool
+            Its episode's end.
+        info : dict
+            Its info, with the reason of a truncation.
         """
         obs, reward, terminated, truncated, info = self.env.step(action)
         if truncated and not terminated and info.get("reason") is None:
@@ -74,9 +93,23 @@ class TruncationReason(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
 
 def spec_with_own_limit(spec, max_steps: int):
-    """``ServoEnv.spec``: the spec ``gym.make`` gave with ``max_episode_steps`` the env's own
-    limit where the registry set none (the servo ids add no ``TimeLimit``: one clock, which
-    names its reason), so tools that read the limit from the spec see it.
+    """Return ``ServoEnv.spec``: ``gym.make``'s spec, with the env's own step limit.
+
+    ``max_episode_steps`` is set to the env's own limit where the registry set none (the servo
+    ids add no ``TimeLimit``: one clock, which names its reason), so tools that read the limit
+    from the spec see it.
+
+    Parameters
+    ----------
+    spec : gymnasium.envs.registration.EnvSpec or None
+        The spec ``gym.make`` gave.
+    max_steps : int
+        The env's own limit.
+
+    Returns
+    -------
+    gymnasium.envs.registration.EnvSpec or None
+        The spec, with ``max_episode_steps`` set.
     """
     if spec is None or spec.max_episode_steps is not None:
         return spec
@@ -84,7 +117,18 @@ def spec_with_own_limit(spec, max_steps: int):
 
 
 def warn_of_map_object(spec):
-    """``spec``, after a warning if its ``servo_map`` is a map object rather than a path."""
+    """Return ``spec``, after a warning if its ``servo_map`` is a map object, not a path.
+
+    Parameters
+    ----------
+    spec : gymnasium.envs.registration.EnvSpec or None
+        The spec ``gym.make`` gave.
+
+    Returns
+    -------
+    gymnasium.envs.registration.EnvSpec or None
+        ``spec`` itself.
+    """
     from servo.maps import ServoMap
 
     if spec is not None and isinstance(spec.kwargs.get("servo_map"), ServoMap):
@@ -99,6 +143,11 @@ def warn_of_map_object(spec):
 
 
 def register_envs() -> None:
+    """Register ``topomap/HallwayServo-v0`` and ``topomap/LawnServo-v0`` with Gymnasium.
+
+    Each id makes a [`ServoEnv`][servo.task.env.ServoEnv] of its world, wrapped in
+    [`TruncationReason`][servo.task.registration.TruncationReason].
+    """
     # No TimeLimit wrapper: ServoEnv keeps its own clock (max_steps), which also names the
     # reason ("time limit"); a second clock would cut a longer max_steps short. One that the
     # user asks for (max_episode_steps=) gets its reason from TruncationReason above it.

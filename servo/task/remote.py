@@ -1,5 +1,6 @@
-"""A policy in its own process, seen from the evaluator:
-[`RemotePolicy`][servo.task.remote.RemotePolicy].
+"""A policy in its own process, seen from the evaluator.
+
+The evaluator's side is [`RemotePolicy`][servo.task.remote.RemotePolicy].
 
 The policy runs in ``python -m servo.task.policy_host`` (decision record 073), started with a
 socket, the environment without the data home's variable, and, where the platform allows
@@ -48,10 +49,17 @@ _UNSHARE_SCRIPT = (
 
 
 def default_hidden() -> list[str]:
-    """Folders a policy's sandbox hides whatever the run: the data home (``sim.datahome``),
-    ``TOPOMAP_HOME``, the repository's ``out/`` and the temporary folder (where every run
-    keeps its copy of the map, the truth included; the policy gets an empty one), those that
-    exist; not a folder that holds the repository or the current directory.
+    """Return the folders a policy's sandbox hides whatever the run.
+
+    They are the data home (``sim.datahome``), ``TOPOMAP_HOME``, the repository's ``out/`` and
+    the temporary folder (where every run keeps its copy of the map, the truth included; the
+    policy gets an empty one), those that exist; not a folder that holds the repository or the
+    current directory.
+
+    Returns
+    -------
+    list of str
+        The folders, resolved and sorted.
     """
     from sim.datahome import ENV_VAR, user_cache_dir
 
@@ -65,10 +73,21 @@ def default_hidden() -> list[str]:
 
 
 def outermost(folders) -> list[str]:
-    """The folders that lie in no other of ``folders``, resolved. A folder that holds the
-    repository or the current directory (hiding it would hide the code; a clone in the
-    temporary folder) is replaced by its subfolders off the path to them, so everything else
-    in it is still hidden.
+    """Return the folders that lie in no other of ``folders``, resolved.
+
+    A folder that holds the repository or the current directory (hiding it would hide the
+    code; a clone in the temporary folder) is replaced by its subfolders off the path to them,
+    so everything else in it is still hidden.
+
+    Parameters
+    ----------
+    folders : iterable of str or path
+        The folders to hide.
+
+    Returns
+    -------
+    list of str
+        The outermost folders, sorted.
     """
     needed = (_ROOT, Path.cwd().resolve())
     keep: list[Path] = []
@@ -123,8 +142,15 @@ def _prefix(tool: str, hide: list[str]) -> list[str]:
 
 @functools.cache
 def sandbox_tool() -> str | None:
-    """``"bwrap"`` or ``"unshare"``, whichever first runs a command in its own mount and
-    process namespaces with a folder hidden here; None where neither does.
+    """Return the sandbox tool that works here: ``"bwrap"``, ``"unshare"`` or None.
+
+    The tool is whichever first runs a command in its own mount and process namespaces with a
+    folder hidden here; None where neither does.
+
+    Returns
+    -------
+    str or None
+        ``"bwrap"``, ``"unshare"`` or None.
 
     Examples
     --------
@@ -332,18 +358,45 @@ class RemotePolicy:
 
     # -- the Policy interface ---------------------------------------------------------------
     def set_episode(self, episode_seed: int, policy_seed: int) -> None:
-        """The seeds the next ``reset`` sets the policy's generator from (outside policies)."""
+        """Set the seeds the next ``reset`` sets the policy's generator from (outside policies).
+
+        Parameters
+        ----------
+        episode_seed : int
+            The episode's seed.
+        policy_seed : int
+            The run's policy seed.
+        """
         self._episode = (int(episode_seed), int(policy_seed))
 
     def reset(self, target) -> None:
-        """Start an episode toward ``target`` (a ``Target``: its view and image go over)."""
+        """Start an episode toward ``target`` (a ``Target``: its view and image go over).
+
+        Parameters
+        ----------
+        target : Target
+            The target's stored view.
+        """
         seed, policy_seed = self._episode
         self._sent = {}
         values = {"view": int(target.view), "episode_seed": seed, "policy_seed": policy_seed}
         self._ask("reset", values, {"image": target.image}, "done")
 
     def act(self, observation: dict) -> np.ndarray:
-        """The policy's command for ``observation`` (plain arrays over, two numbers back)."""
+        """Return the policy's command for ``observation``.
+
+        Plain arrays go over, two numbers come back.
+
+        Parameters
+        ----------
+        observation : dict
+            The env's observation.
+
+        Returns
+        -------
+        ndarray of shape (2,), float64
+            The command (v m/s, omega rad/s).
+        """
         self.waypoint_ = None
         send, same = {}, []
         for k, v in observation.items():  # what stays the same in an episode goes over once
@@ -363,5 +416,6 @@ class RemotePolicy:
         return np.array(arrays["action"], dtype=np.float64)
 
     def __del__(self):
+        """Kill the process if it still runs."""
         if getattr(self, "_proc", None) is not None:
             self._proc.kill()

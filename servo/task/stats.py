@@ -1,5 +1,6 @@
-"""Confidence intervals of the servo's success rates (shared by the evaluation's summary and
-the benchmark protocol).
+"""Confidence intervals of the servo's success rates.
+
+They are shared by the evaluation's summary and the benchmark protocol.
 """
 
 from __future__ import annotations
@@ -12,8 +13,23 @@ WILSON_Z = 1.959963984540054  # two-sided 95%
 
 
 def wilson_interval(successes: int, n: int, z: float = WILSON_Z) -> tuple[float, float]:
-    """Wilson score interval for a binomial rate (Wilson 1927), closed form:
-    ``(p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)``.
+    """Return the Wilson score interval for a binomial rate (Wilson 1927).
+
+    The closed form: ``(p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)``.
+
+    Parameters
+    ----------
+    successes : int
+        Successes, ``0 <= successes <= n``.
+    n : int
+        Trials, at least 1.
+    z : float, default WILSON_Z
+        The normal quantile (two-sided 95% by default).
+
+    Returns
+    -------
+    tuple of float
+        The interval's lower and upper bound, clipped to [0, 1].
     """
     if n < 1 or not 0 <= successes <= n:
         raise ValueError(f"need 0 <= successes <= n and n >= 1, got {successes}/{n}")

@@ -42,8 +42,23 @@ class Timeout(WireError):
 
 
 def encode(kind: str, values: dict | None = None, arrays: dict | None = None) -> bytes:
-    """The message ``kind`` with the JSON-able ``values`` and the numeric ``arrays`` (each
-    array's bytes copied once, into the message).
+    """Encode the message ``kind`` with the JSON-able ``values`` and the numeric ``arrays``.
+
+    Each array's bytes are copied once, into the message.
+
+    Parameters
+    ----------
+    kind : str
+        The message's kind.
+    values : dict, optional
+        JSON-able values.
+    arrays : dict of str to array_like, optional
+        Numeric arrays, each of a dtype of `DTYPES` (big-endian ones are converted).
+
+    Returns
+    -------
+    bytes or bytearray
+        The message (a bytearray from 4096 bytes on).
     """
     specs, parts = [], []
     for name, a in (arrays or {}).items():
@@ -65,8 +80,25 @@ def encode(kind: str, values: dict | None = None, arrays: dict | None = None) ->
 
 
 def decode(data: bytes | bytearray, max_bytes: int) -> tuple[str, dict, dict[str, np.ndarray]]:
-    """``(kind, values, arrays)`` of an untrusted message; the arrays are read-only views of
-    ``data``. Raises `WireError` naming the fault.
+    """Decode an untrusted message into ``(kind, values, arrays)``.
+
+    The arrays are read-only views of ``data``. Raises `WireError` naming the fault.
+
+    Parameters
+    ----------
+    data : bytes or bytearray
+        The message.
+    max_bytes : int
+        The largest message accepted.
+
+    Returns
+    -------
+    kind : str
+        The message's kind.
+    values : dict
+        Its values.
+    arrays : dict of str to ndarray
+        Its arrays.
     """
     if len(data) > max_bytes:
         raise WireError(f"{len(data)} bytes, more than the {max_bytes} allowed")
@@ -121,8 +153,16 @@ def _array_spec(spec) -> tuple[str, str, tuple[int, ...]]:
 
 
 def send(sock: socket.socket, message: bytes) -> None:
-    """Write one frame (length, then ``message``); raises `Closed` if the other end
-    is gone.
+    """Write one frame (length, then ``message``).
+
+    Raises `Closed` if the other end is gone.
+
+    Parameters
+    ----------
+    sock : socket.socket
+        The connected socket.
+    message : bytes
+        The message (`encode`).
     """
     try:  # the length, then the message itself: no copy of a large message
         sock.sendall(struct.pack(">Q", len(message)))
@@ -132,8 +172,23 @@ def send(sock: socket.socket, message: bytes) -> None:
 
 
 def receive(sock: socket.socket, max_bytes: int, timeout: float | None = None) -> bytearray:
-    """One frame's message, of at most ``max_bytes``, within ``timeout`` seconds (None: wait
-    as long as it takes). Raises `Timeout`, `Closed` or `WireError`.
+    """Read one frame's message, of at most ``max_bytes``, within ``timeout`` seconds.
+
+    Raises `Timeout`, `Closed` or `WireError`.
+
+    Parameters
+    ----------
+    sock : socket.socket
+        The connected socket.
+    max_bytes : int
+        The largest message accepted.
+    timeout : float, optional
+        Seconds to wait; None: wait as long as it takes.
+
+    Returns
+    -------
+    bytearray
+        The message.
     """
     deadline = None if timeout is None else time.monotonic() + timeout
     head = _read(sock, 8, deadline)

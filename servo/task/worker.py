@@ -1,6 +1,7 @@
-"""The runner's worker: one env and one policy per worker process (``run_protocol`` spawns
-them, or runs one in its own process), the policy in the worker or in a process of its own
-(``servo.task.remote``).
+"""The runner's worker: one env and one policy per worker process.
+
+``run_protocol`` spawns the workers, or runs one in its own process; the policy runs in the
+worker or in a process of its own (``servo.task.remote``).
 """
 
 from __future__ import annotations
@@ -13,8 +14,20 @@ _WORKER: dict = {}
 
 
 def param_names(options) -> list[str]:
-    """The names a policy's params may have: identifiers (they become keyword arguments); the
-    values go to the policy, which checks them.
+    """Return the names a policy's params may have.
+
+    The names must be identifiers (they become keyword arguments); the values go to the
+    policy, which checks them.
+
+    Parameters
+    ----------
+    options : dict or None
+        The policy's params.
+
+    Returns
+    -------
+    list of str
+        The keys of ``options`` (none where it is not a dict).
     """
     if isinstance(options, dict):
         bad = [k for k in options if not (isinstance(k, str) and k.isidentifier())]
@@ -34,10 +47,28 @@ def init_worker(
     isolation: dict | None = None,
     reset_options=None,
 ) -> None:
-    """Make this worker's env and policy (``run_protocol``'s pool initializer): the policy in
-    its own process where ``isolation["process"]`` (sandboxed where ``isolation["sandboxed"]``,
-    its ``hide`` folders emptied), else here; ``reset_options`` is
-    ``servo.task.protocol.reset_options`` (passed in: that module imports this one).
+    """Make this worker's env and policy (``run_protocol``'s pool initializer).
+
+    Parameters
+    ----------
+    protocol : Protocol
+        The benchmark cell (its world and env settings).
+    map_path : str
+        The saved map's path.
+    policy : str
+        A policy name or an outside factory ``package.module:factory``.
+    options : dict
+        The policy's params.
+    seed : int, default 0
+        The policy seed.
+    act_limit_s : float, optional
+        Seconds a policy's call may take (default ``servo.task.guard.ACT_LIMIT_S``).
+    isolation : dict, optional
+        The policy runs in its own process where ``isolation["process"]`` (sandboxed where
+        ``isolation["sandboxed"]``, its ``hide`` folders emptied), else here; default: an
+        outside policy in its own process, unsandboxed.
+    reset_options : callable, optional
+        ``servo.task.protocol.reset_options`` (passed in: that module imports this one).
     """
     import sim  # noqa: F401  (the GL backend before mujoco, in a spawned process)
     from servo.task.env import ServoEnv
@@ -103,7 +134,18 @@ def close_worker() -> None:
 
 
 def run_spec(spec) -> dict:
-    """The record of episode ``spec`` (a ``servo.task.EpisodeSpec``) run by this worker."""
+    """Run episode ``spec`` in this worker and return its record.
+
+    Parameters
+    ----------
+    spec : EpisodeSpec
+        The episode (a ``servo.task.EpisodeSpec``).
+
+    Returns
+    -------
+    dict
+        The episode's record, with ``episode`` its index.
+    """
     from servo.task.evaluation import run_episode
     from servo.task.interface import reseed
 
@@ -127,7 +169,22 @@ def run_spec(spec) -> dict:
 
 
 def isolation_of(policy: str, isolate, sandbox) -> dict:
-    """Where the policy runs: ``process`` (its own), ``sandboxed``, ``sandbox`` (the tool)."""
+    """Decide where the policy runs.
+
+    Parameters
+    ----------
+    policy : str
+        A policy name or an outside factory ``package.module:factory``.
+    isolate : bool or None
+        Run it in its own process; None: an outside policy does, ours do not.
+    sandbox : bool or None
+        Run that process in a sandbox; None: where the platform has one.
+
+    Returns
+    -------
+    dict
+        ``process`` (its own), ``sandboxed``, ``sandbox`` (the tool).
+    """
     from servo.task.interface import is_policy_spec
     from servo.task.remote import sandbox_tool
 
