@@ -106,7 +106,27 @@ def method_label(method: dict) -> str:
 
 @dataclass
 class Row:
-    """One method in one group of a board."""
+    """One method in one group of a board.
+
+    Parameters
+    ----------
+    method : str
+        The method's label.
+    notes : str
+        The method's notes.
+    values : dict
+        Unit -> value (failed units left out).
+    failed : int
+        The number of failed units.
+    mean : float, default nan
+        The mean over ``values``.
+    lo, hi : float, default nan
+        The 95 % interval of the mean.
+    paired : dict
+        The paired comparison with the reference method: ``n`` shared units, ``diff`` with
+        its interval ``lo``, ``hi``, ``p`` and ``test``; empty for the reference itself or
+        without one.
+    """
 
     method: str
     notes: str
