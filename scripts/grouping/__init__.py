@@ -1,7 +1,8 @@
-"""``topomap group-eval``: the observation grouping on the simulated worlds (``evaluate``,
-scored by ``scores``, tabled by ``tables``, drawn by ``plots``), its local maps
-(``local_maps``), the real Carmen logs (``carmen_logs``) and the loop recordings it groups
-(``loop_recordings``).
+"""``topomap group-eval``: the observation grouping on simulated worlds and real logs.
+
+The observation grouping on the simulated worlds (``evaluate``, scored by ``scores``, tabled
+by ``tables``, drawn by ``plots``), its local maps (``local_maps``), the real Carmen logs
+(``carmen_logs``) and the loop recordings it groups (``loop_recordings``).
 """
 
 from common.lazy import lazy_exports

@@ -35,15 +35,42 @@ VARIANTS = {"given": False, "given+icp": True}  # name -> scan_matching
 
 
 def log_points(log: CarmenLog) -> list[np.ndarray]:
-    """Each scan's returns as points in the laser frame (no-returns dropped)."""
+    """Return each scan's returns as points in the laser frame (no-returns dropped).
+
+    Parameters
+    ----------
+    log : CarmenLog
+        The log read by ``sim.readers.carmen.read_carmen``.
+
+    Returns
+    -------
+    list of ndarray
+        One array of points per scan.
+    """
     return [scan_to_points(r, log.angles, log.max_range) for r in log.ranges]
 
 
 def group_log(
     log: CarmenLog, scans: Sequence[np.ndarray], scan_matching: bool
 ) -> tuple[ObservationGraphPartitioner, dict]:
-    """The partitioner at default settings on one log with its own poses; the fitted model
-    and a summary of its groups.
+    """Fit the partitioner at default settings on one log with its own poses.
+
+    Parameters
+    ----------
+    log : CarmenLog
+        The log, whose poses are used.
+    scans : sequence of ndarray
+        Each scan's points in the laser frame (``log_points``).
+    scan_matching : bool
+        Whether the partitioner corrects the poses by ICP.
+
+    Returns
+    -------
+    model : ObservationGraphPartitioner
+        The fitted model.
+    summary : dict
+        A summary of its groups: their number and sizes, singletons, arcs, overlap pairs per
+        scan, the largest pose change (m) and the time (s).
     """
     model = ObservationGraphPartitioner(scan_matching=scan_matching)
     start = time.perf_counter()
@@ -86,6 +113,17 @@ def evaluate_carmen(
     progress: bool = True,
 ) -> dict:
     """Group every log of ``paths`` without and with ICP; write ``carmen.json`` and figures.
+
+    Parameters
+    ----------
+    paths : sequence of str or os.PathLike
+        The Carmen logs; at least one.
+    out_dir : str or os.PathLike
+        The output directory, created if missing.
+    figures : bool, default True
+        Whether to write the four figures per log (for the grouping without ICP).
+    progress : bool, default True
+        Whether to show a progress bar.
 
     Returns
     -------
@@ -144,7 +182,18 @@ def evaluate_carmen(
 
 
 def format_report(result: dict) -> str:
-    """A markdown table of the groupings of every log."""
+    """Format a markdown table of the groupings of every log.
+
+    Parameters
+    ----------
+    result : dict
+        The result of ``evaluate_carmen``.
+
+    Returns
+    -------
+    str
+        The table, one row per log and variant.
+    """
     lines = [
         "| log | scans x beams | poses | groups | size min / median / max | singletons | arcs "
         "| max ICP change (m) | time (s) |",
@@ -163,7 +212,18 @@ def format_report(result: dict) -> str:
 
 
 def run(args) -> int:
-    """``topomap group-eval --carmen LOG ... --out DIR``."""
+    """Run ``topomap group-eval --carmen LOG ... --out DIR``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``carmen``, ``out``, ``quiet`` and ``json``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     result = evaluate_carmen(args.carmen, args.out, progress=not args.quiet)
     if args.json:
         print(json.dumps(result, indent=2))

@@ -53,9 +53,22 @@ LABELS_FILE = "groups.npz"  # per case and variant, the group of every frame (nu
 
 
 def group_scans(runs: Runs, poses: str) -> tuple[ObservationGraphPartitioner, dict]:
-    """The partitioner at default settings on ``runs`` with ``poses`` in {"true", "odometry",
-    "odometry+icp"}; returns the fitted model and its scores (None without ground truth),
-    drift (None without true poses) and time.
+    """Fit the partitioner at default settings on ``runs`` with the poses ``poses``.
+
+    Parameters
+    ----------
+    runs : Runs
+        One world's recordings.
+    poses : {"true", "odometry", "odometry+icp"}
+        The poses to group with.
+
+    Returns
+    -------
+    model : ObservationGraphPartitioner
+        The fitted model.
+    score : dict
+        Its scores (None without ground truth), drift (None without true poses), time,
+        whether it meets the targets and its number of arcs.
     """
     if poses == "true" and runs.poses is None:
         raise ValueError(f"{runs.world}: no true poses to group with (no ground truth)")
@@ -82,6 +95,20 @@ def group_scans(runs: Runs, poses: str) -> tuple[ObservationGraphPartitioner, di
 
 
 def pose_variants(icp: Sequence[bool], true_poses: bool) -> list[str]:
+    """Name the pose variants to group with.
+
+    Parameters
+    ----------
+    icp : sequence of bool
+        Odometry variants: raw odometry (False) and odometry refined by ICP (True).
+    true_poses : bool
+        Whether the true poses come first.
+
+    Returns
+    -------
+    list of str
+        ``"true"``, ``"odometry"`` and ``"odometry+icp"`` as asked.
+    """
     names = ["true"] if true_poses else []
     return names + ["odometry+icp" if flag else "odometry" for flag in icp]
 
@@ -227,8 +254,19 @@ def evaluate_grouping(
 
 
 def format_report(result: dict) -> str:
-    """Markdown tables of the groupings and of the four-way comparison
-    (``scripts.grouping.tables``, the same tables the HTML report shows).
+    """Format markdown tables of the groupings and of the four-way comparison.
+
+    They are those of ``scripts.grouping.tables``, the same tables the HTML report shows.
+
+    Parameters
+    ----------
+    result : dict
+        The result of ``evaluate_grouping``.
+
+    Returns
+    -------
+    str
+        The markdown.
     """
     tables = [grouping_table(result)]
     if result["compare"]:
@@ -237,7 +275,18 @@ def format_report(result: dict) -> str:
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
-    """The command line (shared with ``topomap group-eval``)."""
+    """Build the command line (shared with ``topomap group-eval``).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser, optional
+        The parser to add the arguments to; a new one by default.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser.
+    """
     p = parser or argparse.ArgumentParser(description=__doc__.splitlines()[0])
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument(
@@ -268,8 +317,19 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
 
 
 def one_dataset(args) -> None:
-    """``args.data`` as the one dataset the built-in evaluations read (several only with
-    ``--method``).
+    """Make ``args.data`` the one dataset the built-in evaluations read.
+
+    Several datasets are allowed only with ``--method``; ``args`` is changed in place.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line, with ``data``.
+
+    Raises
+    ------
+    ValueError
+        When ``--data`` is given more than once.
     """
     if isinstance(args.data, list):
         if len(args.data) > 1:
@@ -278,6 +338,21 @@ def one_dataset(args) -> None:
 
 
 def run(args) -> int:
+    """Run ``topomap group-eval`` on the parsed command line.
+
+    With ``--method`` the outside method is evaluated, with ``--local-maps`` the local
+    maps, else the grouping.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The command line of ``build_parser``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     if getattr(args, "method", None):
         from scripts.grouping.outside import run as run_method
 
@@ -306,6 +381,18 @@ def run(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``python -m scripts.grouping.evaluate``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; ``sys.argv[1:]`` by default.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     import sim  # noqa: F401  (chooses the headless GL backend before mujoco loads)
 
     return run(build_parser().parse_args(argv))

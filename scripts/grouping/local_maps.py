@@ -59,7 +59,22 @@ METHODS = ("grouping", "every n scans", "every d m", "global")
 
 
 def simulated_odometry(poses: np.ndarray, seed: int = 0) -> np.ndarray:
-    """Noisy odometry from true poses with ``sim.odometry``'s default noise (the dataset's)."""
+    """Simulate noisy odometry from true poses with ``sim.odometry``'s default noise.
+
+    The noise is the dataset's.
+
+    Parameters
+    ----------
+    poses : ndarray of shape (n, 3)
+        True poses (x, y, heading).
+    seed : int, default 0
+        Seed of the noise.
+
+    Returns
+    -------
+    ndarray of shape (n, 3)
+        The odometry poses.
+    """
     odo = Odometry(OdometryConfig(), np.random.default_rng(seed))
     out = [odo.reset(poses[0])]
     out += [odo.update(p) for p in poses[1:]]
@@ -67,8 +82,23 @@ def simulated_odometry(poses: np.ndarray, seed: int = 0) -> np.ndarray:
 
 
 def split(groups: np.ndarray, hold_every: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Training scans, held-out scans (every ``hold_every``-th of each run, never a run's
-    first) and each held-out scan's anchor (the training scan just before it).
+    """Split the scans into training and held-out scans.
+
+    Parameters
+    ----------
+    groups : ndarray of shape (n,)
+        The run of each scan.
+    hold_every : int
+        Every ``hold_every``-th scan of each run is held out, never a run's first.
+
+    Returns
+    -------
+    train : ndarray of int
+        Indices of the training scans.
+    held : ndarray of int
+        Indices of the held-out scans.
+    anchor : ndarray of int
+        Each held-out scan's anchor: the training scan just before it.
     """
     n = len(groups)
     starts = run_starts_from_groups(groups, n)
@@ -115,7 +145,29 @@ def evaluate_case(
     *,
     hold_every: int = 5,
 ) -> dict:
-    """All four methods on one case with one kind of ``poses``; ``truth`` scores them."""
+    """Score all four methods on one case with one kind of ``poses``.
+
+    Parameters
+    ----------
+    scans : list of ndarray
+        Each scan's points in the laser frame.
+    truth : ndarray of shape (n, 3)
+        True poses, which score the methods.
+    poses : ndarray of shape (n, 3)
+        The poses the submaps are built at.
+    groups : ndarray of shape (n,)
+        The run of each scan.
+    rng : numpy.random.Generator
+        Random numbers of the localisation and the bootstrap.
+    hold_every : int, default 5
+        Every ``hold_every``-th scan of each run is held out.
+
+    Returns
+    -------
+    dict
+        The counts of training and held-out scans, the grouping's time, the baselines'
+        sizes, and ``score_submaps`` of each method.
+    """
     train, held, _ = split(groups, hold_every)
     tscans = [scans[i] for i in train]
     tposes, tgroups = poses[train], groups[train]
@@ -154,8 +206,32 @@ def score_submaps(
 ) -> dict:
     """Consistency and held-out localisation of one cut of the training scans into submaps.
 
-    ``labels`` gives the submap of each *training* scan (``split(groups, hold_every)[0]``);
-    each submap is rebuilt by scan-to-map ICP (unless ``align`` is False) and scored.
+    Each submap is rebuilt by scan-to-map ICP (unless ``align`` is False) and scored.
+
+    Parameters
+    ----------
+    scans : list of ndarray
+        Each scan's points in the laser frame.
+    truth : ndarray of shape (n, 3)
+        True poses.
+    poses : ndarray of shape (n, 3)
+        The poses the submaps are built at.
+    groups : ndarray of shape (n,)
+        The run of each scan.
+    labels : ndarray of int
+        The submap of each *training* scan (``split(groups, hold_every)[0]``).
+    rng : numpy.random.Generator
+        Random numbers of the localisation and the bootstrap.
+    hold_every : int, default 5
+        Every ``hold_every``-th scan of each run is held out.
+    align : bool, default True
+        Whether each submap is rebuilt by scan-to-map ICP.
+
+    Returns
+    -------
+    dict
+        ``submaps`` (their number), ``residuals`` (``map_residuals``) and
+        ``localisation`` (held-out success rate and median error, with intervals).
     """
     errors, aligned, train = submap_errors(
         scans, truth, poses, groups, labels, rng, hold_every=hold_every, align=align
@@ -169,8 +245,26 @@ def score_submaps(
 
 
 def submap_errors(scans, truth, poses, groups, labels, rng, *, hold_every=5, align=True):
-    """``(errors, aligned training poses, training indices)`` of `score_submaps`:
-    each held-out scan's translation and heading error (``inf``: ICP did not converge).
+    """Localise the held-out scans against the submaps of `score_submaps`.
+
+    Parameters
+    ----------
+    scans, truth, poses, groups, labels, rng, hold_every, align
+        As in `score_submaps`.
+
+    Returns
+    -------
+    errors : ndarray of shape (n_held, 2)
+        Each held-out scan's translation and heading error (``inf``: ICP did not converge).
+    aligned : ndarray of shape (n_train, 3)
+        The aligned training poses.
+    train : ndarray of int
+        The training indices.
+
+    Raises
+    ------
+    ValueError
+        When ``labels`` has not one entry per training scan.
     """
     train, held, anchor = split(groups, hold_every)
     labels = np.asarray(labels)
@@ -196,7 +290,25 @@ def submap_errors(scans, truth, poses, groups, labels, rng, *, hold_every=5, ali
 
 
 def evaluate_cases(cases: dict, out_dir: str | os.PathLike, *, seed: int = 0, progress=True):
-    """``cases``: name -> (scans, truth, odometry, groups). Writes ``local_maps.json``."""
+    """Evaluate every case with true and ICP-refined odometry poses; write ``local_maps.json``.
+
+    Parameters
+    ----------
+    cases : dict
+        Name -> (scans, truth, odometry, groups).
+    out_dir : str or os.PathLike
+        The output directory, created if missing.
+    seed : int, default 0
+        Seed of the random numbers.
+    progress : bool, default True
+        Whether to show a progress bar.
+
+    Returns
+    -------
+    dict
+        Everything written to ``local_maps.json``: the settings, and per case and poses
+        ``evaluate_case``'s result.
+    """
     from tqdm.auto import tqdm
 
     from common.fileio import write_json
@@ -230,7 +342,18 @@ def evaluate_cases(cases: dict, out_dir: str | os.PathLike, *, seed: int = 0, pr
 
 
 def format_report(result: dict) -> str:
-    """One markdown row per case, poses and method."""
+    """Format a markdown table, one row per case, poses and method.
+
+    Parameters
+    ----------
+    result : dict
+        The result of ``evaluate_cases``.
+
+    Returns
+    -------
+    str
+        The table.
+    """
     lines = [
         "| case | poses | method | submaps | residual mean / p90 (cm) | matched | localised "
         "(95 % CI) | median error (cm) |",
@@ -252,7 +375,29 @@ def format_report(result: dict) -> str:
 
 
 def dataset_cases(data, out_dir, *, loop: bool = True, loop_frames: int | None = None) -> dict:
-    """Cases of a simulated dataset: each world's default sequences, and its loop."""
+    """Build the cases of a simulated dataset: each world's default sequences, and its loop.
+
+    Parameters
+    ----------
+    data : Dataset or str or os.PathLike
+        The dataset, with true poses.
+    out_dir : str or os.PathLike
+        The output directory; the loops are cached in its ``loop/``.
+    loop : bool, default True
+        Whether to add each world's loop.
+    loop_frames : int, optional
+        Frames of each loop; by default the dataset's spacing.
+
+    Returns
+    -------
+    dict
+        Name -> (scans, truth, odometry, groups).
+
+    Raises
+    ------
+    ValueError
+        When the dataset has no true poses.
+    """
     from scripts.grouping.loop_recordings import collect_loop, has_loop
     from sim import dataset as ds
     from sim.collect_worlds import label_space
@@ -273,7 +418,18 @@ def dataset_cases(data, out_dir, *, loop: bool = True, loop_frames: int | None =
 
 
 def carmen_cases(paths) -> dict:
-    """Cases of Carmen logs: corrected poses as truth, odometry simulated from them."""
+    """Build the cases of Carmen logs: corrected poses as truth, odometry simulated from them.
+
+    Parameters
+    ----------
+    paths : iterable of str or os.PathLike
+        The Carmen logs.
+
+    Returns
+    -------
+    dict
+        Log name -> (scans, truth, odometry, groups), all scans in one run.
+    """
     from scripts.grouping.carmen_logs import log_points
     from sim.readers import read_carmen
 
@@ -287,7 +443,18 @@ def carmen_cases(paths) -> dict:
 
 
 def run(args) -> int:
-    """``topomap group-eval (--data DIR | --carmen LOG ...) --local-maps --out DIR``."""
+    """Run ``topomap group-eval (--data DIR | --carmen LOG ...) --local-maps --out DIR``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``data`` or ``carmen``, ``out``, ``no_loop``, ``loop_frames``, ``quiet`` and ``json``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     import json
 
     if args.carmen:

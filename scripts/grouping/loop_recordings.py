@@ -1,6 +1,7 @@
-"""A longer drive through a world for the grouping evaluation: the main manifold, then every
-branch in turn, coming back to the junction between branches (main -> left -> back ->
-straight -> back -> right).
+"""A longer drive through a world for the grouping evaluation.
+
+The main manifold, then every branch in turn, coming back to the junction between branches
+(main -> left -> back -> straight -> back -> right).
 
 The loop is driven by the dataset's own machinery (``sim.collect.collect_sequence`` with the
 scripted teleop) on a route built from the world's three branch routes, so the driver, sensors
@@ -34,9 +35,20 @@ U_TURN_OFFSET = 0.35  # m; fits the narrowest corridor (2.4 m) with the robot's 
 
 
 def has_loop(world: str) -> bool:
-    """Whether ``world`` has a loop: a canonical world does (one junction whose three branch
-    routes `loop_route` joins); a generated world's tree of junctions has none yet, and
-    a name that is no world has none.
+    """Check whether ``world`` has a loop.
+
+    A canonical world does (one junction whose three branch routes `loop_route` joins); a
+    generated world's tree of junctions has none yet, and a name that is no world has none.
+
+    Parameters
+    ----------
+    world : str
+        A world's name.
+
+    Returns
+    -------
+    bool
+        Whether it has a loop.
     """
     try:
         return parse_world_name(world).canonical
@@ -45,14 +57,36 @@ def has_loop(world: str) -> bool:
 
 
 def loop_name(world: str) -> str:
+    """Name the loop of ``world``.
+
+    Parameters
+    ----------
+    world : str
+        A world's name.
+
+    Returns
+    -------
+    str
+        ``"<world>-loop"``.
+    """
     return f"{world}-loop"
 
 
 def loop_route(world) -> Route:
-    """The loop of ``world`` (a ``scenes.World``) from its three branch routes.
+    """Build the loop of ``world`` from its three branch routes.
 
     Every branch route starts at the same point on the main manifold and ends at the far end
     of its branch; the junction is where the straight route passes the left branch's axis.
+
+    Parameters
+    ----------
+    world : scenes.World
+        The world.
+
+    Returns
+    -------
+    Route
+        The loop, named by ``loop_name``.
     """
     routes = [world.routes[names.manifold_name(world.name, b)] for b in names.BRANCHES]
     start = routes[0].waypoints[0]
@@ -70,8 +104,23 @@ def loop_route(world) -> Route:
 
 
 def loop_frames(world, route: Route, frames_per_route: int) -> int:
-    """Frames for the loop at the default dataset's spacing: ``frames_per_route`` frames over
-    the length of the world's straight route.
+    """Count the frames for the loop at the default dataset's spacing.
+
+    The spacing is ``frames_per_route`` frames over the length of the world's straight route.
+
+    Parameters
+    ----------
+    world : scenes.World
+        The world.
+    route : Route
+        The loop (``loop_route``).
+    frames_per_route : int
+        Frames of each default sequence.
+
+    Returns
+    -------
+    int
+        Frames of the loop, at least 2.
     """
     straight = world.routes[names.manifold_name(world.name, "straight")]
     return max(2, round(frames_per_route * route.length / straight.length))
@@ -89,6 +138,10 @@ def collect_loop(
 
     Parameters
     ----------
+    world_name : str
+        A canonical world.
+    cache_dir : str or Path
+        The folder of the cached loops, created if missing.
     frames : int, optional
         Frames along the loop; by default the default dataset's spacing (``loop_frames``).
     settings : CollectionSettings, optional
@@ -96,6 +149,11 @@ def collect_loop(
         is deterministic; it is re-collected when the settings or frames differ from the cache.
     tick : callable, optional
         Called with 1 after each frame (a progress bar's ``update``).
+
+    Returns
+    -------
+    Sequence
+        The loop's sequence (``sim.dataset``).
     """
     if not isinstance(world_name, str) or not has_loop(world_name):
         raise ValueError(f"world_name must be a canonical world {names.WORLDS}, got {world_name!r}")

@@ -1,8 +1,8 @@
-"""``topomap group-eval --method``: any grouping estimator scored like the observation grouping.
+r"""``topomap group-eval --method``: any grouping estimator scored like the observation grouping.
 
-    topomap group-eval --method mapping.grouping:ObservationGraphPartitioner \\
+    topomap group-eval --method mapping.grouping:ObservationGraphPartitioner \
         --data ROOT/m-data-1 [--data ROOT/m-data-2 ...] --out OUT [--local-maps]
-    topomap group-eval --method sklearn.cluster:DBSCAN --param eps=2.0 --input positions \\
+    topomap group-eval --method sklearn.cluster:DBSCAN --param eps=2.0 --input positions \
         --carmen LOG [--carmen LOG ...] --out OUT
 
 The estimator is built with ``--param`` and fitted per case: ``fit(scans, poses)`` (scans:
@@ -54,8 +54,9 @@ DEV_SEED = 0  # the dataset the partitioner's settings were chosen on
 
 
 def _fit(method: OutsideMethod, scans, poses, groups, given: str) -> np.ndarray:
-    """The estimator's groups of one case (``ValueError`` when it leaves no proper
-    ``labels_``).
+    """Fit the estimator on one case and return its groups.
+
+    ``ValueError`` when it leaves no proper ``labels_``.
     """
     model = method.make()
     with warnings.catch_warnings():
@@ -123,8 +124,34 @@ def _local_map_records(method, scans, truth, poses, groups, rng, given, group, u
 def evaluate_worlds_method(
     method: OutsideMethod, datasets, given="scans", local_maps=False, seed: int = 0, progress=True
 ) -> list[dict]:
-    """The result files of ``method`` on simulated ``datasets``: the grouping scores, and with
-    ``local_maps`` the held-out localisation against its groups.
+    """Evaluate ``method`` on simulated ``datasets`` into result files.
+
+    Parameters
+    ----------
+    method : OutsideMethod
+        The estimator.
+    datasets : iterable of str or os.PathLike
+        The simulated datasets, each of another seed; the dev seed only alone.
+    given : {"scans", "positions"}, default "scans"
+        What the estimator's ``fit`` gets: scans and poses, or the (x, y) positions.
+    local_maps : bool, default False
+        Whether to also score the held-out localisation against its groups.
+    seed : int, default 0
+        Seed of the localisation's random numbers.
+    progress : bool, default True
+        Whether to show a progress bar.
+
+    Returns
+    -------
+    list of dict
+        The result file of the grouping scores (ARI per seed and world) and, with
+        ``local_maps``, that of the held-out localisation.
+
+    Raises
+    ------
+    ValueError
+        When a dataset has no ground truth, a seed is given twice, or the dev seed comes with
+        others.
     """
     from tqdm.auto import tqdm
 
@@ -210,8 +237,27 @@ def _map_settings(settings: dict) -> dict:
 def evaluate_carmen_method(
     method: OutsideMethod, logs, given="scans", seed: int = 0, progress=True
 ) -> dict:
-    """The result file of ``method`` on Carmen ``logs``: held-out localisation against its
-    groups, with each log's corrected poses.
+    """Evaluate ``method`` on Carmen ``logs``: held-out localisation against its groups.
+
+    Each log's corrected poses are used.
+
+    Parameters
+    ----------
+    method : OutsideMethod
+        The estimator.
+    logs : iterable of str or os.PathLike
+        The Carmen logs.
+    given : {"scans", "positions"}, default "scans"
+        What the estimator's ``fit`` gets: scans and poses, or the (x, y) positions.
+    seed : int, default 0
+        Seed of the localisation's random numbers.
+    progress : bool, default True
+        Whether to show a progress bar.
+
+    Returns
+    -------
+    dict
+        The result file, one record per held-out scan.
     """
     from tqdm.auto import tqdm
 
@@ -241,8 +287,20 @@ def evaluate_carmen_method(
 
 
 def file_name(result: dict) -> str:
-    """``<protocol>-<input>-<spec>[-<params digest>].json``
-    (``scripts.leaderboard.files.file_tag``), safe on every file system.
+    """Name a result file ``<protocol>-<input>-<spec>[-<params digest>].json``.
+
+    The spec part is ``scripts.leaderboard.files.file_tag``'s; the name is safe on every file
+    system.
+
+    Parameters
+    ----------
+    result : dict
+        A result file of this module.
+
+    Returns
+    -------
+    str
+        The file name.
     """
     from scripts.leaderboard import file_tag
 
@@ -253,7 +311,13 @@ def file_name(result: dict) -> str:
 
 
 def add_arguments(p) -> None:
-    """The ``--method`` options of ``topomap group-eval``."""
+    """Add the ``--method`` options of ``topomap group-eval``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The parser.
+    """
     p.add_argument(
         "--method",
         default=None,
@@ -278,7 +342,19 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    """``topomap group-eval --method ...``: result files in ``--out``, then their ranking."""
+    """Run ``topomap group-eval --method ...``: result files in ``--out``, then their ranking.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``method``, ``param``, ``input``, ``out``, ``carmen`` or ``data``, ``local_maps``
+        and ``quiet``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     from scripts.leaderboard import leaderboard_markdown
 
     method = OutsideMethod(args.method, ("fit",), parse_params(args.param))

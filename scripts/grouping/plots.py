@@ -34,7 +34,13 @@ __all__ = [
 
 
 def agg_pyplot():
-    """``matplotlib.pyplot`` on the Agg backend (no display needed)."""
+    """Return ``matplotlib.pyplot`` on the Agg backend (no display needed).
+
+    Returns
+    -------
+    module
+        ``matplotlib.pyplot``.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -44,14 +50,40 @@ def agg_pyplot():
 
 
 def group_colour(k: int):
-    """A distinct colour per group (tab20, cycling; tab10's pairs would look alike)."""
+    """Pick a distinct colour per group (tab20, cycling; tab10's pairs would look alike).
+
+    Parameters
+    ----------
+    k : int
+        The group.
+
+    Returns
+    -------
+    tuple of float
+        The RGBA colour.
+    """
     import matplotlib
 
     return matplotlib.colormaps["tab20"]((2 * k + k // 10) % 20)
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Write ``fig`` as a PNG at ``path`` atomically and close it."""
+    """Write ``fig`` as a PNG at ``path`` atomically and close it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or Path
+        Where to write.
+    dpi : int, default 110
+        Resolution.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     agg_pyplot().close(fig)
@@ -69,9 +101,24 @@ def draw_groups(
     arrows: bool = True,
     point_size: float = 0.3,
 ) -> None:
-    """Scan points (placed with ``poses``) and the trajectory, coloured by group (Fig. 5a).
+    """Draw scan points (placed with ``poses``) and the trajectory, coloured by group (Fig. 5a).
 
-    ``every`` thins the scans drawn (not the trajectory) to keep dense sequences legible.
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axis to draw into.
+    scans : sequence of ndarray
+        Each scan's points in the laser frame.
+    poses : ndarray of shape (n, 3)
+        The scans' poses (x, y, heading).
+    labels : ndarray of shape (n,)
+        Each scan's group.
+    every : int, default 1
+        Draw every ``every``-th scan (not the trajectory), to keep dense sequences legible.
+    arrows : bool, default True
+        Draw the poses as heading arrows, else as dots.
+    point_size : float, default 0.3
+        Marker size of the scan points.
     """
     colours = [group_colour(int(k)) for k in labels]
     for i in range(0, len(scans), every):
@@ -94,9 +141,18 @@ def draw_groups(
 
 
 def draw_local_maps(axes, local_maps: Sequence[np.ndarray], labels: np.ndarray) -> None:
-    """One local map per axis, in its own frame (triangle: the frame origin; Fig. 5c-h).
+    """Draw one local map per axis, in its own frame (triangle: the frame origin; Fig. 5c-h).
 
     Axes beyond the number of maps are blanked.
+
+    Parameters
+    ----------
+    axes : array of matplotlib.axes.Axes
+        The axes, one per map.
+    local_maps : sequence of ndarray
+        Each group's points in its own frame.
+    labels : ndarray of shape (n,)
+        Each scan's group (counted in each map's title).
     """
     for k, ax in enumerate(np.ravel(axes)):
         ax.set_axis_off()
@@ -110,8 +166,20 @@ def draw_local_maps(axes, local_maps: Sequence[np.ndarray], labels: np.ndarray) 
 
 
 def draw_weights(ax, W, labels: np.ndarray, title: str = "weights, sorted by group") -> None:
-    """The weight matrix with rows and columns sorted by group and each group's block drawn
-    as a dotted square (Fig. 3f). Entries are shown on a 0..1 grey scale.
+    """Draw the weight matrix sorted by group, each group's block as a dotted square (Fig. 3f).
+
+    Rows and columns are sorted by group; entries are shown on a 0..1 grey scale.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axis to draw into.
+    W : ndarray or sparse matrix of shape (n, n)
+        The weights.
+    labels : ndarray of shape (n,)
+        Each scan's group; scans of a negative label are left out.
+    title : str, default "weights, sorted by group"
+        The axis title.
     """
     import matplotlib.patches as mpatches
 
@@ -130,9 +198,20 @@ def draw_topology(
     topology: TopologicalMap,
     background: Callable[[object], None] | None = None,
 ) -> None:
-    """Nodes at the local-map frames, arcs between them: solid where the trajectory crosses
-    between the groups, dashed where only their scans overlap; width grows with the number of
-    scan pairs averaged into the arc's transformation.
+    """Draw the topological map: nodes at the local-map frames, arcs between them.
+
+    Arcs are solid where the trajectory crosses between the groups, dashed where only their
+    scans overlap; width grows with the number of scan pairs averaged into the arc's
+    transformation.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axis to draw into.
+    topology : TopologicalMap
+        The map.
+    background : callable, optional
+        ``background(ax)`` draws the map underneath.
     """
     if background is not None:
         background(ax)
@@ -156,10 +235,32 @@ def write_grouping_figures(
     caption: str = "",
     every: int = 2,
 ) -> list[Path]:
-    """The four figures of one fitted ``ObservationGraphPartitioner``: groups over the map,
-    local maps, weights and topology, as ``{tag}_groups.png``, ``_local_maps``, ``_weights``
-    and ``_topology`` in ``out_dir``. ``background(ax)`` draws the map under the groups and
-    the topology; ``caption`` is added to the title of the groups figure.
+    """Write the four figures of one fitted ``ObservationGraphPartitioner``.
+
+    Groups over the map, local maps, weights and topology, as ``{tag}_groups.png``,
+    ``_local_maps``, ``_weights`` and ``_topology`` in ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The output directory.
+    tag : str
+        The figures' name prefix and title.
+    scans : sequence of ndarray
+        Each scan's points in the laser frame.
+    model : ObservationGraphPartitioner
+        The fitted partitioner.
+    background : callable, optional
+        ``background(ax)`` draws the map under the groups and the topology.
+    caption : str, default ""
+        Added to the title of the groups figure.
+    every : int, default 2
+        Draw every ``every``-th scan in the groups figure.
+
+    Returns
+    -------
+    list of Path
+        The four files written.
     """
     plt = agg_pyplot()
     out_dir = Path(out_dir)
@@ -194,8 +295,26 @@ def write_grouping_figures(
 
 
 def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
-    """`write_grouping_figures` of one grouping of a ``sim.runs.Runs``, over the map of
-    the true manifolds for a simulated world of ours (none for an imported dataset).
+    """Write the figures of one grouping of a ``sim.runs.Runs`` (`write_grouping_figures`).
+
+    The background is the map of the true manifolds for a simulated world of ours (none for an
+    imported dataset).
+
+    Parameters
+    ----------
+    out_dir : Path
+        The output directory.
+    tag : str
+        The figures' name prefix and title.
+    runs : sim.runs.Runs
+        The recordings grouped.
+    model : ObservationGraphPartitioner
+        The partitioner fitted on them.
+
+    Returns
+    -------
+    list of Path
+        The four files written.
     """
     draw_map = _map_background(runs.world) if runs.has_ground_truth else None
     caption = "; background: true manifolds" if draw_map is not None else ""
@@ -203,8 +322,9 @@ def write_figures(out_dir: Path, tag: str, runs, model) -> list[Path]:
 
 
 def _map_background(world_name: str) -> Callable[[object], None] | None:
-    """A function drawing the top-down map of one of our worlds into an axis; None for a
-    world that is not ours (an imported dataset).
+    """Make a function drawing the top-down map of one of our worlds into an axis.
+
+    None for a world that is not ours (an imported dataset).
     """
     from scenes import build_world
     from scenes.families import parse_world_name

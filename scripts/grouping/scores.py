@@ -1,6 +1,7 @@
-"""How a grouping is scored against the ground-truth manifolds (purity, ARI, groups per
-manifold, the targets), and the four-way comparison of both methods on both sensors; used by
-``scripts.grouping.evaluate``.
+"""How a grouping is scored against the ground-truth manifolds, and the four-way comparison.
+
+The scores are purity, ARI, groups per manifold and the targets; the comparison runs both
+methods on both sensors. Used by ``scripts.grouping.evaluate``.
 """
 
 from __future__ import annotations
@@ -27,15 +28,30 @@ MC_MIN_CLUSTER_SIZE = 35  # Q of docs/guides/manifold-clustering.md on the same 
 
 
 def score_groups(truth: np.ndarray, labels: np.ndarray, names) -> dict:
-    """Groups against ground-truth manifold ids (frames on no manifold, -1, are left out).
+    """Score groups against ground-truth manifold ids.
 
-    ``names``: the manifold of each id (the recordings' ``manifold_names``, a dataset's
-    ``manifolds``).
+    Frames on no manifold (-1) are left out.
 
     ``groups_per_manifold``: for each manifold, the groups whose majority manifold it is (every
     group counts for exactly one manifold; frames of a group that belong elsewhere are what
     ``purity`` charges). ``groups_touching``: the stricter count of groups holding any frame of
     the manifold, which also counts a group that takes a few frames across a boundary.
+
+    Parameters
+    ----------
+    truth : ndarray of shape (n,)
+        Each frame's manifold id, -1 for none.
+    labels : ndarray of shape (n,)
+        Each frame's group.
+    names : sequence of str
+        The manifold of each id (the recordings' ``manifold_names``, a dataset's
+        ``manifolds``).
+
+    Returns
+    -------
+    dict
+        ``frames``, ``groups``, ``purity``, ``ari``, ``groups_per_manifold`` and
+        ``groups_touching`` (by manifold name) and their maxima.
     """
     truth = np.asarray(truth, dtype=int)
     labels = np.asarray(labels, dtype=int)
@@ -60,6 +76,19 @@ def score_groups(truth: np.ndarray, labels: np.ndarray, names) -> dict:
 
 
 def meets_targets(score: dict) -> bool:
+    """Check a score against ``TARGETS``.
+
+    Parameters
+    ----------
+    score : dict
+        A score of ``score_groups``.
+
+    Returns
+    -------
+    bool
+        Whether its purity is at least ``purity_min`` and no manifold has more than
+        ``max_groups_per_manifold`` groups.
+    """
     return (
         score["purity"] >= TARGETS["purity_min"]
         and score["max_groups_per_manifold"] <= TARGETS["max_groups_per_manifold"]
@@ -70,8 +99,19 @@ def meets_targets(score: dict) -> bool:
 
 
 def unscored(frames: int, labels: np.ndarray) -> dict:
-    """The keys of `score_groups` for groups that cannot be scored (no ground truth):
-    the counts, and None for every score.
+    """Return the keys of `score_groups` for groups that cannot be scored (no ground truth).
+
+    Parameters
+    ----------
+    frames : int
+        The number of frames.
+    labels : ndarray of shape (n,)
+        Each frame's group.
+
+    Returns
+    -------
+    dict
+        The counts, and None for every score.
     """
     keys = ("purity", "ari", "max_groups_per_manifold", "max_groups_touching")
     return {
@@ -85,7 +125,7 @@ def unscored(frames: int, labels: np.ndarray) -> dict:
 
 
 def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_score: dict):
-    """Both sensors x both methods on one world (the four-way table).
+    """Run both methods on both sensors of one world (the four-way table).
 
     - partition x scans: ``scan_model`` (already fitted; its pose variant is recorded).
     - partition x images: ``affinity="precomputed"`` on ``knn_gaussian_affinity`` of the images
@@ -96,6 +136,20 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
 
     Each entry holds its ``labels`` (one per frame) beside the scores. Drives without a camera
     (``runs.images`` None) give the two rows on scans only.
+
+    Parameters
+    ----------
+    runs : Runs
+        The world's recordings.
+    scan_model : ObservationGraphPartitioner
+        The partitioner already fitted on the scans.
+    scan_score : dict
+        Its score, with the pose variant under ``poses``.
+
+    Returns
+    -------
+    dict
+        ``{"method/sensor": entry}``: the brief scores, time and ``labels`` of each.
     """
 
     def score(labels):
@@ -133,7 +187,7 @@ def compare_methods(runs: Runs, scan_model: ObservationGraphPartitioner, scan_sc
 
 
 def _partition_images(runs: Runs, score, out: dict) -> np.ndarray:
-    """The min-Ncut partition of the images' colour histograms into ``out``; returns them."""
+    """Partition the images' colour histograms by min-Ncut into ``out``; return them."""
     images = ColorHistogramFeatures().fit_transform(runs.images)
     start = time.perf_counter()
     W, sigma = knn_gaussian_affinity(images)

@@ -1,5 +1,6 @@
-"""The observation grouping's result tables (``scripts.grouping.evaluate``), defined once: the
-command line prints them as markdown and the HTML report renders the same tables.
+"""The observation grouping's result tables (``scripts.grouping.evaluate``), defined once.
+
+The command line prints them as markdown and the HTML report renders the same tables.
 """
 
 from __future__ import annotations
@@ -35,8 +36,19 @@ COMPARISON_COLUMNS = (
 
 
 def grouping_table(result: dict) -> Table:
-    """One row per case (world, and its loop) and pose source, from ``evaluate_grouping``'s
-    result; unscored cells (no ground truth) read as missing.
+    """Build the grouping table: one row per case (world, and its loop) and pose source.
+
+    Unscored cells (no ground truth) read as missing.
+
+    Parameters
+    ----------
+    result : dict
+        ``evaluate_grouping``'s result.
+
+    Returns
+    -------
+    Table
+        The table.
     """
     rows = []
     for part in ("default", "loop"):
@@ -54,7 +66,18 @@ def grouping_table(result: dict) -> Table:
 
 
 def comparison_table(result: dict) -> Table:
-    """Both methods (min-Ncut partition, manifold clustering) on both sensors, per world."""
+    """Build the table of both methods (min-Ncut, manifold clustering) on both sensors.
+
+    Parameters
+    ----------
+    result : dict
+        ``evaluate_grouping``'s result, with its ``compare`` entries per world.
+
+    Returns
+    -------
+    Table
+        One row per world, method and sensor.
+    """
     rows = [
         {**s, "world": world, "method": name}
         for world, entries in result.get("compare", {}).items()

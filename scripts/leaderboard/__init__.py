@@ -1,4 +1,6 @@
-"""Result files every evaluation writes (``files``: what ran, on what, by which protocol
+"""Result files, methods from outside the repository, and ``topomap leaderboard``.
+
+Result files every evaluation writes (``files``: what ran, on what, by which protocol
 version, the per-seed or per-episode records), methods from outside the repository
 (``outside``: ``package.module:Class`` and its ``--param``) and ``topomap leaderboard``
 (``ranking``: per task and protocol, intervals and paired tests against a reference).

@@ -65,7 +65,17 @@ _ROOT = Path(__file__).resolve().parents[2]
 
 
 class ResultFileError(ValueError):
-    """A result file that cannot be used; the message names the file and the field."""
+    """A result file that cannot be used; the message names the file and the field.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The result file.
+    field : str
+        The field that is wrong (``"file"`` for the file as a whole).
+    problem : str
+        What is wrong with it.
+    """
 
     def __init__(self, path, field: str, problem: str):
         self.path, self.field = Path(path), field
@@ -73,8 +83,15 @@ class ResultFileError(ValueError):
 
 
 def code_version() -> dict:
-    """The package version and, in a git checkout, the commit (with ``+dirty`` when the tree
-    has uncommitted changes); ``commit`` is None outside a checkout.
+    """Return the package version and, in a git checkout, the commit.
+
+    The commit has ``+dirty`` appended when the tree has uncommitted changes.
+
+    Returns
+    -------
+    dict
+        ``{"package": str or None, "commit": str or None}``; ``commit`` is None outside a
+        checkout, ``package`` None where the package is not installed.
     """
     from importlib import metadata
 
@@ -104,7 +121,13 @@ def code_version() -> dict:
 
 
 def machine() -> dict:
-    """Cores, platform and Python of this machine (what the timings ran on)."""
+    """Return the cores, platform and Python of this machine (what the timings ran on).
+
+    Returns
+    -------
+    dict
+        ``cores``, ``platform``, ``processor`` and ``python``.
+    """
     return {
         "cores": os.cpu_count(),
         "platform": platform.platform(),
@@ -122,10 +145,35 @@ def envelope(
     records: list[dict],
     **extra,
 ) -> dict:
-    """A result file's object: ``task``, ``protocol`` (name, version), ``split``, ``method``
-    (``name``, ``spec``, ``params``, optional ``notes``), ``metric`` (name, kind of
-    ``KINDS``), the ``records`` and the evaluation's own ``extra`` keys; the code version and
-    machine are added here.
+    """Build a result file's object; the code version and machine are added here.
+
+    Parameters
+    ----------
+    task : str
+        The task evaluated.
+    protocol : tuple of (str, int)
+        The protocol's name and version.
+    split : str
+        The split evaluated on.
+    method : dict
+        ``name``, ``spec``, ``params`` and optional ``notes``.
+    metric : tuple of (str, str)
+        The metric's name and kind, one of ``KINDS``.
+    records : list of dict
+        The records, each with ``group``, ``unit``, ``value`` and ``failure``.
+    **extra
+        The evaluation's own top-level keys.
+
+    Returns
+    -------
+    dict
+        The result file's object.
+
+    Raises
+    ------
+    ValueError
+        When the metric kind is not one of ``KINDS``, or an ``extra`` key would replace one
+        of the envelope's own.
     """
     name, kind = metric
     if kind not in KINDS:
@@ -149,10 +197,23 @@ def envelope(
 
 
 def write_result(path: str | os.PathLike, result: dict) -> Path:
-    """Write ``result`` (an [`envelope`][scripts.leaderboard.files.envelope]) to ``path``
-    atomically, after checking it as the reader will (a writer must not produce a file its own
-    reader refuses). A file there of another method (its ``spec`` or ``params`` differ) is not
-    replaced: [`ResultFileError`][scripts.leaderboard.files.ResultFileError] names both.
+    """Write ``result`` to ``path`` atomically, after checking it as the reader will.
+
+    A writer must not produce a file its own reader refuses. A file there of another method
+    (its ``spec`` or ``params`` differ) is not replaced:
+    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] names both.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Where to write.
+    result : dict
+        An [`envelope`][scripts.leaderboard.files.envelope].
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     path = Path(path)
     check_result(result, path)
@@ -182,11 +243,24 @@ def _identity(method: dict) -> tuple[str, str]:
 
 
 def file_tag(spec: str, params: dict | None) -> str:
-    """A file-name part for a method: its full spec (``:`` as ``.``, anything but letters,
-    digits and ``._-`` as ``_``) and, with params, the first 8 hex digits of their SHA-256,
-    so that two methods of one class name, or one method with other params, never share a
-    file. ``file_tag("sklearn.cluster:KMeans", {"n_init": 3})`` starts
-    ``sklearn.cluster.KMeans-``.
+    """Return a file-name part for a method: its spec and a digest of its params.
+
+    The full spec has ``:`` as ``.`` and anything but letters, digits and ``._-`` as ``_``;
+    with params, the first 8 hex digits of their SHA-256 follow, so that two methods of one
+    class name, or one method with other params, never share a file.
+    ``file_tag("sklearn.cluster:KMeans", {"n_init": 3})`` starts ``sklearn.cluster.KMeans-``.
+
+    Parameters
+    ----------
+    spec : str
+        The method's ``package.module:Class``.
+    params : dict or None
+        The method's parameters.
+
+    Returns
+    -------
+    str
+        The tag (the spec part cut to 120 characters).
     """
     tag = re.sub(r"[^A-Za-z0-9._-]+", "_", str(spec).replace(":", "."))[:120]
     if params:
@@ -196,9 +270,23 @@ def file_tag(spec: str, params: dict | None) -> str:
 
 
 def read_result(path: str | os.PathLike) -> dict:
-    """The checked result file at ``path``;
-    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] naming the file and the field
-    when it is too large, not JSON, or a field is missing or malformed.
+    """Read and check the result file at ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The result file.
+
+    Returns
+    -------
+    dict
+        The checked result file.
+
+    Raises
+    ------
+    ResultFileError
+        Naming the file and the field when it is no regular file, too large, not JSON, or a
+        field is missing or malformed.
     """
     path = Path(path)
     if not path.is_file():  # a named pipe would block the read, a device never end it
@@ -230,8 +318,24 @@ _REQUIRED = (
 
 
 def check_result(data, path) -> dict:
-    """``data`` if it is a well-formed result of this format version, else
-    [`ResultFileError`][scripts.leaderboard.files.ResultFileError] for ``path``.
+    """Check that ``data`` is a well-formed result of this format version.
+
+    Parameters
+    ----------
+    data : object
+        A result file's content as parsed.
+    path : str or os.PathLike
+        The file it came from, named in the error.
+
+    Returns
+    -------
+    dict
+        ``data``.
+
+    Raises
+    ------
+    ResultFileError
+        For ``path`` when ``data`` is not well-formed.
     """
 
     def fail(field, problem):
@@ -326,8 +430,10 @@ def _int(value) -> bool:
 
 
 def _finite(value) -> bool:
-    """A number within ``MAX_VALUE`` (NaN is not: it compares false; an int of 400 digits is
-    compared exactly, where ``math.isfinite`` would raise OverflowError).
+    """Check for a number within ``MAX_VALUE``.
+
+    NaN is not: it compares false; an int of 400 digits is compared exactly, where
+    ``math.isfinite`` would raise OverflowError.
     """
     if isinstance(value, bool) or not isinstance(value, int | float):
         return False

@@ -19,9 +19,26 @@ _SPEC = re.compile(r"^([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*):([A-Za-z_]\w*(?:\.[A-Za-
 
 
 def parse_params(items) -> dict:
-    """``["k=v", ...]`` as a dict; each value is a Python literal (``3``, ``0.5``,
-    ``'rbf'``, ``None``, ``(1, 2)``) or, failing that, the text itself. A key given twice, an
-    item without ``=``, a key that is no identifier and a non-finite number are refused.
+    """Parse ``["k=v", ...]`` into a dict.
+
+    Each value is a Python literal (``3``, ``0.5``, ``'rbf'``, ``None``, ``(1, 2)``) or,
+    failing that, the text itself.
+
+    Parameters
+    ----------
+    items : iterable of str or None
+        The ``KEY=VALUE`` items; None for none.
+
+    Returns
+    -------
+    dict
+        Each key with its value.
+
+    Raises
+    ------
+    ValueError
+        For a key given twice, an item without ``=``, a key that is no identifier or a
+        non-finite number.
     """
     params = {}
     for item in items or ():
@@ -68,23 +85,56 @@ class OutsideMethod:
 
     @property
     def name(self) -> str:
+        """The class's name."""
         return self.cls.__name__
 
     def accepts(self, parameter: str) -> bool:
-        """Whether the constructor takes ``parameter`` (True for ``**kwargs``)."""
+        """Check whether the constructor takes ``parameter``.
+
+        Parameters
+        ----------
+        parameter : str
+            A keyword parameter's name.
+
+        Returns
+        -------
+        bool
+            Whether the constructor takes it (True where it takes ``**kwargs`` or has no
+            readable signature).
+        """
         return self._signature is None or parameter in self._signature
 
     def make(self, **defaults):
-        """A new instance with ``params``; ``defaults`` (e.g. the protocol's ``n_clusters``)
-        fill in what the user did not set, where the constructor takes them.
+        """Make a new instance with ``params``.
+
+        Parameters
+        ----------
+        **defaults
+            Values (e.g. the protocol's ``n_clusters``) that fill in what the user did not
+            set, where the constructor takes them.
+
+        Returns
+        -------
+        object
+            The new instance of the class.
         """
         given = {k: v for k, v in defaults.items() if k not in self.params and self.accepts(k)}
         return self.cls(**given, **self.params)
 
     def describe(self, **defaults) -> dict:
-        """The method block of a result file: name, spec, every parameter passed, which of
-        them the protocol chose (``protocol_params``: left out of the method's label) and the
-        digest of the module's source (``source``: ``common.user_modules.source_digest``).
+        """Describe the method as the method block of a result file.
+
+        Parameters
+        ----------
+        **defaults
+            The protocol's values, as given to ``make``.
+
+        Returns
+        -------
+        dict
+            ``name``, ``spec``, every parameter passed (``params``), which of them the
+            protocol chose (``protocol_params``: left out of the method's label) and the
+            digest of the module's source (``source``: ``common.user_modules.source_digest``).
         """
         given = {k: v for k, v in defaults.items() if k not in self.params and self.accepts(k)}
         return {
@@ -97,10 +147,27 @@ class OutsideMethod:
 
 
 def load_method(spec: str, required: tuple[str, ...] = ("fit",)):
-    """The class named by ``spec`` (``package.module:Class``), imported like ``python -m``
-    would (the current directory first on the path); ``ValueError`` when the spec is malformed,
-    the module does not import, the name is missing or not a class, or the class lacks one of
-    ``required``.
+    """Load the class named by ``spec``, imported like ``python -m`` would.
+
+    The current directory comes first on the import path.
+
+    Parameters
+    ----------
+    spec : str
+        ``package.module:Class`` (``Class`` may be dotted).
+    required : tuple of str, default ("fit",)
+        Methods the class must have.
+
+    Returns
+    -------
+    type
+        The class.
+
+    Raises
+    ------
+    ValueError
+        When the spec is malformed, the module does not import, the name is missing or not a
+        class, or the class lacks one of ``required``.
     """
     if not isinstance(spec, str) or not _SPEC.match(spec):
         raise ValueError(f"--method must be package.module:Class, got {spec!r}")
@@ -125,8 +192,10 @@ def load_method(spec: str, required: tuple[str, ...] = ("fit",)):
 
 
 def _init_parameters(cls) -> set[str] | None:
-    """The keyword parameters of ``cls.__init__``; None when it takes ``**kwargs`` or has no
-    readable signature (then any parameter is passed on and the class judges it).
+    """Return the keyword parameters of ``cls.__init__``.
+
+    None when it takes ``**kwargs`` or has no readable signature (then any parameter is
+    passed on and the class judges it).
     """
     try:
         params = inspect.signature(cls).parameters.values()

@@ -36,10 +36,27 @@ MIN_EPISODES = 20  # fewer episodes of a rate: it warns that the interval is rou
 
 
 def load_results(paths) -> list[dict]:
-    """The result files among ``paths``: a file is read and checked (refused with
+    """Read the result files among ``paths``.
+
+    A file is read and checked (refused with
     [`ResultFileError`][scripts.leaderboard.files.ResultFileError] when it is no result file); a
     folder contributes the ``*.json`` files directly in it whose ``format`` is a result file's
     (other JSON there, such as a protocol's cells, is passed over).
+
+    Parameters
+    ----------
+    paths : iterable of str or os.PathLike
+        Result files and folders.
+
+    Returns
+    -------
+    list of dict
+        The checked result files, each with its path under ``_path``.
+
+    Raises
+    ------
+    ValueError
+        When ``paths`` hold no result file.
     """
     results = []
     for given in paths:
@@ -66,8 +83,19 @@ def _looks_like_result(path: Path) -> bool:
 
 
 def method_label(method: dict) -> str:
-    """``name`` with the parameters the user chose (those the protocol chose, such as the
-    manifold protocol's ``n_clusters``, are left out).
+    """Label a method by its ``name`` with the parameters the user chose.
+
+    Those the protocol chose, such as the manifold protocol's ``n_clusters``, are left out.
+
+    Parameters
+    ----------
+    method : dict
+        A result file's ``method`` block.
+
+    Returns
+    -------
+    str
+        ``name(k=v, ...)``, or ``name`` alone when the user chose no parameter.
     """
     chosen = method.get("protocol_params", ["n_clusters"])
     chosen = chosen if isinstance(chosen, list) else []
@@ -78,7 +106,27 @@ def method_label(method: dict) -> str:
 
 @dataclass
 class Row:
-    """One method in one group of a board."""
+    """One method in one group of a board.
+
+    Parameters
+    ----------
+    method : str
+        The method's label.
+    notes : str
+        The method's notes.
+    values : dict
+        Unit -> value (failed units left out).
+    failed : int
+        The number of failed units.
+    mean : float, default nan
+        The mean over ``values``.
+    lo, hi : float, default nan
+        The 95 % interval of the mean.
+    paired : dict
+        The paired comparison with the reference method: ``n`` shared units, ``diff`` with
+        its interval ``lo``, ``hi``, ``p`` and ``test``; empty for the reference itself or
+        without one.
+    """
 
     method: str
     notes: str
@@ -91,11 +139,25 @@ class Row:
 
 
 def rank(results: list[dict], reference: str | None = None) -> dict:
-    """``{(task, protocol, version, split, metric, kind): {group: [Row, ...] best first}}``.
+    """Rank the methods of ``results`` per board and group, best first.
 
-    ``reference`` names a method (its label, name or spec) every other is compared with;
-    ``ValueError`` when it names none or several, or when two files share a protocol name
-    but not its version.
+    Parameters
+    ----------
+    results : list of dict
+        Result files as [`load_results`][scripts.leaderboard.ranking.load_results] gives them.
+    reference : str or None, default None
+        A method (its label, name or spec) every other is compared with, paired.
+
+    Returns
+    -------
+    dict
+        ``{(task, protocol, version, split, metric, kind): {group: [Row, ...] best first}}``.
+
+    Raises
+    ------
+    ValueError
+        When ``reference`` names no method or several, or when two files share a protocol
+        name but not its version.
     """
     _check_versions(results)
     joined = _join(results)
@@ -171,8 +233,10 @@ def _join(results) -> dict:
 
 
 def _method_notes(method: dict) -> str:
-    """The notes a method's file gives, its source's digest, and a warning where an outside
-    policy's process ran without a sandbox (it could read the datasets on disk).
+    """Join the notes a method's file gives, its source's digest, and a sandbox warning.
+
+    The warning is given where an outside policy's process ran without a sandbox (it could
+    read the datasets on disk).
     """
     notes = [method.get("notes") or ""]
     source = method.get("source")
@@ -186,7 +250,7 @@ def _method_notes(method: dict) -> str:
 
 
 def _warnings(row: Row, kind: str) -> list[str]:
-    """What a reader must know before trusting a row's interval and its paired test."""
+    """List what a reader must know before trusting a row's interval and its paired test."""
     out, n = [], len(row.values)
     if kind == "rate" and 0 < n < MIN_EPISODES:
         out.append(f"only {n} episodes (fewer than {MIN_EPISODES}): a rough interval")
@@ -281,8 +345,23 @@ def _fmt(value: float, kind: str) -> str:
 
 
 def leaderboard_tables(boards: dict, reference: str | None):
-    """(heading, header, rows of cells) per board of [`rank`][scripts.leaderboard.ranking.rank] and
-    group: what the markdown and HTML forms show.
+    """Yield the tables the markdown and HTML forms show, one per board and group.
+
+    Parameters
+    ----------
+    boards : dict
+        The boards of [`rank`][scripts.leaderboard.ranking.rank].
+    reference : str or None
+        The reference method the boards were ranked with, or None.
+
+    Yields
+    ------
+    heading : str
+        The board and group, the metric and which way is better.
+    header : list of str
+        The column headings.
+    body : list of list of str
+        The rows of cells, best method first.
     """
     for (task, protocol, version, split, metric, kind), groups in boards.items():
         for group, rows in groups.items():
@@ -318,8 +397,21 @@ def leaderboard_tables(boards: dict, reference: str | None):
 
 
 def leaderboard_markdown(results: list[dict], reference: str | None = None) -> str:
-    """The ranking of [`rank`][scripts.leaderboard.ranking.rank] as markdown: a heading and a table
-    per board and group.
+    """Render the ranking of [`rank`][scripts.leaderboard.ranking.rank] as markdown.
+
+    A heading and a table per board and group.
+
+    Parameters
+    ----------
+    results : list of dict
+        Result files as [`load_results`][scripts.leaderboard.ranking.load_results] gives them.
+    reference : str or None, default None
+        A method every other is compared with, paired.
+
+    Returns
+    -------
+    str
+        The markdown.
     """
     boards = rank(results, reference)
     parts = []
@@ -331,7 +423,20 @@ def leaderboard_markdown(results: list[dict], reference: str | None = None) -> s
 
 
 def leaderboard_html(results: list[dict], reference: str | None = None) -> str:
-    """The same ranking as a standalone HTML page."""
+    """Render the same ranking as a standalone HTML page.
+
+    Parameters
+    ----------
+    results : list of dict
+        Result files as [`load_results`][scripts.leaderboard.ranking.load_results] gives them.
+    reference : str or None, default None
+        A method every other is compared with, paired.
+
+    Returns
+    -------
+    str
+        The HTML page.
+    """
     boards = rank(results, reference)
     out = [
         "<!doctype html><html><head><meta charset='utf-8'><title>leaderboard</title>",
@@ -350,7 +455,18 @@ def leaderboard_html(results: list[dict], reference: str | None = None) -> str:
 
 
 def run(args) -> int:
-    """``topomap leaderboard PATH ... [--reference NAME] [--html FILE] [--markdown FILE]``."""
+    """Run ``topomap leaderboard PATH ... [--reference NAME] [--html FILE] [--markdown FILE]``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``paths``, ``reference``, ``markdown`` and ``html``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     from common.fileio import atomic_write_bytes
 
     results = load_results(args.paths)
@@ -368,7 +484,20 @@ def run(args) -> int:
 
 
 def add_parser(sub, help_text: str):
-    """Register ``leaderboard`` on the subparsers action ``sub``."""
+    """Register ``leaderboard`` on the subparsers action ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers action.
+    help_text : str
+        The command's help line.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The new parser.
+    """
     p = sub.add_parser("leaderboard", help=help_text, description=__doc__.splitlines()[0])
     p.add_argument(
         "paths",

@@ -1,6 +1,8 @@
-"""The result file of ``topomap servo-eval --out``: the evaluation's own results (``results``,
-one entry per world, unchanged) inside the envelope of ``scripts.leaderboard.files``, with
-one record per episode (success or not) for the leaderboard.
+"""The result file of ``topomap servo-eval --out``.
+
+The evaluation's own results (``results``, one entry per world, unchanged) inside the
+envelope of ``scripts.leaderboard.files``, with one record per episode (success or not) for
+the leaderboard.
 """
 
 from __future__ import annotations
@@ -37,8 +39,23 @@ def _group(result: dict) -> str:
 
 
 def servo_result_file(results: list[dict], policy: str, split: str) -> dict:
-    """The envelope of ``results`` (``servo.task.run_protocol``'s dicts, one per world), which
-    it keeps as they are under ``results``.
+    """Wrap servo-eval ``results`` in a result file's envelope, one record per episode.
+
+    The envelope keeps ``results`` as they are under ``results``.
+
+    Parameters
+    ----------
+    results : list of dict
+        ``servo.task.run_protocol``'s dicts, one per world.
+    policy : str
+        The policy's name (``servo.task.POLICIES``) or ``package.module:factory`` spec.
+    split : str
+        The split evaluated on.
+
+    Returns
+    -------
+    dict
+        The result file's object (an [`envelope`][scripts.leaderboard.files.envelope]).
     """
     records = [
         {
@@ -63,11 +80,25 @@ def servo_result_file(results: list[dict], policy: str, split: str) -> dict:
 
 
 def servo_method(results: list[dict], policy: str) -> dict:
-    """The ``method`` of a servo result file: a built-in policy by its name
-    (``servo.task.POLICIES``), an outside one by its ``package.module:factory`` spec, named
-    by its module's last part, with the ``--policy-arg`` parameters its results record,
-    whether its process ran in a sandbox (``sandboxed``) and its source's digest
-    (``source``).
+    """Build the ``method`` of a servo result file.
+
+    A built-in policy is given by its name (``servo.task.POLICIES``), an outside one by its
+    ``package.module:factory`` spec, named by its module's last part, with the
+    ``--policy-arg`` parameters its results record, whether its process ran in a sandbox
+    (``sandboxed``) and its source's digest (``source``).
+
+    Parameters
+    ----------
+    results : list of dict
+        ``servo.task.run_protocol``'s dicts, one per world.
+    policy : str
+        The policy's name or ``package.module:factory`` spec.
+
+    Returns
+    -------
+    dict
+        The method block: ``name``, ``spec``, ``params`` and, for an outside policy,
+        ``sandboxed`` and ``source``.
     """
     policy = str(policy)
     params = next(
@@ -88,8 +119,18 @@ def servo_method(results: list[dict], policy: str) -> dict:
 
 
 def servo_results_of(data):
-    """The servo-eval results in ``data`` as read from a file: a result file's ``results``,
-    or ``data`` itself (files written before the envelope: a list, or one object).
+    """Return the servo-eval results in ``data`` as read from a file.
+
+    Parameters
+    ----------
+    data : object
+        A file's parsed content.
+
+    Returns
+    -------
+    object
+        A result file's ``results``, or ``data`` itself (files written before the envelope:
+        a list, or one object).
     """
     if isinstance(data, dict) and data.get("format") == "topomap-result":
         return data.get("results")

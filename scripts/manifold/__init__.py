@@ -1,4 +1,6 @@
-"""``topomap reproduce`` (the manifold-clustering paper's experiments, ``reproduce``), the
+"""The manifold-clustering experiments: ``topomap reproduce``, the protocol, ``manifold-eval``.
+
+``topomap reproduce`` (the manifold-clustering paper's experiments, ``reproduce``), the
 frozen multi-seed protocol (``python -m scripts.manifold.protocol``), both scoring the methods
 of ``methods``, and ``topomap manifold-eval`` (any clusterer through that protocol,
 ``outside``).

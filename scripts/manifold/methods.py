@@ -58,11 +58,32 @@ def score_methods(
 ) -> list[dict]:
     """Fit each method on ``X_train`` (labels only for the oracle) and score it.
 
-    Returns one dict per method: ``method``, ``train_error`` (clustering error of the fitted
-    labels), ``test_error`` (of ``predict(X_test)``; None without a test set), ``seconds`` and
-    the method's chosen scale or leaf count. Errors are
-    [`mapping.clustering_error`][mapping.metrics.clustering_error] (Hungarian matching of clusters
-    to labels, as in the paper).
+    Errors are [`mapping.clustering_error`][mapping.metrics.clustering_error] (Hungarian
+    matching of clusters to labels, as in the paper).
+
+    Parameters
+    ----------
+    X_train : ndarray of shape (n, d)
+        Training features.
+    y_train : ndarray of shape (n,)
+        Training labels: the fitted labels' error, and the oracle's choice of sigma.
+    K : int
+        Number of clusters.
+    Q : int
+        Minimum cluster size of ours.
+    X_test : ndarray of shape (m, d), optional
+        Test features, labelled by each model's ``predict``.
+    y_test : ndarray of shape (m,), optional
+        Test labels.
+    methods : tuple of str, default METHODS
+        The methods to fit, of ``METHODS``.
+
+    Returns
+    -------
+    list of dict
+        One per method: ``method``, ``train_error`` (clustering error of the fitted labels),
+        ``test_error`` (of ``predict(X_test)``; None without a test set), ``seconds`` and the
+        method's chosen scale or leaf count.
     """
     rows = []
     for method in methods:
@@ -87,13 +108,46 @@ def score_methods(
 
 
 def seed_error_row(errors, rng: np.random.Generator, **labels) -> dict:
-    """A row of per-seed error rates: ``labels``, the ``errors`` and their bootstrap mean."""
+    """Build a row of per-seed error rates: ``labels``, the ``errors`` and their bootstrap mean.
+
+    Parameters
+    ----------
+    errors : iterable of float
+        The error of each seed.
+    rng : numpy.random.Generator
+        Random numbers of the bootstrap.
+    **labels
+        The row's other cells (its group and method).
+
+    Returns
+    -------
+    dict
+        ``labels``, ``errors`` and ``summary`` (`bootstrap_mean`).
+    """
     return {**labels, "errors": list(errors), "summary": bootstrap_mean(errors, rng)}
 
 
 def seed_error_table(rows, group: Column, method_header: str, per_seed_header: str) -> Table:
-    """`seed_error_row` rows as a table: the group, the method, the mean with its
-    interval and the error of every seed (percent).
+    """Build a table of `seed_error_row` rows.
+
+    Columns: the group, the method, the mean with its interval and the error of every seed
+    (percent).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of `seed_error_row`.
+    group : Column
+        The column of the group.
+    method_header : str
+        Heading of the method column.
+    per_seed_header : str
+        Heading of the per-seed errors column.
+
+    Returns
+    -------
+    Table
+        The table.
     """
 
     def interval(s: dict) -> str:
@@ -112,9 +166,29 @@ def seed_error_table(rows, group: Column, method_header: str, per_seed_header: s
 
 
 def bootstrap_mean(values, rng: np.random.Generator, n_resamples: int = 4000) -> dict:
-    """Mean of ``values`` with its bootstrap 95% percentile interval (scipy.stats.bootstrap).
+    """Return the mean of ``values`` with its bootstrap 95% percentile interval.
 
-    With one value, or identical values, the interval is the value itself.
+    The interval is ``scipy.stats.bootstrap``'s; with one value, or identical values, it is
+    the value itself.
+
+    Parameters
+    ----------
+    values : array-like of shape (n,)
+        Finite numbers, at least one.
+    rng : numpy.random.Generator
+        Random numbers of the bootstrap.
+    n_resamples : int, default 4000
+        Bootstrap resamples.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``lo``, ``hi`` and ``n``.
+
+    Raises
+    ------
+    ValueError
+        When ``values`` is not a non-empty 1-D list of finite numbers.
     """
     from scipy.stats import bootstrap
 

@@ -1,7 +1,7 @@
-"""``topomap manifold-eval``: any scikit-learn-style clusterer through the frozen protocol.
+r"""``topomap manifold-eval``: any scikit-learn-style clusterer through the frozen protocol.
 
-    topomap manifold-eval --root ROOT --out OUT --method sklearn.cluster:SpectralClustering \\
-        [--param affinity=rbf ...] [--seeds 1 2 ... 10] [--features hsv] \\
+    topomap manifold-eval --root ROOT --out OUT --method sklearn.cluster:SpectralClustering \
+        [--param affinity=rbf ...] [--seeds 1 2 ... 10] [--features hsv] \
         [--conditions interleaved held-out] [--baselines]
 
 The method is fitted on each cell's training frames exactly as ours is
@@ -90,12 +90,36 @@ def evaluate_method(
     seeds=tuple(range(1, 11)),
     progress: bool = True,
 ) -> dict:
-    """The result file (``scripts.leaderboard``) of ``method`` on every (condition, features,
-    seed) cell: an [`OutsideMethod`][scripts.leaderboard.outside.OutsideMethod], or the name of one
-    of ``METHODS``.
+    """Evaluate ``method`` on every (condition, features, seed) cell into a result file.
 
     The split is ``dev`` for the dev seed alone and ``test`` for fresh seeds; the two are not
     mixed in one file (the settings were chosen on the dev seed).
+
+    Parameters
+    ----------
+    root : Path
+        The folder of the ``m-data-*`` datasets.
+    method : OutsideMethod or str
+        An [`OutsideMethod`][scripts.leaderboard.outside.OutsideMethod], or the name of one of
+        ``METHODS``.
+    conditions : sequence of str, default ("interleaved", "held-out")
+        Conditions, of ``CONDITIONS``.
+    features : sequence of str, default ("hsv",)
+        Feature sets, of ``ALL_FEATURES``.
+    seeds : sequence of int, default 1 to 10
+        Dataset seeds; the dev seed only alone.
+    progress : bool, default True
+        Whether to show a progress bar.
+
+    Returns
+    -------
+    dict
+        The result file (``scripts.leaderboard``), one record per cell.
+
+    Raises
+    ------
+    ValueError
+        For bad seeds, conditions, features or built-in method, or a missing dataset.
     """
     from tqdm.auto import tqdm
 
@@ -173,9 +197,21 @@ def evaluate_method(
 
 
 def file_name(method: dict) -> str:
-    """``manifold-<spec>[-<params digest>].json`` (``scripts.leaderboard.files.file_tag``):
-    the full ``package.module:Class``, so a class of the same name elsewhere never shares
-    the file, safe on every file system.
+    """Name a result file ``manifold-<spec>[-<params digest>].json``.
+
+    The name holds ``scripts.leaderboard.files.file_tag`` of the full
+    ``package.module:Class``, so a class of the same name elsewhere never shares the file,
+    safe on every file system; the parameters the protocol chose are left out.
+
+    Parameters
+    ----------
+    method : dict
+        A result file's ``method`` block.
+
+    Returns
+    -------
+    str
+        The file name.
     """
     from scripts.leaderboard import file_tag
 
@@ -197,7 +233,20 @@ docs/guides/benchmark-your-method.md."""
 
 
 def add_parser(sub, help_text: str):
-    """Register ``manifold-eval`` on the subparsers action ``sub``."""
+    """Register ``manifold-eval`` on the subparsers action ``sub``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers action.
+    help_text : str
+        The command's help line.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The new parser.
+    """
     p = sub.add_parser(
         "manifold-eval",
         help=help_text,
@@ -242,8 +291,24 @@ def add_parser(sub, help_text: str):
 
 
 def run(args) -> int:
-    """``topomap manifold-eval``: one result file per method in ``--out``, then the
-    leaderboard of the folder (reference: ours where present).
+    """Run ``topomap manifold-eval``: one result file per method in ``--out``, then a ranking.
+
+    The ranking is the leaderboard of the folder (reference: ours where present).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The command line of ``add_parser``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+
+    Raises
+    ------
+    ValueError
+        When neither ``--method`` nor ``--baselines`` is given.
     """
     from scripts.leaderboard import leaderboard_markdown, load_results
 

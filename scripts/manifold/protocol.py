@@ -86,13 +86,47 @@ def _check_condition(condition: str) -> str:
 
 
 def dataset_dir(root: Path, seed: int, condition: str = "interleaved") -> Path:
-    """Where ``topomap collect`` was asked to put the dataset of ``seed`` for ``condition``."""
+    """Return where ``topomap collect`` was asked to put the dataset of ``seed`` for ``condition``.
+
+    Parameters
+    ----------
+    root : Path
+        The folder of the ``m-data-*`` datasets.
+    seed : int
+        The dataset seed.
+    condition : str, default "interleaved"
+        One of ``CONDITIONS``.
+
+    Returns
+    -------
+    Path
+        ``root/m-data-<prefix><seed>``.
+    """
     return Path(root) / f"m-data-{_DATASETS[_check_condition(condition)][0]}{seed}"
 
 
 def load_for(path: Path, condition: str):
-    """The labelled dataset at ``path``, refused unless its ``meta.json`` says it was collected
-    for ``condition`` (randomised or not, its appearance mode).
+    """Load the labelled dataset at ``path`` for ``condition``.
+
+    It is refused unless its ``meta.json`` says it was collected for ``condition``
+    (randomised or not, its appearance mode).
+
+    Parameters
+    ----------
+    path : Path
+        The dataset.
+    condition : str
+        One of ``CONDITIONS``.
+
+    Returns
+    -------
+    Dataset
+        The dataset (``sim.dataset``).
+
+    Raises
+    ------
+    ValueError
+        When it has no labels or was collected for another condition.
     """
     from sim.dataset import load_dataset
 
@@ -115,8 +149,31 @@ def load_for(path: Path, condition: str):
 
 
 def cell_data(root: Path, condition: str, features: str, seed: int):
-    """``(X_train, y_train, X_test, y_test)`` of one (condition, features, seed) cell: the
-    features fitted on the training frames, the labels of both splits.
+    """Load the features and labels of one (condition, features, seed) cell.
+
+    The features are fitted on the training frames.
+
+    Parameters
+    ----------
+    root : Path
+        The folder of the ``m-data-*`` datasets.
+    condition : str
+        One of ``CONDITIONS``.
+    features : str
+        One of ``ALL_FEATURES``.
+    seed : int
+        The dataset seed (the test frames of ``held-out`` are seed + 1's).
+
+    Returns
+    -------
+    X_train : ndarray of shape (n, d)
+        Training features.
+    y_train : ndarray of shape (n,)
+        Training labels.
+    X_test : ndarray of shape (m, d)
+        Test features.
+    y_test : ndarray of shape (m,)
+        Test labels.
     """
     _check_condition(condition)
     if features not in ALL_FEATURES:
@@ -148,8 +205,26 @@ def cell_data(root: Path, condition: str, features: str, seed: int):
 def cell(
     root: Path, condition: str, features: str, seed: int, methods: tuple[str, ...] = METHODS
 ) -> dict:
-    """Errors of ``methods`` (default: every method) in one (condition, features, seed) cell of
-    the protocol.
+    """Score ``methods`` in one (condition, features, seed) cell of the protocol.
+
+    Parameters
+    ----------
+    root : Path
+        The folder of the ``m-data-*`` datasets.
+    condition : str
+        One of ``CONDITIONS``.
+    features : str
+        One of ``ALL_FEATURES``.
+    seed : int
+        The dataset seed.
+    methods : tuple of str, default METHODS
+        The methods to score (default: every method).
+
+    Returns
+    -------
+    dict
+        The cell: its condition, features, seeds, training and test sizes, and the rows of
+        ``score_methods``.
     """
     X_train, y_train, X_test, y_test = cell_data(root, condition, features, seed)
     rows = score_methods(X_train, y_train, K, Q, X_test, y_test, methods=tuple(methods))
@@ -175,9 +250,23 @@ def run_cells(
     progress=True,
     methods: tuple[str, ...] = METHODS,
 ) -> None:
-    """Compute the cells of ``plan`` not cached yet, for ``methods``; a cached cell that lacks
-    some of them gets only those added. A dataset not collected (or not completely) is skipped
-    with a message.
+    """Compute the cells of ``plan`` not cached yet, for ``methods``.
+
+    A cached cell that lacks some of them gets only those added. A dataset not collected (or
+    not completely) is skipped with a message.
+
+    Parameters
+    ----------
+    root : Path
+        The folder of the ``m-data-*`` datasets.
+    out : Path
+        The output folder; cells are cached in ``out/cells``.
+    plan : list of tuple of (str, str, int)
+        The (condition, features, seed) cells.
+    progress : bool, default True
+        Whether to show a progress bar.
+    methods : tuple of str, default METHODS
+        The methods each cell needs.
     """
     from tqdm.auto import tqdm
 
@@ -209,9 +298,11 @@ def run_cells(
 
 
 def _cached_cell(path: Path) -> dict | None:
-    """The cell cached at ``path``; None where there is none, and where the file is not a
-    cell (unreadable, damaged or foreign: `_cell_problem`), which is then computed
-    again with a warning, as any cache would be.
+    """Read the cell cached at ``path``.
+
+    None where there is none, and where the file is not a cell (unreadable, damaged or
+    foreign: `_cell_problem`), which is then computed again with a warning, as any cache
+    would be.
     """
     if not path.exists():
         return None
@@ -232,8 +323,24 @@ def _cached_cell(path: Path) -> dict | None:
 
 
 def load_cells(out: Path) -> list[dict]:
-    """Every cached cell under ``out/cells``, checked for the fields the summary reads (the
-    files may come from elsewhere: the report reads a folder it is given).
+    """Read every cached cell under ``out/cells``, checked for the fields the summary reads.
+
+    The files may come from elsewhere: the report reads a folder it is given.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+
+    Returns
+    -------
+    list of dict
+        The cells, in file name order.
+
+    Raises
+    ------
+    ValueError
+        When a file there is not a protocol cell.
     """
     cells = []
     for path in sorted((Path(out) / "cells").glob("*.json")):
@@ -251,7 +358,7 @@ def load_cells(out: Path) -> list[dict]:
 
 
 def _cell_problem(data) -> str | None:
-    """What is wrong with a cell read from disk, or None."""
+    """Say what is wrong with a cell read from disk, or return None."""
     if not (isinstance(data, dict) and {"condition", "features", "seed", "rows"} <= set(data)):
         return "a JSON object with these keys expected"
     if data["condition"] not in CONDITIONS:
@@ -272,8 +379,23 @@ def _cell_problem(data) -> str | None:
 
 
 def summarize(cells: list[dict], seed: int = 0) -> list[dict]:
-    """Per (condition, features, method): test errors over the fresh seeds (dev seed left
-    out) as mean and bootstrap 95% interval, the dev seed's error beside them.
+    """Summarise the test errors per (condition, features, method).
+
+    The errors over the fresh seeds (dev seed left out) as mean and bootstrap 95% interval,
+    the dev seed's error beside them.
+
+    Parameters
+    ----------
+    cells : list of dict
+        The cells (``load_cells``).
+    seed : int, default 0
+        Seed of the bootstrap.
+
+    Returns
+    -------
+    list of dict
+        One row per (condition, features, method): ``dev_error``, ``seeds``, ``errors``
+        and ``summary`` (``bootstrap_mean``, None without fresh seeds).
     """
     rng = np.random.default_rng(seed)
     groups: dict[tuple, dict] = {}
@@ -311,7 +433,18 @@ def _order(method: str) -> int:
 
 
 def markdown(summary: list[dict]) -> str:
-    """The summary as a markdown table (errors in %)."""
+    """Format the summary as a markdown table (errors in %).
+
+    Parameters
+    ----------
+    summary : list of dict
+        The rows of ``summarize``.
+
+    Returns
+    -------
+    str
+        The table.
+    """
     lines = [
         "| condition | features | method | dev seed 0 | fresh seeds: mean [95% CI] | n | min-max |",
         "|---|---|---|---|---|---|---|",
@@ -333,6 +466,18 @@ def markdown(summary: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``python -m scripts.manifold.protocol``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; ``sys.argv[1:]`` by default.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, required=True, help="folder of the m-data-* sets")
     parser.add_argument("--out", type=Path, required=True, help="folder for cells/ and table")

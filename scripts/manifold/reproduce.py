@@ -67,8 +67,9 @@ def _progress(total: int, enabled: bool, desc: str):
 
 
 def _fit_three(X, y, K, Q, X_test=None):
-    """(method, train labels, test labels or None, extra) for the three methods; without
-    labels ``y`` (None) the oracle best-sigma NCut is left out.
+    """Fit the three methods; return (method, train labels, test labels or None, extra) each.
+
+    Without labels ``y`` (None) the oracle best-sigma NCut is left out.
     """
     ours = ManifoldClustering(K, Q).fit(X)
     tuned = SelfTuningSpectralClustering(K).fit(X)
@@ -84,7 +85,21 @@ def _fit_three(X, y, K, Q, X_test=None):
 
 
 def synthetic_rows(progress: bool = True) -> tuple[list[dict], dict]:
-    """Clustering error of the three methods on the four clean synthetic sets."""
+    """Score the clustering error of the three methods on the four clean synthetic sets.
+
+    Parameters
+    ----------
+    progress : bool, default True
+        Whether to show a progress bar.
+
+    Returns
+    -------
+    rows : list of dict
+        One per set and method: its size, the error, the paper's claim and the method's
+        extra facts.
+    labels : dict
+        Set name -> (true labels, {method: predicted labels}).
+    """
     rows, labels = [], {}
     sets = make_all()
     with _progress(len(sets), progress, "synthetic sets") as bar:
@@ -107,7 +122,18 @@ def synthetic_rows(progress: bool = True) -> tuple[list[dict], dict]:
 
 
 def feature_sets(dataset) -> dict[str, tuple[str, object, np.ndarray]]:
-    """Name -> (sensor, transformer, raw readings) of the three compared feature sets."""
+    """Build the three compared feature sets of ``dataset``.
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The dataset (``sim.dataset``), with images and scans.
+
+    Returns
+    -------
+    dict
+        Name -> (sensor, transformer, raw readings).
+    """
     images = dataset.concat("images")
     scans = dataset.concat("scans")
     max_range = dataset.max_range
@@ -124,8 +150,22 @@ def feature_sets(dataset) -> dict[str, tuple[str, object, np.ndarray]]:
 
 
 def paper_error(features: str, method: str) -> float | None:
-    """The paper's error for ``method``, only beside the feature set it was measured on (raw
-    pixels): beside HSV histograms or laser ranges it would read as a claim it never made.
+    """Return the paper's error for ``method``, only beside the feature set it was measured on.
+
+    That set is raw pixels: beside HSV histograms or laser ranges the number would read as a
+    claim the paper never made.
+
+    Parameters
+    ----------
+    features : str
+        The feature set's name.
+    method : str
+        The method's name.
+
+    Returns
+    -------
+    float or None
+        The paper's error, or None.
     """
     return PAPER_REAL.get(method) if features == PAPER_FEATURES else None
 
@@ -133,8 +173,31 @@ def paper_error(features: str, method: str) -> float | None:
 def real_rows(
     dataset, progress: bool = True, n_clusters: int | None = None
 ) -> tuple[list[dict], dict]:
-    """Train and test error of the three methods on each feature set (paper split), K
-    ``n_clusters`` (default the paper's 8). Without ground truth: the clusters, no errors.
+    """Score the train and test error of the three methods on each feature set (paper split).
+
+    Without ground truth: the clusters, no errors.
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The dataset (``sim.dataset``).
+    progress : bool, default True
+        Whether to show a progress bar.
+    n_clusters : int, optional
+        K (default the paper's 8).
+
+    Returns
+    -------
+    rows : list of dict
+        One per feature set and method: sizes, K and Q, clusters, errors (None without
+        ground truth), the paper's error, the train and test labels, and extra facts.
+    labels : dict
+        Feature set -> (true test labels or None, {method: predicted test labels}).
+
+    Raises
+    ------
+    ValueError
+        When ``n_clusters`` is below 1.
     """
     truth = dataset.has_ground_truth
     train, test = dataset.paper_split()
@@ -176,9 +239,25 @@ def real_rows(
 
 
 def plot_labels(panels: dict[str, tuple[np.ndarray, dict]], path: Path, xlabel: str) -> Path:
-    """Paper-style plot (Figures 2-6): true label (red stars) and predicted label (blue
-    squares, mapped to the true labels by the Hungarian matching) against the index. A panel
-    whose true labels are None (no ground truth) shows the predicted clusters as they are.
+    """Plot true and predicted labels against the index, paper-style (Figures 2-6).
+
+    True labels are red stars, predicted labels blue squares, mapped to the true labels by the
+    Hungarian matching. A panel whose true labels are None (no ground truth) shows the
+    predicted clusters as they are.
+
+    Parameters
+    ----------
+    panels : dict
+        Row name -> (true labels or None, {method: predicted labels}).
+    path : Path
+        The PNG file to write.
+    xlabel : str
+        The x-axis label.
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     from mapping.metrics import best_matching
 
@@ -216,11 +295,20 @@ def reproduce(
     progress: bool = True,
     n_clusters: int | None = None,
 ) -> dict:
-    """Run both reproductions; write ``results.json``, ``clusters.npz`` and the plots into
-    ``out_dir``.
+    """Run both reproductions; write ``results.json``, ``clusters.npz`` and the plots.
 
-    ``n_clusters`` is K on the dataset (default the paper's 8). On a dataset without ground
-    truth the errors are None and ``ground_truth`` is False.
+    On a dataset without ground truth the errors are None and ``ground_truth`` is False.
+
+    Parameters
+    ----------
+    dataset_dir : str or Path
+        The dataset (``topomap collect``).
+    out_dir : str or Path
+        The output directory, created if missing.
+    progress : bool, default True
+        Whether to show progress bars.
+    n_clusters : int, optional
+        K on the dataset (default the paper's 8).
 
     Returns
     -------
@@ -275,7 +363,18 @@ def reproduce(
 
 
 def markdown_tables(result: dict) -> str:
-    """The two tables of ``docs/guides/manifold-clustering.md`` from a `reproduce` result."""
+    """Format the two tables of ``docs/guides/manifold-clustering.md`` from a `reproduce` result.
+
+    Parameters
+    ----------
+    result : dict
+        The result of `reproduce`.
+
+    Returns
+    -------
+    str
+        The markdown.
+    """
     lines = ["| set | method | error | paper's claim |", "|---|---|---|---|"]
     for r in result["synthetic"]:
         lines.append(f"| {r['set']} | {r['method']} | {r['error']:.3f} | {r['paper_claim']} |")
@@ -294,6 +393,18 @@ def markdown_tables(result: dict) -> str:
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
+    """Build the command line of ``topomap reproduce``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser, optional
+        The parser to add the arguments to; a new one by default.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser.
+    """
     parser = parser or argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", required=True, help="dataset directory (topomap collect)")
     parser.add_argument("--out", required=True, help="directory for results.json and plots")
@@ -308,12 +419,36 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
 
 
 def run(args) -> int:
+    """Run ``topomap reproduce`` and print its tables (or JSON).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The command line of ``build_parser``.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     result = reproduce(args.data, args.out, n_clusters=args.clusters)
     print(json.dumps(result, indent=2) if args.json else markdown_tables(result))
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``python -m scripts.manifold.reproduce``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; ``sys.argv[1:]`` by default.
+
+    Returns
+    -------
+    int
+        The exit status, 0.
+    """
     return run(build_parser().parse_args(argv))
 
 

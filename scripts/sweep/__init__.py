@@ -1,6 +1,7 @@
-"""``topomap sweep``: servo episodes over seeds and settings (``command``), run by a local
-process pool or a Ray cluster (``backends``, ``ray_backend``), one episode per task
-(``episode``).
+"""``topomap sweep``: servo episodes over seeds and settings, on a process pool or Ray.
+
+Servo episodes over seeds and settings (``command``), run by a local process pool or a Ray
+cluster (``backends``, ``ray_backend``), one episode per task (``episode``).
 """
 
 from common.lazy import lazy_exports

@@ -1,5 +1,7 @@
-"""Where a sweep's episodes run: ``local`` (a pool of spawned processes on this machine) or
-``ray`` (Ray actors, on a local Ray instance or an existing cluster: ``scripts.sweep.ray_backend``).
+"""Where a sweep's episodes run: ``local`` processes or ``ray`` actors.
+
+``local`` is a pool of spawned processes on this machine; ``ray`` Ray actors, on a local Ray
+instance or an existing cluster (``scripts.sweep.ray_backend``).
 
 Every backend's workers run whole episodes, env and policy together, through
 `scripts.sweep.episode.EpisodeRunner`, so both give the same records for the same tasks.
@@ -39,14 +41,21 @@ def _run_in_pool(task) -> dict:
 
 
 class LocalBackend:
-    """``workers`` spawned processes (``spawn``: a forked worker hangs on its first render once
-    the parent has had a GL context), each an `EpisodeRunner` with its own copy of the
-    maps (pickled from this process's, already checked: loading and re-checking the saved files
-    in every worker took longer than the episodes of a small sweep).
+    """A pool of ``workers`` spawned processes, each an `EpisodeRunner`.
+
+    The processes are spawned because a forked worker hangs on its first render once the
+    parent has had a GL context. Each has its own copy of the maps (pickled from this
+    process's, already checked: loading and re-checking the saved files in every worker took
+    longer than the episodes of a small sweep).
 
     Where no worker process can start (a script piped to Python: ``common.cores.spawn_problem``)
     the episodes run one after another in the calling process, with a warning saying why, and
     ``workers`` becomes 1; the records are the same (each episode depends on its task alone).
+
+    Parameters
+    ----------
+    workers : int
+        The number of worker processes.
     """
 
     name = "local"
@@ -57,11 +66,30 @@ class LocalBackend:
         self._runner: EpisodeRunner | None = None  # the calling process's, when none can start
 
     def start(self, maps: dict, policy: str, max_steps: int) -> None:
-        """``maps``: ``{world: ServoMap}``."""
+        """Start the workers, each an `EpisodeRunner` of ``maps``, ``policy`` and ``max_steps``.
+
+        Parameters
+        ----------
+        maps : dict
+            ``{world: ServoMap}``.
+        policy : str
+            A name of ``servo.task.policies.POLICIES``.
+        max_steps : int
+            The episodes' step limit.
+        """
         self.start_runner(EpisodeRunner, dict(maps), policy, int(max_steps))
 
     def start_runner(self, factory, *args) -> None:
-        """Every worker holds ``factory(*args)``; its ``run`` gets the tasks."""
+        """Start the workers, each holding ``factory(*args)``; its ``run`` gets the tasks.
+
+        Parameters
+        ----------
+        factory : callable
+            Makes a worker's runner (with ``run(task)`` and ``close()``); takes the
+            ``one_thread`` keyword.
+        *args
+            The factory's arguments.
+        """
         problem = spawn_problem()
         if problem:
             warnings.warn(
@@ -92,6 +120,20 @@ class LocalBackend:
             os.environ.update(saved)
 
     def run(self, tasks: list) -> Iterator[tuple[int, dict]]:
+        """Run ``tasks`` on the workers, yielding each record as it completes.
+
+        Parameters
+        ----------
+        tasks : list
+            The tasks, each for the runners' ``run``.
+
+        Yields
+        ------
+        index : int
+            The task's index in ``tasks``.
+        record : dict
+            Its record.
+        """
         if self._runner is not None:
             for i, task in enumerate(tasks):
                 yield i, self._runner.run(task)
@@ -101,6 +143,7 @@ class LocalBackend:
             yield futures[f], f.result()
 
     def close(self) -> None:
+        """Stop the workers (or close the in-process runner); safe to call twice."""
         if self._runner is not None:
             self._runner.close()
             self._runner = None
@@ -110,7 +153,19 @@ class LocalBackend:
 
 
 def check_backend(backend: str, workers, address) -> None:
-    """Bad settings raise ValueError naming the parameter and the expected form."""
+    """Check a backend's settings before anything is started.
+
+    Bad settings raise ValueError naming the parameter and the expected form.
+
+    Parameters
+    ----------
+    backend : str
+        One of ``BACKENDS``.
+    workers : int
+        The number of workers.
+    address : str or None
+        A Ray cluster's ``host:port`` (``ray`` only).
+    """
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     check_int(workers, "num_envs")
@@ -124,8 +179,23 @@ def check_backend(backend: str, workers, address) -> None:
 
 @contextmanager
 def open_backend(backend: str, workers: int, address: str | None = None):
-    """The backend ``backend`` with ``workers`` workers, closed (its workers stopped, a Ray
-    instance it started shut down) on leaving the block.
+    """Open the backend ``backend`` with ``workers`` workers, closed on leaving the block.
+
+    Closing stops its workers and shuts down a Ray instance it started.
+
+    Parameters
+    ----------
+    backend : str
+        One of ``BACKENDS``.
+    workers : int
+        The number of workers.
+    address : str, optional
+        An existing Ray cluster's address (``ray`` only); by default a local Ray instance.
+
+    Yields
+    ------
+    LocalBackend or RayBackend
+        The backend, not started yet.
     """
     check_backend(backend, workers, address)
     if backend == "ray":
@@ -139,8 +209,14 @@ def open_backend(backend: str, workers: int, address: str | None = None):
 
 
 def add_backend_arguments(parser) -> None:
-    """``--backend`` and ``--address`` on an argparse ``parser``: the options of every command
-    that runs its tasks on these backends.
+    """Add ``--backend`` and ``--address`` to an argparse ``parser``.
+
+    They are the options of every command that runs its tasks on these backends.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser.
     """
     parser.add_argument(
         "--backend",
@@ -157,5 +233,11 @@ def add_backend_arguments(parser) -> None:
 
 
 def default_workers() -> int:
-    """The cores this process may use."""
+    """Return the cores this process may use.
+
+    Returns
+    -------
+    int
+        The number of cores.
+    """
     return available_cores()

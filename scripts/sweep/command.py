@@ -1,5 +1,7 @@
-"""Evaluation sweeps: many worlds, seeds and settings of the servo task, run in parallel on a
-local process pool or on Ray (``--backend ray``), summarised as one table.
+"""Evaluation sweeps: many worlds, seeds and settings of the servo task, as one table.
+
+They run in parallel on a local process pool or on Ray (``--backend ray``), summarised as one
+table.
 
 Every episode runs whole, env and policy together, in a worker
 (`scripts.sweep.episode.EpisodeRunner`, on a backend of ``scripts.sweep.backends``), and
@@ -49,7 +51,23 @@ TIME_KEYS = ("worker_s", "act_ms", "wall_s", "pid")  # differ run to run; the re
 
 
 def parse_seeds(text: str) -> list[int]:
-    """``"0-3"`` -> [0, 1, 2, 3]; ``"0,2,5-6"`` -> [0, 2, 5, 6]."""
+    """Parse seeds: ``"0-3"`` -> [0, 1, 2, 3]; ``"0,2,5-6"`` -> [0, 2, 5, 6].
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated seeds and ranges ``a-b`` (both ends included).
+
+    Returns
+    -------
+    list of int
+        The seeds.
+
+    Raises
+    ------
+    ValueError
+        For a malformed or empty range, or no seeds.
+    """
     seeds: list[int] = []
     for part in (p.strip() for p in str(text).split(",")):
         if not part:
@@ -92,7 +110,21 @@ def _check(worlds, seeds, settings, policy, episodes_per_seed, max_steps):
 
 
 def summarise_batch(records: list[dict]) -> dict:
-    """One table row's numbers: ``servo.task.evaluation.summarise`` plus means over all episodes."""
+    """Summarise one table row's episodes: ``servo.task.evaluation.summarise`` plus means.
+
+    The means are over all episodes.
+
+    Parameters
+    ----------
+    records : list of dict
+        The row's episode records.
+
+    Returns
+    -------
+    dict
+        The row's numbers: episodes, success rate, SPL, mean final distance, heading error
+        and steps, collisions, ``act_ms``, ``reasons`` and ``episodes_detail``.
+    """
     from servo.task import summarise
 
     s = summarise(records)
@@ -130,15 +162,46 @@ def run_sweep(
 ) -> list[dict]:
     """Run ``episodes_per_seed`` episodes per seed in every (world, setting); one row each.
 
-    ``settings`` are names of `SETTINGS`. ``num_envs`` workers (default: the cores this
-    process may use) on ``backend`` (`BACKENDS`: ``local`` processes or ``ray`` actors;
-    ``address``: an existing Ray cluster's, else a local Ray instance), started once for the
-    whole sweep. ``maps``: ``{world: ServoMap}`` to use, else the cached map of each world
-    (``servo.maps.build.load_or_build(world, dataset, cache)``; None: the data home's, see
-    ``sim.datahome``). Rows: the columns of `COLUMNS` (``worker_s``: the row's episodes'
-    wall time summed over the workers) plus ``act_ms``, ``reasons``, ``episodes_detail`` and
-    the sweep's ``backend``, ``num_envs``, ``startup_s`` (starting the workers), ``run_s``
-    (running every episode) and ``episodes_per_min`` (throughput over ``run_s``).
+    The workers are started once for the whole sweep.
+
+    Parameters
+    ----------
+    worlds : iterable of str
+        The worlds.
+    seeds : iterable of int
+        The seeds.
+    settings : iterable of str, default ("default",)
+        Names of `SETTINGS`.
+    policy : str, default "servo"
+        A name of ``servo.task.POLICIES``.
+    episodes_per_seed : int, default 1
+        Episodes of each seed.
+    num_envs : int, optional
+        Workers (default: the cores this process may use).
+    progress : bool, default True
+        Whether to show a progress bar.
+    max_steps : int, default 600
+        The episodes' step limit.
+    maps : dict, optional
+        ``{world: ServoMap}`` to use, else the cached map of each world
+        (``servo.maps.build.load_or_build(world, dataset, cache)``).
+    dataset : str or os.PathLike, optional
+        The dataset the maps are built from.
+    cache : str or os.PathLike, optional
+        The map cache; None: the data home's, see ``sim.datahome``.
+    backend : str, default "local"
+        `BACKENDS`: ``local`` processes or ``ray`` actors.
+    address : str, optional
+        An existing Ray cluster's address, else a local Ray instance.
+
+    Returns
+    -------
+    list of dict
+        One row per (world, setting): the columns of `COLUMNS` (``worker_s``: the row's
+        episodes' wall time summed over the workers) plus ``act_ms``, ``reasons``,
+        ``episodes_detail`` and the sweep's ``backend``, ``num_envs``, ``startup_s``
+        (starting the workers), ``run_s`` (running every episode) and ``episodes_per_min``
+        (throughput over ``run_s``).
     """
     from tqdm.auto import tqdm
 
@@ -188,7 +251,20 @@ def run_sweep(
 
 
 def sweep_table(rows: list[dict], meta: dict) -> Table:
-    """The sweep's rows under `COLUMNS`, with what was swept and how fast as a note."""
+    """Build the sweep's table under `COLUMNS`, with what was swept and how fast as a note.
+
+    Parameters
+    ----------
+    rows : list of dict
+        The rows of `run_sweep`.
+    meta : dict
+        The facts of `sweep_meta`.
+
+    Returns
+    -------
+    Table
+        The table.
+    """
     footer = (
         f"{meta['cores']} cores, backend {meta['backend']}, num_envs {meta['num_envs']} "
         f"(starting the workers: {meta['startup_s']:.1f} s), seeds {meta['seeds']}, "
@@ -200,8 +276,24 @@ def sweep_table(rows: list[dict], meta: dict) -> Table:
 
 
 def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[str, Path]:
-    """``sweep.md`` and ``sweep.csv`` (`sweep_table`) and ``sweep.json`` (every row with
-    its episodes, and ``meta``) in ``out``, each written atomically.
+    """Write ``sweep.md``, ``sweep.csv`` and ``sweep.json`` in ``out``, each atomically.
+
+    The markdown and CSV hold `sweep_table`; the JSON every row with its episodes, and
+    ``meta``.
+
+    Parameters
+    ----------
+    rows : list of dict
+        The rows of `run_sweep`.
+    out : str or os.PathLike
+        The output folder.
+    meta : dict
+        The facts of `sweep_meta`.
+
+    Returns
+    -------
+    dict
+        ``{"md": Path, "csv": Path, "json": Path}``.
     """
     out = Path(out)
     paths = sweep_table(rows, meta).write(out / "sweep", kinds=("md", "csv"))
@@ -211,8 +303,28 @@ def write_table(rows: list[dict], out: str | os.PathLike, meta: dict) -> dict[st
 
 
 def sweep_meta(rows: list[dict], seeds, episodes_per_seed: int, max_steps: int, wall_s: float):
-    """The footer's facts: what was swept, on which backend, how many cores and workers, in how
-    long, and the throughput (episodes per minute of running episodes).
+    """Gather the footer's facts: what was swept, where, on how many cores, how fast.
+
+    What was swept, on which backend, how many cores and workers, in how long, and the
+    throughput (episodes per minute of running episodes).
+
+    Parameters
+    ----------
+    rows : list of dict
+        The rows of `run_sweep`.
+    seeds : iterable of int
+        The seeds.
+    episodes_per_seed : int
+        Episodes of each seed.
+    max_steps : int
+        The episodes' step limit.
+    wall_s : float
+        The sweep's wall time in seconds.
+
+    Returns
+    -------
+    dict
+        The facts.
     """
     return {
         "worlds": list(dict.fromkeys(r["world"] for r in rows)),
@@ -229,6 +341,18 @@ def sweep_meta(rows: list[dict], seeds, episodes_per_seed: int, max_steps: int, 
 
 # -- command line (``topomap sweep``) ---------------------------------------------------------
 def cmd_sweep(args) -> int:
+    """Run ``topomap sweep``: the sweep, its table printed and written.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The command line of `add_parser`.
+
+    Returns
+    -------
+    int
+        The exit status: 0, or 2 where Ray is missing or no cluster answers.
+    """
     from scripts.args import worlds as world_names
 
     worlds = world_names(args.world)
@@ -265,7 +389,20 @@ def _run_from_args(args, worlds, seeds, settings) -> list[dict]:
 
 
 def add_parser(sub, default_out: str = "out"):
-    """Add the ``sweep`` subcommand to the ``topomap`` parser's subparsers."""
+    """Add the ``sweep`` subcommand to the ``topomap`` parser's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers action.
+    default_out : str, default "out"
+        The folder the default paths are under.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The new parser.
+    """
     from scripts.args import WORLD_HELP, world_choice
     from scripts.args import positive_int as positive
     from servo.task import POLICIES

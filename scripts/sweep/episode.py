@@ -1,6 +1,7 @@
-"""One sweep episode, env and policy together, in whatever process runs it: the unit of work
-that every sweep backend (``scripts.sweep.backends``: a local process pool, Ray actors) hands
-to its workers.
+"""One sweep episode, env and policy together, in whatever process runs it.
+
+The unit of work that every sweep backend (``scripts.sweep.backends``: a local process pool,
+Ray actors) hands to its workers.
 
 An episode is a function of (world, setting, seed, episode index) alone: the env is reset with
 the seed ``servo.task.evaluation.episode_seeds(seed, ...)[episode]`` (as episode ``episode`` of
@@ -29,7 +30,19 @@ SETTINGS: dict[str, dict] = {
 
 @dataclass(frozen=True)
 class EpisodeTask:
-    """Which episode: the sweep's (world, setting) row, its seed and the episode's index."""
+    """Which episode: the sweep's (world, setting) row, its seed and the episode's index.
+
+    Parameters
+    ----------
+    world : str
+        The world.
+    setting : str
+        A name of ``SETTINGS``.
+    seed : int
+        The seed.
+    episode : int
+        The episode's index within the seed.
+    """
 
     world: str
     setting: str
@@ -38,7 +51,24 @@ class EpisodeTask:
 
 
 def sweep_tasks(worlds, settings, seeds, episodes_per_seed: int) -> list[EpisodeTask]:
-    """Every episode of a sweep, in table order: world, setting, seed, episode."""
+    """List every episode of a sweep, in table order: world, setting, seed, episode.
+
+    Parameters
+    ----------
+    worlds : iterable of str
+        The worlds.
+    settings : iterable of str
+        The settings, of ``SETTINGS``.
+    seeds : iterable of int
+        The seeds.
+    episodes_per_seed : int
+        Episodes of each seed.
+
+    Returns
+    -------
+    list of EpisodeTask
+        The episodes.
+    """
     return [
         EpisodeTask(w, s, int(seed), e)
         for w in worlds
@@ -61,9 +91,10 @@ ONE_THREAD = {
 
 
 def configure_worker() -> None:
-    """Run this worker on one core (`ONE_THREAD`), where the process was started without
-    that environment: Mesa reads ``LP_NUM_THREADS`` at the first GL context (envs are built
-    lazily, after this), and ``threadpoolctl`` limits the BLAS and OpenMP pools already loaded.
+    """Run this worker on one core (`ONE_THREAD`), where the process was started without it.
+
+    Mesa reads ``LP_NUM_THREADS`` at the first GL context (envs are built lazily, after this),
+    and ``threadpoolctl`` limits the BLAS and OpenMP pools already loaded.
     """
     from threadpoolctl import threadpool_limits
 
@@ -72,12 +103,22 @@ def configure_worker() -> None:
 
 
 class EpisodeRunner:
-    """Runs sweep episodes in one worker; keeps one ``ServoEnv`` per (world, setting), built on
-    first use, so a worker pays for imports, maps and renderers once per sweep.
+    """Runs sweep episodes in one worker.
 
-    ``maps``: ``{world: ServoMap}``; ``policy``: a name of ``servo.task.policies.POLICIES``. The
-    process is set to one thread (`configure_worker`) unless ``one_thread`` is false (the
-    episodes run in the calling process, whose threads are its own).
+    It keeps one ``ServoEnv`` per (world, setting), built on first use, so a worker pays for
+    imports, maps and renderers once per sweep.
+
+    Parameters
+    ----------
+    maps : dict
+        ``{world: ServoMap}``.
+    policy : str
+        A name of ``servo.task.policies.POLICIES``.
+    max_steps : int
+        The episodes' step limit.
+    one_thread : bool, default True
+        Set the process to one thread (`configure_worker`); false where the episodes run in
+        the calling process, whose threads are its own.
     """
 
     def __init__(self, maps: dict, policy: str, max_steps: int, one_thread: bool = True):
@@ -97,9 +138,19 @@ class EpisodeRunner:
         return self._envs[world, setting]
 
     def run(self, task: EpisodeTask) -> dict:
-        """``servo.task.evaluation.run_episode``'s record of ``task``, plus its ``seed``,
-        ``episode``, ``reset_seed``, the worker's process id and the episode's wall time
-        ``wall_s``.
+        """Run the episode ``task``.
+
+        Parameters
+        ----------
+        task : EpisodeTask
+            The episode.
+
+        Returns
+        -------
+        dict
+            ``servo.task.evaluation.run_episode``'s record of ``task``, plus its ``seed``,
+            ``episode``, ``reset_seed``, the worker's process id (``pid``) and the episode's
+            wall time ``wall_s``.
         """
         import numpy as np
 

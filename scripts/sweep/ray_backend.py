@@ -1,6 +1,7 @@
-"""The ``ray`` sweep backend: one Ray actor per worker, each an
-`EpisodeRunner` running whole episodes (env and policy together),
-on a local Ray instance (started here, with ``num_cpus`` = the workers, no dashboard, shut down
+"""The ``ray`` sweep backend: one Ray actor per worker, on a local Ray instance or a cluster.
+
+Each actor is an `EpisodeRunner` running whole episodes (env and policy together), on a local
+Ray instance (started here, with ``num_cpus`` = the workers, no dashboard, shut down
 afterwards) or on an existing cluster given its address.
 
 Ray is optional (``pip install -e '.[ray]'``): it is imported only here, and only when the
@@ -31,7 +32,13 @@ _PASS_ENV = ("MUJOCO_GL", "PYOPENGL_PLATFORM", "MUJOCO_EGL_DEVICE_ID", "TOPOMAP_
 
 
 def require_ray():
-    """The ``ray`` module, or an ImportError saying how to install it."""
+    """Import the ``ray`` module, or raise an ImportError saying how to install it.
+
+    Returns
+    -------
+    module
+        ``ray``.
+    """
     try:
         import ray
     except ImportError as err:
@@ -43,8 +50,23 @@ def require_ray():
 
 
 def parse_address(address: str) -> tuple[str, int] | None:
-    """``(host, port)`` of a Ray address (``host:port``; ``ray://host[:port]``, the Ray Client;
-    the port defaults to Ray's), or None for ``auto`` (the cluster running on this machine).
+    """Parse a Ray address into ``(host, port)``.
+
+    Parameters
+    ----------
+    address : str
+        ``host:port``; ``ray://host[:port]``, the Ray Client (the port defaults to Ray's); or
+        ``auto``.
+
+    Returns
+    -------
+    tuple of (str, int) or None
+        The host and port, or None for ``auto`` (the cluster running on this machine).
+
+    Raises
+    ------
+    ValueError
+        When the address has another form.
     """
     if address == "auto":
         return None
@@ -58,11 +80,19 @@ def parse_address(address: str) -> tuple[str, int] | None:
 
 
 def probe_address(address: str, timeout: float = PROBE_TIMEOUT_S) -> None:
-    """Fail within ``timeout`` seconds, with a ConnectionError saying what to do, where nothing
-    accepts a connection at ``address`` (see `parse_address`; ``auto`` is not probed: Ray
-    itself fails at once where no local cluster runs); the same where what answers is not a
-    gRPC server. ``ray.init`` alone retries an unreachable GCS for minutes (measured: over 3
-    minutes with Ray 2.60).
+    """Check that a Ray cluster answers at ``address``, failing within ``timeout`` seconds.
+
+    Raises a ConnectionError saying what to do where nothing accepts a connection at
+    ``address`` (see `parse_address`; ``auto`` is not probed: Ray itself fails at once where
+    no local cluster runs); the same where what answers is not a gRPC server. ``ray.init``
+    alone retries an unreachable GCS for minutes (measured: over 3 minutes with Ray 2.60).
+
+    Parameters
+    ----------
+    address : str
+        A Ray address.
+    timeout : float, default PROBE_TIMEOUT_S
+        Seconds to wait for the connection and for the answer.
     """
     if (parsed := parse_address(address)) is None:
         return
@@ -90,10 +120,22 @@ def probe_address(address: str, timeout: float = PROBE_TIMEOUT_S) -> None:
 
 
 def runtime_env(address: str | None) -> dict:
-    """The actors' runtime env: the GL backend and data home from this process, and our code:
-    on a local instance the same checkout (``PYTHONPATH``); on a cluster our packages, uploaded
-    (``py_modules``: Ray takes local folders only in the job's runtime env, so
-    `RayBackend` passes this to ``ray.init`` and the ``env_vars`` to each actor).
+    """Build the actors' runtime env: the GL backend and data home, and our code.
+
+    The GL backend and data home come from this process; our code on a local instance is the
+    same checkout (``PYTHONPATH``), on a cluster our packages, uploaded (``py_modules``: Ray
+    takes local folders only in the job's runtime env, so `RayBackend` passes this to
+    ``ray.init`` and the ``env_vars`` to each actor).
+
+    Parameters
+    ----------
+    address : str or None
+        The cluster's address, or None for a local instance.
+
+    Returns
+    -------
+    dict
+        ``env_vars`` and, on a cluster, ``py_modules``.
     """
     env = {k: os.environ[k] for k in _PASS_ENV if k in os.environ} | ONE_THREAD
     if address is None:
@@ -110,9 +152,15 @@ def _nbytes(obj) -> int:
 
 
 class RayBackend:
-    """``workers`` Ray actors (1 CPU each). ``address``: None starts a local Ray instance (or
-    uses the one this process already has); otherwise the cluster there (``ray.init(address)``
-    after `probe_address`).
+    """``workers`` Ray actors (1 CPU each).
+
+    Parameters
+    ----------
+    workers : int
+        The number of actors.
+    address : str, optional
+        None starts a local Ray instance (or uses the one this process already has);
+        otherwise the cluster there (``ray.init(address)`` after `probe_address`).
     """
 
     name = "ray"
@@ -149,14 +197,36 @@ class RayBackend:
         self._started = True
 
     def start(self, maps: dict, policy: str, max_steps: int) -> None:
-        """``maps``: ``{world: ServoMap}``, sent once through the object store (a cluster's
-        nodes need not share our disk).
+        """Start the actors, each an `EpisodeRunner` of ``maps``, ``policy`` and ``max_steps``.
+
+        Parameters
+        ----------
+        maps : dict
+            ``{world: ServoMap}``, sent once through the object store (a cluster's nodes need
+            not share our disk).
+        policy : str
+            A name of ``servo.task.policies.POLICIES``.
+        max_steps : int
+            The episodes' step limit.
         """
         self.start_runner(EpisodeRunner, maps, policy, max_steps, _put=maps)
 
     def start_runner(self, factory, *args, _put=None) -> None:
-        """One actor per worker, each ``factory(*args)`` (``_put``: the first argument, sent
-        once through the object store instead).
+        """Start one actor per worker, each ``factory(*args)``.
+
+        Parameters
+        ----------
+        factory : callable
+            Makes a worker's runner (with ``run(task)`` and ``close()``).
+        *args
+            The factory's arguments.
+        _put : object, optional
+            The first argument, sent once through the object store instead.
+
+        Raises
+        ------
+        ValueError
+            When the cluster has fewer CPUs than workers.
         """
         ray = self._ray
         self._init(_nbytes(args if _put is None else _put))
@@ -174,7 +244,22 @@ class RayBackend:
         ray.get([a.__ray_ready__.remote() for a in self._actors])
 
     def run(self, tasks: list) -> Iterator[tuple[int, dict]]:
-        """Each actor runs one episode at a time; the next goes to whichever finishes first."""
+        """Run ``tasks`` on the actors, yielding each record as it completes.
+
+        Each actor runs one episode at a time; the next goes to whichever finishes first.
+
+        Parameters
+        ----------
+        tasks : list
+            The tasks, each for the runners' ``run``.
+
+        Yields
+        ------
+        index : int
+            The task's index in ``tasks``.
+        record : dict
+            Its record.
+        """
         ray = self._ray
         todo = list(enumerate(tasks))[::-1]
         running: dict = {}
@@ -190,6 +275,7 @@ class RayBackend:
             yield i, ray.get(ref)
 
     def close(self) -> None:
+        """Stop the actors and shut down the Ray session this backend opened."""
         ray = self._ray
         for a in self._actors:
             # a graceful exit once its queue is empty: ray.kill's forced exit of a worker on a
