@@ -13,7 +13,15 @@ FLOOR_THICKNESS = 0.05  # m; a thin box renders ~2x faster than a huge subdivide
 
 @dataclass(frozen=True)
 class Rect:
-    """An axis-aligned rectangle of floor, metres."""
+    """An axis-aligned rectangle of floor, metres.
+
+    Parameters
+    ----------
+    x0, x1 : float
+        Its west and east edges, m.
+    y0, y1 : float
+        Its south and north edges, m.
+    """
 
     x0: float
     x1: float

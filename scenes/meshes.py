@@ -38,15 +38,33 @@ class Mesh:
     texcoords: np.ndarray | None = None  # (V, 2): where a texture is laid on each vertex
 
     def vertex_attr(self) -> str:
-        """Return the vertices as MJCF's ``vertex`` attribute (space-separated, 4 decimals)."""
+        """Return the vertices as MJCF's ``vertex`` attribute.
+
+        Returns
+        -------
+        str
+            The coordinates, space-separated, 4 decimals.
+        """
         return " ".join(f"{v:.4f}" for v in self.vertices.ravel())
 
     def face_attr(self) -> str:
-        """Return the faces as MJCF's ``face`` attribute (space-separated indices)."""
+        """Return the faces as MJCF's ``face`` attribute.
+
+        Returns
+        -------
+        str
+            The vertex indices, space-separated.
+        """
         return " ".join(str(int(f)) for f in self.faces.ravel())
 
     def texcoord_attr(self) -> str | None:
-        """Return the texture coordinates as MJCF's ``texcoord`` attribute (None: none)."""
+        """Return the texture coordinates as MJCF's ``texcoord`` attribute.
+
+        Returns
+        -------
+        str or None
+            The coordinates, space-separated, 4 decimals; None without texture coordinates.
+        """
         if self.texcoords is None:
             return None
         return " ".join(f"{v:.4f}" for v in self.texcoords.ravel())
