@@ -27,7 +27,7 @@ def clip_ranges(scans: np.ndarray, max_range: float) -> np.ndarray:
     Returns
     -------
     ndarray
-        The ranges, of the shape of ``scans``, all in ``[.., max_range]``.
+        The ranges, of the shape of ``scans``, finite and at most ``max_range``.
     """
     return np.nan_to_num(np.minimum(scans, max_range), nan=max_range, posinf=max_range)
 
