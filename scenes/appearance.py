@@ -35,8 +35,21 @@ APPEARANCE_MODES = ("default", "hard")
 
 @dataclass(frozen=True)
 class Appearance:
-    """One draw from [`RANDOMIZATION`][scenes.appearance.RANDOMIZATION] plus the generator that made
-    the textures, and the appearance mode (one of `APPEARANCE_MODES`).
+    """One draw from [`RANDOMIZATION`][scenes.appearance.RANDOMIZATION], its generators and mode.
+
+    The draw's parameters plus the generator that made the textures, and the appearance mode
+    (one of `APPEARANCE_MODES`).
+
+    Parameters
+    ----------
+    params : dict
+        The drawn value of each parameter of ``RANDOMIZATION``.
+    texture_rng : numpy.random.Generator
+        The generator of the textures.
+    rng : numpy.random.Generator or None, default None
+        The generator of further draws (jitter, shifts); None: not randomised.
+    mode : str, default "default"
+        One of `APPEARANCE_MODES`.
     """
 
     params: dict
@@ -50,10 +63,22 @@ class Appearance:
         return self.mode == "hard"
 
     def __getitem__(self, key: str) -> float:
+        """Return the drawn value of parameter ``key``."""
         return self.params[key]
 
     def colour(self, rgb) -> tuple[float, float, float]:
-        """A base colour with this draw's jitter (a new jitter per call when randomised)."""
+        """Return a base colour with this draw's jitter (a new jitter per call when randomised).
+
+        Parameters
+        ----------
+        rgb : array_like of shape (3,)
+            The base colour, 0..1 per channel.
+
+        Returns
+        -------
+        tuple of float
+            The jittered colour, clipped to 0..1.
+        """
         rgb = np.asarray(rgb, np.float64)
         if self.rng is not None:
             lo, hi = RANDOMIZATION["colour_jitter"][1:]
@@ -61,6 +86,18 @@ class Appearance:
         return tuple(np.clip(rgb, 0.0, 1.0))
 
     def light(self, rgb) -> tuple[float, float, float]:
+        """Return a light's colour with this draw's intensity (and a new tint when randomised).
+
+        Parameters
+        ----------
+        rgb : array_like of shape (3,)
+            The light's base colour, 0..1 per channel.
+
+        Returns
+        -------
+        tuple of float
+            The colour times ``light_intensity``, plus the tint, clipped to 0..1.
+        """
         tint = (
             np.zeros(3)
             if self.rng is None
@@ -69,23 +106,58 @@ class Appearance:
         return tuple(np.clip(np.asarray(rgb) * self["light_intensity"] + tint, 0.0, 1.0))
 
     def shift(self, key: str) -> float:
-        """A fresh draw of a positional parameter (0 when not randomised)."""
+        """Return a fresh draw of a positional parameter (its default when not randomised).
+
+        Parameters
+        ----------
+        key : str
+            A parameter of ``RANDOMIZATION`` (``"light_shift"``, ``"clutter_shift"``).
+
+        Returns
+        -------
+        float
+            The drawn shift, m.
+        """
         if self.rng is None:
             return RANDOMIZATION[key][0]
         return float(self.rng.uniform(*RANDOMIZATION[key][1:]))
 
 
 def check_appearance_mode(mode) -> str:
-    """``mode`` if it is one of `APPEARANCE_MODES`, else a ValueError naming them."""
+    """Return ``mode`` if it is one of `APPEARANCE_MODES`, else raise a ValueError naming them.
+
+    Parameters
+    ----------
+    mode : str
+        The appearance mode.
+
+    Returns
+    -------
+    str
+        ``mode``.
+    """
     if not isinstance(mode, str) or mode not in APPEARANCE_MODES:
         raise ValueError(f"appearance must be one of {APPEARANCE_MODES}, got {mode!r}")
     return mode
 
 
 def draw_appearance(rng: np.random.Generator | None, mode: str = "default") -> Appearance:
-    """Defaults and canonical textures without an RNG; a randomised draw with one. ``mode``
-    only changes which materials the builders assign, never what the generators draw, so a
-    hard world has the same textures, lights and clutter draws as its default twin.
+    """Draw an appearance: defaults and canonical textures without an RNG; randomised with one.
+
+    ``mode`` only changes which materials the builders assign, never what the generators draw,
+    so a hard world has the same textures, lights and clutter draws as its default twin.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator or None
+        The generator to draw from; None: the defaults and ``TEXTURE_SEED``'s textures.
+    mode : str, default "default"
+        One of `APPEARANCE_MODES`.
+
+    Returns
+    -------
+    Appearance
+        The draw.
     """
     mode = check_appearance_mode(mode)
     if rng is None:

@@ -25,10 +25,34 @@ def wall_box(
     z0: float = 0.0,
     collide: bool = True,
 ) -> None:
-    """A box standing against the inside of a wall: a door, a poster, a shelf, a locker.
+    """Add a box standing against the inside of a wall: a door, a poster, a shelf, a locker.
 
-    ``along`` is the box centre's distance from the wall's start; ``depth`` its extent into the
-    room. Flat items (posters, doors) are visual only; furniture collides.
+    Flat items (posters, doors) are visual only; furniture collides.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add it to.
+    name : str
+        The box geom's name.
+    rect : Rect
+        The floor's rectangle.
+    side : {"n", "s", "e", "w"}
+        The wall it stands against.
+    along : float
+        The box centre's distance from the wall's start (west or south end), m.
+    width : float
+        Its extent along the wall, m.
+    depth : float
+        Its extent into the room, m.
+    height : float
+        Its height, m.
+    material : str
+        Its material.
+    z0 : float, default 0.0
+        Height of its bottom, m.
+    collide : bool, default True
+        Whether it collides (else visual only).
     """
     x, y, yaw = wall_anchor(rect, side, along, depth / 2.0)
     yaw_box = 0.0 if side in "ns" else np.pi / 2
@@ -53,7 +77,21 @@ def potted_plant(
     pot_material: str,
     leaf_material: str,
 ) -> None:
-    """A pot (collides) with a lumpy bush on top (visual)."""
+    """Add a pot (collides) with a lumpy bush on top (visual).
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add it to.
+    name : str
+        Start of its geoms' and mesh's names.
+    x, y : float
+        Where it stands, m.
+    rng : numpy.random.Generator
+        The generator of the bush's lumps.
+    pot_material, leaf_material : str
+        The materials of the pot and the bush.
+    """
     scene.cylinder(f"{name}_pot", (x, y, 0.22), 0.22, 0.22, pot_material)
     scene.mesh(f"{name}_leaves_mesh", meshes.bush(rng, 0.35))
     scene.mesh_geom(f"{name}_leaves", f"{name}_leaves_mesh", (x, y, 0.35), leaf_material)
@@ -69,7 +107,23 @@ def tree(
     leaf_material: str,
     height: float | None = None,
 ) -> None:
-    """A tree: a trunk (collision cylinder + tapered visual mesh) and a lumpy crown."""
+    """Add a tree: a trunk (collision cylinder + tapered visual mesh) and a lumpy crown.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add it to.
+    name : str
+        Start of its geoms' and meshes' names.
+    x, y : float
+        Where it stands, m.
+    rng : numpy.random.Generator
+        The generator of its size and shape.
+    bark_material, leaf_material : str
+        The materials of the trunk and the crown.
+    height : float or None, default None
+        Its height, m; None: drawn from 3.5 to 6.
+    """
     height = float(rng.uniform(3.5, 6.0)) if height is None else height
     radius = float(rng.uniform(0.15, 0.28))
     scene.mesh(f"{name}_trunk_mesh", meshes.trunk(rng, radius, height * 0.75))
@@ -88,9 +142,25 @@ def place_tree(
     bark_material: str,
     leaf_material: str,
 ) -> None:
-    """The geoms of a tree of ``shape`` (height, trunk radius, crown radius) at ``(x, y)``:
-    its collision cylinder and the visual meshes ``{meshes_of}_trunk_mesh`` and
+    """Add the geoms of a tree of ``shape`` at ``(x, y)``.
+
+    They are its collision cylinder and the visual meshes ``{meshes_of}_trunk_mesh`` and
     ``{meshes_of}_crown_mesh``, made beforehand (one shape may be planted many times).
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add them to.
+    name : str
+        Start of the geoms' names.
+    x, y : float
+        Where the tree stands, m.
+    shape : tuple of float
+        (height, trunk radius, crown radius), m.
+    meshes_of : str
+        Start of the names of the trunk and crown meshes.
+    bark_material, leaf_material : str
+        The materials of the trunk and the crown.
     """
     height, radius, crown = shape
     scene.cylinder(
@@ -112,8 +182,14 @@ def place_tree(
 
 
 def sky_and_street_materials(scene: SceneBuilder, colour) -> None:
-    """The outdoor worlds' sky box and the materials of cars, their windows and mailboxes
-    (``colour``: the appearance's colour jitter, ``Appearance.colour``).
+    """Add the outdoor worlds' sky box and the materials of cars, their windows and mailboxes.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add them to.
+    colour : callable
+        The appearance's colour jitter, ``Appearance.colour``.
     """
     scene.builtin_texture(
         "tex_sky",
@@ -141,7 +217,25 @@ def hedge(
     height: float = 1.4,
     thickness: float = 0.8,
 ) -> None:
-    """A hedge from (x0, y0) to (x1, y1): lumpy bushes (visual) over a box collider."""
+    """Add a hedge from (x0, y0) to (x1, y1): lumpy bushes (visual) over a box collider.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add it to.
+    name : str
+        Start of its geoms' and meshes' names.
+    x0, y0, x1, y1 : float
+        Its ends, m.
+    rng : numpy.random.Generator
+        The generator of the bushes' lumps.
+    leaf_material : str
+        The bushes' material.
+    height : float, default 1.4
+        The collider's height, m.
+    thickness : float, default 0.8
+        The collider's thickness, m.
+    """
     length = float(np.hypot(x1 - x0, y1 - y0))
     yaw = float(np.arctan2(y1 - y0, x1 - x0))
     scene.box(

@@ -1,5 +1,6 @@
-"""The indoor world: a corridor ending in a junction with three exits (the paper's Fig. 7,
-rows 1-4). Each branch has its own character, as real corridors do:
+"""The indoor world: a corridor ending in a junction with three exits.
+
+The paper's Fig. 7, rows 1-4. Each branch has its own character, as real corridors do:
 
 - main corridor: beige plaster, blue-grey carpet, wooden doors, posters, white light;
 - left: red brick, wooden floor, bookshelves and a bench, warm light;
@@ -47,8 +48,9 @@ SEGMENTS = {  # name: (floor rectangle, walled sides)
 
 
 def _regions() -> ManifoldMap:
-    """The junction square is split by its diagonals: a robot is on a branch once it has
-    crossed the junction's centre toward that branch.
+    """Return the manifolds' regions; the junction square is split by its diagonals.
+
+    A robot is on a branch once it has crossed the junction's centre toward that branch.
     """
     x0, x1 = MAIN_LENGTH, MAIN_LENGTH + CORRIDOR_WIDTH
     c = (_JX, 0.0)
@@ -280,7 +282,18 @@ def _lights(scene: SceneBuilder, app: Appearance) -> None:
 
 
 def build_hallway(app: Appearance) -> World:
-    """Build the hallway world from `SEGMENTS` (see the module docstring)."""
+    """Build the hallway world from `SEGMENTS` (see the module docstring).
+
+    Parameters
+    ----------
+    app : Appearance
+        The appearance draw: textures, colours, lights and clutter shifts.
+
+    Returns
+    -------
+    World
+        The world with its ground truth.
+    """
     scene = SceneBuilder(names.HALLWAY)
     extent = MAIN_LENGTH + CORRIDOR_WIDTH + BRANCH_LENGTH
     scene.set_visual(extent, (extent / 2, 0.0, 1.0), headlight_ambient=0.25, headlight_diffuse=0.15)

@@ -1,7 +1,9 @@
-"""The outdoor world: a lawn walked toward a driveway, then leaving the lawn to the left
-(up the driveway to the garage), straight on (a gravel path through an orchard to a shed) or
-to the right (a concrete sidewalk toward the street and a parked car). The paper's Fig. 7,
-rows 5-8. Trees and bushes are trimesh meshes; their collision is primitive proxies.
+"""The outdoor world: a lawn walked toward a driveway, then left, straight on or right.
+
+The robot leaves the lawn to the left (up the driveway to the garage), straight on (a gravel
+path through an orchard to a shed) or to the right (a concrete sidewalk toward the street and a
+parked car). The paper's Fig. 7, rows 5-8. Trees and bushes are trimesh meshes; their collision
+is primitive proxies.
 
 In the ``"hard"`` appearance mode every area is lawn (no asphalt, gravel or slabs) and every
 boundary is the wooden fence; the buildings, trees, car and the arms' directions remain.
@@ -234,7 +236,18 @@ def _scenery(scene: SceneBuilder, app: Appearance) -> None:
 
 
 def build_lawn(app: Appearance) -> World:
-    """Build the lawn world from `AREAS` (see the module docstring)."""
+    """Build the lawn world from `AREAS` (see the module docstring).
+
+    Parameters
+    ----------
+    app : Appearance
+        The appearance draw: textures, colours, lights and clutter shifts.
+
+    Returns
+    -------
+    World
+        The world with its ground truth.
+    """
     scene = SceneBuilder(names.LAWN)
     extent = 2.0 * _TOP
     scene.set_visual(extent, (_JX, 0.0, 1.0), headlight_ambient=0.35, headlight_diffuse=0.1)

@@ -13,7 +13,15 @@ FLOOR_THICKNESS = 0.05  # m; a thin box renders ~2x faster than a huge subdivide
 
 @dataclass(frozen=True)
 class Rect:
-    """An axis-aligned rectangle of floor, metres."""
+    """An axis-aligned rectangle of floor, metres.
+
+    Parameters
+    ----------
+    x0, x1 : float
+        Its west and east edges, m.
+    y0, y1 : float
+        Its south and north edges, m.
+    """
 
     x0: float
     x1: float
@@ -22,20 +30,43 @@ class Rect:
 
     @property
     def center(self) -> tuple[float, float]:
+        """(x, y) of the rectangle's centre, m."""
         return ((self.x0 + self.x1) / 2.0, (self.y0 + self.y1) / 2.0)
 
     @property
     def half(self) -> tuple[float, float]:
+        """Half the rectangle's width and depth, m."""
         return ((self.x1 - self.x0) / 2.0, (self.y1 - self.y0) / 2.0)
 
     def corners(self) -> np.ndarray:
+        """Return the corners, counter-clockwise from (x0, y0).
+
+        Returns
+        -------
+        ndarray of shape (4, 2)
+            The corners, m.
+        """
         return np.array(
             [[self.x0, self.y0], [self.x1, self.y0], [self.x1, self.y1], [self.x0, self.y1]]
         )
 
 
 def add_floor(scene: SceneBuilder, name: str, rect: Rect, material: str, z: float = 0.0) -> None:
-    """A visual-only floor slab whose top face is at height ``z``."""
+    """Add a visual-only floor slab whose top face is at height ``z``.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add it to.
+    name : str
+        The slab geom's name.
+    rect : Rect
+        The floor's rectangle.
+    material : str
+        The slab's material.
+    z : float, default 0.0
+        Height of the top face, m.
+    """
     cx, cy = rect.center
     hx, hy = rect.half
     scene.box(
@@ -62,6 +93,21 @@ def add_walls(
     A wall spans exactly its side: extended past a corner it would poke into a neighbouring
     corridor that opens there (the junction); where two walls of one rectangle meet, they meet
     edge to edge, which leaves no gap visible from inside.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add them to.
+    prefix : str
+        Start of the walls' names (``<prefix>_wall_<side>``).
+    rect : Rect
+        The floor's rectangle.
+    sides : str
+        The sides to wall, letters of ``"nsew"``.
+    material : str
+        The walls' material.
+    height, thickness : float
+        The walls' height and thickness, m.
     """
     t = thickness / 2.0
     hz = height / 2.0
@@ -81,8 +127,23 @@ def add_walls(
 
 
 def wall_anchor(rect: Rect, side: str, along: float, offset: float) -> tuple[float, float, float]:
-    """A point on the inside face of a wall: ``along`` metres from the wall's start (west or
-    south end), ``offset`` metres into the room; returns (x, y, yaw facing into the room).
+    """Return a point on the inside face of a wall of ``rect``, facing into the room.
+
+    Parameters
+    ----------
+    rect : Rect
+        The floor's rectangle.
+    side : {"n", "s", "e", "w"}
+        The wall.
+    along : float
+        Distance from the wall's start (west or south end), m.
+    offset : float
+        Distance into the room, m.
+
+    Returns
+    -------
+    tuple of float
+        (x, y, yaw facing into the room).
     """
     if side == "n":
         return rect.x0 + along, rect.y1 - offset, -np.pi / 2

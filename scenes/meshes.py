@@ -21,19 +21,50 @@ TRUNK_SECTIONS = 10
 
 @dataclass(frozen=True)
 class Mesh:
-    """A triangle mesh as MJCF wants it: float vertices (V, 3) and int faces (F, 3)."""
+    """A triangle mesh as MJCF wants it: float vertices (V, 3) and int faces (F, 3).
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (V, 3)
+        The vertices, m.
+    faces : ndarray of shape (F, 3), int
+        Each triangle's vertex indices.
+    texcoords : ndarray of shape (V, 2) or None, default None
+        Where a texture is laid on each vertex.
+    """
 
     vertices: np.ndarray
     faces: np.ndarray
     texcoords: np.ndarray | None = None  # (V, 2): where a texture is laid on each vertex
 
     def vertex_attr(self) -> str:
+        """Return the vertices as MJCF's ``vertex`` attribute.
+
+        Returns
+        -------
+        str
+            The coordinates, space-separated, 4 decimals.
+        """
         return " ".join(f"{v:.4f}" for v in self.vertices.ravel())
 
     def face_attr(self) -> str:
+        """Return the faces as MJCF's ``face`` attribute.
+
+        Returns
+        -------
+        str
+            The vertex indices, space-separated.
+        """
         return " ".join(str(int(f)) for f in self.faces.ravel())
 
     def texcoord_attr(self) -> str | None:
+        """Return the texture coordinates as MJCF's ``texcoord`` attribute.
+
+        Returns
+        -------
+        str or None
+            The coordinates, space-separated, 4 decimals; None without texture coordinates.
+        """
         if self.texcoords is None:
             return None
         return " ".join(f"{v:.4f}" for v in self.texcoords.ravel())
@@ -58,7 +89,22 @@ def _lumpy(mesh: trimesh.Trimesh, rng: np.random.Generator, amount: float) -> tr
 
 
 def canopy(rng: np.random.Generator, radius: float, squash: float = 0.8) -> Mesh:
-    """A tree crown: an icosphere with smooth radial lumps, squashed vertically."""
+    """Build a tree crown: an icosphere with smooth radial lumps, squashed vertically.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the lumps.
+    radius : float
+        The sphere's radius, m.
+    squash : float, default 0.8
+        Factor on the vertices' heights.
+
+    Returns
+    -------
+    Mesh
+        The crown, centred at the origin.
+    """
     import trimesh
 
     sphere = trimesh.creation.icosphere(subdivisions=CANOPY_SUBDIVISIONS, radius=radius)
@@ -68,7 +114,22 @@ def canopy(rng: np.random.Generator, radius: float, squash: float = 0.8) -> Mesh
 
 
 def trunk(rng: np.random.Generator, radius: float, height: float) -> Mesh:
-    """A tapered, slightly leaning trunk (a cone frustum with jittered rings)."""
+    """Build a tapered, slightly leaning trunk (a cone frustum with jittered rings).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the lean.
+    radius : float
+        The base's radius, m (the top's is 0.6 of it).
+    height : float
+        The trunk's height, m.
+
+    Returns
+    -------
+    Mesh
+        The trunk, base at z = 0.
+    """
     import trimesh
 
     cyl = trimesh.creation.cylinder(radius=radius, height=height, sections=TRUNK_SECTIONS)
@@ -82,7 +143,20 @@ def trunk(rng: np.random.Generator, radius: float, height: float) -> Mesh:
 
 
 def bush(rng: np.random.Generator, radius: float) -> Mesh:
-    """A low shrub: a flattened lumpy sphere sitting on the ground."""
+    """Build a low shrub: a flattened lumpy sphere sitting on the ground.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the lumps.
+    radius : float
+        The sphere's radius, m.
+
+    Returns
+    -------
+    Mesh
+        The shrub.
+    """
     import trimesh
 
     sphere = trimesh.creation.icosphere(subdivisions=CANOPY_SUBDIVISIONS, radius=radius)
@@ -92,7 +166,20 @@ def bush(rng: np.random.Generator, radius: float) -> Mesh:
 
 
 def rock(rng: np.random.Generator, radius: float) -> Mesh:
-    """A garden rock: a coarse, strongly jittered icosphere half sunk into the ground."""
+    """Build a garden rock: a coarse, strongly jittered icosphere half sunk into the ground.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the jitter.
+    radius : float
+        The sphere's radius, m.
+
+    Returns
+    -------
+    Mesh
+        The rock.
+    """
     import trimesh
 
     sphere = trimesh.creation.icosphere(subdivisions=1, radius=radius)
@@ -102,7 +189,22 @@ def rock(rng: np.random.Generator, radius: float) -> Mesh:
 
 
 def gable_roof(length: float, depth: float, height: float) -> Mesh:
-    """A triangular prism roof (ridge along x), base centred at the origin at z = 0."""
+    """Build a triangular prism roof (ridge along x), base centred at the origin at z = 0.
+
+    Parameters
+    ----------
+    length : float
+        Its extent along x, m.
+    depth : float
+        Its extent along y, m.
+    height : float
+        The ridge's height, m.
+
+    Returns
+    -------
+    Mesh
+        The roof.
+    """
     import trimesh
 
     hx, hy = length / 2.0, depth / 2.0
@@ -114,9 +216,26 @@ def gable_roof(length: float, depth: float, height: float) -> Mesh:
 
 
 def floor_slab(ring: np.ndarray, centre, thickness: float, texture_scale: float = 1.0) -> Mesh:
-    """A flat prism over a polygon ``ring`` (counter-clockwise) that is star-shaped from
-    ``centre`` (a junction's hub), top face at z = 0, with texture coordinates in metres /
-    ``texture_scale`` so that it tiles like the floor slabs around it.
+    """Build a flat prism over a polygon ``ring``, top face at z = 0.
+
+    The texture coordinates are in metres / ``texture_scale``, so that it tiles like the floor
+    slabs around it.
+
+    Parameters
+    ----------
+    ring : array_like of shape (m, 2)
+        The polygon, counter-clockwise, star-shaped from ``centre``, m.
+    centre : array_like of shape (2,)
+        The point the polygon is star-shaped from (a junction's hub), m.
+    thickness : float
+        The prism's thickness, m.
+    texture_scale : float, default 1.0
+        Metres per texture repeat.
+
+    Returns
+    -------
+    Mesh
+        The slab, with texture coordinates.
     """
     ring = np.asarray(ring, np.float64)
     m = len(ring)

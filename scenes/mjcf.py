@@ -18,12 +18,29 @@ from scenes.textures import encode_png
 
 
 def fmt(values) -> str:
-    """Numbers as an MJCF attribute: space-separated, 6 significant digits."""
+    """Format numbers as an MJCF attribute: space-separated, 6 significant digits.
+
+    Parameters
+    ----------
+    values : float or array_like
+        The numbers (flattened).
+
+    Returns
+    -------
+    str
+        The attribute's text.
+    """
     return " ".join(f"{float(v):.6g}" for v in np.ravel(values))
 
 
 class SceneBuilder:
-    """Collects assets and world geometry; ``to_xml()`` gives the model, ``assets`` its files."""
+    """Collects assets and world geometry; ``to_xml()`` gives the model, ``assets`` its files.
+
+    Parameters
+    ----------
+    model_name : str
+        The ``<mujoco model=...>`` name.
+    """
 
     def __init__(self, model_name: str):
         self.root = ET.Element("mujoco", model=model_name)
@@ -47,13 +64,40 @@ class SceneBuilder:
 
     # -- assets -----------------------------------------------------------------------------
     def texture(self, name: str, image: np.ndarray) -> str:
-        """A 2-D texture from an RGB image, stored as a PNG asset."""
+        """Add a 2-D texture from an RGB image, stored as a PNG asset.
+
+        Parameters
+        ----------
+        name : str
+            The texture's name (its file is ``<name>.png``).
+        image : ndarray of shape (H, W, 3), uint8
+            The image.
+
+        Returns
+        -------
+        str
+            ``name``.
+        """
         file = f"{self._claim(name)}.png"
         self.assets[file] = encode_png(image)
         ET.SubElement(self.asset, "texture", name=name, type="2d", file=file)
         return name
 
     def builtin_texture(self, name: str, **attrs) -> str:
+        """Add one of MuJoCo's built-in textures (``builtin="gradient"`` and so on).
+
+        Parameters
+        ----------
+        name : str
+            The texture's name.
+        **attrs
+            The ``<texture>`` element's other attributes, as strings.
+
+        Returns
+        -------
+        str
+            ``name``.
+        """
         ET.SubElement(self.asset, "texture", name=self._claim(name), **attrs)
         return name
 
@@ -68,6 +112,28 @@ class SceneBuilder:
         shininess: float = 0.1,
         reflectance: float = 0.0,
     ) -> str:
+        """Add a material, textured or plain.
+
+        Parameters
+        ----------
+        name : str
+            The material's name.
+        texture : str or None, default None
+            The texture's name; None: plain colour.
+        rgba : sequence of float, default (1, 1, 1, 1)
+            Colour (and opacity), 0..1.
+        texrepeat : sequence of float, default (1, 1)
+            Texture repeats (per metre with ``texuniform``).
+        texuniform : bool, default True
+            Whether the texture repeats per metre rather than per face.
+        specular, shininess, reflectance : float
+            MuJoCo's material settings (defaults 0.1, 0.1, 0.0).
+
+        Returns
+        -------
+        str
+            ``name``.
+        """
         attrs = {
             "name": self._claim(name),
             "rgba": fmt(rgba),
@@ -83,6 +149,20 @@ class SceneBuilder:
         return name
 
     def mesh(self, name: str, mesh: Mesh) -> str:
+        """Add a mesh asset, embedded inline.
+
+        Parameters
+        ----------
+        name : str
+            The mesh's name.
+        mesh : Mesh
+            Its vertices, faces and optional texture coordinates.
+
+        Returns
+        -------
+        str
+            ``name``.
+        """
         attrs = {"texcoord": mesh.texcoord_attr()} if mesh.texcoords is not None else {}
         ET.SubElement(
             self.asset,
@@ -118,7 +198,32 @@ class SceneBuilder:
         group: int = names.GROUP_SOLID,
         rgba=None,
     ) -> ET.Element:
-        """A box; ``center`` (x, y, z) and ``half_size`` (hx, hy, hz) in metres."""
+        """Add a box geom; a colliding one leaves a `Footprint`.
+
+        Parameters
+        ----------
+        name : str
+            The geom's name.
+        center : sequence of float
+            (x, y, z) of its centre, m.
+        half_size : sequence of float
+            (hx, hy, hz), m.
+        material : str or None, default None
+            Its material.
+        yaw : float, default 0.0
+            Rotation about z, rad.
+        collide : bool, default True
+            Whether it collides (else visual only).
+        group : int, default names.GROUP_SOLID
+            Its geom group.
+        rgba : sequence of float or None, default None
+            Its colour, instead of the material's.
+
+        Returns
+        -------
+        xml.etree.ElementTree.Element
+            The ``<geom>`` element.
+        """
         if collide:
             self.footprints.append(
                 Footprint(
@@ -149,6 +254,32 @@ class SceneBuilder:
         group: int = names.GROUP_SOLID,
         rgba=None,
     ) -> ET.Element:
+        """Add an upright cylinder geom; a colliding one leaves a disc `Footprint`.
+
+        Parameters
+        ----------
+        name : str
+            The geom's name.
+        center : sequence of float
+            (x, y, z) of its centre, m.
+        radius : float
+            Its radius, m.
+        half_height : float
+            Half its height, m.
+        material : str or None, default None
+            Its material.
+        collide : bool, default True
+            Whether it collides (else visual only).
+        group : int, default names.GROUP_SOLID
+            Its geom group.
+        rgba : sequence of float or None, default None
+            Its colour, instead of the material's.
+
+        Returns
+        -------
+        xml.etree.ElementTree.Element
+            The ``<geom>`` element.
+        """
         if collide:
             self.footprints.append(
                 Footprint(name, (float(center[0]), float(center[1])), radius=float(radius))
@@ -174,7 +305,28 @@ class SceneBuilder:
         group: int = names.GROUP_DECOR,
         rgba=None,
     ) -> ET.Element:
-        """A visual-only mesh (collision comes from primitive proxies placed beside it)."""
+        """Add a visual-only mesh geom (collision comes from primitive proxies placed beside it).
+
+        Parameters
+        ----------
+        name : str
+            The geom's name.
+        mesh : str
+            The mesh asset's name.
+        pos : sequence of float
+            (x, y, z) of the mesh's origin, m.
+        material : str or None, default None
+            Its material.
+        group : int, default names.GROUP_DECOR
+            Its geom group.
+        rgba : sequence of float or None, default None
+            Its colour, instead of the material's.
+
+        Returns
+        -------
+        xml.etree.ElementTree.Element
+            The ``<geom>`` element.
+        """
         return self._geom(
             None,
             name,
@@ -200,6 +352,32 @@ class SceneBuilder:
         cutoff: float = 90.0,
         castshadow: bool = False,
     ) -> ET.Element:
+        """Add a spot or directional light.
+
+        Parameters
+        ----------
+        name : str
+            The light's name.
+        pos : sequence of float
+            (x, y, z), m.
+        direction : sequence of float, default (0, 0, -1)
+            The direction it shines in.
+        diffuse, ambient, specular : sequence of float
+            Its colours, 0..1 per channel.
+        directional : bool, default False
+            Directional (else a spot light).
+        attenuation : sequence of float, default (1.0, 0.0, 0.0)
+            Constant, linear and quadratic attenuation.
+        cutoff : float, default 90.0
+            The spot's cutoff angle, degrees.
+        castshadow : bool, default False
+            Whether it casts shadows.
+
+        Returns
+        -------
+        xml.etree.ElementTree.Element
+            The ``<light>`` element.
+        """
         return ET.SubElement(
             self.worldbody,
             "light",
@@ -216,6 +394,22 @@ class SceneBuilder:
         )
 
     def camera(self, name: str, pos, xyaxes) -> ET.Element:
+        """Add a fixed camera.
+
+        Parameters
+        ----------
+        name : str
+            The camera's name.
+        pos : sequence of float
+            (x, y, z), m.
+        xyaxes : sequence of float
+            The camera frame's x and y axes (6 numbers).
+
+        Returns
+        -------
+        xml.etree.ElementTree.Element
+            The ``<camera>`` element.
+        """
         return ET.SubElement(
             self.worldbody, "camera", name=self._claim(name), pos=fmt(pos), xyaxes=fmt(xyaxes)
         )
@@ -230,10 +424,23 @@ class SceneBuilder:
         height: int = 240,
         fog: tuple | None = None,
     ) -> None:
-        """Off-screen buffer, clipping planes and headlight.
+        """Set the off-screen buffer, clipping planes and headlight.
 
         ``znear``/``zfar`` are multiples of the model extent, so a 40 m world needs a tiny znear
         or the camera clips everything within half a metre.
+
+        Parameters
+        ----------
+        extent : float
+            The model's extent, m.
+        center : sequence of float
+            The model's centre (x, y, z), m.
+        headlight_ambient, headlight_diffuse : float, default 0.3
+            The headlight's grey levels.
+        width, height : int, default 320, 240
+            The off-screen buffer's size, pixels.
+        fog : tuple of float or None, default None
+            MuJoCo's ``fogstart`` and ``fogend``; None: MuJoCo's defaults.
         """
         ET.SubElement(self.root, "statistic", extent=fmt(extent), center=fmt(center))
         ET.SubElement(self.visual, "global", offwidth=str(width), offheight=str(height), fovy="45")
@@ -252,5 +459,12 @@ class SceneBuilder:
         )
 
     def to_xml(self) -> str:
+        """Return the model as an indented MJCF string.
+
+        Returns
+        -------
+        str
+            The XML.
+        """
         ET.indent(self.root)
         return ET.tostring(self.root, encoding="unicode")

@@ -12,7 +12,20 @@ BRANCHES = ("left", "straight", "right")
 
 
 def manifold_name(world: str, branch: str | None = None) -> str:
-    """Name of a ground-truth manifold: ``"hallway"`` or ``"hallway-left"`` and so on."""
+    """Return the name of a ground-truth manifold: ``"hallway"``, ``"hallway-left"`` and so on.
+
+    Parameters
+    ----------
+    world : str
+        The world's name.
+    branch : str or None, default None
+        The branch; None: the world's main manifold.
+
+    Returns
+    -------
+    str
+        ``world``, or ``world-branch``.
+    """
     return world if branch is None else f"{world}-{branch}"
 
 

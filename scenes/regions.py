@@ -17,10 +17,22 @@ from scenes.names import NO_MANIFOLD
 
 
 def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """Even-odd rule for many points against one polygon, vectorised over points and edges.
+    """Test many points against one polygon by the even-odd rule, vectorised.
 
-    Points exactly on an edge may fall either side; regions that share an edge are resolved
-    by their order in `ManifoldMap` (first match wins).
+    Vectorised over points and edges. Points exactly on an edge may fall either side; regions
+    that share an edge are resolved by their order in `ManifoldMap` (first match wins).
+
+    Parameters
+    ----------
+    points : array_like of shape (..., 2)
+        The points, m.
+    polygon : array_like of shape (k, 2)
+        The polygon's vertices, m.
+
+    Returns
+    -------
+    ndarray of shape (N,), bool
+        Whether each point (flattened) is inside.
     """
     p = np.asarray(points, np.float64).reshape(-1, 2)
     a = np.asarray(polygon, np.float64)
@@ -36,12 +48,21 @@ def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Region:
-    """One manifold's piece of floor: a simple polygon (k, 2) in world metres."""
+    """One manifold's piece of floor: a simple polygon (k, 2) in world metres.
+
+    Parameters
+    ----------
+    manifold : str
+        The manifold's name (non-empty).
+    polygon : ndarray of shape (k, 2)
+        The polygon's vertices, m.
+    """
 
     manifold: str
     polygon: np.ndarray
 
     def __post_init__(self):
+        """Check that ``manifold`` is a non-empty name."""
         if not isinstance(self.manifold, str) or not self.manifold:
             raise ValueError(f"manifold must be a non-empty name, got {self.manifold!r}")
 
@@ -64,6 +85,7 @@ class ManifoldMap:
     ids: dict = field(default=None, compare=False)
 
     def __post_init__(self):
+        """Fill in the default ``ids``; check they name the manifolds, distinct and >= 0."""
         names = tuple(dict.fromkeys(r.manifold for r in self.regions))
         ids = dict(self.ids) if self.ids is not None else {n: i for i, n in enumerate(names)}
         if set(ids) != set(names):
@@ -79,7 +101,23 @@ class ManifoldMap:
         return tuple(sorted(self.ids, key=self.ids.get))
 
     def name_of(self, label: int) -> str | None:
-        """The name of label id ``label``; None for [`NO_MANIFOLD`][scenes.names.NO_MANIFOLD]."""
+        """Return the name of label id ``label``.
+
+        Parameters
+        ----------
+        label : int
+            A manifold's label id, or [`NO_MANIFOLD`][scenes.names.NO_MANIFOLD].
+
+        Returns
+        -------
+        str or None
+            The manifold's name; None for ``NO_MANIFOLD``.
+
+        Raises
+        ------
+        ValueError
+            When ``label`` is no label id of the map.
+        """
         for name, i in self.ids.items():
             if i == label:
                 return name
@@ -90,7 +128,18 @@ class ManifoldMap:
         )
 
     def label_at(self, xy) -> np.ndarray:
-        """Manifold ids (`ids`) of points (..., 2); -1 off every manifold."""
+        """Return the manifold ids (`ids`) of points; -1 off every manifold.
+
+        Parameters
+        ----------
+        xy : array_like of shape (..., 2)
+            Points on the floor, m.
+
+        Returns
+        -------
+        ndarray of shape (...), int64
+            The label ids.
+        """
         xy = np.asarray(xy, np.float64)
         if xy.shape[-1] != 2:
             raise ValueError(f"xy must have shape (..., 2), got {xy.shape}")
@@ -105,13 +154,38 @@ class ManifoldMap:
         return labels.reshape(xy.shape[:-1])
 
     def name_at(self, x: float, y: float) -> str | None:
-        """Name of the manifold at one point, or None off every manifold."""
+        """Return the name of the manifold at one point, or None off every manifold.
+
+        Parameters
+        ----------
+        x, y : float
+            The point, m.
+
+        Returns
+        -------
+        str or None
+            The manifold's name.
+        """
         return self.name_of(int(self.label_at((x, y))))
 
 
 @dataclass(frozen=True)
 class Footprint:
-    """The floor-plane shadow of a colliding geom: an oriented box or a disc."""
+    """The floor-plane shadow of a colliding geom: an oriented box or a disc.
+
+    Parameters
+    ----------
+    name : str
+        The geom's name.
+    center : tuple of float
+        (x, y) of its centre, m.
+    half_size : tuple of float, default (0.0, 0.0)
+        A box's half extents (x, y) before yaw, m.
+    yaw : float, default 0.0
+        A box's rotation, rad.
+    radius : float, default 0.0
+        A disc's radius, m (> 0 for a disc).
+    """
 
     name: str
     center: tuple[float, float]
@@ -120,6 +194,20 @@ class Footprint:
     radius: float = 0.0  # > 0 for a disc
 
     def covers(self, xy: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """Return whether each point lies within ``margin`` of the footprint.
+
+        Parameters
+        ----------
+        xy : array_like of shape (..., 2)
+            Points on the floor, m.
+        margin : float, default 0.0
+            Distance the footprint is grown by (rounded at a box's corners), m.
+
+        Returns
+        -------
+        ndarray of shape (...), bool
+            Whether each point is covered.
+        """
         d = np.asarray(xy, np.float64) - np.asarray(self.center)
         if self.radius > 0.0:
             return np.hypot(d[..., 0], d[..., 1]) <= self.radius + margin
@@ -134,8 +222,18 @@ class Footprint:
 
 @dataclass(frozen=True)
 class OccupancyGrid:
-    """Free space on a regular grid: ``free[i, j]`` is the cell centred at
-    ``(xmin + (j + 0.5) res, ymin + (i + 0.5) res)``.
+    """Free space on a regular grid.
+
+    ``free[i, j]`` is the cell centred at ``(xmin + (j + 0.5) res, ymin + (i + 0.5) res)``.
+
+    Parameters
+    ----------
+    free : ndarray of shape (h, w), bool
+        Whether each cell is free.
+    origin : tuple of float
+        ``(xmin, ymin)``, the grid's lower-left corner, m.
+    resolution : float
+        Cell size ``res``, m.
     """
 
     free: np.ndarray
@@ -143,13 +241,36 @@ class OccupancyGrid:
     resolution: float
 
     def cell_of(self, xy) -> tuple[np.ndarray, np.ndarray]:
+        """Return the cell indices of points (possibly off the grid).
+
+        Parameters
+        ----------
+        xy : array_like of shape (..., 2)
+            Points on the floor, m.
+
+        Returns
+        -------
+        i, j : ndarray of shape (...), int64
+            Row (y) and column (x) of each point's cell.
+        """
         xy = np.asarray(xy, np.float64)
         j = np.floor((xy[..., 0] - self.origin[0]) / self.resolution).astype(np.int64)
         i = np.floor((xy[..., 1] - self.origin[1]) / self.resolution).astype(np.int64)
         return i, j
 
     def is_free(self, xy) -> np.ndarray:
-        """Whether each point (..., 2) lies in a free cell (points off the grid are not free)."""
+        """Return whether each point lies in a free cell (points off the grid are not free).
+
+        Parameters
+        ----------
+        xy : array_like of shape (..., 2)
+            Points on the floor, m.
+
+        Returns
+        -------
+        ndarray of shape (...), bool
+            Whether each point is free.
+        """
         i, j = self.cell_of(xy)
         h, w = self.free.shape
         ok = (i >= 0) & (i < h) & (j >= 0) & (j < w)
@@ -163,6 +284,13 @@ class OccupancyGrid:
         return ndimage.distance_transform_edt(self.free) * self.resolution
 
     def cell_centers(self) -> np.ndarray:
+        """Return the centre of every cell.
+
+        Returns
+        -------
+        ndarray of shape (h, w, 2)
+            (x, y) of each cell's centre, m.
+        """
         h, w = self.free.shape
         xs = self.origin[0] + (np.arange(w) + 0.5) * self.resolution
         ys = self.origin[1] + (np.arange(h) + 0.5) * self.resolution
@@ -176,12 +304,26 @@ def rasterise_free_space(
     resolution: float = 0.05,
     inflation: float = 0.0,
 ) -> OccupancyGrid:
-    """Free cells: on some manifold region and farther than ``inflation`` from every footprint.
+    """Rasterise free space: cells on a manifold, farther than ``inflation`` from any footprint.
 
     Parameters
     ----------
-    inflation : float
-        Grow obstacles by this much (the robot's radius gives the configuration space).
+    manifolds : ManifoldMap
+        The walkable regions.
+    footprints : list of Footprint
+        The colliding geoms' shadows.
+    bounds : tuple of float
+        ``(xmin, xmax, ymin, ymax)`` of the grid, m.
+    resolution : float, default 0.05
+        Cell size, m.
+    inflation : float, default 0.0
+        Grow obstacles (and the regions' borders) by this much, m (the robot's radius gives
+        the configuration space).
+
+    Returns
+    -------
+    OccupancyGrid
+        The free cells.
     """
     if resolution <= 0:
         raise ValueError(f"resolution must be > 0, got {resolution}")
@@ -204,7 +346,20 @@ def rasterise_free_space(
 
 @dataclass
 class Route:
-    """A teleop route: the waypoints a sequence follows, main manifold first then a branch."""
+    """A teleop route: the waypoints a sequence follows, main manifold first then a branch.
+
+    Parameters
+    ----------
+    name : str
+        The route's name.
+    waypoints : ndarray of shape (k, 2)
+        The waypoints, m.
+    branch : str
+        The branch it takes (``"left"``, ``"straight"``, ``"right"``; in a generated world the
+        stretch's branch, or ``"main"``).
+    meta : dict, optional
+        Further details (a generated world's routes: ``"junctions"``, the junctions passed).
+    """
 
     name: str
     waypoints: np.ndarray
@@ -213,4 +368,5 @@ class Route:
 
     @property
     def length(self) -> float:
+        """The length of the polyline through the waypoints, m."""
         return float(np.sum(np.linalg.norm(np.diff(self.waypoints, axis=0), axis=1)))

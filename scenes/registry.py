@@ -1,5 +1,4 @@
-"""The worlds by name: [`build_world`][scenes.registry.build_world] looks the builder up in
-`BUILDERS`.
+"""The worlds by name: [`build_world`][scenes.registry.build_world] finds the builder in `BUILDERS`.
 
 Kept apart from `scenes.world` so that the builders can import ``World`` without an
 import cycle: ``registry`` -> ``hallway``, ``lawn`` -> ``world``.
@@ -43,10 +42,15 @@ def build_world(
         Without one, the canonical world (fixed textures, default lights and clutter). With one,
         a domain-randomised variant (textures, colours, lighting, clutter placement), the same
         for the same generator state.
-    appearance : {"default", "hard"}
+    appearance : {"default", "hard"}, default "default"
         ``"hard"``: every branch shares the main manifold's wall, floor and light materials
         (see `APPEARANCE_MODES`); the geometry is that of the default
         world.
+
+    Returns
+    -------
+    World
+        The world, ready to simulate, with its ground truth.
     """
     world = parse_world_name(name)
     if not world.canonical:

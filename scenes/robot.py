@@ -1,5 +1,7 @@
-"""The robot: a planar differential-drive base (slide x, slide y, hinge yaw) with a camera mast
-and a laser site. It holds only the robot; the world builders add it to their scene.
+"""The robot: a planar differential-drive base with a camera mast and a laser site.
+
+The base's joints are slide x, slide y and hinge yaw. This module holds only the robot; the world
+builders add it to their scene.
 
 A planar joint chain with velocity actuators ran at 80-90k steps/s with wall contacts and never
 passed through a wall at 2 m/s in our measurements, where a free-joint two-wheel robot was 2-3x
@@ -36,6 +38,16 @@ def add_robot(scene: SceneBuilder) -> ET.Element:
 
     The body sits at the world origin so that its joint positions *are* the world pose
     ``(x, y, yaw)``; the simulator places it by writing ``qpos``.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The world's scene.
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        The robot's ``<body>`` element.
     """
     body = ET.SubElement(scene.worldbody, "body", name=names.ROBOT_BODY, pos="0 0 0")
     ET.SubElement(body, "inertial", pos="0 0 0.2", mass=fmt(MASS), diaginertia="0.6 0.6 0.5")

@@ -20,7 +20,24 @@ def _as_rgb(colour) -> np.ndarray:
 def fractal_noise(
     rng: np.random.Generator, size: int = TEXTURE_SIZE, base: int = 4, octaves: int = 4
 ) -> np.ndarray:
-    """Tileable-looking value noise in [0, 1]: random grids upsampled and summed by octave."""
+    """Return tileable-looking value noise in [0, 1]: random grids upsampled and summed by octave.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    size : int, default TEXTURE_SIZE
+        Side of the square image, pixels.
+    base : int, default 4
+        Cells per side of the coarsest grid.
+    octaves : int, default 4
+        Number of grids, each twice as fine and half as strong as the one before.
+
+    Returns
+    -------
+    ndarray of shape (size, size), float
+        The noise.
+    """
     out = np.zeros((size, size))
     amplitude, total = 1.0, 0.0
     for octave in range(octaves):
@@ -38,13 +55,45 @@ def _finish(img: np.ndarray) -> np.ndarray:
 
 
 def painted(rng: np.random.Generator, colour, grain: float = 0.06) -> np.ndarray:
-    """Painted plaster: a flat colour with low-frequency mottling and fine grain."""
+    """Paint plaster: a flat colour with low-frequency mottling and fine grain.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float
+        The base colour, RGB in 0..1.
+    grain : float, default 0.06
+        Relative strength of the mottling and grain.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     n = 0.6 * fractal_noise(rng, base=3) + 0.4 * rng.random((TEXTURE_SIZE, TEXTURE_SIZE))
     return _finish(_as_rgb(colour) * (1.0 - grain + 2.0 * grain * n[..., None]))
 
 
 def stripes(rng: np.random.Generator, colour, stripe_colour, period: int = 64) -> np.ndarray:
-    """Painted wall with a horizontal band pattern (a dado rail look)."""
+    """Paint a wall with a horizontal band pattern (a dado rail look).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float
+        The base colour, RGB in 0..1.
+    stripe_colour : sequence of float
+        The bands' colour (mixed half and half with the wall's), RGB in 0..1.
+    period : int, default 64
+        Pixels per band and gap.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     img = painted(rng, colour).astype(np.float64) / 255.0
     rows = (np.arange(TEXTURE_SIZE) // (period // 2)) % 2 == 0
     band = np.zeros(TEXTURE_SIZE, bool)
@@ -54,7 +103,24 @@ def stripes(rng: np.random.Generator, colour, stripe_colour, period: int = 64) -
 
 
 def bricks(rng: np.random.Generator, colour, mortar=(0.75, 0.73, 0.7), rows: int = 8) -> np.ndarray:
-    """Running-bond brick wall: per-brick colour variation, mortar joints, surface noise."""
+    """Lay a running-bond brick wall: per-brick colour variation, mortar joints, surface noise.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float
+        The bricks' base colour, RGB in 0..1.
+    mortar : sequence of float, default (0.75, 0.73, 0.7)
+        The joints' colour, RGB in 0..1.
+    rows : int, default 8
+        Brick rows per texture.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     h = size // rows
     w = 2 * h
@@ -74,7 +140,24 @@ def bricks(rng: np.random.Generator, colour, mortar=(0.75, 0.73, 0.7), rows: int
 def tiles(
     rng: np.random.Generator, colour_a, colour_b, n: int = 4, grout=(0.3, 0.3, 0.3)
 ) -> np.ndarray:
-    """Checkered floor tiles with grout lines and a slight per-tile shade."""
+    """Lay checkered floor tiles with grout lines and a slight per-tile shade.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour_a, colour_b : sequence of float
+        The two tiles' colours, RGB in 0..1.
+    n : int, default 4
+        Tiles per side.
+    grout : sequence of float, default (0.3, 0.3, 0.3)
+        The grout lines' colour, RGB in 0..1.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     cell = size // n
     yy, xx = np.mgrid[0:size, 0:size]
@@ -88,7 +171,22 @@ def tiles(
 
 
 def planks(rng: np.random.Generator, colour, n: int = 6) -> np.ndarray:
-    """Wooden floor boards: grain streaks along x, a shade per board, dark seams."""
+    """Lay wooden floor boards: grain streaks along x, a shade per board, dark seams.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float
+        The wood's base colour, RGB in 0..1.
+    n : int, default 6
+        Boards per texture.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     yy, _ = np.mgrid[0:size, 0:size]
     board = yy // (size // n)
@@ -103,7 +201,24 @@ def planks(rng: np.random.Generator, colour, n: int = 6) -> np.ndarray:
 def speckled(
     rng: np.random.Generator, colour, contrast: float = 0.35, base: int = 32
 ) -> np.ndarray:
-    """Carpet, asphalt, gravel or concrete: high-frequency speckle over a low-frequency tone."""
+    """Make carpet, asphalt, gravel or concrete: fine speckle over a low-frequency tone.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float
+        The base colour, RGB in 0..1.
+    contrast : float, default 0.35
+        Relative strength of the speckle and tone.
+    base : int, default 32
+        Coarseness of the tone (its coarsest grid has ``base // 8`` cells per side).
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     fine = rng.random((TEXTURE_SIZE, TEXTURE_SIZE))
     coarse = fractal_noise(rng, base=base // 8 or 1, octaves=3)
     n = 0.55 * fine + 0.45 * coarse
@@ -111,7 +226,20 @@ def speckled(
 
 
 def grass(rng: np.random.Generator, colour=(0.25, 0.5, 0.15)) -> np.ndarray:
-    """Lawn: blade-like vertical streaks in two greens, with patchy dry spots."""
+    """Make lawn: blade-like vertical streaks in two greens, with patchy dry spots.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float, default (0.25, 0.5, 0.15)
+        The grass's base colour, RGB in 0..1.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     blades = cv2.resize(rng.random((size // 8, size)), (size, size), interpolation=cv2.INTER_LINEAR)
     patches = fractal_noise(rng, base=3)
@@ -122,7 +250,20 @@ def grass(rng: np.random.Generator, colour=(0.25, 0.5, 0.15)) -> np.ndarray:
 
 
 def ceiling_tiles(rng: np.random.Generator, colour=(0.9, 0.9, 0.88)) -> np.ndarray:
-    """Suspended ceiling: pale perforated tiles in a grey grid."""
+    """Make a suspended ceiling: pale perforated tiles in a grey grid.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float, default (0.9, 0.9, 0.88)
+        The tiles' colour, RGB in 0..1.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     yy, xx = np.mgrid[0:size, 0:size]
     img = _as_rgb(colour) * (0.93 + 0.07 * rng.random((size, size)))[..., None]
@@ -131,7 +272,18 @@ def ceiling_tiles(rng: np.random.Generator, colour=(0.9, 0.9, 0.88)) -> np.ndarr
 
 
 def poster(rng: np.random.Generator) -> np.ndarray:
-    """A poster: a few saturated blocks and discs on a light background (distinct per seed)."""
+    """Draw a poster: a few saturated blocks and discs on a light background (distinct per seed).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     img = np.ones((size, size, 3)) * rng.uniform(0.75, 0.95, 3)
     yy, xx = np.mgrid[0:size, 0:size]
@@ -149,7 +301,20 @@ def poster(rng: np.random.Generator) -> np.ndarray:
 
 
 def panelled_door(rng: np.random.Generator, colour=(0.45, 0.28, 0.15)) -> np.ndarray:
-    """Wooden door: grain with two recessed panels."""
+    """Make a wooden door: grain with two recessed panels.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float, default (0.45, 0.28, 0.15)
+        The wood's base colour, RGB in 0..1.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     img = planks(rng, colour, n=1).astype(np.float64) / 255.0
     size = TEXTURE_SIZE
     for y0, y1 in ((20, 110), (140, 236)):
@@ -161,7 +326,20 @@ def panelled_door(rng: np.random.Generator, colour=(0.45, 0.28, 0.15)) -> np.nda
 
 
 def window_facade(rng: np.random.Generator, colour=(0.85, 0.8, 0.7)) -> np.ndarray:
-    """House siding with a window: horizontal boards and a dark glazed rectangle."""
+    """Make house siding with a window: horizontal boards and a dark glazed rectangle.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float, default (0.85, 0.8, 0.7)
+        The siding's colour, RGB in 0..1.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     yy, _ = np.mgrid[0:size, 0:size]
     img = _as_rgb(colour) * (0.9 + 0.1 * ((yy % 16) > 2))[..., None] * np.ones((1, size, 1))
@@ -176,7 +354,20 @@ def window_facade(rng: np.random.Generator, colour=(0.85, 0.8, 0.7)) -> np.ndarr
 
 
 def garage_door(rng: np.random.Generator, colour=(0.92, 0.92, 0.9)) -> np.ndarray:
-    """Sectional garage door: horizontal ribbed panels."""
+    """Make a sectional garage door: horizontal ribbed panels.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator of the pattern's randomness.
+    colour : sequence of float, default (0.92, 0.92, 0.9)
+        The door's colour, RGB in 0..1.
+
+    Returns
+    -------
+    ndarray of shape (TEXTURE_SIZE, TEXTURE_SIZE, 3), uint8
+        The texture.
+    """
     size = TEXTURE_SIZE
     yy, _ = np.mgrid[0:size, 0:size]
     rib = 0.75 + 0.25 * ((yy % 48) > 6)
@@ -185,7 +376,18 @@ def garage_door(rng: np.random.Generator, colour=(0.92, 0.92, 0.9)) -> np.ndarra
 
 
 def encode_png(img: np.ndarray) -> bytes:
-    """PNG bytes of an RGB image (OpenCV stores BGR, hence the flip)."""
+    """Encode an RGB image as PNG bytes (OpenCV stores BGR, hence the flip).
+
+    Parameters
+    ----------
+    img : ndarray of shape (H, W, 3), uint8
+        The image.
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(img[..., ::-1]))
     if not ok:  # pragma: no cover - cv2 only fails on invalid arrays
         raise RuntimeError("PNG encoding failed")

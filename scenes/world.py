@@ -101,6 +101,7 @@ class World:
     _free_space: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self):
+        """Fill in the default ``parents`` and ``digest``; check ``parents`` names the manifolds."""
         names = self.manifolds.names
         if self.parents is None:
             self.parents = {n: (None if k == 0 else names[0]) for k, n in enumerate(names)}
@@ -121,7 +122,32 @@ class World:
         parents: dict | None = None,
         digest: str | None = None,
     ) -> World:
-        """The finished world of a built `SceneBuilder` scene."""
+        """Return the finished world of a built `SceneBuilder` scene.
+
+        Parameters
+        ----------
+        name : str
+            The world's name.
+        scene : SceneBuilder
+            The built scene: its MJCF, assets and footprints.
+        app : Appearance
+            The appearance draw the scene was built with.
+        manifolds : ManifoldMap
+            The world's manifolds as floor regions.
+        bounds : tuple of float
+            ``(xmin, xmax, ymin, ymax)`` of the walkable area, m.
+        routes : dict of str to Route
+            Teleop routes, one per leaf manifold.
+        parents : dict or None, default None
+            Each manifold's parent; None: every manifold leaves from the first.
+        digest : str or None, default None
+            SHA-256 of the floor plan; None: computed from ``manifolds``.
+
+        Returns
+        -------
+        World
+            The world.
+        """
         return cls(
             name=name,
             xml=scene.to_xml(),
@@ -148,8 +174,23 @@ class World:
         return dict(self.manifolds.ids)
 
     def junctions_between(self, a: str, b: str) -> int:
-        """How many junctions lie between manifolds ``a`` and ``b`` (0 for one manifold; two
-        branches of one junction are 1 apart).
+        """Count the junctions between manifolds ``a`` and ``b``.
+
+        Parameters
+        ----------
+        a, b : str
+            Names of two of the world's manifolds.
+
+        Returns
+        -------
+        int
+            The number of junctions (0 for one manifold; two branches of one junction are 1
+            apart).
+
+        Raises
+        ------
+        ValueError
+            When ``a`` or ``b`` is no manifold of the world.
         """
 
         def up(m):
@@ -168,13 +209,36 @@ class World:
         return up_a + up_b - (1 if up_a and up_b else 0)
 
     def manifold_at(self, xy) -> np.ndarray:
-        """Manifold ids at points (..., 2): indices into
-        [`scenes.names.MANIFOLDS`][scenes.names.MANIFOLDS], -1 off.
+        """Return the manifold ids at points.
+
+        Parameters
+        ----------
+        xy : array_like of shape (..., 2)
+            Points on the floor, m.
+
+        Returns
+        -------
+        ndarray of shape (...)
+            Indices into [`scenes.names.MANIFOLDS`][scenes.names.MANIFOLDS]; -1 off every
+            manifold.
         """
         return self.manifolds.label_at(xy)
 
     def free_space(self, resolution: float = 0.05, inflation: float = 0.0) -> OccupancyGrid:
-        """Occupancy grid of the walkable floor; ``inflation`` grows obstacles (robot radius)."""
+        """Return the occupancy grid of the walkable floor (cached per arguments).
+
+        Parameters
+        ----------
+        resolution : float, default 0.05
+            Cell size, m.
+        inflation : float, default 0.0
+            Distance obstacles are grown by (the robot's radius), m.
+
+        Returns
+        -------
+        OccupancyGrid
+            The free cells of the floor.
+        """
         key = (float(resolution), float(inflation))
         if key not in self._free_space:
             self._free_space[key] = rasterise_free_space(
@@ -183,7 +247,18 @@ class World:
         return self._free_space[key]
 
     def write(self, directory: str | os.PathLike) -> Path:
-        """Write ``<name>.xml`` and its textures, for MuJoCo's own viewer (``simulate``)."""
+        """Write ``<name>.xml`` and its textures, for MuJoCo's own viewer (``simulate``).
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+            The folder to write into (created if missing).
+
+        Returns
+        -------
+        Path
+            The ``.xml`` file (a ``:`` in the name written as ``-``).
+        """
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
         for file, data in self.assets.items():
@@ -194,7 +269,18 @@ class World:
 
 
 def layout_digest(manifolds: ManifoldMap) -> str:
-    """SHA-256 of a world's manifold regions (names, ids, polygons to a micrometre)."""
+    """Return the SHA-256 of a world's manifold regions (names, ids, polygons to a micrometre).
+
+    Parameters
+    ----------
+    manifolds : ManifoldMap
+        The world's manifolds.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
     h = hashlib.sha256()
     for name in manifolds.names:
         h.update(f"{name}:{manifolds.ids[name]};".encode())

@@ -24,19 +24,24 @@ _BUILDERS = {"hallway": build_indoor, "lawn": build_outdoor}
 
 
 def _streams(name: WorldName) -> list[np.random.Generator]:
-    """The world's own generators: layout, looks and furnishing, textures."""
+    """Return the world's own generators: layout, looks and furnishing, textures."""
     root = np.random.default_rng([WORLD_KEY, FAMILIES.index(name.family), name.seed])
     return root.spawn(3)
 
 
 @lru_cache(maxsize=64)
 def family_layout(name) -> Layout:
-    """The floor plan of a generated world (no scene, no textures: milliseconds).
+    """Return the floor plan of a generated world (no scene, no textures: milliseconds).
 
     Parameters
     ----------
     name : str or WorldName
         ``FAMILY:SEED`` with a seed >= 1 (seed 0 is the canonical world, built by hand).
+
+    Returns
+    -------
+    Layout
+        The floor plan (cached).
     """
     name = parse_world_name(name)
     if name.canonical:
@@ -52,11 +57,17 @@ def build_family_world(
     Parameters
     ----------
     name : str or WorldName
+        ``FAMILY:SEED`` with a seed >= 1.
     rng : numpy.random.Generator, optional
         Domain randomisation on top of the world (lights, colours, clutter), as for the
         canonical worlds; the layout, looks and furnishing come from the name alone.
-    appearance : {"default", "hard"}
+    appearance : {"default", "hard"}, default "default"
         ``"hard"``: every manifold wears the main manifold's materials and light.
+
+    Returns
+    -------
+    World
+        The world with its ground truth.
     """
     name = parse_world_name(name)
     layout = family_layout(name)

@@ -92,7 +92,7 @@ FAMILY_SPECS = {
 
 
 def _child_turns(kind: str, rng: np.random.Generator, spec: FamilySpec) -> list[float]:
-    """Turns of a junction's children from the arriving heading, radians, right to left."""
+    """Draw the turns of a junction's children from the arriving heading, rad, right to left."""
     j = spec.jitter
     if kind == "bend":
         turns = [rng.choice([-1.0, 1.0]) * rng.uniform(35.0, 180.0 - spec.min_gap)]
@@ -111,8 +111,20 @@ def _child_turns(kind: str, rng: np.random.Generator, spec: FamilySpec) -> list[
 
 
 def branch_names(turns: list[float]) -> list[str]:
-    """Names of a junction's children, right to left: ``right``/``straight``/``left`` by the
-    turn where one child is within 20 degrees of straight on, else by rank.
+    """Name a junction's children, right to left.
+
+    The names are ``right``/``straight``/``left`` by the turn where one child is within 20
+    degrees of straight on, else by rank.
+
+    Parameters
+    ----------
+    turns : list of float
+        The children's turns from the arriving heading, rad, right to left.
+
+    Returns
+    -------
+    list of str
+        One name per child.
     """
     if len(turns) == 3:
         return ["right", "straight", "left"]
@@ -174,11 +186,23 @@ def _draw_tree(rng: np.random.Generator, spec: FamilySpec, world: str) -> Layout
 
 
 def layout_problems(layout: Layout, clearance: float) -> list[str]:
-    """What makes a floor plan unbuildable; empty when it is sound.
+    """List what makes a floor plan unbuildable; empty when it is sound.
 
     Every piece of floor (a stretch's rectangle, a junction's hub) must be a valid polygon
     with area; pieces that meet at a junction must not overlap; any other two must lie at
     least ``clearance`` apart; every stretch must keep some corridor between its two mouths.
+
+    Parameters
+    ----------
+    layout : Layout
+        The floor plan.
+    clearance : float
+        Least distance between two pieces that do not meet, m.
+
+    Returns
+    -------
+    list of str
+        One line per problem.
     """
     from shapely.geometry import Polygon
 
@@ -217,7 +241,21 @@ def _meeting_pieces(layout: Layout) -> set[tuple[str, str]]:
 
 
 def draw_layout(family: str, rng: np.random.Generator, world: str) -> Layout:
-    """A sound floor plan of ``family`` from ``rng``, its main manifold named ``world``.
+    """Draw a sound floor plan of ``family`` from ``rng``, its main manifold named ``world``.
+
+    Parameters
+    ----------
+    family : str
+        One of the families of `FAMILY_SPECS`.
+    rng : numpy.random.Generator
+        The generator of the draw.
+    world : str
+        The world's name, the main manifold's name.
+
+    Returns
+    -------
+    Layout
+        The floor plan.
 
     Raises
     ------

@@ -1,5 +1,7 @@
-"""Building a generated layout into a scene: floors and walls at any angle, things placed
-along a stretch's sides, and the per-look materials. Shared by the indoor and outdoor builders.
+"""Building a generated layout into a scene: floors, walls, placements and materials.
+
+Floors and walls at any angle, things placed along a stretch's sides, and the per-look
+materials. Shared by the indoor and outdoor builders.
 """
 
 from __future__ import annotations
@@ -19,8 +21,25 @@ __all__ = ["add_floors", "add_walls", "along", "look_materials"]
 def along(
     layout: Layout, i: int, s: float, side: float, inset: float
 ) -> tuple[float, float, float]:
-    """A point of stretch ``i``: ``s`` metres along its centre line, on its left (``side`` 1)
-    or right (-1) side ``inset`` metres in from the wall; returns ``(x, y, heading)``.
+    """Return a point of stretch ``i`` and the stretch's heading.
+
+    Parameters
+    ----------
+    layout : Layout
+        The floor plan.
+    i : int
+        Index of the stretch.
+    s : float
+        Distance along its centre line from its start, m.
+    side : float
+        1: its left side, -1: its right side (0: the centre line).
+    inset : float
+        Distance in from the wall, m.
+
+    Returns
+    -------
+    tuple of float
+        ``(x, y, heading)``.
     """
     st = layout.stretches[i]
     u = np.array([np.cos(st.heading), np.sin(st.heading)])
@@ -48,9 +67,28 @@ def look_materials(
     rng: np.random.Generator,
     floor_repeat: float = 1.0,
 ) -> list[tuple[str, str]]:
-    """Wall and floor materials of every stretch, ``[(wall, floor), ...]``: one texture pair
-    per distinct look, its colours jittered by ``rng`` (this world's) and by the appearance
-    draw. In the hard mode every stretch gets the main stretch's pair.
+    """Make the wall and floor materials of every stretch.
+
+    One texture pair per distinct look, its colours jittered by ``rng`` (this world's) and by
+    the appearance draw. In the hard mode every stretch gets the main stretch's pair.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add the textures and materials to.
+    looks : list of Look
+        Each stretch's look.
+    app : Appearance
+        The appearance draw (colour jitter, texture generator, mode).
+    rng : numpy.random.Generator
+        This world's generator of the colour jitter.
+    floor_repeat : float, default 1.0
+        The floor textures' repeats per metre.
+
+    Returns
+    -------
+    list of (str, str)
+        ``[(wall, floor), ...]``: the material names, one pair per stretch.
     """
     made: dict[str, tuple[str, str]] = {}
     # one jitter per look and part, drawn whichever looks are made, so that the hard mode
@@ -81,8 +119,20 @@ def look_materials(
 def add_floors(
     scene: SceneBuilder, layout: Layout, floor_materials: list[str], z: float = 0.0
 ) -> None:
-    """A floor slab under every stretch's rectangle and every junction's hub; a hub wears the
-    floor of the stretch that arrives at it (as the canonical junctions do).
+    """Add a floor slab under every stretch's rectangle and every junction's hub.
+
+    A hub wears the floor of the stretch that arrives at it (as the canonical junctions do).
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add them to.
+    layout : Layout
+        The floor plan.
+    floor_materials : list of str
+        Each stretch's floor material.
+    z : float, default 0.0
+        Height of the floor's top face, m.
     """
     for i in range(len(layout.stretches)):
         s0, s1 = layout.extent(i)
@@ -113,9 +163,25 @@ def add_walls(
     group: int = names.GROUP_SOLID,
     prefix: str = "wall",
 ) -> None:
-    """A box along every wall of ``layout``, just outside the floor, in its stretch's
-    material; walls meet at outer corners and stop short of sharp inner ones
-    (`Wall`).
+    """Add a box along every wall of ``layout``, just outside the floor.
+
+    Each is in its stretch's material; walls meet at outer corners and stop short of sharp
+    inner ones (`Wall`).
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene to add them to.
+    layout : Layout
+        The floor plan.
+    wall_materials : list of str
+        Each stretch's wall material.
+    height, thickness : float
+        The walls' height and thickness, m.
+    group : int, default names.GROUP_SOLID
+        The walls' geom group.
+    prefix : str, default "wall"
+        Start of the walls' names.
     """
     for k, wall in enumerate(layout.walls()):
         centre, half_length, yaw = wall.box(thickness)

@@ -32,7 +32,7 @@ MAX_LIGHTS = 7
 def _box_along(
     scene, name, layout, i, s, side, width, depth, height, material, z0=0.0, collide=True
 ):
-    """A box against a side wall of stretch ``i``: a door, a poster, a shelf, a locker."""
+    """Add a box against a side wall of stretch ``i``: a door, a poster, a shelf, a locker."""
     x, y, heading = along(layout, i, s, side, depth / 2)
     scene.box(
         name,
@@ -157,10 +157,28 @@ def _shared_materials(scene: SceneBuilder, app: Appearance) -> None:
 
 
 def build_indoor(name: str, layout: Layout, app: Appearance, rng: np.random.Generator):
-    """The scene of an indoor world: ``(scene, bounds)`` for [`World`][scenes.world.World].
+    """Build the scene of an indoor world: ``(scene, bounds)`` for [`World`][scenes.world.World].
 
     ``rng`` draws the looks and the furnishing (part of the world, like its layout); ``app``
     the domain randomisation on top (lights, colours, clutter shift).
+
+    Parameters
+    ----------
+    name : str
+        The world's name (the model's name).
+    layout : Layout
+        The floor plan.
+    app : Appearance
+        The appearance draw.
+    rng : numpy.random.Generator
+        This world's generator of the looks and furnishing.
+
+    Returns
+    -------
+    scene : SceneBuilder
+        The scene, without the robot.
+    bounds : tuple of float
+        ``(xmin, xmax, ymin, ymax)`` of the floor plan, m.
     """
     scene = SceneBuilder(name)
     x0, x1, y0, y1 = layout.bounds()
@@ -192,7 +210,15 @@ def build_indoor(name: str, layout: Layout, app: Appearance, rng: np.random.Gene
 
 
 def add_floors_ceiling(scene: SceneBuilder, layout: Layout) -> None:
-    """The ceiling: the floor plan again (the hubs' floor meshes reused), at the walls' top."""
+    """Add the ceiling: the floor plan again (the hubs' floor meshes reused), at the walls' top.
+
+    Parameters
+    ----------
+    scene : SceneBuilder
+        The scene, its hubs' floor meshes already made (`add_floors`).
+    layout : Layout
+        The floor plan.
+    """
     top = WALL_HEIGHT + 0.05
     for i in range(len(layout.stretches)):
         s0, s1 = layout.extent(i)
@@ -213,7 +239,7 @@ def add_floors_ceiling(scene: SceneBuilder, layout: Layout) -> None:
 
 
 def _end_decals(scene: SceneBuilder, layout: Layout) -> None:
-    """A door on every closed end, a window on the main corridor's."""
+    """Add a door on every closed end, a window on the main corridor's."""
     for i in layout.leaves():
         _, s1 = layout.extent(i)
         st = layout.stretches[i]

@@ -68,6 +68,7 @@ class Stretch:
 
     @property
     def end(self) -> np.ndarray:
+        """Where its centre line ends: ``start`` plus ``length`` along ``heading``, m."""
         return np.asarray(self.start) + self.length * _unit(self.heading)
 
 
@@ -75,9 +76,17 @@ class Stretch:
 class Junction:
     """Where a stretch ends and its children start.
 
+    Made by `junction`; the parameters are the attributes below.
+
+    Parameters
+    ----------
+    centre, exits, corners, gaps, mouths
+        As the attributes.
+
     Attributes
     ----------
     centre : ndarray (2,)
+        The junction's centre, m.
     exits : tuple of (stretch index, direction)
         Counter-clockwise; the direction of the stretch that arrives is its heading plus pi.
     corners : ndarray (k, 2)
@@ -95,9 +104,22 @@ class Junction:
     mouths: np.ndarray
 
     def sector(self, i: int, half_width: float) -> np.ndarray:
-        """The part of the hub that belongs to exit ``i``: a robot is on that exit's manifold
-        once it has crossed the centre toward it (the canonical worlds split their junction
-        square by its diagonals for the same reason).
+        """Return the part of the hub that belongs to exit ``i``.
+
+        A robot is on that exit's manifold once it has crossed the centre toward it (the
+        canonical worlds split their junction square by its diagonals for the same reason).
+
+        Parameters
+        ----------
+        i : int
+            Index of the exit in ``exits``.
+        half_width : float
+            Half the corridors' width, m.
+
+        Returns
+        -------
+        ndarray of shape (m, 2)
+            The sector's polygon, m.
         """
         k = len(self.exits)
         direction = self.exits[i][1]
@@ -107,7 +129,18 @@ class Junction:
         return _simplify(np.array(ring + [mouth + half_width * n, self.corners[i]]))
 
     def polygon(self, half_width: float) -> np.ndarray:
-        """The hub: every exit's sector together, counter-clockwise."""
+        """Return the hub: every exit's sector together, counter-clockwise.
+
+        Parameters
+        ----------
+        half_width : float
+            Half the corridors' width, m.
+
+        Returns
+        -------
+        ndarray of shape (m, 2)
+            The hub's polygon, m.
+        """
         points = []
         for i, (_, direction) in enumerate(self.exits):
             u, n = _unit(direction), _left(direction)
@@ -117,9 +150,10 @@ class Junction:
 
 
 def _simplify(ring: np.ndarray) -> np.ndarray:
-    """``ring`` without repeated points and without vertices on a straight line between their
-    neighbours (a bend's centre lies on its sectors' edge): rounding there would make the
-    polygon cross itself by a hair.
+    """Return ``ring`` without repeated points and without vertices on a straight line.
+
+    A vertex on a straight line between its neighbours (a bend's centre lies on its sectors'
+    edge) is dropped: rounding there would make the polygon cross itself by a hair.
     """
     ring = ring[np.linalg.norm(ring - np.roll(ring, 1, axis=0), axis=1) > 1e-7]
     while len(ring) > 3:
@@ -134,7 +168,22 @@ def _simplify(ring: np.ndarray) -> np.ndarray:
 
 
 def junction(centre, exits: list[tuple[int, float]], half_width: float) -> Junction:
-    """The hub geometry of one junction (see the module docstring)."""
+    """Compute the hub geometry of one junction (see the module docstring).
+
+    Parameters
+    ----------
+    centre : array_like of shape (2,)
+        The junction's centre, m.
+    exits : list of (int, float)
+        Each exit's stretch index and direction, rad (in any order).
+    half_width : float
+        Half the corridors' width, m.
+
+    Returns
+    -------
+    Junction
+        The hub, its exits sorted counter-clockwise.
+    """
     exits = sorted(exits, key=lambda e: e[1] % (2 * np.pi))
     k = len(exits)
     c = np.asarray(centre, np.float64)
@@ -160,6 +209,17 @@ class Wall:
     a solid of thickness 1 along it must grow past (outer corner) or stop short of (inner
     corner sharper than a right angle) each end so that walls meet without a gap and without
     poking into a neighbouring corridor; multiply by the thickness.
+
+    Parameters
+    ----------
+    a, b : tuple of float
+        The wall's ends, m, the free space on its left from ``a`` to ``b``.
+    stretch : int
+        Index of the stretch it bounds.
+    kind : {"side", "end"}
+        A stretch's side or its closed end.
+    start_shift, end_shift : float, default 0.0
+        Per metre of thickness: > 0 extends past ``a`` (``b``), < 0 stops short of it.
     """
 
     a: tuple[float, float]
@@ -171,10 +231,26 @@ class Wall:
 
     @property
     def length(self) -> float:
+        """The distance from ``a`` to ``b``, m."""
         return float(np.hypot(self.b[0] - self.a[0], self.b[1] - self.a[1]))
 
     def box(self, thickness: float) -> tuple[np.ndarray, float, float]:
-        """``(centre, half length, yaw)`` of a solid of ``thickness`` just outside the wall."""
+        """Return the box of a solid of ``thickness`` just outside the wall.
+
+        Parameters
+        ----------
+        thickness : float
+            The solid's thickness, m.
+
+        Returns
+        -------
+        centre : ndarray of shape (2,)
+            Its centre, m.
+        half_length : float
+            Half its length, m (with the shifts at both ends).
+        yaw : float
+            Its direction, rad.
+        """
         a, b = np.asarray(self.a), np.asarray(self.b)
         direction = (b - a) / max(self.length, _EPS)
         outward = np.array([direction[1], -direction[0]])  # the free space is on the left
@@ -185,8 +261,10 @@ class Wall:
 
 
 def _corner_shift(gap: float) -> float:
-    """Per metre of wall thickness: extend past an outer corner; stop short of an inner corner
-    sharper than a right angle (its solid wedge is narrower than the wall is thick).
+    """Return the shift of a wall's end at a corner, per metre of wall thickness.
+
+    Extend past an outer corner; stop short of an inner corner sharper than a right angle (its
+    solid wedge is narrower than the wall is thick).
     """
     if gap > np.pi + 1e-6:
         return 1.0
@@ -222,6 +300,7 @@ class Layout:
     # -- tree -------------------------------------------------------------------------------
     @cached_property
     def children(self) -> dict[int, list[int]]:
+        """The indices of each stretch's children, by stretch."""
         out: dict[int, list[int]] = {i: [] for i in range(len(self.stretches))}
         for i, s in enumerate(self.stretches):
             if s.parent is not None:
@@ -229,10 +308,28 @@ class Layout:
         return out
 
     def leaves(self) -> list[int]:
+        """Return the stretches without children: those that end closed.
+
+        Returns
+        -------
+        list of int
+            Their indices.
+        """
         return [i for i, c in self.children.items() if not c]
 
     def path(self, i: int) -> list[int]:
-        """Stretch indices from the main stretch to ``i``."""
+        """Return the stretch indices from the main stretch to ``i``.
+
+        Parameters
+        ----------
+        i : int
+            Index of a stretch.
+
+        Returns
+        -------
+        list of int
+            The indices, the main stretch's (0) first and ``i`` last.
+        """
         out = [i]
         while self.stretches[out[-1]].parent is not None:
             out.append(self.stretches[out[-1]].parent)
@@ -260,7 +357,18 @@ class Layout:
         return next(k for k, (s, _) in enumerate(j.exits) if s == stretch)
 
     def extent(self, i: int) -> tuple[float, float]:
-        """Where stretch ``i``'s rectangle starts and ends along its centre line, metres."""
+        """Return where stretch ``i``'s rectangle starts and ends along its centre line.
+
+        Parameters
+        ----------
+        i : int
+            Index of a stretch.
+
+        Returns
+        -------
+        s0, s1 : float
+            The distances from the stretch's start, m.
+        """
         s = self.stretches[i]
         s0 = 0.0
         if s.parent is not None:
@@ -273,6 +381,18 @@ class Layout:
         return s0, s1
 
     def rectangle(self, i: int) -> np.ndarray:
+        """Return stretch ``i``'s rectangle of floor, between its mouths.
+
+        Parameters
+        ----------
+        i : int
+            Index of a stretch.
+
+        Returns
+        -------
+        ndarray of shape (4, 2)
+            Its corners, counter-clockwise, m.
+        """
         s = self.stretches[i]
         s0, s1 = self.extent(i)
         u, n = _unit(s.heading), _left(s.heading)
@@ -282,13 +402,25 @@ class Layout:
         )
 
     def pieces(self) -> list[tuple[str, np.ndarray]]:
-        """Every convex piece of floor: ``("stretch:i", rectangle)`` and ``("hub:i", polygon)``."""
+        """Return every convex piece of floor.
+
+        Returns
+        -------
+        list of (str, ndarray)
+            ``("stretch:i", rectangle)`` and ``("hub:i", polygon)``.
+        """
         out = [(f"stretch:{i}", self.rectangle(i)) for i in range(len(self.stretches))]
         out += [(f"hub:{i}", j.polygon(self.half_width)) for i, j in self.junctions.items()]
         return out
 
     def regions(self) -> list[Region]:
-        """Each stretch's manifold: its rectangle and its sector of each hub it meets."""
+        """Return each stretch's manifold: its rectangle and its sector of each hub it meets.
+
+        Returns
+        -------
+        list of Region
+            The regions, named after the stretches.
+        """
         out = []
         for i, s in enumerate(self.stretches):
             out.append(Region(s.name, self.rectangle(i)))
@@ -298,7 +430,13 @@ class Layout:
         return out
 
     def walls(self) -> list[Wall]:
-        """Both sides of every stretch, from corner to corner, and the closed ends."""
+        """Return both sides of every stretch, from corner to corner, and the closed ends.
+
+        Returns
+        -------
+        list of Wall
+            The walls (of length > 0).
+        """
         out = []
         h = self.half_width
         for i, s in enumerate(self.stretches):
@@ -333,14 +471,33 @@ class Layout:
         return [w for w in out if w.length > 1e-6]
 
     def bounds(self, margin: float = 0.0) -> tuple[float, float, float, float]:
+        """Return the bounding box of the floor plan.
+
+        Parameters
+        ----------
+        margin : float, default 0.0
+            Added on every side, m.
+
+        Returns
+        -------
+        tuple of float
+            ``(xmin, xmax, ymin, ymax)``, m.
+        """
         pts = np.concatenate([p for _, p in self.pieces()])
         lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
         return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
     # -- routes -----------------------------------------------------------------------------
     def routes(self) -> dict[str, Route]:
-        """One teleop route per leaf: from the main stretch's start through each junction's
-        centre to the leaf's closed end, named after the leaf's manifold.
+        """Return one teleop route per leaf.
+
+        Each runs from the main stretch's start through each junction's centre to the leaf's
+        closed end, named after the leaf's manifold.
+
+        Returns
+        -------
+        dict of str to Route
+            The routes, by the leaves' manifold names.
         """
         out = {}
         for leaf in self.leaves():

@@ -28,6 +28,13 @@ ACCEPTED = (
 class WorldName:
     """A parsed world name.
 
+    Parameters
+    ----------
+    family : str
+        One of `FAMILIES`.
+    seed : int
+        In ``[0, MAX_SEED]``; 0 is the canonical world.
+
     Attributes
     ----------
     family : str
@@ -53,6 +60,7 @@ class WorldName:
         return self.seed == 0
 
     def __str__(self) -> str:
+        """Return the name's spelling: ``FAMILY:SEED``, or ``FAMILY`` for seed 0."""
         return self.family if self.canonical else f"{self.family}:{self.seed}"
 
     @property
@@ -62,7 +70,23 @@ class WorldName:
 
 
 def parse_world_name(name) -> WorldName:
-    """The `WorldName` of ``name``; ValueError naming the accepted forms otherwise."""
+    """Parse a world name into its `WorldName`.
+
+    Parameters
+    ----------
+    name : str or WorldName
+        ``"hallway"``, ``"lawn"`` or ``FAMILY:SEED`` (a `WorldName` is returned as is).
+
+    Returns
+    -------
+    WorldName
+        The family and seed.
+
+    Raises
+    ------
+    ValueError
+        Naming the accepted forms, when ``name`` is none of them.
+    """
     if isinstance(name, WorldName):
         return name
     match = _SPELLING.match(name) if isinstance(name, str) else None
@@ -77,8 +101,24 @@ def parse_world_name(name) -> WorldName:
 
 
 def check_world_name(name, argument: str = "world") -> str:
-    """The normalised spelling of a world name (``"hallway:0"`` -> ``"hallway"``); a
-    ValueError that names ``argument`` and the accepted forms otherwise.
+    """Return the normalised spelling of a world name (``"hallway:0"`` -> ``"hallway"``).
+
+    Parameters
+    ----------
+    name : str or WorldName
+        The world name.
+    argument : str, default "world"
+        What the error message calls ``name``.
+
+    Returns
+    -------
+    str
+        The normalised spelling.
+
+    Raises
+    ------
+    ValueError
+        Naming ``argument`` and the accepted forms, when ``name`` is no world name.
     """
     try:
         return str(parse_world_name(name))

@@ -1,5 +1,7 @@
-"""The outdoor family (``lawn:SEED``): lawns, driveways, paths and sidewalks joined at bends,
-T, Y and X junctions, between fences and low stone walls, under the sun.
+"""The outdoor family (``lawn:SEED``): lawns, driveways, paths and sidewalks at junctions.
+
+The areas are joined at bends, T, Y and X junctions, between fences and low stone walls, under
+the sun.
 
 Each area wears a look of `OUTDOOR_LOOKS` (its ground and its
 boundary) and its furnishing: a garden (trees and bushes), a street (a parked car, a mailbox)
@@ -44,8 +46,10 @@ def _materials(scene: SceneBuilder, app: Appearance) -> None:
 
 
 class _TreePool:
-    """A few tree shapes made once per world and planted many times: a lumpy crown costs
-    ~15 ms to make, and a world plants up to ~40 trees. Collision is the trunk's cylinder.
+    """A few tree shapes made once per world and planted many times.
+
+    A lumpy crown costs ~15 ms to make, and a world plants up to ~40 trees. Collision is the
+    trunk's cylinder.
     """
 
     def __init__(self, scene: SceneBuilder, rng: np.random.Generator, shapes: int = 4):
@@ -115,7 +119,7 @@ def _furnish(
 
 
 def _building(scene: SceneBuilder, layout: Layout, i: int, rng: np.random.Generator) -> None:
-    """A house, garage or shed behind the closed end of stretch ``i``."""
+    """Add a house, garage or shed behind the closed end of stretch ``i``."""
     _, s1 = layout.extent(i)
     depth = float(rng.uniform(2.5, 4.5))
     width = min(2 * layout.half_width + 1.0, float(rng.uniform(5.0, 9.0)))
@@ -134,10 +138,28 @@ def _building(scene: SceneBuilder, layout: Layout, i: int, rng: np.random.Genera
 
 
 def build_outdoor(name: str, layout: Layout, app: Appearance, rng: np.random.Generator):
-    """The scene of an outdoor world: ``(scene, bounds)`` for [`World`][scenes.world.World].
+    """Build the scene of an outdoor world: ``(scene, bounds)`` for [`World`][scenes.world.World].
 
     ``rng`` draws the looks, furnishing and buildings (part of the world, like its layout);
     ``app`` the domain randomisation on top (sun, colours, clutter shift).
+
+    Parameters
+    ----------
+    name : str
+        The world's name (the model's name).
+    layout : Layout
+        The floor plan.
+    app : Appearance
+        The appearance draw.
+    rng : numpy.random.Generator
+        This world's generator of the looks, furnishing and buildings.
+
+    Returns
+    -------
+    scene : SceneBuilder
+        The scene, without the robot.
+    bounds : tuple of float
+        ``(xmin, xmax, ymin, ymax)`` of the floor plan, m.
     """
     scene = SceneBuilder(name)
     x0, x1, y0, y1 = layout.bounds()

@@ -25,6 +25,7 @@ class Look:
     Parameters
     ----------
     name : str
+        The look's name.
     wall : (str, tuple)
         A texture of `scenes.textures` and its colours (walls, or fences outdoors).
     floor : (str, tuple)
@@ -151,8 +152,24 @@ OUTDOOR_LOOKS = (
 
 
 def draw_looks(layout: Layout, palette: tuple[Look, ...], rng: np.random.Generator) -> list[Look]:
-    """One look per stretch of ``layout``: the main stretch's drawn first; each other differs
-    from its parent's and siblings' where the palette allows.
+    """Draw one look per stretch of ``layout``.
+
+    The main stretch's is drawn first; each other differs from its parent's and siblings'
+    where the palette allows.
+
+    Parameters
+    ----------
+    layout : Layout
+        The floor plan.
+    palette : tuple of Look
+        The looks to draw from.
+    rng : numpy.random.Generator
+        The generator of the draw.
+
+    Returns
+    -------
+    list of Look
+        One look per stretch, in the order of ``layout.stretches``.
     """
     first = int(rng.integers(len(palette)))
     looks = [first]

@@ -152,7 +152,17 @@ REPEATED_TEST_SEEDS = {
 
 
 def split_of(name) -> str | None:
-    """The split of a world (``"train"``, ``"dev"``, ``"test"``), None past the ranges.
+    """Return the split of a world (``"train"``, ``"dev"``, ``"test"``), None past the ranges.
+
+    Parameters
+    ----------
+    name : str or WorldName
+        The world's name.
+
+    Returns
+    -------
+    str or None
+        The split its seed lies in.
 
     Examples
     --------
@@ -167,9 +177,23 @@ def split_of(name) -> str | None:
 
 
 def split_worlds(family: str, split: str, count: int | None = None) -> list[str]:
-    """The names of ``split``'s worlds of ``family``, in seed order (the first ``count``).
+    """Return the names of ``split``'s worlds of ``family``, in seed order.
 
     The canonical world (seed 0) is not listed: it is built by hand, not drawn.
+
+    Parameters
+    ----------
+    family : str
+        One of `FAMILIES`.
+    split : str
+        One of `SPLITS` (``"train"``, ``"dev"``, ``"test"``).
+    count : int or None, default None
+        List the first ``count`` only; None: all of them.
+
+    Returns
+    -------
+    list of str
+        ``FAMILY:SEED`` names.
     """
     if family not in FAMILIES:
         raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
@@ -184,9 +208,21 @@ def split_worlds(family: str, split: str, count: int | None = None) -> list[str]
 
 
 def structure(layout: Layout) -> tuple:
-    """A floor plan quantised to what tells two worlds apart: per stretch its branch, its
-    turn from its parent (15 degree steps) and its length (2 m steps), and the width (0.4 m
-    steps). Equal structures are one world for the methods; different ones are not.
+    """Quantise a floor plan to what tells two worlds apart.
+
+    That is, per stretch, its branch, its turn from its parent (15 degree steps) and its length
+    (2 m steps), and the width (0.4 m steps). Equal structures are one world for the methods;
+    different ones are not.
+
+    Parameters
+    ----------
+    layout : Layout
+        The floor plan.
+
+    Returns
+    -------
+    tuple
+        The quantised width, then ``(branch, turn, length)`` per stretch.
     """
     out = [round(2 * layout.half_width / WIDTH_STEP)]
     for s in layout.stretches:
@@ -197,9 +233,29 @@ def structure(layout: Layout) -> tuple:
 
 
 def held_out_worlds(family: str, count: int, train_structures: set | None = None) -> list[str]:
-    """The first ``count`` test worlds of ``family`` whose structure is not a training
-    world's: those listed in `REPEATED_TEST_SEEDS` are skipped, or, given
-    ``train_structures`` (a set of `structure`), those whose structure is in it.
+    """Return the first ``count`` test worlds of ``family`` whose structure is no training world's.
+
+    Those listed in `REPEATED_TEST_SEEDS` are skipped, or, given ``train_structures``, those
+    whose structure is in it.
+
+    Parameters
+    ----------
+    family : str
+        One of `FAMILIES`.
+    count : int
+        Number of worlds.
+    train_structures : set or None, default None
+        A set of `structure`; None: skip `REPEATED_TEST_SEEDS` instead.
+
+    Returns
+    -------
+    list of str
+        ``FAMILY:SEED`` names, in seed order.
+
+    Raises
+    ------
+    ValueError
+        When the test split has fewer than ``count`` such worlds.
     """
     from scenes.families.build import family_layout
 

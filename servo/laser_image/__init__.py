@@ -1,7 +1,8 @@
-"""The laser + image controller, [`ManifoldServo`][servo.laser_image.controller.ManifoldServo]
-(``controller``), its settings,
-[`ManifoldServoConfig`][servo.laser_image.config.ManifoldServoConfig] (``config``), and what only
-it uses: localisation by the laser against the map's metric map
+"""The laser + image controller, its settings, and what only it uses.
+
+The controller is [`ManifoldServo`][servo.laser_image.controller.ManifoldServo] (``controller``),
+its settings [`ManifoldServoConfig`][servo.laser_image.config.ManifoldServoConfig] (``config``);
+only it uses localisation by the laser against the map's metric map
 (``laser_localise``, ``metric_map``) and the scan match of the current view against a stored one
 (``view_match``).
 """

@@ -1,6 +1,7 @@
-"""``ManifoldServoConfig``: every setting of
-[`ManifoldServo`][servo.laser_image.controller.ManifoldServo], in one frozen dataclass validated
-on construction.
+"""``ManifoldServoConfig``: every setting of the laser + image controller.
+
+The settings of [`ManifoldServo`][servo.laser_image.controller.ManifoldServo], in one frozen
+dataclass validated on construction.
 """
 
 from __future__ import annotations
@@ -16,11 +17,11 @@ __all__ = ["ManifoldServoConfig"]
 
 @dataclass(frozen=True)
 class ManifoldServoConfig:
-    """Every setting of [`ManifoldServo`][servo.laser_image.controller.ManifoldServo], checked when
-    made.
+    """Every setting of [`ManifoldServo`][servo.laser_image.controller.ManifoldServo].
 
-    A frozen dataclass: change a setting with `dataclasses.replace`. The defaults are the
-    settings the servo evaluation measures, chosen on the benchmark's ``dev`` split only.
+    Checked when made. A frozen dataclass: change a setting with `dataclasses.replace`. The
+    defaults are the settings the servo evaluation measures, chosen on the benchmark's ``dev``
+    split only.
 
     Parameters
     ----------
@@ -101,6 +102,7 @@ class ManifoldServoConfig:
     backup_steps: int = 6
 
     def __post_init__(self):
+        """Check every setting's range; raise ``ValueError`` naming the first one out of it."""
         if not 0 < self.speed <= 1.5:
             raise ValueError(f"speed must be in (0, 1.5] m/s, got {self.speed}")
         if not 0 < self.turn_rate <= 1.5:

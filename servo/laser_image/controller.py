@@ -51,8 +51,7 @@ SCAN_POINTS = 90  # current-scan points used by tracking ICP (every k-th return)
 
 
 class ManifoldServo:
-    """Servo to a stored view of a [`ServoMap`][servo.maps.types.ServoMap] with the laser and the
-    camera.
+    """Servo to a stored view of a [`ServoMap`][servo.maps.types.ServoMap] with laser and camera.
 
     An episode runs in phases (see the module's description): observe (turn once round on the
     spot), localise globally (the all-round scan on the map's point map, look-alikes told apart
@@ -151,8 +150,19 @@ class ManifoldServo:
 
     # -- API --------------------------------------------------------------------------------
     def reset(self, target: int, info: dict | None = None) -> None:
-        """Start a new episode toward stored view ``target`` (``info`` is ignored: the
-        controller never reads the simulator's truth).
+        """Start a new episode toward stored view ``target``.
+
+        Parameters
+        ----------
+        target : int
+            Index of the target's stored view in the map.
+        info : dict or None, default None
+            Ignored: the controller never reads the simulator's truth.
+
+        Raises
+        ------
+        MapError
+            When ``target`` is no stored view of the map.
         """
         self.target = self.map.check_view(target, "target")
         if self.target not in self._fields:
@@ -173,7 +183,28 @@ class ManifoldServo:
         self._observe()
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
-        """The command (v, omega) for this observation (``info`` is ignored)."""
+        """Return the command for this observation.
+
+        Parameters
+        ----------
+        observation : dict
+            The env's observation: ``"image"``, ``"scan"`` (ranges, m; +inf: no return),
+            ``"odometry"`` (x, y, yaw from the episode's start) and optionally ``"scan_valid"``.
+        info : dict or None, default None
+            Ignored: the controller never reads the simulator's truth.
+
+        Returns
+        -------
+        ndarray of shape (2,), float32
+            The command (v, omega): forward speed, m/s, and turn rate, rad/s.
+
+        Raises
+        ------
+        RuntimeError
+            When called before [`reset`][servo.laser_image.controller.ManifoldServo.reset].
+        ValueError
+            When the observation is malformed.
+        """
         if self.target is None:
             raise RuntimeError("call reset(target) before act(observation)")
         image, scan, odo = self._check(observation)
@@ -225,7 +256,7 @@ class ManifoldServo:
         return False
 
     def _plan(self) -> None:
-        """The stored views along the path from here and the clusters they cross."""
+        """Plan the stored views along the path from here and the clusters they cross."""
         path = self._field.path(self.pose_[:2])
         d, near = self._view_tree.query(path)
         views = near[d < 1.0]

@@ -1,5 +1,4 @@
-"""Where the robot is on a `MetricMap`, from laser scans and
-images.
+"""Where the robot is on a `MetricMap`, from laser scans and images.
 
 `GlobalLocaliser` answers from nothing: the scans of a turn on the spot, joined by the
 odometry into one all-round scan, are scored against the point map at every free place and
@@ -31,10 +30,18 @@ __all__ = ["Fix", "GlobalLocaliser", "ScanTracker"]
 
 @dataclass(frozen=True)
 class Fix:
-    """A global fix: ``pose`` (map frame), the share of the scan within ``FIT_TOL`` of the
-    map (``fit``), the mean aligned image distance to the nearby views (``image``, 0..4; NaN
-    with no view near) and the runner-up's combined score (``margin``: how much better this
-    one is).
+    """A global fix: a pose on the map and how well the scan and the images support it.
+
+    Parameters
+    ----------
+    pose : ndarray of shape (3,)
+        The pose in the map frame.
+    fit : float
+        The share of the scan within ``FIT_TOL`` of the map.
+    image : float
+        The mean aligned image distance to the nearby views (0..4; NaN with no view near).
+    margin : float
+        The combined score's lead over the runner-up's: how much better this one is.
     """
 
     pose: np.ndarray
@@ -64,9 +71,21 @@ VIEW_HEADING = np.deg2rad(40.0)  # ... when they look within this of the image's
 
 
 def candidate_positions(metric_map: MetricMap) -> np.ndarray:
-    """(k, 2) places the robot may be at, on a ``COARSE_STEP`` lattice: the map's sensed free
-    space and up to ``BEYOND_SEEN`` beyond it (a start may lie where no recorded beam went,
-    e.g. behind where a recording began, facing away from it), clear of map points.
+    """Return the places the robot may be at, on a ``COARSE_STEP`` lattice.
+
+    They are the map's sensed free space and up to ``BEYOND_SEEN`` beyond it (a start may lie
+    where no recorded beam went, e.g. behind where a recording began, facing away from it),
+    clear of map points.
+
+    Parameters
+    ----------
+    metric_map : MetricMap
+        The map.
+
+    Returns
+    -------
+    ndarray of shape (k, 2)
+        The places in the map frame, m.
     """
     grid = metric_map.grid
     beyond = ndimage.distance_transform_edt(~grid.free) * grid.resolution <= BEYOND_SEEN
@@ -79,11 +98,21 @@ def candidate_positions(metric_map: MetricMap) -> np.ndarray:
 
 
 class CoarseField:
-    """The map's distance field as a padded 0/1 mask (within ``COARSE_TOL`` of a map point),
-    for scoring every candidate position under many headings by lookups alone: a rotated scan
+    """The map's distance field as a padded 0/1 mask (within ``COARSE_TOL`` of a map point).
+
+    It scores every candidate position under many headings by lookups alone: a rotated scan
     point's offset is rounded to whole cells, so a candidate's score is a sum over the mask
     at its own cell plus those offsets (within half a cell, 2.5 cm, of the exact lookup).
     Points farther than ``reach`` (m) from the robot count as misses.
+
+    Parameters
+    ----------
+    metric_map : MetricMap
+        The map.
+    positions : ndarray of shape (k, 2)
+        The candidate positions in the map frame, m.
+    reach : float
+        Largest distance of a scored point from the robot, m.
     """
 
     def __init__(self, metric_map: MetricMap, positions: np.ndarray, reach: float):
@@ -100,7 +129,20 @@ class CoarseField:
         self._base = base.astype(index)
 
     def scores(self, points: np.ndarray, yaws: np.ndarray) -> np.ndarray:
-        """(len(yaws), positions): share of ``points`` (robot frame) near the map."""
+        """Return the share of ``points`` near the map, per heading and candidate position.
+
+        Parameters
+        ----------
+        points : ndarray of shape (M, 2)
+            Scan points in the robot frame, m.
+        yaws : ndarray of shape (Y,)
+            Headings tried, rad.
+
+        Returns
+        -------
+        ndarray of shape (Y, k), float32
+            The share of ``points`` within ``COARSE_TOL`` of a map point.
+        """
         inside = points[np.hypot(points[:, 0], points[:, 1]) < self.reach]
         out = np.empty((len(yaws), len(self._base)), np.float32)
         for k, yaw in enumerate(yaws):
@@ -114,7 +156,14 @@ class CoarseField:
 class GlobalLocaliser:
     """Global localisation on ``metric_map`` (see the module docstring).
 
-    ``image_weight``: combined score = fit - ``image_weight`` x mean aligned image distance.
+    Parameters
+    ----------
+    metric_map : MetricMap
+        The map.
+    images : ImageLocaliser
+        Compares images with the map's stored views.
+    image_weight : float, default 0.3
+        Combined score = fit - ``image_weight`` x mean aligned image distance.
     """
 
     def __init__(self, metric_map: MetricMap, images: ImageLocaliser, image_weight: float = 0.3):
@@ -125,7 +174,18 @@ class GlobalLocaliser:
         self._coarse = CoarseField(metric_map, self.positions, metric_map.map.max_range + 1.0)
 
     def candidates(self, cloud: np.ndarray) -> np.ndarray:
-        """(k, 3) distinct poses whose coarse fit of ``cloud`` (robot frame) is best."""
+        """Return the distinct poses whose coarse fit of ``cloud`` is best.
+
+        Parameters
+        ----------
+        cloud : ndarray of shape (M, 2)
+            The all-round scan in the robot frame, m.
+
+        Returns
+        -------
+        ndarray of shape (k, 3)
+            Up to ``N_REFINE`` poses in the map frame, best first.
+        """
         pts = cloud[:: max(1, len(cloud) // COARSE_POINTS)]
         yaws = np.linspace(-np.pi, np.pi, COARSE_YAWS, endpoint=False)
         scores = self._coarse.scores(pts, yaws)
@@ -145,11 +205,24 @@ class GlobalLocaliser:
         return np.array(chosen)
 
     def image_distances(self, poses: np.ndarray, views: list) -> np.ndarray:
-        """For each of ``poses`` (k, 3): the mean over the turn's images (features, heading
-        offset from the pose) of the aligned distance to the best stored view near the pose
-        (``VIEW_RADIUS``, or ``FAR_VIEW_RADIUS`` when none is that near) looking the image's
-        way (NaN: none). Each image is aligned once, against the stored
-        views any of the poses needs.
+        """Return, per pose, the mean aligned distance of the turn's images to the stored views.
+
+        For each of ``poses``: the mean over the turn's images of the aligned distance to the
+        best stored view near the pose (``VIEW_RADIUS``, or ``FAR_VIEW_RADIUS`` when none is that
+        near) looking the image's way. Each image is aligned once, against the stored views any
+        of the poses needs.
+
+        Parameters
+        ----------
+        poses : ndarray of shape (k, 3)
+            Candidate poses in the map frame.
+        views : list of (ndarray, float)
+            The turn's images: features, and heading offset from the pose, rad.
+
+        Returns
+        -------
+        ndarray of shape (k,)
+            The mean distance per pose (NaN: no stored view near looks any image's way).
         """
         poses = np.atleast_2d(poses)
         stored = self.metric.poses
@@ -174,10 +247,23 @@ class GlobalLocaliser:
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
     def localise(self, cloud: np.ndarray, views: list[tuple[np.ndarray, float]]) -> Fix:
-        """The best pose for an all-round ``cloud`` (robot frame, now) and the turn's images
-        ``views`` (features, heading of the image relative to the robot now). The cloud is
-        thinned to one point per ``REFINE_SPACING`` cell before ICP (a turn's ~45 scans
-        overlap: the thinned cloud holds the same walls in a fifth of the points).
+        """Return the best pose for an all-round scan and the turn's images.
+
+        The cloud is thinned to one point per ``REFINE_SPACING`` cell before ICP (a turn's ~45
+        scans overlap: the thinned cloud holds the same walls in a fifth of the points).
+
+        Parameters
+        ----------
+        cloud : ndarray of shape (M, 2)
+            The all-round scan in the robot frame now, m.
+        views : list of (ndarray, float)
+            The turn's images: features, and heading of the image relative to the robot now,
+            rad.
+
+        Returns
+        -------
+        Fix
+            The best pose and its scores.
         """
         thin = thin_to_grid(cloud, REFINE_SPACING)
         with single_threaded_blas():  # small products; spinning BLAS threads only cost
@@ -221,16 +307,40 @@ class GlobalLocaliser:
 
 
 class ScanTracker:
-    """ICP of the current scan on the point map from a predicted pose (see the module doc)."""
+    """ICP of the current scan on the point map from a predicted pose (see the module doc).
+
+    Parameters
+    ----------
+    metric_map : MetricMap
+        The map.
+    max_jump : float, default 0.3
+        Largest accepted correction of the position, m.
+    max_turn : float, default 0.2
+        Largest accepted correction of the heading, rad.
+    """
 
     def __init__(self, metric_map: MetricMap, max_jump: float = 0.3, max_turn: float = 0.2):
         self.metric = metric_map
         self.max_jump, self.max_turn = float(max_jump), float(max_turn)
 
     def correct(self, points: np.ndarray, predicted: np.ndarray) -> tuple[np.ndarray, float, bool]:
-        """(pose, fit, accepted): the corrected pose (or ``predicted`` when the match is not
-        trusted), the share of the scan within ``FIT_TOL`` of the map at that pose, and
-        whether the correction was accepted.
+        """Correct a predicted pose by ICP of the scan on the point map.
+
+        Parameters
+        ----------
+        points : ndarray of shape (M, 2)
+            The current scan's points in the robot frame, m.
+        predicted : ndarray of shape (3,)
+            The predicted pose in the map frame.
+
+        Returns
+        -------
+        pose : ndarray of shape (3,)
+            The corrected pose (or ``predicted`` when the match is not trusted).
+        fit : float
+            The share of the scan within ``FIT_TOL`` of the map at that pose.
+        accepted : bool
+            Whether the correction was accepted.
         """
         res = icp(
             points,

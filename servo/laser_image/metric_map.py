@@ -38,9 +38,21 @@ LINK_SIGMAS = (0.03, 0.03, 0.01)  # a link between recordings (ICP of two views'
 
 
 def align_views(servo_map: ServoMap) -> np.ndarray:
-    """(n, 3): every stored view's pose in the frame of view 0, by least squares over the view
-    graph's edges (a 2-D pose graph, Levenberg-Marquardt). Views of recordings the graph does
-    not join to view 0 keep their own recording's odometry, anchored at its first view.
+    """Return every stored view's pose in the frame of view 0.
+
+    The poses are the least squares solution over the view graph's edges (a 2-D pose graph,
+    Levenberg-Marquardt). Views of recordings the graph does not join to view 0 keep their own
+    recording's odometry, anchored at its first view.
+
+    Parameters
+    ----------
+    servo_map : ServoMap
+        The map whose views are placed.
+
+    Returns
+    -------
+    ndarray of shape (n, 3)
+        The views' poses (x, y, yaw) in view 0's frame.
     """
     m = servo_map
     graph = gtsam.NonlinearFactorGraph()
@@ -70,9 +82,10 @@ def align_views(servo_map: ServoMap) -> np.ndarray:
 
 
 def _chain_recordings(m: ServoMap) -> tuple[np.ndarray, set]:
-    """Each recording's odometry poses moved into view 0's frame through the first link that
-    reaches it (breadth first over recordings), and the recordings reached; the others keep
-    their own frame.
+    """Return each recording's odometry poses moved into view 0's frame, and those reached.
+
+    A recording is moved through the first link that reaches it (breadth first over
+    recordings); the others keep their own frame.
     """
     out = np.asarray(m.poses, np.float64).copy()
     reached, queue = {int(m.sequence[0])}, [int(m.sequence[0])]
@@ -92,8 +105,19 @@ def _chain_recordings(m: ServoMap) -> tuple[np.ndarray, set]:
 
 
 class MetricMap:
-    """A servo map's views placed in one frame, their scans as a point map, and free space
-    (see the module docstring). ``poses`` (n, 3): the views' poses in the map frame.
+    """A servo map's views placed in one frame, their scans as a point map, and free space.
+
+    See the module docstring.
+
+    Parameters
+    ----------
+    servo_map : ServoMap
+        The map whose views are placed.
+
+    Attributes
+    ----------
+    poses : ndarray of shape (n, 3)
+        The views' poses in the map frame.
     """
 
     def __init__(self, servo_map: ServoMap):
@@ -126,7 +150,18 @@ class MetricMap:
         return ij[..., 1], ij[..., 0]
 
     def distance(self, xy: np.ndarray) -> np.ndarray:
-        """Distance (m) from each point (..., 2) to the nearest map point (off the field: 10)."""
+        """Return the distance from each point to the nearest map point.
+
+        Parameters
+        ----------
+        xy : ndarray of shape (..., 2)
+            Points in the map frame, m.
+
+        Returns
+        -------
+        ndarray of shape (...), float32
+            Distance to the nearest map point, m (off the field: 10).
+        """
         i, j = self._field_cells(np.asarray(xy, np.float64))
         h, w = self.field.shape
         inside = (i >= 0) & (i < h) & (j >= 0) & (j < w)
@@ -135,8 +170,10 @@ class MetricMap:
         return out
 
     def _free_space(self, scans: list) -> OccupancyGrid:
-        """Cells crossed by the views' beams (up to ``FREE_RANGE``), kept ``RADIUS +
-        PLAN_MARGIN`` away from every map point: where the robot may plan to drive.
+        """Return the free space: where the robot may plan to drive.
+
+        That is the cells crossed by the views' beams (up to ``FREE_RANGE``), kept
+        ``RADIUS + PLAN_MARGIN`` away from every map point.
         """
         m = self.map
         h = int(np.ceil((self.field.shape[0] * FIELD_RESOLUTION) / FREE_RESOLUTION))
@@ -165,8 +202,23 @@ class MetricMap:
         return OccupancyGrid(free, (float(self.origin[0]), float(self.origin[1])), FREE_RESOLUTION)
 
     def fit(self, points: np.ndarray, poses: np.ndarray, tol: float) -> np.ndarray:
-        """Share of ``points`` (robot frame) within ``tol`` of the map, for each of ``poses``
-        (P, 3): the score of candidate poses in global localisation.
+        """Return the share of ``points`` within ``tol`` of the map, for each of ``poses``.
+
+        This is the score of candidate poses in global localisation.
+
+        Parameters
+        ----------
+        points : ndarray of shape (M, 2)
+            Scan points in the robot frame, m.
+        poses : ndarray of shape (P, 3) or (3,)
+            Candidate poses in the map frame.
+        tol : float
+            Largest distance of a point from the map that counts as fitting, m.
+
+        Returns
+        -------
+        ndarray of shape (P,)
+            The share of points that fit, per pose.
         """
         poses = np.atleast_2d(poses)
         c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])

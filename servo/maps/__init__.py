@@ -1,4 +1,6 @@
-"""The map a robot servoes on: its recordings' views, clustered into manifolds by
+"""The map a robot servoes on: its recordings' views, clustered and linked.
+
+The views are clustered into manifolds by
 [`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering] and linked across recordings
 by ICP of their scans (``build``), its types (``types``), its file (``file``: untrusted on load,
 written atomically), the laser-profile distances between a scan and the stored views

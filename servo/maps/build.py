@@ -74,9 +74,10 @@ MIN_LINKS = 3  # agreeing links needed to join two sequences
 
 
 def _key_sources() -> list[tuple[str, Path]]:
-    """``(name, path)`` of every source file whose code decides a map's content or file: the
-    whole ``mapping`` package, this package and the dataset reader, each named by its path
-    below the repository's root.
+    """Return ``(name, path)`` of every source file whose code decides a map's content or file.
+
+    These are the whole ``mapping`` package, this package and the dataset reader, each named by
+    its path below the repository's root.
     """
     maps_dir = Path(__file__).resolve().parent
     mapping_dir = Path(mapping.__file__).resolve().parent
@@ -105,11 +106,31 @@ def _world_sequences(dataset: Dataset, world: str) -> list[str]:
 
 
 def map_key(meta: dict, world: str, settings: MapSettings) -> str:
-    """Hash of what the map depends on: the world's sequence checksums, the settings (the
-    clustering's K among them,
+    """Return the hash of what the map depends on.
+
+    That is the world's sequence checksums, the settings (the clustering's K among them,
     [`MapSettings.clusters_for`][servo.maps.types.MapSettings.clusters_for]), the source of every
     module that builds or stores a map (the whole ``mapping`` package, the servo map modules, the
     dataset reader) and the numeric libraries' versions.
+
+    Parameters
+    ----------
+    meta : dict
+        The dataset's ``meta.json`` content (its ``"sequences"`` with their world and sha256).
+    world : str
+        The world's name (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``).
+    settings : MapSettings
+        The settings the map is built with.
+
+    Returns
+    -------
+    str
+        The first 16 hex digits of the SHA-256.
+
+    Raises
+    ------
+    MapError
+        When the dataset has no sequence of ``world``.
     """
     h = hashlib.sha256()
     world = check_world_name(world)
@@ -128,7 +149,7 @@ def map_key(meta: dict, world: str, settings: MapSettings) -> str:
 
 
 def _verified(res, n_points: int, s: MapSettings) -> bool:
-    """An ICP of two views' scans that says they see the same place."""
+    """Check that an ICP of two views' scans says they see the same place."""
     return bool(res.converged and res.rmse < s.link_rmse and res.n_matches >= 0.7 * n_points)
 
 
@@ -143,9 +164,11 @@ def _sequence_alignment(
     beam_step: float,
     s: MapSettings,
 ) -> np.ndarray | None:
-    """The rigid transform from sequence b's odometry frame to sequence a's, from what the
-    robot sensed only (each recording's odometry has its own origin): every view of a is
-    paired with the ``LINK_CANDIDATES`` views of b nearest in image features, each pair
+    """Return the rigid transform from sequence b's odometry frame to sequence a's.
+
+    It comes from what the robot sensed only (each recording's odometry has its own origin):
+    every view of a is paired with the ``LINK_CANDIDATES`` views of b nearest in image features,
+    each pair
     verified by ICP of the scans (seeded with the heading of the best laser-profile shift).
     A verified pair implies a transform between the two frames; the answer is the mean of
     those agreeing with the one most others agree with (within ``CONSENSUS``), so a look-alike
@@ -194,8 +217,10 @@ def _overlap_search(
     yaw_step: float = 0.02,
     tol: float = 0.05,
 ) -> np.ndarray:
-    """The pose (within ``reach`` m / ``yaw_reach`` rad of ``init``, on a grid) that puts
-    the most of ``cloud_b`` within ``tol`` of ``cloud_a`` (a distance-transform lookup).
+    """Return the pose that puts the most of ``cloud_b`` within ``tol`` of ``cloud_a``.
+
+    The pose is searched within ``reach`` m / ``yaw_reach`` rad of ``init``, on a grid (a
+    distance-transform lookup).
     """
     res = tol / 2
     lo = cloud_a.min(axis=0) - 1.0
@@ -224,7 +249,7 @@ def _overlap_search(
 
 
 def _sequence_cloud(poses: np.ndarray, scans: list, spacing: float = 0.05) -> np.ndarray:
-    """One recording's scans placed by its odometry and thinned to a ``spacing`` grid."""
+    """Return one recording's scans placed by its odometry and thinned to a ``spacing`` grid."""
     pts = np.concatenate([transform_points(p, q) for p, q in zip(poses, scans, strict=True)])
     return thin_to_grid(pts, spacing)
 
@@ -239,8 +264,10 @@ def _link_sequences(
     beam_step: float,
     s: MapSettings,
 ) -> tuple[list, list]:
-    """Edges between views of different sequences that see the same place. The sequences are
-    first aligned by sensing (`_sequence_alignment`); then each view is linked to the
+    """Return the edges between views of different sequences that see the same place.
+
+    The sequences are first aligned by sensing (`_sequence_alignment`); then each view is
+    linked to the
     view of the other sequence nearest in image features among those within ``link_radius``
     under that alignment, kept when ICP of the two scans (seeded by the alignment, so it
     cannot slide along a uniform corridor) converges with a small residual.
@@ -269,8 +296,20 @@ def _link_sequences(
 
 
 def sequence_origin(odometry: np.ndarray) -> np.ndarray:
-    """Odometry re-expressed from its own first pose: a recording knows where it went, not
-    where it started (the dataset's simulated odometry starts at the true pose).
+    """Return odometry re-expressed from its own first pose.
+
+    A recording knows where it went, not where it started (the dataset's simulated odometry
+    starts at the true pose).
+
+    Parameters
+    ----------
+    odometry : array_like of shape (n, 3)
+        The recording's odometry poses (x, y, yaw).
+
+    Returns
+    -------
+    ndarray of shape (n, 3)
+        The poses relative to the first one, float64.
     """
     odometry = np.asarray(odometry, np.float64)
     return se2_relative(odometry[0], odometry)
@@ -279,10 +318,27 @@ def sequence_origin(odometry: np.ndarray) -> np.ndarray:
 def build_map(
     dataset: Dataset | str | os.PathLike, world: str, settings: MapSettings | None = None
 ) -> ServoMap:
-    """Fit the servo map of ``world`` (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``) from a
-    dataset (see the module docstring); a dataset that cannot give what a map needs
-    (`servo.maps.needs`: beams, frames per manifold) raises ``DatasetError`` naming the
-    shortfall.
+    """Fit the servo map of ``world`` from a dataset (see the module docstring).
+
+    Parameters
+    ----------
+    dataset : Dataset or str or os.PathLike
+        The dataset, or the folder to load it from.
+    world : str
+        The world's name (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``).
+    settings : MapSettings or None, default None
+        The map's settings; None: ``MapSettings()``.
+
+    Returns
+    -------
+    ServoMap
+        The fitted map.
+
+    Raises
+    ------
+    DatasetError
+        When the dataset cannot give what a map needs (`servo.maps.needs`: beams, frames per
+        manifold), naming the shortfall.
     """
     world = check_world_name(world)
     settings = settings or MapSettings()
@@ -375,12 +431,32 @@ def load_or_build(
     home: str | os.PathLike | None = None,
     progress: bool = True,
 ) -> ServoMap:
-    """The cached map of ``world`` for this dataset and settings, built on first use.
+    """Return the cached map of ``world`` for this dataset and settings, built on first use.
 
     ``dataset`` and ``cache`` default to the data home's (``sim.datahome``: the ``home``
     argument, then ``TOPOMAP_HOME``, then the per-user cache), never the working directory;
     the default dataset is collected there when missing. A cached map that fails
     [`load_map`][servo.maps.file.load_map]'s checks is rebuilt, with a warning saying why.
+
+    Parameters
+    ----------
+    world : str
+        The world's name (``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``).
+    dataset : str or os.PathLike or None, default None
+        The dataset folder; None: the data home's default dataset.
+    cache : str or os.PathLike or None, default None
+        The folder of cached maps; None: the data home's.
+    settings : MapSettings or None, default None
+        The map's settings; None: ``MapSettings()``.
+    home : str or os.PathLike or None, default None
+        The data home; None: ``TOPOMAP_HOME``, then the per-user cache.
+    progress : bool, default True
+        Print a line to stderr when building (and collecting the default dataset).
+
+    Returns
+    -------
+    ServoMap
+        The cached or freshly built map.
     """
     world = check_world_name(world)
     settings = settings or MapSettings()

@@ -71,25 +71,65 @@ _SHA = re.compile(r"[0-9a-f]{64}\Z")
 
 
 def map_paths(directory: str | os.PathLike, world: str, key: str) -> tuple[Path, Path]:
+    """Return the paths of the ``.json`` and ``.npz`` files of the map of ``world`` and ``key``.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        The folder of the map files.
+    world : str
+        The world's name (a ``FAMILY:SEED`` name is written without the ``:``).
+    key : str
+        The map's cache key ([`map_key`][servo.maps.build.map_key]).
+
+    Returns
+    -------
+    json_path, npz_path : Path
+        ``<directory>/<world>-<key>.json`` and ``.npz``.
+    """
     stem = Path(directory) / f"{parse_world_name(world).file_stem}-{key}"  # no ':' in files
     return stem.with_suffix(".json"), stem.with_suffix(".npz")
 
 
 def _probe(clustering: ManifoldClustering, features: np.ndarray) -> list[int]:
-    """The clusters predicted for the first stored views: a loaded map must predict the same."""
+    """Return the clusters predicted for the first stored views: a loaded map must match them."""
     return [int(c) for c in clustering.predict(features[:PROBE_VIEWS])]
 
 
 def meta_digest(meta: dict) -> str:
-    """SHA-256 of the description itself (all but this field, canonical JSON): an edited or
-    damaged ``.json`` is caught like a damaged ``.npz``.
+    """Return the SHA-256 of a map's description itself (all but this field, canonical JSON).
+
+    An edited or damaged ``.json`` is thus caught like a damaged ``.npz``.
+
+    Parameters
+    ----------
+    meta : dict
+        The map's ``.json`` content.
+
+    Returns
+    -------
+    str
+        64 hex digits.
     """
     body = {k: v for k, v in meta.items() if k != "meta_sha256"}
     return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
 
 
 def save_map(m: ServoMap, directory: str | os.PathLike) -> Path:
-    """Write ``<world>-<key>.npz`` and ``.json`` atomically; returns the ``.json`` path."""
+    """Write ``<world>-<key>.npz`` and ``.json`` atomically.
+
+    Parameters
+    ----------
+    m : ServoMap
+        The map to write.
+    directory : str or os.PathLike
+        The folder to write it into (created if missing).
+
+    Returns
+    -------
+    Path
+        The ``.json`` path.
+    """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     json_path, npz_path = map_paths(directory, m.world, m.key)
@@ -244,8 +284,9 @@ def _check_arrays(arrays: dict, path: Path, manifolds: int, sequences: int) -> N
 
 
 def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: Path) -> None:
-    """Every stored view's cluster is one of the loaded clustering's (the arrays are checked
-    before the estimators are rebuilt, so this comes after).
+    """Check that every stored view's cluster is one of the loaded clustering's.
+
+    The arrays are checked before the estimators are rebuilt, so this comes after.
     """
     k = len(clustering.centers_)
     _check(
@@ -256,13 +297,26 @@ def _check_clusters(clusters: np.ndarray, clustering: ManifoldClustering, path: 
 
 
 def load_map(path: str | os.PathLike, world: str | None = None) -> ServoMap:
-    """Read and verify a map written by [`save_map`][servo.maps.file.save_map] (see the module
-    docstring).
+    """Read and verify a map written by [`save_map`][servo.maps.file.save_map].
+
+    See the module docstring for the checks.
 
     Parameters
     ----------
-    path : the ``.json`` (or ``.npz``) of the map.
-    world : if given, the map must be of this world.
+    path : str or os.PathLike
+        The ``.json`` (or ``.npz``) of the map.
+    world : str or None, default None
+        If given, the map must be of this world.
+
+    Returns
+    -------
+    ServoMap
+        The verified map.
+
+    Raises
+    ------
+    MapError
+        Naming the file and the fault, when a check fails.
     """
     if world is not None:
         # an argument error, not a damaged file: no MapError (load_or_build would rebuild)

@@ -25,14 +25,40 @@ MIN_BEAMS = 2 * PROFILE_SHIFT + 1  # a shift of PROFILE_SHIFT each way leaves a 
 
 
 def views_needed(world: str, settings: MapSettings) -> int:
-    """The stored views the map of ``world`` needs: ``K * min_cluster_size``."""
+    """Return the number of stored views the map of ``world`` needs: ``K * min_cluster_size``.
+
+    Parameters
+    ----------
+    world : str
+        The world's name.
+    settings : MapSettings
+        The map's settings (K by ``clusters_for``, and ``min_cluster_size``).
+
+    Returns
+    -------
+    int
+        The number of stored views.
+    """
     return settings.clusters_for(world) * settings.min_cluster_size
 
 
 def check_needs(dataset: Dataset, world: str, names: list[str], settings: MapSettings) -> None:
-    """Raise [`DatasetError`][sim.dataset.schema.DatasetError] when the sequences ``names`` of
-    ``dataset`` (those of ``world``) have fewer than `MIN_BEAMS` beams or give fewer stored views
-    than `views_needed`, naming the shortfall and the frames per sequence to collect.
+    """Raise [`DatasetError`][sim.dataset.schema.DatasetError] when a dataset cannot give a map.
+
+    That is when the sequences ``names`` of ``dataset`` (those of ``world``) have fewer than
+    `MIN_BEAMS` beams or give fewer stored views than `views_needed`; the error names the
+    shortfall and the frames per sequence to collect.
+
+    Parameters
+    ----------
+    dataset : Dataset
+        The dataset the map is to be built from.
+    world : str
+        The world's name.
+    names : list of str
+        The names of the dataset's sequences of ``world``.
+    settings : MapSettings
+        The map's settings.
     """
     beams = len(dataset.sequences[names[0]].angles)
     if beams < MIN_BEAMS:

@@ -15,16 +15,54 @@ PROFILE_SHIFT = 70  # beams (35 deg at 0.5 deg per beam) tried as heading offset
 
 
 def clip_ranges(scans: np.ndarray, max_range: float) -> np.ndarray:
-    """Ranges with no return (inf, NaN) read as ``max_range``, for comparing profiles."""
+    """Return ranges with no return (inf, NaN) read as ``max_range``, for comparing profiles.
+
+    Parameters
+    ----------
+    scans : ndarray
+        Laser ranges, m (+inf or NaN: no return).
+    max_range : float
+        The laser's range, m; longer ranges are clipped to it.
+
+    Returns
+    -------
+    ndarray
+        The ranges, of the shape of ``scans``, finite and at most ``max_range``.
+    """
     return np.nan_to_num(np.minimum(scans, max_range), nan=max_range, posinf=max_range)
 
 
 def profile_distances(
     table: np.ndarray, ranges: np.ndarray, beam_step: float, max_shift: int = PROFILE_SHIFT
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Mean range difference of the current clipped ``ranges`` (B,) to each clipped stored
-    profile in ``table`` (n, B), minimised over beam shifts of up to ``max_shift`` beams (every
-    5th), and the heading (rad, ``shift * beam_step``) of the best shift per view.
+    """Return the laser-profile distance of the current scan to each stored view, over shifts.
+
+    The distance is the mean range difference of the current clipped ``ranges`` to each clipped
+    stored profile in ``table``, minimised over beam shifts of up to ``max_shift`` beams (every
+    5th); the heading of the best shift per view comes with it.
+
+    Parameters
+    ----------
+    table : ndarray of shape (n, B)
+        The stored views' clipped ranges ([`clip_ranges`][servo.maps.scan_profile.clip_ranges]).
+    ranges : ndarray of shape (B,)
+        The current scan's clipped ranges.
+    beam_step : float
+        Angle between neighbouring beams, rad.
+    max_shift : int, default PROFILE_SHIFT
+        Largest shift tried each way, beams.
+
+    Returns
+    -------
+    distances : ndarray of shape (n,)
+        The smallest mean range difference per view, m.
+    headings : ndarray of shape (n,)
+        The heading of the best shift per view, rad (``shift * beam_step``).
+
+    Raises
+    ------
+    ValueError
+        When the scan has no more than ``max_shift`` beams.
     """
     n = len(ranges)
     if n <= max_shift:  # a shift would leave nothing to compare (servo.maps.needs: MIN_BEAMS)

@@ -1,5 +1,7 @@
-"""The servo map's data: [`ServoMap`][servo.maps.types.ServoMap] (stored views and the graphs over
-them), the [`MapSettings`][servo.maps.types.MapSettings] that determine it besides the dataset, and
+"""The servo map's data: the map, its settings and its error.
+
+[`ServoMap`][servo.maps.types.ServoMap] (stored views and the graphs over them), the
+[`MapSettings`][servo.maps.types.MapSettings] that determine it besides the dataset, and
 [`MapError`][servo.maps.types.MapError].
 
 Building lives in ``servo.maps.build``, the file format in ``servo.maps.file``.
@@ -22,9 +24,21 @@ from sim.collect_worlds import world_manifold_names
 
 
 def prior_clusters(world: str) -> int:
-    """The default K of a map of ``world``: the number of manifolds its plan was drawn with
-    (``World.manifold_names``: a main corridor or lawn and its branches), a prior, not a count
-    of labels; 2 for a place that is no world of this testbed.
+    """Return the default K of a map of ``world``.
+
+    K is the number of manifolds the world's plan was drawn with (``World.manifold_names``: a
+    main corridor or lawn and its branches), a prior, not a count of labels; 2 for a place that
+    is no world of this testbed.
+
+    Parameters
+    ----------
+    world : str
+        The world's name.
+
+    Returns
+    -------
+    int
+        The number of manifolds of ``world``, or 2.
     """
     try:
         parse_world_name(world)
@@ -89,28 +103,62 @@ class MapSettings:
     n_clusters: int | None = None
 
     def __post_init__(self):
+        """Check that ``stride``, ``min_cluster_size`` are integers >= 1, ``n_clusters`` >= 2."""
         check_int(self.stride, "stride")
         check_int(self.min_cluster_size, "min_cluster_size")
         if self.n_clusters is not None:
             check_int(self.n_clusters, "n_clusters", minimum=2)
 
     def clusters_for(self, world: str) -> int:
-        """K for a map of ``world``: ``n_clusters``, or the world's prior."""
+        """Return K for a map of ``world``: ``n_clusters``, or the world's prior.
+
+        Parameters
+        ----------
+        world : str
+            The world the map is of.
+
+        Returns
+        -------
+        int
+            The number of clusters the map is split into.
+        """
         if self.n_clusters is not None:
             return int(self.n_clusters)
         return prior_clusters(world)
 
     def to_json(self) -> dict:
-        """The settings as the map's file stores them (``image_size`` as a list)."""
+        """Return the settings as the map's file stores them (``image_size`` as a list).
+
+        Returns
+        -------
+        dict
+            One entry per field.
+        """
         d = asdict(self)
         d["image_size"] = list(self.image_size)
         return d
 
     @classmethod
     def from_json(cls, d) -> MapSettings:
-        """The inverse of [`to_json`][servo.maps.types.MapSettings.to_json], for untrusted input:
-        exactly these keys, each of the declared type (``n_clusters`` may be missing, as in a file
-        written before it was a setting: None); raises ``ValueError`` naming the field.
+        """Read settings back: the inverse of [`to_json`][servo.maps.types.MapSettings.to_json].
+
+        For untrusted input: exactly these keys, each of the declared type (``n_clusters`` may be
+        missing, as in a file written before it was a setting: None).
+
+        Parameters
+        ----------
+        d : dict
+            The settings as [`to_json`][servo.maps.types.MapSettings.to_json] gives them.
+
+        Returns
+        -------
+        MapSettings
+            The settings.
+
+        Raises
+        ------
+        ValueError
+            Naming the field, when a key is missing or extra or a value is not of its type.
         """
         fields = {f.name for f in dataclasses.fields(cls)}
         if isinstance(d, dict) and "n_clusters" not in d:
@@ -249,6 +297,7 @@ class ServoMap:
     manifold_names: tuple[str, ...] = ()
 
     def __len__(self) -> int:
+        """Return the number of stored views."""
         return len(self.clusters)
 
     @property
@@ -263,8 +312,9 @@ class ServoMap:
 
     @property
     def manifold_graph(self) -> np.ndarray:
-        """(K, K) bool: cluster b follows cluster a somewhere in a recorded sequence (both ways
-        stored: a robot may drive a corridor either way).
+        """(K, K) bool: cluster b follows cluster a somewhere in a recorded sequence.
+
+        Both ways are stored: a robot may drive a corridor either way.
         """
         K = self.n_clusters
         adj = np.zeros((K, K), bool)
@@ -275,13 +325,40 @@ class ServoMap:
         return adj | adj.T
 
     def true_manifold(self, view: int) -> str | None:
-        """The true manifold of stored view ``view`` (None: on none); for evaluation only."""
+        """Return the true manifold of stored view ``view``; for evaluation only.
+
+        Parameters
+        ----------
+        view : int
+            Index of a stored view.
+
+        Returns
+        -------
+        str or None
+            The manifold's name; None where the view is on none.
+        """
         label = int(self.true_labels[view])
         return None if label < 0 else self.manifold_names[label]
 
     def check_view(self, view, name: str = "target") -> int:
-        """``view`` as a valid stored-view index, or a ``MapError`` naming ``name``: an integer
-        or an object that is one (``__index__``, as ``servo.task.Target``).
+        """Return ``view`` as a valid stored-view index, or raise a ``MapError`` naming ``name``.
+
+        Parameters
+        ----------
+        view : int or object with ``__index__``
+            An integer or an object that is one (``__index__``, as ``servo.task.Target``).
+        name : str, default "target"
+            What ``view`` is called in the error message.
+
+        Returns
+        -------
+        int
+            The index, in ``[0, len(self))``.
+
+        Raises
+        ------
+        MapError
+            When ``view`` is no integer or no stored view of this map.
         """
         if isinstance(view, bool | np.bool_) or not hasattr(type(view), "__index__"):
             raise MapError(f"{name} must be the integer index of a stored view, got {view!r}")
@@ -294,8 +371,22 @@ class ServoMap:
         return int(view)
 
     def check_world(self, world: str, digest: str | None = None) -> None:
-        """Raise ``MapError`` unless this map was built for ``world`` (and, where both are
-        known, for a floor plan of this ``digest``: a generator that changed).
+        """Raise ``MapError`` unless this map was built for ``world``.
+
+        Where both are known, the map's floor plan must also be of this ``digest`` (else a
+        generator changed).
+
+        Parameters
+        ----------
+        world : str
+            The world the map is to be used in.
+        digest : str or None, default None
+            The SHA-256 of that world's floor plan; None: not checked.
+
+        Raises
+        ------
+        MapError
+            When the map was built for another world or floor plan.
         """
         if world != self.world or (digest and self.world_digest and digest != self.world_digest):
             raise MapError(
@@ -304,5 +395,16 @@ class ServoMap:
             )
 
     def scan_points(self, view: int) -> np.ndarray:
-        """The scan of stored view ``view`` as (M, 2) points in its frame, no-returns dropped."""
+        """Return the scan of stored view ``view`` as points in its frame, no-returns dropped.
+
+        Parameters
+        ----------
+        view : int
+            Index of a stored view.
+
+        Returns
+        -------
+        ndarray of shape (M, 2)
+            The scan's points, m.
+        """
         return scan_to_points(self.scans[view], self.angles, self.max_range)
