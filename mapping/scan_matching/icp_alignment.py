@@ -1,6 +1,7 @@
-"""Point-to-point ICP in SE(2): one pair (``icp``) or many at once (``icp_batch``), and the
-densified target it matches against (``densify_scan``). The refinement of odometry poses by
-consecutive scan matching is ``pose_refinement.refine_poses``.
+"""Point-to-point ICP in SE(2): one pair (``icp``) or many at once (``icp_batch``).
+
+Also the densified target it matches against (``densify_scan``). The refinement of odometry
+poses by consecutive scan matching is ``pose_refinement.refine_poses``.
 """
 
 from __future__ import annotations
