@@ -215,8 +215,6 @@ def load(cls, meta: dict, arrays: dict[str, np.ndarray], prefix: str):
 
     Parameters
     ----------
-    cls : type
-        The estimator class.
     meta : dict
         The description `dump` gave.
     arrays : dict of str to ndarray
