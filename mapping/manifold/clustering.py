@@ -244,7 +244,10 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
 
     # ------------------------------------------------------------------ validation
     def _search_space(self, n_samples: int) -> SearchSpace:
-        """Run the checks the parameter constraints cannot express; return the (sigma, alpha) grid."""
+        """Run the checks the parameter constraints cannot express; return the search grid.
+
+        The grid is that of (sigma, alpha).
+        """
         K, Q = self.n_clusters, self.min_cluster_size
         if K * Q > n_samples:
             raise ValueError(
