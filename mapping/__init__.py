@@ -1,5 +1,7 @@
-"""Mapping methods: visual-manifold clustering (Grudic & Mulligan) and laser observation
-grouping (Blanco et al.), their baselines, features and metrics.
+"""Mapping methods: visual-manifold clustering and laser observation grouping.
+
+Visual-manifold clustering (Grudic & Mulligan) and laser observation grouping (Blanco et al.),
+their baselines, features and metrics.
 
 The methods are subpackages: `mapping.manifold` (the manifold clustering, its F^j(k)
 queries and the paper's synthetic sets), `mapping.grouping` (the observation-graph

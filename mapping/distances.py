@@ -1,6 +1,7 @@
-"""Pairwise squared distances, the input of every affinity in ``mapping``: the manifold
-method's kernel (Grudic & Mulligan, Section II-A), the spectral baselines, the label-free
-variants and the image similarity graph all start from `squared_distances`.
+"""Pairwise squared distances, the input of every affinity in ``mapping``.
+
+The manifold method's kernel (Grudic & Mulligan, Section II-A), the spectral baselines, the
+label-free variants and the image similarity graph all start from `squared_distances`.
 """
 
 from __future__ import annotations
@@ -15,11 +16,23 @@ TINY = 1e-300
 
 
 def squared_distances(A: ArrayLike, B: ArrayLike | None = None) -> np.ndarray:
-    """Squared Euclidean distances between the rows of A and B (B defaults to A), in float64.
+    """Return squared Euclidean distances between the rows of A and B, in float64.
 
     Uses ``|a|^2 + |b|^2 - 2 a.b`` (one BLAS product) after centring both on A's mean, which
     keeps the cancellation error small for near-duplicate rows; negatives from round-off are
     clipped to 0 and, when ``B is None``, the diagonal is exactly 0.
+
+    Parameters
+    ----------
+    A : array-like of shape (n, d)
+        First points.
+    B : array-like of shape (m, d), optional
+        Second points; default A.
+
+    Returns
+    -------
+    ndarray of shape (n, m)
+        ``|A_i - B_j|^2``; symmetric when ``B is None``.
     """
     A = np.asarray(A, dtype=np.float64)
     same = B is None

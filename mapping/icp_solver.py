@@ -1,6 +1,7 @@
-"""Deprecated: ICP moved to ``mapping.scan_matching`` (defined in
-``mapping.scan_matching.icp_alignment``). This path works, with a ``DeprecationWarning``, for one
-release.
+"""Deprecated: ICP moved to ``mapping.scan_matching``.
+
+It is defined in ``mapping.scan_matching.icp_alignment``. This path works, with a
+``DeprecationWarning``, for one release.
 """
 
 from common.deprecation import moved_names

@@ -28,11 +28,23 @@ __all__ = [
 
 
 def check_labels(y: ArrayLike, name: str) -> np.ndarray:
-    """``y`` as a 1-D array of labels, refusing a missing label (NaN, None) or an infinite one.
+    """Return ``y`` as a 1-D array of labels, refusing a missing (NaN, None) or infinite one.
 
     A NaN would otherwise be one more class (NaN labels all compare unequal, yet
     scikit-learn's contingency counts them together) and None cannot be sorted with the other
     labels; both usually mean "no ground truth here": drop those points before scoring.
+
+    Parameters
+    ----------
+    y : array-like of shape (n,)
+        Labels.
+    name : str
+        Its name, for the error messages.
+
+    Returns
+    -------
+    ndarray of shape (n,)
+        The labels.
     """
     y = np.asarray(y)
     if y.ndim != 1:
@@ -125,17 +137,26 @@ def clustering_error(y_true: ArrayLike, y_pred: ArrayLike) -> float:
 
 
 def _hungarian(y_true: ArrayLike, y_pred: ArrayLike):
-    """Contingency matrix and the (class rows, cluster columns) of the best one-to-one match."""
+    """Return the contingency matrix and the (class rows, cluster columns) of the best match."""
     counts = contingency_matrix(y_true, y_pred)
     rows, cols = linear_sum_assignment(counts, maximize=True)
     return counts, rows, cols
 
 
 def best_matching(y_true: ArrayLike, y_pred: ArrayLike) -> dict:
-    """The matching [`clustering_error`][mapping.metrics.clustering_error] scores: predicted cluster
-    -> its true class.
+    """Return the matching [`clustering_error`][mapping.metrics.clustering_error] scores.
 
     Clusters left unmatched (more clusters than classes) are absent from the dict.
+
+    Parameters
+    ----------
+    y_true, y_pred : array-like of shape (n,)
+        True and predicted labels.
+
+    Returns
+    -------
+    dict
+        Predicted cluster -> its true class, in the best one-to-one match.
     """
     _, rows, cols = _hungarian(y_true, y_pred)  # checks both labellings
     classes, clusters = np.unique(np.asarray(y_true)), np.unique(np.asarray(y_pred))
@@ -164,8 +185,10 @@ def purity(y_true: ArrayLike, y_pred: ArrayLike) -> float:
 
 
 def adjusted_rand_index(y_true: ArrayLike, y_pred: ArrayLike) -> float:
-    """Rand index adjusted for chance (Hubert & Arabie, 1985): scikit-learn's
-    ``adjusted_rand_score`` after this module's input checks (1-D, same length, not empty).
+    """Return the Rand index adjusted for chance (Hubert & Arabie, 1985).
+
+    It is scikit-learn's ``adjusted_rand_score`` after this module's input checks (1-D, same
+    length, not empty).
 
     Two identical trivial partitions (a single cluster, or all singletons) score 1.
 

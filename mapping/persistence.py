@@ -82,7 +82,22 @@ def _dump_value(value, key: str, arrays: dict) -> dict:
 
 
 def dump(estimator, prefix: str) -> tuple[dict, dict[str, np.ndarray]]:
-    """``(meta, arrays)`` describing a fitted estimator of a class in `ESTIMATORS`."""
+    """Describe a fitted estimator of a class in `ESTIMATORS` as ``(meta, arrays)``.
+
+    Parameters
+    ----------
+    estimator : object
+        The fitted estimator.
+    prefix : str
+        Start of the keys of its arrays, ``<prefix>/<name>``.
+
+    Returns
+    -------
+    meta : dict
+        JSON-ready description: ``class``, ``params``, ``fitted``, ``records`` and ``skipped``.
+    arrays : dict of str to ndarray
+        The arrays the description refers to, by key.
+    """
     cls = type(estimator)
     if ESTIMATORS.get(cls.__name__) is not cls:
         raise TypeError(f"cannot save a {cls.__name__}: not one of {sorted(ESTIMATORS)}")
@@ -194,8 +209,28 @@ def _load_records(spec, where: str, arrays: dict, prefix: str) -> list:
 
 
 def load(cls, meta: dict, arrays: dict[str, np.ndarray], prefix: str):
-    """Rebuild an estimator of class ``cls`` (one of `ESTIMATORS`) from `dump`'s
-    output; ``meta`` and ``arrays`` are untrusted (see the module docstring).
+    """Rebuild an estimator of class ``cls`` (one of `ESTIMATORS`) from `dump`'s output.
+
+    ``meta`` and ``arrays`` are untrusted (see the module docstring).
+
+    Parameters
+    ----------
+    meta : dict
+        The description `dump` gave.
+    arrays : dict of str to ndarray
+        The arrays it refers to.
+    prefix : str
+        Where the description sits in the file, for the error messages.
+
+    Returns
+    -------
+    object
+        The estimator, fitted as saved.
+
+    Raises
+    ------
+    PersistenceError
+        If the description is malformed or names something not allowed.
     """
     _require(ESTIMATORS.get(cls.__name__) is cls, f"{cls.__name__} cannot be loaded")
     _require(isinstance(meta, dict), f"{prefix}: the description must be a JSON object")

@@ -15,12 +15,19 @@ __all__ = ["run_starts_from_groups"]
 
 
 def run_starts_from_groups(groups: ArrayLike | None, n: int) -> np.ndarray:
-    """Where each run begins, from ``groups``, the run (drive) of each of ``n`` samples.
+    """Mark where each run begins, from ``groups``, the run (drive) of each of ``n`` samples.
 
     ``groups`` follows scikit-learn's convention for a per-sample grouping (as in
     ``GroupKFold``): one label per sample, any hashable values. Samples of one run must be
     consecutive (they are one drive in time order); a run starts wherever the label changes.
     ``None`` is one run.
+
+    Parameters
+    ----------
+    groups : array-like of shape (n,) or None
+        The run of each sample.
+    n : int
+        Number of samples.
 
     Returns
     -------
@@ -60,7 +67,9 @@ def run_starts_from_groups(groups: ArrayLike | None, n: int) -> np.ndarray:
 
 
 def _repeated(values: np.ndarray) -> list:
-    """The values that occur more than once; by hashing, so that labels numpy cannot sort
-    (ints mixed with strings in an object array) work too.
+    """Return the values that occur more than once.
+
+    Found by hashing, so that labels numpy cannot sort (ints mixed with strings in an object
+    array) work too.
     """
     return [v for v, count in Counter(values.tolist()).items() if count > 1]

@@ -1,5 +1,6 @@
-"""Deprecated: ``run_starts_from_groups`` moved to ``mapping.run_starts``. This path works, with a
-``DeprecationWarning``, for one release.
+"""Deprecated: ``run_starts_from_groups`` moved to ``mapping.run_starts``.
+
+This path works, with a ``DeprecationWarning``, for one release.
 """
 
 from common.deprecation import moved_names

@@ -1,6 +1,7 @@
-"""Deprecated: the similarity graphs moved to ``mapping.grouping`` (defined in
-``mapping.grouping.similarity``), the grouping method being their one user. This path works, with
-a ``DeprecationWarning``, for one release.
+"""Deprecated: the similarity graphs moved to ``mapping.grouping``.
+
+They are defined in ``mapping.grouping.similarity``, the grouping method being their one user.
+This path works, with a ``DeprecationWarning``, for one release.
 """
 
 from common.deprecation import moved_names

@@ -58,7 +58,13 @@ class SplitNode:
         return not self.children
 
     def walk(self) -> Iterator[SplitNode]:
-        """Pre-order traversal (a node, then its first subtree, then its second)."""
+        """Traverse the tree in pre-order (a node, then its first subtree, then its second).
+
+        Yields
+        ------
+        SplitNode
+            Each node of the subtree rooted here, this one first.
+        """
         stack = [self]
         while stack:  # explicit stack: no recursion limit on deep trees of long trajectories
             node = stack.pop()
@@ -66,5 +72,11 @@ class SplitNode:
             stack.extend(reversed(node.children))
 
     def leaves(self) -> list[SplitNode]:
-        """The leaves left to right (the first half's before the second's)."""
+        """Return the leaves left to right (the first half's before the second's).
+
+        Returns
+        -------
+        list of SplitNode
+            The nodes without children.
+        """
         return [node for node in self.walk() if node.is_leaf]

@@ -1,5 +1,7 @@
-"""Deprecated: the paper's synthetic sets moved to ``mapping.manifold`` (defined in
-``mapping.manifold.synthetic``). This path works, with a ``DeprecationWarning``, for one release.
+"""Deprecated: the paper's synthetic sets moved to ``mapping.manifold``.
+
+They are defined in ``mapping.manifold.synthetic``. This path works, with a
+``DeprecationWarning``, for one release.
 """
 
 from common.deprecation import moved_names

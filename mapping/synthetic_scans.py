@@ -1,6 +1,7 @@
-"""Deprecated: the synthetic office of laser scans moved to ``mapping.grouping`` (defined in
-``mapping.grouping.synthetic_scans``). This path works, with a ``DeprecationWarning``, for one
-release.
+"""Deprecated: the synthetic office of laser scans moved to ``mapping.grouping``.
+
+It is defined in ``mapping.grouping.synthetic_scans``. This path works, with a
+``DeprecationWarning``, for one release.
 """
 
 from common.deprecation import moved_names

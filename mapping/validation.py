@@ -1,6 +1,7 @@
-"""The checks of a fitted state read back from a file (`check_layout`,
-`check_number`) and the checks of training points every clustering shares
-(`check_span`, `check_distinct_rows`).
+"""Checks of a fitted state read from a file, and of training points.
+
+The checks of a fitted state read back from a file (`check_layout`, `check_number`) and the
+checks of training points every clustering shares (`check_span`, `check_distinct_rows`).
 
 Input and parameter checks are scikit-learn's (``validate_data``, ``_parameter_constraints``,
 ``check_is_fitted``); only what scikit-learn does not do lives here.
@@ -16,13 +17,27 @@ SPAN_RANGE = (1e-140, 1e140)
 
 
 def is_plain_query(estimator, X, bound: float = np.inf) -> bool:
-    """Whether X is already what ``validate_data(estimator, X, reset=False)`` would return.
+    """Check whether X is already what ``validate_data(estimator, X, reset=False)`` would return.
 
     True for a C-contiguous, finite, non-empty float32/float64 ndarray of shape
     (k, n_features_in_) whose sum of squares is at most ``bound^2``, when the estimator was
     fitted without feature names. Checking this
     directly costs microseconds where ``validate_data`` costs ~0.2 ms, as much as the whole
     eq. 13 solve for one view; anything else must go through ``validate_data``.
+
+    Parameters
+    ----------
+    estimator : object
+        The fitted estimator, with its ``n_features_in_``.
+    X : object
+        The query.
+    bound : float, default inf
+        Largest Euclidean norm of X taken as plain.
+
+    Returns
+    -------
+    bool
+        True when X needs no ``validate_data``.
     """
     if not (
         type(X) is np.ndarray
@@ -49,6 +64,18 @@ def check_layout(record, layout: dict[str, tuple[str, ...]]) -> dict[str, int]:
     must be numeric and finite; a field named ``indices`` must be of an integer dtype and
     non-negative. Raises ValueError naming the field and the expected form (what a file saved
     by `mapping.persistence` and then altered gets).
+
+    Parameters
+    ----------
+    record : object
+        The record whose array fields are checked (read as attributes).
+    layout : dict of str to tuple of str
+        Field name -> its dimensions by symbol.
+
+    Returns
+    -------
+    dict of str to int
+        Size of each symbol.
     """
     sizes: dict[str, int] = {}
     for name, dims in layout.items():
@@ -71,7 +98,24 @@ def check_layout(record, layout: dict[str, tuple[str, ...]]) -> dict[str, int]:
 
 
 def check_number(value, name: str, low: float, high: float, integer: bool = False) -> None:
-    """``low <= value <= high`` for a real number (an int if ``integer``; never a bool)."""
+    """Check ``low <= value <= high`` for a real number (an int if ``integer``; never a bool).
+
+    Parameters
+    ----------
+    value : object
+        The value to check.
+    name : str
+        Its name, for the error message.
+    low, high : float
+        The bounds, both included.
+    integer : bool, default False
+        Require an integer.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not such a number.
+    """
     kinds = (int, np.integer) if integer else (int, float, np.integer, np.floating)
     if isinstance(value, bool) or not isinstance(value, kinds) or not low <= value <= high:
         kind = "an integer" if integer else "a number"
@@ -79,12 +123,22 @@ def check_number(value, name: str, low: float, high: float, integer: bool = Fals
 
 
 def check_span(X: np.ndarray) -> float:
-    """The span of the training points X (the largest range of a feature), checked.
+    """Return the span of the training points X (the largest range of a feature), checked.
 
     Raises ValueError naming X when the samples span more than float64 squared distances can
     hold (or less than a normal number's square root): at 1e200 the distances overflow to inf,
     at 1e-200 they underflow to 0 and every sample looks identical. Identical samples (span 0)
     pass: each estimator says in its own words that there is nothing to cluster.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, d)
+        Training points.
+
+    Returns
+    -------
+    float
+        The largest ``max - min`` over the features (inf when it overflows).
     """
     with np.errstate(over="ignore"):  # an overflowing span is inf, refused below
         spread = float(np.ptp(X, axis=0).max())
@@ -98,8 +152,10 @@ def check_span(X: np.ndarray) -> float:
 
 
 def _projected_count(X: np.ndarray) -> int:
-    """Distinct values of one projection of the rows of X: never more than the distinct rows
-    (copies project alike), and as many on every ordinary data set.
+    """Count the distinct values of one projection of the rows of X.
+
+    Never more than the distinct rows (copies project alike), and as many on every ordinary
+    data set.
     """
     # a fixed projection with unequal weights, so that rows with permuted coordinates differ
     with np.errstate(over="ignore", invalid="ignore"):
@@ -107,8 +163,20 @@ def _projected_count(X: np.ndarray) -> int:
 
 
 def first_copies(X: np.ndarray) -> np.ndarray | None:
-    """Index of the first copy of each distinct row of X, ascending; None when no two rows are
-    equal (found without sorting the rows when a projection already tells them apart).
+    """Return the index of the first copy of each distinct row of X, ascending.
+
+    None when no two rows are equal (found without sorting the rows when a projection already
+    tells them apart).
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, d)
+        The rows.
+
+    Returns
+    -------
+    ndarray of int or None
+        The first copies, or None when every row is distinct.
     """
     if _projected_count(X) == X.shape[0]:
         return None
@@ -117,9 +185,23 @@ def first_copies(X: np.ndarray) -> np.ndarray | None:
 
 
 def check_distinct_rows(X: np.ndarray, n_clusters: int) -> None:
-    """Refuse fewer distinct rows in X than ``n_clusters``: identical samples cannot be told
-    apart, so a clustering would split copies of one point into different clusters (or its
-    eigensolver fail). The rows are sorted only when a projection has fewer distinct values.
+    """Refuse fewer distinct rows in X than ``n_clusters``.
+
+    Identical samples cannot be told apart, so a clustering would split copies of one point
+    into different clusters (or its eigensolver fail). The rows are sorted only when a
+    projection has fewer distinct values.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, d)
+        Training points.
+    n_clusters : int
+        Number of clusters asked for.
+
+    Raises
+    ------
+    ValueError
+        If X has fewer than ``n_clusters`` distinct rows.
     """
     if n_clusters <= 1 or _projected_count(X) >= n_clusters:
         return

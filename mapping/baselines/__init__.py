@@ -1,5 +1,7 @@
-"""The clusterings a user would put beside the manifold method: normalised cut with the best
-kernel width in hindsight and self-tuning spectral clustering (``spectral``; the paper's
+"""The clusterings a user would put beside the manifold method.
+
+Normalised cut with the best kernel width in hindsight and self-tuning spectral clustering
+(``spectral``; the paper's
 comparisons), the label-free choices of the eigengap and scikit-learn's k-NN spectral
 clustering (``label_free``), and the sweep over kernel widths (``sigma_sweep``).
 """

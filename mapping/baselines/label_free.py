@@ -45,10 +45,22 @@ DEFAULT_NEIGHBOR_CANDIDATES = (5, 7, 10, 15, 20, 30)
 
 
 def eigengap(affinity: np.ndarray, n_clusters: int) -> float:
-    """``lambda_K - lambda_{K+1}`` of ``D^-1/2 W D^-1/2`` (eigenvalues largest first).
+    """Return ``lambda_K - lambda_{K+1}`` of ``D^-1/2 W D^-1/2`` (eigenvalues largest first).
 
-    ``affinity`` is a dense symmetric W with zero diagonal; isolated points (degree 0) are
-    given degree 1, so that they contribute eigenvalue 0 instead of a division by zero.
+    Isolated points (degree 0) are given degree 1, so that they contribute eigenvalue 0 instead
+    of a division by zero.
+
+    Parameters
+    ----------
+    affinity : ndarray of shape (n, n)
+        Dense symmetric affinity W with zero diagonal.
+    n_clusters : int
+        K, in ``[1, n)``.
+
+    Returns
+    -------
+    float
+        The gap between the K-th and (K+1)-th largest eigenvalue.
     """
     W = np.asarray(affinity, dtype=np.float64)
     n = W.shape[0]
@@ -63,7 +75,7 @@ def eigengap(affinity: np.ndarray, n_clusters: int) -> float:
 
 
 def _top_eigenvalues(S: np.ndarray, count: int) -> np.ndarray:
-    """The ``count`` largest eigenvalues of the symmetric S, ascending.
+    """Return the ``count`` largest eigenvalues of the symmetric S, ascending.
 
     LAPACK's subset solver (syevr) can fail ("Internal Error") on a spectrum of large
     clusters of equal eigenvalues, as copies of a point (a robot standing still) make at some
@@ -77,8 +89,10 @@ def _top_eigenvalues(S: np.ndarray, count: int) -> np.ndarray:
 
 
 def _check_training_points(X: np.ndarray, n_clusters: int) -> None:
-    """At least ``n_clusters`` samples, as many distinct ones, and a span float64 distances
-    can hold (1e200 overflows them, 1e-200 underflows them to "all identical").
+    """Check the training points can be clustered into ``n_clusters``.
+
+    At least ``n_clusters`` samples, as many distinct ones, and a span float64 distances can
+    hold (1e200 overflows them, 1e-200 underflows them to "all identical").
     """
     if n_clusters > X.shape[0]:
         raise ValueError(f"n_clusters={n_clusters} exceeds n_samples ({X.shape[0]})")
@@ -167,7 +181,20 @@ class KNNSpectralClustering(ClusterMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: ArrayLike, y: None = None) -> KNNSpectralClustering:
-        """Cluster the rows of X (``y`` is ignored)."""
+        """Cluster the rows of X.
+
+        Parameters
+        ----------
+        X : array-like of shape (n, d)
+            Training points.
+        y : None
+            Ignored.
+
+        Returns
+        -------
+        KNNSpectralClustering
+            This estimator, fitted.
+        """
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
         _check_training_points(X, self.n_clusters)
         self.gaps_ = {}
@@ -185,7 +212,18 @@ class KNNSpectralClustering(ClusterMixin, BaseEstimator):
         return self
 
     def predict(self, X: ArrayLike) -> np.ndarray:
-        """Majority cluster of each point's ``n_neighbors_`` nearest training points."""
+        """Return the majority cluster of each point's ``n_neighbors_`` nearest training points.
+
+        Parameters
+        ----------
+        X : array-like of shape (m, d)
+            Points to label.
+
+        Returns
+        -------
+        ndarray of shape (m,)
+            Cluster of each point.
+        """
         check_is_fitted(self, "labels_")
         X = validate_data(self, X, dtype=np.float64, reset=False)
         return self.classifier_.predict(X).astype(np.intp)
@@ -250,7 +288,20 @@ class EigengapNCutClustering(ClusterMixin, BaseEstimator):
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X: ArrayLike, y: None = None) -> EigengapNCutClustering:
-        """Choose sigma by the eigengap, then fit NCut with it (``y`` is ignored)."""
+        """Choose sigma by the eigengap, then fit NCut with it.
+
+        Parameters
+        ----------
+        X : array-like of shape (n, d)
+            Training points.
+        y : None
+            Ignored.
+
+        Returns
+        -------
+        EigengapNCutClustering
+            This estimator, fitted.
+        """
         X = validate_data(self, X, dtype=np.float64, ensure_min_samples=2)
         n = X.shape[0]
         _check_training_points(X, self.n_clusters)
@@ -273,7 +324,20 @@ class EigengapNCutClustering(ClusterMixin, BaseEstimator):
         return self
 
     def predict(self, X: ArrayLike) -> np.ndarray:
-        """Nystrom extension of the NCut at ``sigma_`` (see ``NormalizedCutClustering``)."""
+        """Label new points by the Nystrom extension of the NCut at ``sigma_``.
+
+        See ``NormalizedCutClustering``.
+
+        Parameters
+        ----------
+        X : array-like of shape (m, d)
+            Points to label.
+
+        Returns
+        -------
+        ndarray of shape (m,)
+            Cluster of each point.
+        """
         check_is_fitted(self, "labels_")
         X = validate_data(self, X, dtype=np.float64, reset=False)
         return self.model_.predict(X)

@@ -1,6 +1,8 @@
-"""The paper's "Normalized Cuts" baseline as the paper ran it (Section III): one Gaussian sigma
-for all clusters, swept over a grid, keeping the sigma with the lowest clustering error on the
-true labels (an oracle choice: `mapping.baselines.label_free` chooses without labels).
+"""The paper's "Normalized Cuts" baseline as the paper ran it (Section III).
+
+One Gaussian sigma for all clusters, swept over a grid, keeping the sigma with the lowest
+clustering error on the true labels (an oracle choice: `mapping.baselines.label_free` chooses
+without labels).
 """
 
 from __future__ import annotations
@@ -20,8 +22,9 @@ __all__ = ["SigmaSweep", "best_sigma_ncut", "default_sigmas"]
 
 @dataclass(frozen=True)
 class SigmaSweep:
-    """Result of [`best_sigma_ncut`][mapping.baselines.sigma_sweep.best_sigma_ncut]: the chosen
-    sigma, its error and model, and the sweep.
+    """Result of [`best_sigma_ncut`][mapping.baselines.sigma_sweep.best_sigma_ncut].
+
+    The chosen sigma, its error and model, and the sweep.
 
     Parameters
     ----------
@@ -63,7 +66,21 @@ class SigmaSweep:
 
 
 def default_sigmas(D2: np.ndarray, num: int = 40) -> np.ndarray:
-    """Log-spaced sigma grid from half the median nearest-neighbour distance to the diameter."""
+    """Return log-spaced sigmas from half the median nearest-neighbour distance to the diameter.
+
+    Parameters
+    ----------
+    D2 : ndarray of shape (n, n)
+        Squared pairwise distances of the points.
+    num : int, default 40
+        Number of sigmas.
+
+    Returns
+    -------
+    ndarray of shape (num,)
+        The sigmas, ascending; the low end is ``1e-3`` times the diameter when every point
+        has a copy.
+    """
     off = D2 + np.diag(np.full(D2.shape[0], np.inf))
     nn = np.sqrt(off.min(axis=1))
     lo = 0.5 * float(np.median(nn[nn > 0])) if (nn > 0).any() else 0.0
@@ -139,7 +156,7 @@ def best_sigma_ncut(
 
 
 def _check_sigmas(sigmas: ArrayLike) -> np.ndarray:
-    """``sigmas`` as a flat float array of positive finite numbers, or a ValueError naming it."""
+    """Return ``sigmas`` as a flat float array of positive finite numbers, or raise a ValueError."""
     form = "a non-empty sequence of positive finite numbers"
     try:
         grid = np.asarray(sigmas, dtype=np.float64).ravel()

@@ -61,15 +61,17 @@ class _SpectralBase(ClusterMixin, TransformerMixin, BaseEstimator):
         raise NotImplementedError
 
     def _check_n_samples(self, n_samples: int) -> None:
-        """The checks the parameter constraints cannot express (they depend on the data)."""
+        """Run the checks the parameter constraints cannot express (they depend on the data)."""
         if self.n_clusters > n_samples:
             raise ValueError(
                 f"n_clusters={self.n_clusters} exceeds the number of samples ({n_samples})"
             )
 
     def _check_samples(self, X: np.ndarray) -> None:
-        """The checks of the training points themselves: their number, a span float64
-        distances can hold, and at least ``n_clusters`` distinct rows.
+        """Check the training points themselves.
+
+        Their number, a span float64 distances can hold, and at least ``n_clusters`` distinct
+        rows.
         """
         self._check_n_samples(X.shape[0])
         if not check_span(X) > 0:
@@ -307,8 +309,10 @@ class SelfTuningSpectralClustering(_SpectralBase):
         return super()._fit_sqdist(X, D2)
 
     def _local_scales(self, D2: np.ndarray, exclude_self: bool) -> np.ndarray:
-        """Each row's scale: the distance to its ``n_neighbors``-th nearest distinct training
-        position (copies of a training point count once; a row's own copies are skipped).
+        """Return each row's scale.
+
+        The distance to its ``n_neighbors``-th nearest distinct training position (copies of a
+        training point count once; a row's own copies are skipped).
         """
         kth = self.n_neighbors if exclude_self else self.n_neighbors - 1
         distinct = getattr(self, "_distinct", None)  # None: every training row is distinct

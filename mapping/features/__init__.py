@@ -1,6 +1,8 @@
-"""Features both mapping methods cluster: images as vectors (``images``) or as per-cell HSV
-colour histograms (``hsv_histograms``), laser scans as range vectors (``scans``) and as
-rotation-invariant statistics (``statistics``). Each is a scikit-learn transformer.
+"""Features both mapping methods cluster.
+
+Images as vectors (``images``) or as per-cell HSV colour histograms (``hsv_histograms``), laser
+scans as range vectors (``scans``) and as rotation-invariant statistics (``statistics``). Each
+is a scikit-learn transformer.
 """
 
 from common.lazy import lazy_exports

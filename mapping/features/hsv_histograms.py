@@ -1,5 +1,7 @@
-"""Per-cell HSV colour histograms of images: the compact image features that reproduce the
-paper's image result here (docs/decisions/010-image-features.md).
+"""Per-cell HSV colour histograms of images.
+
+The compact image features that reproduce the paper's image result here
+(docs/decisions/010-image-features.md).
 
 Each cell's histogram is square-rooted so that Euclidean distance between feature vectors is
 the Hellinger distance between the cells' colour distributions. The only Python loop is one
@@ -78,8 +80,10 @@ def color_histograms(
 
 
 class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
-    """Images -> per-cell HSV histograms
-    ([`color_histograms`][mapping.features.hsv_histograms.color_histograms]), a transformer.
+    """Images -> per-cell HSV histograms, a transformer.
+
+    The histograms are those of
+    [`color_histograms`][mapping.features.hsv_histograms.color_histograms].
 
     Stateless apart from remembering the feature count, so ``fit`` only validates; it exists
     so that this and [`ImageFeatures`][mapping.features.images.ImageFeatures] are interchangeable in
@@ -119,11 +123,25 @@ class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
         self.grid = grid
 
     def __sklearn_tags__(self):
+        """Return scikit-learn's tags, marking the input as a batch of images."""
         return image_transformer_tags(super().__sklearn_tags__())
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, images: ArrayLike, y: None = None) -> ColorHistogramFeatures:
-        """Check the parameters and images; remember the feature count."""
+        """Check the parameters and images; remember the feature count.
+
+        Parameters
+        ----------
+        images : array-like of uint8, shape (H, W, 3) or (n, H, W, 3)
+            RGB images; only the first is converted.
+        y : None
+            Ignored.
+
+        Returns
+        -------
+        ColorHistogramFeatures
+            This transformer, fitted.
+        """
         arr = np.asarray(images)
         # the first image checks the lot: one (H, W, 3) image is a batch of one, not H rows
         first = arr if arr.ndim <= 3 else arr[:1]  # fewer axes: refused, naming the form
@@ -131,6 +149,17 @@ class ColorHistogramFeatures(TransformerMixin, BaseEstimator):
         return self
 
     def transform(self, images: ArrayLike) -> np.ndarray:
-        """Feature vectors of shape (n, cells * prod(bins))."""
+        """Return the feature vectors of the images.
+
+        Parameters
+        ----------
+        images : array-like of uint8, shape (H, W, 3) or (n, H, W, 3)
+            RGB images.
+
+        Returns
+        -------
+        ndarray of shape (n, cells * prod(bins))
+            Per-cell square-rooted histograms.
+        """
         check_is_fitted(self, "n_features_in_")
         return color_histograms(images, self.bins, self.grid)

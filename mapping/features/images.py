@@ -36,9 +36,11 @@ _VALUES = "uint8, uint16, other integers in 0-255, or floats in [0, 1] (or 0-255
 
 
 def _image_batch(images: np.ndarray) -> np.ndarray:
-    """``images`` as a batch ``(n, H, W, 3)`` or ``(n, H, W)``: (H, W) is one grey image,
-    (H, W, 3) one colour image and any other 3-D array a grey batch, except a last axis of 4:
-    RGBA, refused (one RGBA image would be read as H grey images 4 pixels wide).
+    """Return ``images`` as a batch ``(n, H, W, 3)`` or ``(n, H, W)``.
+
+    (H, W) is one grey image, (H, W, 3) one colour image and any other 3-D array a grey batch,
+    except a last axis of 4: RGBA, refused (one RGBA image would be read as H grey images 4
+    pixels wide).
     """
     if images.ndim in (3, 4) and images.shape[0] == 0:
         raise ValueError("images is empty")
@@ -56,8 +58,9 @@ def _image_batch(images: np.ndarray) -> np.ndarray:
 
 
 def _pixel_scale(images: np.ndarray) -> float:
-    """The factor that maps ``images`` to [0, 1] (the rule of
-    [`images_to_vectors`][mapping.features.images.images_to_vectors]).
+    """Return the factor that maps ``images`` to [0, 1].
+
+    The rule is that of [`images_to_vectors`][mapping.features.images.images_to_vectors].
 
     uint8 and uint16 go by their type, with no pass over the pixels. A float copy of 8-bit
     pixels (what ``servo`` passes on) gives what the uint8 image gives.
@@ -128,12 +131,24 @@ def images_to_vectors(
     prefer_skip_nested_validation=True,
 )
 def normalize_rows(X: np.ndarray, method: str = "unit") -> np.ndarray:
-    """Per-vector normalisation: ``"unit"`` subtracts each row's mean and scales it to norm 1.
+    """Normalise each vector: ``"unit"`` subtracts each row's mean and scales it to norm 1.
 
     This removes global brightness and contrast changes between views. A constant row (zero
     norm after centring) stays all zeros. ``"none"`` returns X unchanged (as float64). X must
     be 2-D, one vector per row (``X[None]`` for a single vector), and finite: a row with a NaN
     has no norm (it became all zeros, a constant image, before).
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, d)
+        Finite vectors, one per row.
+    method : {"unit", "none"}, default "unit"
+        The normalisation.
+
+    Returns
+    -------
+    ndarray of shape (n, d)
+        The normalised rows, float64.
     """
     X = np.asarray(X, dtype=np.float64)
     if X.ndim != 2:
@@ -218,6 +233,7 @@ class ImageFeatures(TransformerMixin, BaseEstimator):
         self.n_components = n_components
 
     def __sklearn_tags__(self):
+        """Return scikit-learn's tags, marking the input as a batch of images."""
         return image_transformer_tags(super().__sklearn_tags__())
 
     def _pixels(self, images: ArrayLike) -> np.ndarray:
@@ -234,6 +250,11 @@ class ImageFeatures(TransformerMixin, BaseEstimator):
             Training images (see [`images_to_vectors`][mapping.features.images.images_to_vectors]).
         y : None
             Ignored.
+
+        Returns
+        -------
+        ImageFeatures
+            This transformer, fitted.
         """
         X = self._pixels(images)
         self.n_features_in_ = X.shape[1]
@@ -256,7 +277,18 @@ class ImageFeatures(TransformerMixin, BaseEstimator):
         return self
 
     def transform(self, images: ArrayLike) -> np.ndarray:
-        """Feature vectors of shape (n, n_components or n_features_in_)."""
+        """Return the feature vectors of the images.
+
+        Parameters
+        ----------
+        images : array-like of shape (n, H, W, 3) or (n, H, W)
+            Images (see [`images_to_vectors`][mapping.features.images.images_to_vectors]).
+
+        Returns
+        -------
+        ndarray of shape (n, n_components or n_features_in_)
+            One feature vector per image.
+        """
         check_is_fitted(self, "n_features_in_")
         X = self._pixels(images)
         if X.shape[1] != self.n_features_in_:

@@ -35,11 +35,23 @@ SCAN_REPRESENTATIONS = ("range", "inverse", "polar_grid")
 
 
 def scan_ranges(ranges: ArrayLike, max_range: float) -> np.ndarray:
-    """Finite ranges in [0, max_range], shape (n, n_beams), float64.
+    """Return the ranges as finite values in [0, max_range].
 
     ``+inf`` (no return) and values beyond ``max_range`` become ``max_range``; NaN, ``-inf`` and
     negative readings are invalid and are also treated as "nothing seen" (``max_range``), the
     conservative choice that never invents an obstacle.
+
+    Parameters
+    ----------
+    ranges : array-like of shape (n_beams,) or (n, n_beams)
+        Raw ranges.
+    max_range : float
+        Sensor range limit in metres, positive and finite.
+
+    Returns
+    -------
+    ndarray of shape (n, n_beams), float64
+        The finite ranges.
     """
     if not (np.isfinite(max_range) and max_range > 0):
         raise ValueError(f"max_range must be a positive finite number, got {max_range!r}")
@@ -72,7 +84,7 @@ def scan_vectors(
     n_sectors: int | None = None,
     n_range_bins: int = 8,
 ) -> np.ndarray:
-    """Scans to fixed-length vectors.
+    """Turn scans into fixed-length vectors.
 
     Parameters
     ----------
@@ -100,6 +112,7 @@ def scan_vectors(
     Returns
     -------
     ndarray of shape (n, D), float64
+        One vector per scan.
     """
     r = scan_ranges(ranges, max_range)
     n, n_beams = r.shape
@@ -130,8 +143,21 @@ def scan_vectors(
 
 
 def fitted_max_range(ranges: np.ndarray, max_range: float | None) -> float:
-    """The laser's range limit: ``max_range`` when given, else the largest finite positive
-    reading of the training scans (a scan transformer's ``max_range_``).
+    """Return the laser's range limit (a scan transformer's ``max_range_``).
+
+    ``max_range`` when given, else the largest finite positive reading of the training scans.
+
+    Parameters
+    ----------
+    ranges : ndarray of shape (n, n_beams)
+        Training scans.
+    max_range : float or None
+        The limit given by the user, if any.
+
+    Returns
+    -------
+    float
+        The range limit in metres.
     """
     if max_range is not None:
         return float(max_range)
@@ -144,10 +170,11 @@ def fitted_max_range(ranges: np.ndarray, max_range: float | None) -> float:
 
 
 class ScanRangesInput:
-    """Input handling shared by the scan transformers: rows of ranges (n, n_beams) in which inf
-    (no return) and NaN (invalid beam) are readings, not missing data (see
-    [`scan_ranges`][mapping.features.scans.scan_ranges]), so scikit-learn's finiteness check is off
-    and its ``allow_nan`` tag on.
+    """Input handling shared by the scan transformers.
+
+    Rows of ranges (n, n_beams) in which inf (no return) and NaN (invalid beam) are readings, not
+    missing data (see [`scan_ranges`][mapping.features.scans.scan_ranges]), so scikit-learn's
+    finiteness check is off and its ``allow_nan`` tag on.
 
     Examples
     --------
@@ -164,6 +191,7 @@ class ScanRangesInput:
     """
 
     def __sklearn_tags__(self):
+        """Return scikit-learn's tags, with NaN allowed in the input."""
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = True  # NaN (and inf) are readings: see scan_ranges
         return tags
@@ -173,8 +201,9 @@ class ScanRangesInput:
 
 
 class ScanFeatures(ScanRangesInput, TransformerMixin, BaseEstimator):
-    """Laser scans -> feature vectors (a fit/transform wrapper of
-    [`scan_vectors`][mapping.features.scans.scan_vectors]).
+    """Laser scans -> feature vectors.
+
+    A fit/transform wrapper of [`scan_vectors`][mapping.features.scans.scan_vectors].
 
     Parameters
     ----------
@@ -243,6 +272,11 @@ class ScanFeatures(ScanRangesInput, TransformerMixin, BaseEstimator):
             Training scans; inf = no return, NaN = invalid.
         y : None
             Ignored.
+
+        Returns
+        -------
+        ScanFeatures
+            This transformer, fitted.
         """
         r = self._check_ranges(ranges, reset=True)
         self.max_range_ = fitted_max_range(r, self.max_range)
@@ -260,6 +294,17 @@ class ScanFeatures(ScanRangesInput, TransformerMixin, BaseEstimator):
         )
 
     def transform(self, ranges: ArrayLike) -> np.ndarray:
-        """Feature vectors of shape (n, D)."""
+        """Return the feature vectors of the scans.
+
+        Parameters
+        ----------
+        ranges : array-like of shape (n, n_beams)
+            Scans; inf = no return, NaN = invalid.
+
+        Returns
+        -------
+        ndarray of shape (n, D)
+            One vector per scan (see [`scan_vectors`][mapping.features.scans.scan_vectors]).
+        """
         check_is_fitted(self, "max_range_")
         return self._vectors(self._check_ranges(ranges, reset=False))

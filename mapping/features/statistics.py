@@ -59,7 +59,7 @@ def scan_statistics(
     n_rings: int = 8,
     min_range: float = 0.25,
 ) -> list[np.ndarray]:
-    """The blocks of sector and ring statistics of scans, unscaled.
+    """Return the blocks of sector and ring statistics of scans, unscaled.
 
     Parameters
     ----------
@@ -220,6 +220,11 @@ class ScanStatistics(ScanRangesInput, TransformerMixin, BaseEstimator):
             Training scans; inf = no return, NaN = invalid.
         y : None
             Ignored.
+
+        Returns
+        -------
+        ScanStatistics
+            This transformer, fitted.
         """
         r = self._check_ranges(ranges, reset=True)
         self.max_range_ = fitted_max_range(r, self.max_range)
@@ -233,7 +238,18 @@ class ScanStatistics(ScanRangesInput, TransformerMixin, BaseEstimator):
         return self
 
     def transform(self, ranges: ArrayLike) -> np.ndarray:
-        """Feature vectors of shape (n, n_sectors * sector blocks + n_rings * ring block)."""
+        """Return the scaled feature vectors of the scans.
+
+        Parameters
+        ----------
+        ranges : array-like of shape (n, n_beams)
+            Scans; inf = no return, NaN = invalid.
+
+        Returns
+        -------
+        ndarray of shape (n, n_sectors * sector blocks + n_rings * ring block)
+            The blocks side by side, each divided by its ``block_scales_`` entry.
+        """
         check_is_fitted(self, "block_scales_")
         blocks = self._blocks(self._check_ranges(ranges, reset=False))
         return np.hstack([b / s for b, s in zip(blocks, self.block_scales_, strict=True)])

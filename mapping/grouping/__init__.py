@@ -1,5 +1,7 @@
-"""Consistent observation grouping (Blanco, Gonzalez & Fernandez-Madrigal): 2-D laser scans
-with poses grouped into local metric maps by recursive min-Ncut of their sensed-space overlap.
+"""Consistent observation grouping (Blanco, Gonzalez & Fernandez-Madrigal).
+
+2-D laser scans with poses grouped into local metric maps by recursive min-Ncut of their
+sensed-space overlap.
 
 * ``partitioner`` --
   [`ObservationGraphPartitioner`][mapping.grouping.partitioner.ObservationGraphPartitioner], the

@@ -91,14 +91,28 @@ class VoxelOverlapIndex:
         self.reach: list[float] = []  # farthest point from the sensor
 
     def __len__(self) -> int:
+        """Return the number of indexed scans."""
         return len(self.keys)
 
     def add(self, points: np.ndarray, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Add a scan (sensor-frame points at ``pose``); return its overlaps ``Psi`` (eq. 18)
-        with the scans already indexed, as ``(indices, weights)`` with weights > 0.
+        """Add a scan (sensor-frame points at ``pose``) and return its overlaps.
 
-        ``points`` is ``(M, 2)`` and finite (``(0, 2)`` for a scan without returns), ``pose``
-        a finite ``(x, y, yaw)``.
+        The overlaps are ``Psi`` (eq. 18) with the scans already indexed, as
+        ``(indices, weights)`` with weights > 0.
+
+        Parameters
+        ----------
+        points : ndarray of shape (M, 2)
+            Finite sensor-frame points (``(0, 2)`` for a scan without returns).
+        pose : ndarray of shape (3,)
+            Finite ``(x, y, yaw)`` of the sensor.
+
+        Returns
+        -------
+        indices : ndarray of int
+            Indexed scans the new one overlaps, ascending.
+        weights : ndarray of float
+            Their overlaps ``Psi`` with the new scan, in (0, 1].
         """
         points, pose = _check_scan(points, pose)
         world = transform_points(pose, points)
@@ -168,7 +182,7 @@ class VoxelOverlapIndex:
 
 
 def _check_scan(points, pose) -> tuple[np.ndarray, np.ndarray]:
-    """One scan and its pose as float arrays, checked as ``partial_fit`` checks a batch."""
+    """Return one scan and its pose as float arrays, checked as ``partial_fit`` checks a batch."""
     try:
         pose = np.asarray(pose, dtype=float)
     except (TypeError, ValueError):
@@ -185,11 +199,26 @@ def _check_scan(points, pose) -> tuple[np.ndarray, np.ndarray]:
 def add_scans(
     state: dict, scans: list, poses: np.ndarray, **ncut
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Add ``scans`` at ``poses`` one by one to the graph of ``state`` (its ``index``, ``arcs``
-    and raw labels ``raw``, -1 for empty scans) and re-partition after each.
+    """Add ``scans`` at ``poses`` one by one to the graph of ``state``; re-partition after each.
 
-    Returns the graph's arcs ``(rows, cols, vals)`` (a COO with both directions and the
-    diagonal) and the raw labels.
+    Parameters
+    ----------
+    state : dict
+        The graph: its ``index`` (a ``VoxelOverlapIndex``), ``arcs`` (a sequence of
+        ``(rows, cols, vals)`` parts) and raw labels ``raw`` (-1 for empty scans).
+    scans : list of ndarray of shape (M, 2)
+        Sensor-frame points of each new scan.
+    poses : ndarray of shape (n, 3)
+        ``(x, y, yaw)`` of each new scan.
+    **ncut
+        Options of the recursive min-Ncut, as ``repartition`` takes them.
+
+    Returns
+    -------
+    rows, cols, vals : ndarray
+        The graph's arcs, a COO with both directions and the diagonal.
+    raw : ndarray of int
+        The raw labels of every scan, -1 for empty scans.
     """
     rows, cols, vals = (np.concatenate(part) for part in zip(*state["arcs"], strict=True))
     raw = state["raw"]
@@ -215,14 +244,29 @@ def repartition(
     neighbours: np.ndarray,
     **ncut,
 ) -> np.ndarray:
-    """Labels after adding scan ``new`` (label -1 in ``labels``) to the graph.
+    """Return the labels after adding scan ``new`` to the graph.
 
     The groups that share an arc with the new scan are merged with it and partitioned again
-    (``recursive_ncut_partition`` with ``ncut``'s options: threshold, assoc, laplacian,
-    min_size, solver) on their own subgraph; every other group keeps its scans. Groups are
-    renumbered in order of their first scan, as in ``fit``. ``rows, cols, vals`` are the
-    graph's arcs (both directions and the diagonal, as a COO); ``neighbours`` the scans the new
-    one overlaps.
+    (``recursive_ncut_partition`` with ``ncut``'s options) on their own subgraph; every other
+    group keeps its scans. Groups are renumbered in order of their first scan, as in ``fit``.
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Current labels, -1 for ``new`` (and for empty scans).
+    rows, cols, vals : ndarray
+        The graph's arcs, both directions and the diagonal, as a COO.
+    new : int
+        Index of the new scan.
+    neighbours : ndarray of int
+        The scans the new one overlaps.
+    **ncut
+        ``threshold``, ``assoc``, ``laplacian``, ``min_size`` and ``solver`` of the min-Ncut.
+
+    Returns
+    -------
+    ndarray of int
+        The new labels, ``0..K-1`` in order of each group's first scan; -1 stays -1.
     """
     affected = np.unique(labels[neighbours])
     affected = affected[affected >= 0]
@@ -243,7 +287,7 @@ def repartition(
 
 
 def _renumber(labels: np.ndarray) -> np.ndarray:
-    """Labels ``0..K-1`` in order of each group's first index (-1 stays -1)."""
+    """Return labels ``0..K-1`` in order of each group's first index (-1 stays -1)."""
     out = np.full_like(labels, -1)
     valid = labels >= 0
     _, first = np.unique(labels[valid], return_index=True)

@@ -43,12 +43,12 @@ __all__ = [
 
 
 def _is_integer(value) -> bool:
-    """An integer, not a bool (``True`` is an ``int`` to Python, not a count to a user)."""
+    """Check for an integer, not a bool (``True`` is an ``int`` to Python, not a count)."""
     return isinstance(value, Integral) and not isinstance(value, bool | np.bool_)
 
 
 def _check_labels(labels: ArrayLike, n: int) -> np.ndarray:
-    """``labels`` as an array of shape ``(n,)`` of integer group ids (-1: no group)."""
+    """Return ``labels`` as an array of shape ``(n,)`` of integer group ids (-1: no group)."""
     labels = np.asarray(labels)
     if labels.shape != (n,):
         raise ValueError(f"labels must have shape ({n},), one group per scan, got {labels.shape}")
@@ -61,7 +61,7 @@ def _check_labels(labels: ArrayLike, n: int) -> np.ndarray:
 
 
 def _check_indices(indices: ArrayLike, n: int, name: str) -> np.ndarray:
-    """``indices`` as a 1-D int array of scan indices in ``[0, n)``."""
+    """Return ``indices`` as a 1-D int array of scan indices in ``[0, n)``."""
     indices = np.asarray(indices)
     if indices.ndim != 1 or (indices.size and indices.dtype.kind not in "iu"):
         raise ValueError(f"{name} must be a 1-D array of scan indices, got {indices!r}")
@@ -77,11 +77,22 @@ def submap_labels(
     distance: float | None = None,
     groups: ArrayLike | None = None,
 ) -> np.ndarray:
-    """Fixed-size submaps: a new one every ``n_scans`` scans, or once a submap spans more
-    than ``distance`` metres of travel.
+    """Label fixed-size submaps: a new one every ``n_scans`` scans or ``distance`` metres.
 
-    Exactly one of ``n_scans`` and ``distance`` is given. A new drive (``groups``, as in
-    ``ObservationGraphPartitioner.fit``) always starts a new submap.
+    A submap ends after ``n_scans`` scans, or once it spans more than ``distance`` metres of
+    travel. Exactly one of ``n_scans`` and ``distance`` is given. A new drive (``groups``, as
+    in ``ObservationGraphPartitioner.fit``) always starts a new submap.
+
+    Parameters
+    ----------
+    poses : array-like of shape (N, 3)
+        Finite ``(x, y, yaw)`` of each scan, in time order.
+    n_scans : int, optional
+        Scans per submap.
+    distance : float, optional
+        Metres of travel per submap.
+    groups : array-like of shape (N,), optional
+        The drive of each scan; None is one drive.
 
     Returns
     -------
@@ -135,6 +146,21 @@ def align_group(
     members already placed (densified along each scan). A match that does not converge or
     pairs fewer than ``min_overlap`` of the scan's points keeps the seed.
 
+    Parameters
+    ----------
+    scans : sequence of ndarray of shape (M, 2)
+        Sensor-frame points of every scan.
+    poses : array-like of shape (N, 3)
+        Given ``(x, y, yaw)`` of every scan.
+    members : array-like of int
+        Indices of the group's scans.
+    max_correspondence_distance : float, default 0.5
+        ICP's initial correspondence gate in metres.
+    window : int, default 10
+        How many members already placed make the map each next member is aligned to.
+    min_overlap : float, default 0.5
+        Fraction of the scan's points ICP must pair for its result to be kept.
+
     Returns
     -------
     ndarray of shape (len(members), 3)
@@ -159,7 +185,7 @@ def _align_group(
     window: int = 10,
     min_overlap: float = 0.5,
 ) -> np.ndarray:
-    """``align_group`` on checked scans, poses and members."""
+    """Run ``align_group`` on checked scans, poses and members."""
     members = np.sort(members)
     out = poses[members].copy()
     placed: list[np.ndarray] = []  # members' densified points, in the group's frame
@@ -180,8 +206,21 @@ def _align_group(
 
 
 def align_groups(scans: Sequence[np.ndarray], poses: ArrayLike, labels: ArrayLike) -> np.ndarray:
-    """``align_group`` for every group of ``labels`` (scans labelled -1 keep their pose);
-    returns all poses, each group in its own frame.
+    """Run ``align_group`` for every group of ``labels``; scans labelled -1 keep their pose.
+
+    Parameters
+    ----------
+    scans : sequence of ndarray of shape (M, 2)
+        Sensor-frame points of every scan.
+    poses : array-like of shape (N, 3)
+        Given ``(x, y, yaw)`` of every scan.
+    labels : array-like of int, shape (N,)
+        Group of each scan, -1 for none.
+
+    Returns
+    -------
+    ndarray of shape (N, 3)
+        All poses, each group's in its own frame.
 
     Raises
     ------
@@ -207,7 +246,9 @@ def map_residuals(
     min_shared: float = 0.3,
     stride: int = 4,
 ) -> dict:
-    """Consistency (crispness) of maps: point-to-nearest-point residuals between scan pairs.
+    """Measure the consistency (crispness) of maps by residuals between scan pairs.
+
+    The residuals are point-to-nearest-point distances.
 
     For every ordered pair ``(i, j)`` of scans in the same map whose bounding boxes come within
     ``max_distance``, every ``stride``-th point of ``i`` is matched to its nearest point of
@@ -216,6 +257,21 @@ def map_residuals(
     surfaces, and its residuals count. Pairs, not the map's union, are scored so that a map of
     many scans is not made to look crisp by its density: two views of one wall that disagree
     by 20 cm score 20 cm however many other scans lie between them.
+
+    Parameters
+    ----------
+    scans : sequence of ndarray of shape (M, 2)
+        Sensor-frame points of every scan.
+    poses : array-like of shape (N, 3)
+        ``(x, y, yaw)`` of every scan, in the frame of its map.
+    labels : array-like of int, shape (N,)
+        Map of each scan, -1 for none.
+    max_distance : float, default 0.5
+        Metres within which a point counts as matched.
+    min_shared : float, default 0.3
+        Fraction of sampled points within ``max_distance`` for a pair to share surfaces.
+    stride : int, default 4
+        Every ``stride``-th point of a scan is sampled.
 
     Returns
     -------
@@ -282,7 +338,7 @@ def localise_held_out(
     init_sigma: tuple[float, float] = (0.2, 0.05),
     max_correspondence_distance: float = 0.5,
 ) -> np.ndarray:
-    """Localise each held-out scan by ICP against a map; the error of its relative pose.
+    """Localise each held-out scan by ICP against a map; return the error of its relative pose.
 
     ``maps[m]`` is a point map (its scans' points at ``poses``: aligned local-map poses or
     global ones). Held-out scan ``held_out[j]`` is aligned to ``maps[map_of[j]]`` from its
@@ -291,6 +347,29 @@ def localise_held_out(
     ``anchor[j]`` (a neighbour in time, inside that map): the error is that of
     ``est ⊖ poses[anchor]`` against ``truth[anchor] ⊖ truth[held_out]``, so a map in its own
     frame is scored as fairly as one in the world frame.
+
+    Parameters
+    ----------
+    scans : sequence of ndarray of shape (M, 2)
+        Sensor-frame points of every scan.
+    poses : array-like of shape (N, 3)
+        Given ``(x, y, yaw)`` of every scan.
+    truth : array-like of shape (N, 3)
+        True poses of every scan.
+    held_out : array-like of int
+        Indices of the held-out scans.
+    anchor : array-like of int
+        For each held-out scan, a neighbour in its map.
+    maps : dict of int to ndarray of shape (P, 2)
+        Point map of each map id.
+    map_of : array-like
+        For each held-out scan, the map id to localise it in.
+    rng : numpy.random.Generator
+        Source of the initial pose noise.
+    init_sigma : tuple of (float, float), default (0.2, 0.05)
+        Noise on the initial pose: translation (m) and heading (rad).
+    max_correspondence_distance : float, default 0.5
+        ICP's initial correspondence gate in metres.
 
     Returns
     -------

@@ -51,7 +51,20 @@ RESCALE_ABOVE = 1e100
 
 
 def check_weights(W: ArrayLike | sp.sparray, name: str = "W") -> np.ndarray | sp.csr_array:
-    """Return ``W`` as float ndarray or csr_array after checking it is a valid graph."""
+    """Return ``W`` as float ndarray or csr_array after checking it is a valid graph.
+
+    Parameters
+    ----------
+    W : array-like or sparse matrix of shape (n, n)
+        Weights; must be square, finite, non-negative and symmetric.
+    name : str, default "W"
+        Name of the argument, for the error messages.
+
+    Returns
+    -------
+    ndarray or scipy.sparse.csr_array of shape (n, n)
+        ``W`` as floats (sparse stays sparse).
+    """
     if sp.issparse(W):
         W = sp.csr_array(W, dtype=float)
         values = W.data
@@ -72,7 +85,7 @@ def check_weights(W: ArrayLike | sp.sparray, name: str = "W") -> np.ndarray | sp
 
 
 def _rescaled(W: np.ndarray | sp.csr_array) -> np.ndarray | sp.csr_array:
-    """``W / W.max()`` when its largest weight exceeds ``RESCALE_ABOVE``, else ``W`` itself."""
+    """Return ``W / W.max()`` when its largest weight exceeds ``RESCALE_ABOVE``, else ``W``."""
     top = float(W.max()) if W.shape[0] else 0.0
     return W / top if top > RESCALE_ABOVE else W
 
@@ -83,7 +96,7 @@ def _check_solver(solver: str) -> None:
 
 
 def ncut(W: ArrayLike | sp.sparray, mask: ArrayLike, assoc: str = "mrpt") -> float:
-    """Normalised cut of the bisection ``A = mask``, ``B = ~mask`` (eq. 1).
+    """Return the normalised cut of the bisection ``A = mask``, ``B = ~mask`` (eq. 1).
 
     ``Ncut = cut(A, B) / assoc(A, V) + cut(A, B) / assoc(B, V)`` with ``cut`` the summed
     weight between the groups (eq. 2). ``assoc`` selects how the association is counted:
@@ -94,7 +107,19 @@ def ncut(W: ArrayLike | sp.sparray, mask: ArrayLike, assoc: str = "mrpt") -> flo
     - ``"paper"``: eq. 3 as written, ``sum_{u in A, v in V} W_uv``: the degree volume, which
       counts each pair inside ``A`` twice and includes the diagonal.
 
-    Returns 0 when ``cut(A, B) = 0`` (two disconnected groups), else a value in ``(0, 2]``.
+    Parameters
+    ----------
+    W : array-like or sparse matrix of shape (n, n)
+        Symmetric non-negative weights.
+    mask : array-like of bool, shape (n,)
+        True for the nodes of ``A``.
+    assoc : {"mrpt", "paper"}, default "mrpt"
+        How the association is counted.
+
+    Returns
+    -------
+    float
+        0 when ``cut(A, B) = 0`` (two disconnected groups), else a value in ``(0, 2]``.
 
     Raises
     ------
@@ -175,7 +200,7 @@ def spectral_bisection(
 
 
 def _bisect(W, laplacian: str, solver: str) -> tuple[np.ndarray, np.ndarray]:
-    """``spectral_bisection`` without the input checks (the recursion checks ``W`` once)."""
+    """Run ``spectral_bisection`` without the input checks (the recursion checks ``W`` once)."""
     # a CSR copy: csgraph's own dense input path goes through masked arrays, ~10x slower
     n_comp, comp = connected_components(sp.csr_array(W), directed=False)
     if n_comp > 1:
@@ -238,6 +263,15 @@ def _sparse_second_eigenvector(L: sp.csr_array, null: np.ndarray) -> np.ndarray:
 @dataclass(eq=False)
 class NcutNode(SplitNode):
     """A node of the recursive min-Ncut bisection tree.
+
+    Parameters
+    ----------
+    indices : ndarray of int
+        Nodes of the original graph in this subgraph.
+    children : tuple of NcutNode, default ()
+        The two halves of an accepted bisection; empty for a leaf.
+    ncut : float or None, default None
+        Ncut of the best bisection found.
 
     Attributes
     ----------
@@ -316,9 +350,32 @@ def partition_checked(
     min_size: int,
     solver: str,
 ) -> tuple[np.ndarray, NcutNode]:
-    """``recursive_ncut_partition`` on arguments already checked (a valid, non-empty ``W``):
-    for callers that re-partition many small graphs, such as ``partial_fit``. Weights of huge
+    """Run ``recursive_ncut_partition`` on arguments already checked (a valid, non-empty ``W``).
+
+    For callers that re-partition many small graphs, such as ``partial_fit``. Weights of huge
     magnitude are rescaled first (``RESCALE_ABOVE``).
+
+    Parameters
+    ----------
+    W : ndarray or scipy.sparse.csr_array of shape (n, n)
+        Checked weights (``check_weights``), at least one node.
+    threshold : float
+        Accept a bisection while ``Ncut < threshold``.
+    assoc : {"mrpt", "paper"}
+        How ``ncut`` counts the association.
+    laplacian : {"normalized", "unnormalized"}
+        Eigenproblem of the bisection.
+    min_size : int
+        Reject a bisection that leaves fewer nodes than this on either side.
+    solver : {"auto", "dense", "sparse"}
+        Eigensolver.
+
+    Returns
+    -------
+    labels : ndarray of shape (n,), int
+        Group of each node, numbered in the order of each group's first node.
+    tree : NcutNode
+        The bisection tree with each Ncut.
     """
     W = _rescaled(W)
     n = W.shape[0]

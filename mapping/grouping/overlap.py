@@ -41,8 +41,22 @@ GLOBAL_MAX_POINTS = 25_000
 def check_scans_and_poses(
     scans: Sequence[ArrayLike], poses: ArrayLike
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """Validate scans and poses, returning float arrays: each scan ``(M, 2)``, an empty one
-    (``[]``, or any array without elements) ``(0, 2)``, and the poses ``(N, 3)``.
+    """Validate scans and poses, returning them as float arrays.
+
+    Parameters
+    ----------
+    scans : sequence of array-like of shape (M, 2)
+        Finite sensor-frame points of each scan; an empty scan is ``[]`` or any array without
+        elements.
+    poses : array-like of shape (N, 3)
+        Finite ``(x, y, yaw)`` of each scan.
+
+    Returns
+    -------
+    scans : list of ndarray of shape (M, 2)
+        Each scan as floats; an empty one ``(0, 2)``.
+    poses : ndarray of shape (N, 3)
+        The poses as floats.
 
     Raises
     ------
@@ -90,12 +104,25 @@ def check_scans_and_poses(
 
 
 def world_points(scans: Sequence[np.ndarray], poses: np.ndarray) -> list[np.ndarray]:
-    """Each scan's points mapped to the world frame with its pose."""
+    """Map each scan's points to the world frame with its pose.
+
+    Parameters
+    ----------
+    scans : sequence of ndarray of shape (M, 2)
+        Sensor-frame points of each scan.
+    poses : ndarray of shape (N, 3)
+        ``(x, y, yaw)`` of each scan.
+
+    Returns
+    -------
+    list of ndarray of shape (M, 2)
+        Each scan's points in the world frame.
+    """
     return [transform_points(p, s) for p, s in zip(poses, scans, strict=True)]
 
 
 def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> np.ndarray:
-    """Pairs ``(i, j)``, ``i < j``, whose bounding boxes, grown by ``reach``, intersect.
+    """Return pairs ``(i, j)``, ``i < j``, whose bounding boxes, grown by ``reach``, intersect.
 
     A KD-tree over the box centres gives a superset (circles around the boxes) without an
     all-pairs loop; the exact box test then filters it.
@@ -113,7 +140,7 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> np.ndarray
 def _fractions_per_scan(
     pts: list[np.ndarray], delta: float, workers: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Matched fractions ``Pi(i, j)`` (eq. 17) with one KD-tree per target scan ``j``.
+    """Return matched fractions ``Pi(i, j)`` (eq. 17) with one KD-tree per target scan ``j``.
 
     Memory grows with the number of candidate pairs only. Returns ``(i, j, Pi(i, j))`` for
     every candidate pair in both directions.
@@ -163,7 +190,7 @@ def _fractions_per_scan(
 def _fractions_global(
     pts: list[np.ndarray], delta: float, workers: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Matched fractions ``Pi(i, j)`` (eq. 17) from one KD-tree over all points.
+    """Return matched fractions ``Pi(i, j)`` (eq. 17) from one KD-tree over all points.
 
     A single self-join (``query_pairs``, inclusive radius as eq. 16) lists every point pair
     within ``delta``; a sparse (point, scan) incidence removes the duplicates (several points of
@@ -196,7 +223,7 @@ def _fractions_global(
 def _fractions_voxel(
     pts: list[np.ndarray], delta: float, voxel_size: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Matched fractions ``Pi(i, j)`` (eq. 17) of the voxel-downsampled scans.
+    """Return matched fractions ``Pi(i, j)`` (eq. 17) of the voxel-downsampled scans.
 
     Every scan becomes the set of voxels its points fall in (``A``); voxel ``u`` of scan ``i``
     matches scan ``j`` when a voxel of ``j`` lies within ``delta`` of it, centre to centre
@@ -225,7 +252,7 @@ def sensed_space_overlap(
     workers: int = 1,
     voxel_size: float | None = None,
 ) -> np.ndarray | sp.csr_array:
-    """Sensed-space-overlap matrix of laser scans (eq. 16-18).
+    """Return the sensed-space-overlap matrix of laser scans (eq. 16-18).
 
     ``C(p, q, delta) = 1`` when ``||p - q|| <= delta`` (eq. 16); ``Pi(i, j)`` is the fraction of
     the ``M_i`` points of scan ``i`` with some point of scan ``j`` within ``delta`` (eq. 17);

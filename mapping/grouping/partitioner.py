@@ -178,6 +178,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         self.solver = solver
 
     def __sklearn_tags__(self):
+        """Return scikit-learn's tags; a precomputed affinity is a pairwise, sparse input."""
         tags = super().__sklearn_tags__()
         tags.input_tags.pairwise = self.affinity == "precomputed"
         tags.input_tags.sparse = self.affinity == "precomputed"
@@ -256,7 +257,22 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         *,
         groups: ArrayLike | None = None,
     ) -> np.ndarray:
-        """``fit`` and return ``labels_``."""
+        """Run ``fit`` and return ``labels_``.
+
+        Parameters
+        ----------
+        X : sequence of array-like of shape (M_i, 2), or (N, N) matrix
+            The scans, or the precomputed weights (see ``fit``).
+        poses : array-like of shape (N, 3), optional
+            World poses of the scans; required for ``"sso"``.
+        groups : array-like of shape (N,), optional
+            The run (drive) of each scan; default one run.
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+            Group of each scan.
+        """
         return self.fit(X, poses, groups=groups).labels_
 
     def partial_fit(self, X: Sequence[ArrayLike], poses: ArrayLike) -> ObservationGraphPartitioner:
@@ -331,8 +347,10 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         return self
 
     def _chain(self, state: dict, scans: list, given: np.ndarray) -> np.ndarray:
-        """Poses of the new scans: as given, or ICP-refined increments chained from the last
-        refined pose (``refine_poses`` on the previous scan and the new ones).
+        """Return the poses of the new scans.
+
+        As given, or ICP-refined increments chained from the last refined pose
+        (``refine_poses`` on the previous scan and the new ones).
         """
         if not self.scan_matching:
             return given
@@ -343,7 +361,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         return se2_compose(state["poses"][-1], se2_relative(ext[0], ext[1:]))
 
     def _refine(self, scans, poses, groups=None) -> np.ndarray:
-        """``refine_poses`` with this estimator's ICP settings."""
+        """Run ``refine_poses`` with this estimator's ICP settings."""
         return refine_poses(
             scans,
             poses,
@@ -353,6 +371,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         )
 
     def __getattr__(self, name: str):
+        """Build ``local_maps_`` and ``topology_`` after ``partial_fit`` on first read."""
         # local maps and topology after partial_fit, built on first read
         state = self.__dict__.get("_incremental")
         if name not in ("local_maps_", "topology_") or state is None:
@@ -381,7 +400,7 @@ class ObservationGraphPartitioner(ClusterMixin, BaseEstimator):
         return self
 
     def _voxel_size(self) -> float | None:
-        """The voxel side for the overlap, checked against ``match_distance``."""
+        """Return the voxel side for the overlap, checked against ``match_distance``."""
         if self.voxel_size == "auto":
             return self.match_distance / 4
         if self.voxel_size is not None and self.voxel_size > self.match_distance:

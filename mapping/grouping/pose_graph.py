@@ -39,6 +39,17 @@ ROBUST = {"cauchy": gtsam.noiseModel.mEstimator.Cauchy, "huber": gtsam.noiseMode
 class LoopClosureResult:
     """Outcome of ``close_loops``.
 
+    Parameters
+    ----------
+    poses, chained : ndarray of shape (N, 3)
+        Optimised poses, and the poses before loop closure.
+    loops : ndarray of shape (L, 2)
+        Accepted loop closures.
+    candidates : int
+        Pairs checked by ICP.
+    error_before, error_after : float
+        The factor graph's error before and after the optimisation.
+
     Attributes
     ----------
     poses : ndarray of shape (N, 3)
@@ -109,6 +120,12 @@ def close_loops(
         M-estimator of the loop-closure factors (``gtsam.noiseModel.mEstimator``).
     odometry_sigmas, icp_sigmas, loop_sigmas
         Standard deviations ``(x, y, yaw)`` of odometry, consecutive-ICP and loop factors.
+
+    Returns
+    -------
+    LoopClosureResult
+        The optimised and chained poses, the accepted loops, the candidates checked and the
+        graph's error before and after.
     """
     odometry = np.asarray(odometry, dtype=float)
     n = len(odometry)
@@ -194,9 +211,20 @@ def close_loops(
 
 
 def absolute_trajectory_error(estimate: ArrayLike, truth: ArrayLike) -> dict:
-    """Position error of ``estimate`` against ``truth`` in the common frame (both anchored at
-    the same start pose, so no alignment is fitted): RMSE, mean and max in metres, and the
-    RMSE of the heading in degrees.
+    """Return the position and heading error of ``estimate`` against ``truth``.
+
+    Both are in the common frame (anchored at the same start pose), so no alignment is fitted.
+
+    Parameters
+    ----------
+    estimate, truth : array-like of shape (N, 3)
+        Estimated and true poses ``(x, y, yaw)``.
+
+    Returns
+    -------
+    dict
+        ``rmse_m``, ``mean_m`` and ``max_m``: RMSE, mean and max of the position error in
+        metres; ``heading_rmse_deg``: the RMSE of the heading in degrees.
     """
     estimate, truth = np.asarray(estimate, dtype=float), np.asarray(truth, dtype=float)
     d = np.hypot(*(estimate[:, :2] - truth[:, :2]).T)

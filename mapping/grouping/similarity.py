@@ -23,8 +23,19 @@ __all__ = ["default_n_neighbors", "knn_gaussian_affinity"]
 
 
 def default_n_neighbors(n: int) -> int:
-    """``ceil(sqrt(n))``, at least 1 and at most ``n - 1``: the usual rule of thumb for kNN
-    graphs (connected with high probability, yet local).
+    """Return ``ceil(sqrt(n))``, at least 1 and at most ``n - 1``.
+
+    The usual rule of thumb for kNN graphs (connected with high probability, yet local).
+
+    Parameters
+    ----------
+    n : int
+        Number of vectors.
+
+    Returns
+    -------
+    int
+        Neighbours per vector.
     """
     return max(1, min(n - 1, math.ceil(math.sqrt(n))))
 
@@ -32,7 +43,7 @@ def default_n_neighbors(n: int) -> int:
 def knn_gaussian_affinity(
     X: ArrayLike, n_neighbors: int | None = None
 ) -> tuple[sp.csr_array, float]:
-    """Symmetric kNN graph with Gaussian weights and one global width.
+    """Build a symmetric kNN graph with Gaussian weights and one global width.
 
     ``W_ij = exp(-|x_i - x_j|^2 / (2 sigma^2))`` when ``j`` is among the ``n_neighbors``
     nearest vectors of ``i`` or ``i`` among those of ``j``, else 0; ``W_ii = 1`` (every
@@ -50,6 +61,7 @@ def knn_gaussian_affinity(
     Returns
     -------
     W : scipy.sparse.csr_array of shape (n, n)
+        The weights, unit diagonal.
     sigma : float
         The width used (0 when all vectors coincide; the edges then have weight 1).
     """

@@ -41,6 +41,15 @@ WALL_EPS = 1e-12  # a beam parallel to a wall never hits it
 class OfficeWorld:
     """Walls of a corridor (``0 < y < corridor_width``) with ``n_rooms`` rooms above it.
 
+    Parameters
+    ----------
+    segments : ndarray of shape (S, 4)
+        Wall segments ``(x0, y0, x1, y1)``.
+    n_rooms : int
+        Number of rooms.
+    room_width, room_depth, corridor_width, door_width : float
+        Sizes in metres, as in ``office_world``.
+
     Attributes
     ----------
     segments : ndarray of shape (S, 4)
@@ -56,15 +65,37 @@ class OfficeWorld:
     door_width: float
 
     def region_labels(self, poses: np.ndarray) -> np.ndarray:
-        """Ground-truth region of each pose: room ``k`` (0-based, left to right) or the
-        corridor (label ``n_rooms``).
+        """Return the ground-truth region of each pose.
+
+        Room ``k`` (0-based, left to right) or the corridor (label ``n_rooms``).
+
+        Parameters
+        ----------
+        poses : ndarray of shape (N, 3)
+            ``(x, y, yaw)`` poses in the world frame.
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+            Region of each pose.
         """
         poses = np.asarray(poses, dtype=float)
         room = np.clip((poses[:, 0] // self.room_width).astype(int), 0, self.n_rooms - 1)
         return np.where(poses[:, 1] > self.corridor_width, room, self.n_rooms)
 
     def door_x(self, k: int) -> float:
-        """X of the centre of room ``k``'s door."""
+        """Return the x of the centre of room ``k``'s door.
+
+        Parameters
+        ----------
+        k : int
+            Room, 0-based from the left.
+
+        Returns
+        -------
+        float
+            The door's x in metres.
+        """
         return (k + 0.5) * self.room_width
 
 
@@ -76,7 +107,28 @@ def office_world(
     door_width: float = DOOR_WIDTH,
     wall_thickness: float = WALL_THICKNESS,
 ) -> OfficeWorld:
-    """Build the office: outer walls, room dividers and the corridor wall with one door per room."""
+    """Build the office: outer walls, room dividers and the corridor wall with one door per room.
+
+    Parameters
+    ----------
+    n_rooms : int, default 4
+        Rooms along the corridor.
+    room_width : float, default 6.0
+        Width of a room along the corridor, in metres.
+    room_depth : float, default 5.0
+        Depth of a room away from the corridor, in metres.
+    corridor_width : float, default 2.0
+        Width of the corridor, in metres.
+    door_width : float, default 1.0
+        Width of each door, in metres.
+    wall_thickness : float, default 0.15
+        Thickness of the walls in metres; 0 keeps them as centre lines.
+
+    Returns
+    -------
+    OfficeWorld
+        The walls and the sizes.
+    """
     length = n_rooms * room_width
     top = corridor_width + room_depth
     segs = [
@@ -127,6 +179,13 @@ def office_path(world: OfficeWorld, step: float = 0.5) -> np.ndarray:
     The route enters each room through its door, drives a rectangle inside it, leaves and
     continues east. Poses are sampled every ``step`` metres of path, heading along the motion.
 
+    Parameters
+    ----------
+    world : OfficeWorld
+        The office to tour.
+    step : float, default 0.5
+        Metres of path between poses.
+
     Returns
     -------
     ndarray of shape (N, 3)
@@ -174,6 +233,23 @@ def raycast(
     ``0 <= s <= 1`` is the range. Beams without a hit within ``max_range`` are dropped, so a
     scan may have no points.
 
+    Parameters
+    ----------
+    segments : ndarray of shape (S, 4)
+        Wall segments ``(x0, y0, x1, y1)``.
+    poses : ndarray of shape (N, 3)
+        Sensor poses ``(x, y, yaw)`` in the world frame.
+    n_beams : int, default 181
+        Beams per scan, evenly spread over ``fov``.
+    fov : float, default pi
+        Field of view in radians, centred on the heading.
+    max_range : float, default 8.0
+        Range limit in metres.
+    range_noise : float, default 0.0
+        Standard deviation of Gaussian noise added to each range, in metres.
+    rng : numpy.random.Generator, optional
+        Source of the noise; required when ``range_noise > 0``.
+
     Returns
     -------
     list of ndarray of shape (M_i, 2)
@@ -216,12 +292,28 @@ def simulate_odometry(
     sigma_translation: float = 0.05,
     sigma_rotation: float = 0.02,
 ) -> np.ndarray:
-    """Dead-reckoned poses from noisy increments of the true ``poses``.
+    """Return dead-reckoned poses from noisy increments of the true ``poses``.
 
     Each true increment ``d_i = poses[i-1] ⊖ poses[i]`` gets independent Gaussian noise
     (``sigma_translation`` metres per metre travelled on x and y, ``sigma_rotation`` radians
     per step on the heading), and the noisy increments are chained from ``poses[0]``, so the
     error drifts like real odometry.
+
+    Parameters
+    ----------
+    poses : ndarray of shape (N, 3)
+        True poses ``(x, y, yaw)``.
+    rng : numpy.random.Generator
+        Source of the noise.
+    sigma_translation : float, default 0.05
+        Translation noise in metres per metre travelled.
+    sigma_rotation : float, default 0.02
+        Heading noise in radians per step.
+
+    Returns
+    -------
+    ndarray of shape (N, 3)
+        The odometry poses, starting at ``poses[0]``.
     """
     poses = np.asarray(poses, dtype=float)
     inc = se2_relative(poses[:-1], poses[1:])

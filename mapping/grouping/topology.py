@@ -39,8 +39,9 @@ __all__ = [
 
 
 def _check_labels(labels: ArrayLike, n: int | None = None) -> np.ndarray:
-    """``labels`` as a 1-D integer array (one per scan when ``n`` is given) of group labels
-    ``>= -1`` (-1: no group), or a ValueError naming ``labels``.
+    """Return ``labels`` as a 1-D integer array of group labels ``>= -1`` (-1: no group).
+
+    One per scan when ``n`` is given; a ValueError names ``labels`` otherwise.
     """
     labels = np.asarray(labels)
     if labels.size == 0 and labels.ndim == 1:
@@ -58,7 +59,18 @@ def _check_labels(labels: ArrayLike, n: int | None = None) -> np.ndarray:
 
 
 def check_poses(poses: ArrayLike) -> np.ndarray:
-    """``poses`` as a finite ``(N, 3)`` float array, or a ValueError naming ``poses``."""
+    """Return ``poses`` as a finite ``(N, 3)`` float array, or raise a ValueError naming it.
+
+    Parameters
+    ----------
+    poses : array-like of shape (N, 3)
+        ``(x, y, yaw)`` poses.
+
+    Returns
+    -------
+    ndarray of shape (N, 3)
+        The poses as floats.
+    """
     poses = np.asarray(poses, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 3:
         raise ValueError(f"poses must have shape (N, 3) of (x, y, yaw), got {poses.shape}")
@@ -76,6 +88,13 @@ def group_frames(poses: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.
 
     The central scan (rather than the first) keeps the lever arm from the frame origin to the
     farthest point of the local map short, so a heading error of the frame moves the map least.
+
+    Parameters
+    ----------
+    poses : ndarray of shape (N, 3)
+        ``(x, y, yaw)`` of each scan.
+    labels : ndarray of int, shape (N,)
+        Group of each scan, ``0..K-1`` without gaps, -1 for none.
 
     Returns
     -------
@@ -115,6 +134,22 @@ def build_local_maps(
 
     Section IV-A step 3: one local map per group. Scan ``i`` of group ``k`` is placed with the
     differential pose ``se2_relative(frames[k], poses[i])``.
+
+    Parameters
+    ----------
+    scans : sequence of ndarray of shape (M_i, 2)
+        Sensor-frame points of each scan.
+    poses : ndarray of shape (N, 3)
+        ``(x, y, yaw)`` of each scan.
+    labels : ndarray of int, shape (N,)
+        Group of each scan, -1 for none.
+    frames : ndarray of shape (K, 3)
+        World pose of each group's frame (``group_frames``).
+
+    Returns
+    -------
+    list of ndarray of shape (P_k, 2)
+        Each group's points in its frame.
     """
     poses = check_poses(poses)
     labels = _check_labels(labels, poses.shape[0])
@@ -137,6 +172,19 @@ def build_local_maps(
 @dataclass(frozen=True)
 class TopologyArc:
     """An arc of the topological map between local maps ``source`` and ``target``.
+
+    Parameters
+    ----------
+    source, target : int
+        Group labels, ``source < target``.
+    transform : ndarray of shape (3,)
+        Pose of the ``target`` frame in the ``source`` frame.
+    n_pairs : int
+        Number of scan pairs averaged.
+    via : frozenset of str
+        How the groups are joined: ``"trajectory"``, ``"overlap"`` or both.
+    spread : ndarray of shape (2,)
+        Spread of the per-pair translations (m) and headings (rad).
 
     Attributes
     ----------
@@ -213,11 +261,29 @@ class TopologicalMap:
         return int(self.frames.shape[0])
 
     def edges(self) -> list[tuple[int, int]]:
-        """Arcs as ``(source, target)`` pairs."""
+        """Return the arcs as ``(source, target)`` pairs.
+
+        Returns
+        -------
+        list of tuple of (int, int)
+            One pair per arc, ``source < target``.
+        """
         return [(arc.source, arc.target) for arc in self.arcs]
 
     def transform(self, a: int, b: int) -> np.ndarray:
-        """Pose of local map ``b``'s frame in local map ``a``'s frame along the arc ``a``-``b``.
+        """Return the pose of local map ``b``'s frame in local map ``a``'s frame.
+
+        The pose is that of the arc ``a``-``b``, inverted when the arc runs from ``b`` to ``a``.
+
+        Parameters
+        ----------
+        a, b : int
+            The two local maps.
+
+        Returns
+        -------
+        ndarray of shape (3,)
+            ``(x, y, yaw)`` of ``b``'s frame in ``a``'s frame.
 
         Raises
         ------
@@ -235,7 +301,7 @@ class TopologicalMap:
 def _connecting_pairs(
     labels: np.ndarray, affinity, starts: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Scan pairs ``(i, j)``, ``i < j``, of different groups joined by trajectory or overlap."""
+    """Return scan pairs ``(i, j)``, ``i < j``, of different groups joined by path or overlap."""
     step_i = np.flatnonzero(~starts[1:])  # consecutive scans of one run
     traj = np.stack([step_i, step_i + 1], axis=1)
     coo = affinity.tocoo() if hasattr(affinity, "tocoo") else None
@@ -275,6 +341,26 @@ def build_topology(
     ``groups`` (the run of each scan, see ``run_starts_from_groups``): a scan where a new run
     begins is not joined to the scan before it by the trajectory (the last scan of one drive
     and the first of the next are not neighbours).
+
+    Parameters
+    ----------
+    poses : ndarray of shape (N, 3)
+        ``(x, y, yaw)`` of each scan.
+    labels : ndarray of int, shape (N,)
+        Group of each scan, -1 for none.
+    affinity : ndarray or sparse matrix of shape (N, N)
+        The scans' overlap; a positive entry joins its two scans.
+    reference : ndarray of int, shape (K,)
+        Each group's reference scan.
+    frames : ndarray of shape (K, 3)
+        World pose of each group's frame.
+    groups : array-like of shape (N,), optional
+        The run of each scan; default one run.
+
+    Returns
+    -------
+    TopologicalMap
+        The groups' frames and the arcs between them.
     """
     poses = check_poses(poses)
     labels = _check_labels(labels, poses.shape[0])
@@ -342,6 +428,18 @@ def fill_from_nearest(labels: ArrayLike, starts: ArrayLike | None = None) -> np.
 
     With ``starts`` (a boolean mask of run starts, one per label) the search stays inside each
     run; a run without any labelled index falls back to the search over all runs.
+
+    Parameters
+    ----------
+    labels : array-like of int, shape (N,)
+        Labels, -1 for none.
+    starts : array-like of bool, shape (N,), optional
+        True where a run begins.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+        The labels with every -1 filled; all zeros when no index is labelled.
     """
     labels = _check_labels(labels)
     if starts is not None:
@@ -362,7 +460,7 @@ def fill_from_nearest(labels: ArrayLike, starts: ArrayLike | None = None) -> np.
 
 
 def _fill(labels: np.ndarray) -> np.ndarray:
-    """`fill_from_nearest` over all indices, on checked labels."""
+    """Run `fill_from_nearest` over all indices, on checked labels."""
     known = np.flatnonzero(labels >= 0)
     if known.size == 0:
         return np.zeros_like(labels)

@@ -33,8 +33,21 @@ MAX_DISC_RADIUS = 50
 
 
 def check_voxel_size(delta: float, voxel_size: float | None) -> None:
-    """Refuse a ``voxel_size`` outside ``(0, delta]``, or finer than ``delta / MAX_DISC_RADIUS``
-    (see ``voxel_offsets``); ``None`` (the exact overlap) passes.
+    """Refuse a ``voxel_size`` outside ``(0, delta]`` or finer than ``delta / MAX_DISC_RADIUS``.
+
+    See ``voxel_offsets``; ``None`` (the exact overlap) passes.
+
+    Parameters
+    ----------
+    delta : float
+        Match tolerance in metres.
+    voxel_size : float or None
+        Voxel side in metres, or None for the exact overlap.
+
+    Raises
+    ------
+    ValueError
+        If ``voxel_size`` is out of range.
     """
     if voxel_size is None:
         return
@@ -54,8 +67,19 @@ def _check_disc_radius(radius_cells: float) -> None:
 
 
 def voxel_offsets(radius_cells: float) -> np.ndarray:
-    """Integer offsets ``(dx, dy)`` with ``dx^2 + dy^2 <= radius_cells^2``: the disc of eq. 16
-    on the voxel grid.
+    """Return integer offsets ``(dx, dy)`` with ``dx^2 + dy^2 <= radius_cells^2``.
+
+    They are the disc of eq. 16 on the voxel grid.
+
+    Parameters
+    ----------
+    radius_cells : float
+        Radius of the disc in voxels, ``delta / voxel_size``.
+
+    Returns
+    -------
+    ndarray of int, shape (P, 2)
+        The offsets, in lexicographic order.
 
     Raises
     ------
@@ -71,8 +95,10 @@ def voxel_offsets(radius_cells: float) -> np.ndarray:
 
 
 def _voxel_cells(points: np.ndarray, voxel_size: float) -> np.ndarray:
-    """Integer voxel coordinates ``(P, 2)`` of world points, refusing coordinates so far out
-    that int64 cannot hold them (checked in floating point, before the cast).
+    """Return the integer voxel coordinates ``(P, 2)`` of world points.
+
+    Coordinates so far out that int64 cannot hold them are refused (checked in floating
+    point, before the cast).
     """
     with np.errstate(over="ignore"):
         scaled = np.floor(points / voxel_size)
@@ -88,8 +114,9 @@ def _voxel_cells(points: np.ndarray, voxel_size: float) -> np.ndarray:
 
 
 def _box_cells(cells: np.ndarray, pad: int = 0) -> tuple[np.ndarray, list[int]]:
-    """Lower corner and size (Python ints: no overflow) of the bounding box of ``cells``
-    grown by ``pad`` on every side.
+    """Return the lower corner and size of the bounding box of ``cells`` grown by ``pad``.
+
+    The box is grown on every side; the size is in Python ints (no overflow).
     """
     lo = cells.min(axis=0) - pad
     span = [int(h) - int(low) + pad + 1 for h, low in zip(cells.max(axis=0), lo, strict=True)]
@@ -101,10 +128,23 @@ def voxel_incidence(
 ) -> tuple[sp.csr_array, np.ndarray]:
     """Downsample world-frame scans to a voxel grid shared by all scans.
 
-    Returns the binary incidence ``A`` (scan x occupied voxel; a scan has 1 for each voxel its
-    points fall in, however many) and the integer grid coordinates ``(V, 2)`` of the voxels,
-    in row-major (lexicographic) order. The grid is anchored at the world origin, so the same
-    place falls in the same voxel in every scan.
+    The grid is anchored at the world origin, so the same place falls in the same voxel in
+    every scan.
+
+    Parameters
+    ----------
+    pts : sequence of ndarray of shape (M, 2)
+        World-frame points of each scan.
+    voxel_size : float
+        Voxel side in metres.
+
+    Returns
+    -------
+    A : scipy.sparse.csr_array of shape (n_scans, V)
+        Incidence (scan x occupied voxel): ``A[i, u]`` is the number of points of scan ``i``
+        in voxel ``u``.
+    grid : ndarray of int64, shape (V, 2)
+        Integer grid coordinates of the voxels, in row-major (lexicographic) order.
 
     Raises
     ------
@@ -131,14 +171,27 @@ def voxel_incidence(
 
 
 def _adjacency_from_hits(cols: np.ndarray, hit: np.ndarray) -> sp.csr_array:
-    """CSR adjacency from each voxel's looked-up columns (sorted per row) and their hits."""
+    """Build the CSR adjacency from each voxel's looked-up columns (sorted per row) and hits."""
     indptr = np.concatenate([[0], np.cumsum(hit.sum(axis=1))])
     n = len(cols)
     return sp.csr_array((np.ones(int(indptr[-1])), cols[hit], indptr), shape=(n, n))
 
 
 def voxel_adjacency(grid: np.ndarray, offsets: np.ndarray) -> sp.csr_array:
-    """``K[u, w] = 1`` when occupied voxels ``u`` and ``w`` differ by one of ``offsets``."""
+    """Return ``K`` with ``K[u, w] = 1`` when voxels ``u`` and ``w`` differ by one of ``offsets``.
+
+    Parameters
+    ----------
+    grid : ndarray of int64, shape (V, 2)
+        Occupied voxels, in row-major order (as ``voxel_incidence`` gives them).
+    offsets : ndarray of int, shape (P, 2)
+        The disc of ``voxel_offsets``.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (V, V)
+        Binary adjacency of the occupied voxels.
+    """
     reach = int(np.abs(offsets).max())
     lo, span = _box_cells(grid, reach)
     if span[0] * span[1] > KEY_MAX_CELLS:
@@ -161,7 +214,7 @@ def voxel_adjacency(grid: np.ndarray, offsets: np.ndarray) -> sp.csr_array:
 
 
 def _ranked_adjacency(grid: np.ndarray, offsets: np.ndarray) -> sp.csr_array:
-    """``voxel_adjacency`` for a bounding box too large for row-major int64 ids.
+    """Run ``voxel_adjacency`` for a bounding box too large for row-major int64 ids.
 
     Rows and columns of the grid are numbered by their rank among the occupied ones: a cell
     off every occupied row or column holds no voxel, so a shifted cell is looked up only where

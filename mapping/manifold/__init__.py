@@ -1,6 +1,8 @@
-"""Visual-manifold clustering (Grudic & Mulligan, *Topological Mapping with Multiple Visual
-Manifolds*): [`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering] and the
-per-cluster models behind its F^j(k).
+"""Visual-manifold clustering (Grudic & Mulligan).
+
+From *Topological Mapping with Multiple Visual Manifolds*:
+[`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering] and the per-cluster models
+behind its F^j(k).
 
 Where each part of the paper lives:
 

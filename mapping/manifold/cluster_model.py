@@ -144,6 +144,7 @@ class ClusterModel(DerivedCache):
     scale: float
 
     def __post_init__(self) -> None:
+        """Derive ``inverse`` from the fields."""
         # Not a field: saved files keep their layout, and a loaded model derives it again.
         inverse = None
         if (self.degrees > _TINY).all():
@@ -171,8 +172,30 @@ class ClusterModel(DerivedCache):
     ) -> ClusterModel:
         """Precompute the cluster's state from the training data and its distance block.
 
-        ``tol`` is the largest fraction of the centred points' energy (sum of squared norms)
-        the projection basis may leave out; 0 keeps every numerically non-zero direction.
+        Parameters
+        ----------
+        X : ndarray of shape (n, d)
+            Training data.
+        indices : ndarray of int, shape (m,)
+            Training indices of the cluster's points.
+        sq_dist : ndarray of shape (m, m)
+            Squared distances between the cluster's points.
+        sigma : float
+            sigma_j of the affinity.
+        alpha : float
+            alpha of eq. 13.
+        centre : int
+            Position of the centre within ``indices``.
+        dtype : numpy.dtype
+            Storage dtype of the basis.
+        tol : float, default 0.0
+            The largest fraction of the centred points' energy (sum of squared norms) the
+            projection basis may leave out; 0 keeps every numerically non-zero direction.
+
+        Returns
+        -------
+        ClusterModel
+            The model, its ``scale`` eq. 4's column norm at the centre.
         """
         points = X[indices]
         mean = points.mean(axis=0, dtype=np.float64)
@@ -195,12 +218,32 @@ class ClusterModel(DerivedCache):
         return model.with_scale(_column_scale(W, alpha, centre))
 
     def with_scale(self, scale: float) -> ClusterModel:
-        """The same model with the divisor ``scale`` of ``predict``'s F."""
+        """Return the same model with the divisor ``scale`` of ``predict``'s F.
+
+        Parameters
+        ----------
+        scale : float
+            The new divisor.
+
+        Returns
+        -------
+        ClusterModel
+            A copy with ``scale`` replaced.
+        """
         return replace(self, scale=scale)
 
     def validate(self) -> dict[str, int]:
-        """Check the fields' shapes, values and agreement (a model read from a file); returns
-        the sizes ``m`` (points), ``d`` (features), ``r`` (basis). Raises ValueError.
+        """Check the fields' shapes, values and agreement (a model read from a file).
+
+        Returns
+        -------
+        dict of str to int
+            The sizes ``m`` (points), ``d`` (features), ``r`` (basis).
+
+        Raises
+        ------
+        ValueError
+            If a field is malformed.
         """
         sizes = check_layout(
             self,
@@ -220,10 +263,20 @@ class ClusterModel(DerivedCache):
         return sizes
 
     def sq_distances(self, X: np.ndarray) -> np.ndarray:
-        """Squared distances (k, m) of rows of X to the cluster's points, clipped at 0.
+        """Return squared distances of rows of X to the cluster's points, clipped at 0.
 
         Each query is projected once onto the basis; see the module docstring for the one
         term left out.
+
+        Parameters
+        ----------
+        X : ndarray of shape (k, d)
+            Queries.
+
+        Returns
+        -------
+        ndarray of shape (k, m)
+            Squared distances.
         """
         k, d = X.shape
         q = np.empty(k)
@@ -241,10 +294,22 @@ class ClusterModel(DerivedCache):
         return np.maximum(d2, 0.0)
 
     def signal(self, sq_dist: np.ndarray, target: int) -> np.ndarray:
-        """F^j(k) of eq. 13 for each row of ``sq_dist`` (k, m) toward local index ``target``.
+        """Return F^j(k) of eq. 13 for each row of ``sq_dist`` toward local index ``target``.
 
         Uses ``beta = 1 - alpha``. A row whose affinity to every cluster point underflows to 0
         (x is unreachable at sigma_j) gets exactly 0.
+
+        Parameters
+        ----------
+        sq_dist : ndarray of shape (k, m)
+            Squared distances of the queries to the cluster's points.
+        target : int
+            Local index of the target point.
+
+        Returns
+        -------
+        ndarray of shape (k,)
+            F^j(k) of each query.
         """
         w = affinity(sq_dist, self.sigma)
         k = w.shape[0]
@@ -262,7 +327,7 @@ class ClusterModel(DerivedCache):
 
 
 def _span(centred: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Orthonormal basis (r, d) of the rows' span, their coordinates (m, r), squared norms (m,).
+    """Return an orthonormal basis (r, d) of the rows' span, coordinates (m, r), sq. norms (m,).
 
     From the eigendecomposition of the m x m Gram matrix (cheaper than an SVD for m << d):
     ``centred = U diag(s) B`` with ``B = diag(1/s) U^T centred``. The r kept directions are the
@@ -282,8 +347,21 @@ def _span(centred: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def check_scalars(model, m: int) -> None:
-    """The scalar fields every cluster model has: sigma > 0, alpha in (0, 1), centre one of its
-    m points, scale >= 0, all finite.
+    """Check the scalar fields every cluster model has.
+
+    sigma > 0, alpha in (0, 1), centre one of its m points, scale >= 0, all finite.
+
+    Parameters
+    ----------
+    model : ClusterModel or GraphClusterModel
+        The model.
+    m : int
+        Its number of points.
+
+    Raises
+    ------
+    ValueError
+        If a field is out of range.
     """
     check_number(model.sigma, "sigma", _TINY, _BIG)
     check_number(model.alpha, "alpha", _TINY, _ALPHA_MAX)
@@ -292,7 +370,7 @@ def check_scalars(model, m: int) -> None:
 
 
 def _column_scale(W: np.ndarray, alpha: float, centre: int) -> float:
-    """``|beta (I - alpha S)^-1 e_c|`` on the cluster's own points: eq. 4's column norm."""
+    """Return ``|beta (I - alpha S)^-1 e_c|`` on the cluster's own points: eq. 4's column norm."""
     deg = W.sum(axis=1)
     inv_sqrt = np.zeros_like(deg)
     np.divide(1.0, np.sqrt(deg), out=inv_sqrt, where=deg > _TINY)

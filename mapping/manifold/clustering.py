@@ -51,7 +51,10 @@ _FLOAT32_SAFE = (1e-15, 1e15)
 
 
 def _storage_dtype(requested: str, X: np.ndarray) -> np.dtype:
-    """``requested``, or float64 where float32 cannot hold X's distances (see ``store_dtype``)."""
+    """Return ``requested``, or float64 where float32 cannot hold X's distances.
+
+    See ``store_dtype``.
+    """
     dtype = np.dtype(requested)
     if dtype == np.float32:
         spread = float(np.ptp(X, axis=0).max())
@@ -241,7 +244,10 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
 
     # ------------------------------------------------------------------ validation
     def _search_space(self, n_samples: int) -> SearchSpace:
-        """The checks the parameter constraints cannot express, and the (sigma, alpha) grid."""
+        """Run the checks the parameter constraints cannot express; return the search grid.
+
+        The grid is that of (sigma, alpha).
+        """
         K, Q = self.n_clusters, self.min_cluster_size
         if K * Q > n_samples:
             raise ValueError(

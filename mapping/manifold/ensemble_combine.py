@@ -1,5 +1,6 @@
-"""Combinations of the C leaves that do not rest on one sigma: the spectral cuts of every grid
-sigma read as an ensemble of partitions.
+"""Combinations of the C leaves that do not rest on one sigma.
+
+The spectral cuts of every grid sigma are read as an ensemble of partitions.
 
 The default combination (``mapping.manifold.spectral_combine``, the reading of the paper's
 "the C clusters are finally combined to give the best K clusters that each have maximal
@@ -43,7 +44,7 @@ FINER = 3
 def sigma_partitions(
     scores, n_clusters: int, adjacent: np.ndarray | None = None, sigmas: slice | None = None
 ) -> np.ndarray:
-    """The spectral cut of the leaves at every usable grid sigma (top alpha).
+    """Return the spectral cut of the leaves at every usable grid sigma (top alpha).
 
     Parameters
     ----------
@@ -79,10 +80,22 @@ def sigma_partitions(
 
 
 def coassociation_groups(partitions: np.ndarray, n_clusters: int) -> np.ndarray:
-    """One group per leaf: the average-linkage cut of the co-association (Fred & Jain 2005).
+    """Group the leaves by the average-linkage cut of the co-association (Fred & Jain 2005).
 
     ``A[b, c] = mean_p [P_p(b) = P_p(c)]``; the tree of ``1 - A`` (UPGMA) is cut into exactly
     ``n_clusters`` groups (``scipy.cluster.hierarchy.cut_tree``).
+
+    Parameters
+    ----------
+    partitions : ndarray of int, shape (P, C)
+        One group label per leaf for each partition.
+    n_clusters : int
+        K.
+
+    Returns
+    -------
+    ndarray of int, shape (C,)
+        One group per leaf.
     """
     from scipy.cluster.hierarchy import cut_tree, linkage
     from scipy.spatial.distance import squareform
@@ -95,8 +108,21 @@ def coassociation_groups(partitions: np.ndarray, n_clusters: int) -> np.ndarray:
 
 
 def consensus_groups(partitions: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """The partition of largest mean NMI with the others, each leaf counted by its size
-    (Strehl & Ghosh 2002, the ANMI criterion restricted to the ensemble's members).
+    """Return the partition of largest mean NMI with the others, each leaf counted by its size.
+
+    Strehl & Ghosh 2002, the ANMI criterion restricted to the ensemble's members.
+
+    Parameters
+    ----------
+    partitions : ndarray of int, shape (P, C)
+        One group label per leaf for each partition.
+    sizes : ndarray of int, shape (C,)
+        Points per leaf.
+
+    Returns
+    -------
+    ndarray of int, shape (C,)
+        The chosen partition.
     """
     from sklearn.metrics import normalized_mutual_info_score
 
@@ -119,12 +145,30 @@ def ensemble_merge(
     sigmas: slice | None = None,
     extra: int = FINER,
 ) -> list[list[int]] | None:
-    """K groups of leaves by ``rule`` (one of `ENSEMBLE_RULES`) from the usable sigmas'
-    cuts; None if no sigma is usable (the caller falls back to a pairwise rule).
+    """Group the leaves into K by ``rule`` (one of `ENSEMBLE_RULES`) from the usable sigmas' cuts.
 
-    ``extra`` > 0 (default `FINER`) adds, for "coassociation", the cuts into K + 1 ..
-    K + extra groups at every usable sigma (Fred & Jain's ensembles of finer partitions, cut
-    into K by the linkage).
+    None if no sigma is usable (the caller falls back to a pairwise rule).
+
+    Parameters
+    ----------
+    scores : mapping.manifold.tree.GroupScores
+        The leaves' block sums at every grid (sigma, alpha).
+    n_clusters : int
+        K.
+    rule : {"coassociation", "consensus"}
+        The combination.
+    adjacent : ndarray of shape (P, 2), optional
+        Pairs of leaves joined by a k-nearest-neighbour edge (see `sigma_partitions`).
+    sigmas : slice, optional
+        A window of the grid; all sigmas by default.
+    extra : int, default FINER
+        For "coassociation", also the cuts into K + 1 .. K + extra groups at every usable
+        sigma (Fred & Jain's ensembles of finer partitions, cut into K by the linkage).
+
+    Returns
+    -------
+    list of list of int or None
+        The leaves of each group; one group per leaf when there are at most K leaves.
     """
     if rule not in ENSEMBLE_RULES:
         raise ValueError(f"rule must be one of {ENSEMBLE_RULES}, got {rule!r}")

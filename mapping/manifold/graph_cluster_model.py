@@ -114,12 +114,24 @@ class GraphClusterModel(DerivedCache):
     scale: float
 
     def __post_init__(self) -> None:
+        """Start the cache of derived projections empty."""
         # not a field: the derived projection of ``model_scores``, never saved
         object.__setattr__(self, "_stacks", {})
 
     def validate(self) -> dict[str, int]:
-        """As [`ClusterModel.validate`][mapping.manifold.cluster_model.ClusterModel.validate]: sizes
-        ``m``, ``d`` and ``r`` (eigenpairs).
+        """Check the fields' shapes, values and agreement (a model read from a file).
+
+        As [`ClusterModel.validate`][mapping.manifold.cluster_model.ClusterModel.validate].
+
+        Returns
+        -------
+        dict of str to int
+            The sizes ``m`` (points), ``d`` (features) and ``r`` (eigenpairs).
+
+        Raises
+        ------
+        ValueError
+            If a field is malformed.
         """
         sizes = check_layout(
             self,
@@ -146,7 +158,30 @@ class GraphClusterModel(DerivedCache):
 
     @classmethod
     def build(cls, X, geometry: GraphGeometry, basis: LowRankBasis, sigma, alpha, centre, dtype):
-        """The model of the cluster ``geometry`` (a graph node) from its basis at sigma_j."""
+        """Build the model of the cluster ``geometry`` (a graph node) from its basis at sigma_j.
+
+        Parameters
+        ----------
+        X : ndarray of shape (n, d)
+            Training data.
+        geometry : GraphGeometry
+            The cluster's node of the k-NN graph.
+        basis : LowRankBasis
+            The low-rank basis of the cluster's graph at ``sigma``.
+        sigma : float
+            sigma_j.
+        alpha : float
+            alpha of eq. 13.
+        centre : int
+            Position of the centre within the cluster.
+        dtype : numpy.dtype
+            Storage dtype of the centred points.
+
+        Returns
+        -------
+        GraphClusterModel
+            The model.
+        """
         points = X[geometry.indices]
         mean = points.mean(axis=0, dtype=np.float64)
         centred = np.asarray(points - mean, dtype=np.float64)
@@ -171,7 +206,18 @@ class GraphClusterModel(DerivedCache):
         )
 
     def sq_distances(self, X: np.ndarray) -> np.ndarray:
-        """Squared distances (k, m) of rows of X to the cluster's points, clipped at 0."""
+        """Return squared distances of rows of X to the cluster's points, clipped at 0.
+
+        Parameters
+        ----------
+        X : ndarray of shape (k, d)
+            Queries.
+
+        Returns
+        -------
+        ndarray of shape (k, m)
+            Squared distances.
+        """
         k, d = X.shape
         out = np.empty((k, self.indices.shape[0]))
         step = max(1, _ROW_ELEMENTS // max(d, 1))
@@ -186,12 +232,26 @@ class GraphClusterModel(DerivedCache):
     def signal(
         self, sq_dist: np.ndarray, target: int, reach: np.ndarray | None = None
     ) -> np.ndarray:
-        """F^j(k) of eq. 13 for each row of ``sq_dist`` (k, m) toward local index ``target``,
-        with ``beta = 1 - alpha``; 0 where x reaches no cluster point at sigma_j.
+        """Return F^j(k) of eq. 13 for each row of ``sq_dist`` toward local index ``target``.
 
-        x is joined to its ``n_neighbors`` nearest cluster points; ``reach`` (k,), if given,
-        further keeps only those within that squared distance (``predict``: x's k nearest
-        training points of all clusters, the edges the fit's graph would give it).
+        Uses ``beta = 1 - alpha``; 0 where x reaches no cluster point at sigma_j. x is joined
+        to its ``n_neighbors`` nearest cluster points; ``reach``, if given, further keeps only
+        those within that squared distance (``predict``: x's k nearest training points of all
+        clusters, the edges the fit's graph would give it).
+
+        Parameters
+        ----------
+        sq_dist : ndarray of shape (k, m)
+            Squared distances of the queries to the cluster's points.
+        target : int
+            Local index of the target point.
+        reach : ndarray of shape (k,), optional
+            Largest squared distance of a query's edges.
+
+        Returns
+        -------
+        ndarray of shape (k,)
+            F^j(k) of each query.
         """
         k, m = sq_dist.shape
         s = min(self.n_neighbors, m)
@@ -233,14 +293,37 @@ class GraphClusterModel(DerivedCache):
 
 
 def cluster_model(X, geometry, idx, sigma, alpha, predict_alpha, dtype, tol):
-    """The eq. 13 model of one cluster and its points' O_d^j (eq. 11) in its own kernel.
+    """Build the eq. 13 model of one cluster and its points' O_d^j (eq. 11) in its own kernel.
 
     Every cluster of a graph fit gets a
     [`GraphClusterModel`][mapping.manifold.graph_cluster_model.GraphClusterModel] on the graph
     restricted to it (its sigma_j was chosen on the graph kernel), built from the same eigenbasis as
     its O_d^j; a dense fit's clusters the exact
-    [`ClusterModel`][mapping.manifold.cluster_model.ClusterModel] of their distances. Returns
-    ``(model, o_j)``.
+    [`ClusterModel`][mapping.manifold.cluster_model.ClusterModel] of their distances.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, d)
+        Training data.
+    geometry : DenseGeometry or GraphGeometry
+        The training geometry.
+    idx : ndarray of int
+        Training indices of the cluster's points.
+    sigma, alpha : float
+        The cluster's sigma_j and the alpha its O_d^j is computed with.
+    predict_alpha : float
+        alpha of the model's eq. 13.
+    dtype : numpy.dtype
+        Storage dtype of the model's arrays.
+    tol : float
+        Energy the dense model's basis may leave out (``ClusterModel.build``).
+
+    Returns
+    -------
+    model : ClusterModel or GraphClusterModel
+        The cluster's model, centred on its point of least O_d^j.
+    o_j : ndarray of shape (m,)
+        O_d^j of the cluster's points.
     """
     if isinstance(geometry, GraphGeometry):
         sub = geometry.node(idx)
@@ -256,7 +339,9 @@ def cluster_model(X, geometry, idx, sigma, alpha, predict_alpha, dtype, tol):
 
 
 def model_scores(models, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np.ndarray]:
-    """F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``, and
+    """Return F^j(k) toward each centre and the scaled nearest distances, for a graph fit.
+
+    F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``, and
     ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K): ``Stack.scores`` for a graph fit.
 
     A query is joined, as a training point is in the fit's graph, to its ``n_neighbors``
@@ -266,6 +351,22 @@ def model_scores(models, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np
     from other manifolds. Rows go in blocks: O(block n) memory, not O(k n). Each block is
     centred, cast and projected once for all clusters (one GEMV over the stacked points of
     `Projection`), not once per cluster.
+
+    Parameters
+    ----------
+    models : sequence of GraphClusterModel
+        One model per cluster.
+    X : ndarray of shape (k, d)
+        Queries.
+    normalize : bool
+        Divide F by each model's ``scale``.
+
+    Returns
+    -------
+    f : ndarray of shape (k, K)
+        F^j(k) of each query and cluster.
+    nearest : ndarray of shape (k, K)
+        ``min_i |x - x_i|^2 / (2 sigma_j^2)`` of each query and cluster.
     """
     k = X.shape[0]
     f = np.empty((k, len(models)))

@@ -40,7 +40,7 @@ _FEW_GROUPS = 16
 
 
 def _top_eigenpairs(block: sp.csr_matrix, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """The k largest eigenpairs of a symmetric sparse block (one connected component of S).
+    """Return the k largest eigenpairs of a symmetric sparse block (one component of S).
 
     ARPACK in shift-invert mode about 1; a Krylov space of k + 16 (not ARPACK's default
     2 k + 1, nor 1.5 k): at k = 64 on a 5000-point 10-NN graph 1.3 s against 2.7 s for 1.5 k
@@ -76,8 +76,16 @@ def _top_eigenpairs(block: sp.csr_matrix, k: int) -> tuple[np.ndarray, np.ndarra
 
 @dataclass(frozen=True)
 class LowRankGains:
-    """Gains at a batch of A alphas: ``top`` (r, A) of the kept eigenpairs, ``col_rest`` (r, A)
-    the rest-gain of each column's component, ``point_rest`` (m, A) that of each point's.
+    """Gains at a batch of A alphas.
+
+    Parameters
+    ----------
+    top : ndarray of shape (r, A)
+        Gains of the kept eigenpairs.
+    col_rest : ndarray of shape (r, A)
+        The rest-gain of each column's component.
+    point_rest : ndarray of shape (m, A)
+        The rest-gain of each point's component.
     """
 
     top: np.ndarray
@@ -92,6 +100,17 @@ class LowRankBasis:
     Same methods as `SpectralBasis`, so that
     `mapping.manifold.split.split_scores` runs on either; "coordinates" of a weight
     vector w are ``[Q^T w; w]`` (shape (r + m, A)), linear in w as the split needs.
+
+    Parameters
+    ----------
+    vectors : ndarray of shape (m, r)
+        Kept eigenvectors.
+    values : ndarray of shape (r,)
+        Their eigenvalues.
+    col_comp, point_comp : ndarray of int
+        Component of each column and of each point.
+    rest_means : ndarray of shape (C,)
+        Mean of each component's left-out eigenvalues.
 
     Attributes
     ----------
@@ -113,12 +132,26 @@ class LowRankBasis:
 
     @classmethod
     def from_edges(cls, edges: sp.csr_matrix, sigma: float, rank: int) -> LowRankBasis:
-        """S at ``sigma`` on the graph ``edges`` (symmetric CSR of squared distances, explicit
-        zeros for duplicates) and its top eigenpairs, at most ``2 rank`` columns in all.
+        """Build S at ``sigma`` on the graph ``edges`` and keep its top eigenpairs.
 
-        Components are taken largest first; one that fits in what is left of the budget is
-        decomposed in full (dense), a larger one gets ``min(rank, budget)`` eigenpairs, and
-        once the budget is spent a component is represented by its mean eigenvalue alone.
+        At most ``2 rank`` columns in all. Components are taken largest first; one that fits
+        in what is left of the budget is decomposed in full (dense), a larger one gets
+        ``min(rank, budget)`` eigenpairs, and once the budget is spent a component is
+        represented by its mean eigenvalue alone.
+
+        Parameters
+        ----------
+        edges : scipy.sparse.csr_matrix of shape (m, m)
+            Symmetric squared distances of the graph's edges, explicit zeros for duplicates.
+        sigma : float
+            Kernel width.
+        rank : int
+            Eigenpairs per large component; the budget is twice this.
+
+        Returns
+        -------
+        LowRankBasis
+            The kept eigenpairs and the components' rest means.
         """
         m = edges.shape[0]
         W = edges.copy()
@@ -158,9 +191,22 @@ class LowRankBasis:
 
     @property
     def size(self) -> int:
+        """Number of points m."""
         return self.point_comp.shape[0]
 
     def gains(self, alpha: np.ndarray) -> LowRankGains:
+        """Return the gains of the kept eigenpairs and of the components' rests.
+
+        Parameters
+        ----------
+        alpha : float or ndarray of shape (A,)
+            The alphas.
+
+        Returns
+        -------
+        LowRankGains
+            ``1 / (1 - alpha lam)`` and ``1 / (1 - alpha mu_c)`` per column and per point.
+        """
         alpha = np.atleast_1d(np.asarray(alpha, dtype=np.float64))
         rest = 1.0 / (1.0 - self.rest_means[:, None] * alpha[None, :])
         return LowRankGains(
@@ -171,10 +217,22 @@ class LowRankBasis:
 
     @staticmethod
     def _square_gains(g: LowRankGains) -> np.ndarray:
-        """Spectrum of ``U^2`` on the kept columns, less the rest part carried by diag(e^2)."""
+        """Return the spectrum of ``U^2`` on the kept columns, less the rest part in diag(e^2)."""
         return g.top * g.top - g.col_rest * g.col_rest
 
     def column_norms(self, g: LowRankGains) -> np.ndarray:
+        """Return ``|u_i|`` of every column of U for each alpha.
+
+        Parameters
+        ----------
+        g : LowRankGains
+            Gains.
+
+        Returns
+        -------
+        ndarray of shape (m, A)
+            The column norms.
+        """
         sq = (self.vectors * self.vectors) @ self._square_gains(g) + g.point_rest**2
         return np.sqrt(np.maximum(sq, 0.0))
 
@@ -184,31 +242,114 @@ class LowRankBasis:
         return out
 
     def kernel_columns(self, g: LowRankGains, cols: np.ndarray) -> np.ndarray:
+        """Return column ``cols[a]`` of U for each alpha a.
+
+        Parameters
+        ----------
+        g : LowRankGains
+            Gains.
+        cols : ndarray of int, shape (A,)
+            The column for each alpha.
+
+        Returns
+        -------
+        ndarray of shape (m, A)
+            The columns.
+        """
         out = self.vectors @ ((g.top - g.col_rest) * self.vectors[cols].T)
         return self._diagonal_term(out, g.point_rest, cols)
 
     def gram_columns(self, g: LowRankGains, cols: np.ndarray) -> np.ndarray:
+        """Return column ``cols[a]`` of ``U^2`` for each alpha a.
+
+        Parameters
+        ----------
+        g : LowRankGains
+            Gains.
+        cols : ndarray of int, shape (A,)
+            The column for each alpha.
+
+        Returns
+        -------
+        ndarray of shape (m, A)
+            The columns.
+        """
         out = self.vectors @ (self._square_gains(g) * self.vectors[cols].T)
         return self._diagonal_term(out, g.point_rest**2, cols)
 
     def project(self, weights: np.ndarray) -> np.ndarray:
+        """Return the coordinates ``[Q^T w; w]`` of the weights.
+
+        Parameters
+        ----------
+        weights : ndarray of shape (m, A)
+            w.
+
+        Returns
+        -------
+        ndarray of shape (r + m, A)
+            The coordinates.
+        """
         return np.vstack([self.vectors.T @ weights, weights])
 
     def unproject_gram(self, g: LowRankGains, coords: np.ndarray) -> np.ndarray:
+        """Return ``U^2 w`` from the coordinates ``[Q^T w; w]``.
+
+        Parameters
+        ----------
+        g : LowRankGains
+            Gains.
+        coords : ndarray of shape (r + m, A)
+            The coordinates of w.
+
+        Returns
+        -------
+        ndarray of shape (m, A)
+            ``U^2 w`` for each alpha.
+        """
         r = self.values.shape[0]
         return self.vectors @ (self._square_gains(g) * coords[:r]) + g.point_rest**2 * coords[r:]
 
     def quadratic(self, g: LowRankGains, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
-        """``w1^T U^2 w2`` per alpha from coordinates ``[Q^T w; w]``."""
+        """Return ``w1^T U^2 w2`` per alpha from coordinates ``[Q^T w; w]``.
+
+        Parameters
+        ----------
+        g : LowRankGains
+            Gains.
+        c1, c2 : ndarray of shape (r + m, A)
+            The coordinates of w1 and w2.
+
+        Returns
+        -------
+        ndarray of shape (A,)
+            The quadratic form at each alpha.
+        """
         r = self.values.shape[0]
         top = np.einsum("ka,ka->a", self._square_gains(g), c1[:r] * c2[:r])
         return top + np.einsum("ka,ka->a", g.point_rest**2, c1[r:] * c2[r:])
 
     def group_gram(self, g: LowRankGains, a: int, member: np.ndarray, inv_nu: np.ndarray):
-        """C x C matrix of ``(U w_b) . (U w_c)`` for ``w_b = member[:, b] / |u|`` at alpha a.
+        """Return the C x C matrix of ``(U w_b) . (U w_c)`` for ``w_b = member[:, b] / |u|``.
 
         Many groups (the leaves of a large fit) go through a sparse membership matrix, O(m r)
         for one group per point instead of O(m r C); ``member`` may be given sparse.
+
+        Parameters
+        ----------
+        g : LowRankGains
+            Gains.
+        a : int
+            The alpha's column of the gains.
+        member : ndarray or sparse matrix of shape (m, C)
+            Membership of each point in each of the C groups.
+        inv_nu : ndarray of shape (m,)
+            ``1 / |u_i|`` at that alpha.
+
+        Returns
+        -------
+        ndarray of shape (C, C)
+            The Gram matrix of the groups' summed unit columns.
         """
         if sp.issparse(member):
             weights = sp.csr_matrix(member.multiply(inv_nu[:, None]))

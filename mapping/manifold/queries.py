@@ -1,5 +1,6 @@
-"""New views on a fitted [`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering]: eq.
-13 (Section II-F/G).
+"""New views on a fitted ManifoldClustering: eq. 13 (Section II-F/G).
+
+The estimator is [`ManifoldClustering`][mapping.manifold.clustering.ManifoldClustering].
 
 ``predict`` and ``predict_proba`` assign views by ``argmax_j F^j(k)``; ``signal`` and
 ``signals`` give F^j(k) toward a stored view, the signal a robot servoes by. The per-cluster
@@ -26,14 +27,17 @@ _QUERY_BOUND = {np.dtype(np.float64): 1e150, np.dtype(np.float32): 1e15}
 
 
 class ManifoldQueries:
-    """eq. 13 on new views, for an estimator whose ``fit`` set ``labels_``, ``centers_`` and
-    one cluster model per cluster in ``_models``.
+    """Eq. 13 on new views, for an estimator whose ``fit`` set its clusters' state.
+
+    That state is ``labels_``, ``centers_`` and one cluster model per cluster in ``_models``.
     """
 
     def _check_fitted_state(self) -> None:
-        """The state the queries read, as ``fit`` leaves it (an estimator read from a file,
-        `mapping.persistence`): labels, centres, per-cluster sigma and alpha, and one
-        valid cluster model per cluster on the points of its label. Raises ValueError.
+        """Check the state the queries read is as ``fit`` leaves it.
+
+        For an estimator read from a file (`mapping.persistence`): labels, centres, per-cluster
+        sigma and alpha, and one valid cluster model per cluster on the points of its label.
+        Raises ValueError.
         """
         labels, models = getattr(self, "labels_", None), getattr(self, "_models", None)
         if not (
@@ -67,7 +71,7 @@ class ManifoldQueries:
                 raise ValueError(f"centers_[{j}] must be _models[{j}]'s centre")
 
     def _check_query(self, X: ArrayLike) -> np.ndarray:
-        """New points: fitted, then finite 2-D float with the feature count of ``fit``."""
+        """Check new points: fitted, then finite 2-D float with the feature count of ``fit``."""
         check_is_fitted(self, "labels_")
         bound = _QUERY_BOUND[self._store_dtype()]
         if is_plain_query(self, X, bound):
@@ -83,13 +87,13 @@ class ManifoldQueries:
         return X
 
     def _store_dtype(self) -> np.dtype:
-        """The dtype the cluster models keep their points in (``store_dtype``, or float64)."""
+        """Return the dtype the cluster models keep their points in (``store_dtype`` or float64)."""
         model = self._models[0]
         return (model.basis if hasattr(model, "basis") else model.points).dtype
 
     # ------------------------------------------------------------------ predict
     def _scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
+        """Return comparable F^j(k) for every row and cluster, and the fallback scaled distances."""
         normalize = self.normalize == "column"
         if any(isinstance(m, GraphClusterModel) for m in self._models):
             return model_scores(self._models, X, normalize)
@@ -105,10 +109,12 @@ class ManifoldQueries:
         Parameters
         ----------
         X : array-like of shape (k, d)
+            New points.
 
         Returns
         -------
         ndarray of shape (k,)
+            Cluster of each point.
         """
         scores, nearest = self._scores(self._check_query(X))
         labels = np.argmax(scores, axis=1)
@@ -126,10 +132,12 @@ class ManifoldQueries:
         Parameters
         ----------
         X : array-like of shape (k, d)
+            New points.
 
         Returns
         -------
         ndarray of shape (k, K)
+            Probability of each point and cluster.
         """
         scores, nearest = self._scores(self._check_query(X))
         total = scores.sum(axis=1, keepdims=True)
@@ -141,7 +149,7 @@ class ManifoldQueries:
         return proba
 
     def signal(self, X: ArrayLike, cluster: int, target: int | None = None) -> np.ndarray:
-        """The servo signal F^j(k) of eq. 13 / Section II-G toward a training point.
+        """Return the servo signal F^j(k) of eq. 13 / Section II-G toward a training point.
 
         Parameters
         ----------
@@ -181,12 +189,24 @@ class ManifoldQueries:
         return self.signals(X, [target])[:, 0]
 
     def signals(self, X: ArrayLike, targets: ArrayLike) -> np.ndarray:
-        """`signal` (eq. 13) toward each of several training points, each on its own
-        cluster ``j = labels_[t]``, with the same numbers. A view's distances to a cluster's
-        points (the costly part: one projection of the whole view) are computed once per
-        cluster, not once per target: what a servo comparing waypoints needs each step.
+        """Return `signal` (eq. 13) toward each of several training points.
 
-        Returns an ndarray of shape (k, len(targets)).
+        Each target is on its own cluster ``j = labels_[t]``, with the same numbers. A view's
+        distances to a cluster's points (the costly part: one projection of the whole view)
+        are computed once per cluster, not once per target: what a servo comparing waypoints
+        needs each step.
+
+        Parameters
+        ----------
+        X : array-like of shape (k, d) or (d,)
+            Current views (one per row).
+        targets : array-like of int
+            Training indices of the desired positions.
+
+        Returns
+        -------
+        ndarray of shape (k, len(targets))
+            F^j(k) of each view toward each target.
         """
         X = np.asarray(X)
         X = self._check_query(X[None, :] if X.ndim == 1 else X)

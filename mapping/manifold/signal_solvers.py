@@ -29,8 +29,27 @@ _THREADED_SOLVE = 64
 def dense_signal(
     weights: np.ndarray, degrees: np.ndarray, alpha: float, w: np.ndarray, target: int
 ) -> np.ndarray:
-    """Eq. 13 by the m x m solve of A per row, for a cluster with a training point of degree 0
-    (no H). ``weights`` (m, m) and ``degrees`` (m,) are W and d; ``w`` (k, m) the affinities.
+    """Return eq. 13 by the m x m solve of A per row, for a cluster with a point of degree 0.
+
+    Such a cluster has no H.
+
+    Parameters
+    ----------
+    weights : ndarray of shape (m, m)
+        W, zero diagonal.
+    degrees : ndarray of shape (m,)
+        d, the row sums of W.
+    alpha : float
+        alpha of eq. 13.
+    w : ndarray of shape (k, m)
+        Affinities of the queries to the cluster's points.
+    target : int
+        Local index of the target point.
+
+    Returns
+    -------
+    ndarray of shape (k,)
+        F^j(k) of each query; 0 where every affinity is 0.
     """
     total = w.sum(axis=1)
     out = np.zeros(w.shape[0])
@@ -65,11 +84,25 @@ def sparse_signal(
     target: np.ndarray,
     alpha: np.ndarray,
 ) -> np.ndarray:
-    """Eq. 13 by Woodbury on the support S of w, for B (row, cluster) pairs.
+    """Return eq. 13 by Woodbury on the support S of w, for B (row, cluster) pairs.
 
-    ``inverse`` (K, m, m) and ``degrees`` (K, m) are H and d of each cluster (padding: H 0,
-    d 1); ``w`` (B, m) the affinities (padding 0); ``cluster``, ``target`` and ``alpha`` (B,)
-    say which cluster, local target and alpha each row is for.
+    Parameters
+    ----------
+    inverse : ndarray of shape (K, m, m)
+        H of each cluster (padding 0).
+    degrees : ndarray of shape (K, m)
+        d of each cluster (padding 1).
+    w : ndarray of shape (B, m)
+        Affinities of each row (padding 0).
+    cluster, target : ndarray of int, shape (B,)
+        The cluster and local target of each row.
+    alpha : ndarray of shape (B,)
+        The alpha of each row.
+
+    Returns
+    -------
+    ndarray of shape (B,)
+        F^j(k) of each row; 0 where every affinity is 0.
     """
     total = w.sum(axis=1)
     out = np.zeros(w.shape[0])

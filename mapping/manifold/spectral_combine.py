@@ -1,5 +1,7 @@
-"""The default combination of the C leaves into K clusters: a spectral cut of the leaves'
-affinity in the manifold kernel (``docs/decisions/004-combining-leaves-into-k-clusters.md``).
+"""The default combination of the C leaves into K clusters.
+
+A spectral cut of the leaves' affinity in the manifold kernel
+(``docs/decisions/004-combining-leaves-into-k-clusters.md``).
 
 The paper says only that "the C clusters are finally combined to give the best K clusters that
 each have maximal values of Omega(2)". Greedy pairwise rules (``separability``, ``merge``)
@@ -33,11 +35,25 @@ from scipy.linalg import eigh
 
 
 def spectral_groups(affinity: np.ndarray, sizes: np.ndarray, n_clusters: int) -> np.ndarray:
-    """One group label per leaf: the normalised spectral cut of a C x C leaf affinity.
+    """Group the leaves by the normalised spectral cut of a C x C leaf affinity.
 
     ``affinity`` includes each leaf's own block on the diagonal, so the cut is the point-level
     normalised cut restricted to unions of whole leaves (the projection of the point problem
     onto leaf-constant vectors: ``P^T W P`` and ``P^T D P = diag(affinity 1)``).
+
+    Parameters
+    ----------
+    affinity : ndarray of shape (C, C)
+        The leaves' affinity; negative entries count as 0.
+    sizes : ndarray of shape (C,)
+        Points per leaf, the k-means weights.
+    n_clusters : int
+        K.
+
+    Returns
+    -------
+    ndarray of int, shape (C,)
+        One group label per leaf (a group may be empty).
     """
     from sklearn.cluster import KMeans
 
@@ -56,15 +72,28 @@ def spectral_groups(affinity: np.ndarray, sizes: np.ndarray, n_clusters: int) ->
 def spectral_merge(
     scores, n_clusters: int, adjacent: np.ndarray | None = None
 ) -> list[list[int]] | None:
-    """K groups of leaves: the spectral cut of the kernel's leaf affinity at the top alpha and
-    the sigma whose groups have the largest total group-vs-rest Omega(2) (eq. 9).
+    """Group the leaves into K by the spectral cut of the kernel's leaf affinity.
 
-    ``scores`` is a ``mapping.manifold.tree.GroupScores`` (block sums for every grid sigma and
-    alpha). ``adjacent`` (P, 2): pairs of leaves joined by a k-nearest-neighbour edge; a sigma
-    at which the kernel gives such a pair no affinity at all is skipped (a graph kernel that
-    kept only the mean eigenvalue of a component, or a Gaussian that underflowed, sees its
-    leaves as unrelated and the cut would split them apart). Returns None if no sigma is left
-    with K non-empty groups (the caller falls back to a pairwise rule).
+    The cut is at the top alpha and the sigma whose groups have the largest total
+    group-vs-rest Omega(2) (eq. 9).
+
+    Parameters
+    ----------
+    scores : mapping.manifold.tree.GroupScores
+        Block sums for every grid sigma and alpha.
+    n_clusters : int
+        K.
+    adjacent : ndarray of shape (P, 2), optional
+        Pairs of leaves joined by a k-nearest-neighbour edge; a sigma at which the kernel gives
+        such a pair no affinity at all is skipped (a graph kernel that kept only the mean
+        eigenvalue of a component, or a Gaussian that underflowed, sees its leaves as
+        unrelated and the cut would split them apart).
+
+    Returns
+    -------
+    list of list of int or None
+        The leaves of each group; None if no sigma is left with K non-empty groups (the caller
+        falls back to a pairwise rule).
     """
     n_leaves = scores.sizes.shape[0]
     if n_leaves <= n_clusters:

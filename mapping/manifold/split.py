@@ -48,6 +48,11 @@ _CACHED_BASES = 4
 class SearchSpace:
     """Bounds and resolution of the (sigma, alpha) search of one bisection.
 
+    Parameters
+    ----------
+    n_sigmas, t_bounds, n_alphas, refine, refine_sigma, omega_sign, seed_rule
+        The attributes below.
+
     Attributes
     ----------
     n_sigmas : int
@@ -73,12 +78,31 @@ class SearchSpace:
     seed_rule: str = "weighted"
 
     def t_grid(self) -> np.ndarray:
+        """Return the grid over t.
+
+        Returns
+        -------
+        ndarray of shape (n_alphas,)
+            ``n_alphas`` values evenly spaced over ``t_bounds``.
+        """
         return np.linspace(self.t_bounds[0], self.t_bounds[1], self.n_alphas)
 
 
 @dataclass(frozen=True)
 class Split:
-    """The best bisection of a node: score, parameters, seeds and membership of p1."""
+    """The best bisection of a node: score, parameters, seeds and membership of p1.
+
+    Parameters
+    ----------
+    omega : float
+        Omega(2) of the split (eq. 9).
+    sigma, alpha : float
+        The kernel width and alpha it was found at.
+    seeds : tuple of (int, int)
+        l1 and l2, node-local.
+    in_first : ndarray of bool, shape (m,)
+        Membership of p1, the cluster seeded by l1.
+    """
 
     omega: float
     sigma: float
@@ -90,7 +114,7 @@ class Split:
 def split_scores(
     basis: SpectralBasis, alphas: np.ndarray, min_size: int, space: SearchSpace
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Omega(2) (eq. 9) of the seeded split for each alpha at one sigma.
+    """Return Omega(2) (eq. 9) of the seeded split for each alpha at one sigma.
 
     Parameters
     ----------
@@ -108,6 +132,7 @@ def split_scores(
     Returns
     -------
     omega : ndarray of shape (A,)
+        Omega(2) at each alpha.
     in_first : ndarray of bool, shape (m, A)
         Membership of p1, the cluster seeded by l1.
     seeds : ndarray of int, shape (2, A)
@@ -182,7 +207,7 @@ class _NodeSearch:
         return split_scores(self.basis(sigma), alpha_from_t(ts), self.min_size, self.space)
 
     def best_alpha(self, sigma: float, t_lo: float, t_hi: float, t0: float) -> tuple[float, float]:
-        """Bounded Brent over t in [t_lo, t_hi] at fixed sigma; returns (omega, t)."""
+        """Run bounded Brent over t in [t_lo, t_hi] at fixed sigma; return (omega, t)."""
         best = (float(self.scores(sigma, np.array([t0]))[0][0]), t0)
         if t_hi - t_lo < 1e-9:
             return best
@@ -216,7 +241,7 @@ class _NodeSearch:
         )
 
     def _refine(self, log_sigmas, ts, i, j, omega) -> tuple[float, float, float]:
-        """Nested bounded Brent around grid cell (i, j); keeps the grid point unless beaten."""
+        """Run nested bounded Brent around grid cell (i, j); keep the grid point unless beaten."""
         k = len(ts) - 1
         t_lo, t_hi = float(ts[max(j - 1, 0)]), float(ts[min(j + 1, k)])
         best = (omega, float(log_sigmas[i]), float(ts[j]))
@@ -246,8 +271,9 @@ class _NodeSearch:
 
 
 def _first_best(values: np.ndarray) -> np.ndarray:
-    """Per column, the lowest row index whose value is within `TIE` of the column's
-    maximum (``argmax`` with near-ties broken by index, not by round-off).
+    """Return per column the lowest row index whose value is within `TIE` of the maximum.
+
+    That is ``argmax`` with near-ties broken by index, not by round-off.
     """
     return np.argmax(values >= values.max(axis=0) - TIE, axis=0)
 
@@ -276,13 +302,28 @@ def best_split(
 
 
 def best_splits(nodes: list, min_size: int, space: SearchSpace, n_jobs: int | None = None):
-    """`best_split` of each node (a geometry), the nodes spread over ``n_jobs``
-    processes (joblib's meaning: None is one unless inside ``joblib.parallel_config``).
+    """Run `best_split` on each node (a geometry), the nodes spread over ``n_jobs`` processes.
 
+    ``n_jobs`` has joblib's meaning: None is one unless inside ``joblib.parallel_config``.
     A single node is searched here, its grid's eigensolves spread over the processes instead
-    (`prefetch`): the root's bases stay with
-    it for the combination and eq. 10. Each process runs BLAS on one thread, as ``fit``
-    does, so the splits do not depend on ``n_jobs``.
+    (`prefetch`): the root's bases stay with it for the combination and eq. 10. Each process
+    runs BLAS on one thread, as ``fit`` does, so the splits do not depend on ``n_jobs``.
+
+    Parameters
+    ----------
+    nodes : list of DenseGeometry or GraphGeometry
+        The nodes to split.
+    min_size : int
+        Q; both sides of each split get at least Q points.
+    space : SearchSpace
+        Bounds, resolution and the readings of eq. 9 and 12.
+    n_jobs : int, optional
+        Processes.
+
+    Returns
+    -------
+    list of Split
+        The best split of each node, in order.
     """
     if len(nodes) < 2 or effective_n_jobs(n_jobs) < 2:
         return [best_split(node, min_size, space) for node in nodes]

@@ -81,12 +81,19 @@ _OFFSET_COLUMNS = 65_536
 
 
 class Projection:
-    """The models' rows (the bases B_j, or a graph fit's centred points) stacked, and the K
-    shift directions, for projecting a query once for all clusters (module docstring).
+    """The models' rows stacked, and the K shift directions, to project a query once for all.
 
-    ``field`` names the models' (r_j, d) array; from construction on each model's array is a
-    row block (a view) of ``matrix``. Memory beyond the models': ``shifts`` (K d float64),
-    ``mu`` (d float64) and ``offsets`` (R float64).
+    The rows are the bases B_j, or a graph fit's centred points; see the module docstring.
+    From construction on each model's array is a row block (a view) of ``matrix``. Memory
+    beyond the models': ``shifts`` (K d float64), ``mu`` (d float64) and ``offsets``
+    (R float64).
+
+    Parameters
+    ----------
+    models : tuple of ClusterModel or GraphClusterModel
+        One model per cluster.
+    field : str
+        Name of the models' (r_j, d) array.
     """
 
     def __init__(self, models: tuple, field: str) -> None:
@@ -124,14 +131,27 @@ class Projection:
 
     @classmethod
     def of(cls, models: list, field: str) -> Projection:
-        """The projection of these models, built once and kept by the first of them."""
+        """Return the projection of these models, built once and kept by the first of them.
+
+        Parameters
+        ----------
+        models : list of ClusterModel or GraphClusterModel
+            One model per cluster.
+        field : str
+            Name of the models' (r_j, d) array.
+
+        Returns
+        -------
+        Projection
+            The cached projection.
+        """
         return _cached(cls, models, field)
 
     def __call__(self, X: np.ndarray, needed=None) -> tuple[np.ndarray, np.ndarray]:
-        """``(p, q)`` for the rows of X: ``p`` (k, R) the rows of every model times
-        ``x - mean_j`` (model j's columns ``starts[j]:starts[j + 1]``), ``q`` (k, K)
-        ``|x - mean_j|^2``, both float64.
+        """Return ``(p, q)`` for the rows of X, both float64.
 
+        ``p`` (k, R) is the rows of every model times ``x - mean_j`` (model j's columns
+        ``starts[j]:starts[j + 1]``), ``q`` (k, K) is ``|x - mean_j|^2``.
         Each block of rows is centred on ``mu``, cast and projected once for all clusters.
         ``needed``, if given, maps a block's ``q`` to a (rows, K) bool mask of the models whose
         coordinates are wanted; the columns of a model no row of the block needs are not
@@ -148,7 +168,7 @@ class Projection:
         return p, q
 
     def _project(self, X: np.ndarray, p: np.ndarray, q: np.ndarray, needed) -> None:
-        """One block of rows into ``p`` and ``q`` (see ``__call__``).
+        """Project one block of rows into ``p`` and ``q`` (see ``__call__``).
 
         In float64, from ``x . x`` and ``x . [delta_j, mu]``: ``y = x - mu`` has
         ``|y|^2 = |x|^2 - 2 x . mu + |mu|^2`` and ``y . delta_j = x . delta_j - mu . delta_j``
@@ -175,7 +195,7 @@ class Projection:
             p[:, ~wanted[self.owner]] = np.nan
 
     def _runs(self, wanted: np.ndarray | None) -> list[tuple[int, int]]:
-        """Row ranges of ``matrix`` of the wanted models, consecutive models in one range."""
+        """Return row ranges of ``matrix`` of the wanted models, consecutive models in one range."""
         if wanted is None:
             return [(0, int(self.matrix.shape[0]))]
         starts = self.starts.tolist()  # K + 1 Python ints: a plain loop beats numpy's calls here
@@ -193,6 +213,11 @@ class Stack:
 
     Padding: zero basis coordinates and an infinite squared norm (a padded point is at
     infinite distance, affinity exactly 0), H = 0 and degree 1 (never in a support).
+
+    Parameters
+    ----------
+    models : tuple of ClusterModel
+        One model per cluster.
     """
 
     def __init__(self, models: tuple) -> None:
@@ -234,29 +259,62 @@ class Stack:
 
     @classmethod
     def of(cls, models: list) -> Stack:
-        """The stack of these models, built once and kept by the first of them."""
+        """Return the stack of these models, built once and kept by the first of them.
+
+        Parameters
+        ----------
+        models : list of ClusterModel
+            One model per cluster.
+
+        Returns
+        -------
+        Stack
+            The cached stack.
+        """
         return _cached(cls, models)
 
     def reachable(self, q: np.ndarray) -> np.ndarray:
-        """(k, K) bool: whether a query with ``q = |x - mean_j|^2`` (k, K) can have an
-        affinity above 0 to a point of cluster j.
+        """Check whether a query with ``q = |x - mean_j|^2`` can reach a point of cluster j.
 
+        Reaching means an affinity above 0.
         The distance as computed, ``q + |x_i - mean_j|^2 - 2 c . c_i`` (c = B_j (x - mean_j),
         ``|c|^2 <= q``, ``|c_i|^2 <= |x_i - mean_j|^2 <= radius_j^2``), is at least
         ``(sqrt(q) - radius_j)^2`` (Cauchy-Schwarz), so where that bound times
         ``1 / (2 sigma_j^2)`` exceeds ``UNDERFLOW`` every affinity ``exp(-d^2 / 2 sigma_j^2)``
         is exactly 0 in float64 (below exp(-745)), with margin for round-off, and the
         cluster's F^j is exactly 0 without its coordinates.
+
+        Parameters
+        ----------
+        q : ndarray of shape (k, K)
+            ``|x - mean_j|^2`` of each query and cluster.
+
+        Returns
+        -------
+        ndarray of bool, shape (k, K)
+            True where the cluster may be reached.
         """
         return q < self.reach_sq
 
     def sq_distances(self, X: np.ndarray, prune: bool = False) -> np.ndarray:
-        """``ClusterModel.sq_distances`` of every cluster, (K, k, n), padding at infinity.
+        """Return ``ClusterModel.sq_distances`` of every cluster, padding at infinity.
 
         The query is projected once for all clusters (`Projection`); the same
         distances as each cluster's own up to the round-off of the projection. With
         ``prune``, a cluster the query cannot reach (`reachable`) is not projected on
         and its distances are infinite (every affinity 0, as computed they underflow to 0).
+
+        Parameters
+        ----------
+        X : ndarray of shape (k, d)
+            Queries.
+        prune : bool, default False
+            Skip the clusters a query cannot reach.
+
+        Returns
+        -------
+        ndarray of shape (K, k, n)
+            Squared distances to each cluster's points, n the largest cluster's size.
         """
         p, q = self.projection(X, self.reachable if prune else None)
         p = np.concatenate([p, np.zeros((p.shape[0], 1))], axis=1)
@@ -270,11 +328,27 @@ class Stack:
         return np.maximum(d2, 0.0, out=d2)
 
     def scores(self, X: np.ndarray, normalize: bool) -> tuple[np.ndarray, np.ndarray]:
-        """F^j(k) of eq. 13 toward each centre (k, K), divided by ``scale`` if ``normalize``,
-        and ``min_i |x - x_i|^2 / (2 sigma_j^2)`` (k, K) for the rows where every F is 0
-        (other rows: infinite for the clusters they cannot reach, which were not projected
-        on: `reachable`; a query near one or two of the clusters reads their bases
-        only, a third of the bytes on the benchmark's images).
+        """Return F^j(k) of eq. 13 toward each centre and the scaled nearest distances.
+
+        F (k, K) is divided by ``scale`` if ``normalize``; ``min_i |x - x_i|^2 / (2 sigma_j^2)``
+        (k, K) is exact for the rows where every F is 0 (other rows: infinite for the clusters
+        they cannot reach, which were not projected on: `reachable`; a query near one or two
+        of the clusters reads their bases only, a third of the bytes on the benchmark's
+        images).
+
+        Parameters
+        ----------
+        X : ndarray of shape (k, d)
+            Queries.
+        normalize : bool
+            Divide F by each model's ``scale``.
+
+        Returns
+        -------
+        f : ndarray of shape (k, K)
+            F^j(k) of each query and cluster.
+        nearest : ndarray of shape (k, K)
+            The scaled distance to each cluster's nearest point.
         """
         f, nearest = self._scores(X, normalize, prune=True)
         lost = np.flatnonzero(~(f.max(axis=1) > 0))
@@ -307,27 +381,44 @@ class Stack:
 
 
 class DerivedCache:
-    """Base of the frozen per-cluster records: their ``_stacks`` dict (set on construction)
-    keeps the `Stack` / `Projection` built from them on the first ``predict``.
-    Pickles and deep copies leave it out (a copy builds its own), as saved files do.
+    """Base of the frozen per-cluster records, with their cache of derived stacks.
+
+    Their ``_stacks`` dict (set on construction) keeps the `Stack` / `Projection` built from
+    them on the first ``predict``. Pickles and deep copies leave it out (a copy builds its
+    own), as saved files do.
     """
 
     def __getstate__(self) -> dict:
+        """Return the state to pickle, without ``_stacks``."""
         state = dict(self.__dict__)
         state.pop("_stacks", None)
         return state
 
     def __setstate__(self, state: dict) -> None:
+        """Restore a pickled state with an empty ``_stacks``."""
         self.__dict__.update(state)
         self.__dict__["_stacks"] = {}
 
 
 def projection_threads(rows: int, matrix: np.ndarray):
-    """BLAS threads for projecting ``rows`` queries on ``matrix``: for a few rows and a large
-    matrix (a memory-bound GEMV; ``_FEW_ROWS``) one on a `busy`
-    machine, where a second would spin, and the default where a core is free (idle, 2 cores:
-    ``predict`` of one 320x240x3 view 3.6 -> 2.6 ms); the default otherwise (a product of
-    many rows is compute-bound, as in ``fit``; a small one is not worth the switch).
+    """Return the BLAS threads' context for projecting ``rows`` queries on ``matrix``.
+
+    For a few rows and a large matrix (a memory-bound GEMV; ``_FEW_ROWS``) one thread on a
+    `busy` machine, where a second would spin, and the default where a core is free (idle, 2
+    cores: ``predict`` of one 320x240x3 view 3.6 -> 2.6 ms); the default otherwise (a product
+    of many rows is compute-bound, as in ``fit``; a small one is not worth the switch).
+
+    Parameters
+    ----------
+    rows : int
+        Queries projected at once.
+    matrix : ndarray
+        The matrix they are projected on.
+
+    Returns
+    -------
+    contextlib.AbstractContextManager
+        ``single_threaded_blas()`` or a null context.
     """
     if rows <= _FEW_ROWS and matrix.size >= _SMALL_MATRIX and busy():
         return single_threaded_blas()
@@ -335,7 +426,7 @@ def projection_threads(rows: int, matrix: np.ndarray):
 
 
 def _cached(cls, models: list, *args):
-    """``cls(tuple(models), *args)``, built once and kept by the first model."""
+    """Return ``cls(tuple(models), *args)``, built once and kept by the first model."""
     cache = models[0]._stacks
     key = (cls.__name__, *args, *map(id, models))
     hit = cache.get(key)
@@ -346,8 +437,9 @@ def _cached(cls, models: list, *args):
 
 
 def _widened_product(basis: np.ndarray, vector: np.ndarray) -> np.ndarray:
-    """``basis @ vector`` in float64 for a float32 or float64 basis, a block of columns at a
-    time (no float64 copy of a whole image-sized basis).
+    """Return ``basis @ vector`` in float64 for a float32 or float64 basis.
+
+    A block of columns at a time: no float64 copy of a whole image-sized basis.
     """
     out = np.zeros(basis.shape[0])
     for start in range(0, basis.shape[1], _OFFSET_COLUMNS):

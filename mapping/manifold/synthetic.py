@@ -50,13 +50,13 @@ _MAX_CURVE_POINTS = 1_000_000
 
 
 def _check_positive(value: object, name: str) -> None:
-    """``value`` a positive finite number, or a ValueError naming ``name``."""
+    """Check ``value`` is a positive finite number, or raise a ValueError naming ``name``."""
     if not (is_real(value) and np.isfinite(value) and value > 0):
         raise ValueError(f"{name} must be a positive finite number, got {value!r}")
 
 
 def _check_noise(noise: object) -> None:
-    """``noise`` a non-negative finite number (a standard deviation), or a ValueError."""
+    """Check ``noise`` is a non-negative finite number (a standard deviation)."""
     if not (is_real(noise) and np.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise must be a non-negative number, got {noise!r}")
 
@@ -95,7 +95,7 @@ def _finish(
 
 
 def _arc_samples(length: float, spacing: float) -> np.ndarray:
-    """Arc-length positions 0, spacing, 2 spacing, ... <= length (end point included if hit)."""
+    """Return arc-length positions 0, spacing, 2 spacing, ... <= length (end included if hit)."""
     n = int(np.floor(length / spacing + 1e-9)) + 1
     return np.arange(n) * spacing
 
@@ -120,6 +120,13 @@ def parallel_lines(
         Length of each line (x from 0 to length).
     noise, rng
         Optional isotropic Gaussian noise; ``rng`` is required when ``noise > 0``.
+
+    Returns
+    -------
+    X : ndarray of shape (n, 2)
+        The points, curve by curve and along each curve.
+    y : ndarray of int, shape (n,)
+        Labels 0, 1, 2.
     """
     if isinstance(n_per_line, bool) or not isinstance(n_per_line, int | np.integer):
         raise ValueError(f"n_per_line must be an integer >= 2, got {n_per_line!r}")
@@ -156,6 +163,13 @@ def lines_variable_spacing(
         Length of each line.
     noise, rng
         Optional Gaussian noise; ``rng`` is required when ``noise > 0``.
+
+    Returns
+    -------
+    X : ndarray of shape (n, 2)
+        The points, curve by curve and along each curve.
+    y : ndarray of int, shape (n,)
+        Labels 0, 1, 2.
     """
     spacings = _check_spacings(spacings, length)
     _check_positive(gap, "gap")
@@ -194,6 +208,13 @@ def converging_paths(
         Total heading change of the turning paths, in radians (0 < turn <= pi).
     noise, rng
         Optional Gaussian noise; ``rng`` is required when ``noise > 0``.
+
+    Returns
+    -------
+    X : ndarray of shape (n, 2)
+        The points, curve by curve and along each curve.
+    y : ndarray of int, shape (n,)
+        Labels 0, 1, 2.
     """
     spacings = _check_spacings(spacings, length)
     if not (is_real(turn) and np.isfinite(turn) and 0 < turn <= np.pi):
@@ -240,6 +261,13 @@ def spirals_3d(
         Rise per full turn.
     noise, rng
         Optional Gaussian noise; ``rng`` is required when ``noise > 0``.
+
+    Returns
+    -------
+    X : ndarray of shape (n, 3)
+        The points, curve by curve and along each curve.
+    y : ndarray of int, shape (n,)
+        Labels 0, 1, 2.
     """
     spacings = _check_spacings(spacings, length)
     for name, value in (("radius", radius), ("pitch", pitch)):
@@ -269,21 +297,54 @@ SYNTHETIC_SETS: dict[str, Callable[..., tuple[np.ndarray, np.ndarray]]] = {
 def make_all(
     noise: float = 0.0, rng: np.random.Generator | None = None
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """All four sets with default parameters, keyed as in `SYNTHETIC_SETS`."""
+    """Return all four sets with default parameters, keyed as in `SYNTHETIC_SETS`.
+
+    Parameters
+    ----------
+    noise : float, default 0.0
+        Standard deviation of the Gaussian noise added to every set.
+    rng : numpy.random.Generator, optional
+        Source of the noise; required when ``noise > 0``.
+
+    Returns
+    -------
+    dict of str to tuple of (ndarray, ndarray)
+        Name -> ``(X, y)``.
+    """
     return {name: make(noise=noise, rng=rng) for name, make in SYNTHETIC_SETS.items()}
 
 
 def branching_sequences(
     n_per_seq: int, d: int, rng: np.random.Generator, noise: float = 0.02
 ) -> tuple[np.ndarray, np.ndarray]:
-    """8 smooth sequences in R^d shaped like the robot's two worlds: per world a trunk and three
-    branches leaving its end (speeds 0.03, 0.05, 0.08 against the trunk's 0.05).
+    """Return 8 smooth sequences in R^d shaped like the robot's two worlds.
+
+    Per world a trunk and three branches leaving its end (speeds 0.03, 0.05, 0.08 against the
+    trunk's 0.05).
 
     The same draws as ``bench/bench_manifold.py``'s benchmark data (identical output for the
     same generator), so the tables of ``experiments.manifold.sweeps`` and the speed benchmark use
     one data set. Each curve is ``start + t drift + sum_k (sin(f_k t + p_k) - sin p_k) u_k``
     with four random unit-scale directions u_k; labels 0..7 in order (trunk, 3 branches,
     trunk, 3 branches); isotropic noise ``noise / sqrt(d)`` per coordinate.
+
+    Parameters
+    ----------
+    n_per_seq : int
+        Points per sequence.
+    d : int
+        Dimension.
+    rng : numpy.random.Generator
+        Source of the curves and the noise.
+    noise : float, default 0.02
+        Noise scale.
+
+    Returns
+    -------
+    X : ndarray of shape (8 * n_per_seq, d)
+        The points, sequence by sequence.
+    y : ndarray of int, shape (8 * n_per_seq,)
+        Labels 0..7.
     """
     if isinstance(n_per_seq, bool) or not isinstance(n_per_seq, int | np.integer) or n_per_seq < 1:
         raise ValueError(f"n_per_seq must be a positive integer, got {n_per_seq!r}")
@@ -325,6 +386,7 @@ def plot_sets(path: str | None = None, sets: dict | None = None):
     Returns
     -------
     matplotlib.figure.Figure
+        The figure, one panel per set.
     """
     # Imported here: matplotlib is slow to import and only this function needs it.
     from matplotlib.figure import Figure

@@ -51,6 +51,17 @@ _ADJACENCY_NEIGHBOURS = 10
 class ManifoldNode(SplitNode):
     """A node of the manifold bisection tree.
 
+    Parameters
+    ----------
+    indices : ndarray of int
+        Training indices of the node's points.
+    children : tuple of ManifoldNode, default ()
+        The two halves of a split node; empty for a leaf.
+    omega, sigma, alpha : float, default NaN
+        The split's Omega(2), sigma and alpha.
+    seeds : tuple of int or None, default None
+        The split's seeds.
+
     Attributes
     ----------
     indices : ndarray of int
@@ -73,10 +84,24 @@ class ManifoldNode(SplitNode):
 def build_tree(sq_dist, min_size: int, space: SearchSpace, n_jobs: int | None = None):
     """Bisect recursively until every leaf is smaller than ``2 * min_size`` (Section II-C).
 
-    ``sq_dist``: the (n, n) squared distances or a geometry (``mapping.manifold.geometry``).
     Level by level: the nodes of one depth are independent, and ``n_jobs`` processes search
-    them at once (`best_splits`); the tree is the same for any
-    ``n_jobs``.
+    them at once (`best_splits`); the tree is the same for any ``n_jobs``.
+
+    Parameters
+    ----------
+    sq_dist : ndarray of shape (n, n) or geometry
+        The squared distances, or a geometry (``mapping.manifold.geometry``).
+    min_size : int
+        Q; every split leaves at least Q points on each side.
+    space : SearchSpace
+        The (sigma, alpha) search of each split.
+    n_jobs : int, optional
+        Processes that search the nodes of one depth.
+
+    Returns
+    -------
+    ManifoldNode
+        The root of the tree.
     """
     geometry = as_geometry(sq_dist)
     root = ManifoldNode(np.arange(geometry.size))
@@ -110,6 +135,23 @@ def ensure_leaves(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpa
 
     Only needed when n is close to ``K * Q``: leaves hold between Q and 2 Q - 1 points, so C
     can fall below K. The extra splits relax Q to half the leaf, the most any split can keep.
+    The tree is changed in place.
+
+    Parameters
+    ----------
+    root : ManifoldNode
+        The tree.
+    sq_dist : ndarray of shape (n, n) or geometry
+        The squared distances, or a geometry.
+    n_clusters : int
+        K.
+    space : SearchSpace
+        The (sigma, alpha) search of each split.
+
+    Raises
+    ------
+    ValueError
+        If fewer than ``n_clusters`` leaves can be made (too few distinct samples).
     """
     sq_dist = as_geometry(sq_dist)
     leaves = root.leaves()
@@ -128,7 +170,15 @@ def ensure_leaves(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpa
 
 @dataclass(frozen=True)
 class Combination:
-    """K groups of leaves with the (sigma, alpha, Omega) that score each group best."""
+    """K groups of leaves with the (sigma, alpha, Omega) that score each group best.
+
+    Parameters
+    ----------
+    groups : list of list of int
+        The leaves of each group.
+    sigmas, alphas, omegas : ndarray of shape (K,)
+        Each group's best sigma, alpha and Omega(2).
+    """
 
     groups: list[list[int]]
     sigmas: np.ndarray
@@ -141,6 +191,15 @@ class GroupScores:
 
     ``M[s, a]`` is the C x C matrix of ``(sum_{p_b} v) . (sum_{p_c} v)`` for leaves b, c at
     (sigma_s, alpha_a), built from the eigenbasis of the full S at each grid sigma.
+
+    Parameters
+    ----------
+    geometry : DenseGeometry or GraphGeometry
+        All training points.
+    leaves : list of ndarray of int
+        Training indices of each leaf.
+    space : SearchSpace
+        The grid of (sigma, alpha).
     """
 
     def __init__(self, geometry, leaves: list[np.ndarray], space: SearchSpace):
@@ -170,7 +229,22 @@ class GroupScores:
         self.n = n
 
     def omega(self, within: np.ndarray, total: np.ndarray, size: np.ndarray) -> np.ndarray:
-        """Eq. 9 with p1 = a group (sum of its block ``within``, of its rows ``total``)."""
+        """Return eq. 9 with p1 = a group (sum of its block ``within``, of its rows ``total``).
+
+        Parameters
+        ----------
+        within : ndarray
+            Sum of the group's own block.
+        total : ndarray
+            Sum of the group's rows.
+        size : ndarray
+            Points in the group.
+
+        Returns
+        -------
+        ndarray
+            Omega(2) of group vs rest, broadcast over the inputs.
+        """
         rest = self.n - size
         e_within = 1.0 - within / (size * size)
         e_between = 1.0 - (total - within) / (size * rest)
@@ -206,6 +280,7 @@ def combine_leaves(
     Returns
     -------
     Combination
+        The groups and each group's best (sigma, alpha, Omega).
     """
     if scores is None:
         scores = GroupScores(as_geometry(sq_dist), leaves, space)
@@ -231,7 +306,7 @@ def combine_leaves(
 
 
 def _merge(scores: GroupScores, n_clusters: int) -> list[list[int]]:
-    """Greedy agglomeration: merge the pair of groups that most raises the sum of Omega(2)."""
+    """Merge greedily the pair of groups that most raises the sum of Omega(2)."""
     groups = [[c] for c in range(len(scores.sizes))]
     # Group-level state: block sums per (sigma, alpha) and sizes; merging adds rows/columns.
     Mg = scores.M.copy()
@@ -262,8 +337,22 @@ def _merge(scores: GroupScores, n_clusters: int) -> list[list[int]]:
 
 
 def cut_tree(root: ManifoldNode, n_clusters: int) -> list[list[ManifoldNode]]:
-    """Alternative combination: expand the tree from the root, always splitting the frontier
-    node of highest Omega, until there are K subtrees; each becomes one cluster.
+    """Cut the tree into K subtrees, an alternative combination; each becomes one cluster.
+
+    The tree is expanded from the root, always splitting the frontier node of highest Omega,
+    until there are K subtrees.
+
+    Parameters
+    ----------
+    root : ManifoldNode
+        The tree.
+    n_clusters : int
+        K.
+
+    Returns
+    -------
+    list of list of ManifoldNode
+        The leaves of each subtree.
     """
     frontier = [root]
     while len(frontier) < n_clusters:
@@ -275,11 +364,11 @@ def cut_tree(root: ManifoldNode, n_clusters: int) -> list[list[ManifoldNode]]:
 
 
 def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpace):
-    """Max over (sigma, alpha) of ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` on the union of a, b.
+    """Return max over (sigma, alpha) of ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` on a and b.
 
     eq. 9's spread with the labels fixed, symmetric in a and b and without the balance factor
     (which would make every small group look inseparable). The kernel is the pair's own, so
-    how far the rest of the data lies does not enter.
+    how far the rest of the data lies does not enter; the union of a and b is its domain.
     """
     idx = np.concatenate([a, b])
     na, nb = a.shape[0], b.shape[0]
@@ -292,7 +381,7 @@ def _pair_separability(geometry, a: np.ndarray, b: np.ndarray, space: SearchSpac
 
 
 def _leaf_labels(n: int, leaves: list[np.ndarray]) -> np.ndarray:
-    """Each of the n points' leaf (the leaves partition 0..n-1)."""
+    """Return each of the n points' leaf (the leaves partition 0..n-1)."""
     labels = np.empty(n, dtype=np.intp)
     for c, idx in enumerate(leaves):
         labels[idx] = c
@@ -300,7 +389,20 @@ def _leaf_labels(n: int, leaves: list[np.ndarray]) -> np.ndarray:
 
 
 def adjacent_pairs(nearest: np.ndarray, labels: np.ndarray) -> set[tuple[int, int]]:
-    """Pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point."""
+    """Return the pairs of groups (i < j) joined by a k-nearest-neighbour edge of some point.
+
+    Parameters
+    ----------
+    nearest : ndarray of int, shape (n, k)
+        Each point's neighbours.
+    labels : ndarray of int, shape (n,)
+        Each point's group.
+
+    Returns
+    -------
+    set of tuple of (int, int)
+        The adjacent pairs.
+    """
     a = np.repeat(labels, nearest.shape[1])
     b = labels[nearest.ravel()]
     keep = a != b
@@ -316,6 +418,22 @@ def separability_merge(
     Candidates are pairs of groups joined by a k-nearest-neighbour edge (manifolds meet where
     their points are neighbours); if none is left, every pair is a candidate. Each pair's
     separability is cached and recomputed only for pairs involving the newly merged group.
+
+    Parameters
+    ----------
+    sq_dist : ndarray of shape (n, n) or geometry
+        The squared distances, or a geometry.
+    leaves : list of ndarray of int
+        Training indices of each leaf.
+    n_clusters : int
+        K.
+    space : SearchSpace
+        The (sigma, alpha) search of each pair's separability.
+
+    Returns
+    -------
+    list of list of int
+        The leaves of each group.
     """
     sq_dist = as_geometry(sq_dist)
     groups = [[c] for c in range(len(leaves))]
@@ -347,12 +465,28 @@ def separability_merge(
 def shared_kernel_merge(
     geometry, leaves: list[np.ndarray], n_clusters: int, scores: GroupScores
 ) -> list[list[int]]:
-    """`separability_merge` with every pair scored in the kernel of all the points.
+    """Run `separability_merge` with every pair scored in the kernel of all the points.
 
     The scalable path's form: a pair's spread ``E[D^ab] - (E[D^aa] + E[D^bb]) / 2`` is read
     from the C x C block sums of ``scores`` (one eigensolve per sigma for the whole fit, the
     ones the combination needs anyway), instead of one search with its own eigensolves per
     candidate pair. Merging two groups adds their rows and columns, as in `_merge`.
+
+    Parameters
+    ----------
+    geometry : DenseGeometry or GraphGeometry
+        All training points.
+    leaves : list of ndarray of int
+        Training indices of each leaf.
+    n_clusters : int
+        K.
+    scores : GroupScores
+        The leaves' block sums.
+
+    Returns
+    -------
+    list of list of int
+        The leaves of each group.
     """
     groups = [[c] for c in range(len(leaves))]
     Mg = scores.M.copy()
@@ -384,8 +518,28 @@ def shared_kernel_merge(
 
 
 def combine_tree(root: ManifoldNode, sq_dist, n_clusters: int, space: SearchSpace, rule: str):
-    """The leaves of ``root`` combined into ``n_clusters`` groups by ``rule`` (one of
-    `COMBINE_RULES`; ambiguity 4), with each group's (sigma, alpha, omega).
+    """Combine the leaves of ``root`` into ``n_clusters`` groups by ``rule``.
+
+    ``rule`` is one of `COMBINE_RULES` (ambiguity 4); each group gets its (sigma, alpha,
+    omega).
+
+    Parameters
+    ----------
+    root : ManifoldNode
+        The tree.
+    sq_dist : ndarray of shape (n, n) or geometry
+        The squared distances, or a geometry.
+    n_clusters : int
+        K.
+    space : SearchSpace
+        The grid of (sigma, alpha).
+    rule : str
+        One of `COMBINE_RULES`.
+
+    Returns
+    -------
+    Combination
+        The groups and each group's best (sigma, alpha, Omega).
     """
     leaves = [leaf.indices for leaf in root.leaves()]
     if n_clusters == 1:

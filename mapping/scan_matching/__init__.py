@@ -1,5 +1,6 @@
-"""Scan matching: 2-D laser scans registered to each other by point-to-point ICP in SE(2), and
-odometry refined by matching consecutive scans.
+"""Scan matching: 2-D laser scans registered to each other by point-to-point ICP in SE(2).
+
+Also odometry refined by matching consecutive scans.
 
 * ``icp_alignment`` -- [`icp`][mapping.scan_matching.icp_alignment.icp] of one pair of scans,
   ``icp_batch`` of many at once, and ``densify_scan``, the target they match against;

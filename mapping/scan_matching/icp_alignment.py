@@ -1,6 +1,7 @@
-"""Point-to-point ICP in SE(2): one pair (``icp``) or many at once (``icp_batch``), and the
-densified target it matches against (``densify_scan``). The refinement of odometry poses by
-consecutive scan matching is ``pose_refinement.refine_poses``.
+"""Point-to-point ICP in SE(2): one pair (``icp``) or many at once (``icp_batch``).
+
+Also the densified target it matches against (``densify_scan``). The refinement of odometry
+poses by consecutive scan matching is ``pose_refinement.refine_poses``.
 """
 
 from __future__ import annotations
@@ -22,6 +23,17 @@ __all__ = ["IcpBatchResult", "IcpResult", "densify_scan", "icp", "icp_batch"]
 class IcpResult:
     """Outcome of ``icp``.
 
+    Parameters
+    ----------
+    transform : ndarray of shape (3,)
+        Pose ``(x, y, yaw)`` of the source frame in the target frame.
+    rmse : float
+        Root-mean-square distance of the final correspondences.
+    n_matches, n_iterations : int
+        Correspondences at the last iteration, and iterations run.
+    converged : bool
+        Whether the update fell below the tolerance.
+
     Attributes
     ----------
     transform : ndarray of shape (3,)
@@ -32,6 +44,7 @@ class IcpResult:
     n_matches : int
         Correspondences within ``max_correspondence_distance`` at the last iteration.
     n_iterations : int
+        Iterations run.
     converged : bool
         The update fell below ``tolerance`` with at least ``min_matches`` correspondences.
     """
@@ -44,7 +57,7 @@ class IcpResult:
 
 
 def _kabsch_2d(p: np.ndarray, q: np.ndarray) -> tuple[float, float, float]:
-    """Least-squares rigid motion ``(x, y, yaw)`` taking points ``p`` onto ``q``.
+    """Return the least-squares rigid motion ``(x, y, yaw)`` taking points ``p`` onto ``q``.
 
     In 2-D the SVD solution of the Kabsch/Umeyama problem has a closed form: the rotation
     angle is ``atan2(sum(p' x q'), sum(p' . q'))`` of the centred points, always a proper
@@ -93,6 +106,7 @@ def icp(
     Returns
     -------
     IcpResult
+        The transform, its residual and matches, and whether it converged.
     """
     init = np.zeros(3) if init is None else np.asarray(init, dtype=float).reshape(3)
     return icp_batch(
@@ -117,7 +131,19 @@ _MIN_CHUNK = 32
 
 @dataclass(frozen=True)
 class IcpBatchResult:
-    """Outcome of ``icp_batch``, one row per pair (fields as in ``IcpResult``)."""
+    """Outcome of ``icp_batch``, one row per pair (fields as in ``IcpResult``).
+
+    Parameters
+    ----------
+    transforms : ndarray of shape (P, 3)
+        Pose of each source frame in its target frame.
+    rmse : ndarray of shape (P,)
+        Root-mean-square distance of each pair's final correspondences.
+    n_matches, n_iterations : ndarray of int, shape (P,)
+        Correspondences at the last iteration, and iterations run.
+    converged : ndarray of bool, shape (P,)
+        Whether each pair converged.
+    """
 
     transforms: np.ndarray
     rmse: np.ndarray
@@ -126,6 +152,7 @@ class IcpBatchResult:
     converged: np.ndarray
 
     def __getitem__(self, i: int) -> IcpResult:
+        """Return pair ``i``'s outcome as an ``IcpResult``."""
         return IcpResult(
             self.transforms[i].copy(),
             float(self.rmse[i]),
@@ -148,8 +175,10 @@ def icp_batch(
     target_tree: cKDTree | None = None,
     workers: int = 1,
 ) -> IcpBatchResult:
-    """``icp`` of many independent pairs at once: ``sources[i]`` onto ``targets[i]`` from
-    ``inits[i]``, each pair with exactly ``icp``'s iterations and result.
+    """Run ``icp`` on many independent pairs at once.
+
+    ``sources[i]`` is aligned onto ``targets[i]`` from ``inits[i]``, each pair with exactly
+    ``icp``'s iterations and result.
 
     Two things make it cheaper than a loop of ``icp`` while giving the same correspondences:
 
@@ -165,12 +194,14 @@ def icp_batch(
       millimetres, so most iterations look up few points. The result is exact, not an
       approximate nearest neighbour.
 
-    The parameters not listed below are ``icp``'s.
-
     Parameters
     ----------
     sources, targets : sequences of array-like of shape (M_i, 2), (K_i, 2)
+        The P pairs of point sets.
     inits : array-like of shape (P, 3)
+        Initial guess of each pair's transform.
+    max_correspondence_distance, min_correspondence_distance, max_iterations, tolerance, min_matches
+        As in ``icp``.
     target_tree : cKDTree, optional
         With a single pair only: a tree already built on ``targets[0]``.
     workers : int, default 1
@@ -180,6 +211,7 @@ def icp_batch(
     Returns
     -------
     IcpBatchResult
+        One row per pair.
     """
     if not max_correspondence_distance > 0:
         raise ValueError(
@@ -246,10 +278,12 @@ def _iterate(
     tolerance,
     min_matches,
 ) -> None:
-    """The iterations of ``icp_batch`` over the pairs with enough points (batch rows
-    ``0..len(pairs)-1``; ``pairs`` are their indices in the result arrays ``pose`` and
-    ``out = (rmse, n_matches, n_iterations, converged)``, written in place). The working
-    arrays hold one entry per point of the rows still iterating and shrink as rows leave.
+    """Run the iterations of ``icp_batch`` over the pairs with enough points.
+
+    Batch rows are ``0..len(pairs)-1``; ``pairs`` are their indices in the result arrays
+    ``pose`` and ``out = (rmse, n_matches, n_iterations, converged)``, written in place. The
+    working arrays hold one entry per point of the rows still iterating and shrink as rows
+    leave.
     """
     rmse, n_matches, n_iterations, converged = out
     reach = max(float(np.abs(s).max()) for s in sources) + float(np.abs(pose[pairs, :2]).max())
@@ -344,8 +378,10 @@ def _iterate(
 
 
 def _kabsch_sums(n, spx, spy, sqx, sqy, sxx, sxy, syx, syy):
-    """``_kabsch_2d`` of many point sets from their sums: counts ``n``, coordinate sums of
-    ``p`` and ``q`` and the sums of ``p_x q_x``, ``p_x q_y``, ``p_y q_x``, ``p_y q_y``.
+    """Run ``_kabsch_2d`` on many point sets from their sums.
+
+    The sums are the counts ``n``, the coordinate sums of ``p`` and ``q`` and the sums of
+    ``p_x q_x``, ``p_x q_y``, ``p_y q_x``, ``p_y q_y``.
     """
     n_safe = np.maximum(n, 1.0)
     pcx, pcy, qcx, qcy = spx / n_safe, spy / n_safe, sqx / n_safe, sqy / n_safe
@@ -364,6 +400,20 @@ def densify_scan(points: np.ndarray, spacing: float = 0.02, max_gap: float = 0.3
     spacing. Densifying the target along the scan polyline removes most of that bias while
     keeping the SVD solution. Gaps wider than ``max_gap`` (depth jumps, door edges) are not
     filled.
+
+    Parameters
+    ----------
+    points : ndarray of shape (M, 2)
+        The scan's points, in beam order.
+    spacing : float, default 0.02
+        Largest distance between filled points, in metres.
+    max_gap : float, default 0.3
+        Gaps longer than this (m) are left empty.
+
+    Returns
+    -------
+    ndarray of shape (M', 2)
+        The points with the gaps filled.
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if len(points) < 2:

@@ -49,6 +49,26 @@ def refine_poses(
     neighbouring beams say nearly the same thing, and the ICP costs in proportion to the
     source points. ``min_matches`` and ``min_overlap`` then count the kept points.
 
+    Parameters
+    ----------
+    scans : sequence of ndarray of shape (M_i, 2)
+        Sensor-frame points of each scan.
+    poses : array-like of shape (N, 3)
+        Odometry poses ``(x, y, yaw)``.
+    max_correspondence_distance : float, default 0.5
+        ICP's initial correspondence gate in metres.
+    max_iterations : int, default 50
+        ICP iterations per pair at most.
+    min_matches : int, default 20
+        Points both scans of a pair need for a match to be tried; ICP then needs
+        ``ceil(min_matches / decimation)`` correspondences.
+    min_overlap : float, default 0.5
+        Fraction of the kept source points a match must pair to replace the increment.
+    groups : array-like of shape (N,), optional
+        The run (drive) of each scan; default one run.
+    decimation : int, default 1
+        Keep every ``decimation``-th source point.
+
     Returns
     -------
     ndarray of shape (N, 3)
