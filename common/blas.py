@@ -1,7 +1,7 @@
 """The BLAS thread policy of the numeric code.
 
-Small eigendecompositions and solves run with BLAS on one thread (`single_threaded_blas`), big products keep all threads unless the
-machine is busy (`busy`).
+Small eigendecompositions and solves run with BLAS on one thread (`single_threaded_blas`),
+big products keep all threads unless the machine is busy (`busy`).
 
 Shared by the estimators of ``mapping`` and the controllers and evaluation of ``servo``.
 """
