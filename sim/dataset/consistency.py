@@ -40,9 +40,9 @@ def _setting(meta: dict, sensor: str, key: str):
 def _fov(directory: Path, meta: dict) -> float | None:
     """Return the size of ``meta["settings"]["laser"]["fov"]`` when it is a real number.
 
-    It is refused beyond a full turn; None when not recorded. The ROS bag importer records the span of
-    the beam angles, last minus first: negative for a scan of decreasing angles, 0 for one
-    beam.
+    It is refused beyond a full turn; None when not recorded. The ROS bag importer records
+    the span of the beam angles, last minus first: negative for a scan of decreasing angles, 0
+    for one beam.
     """
     value = ((meta.get("settings") or {}).get("laser") or {}).get("fov")
     if not is_real(value):
@@ -58,9 +58,9 @@ def _fov(directory: Path, meta: dict) -> float | None:
 def _span_problem(angles: np.ndarray, fov: float) -> str | None:
     """Say why beam ``angles`` cannot be those of a laser of field of view ``fov``, or None.
 
-    They can when the angles span ``fov`` (the first beam at one edge, the last at the other, as a ROS scan's
-    angle_min and angle_max and a collection's laser have them), or ``fov (n - 1) / n`` for a
-    full turn (the last beam one step short of the first).
+    They can when the angles span ``fov`` (the first beam at one edge, the last at the other,
+    as a ROS scan's angle_min and angle_max and a collection's laser have them), or
+    ``fov (n - 1) / n`` for a full turn (the last beam one step short of the first).
     """
     n = len(angles)
     if n < 2:
