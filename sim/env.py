@@ -353,9 +353,10 @@ class NavigationEnv(CheckedKeywords, gym.Env):
     def scan_observation(self, ranges: np.ndarray, key: str) -> dict[str, np.ndarray]:
         """Turn ``ranges`` into the observation's entries of a scan.
 
-        The entries are those of [`scan_spaces`][sim.env.NavigationEnv.scan_spaces]: a copy, with no return (and a return pushed past the maximum range by
-        the range noise) at the maximum range and ``{key}_valid`` 1 where the beam returned;
-        with ``no_return="inf"`` the ranges alone.
+        The entries are those of [`scan_spaces`][sim.env.NavigationEnv.scan_spaces]: a copy,
+        with no return (and a return pushed past the maximum range by the range noise) at the
+        maximum range and ``{key}_valid`` 1 where the beam returned; with ``no_return="inf"``
+        the ranges alone.
 
         Parameters
         ----------
