@@ -75,9 +75,21 @@ class Runs:
     def from_sequences(
         cls, sequences: SequenceOf[Sequence], max_range: float | None, manifold_names=None
     ) -> Runs:
-        """Concatenate ``sequences`` (all of one world, with the same beam count and image
-        size); ``max_range`` is the laser's (None: the longest return seen stands for it);
-        ``manifold_names`` names the label ids.
+        """Concatenate ``sequences`` (all of one world, with the same beam count and image size).
+
+        Parameters
+        ----------
+        sequences : sequence of Sequence
+            The drives, in order.
+        max_range : float or None
+            The laser's maximum range, m; None: the longest return seen stands for it.
+        manifold_names : sequence of str, optional
+            The names of the label ids.
+
+        Returns
+        -------
+        Runs
+            The drives concatenated.
         """
         if not sequences:
             raise ValueError("sequences is empty")
@@ -114,7 +126,9 @@ class Runs:
 
     @property
     def has_ground_truth(self) -> bool:
+        """Whether the drives have true poses and labels."""
         return self.labels is not None
 
     def __len__(self) -> int:
+        """Return the number of frames."""
         return len(self.groups)
