@@ -197,6 +197,11 @@ class CheckedKeywords:
     The check runs before ``__init__`` does ([`check_keywords`][common.validation.check_keywords]),
     so ``gym.make(env_id, camra=...)`` and ``Env(camra=...)`` alike name what is accepted.
     Put it first among the bases; it adds no state, and pickling is unchanged.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        The construction's arguments, checked against ``__init__``'s, then passed to it.
     """
 
     def __new__(cls, *args, **kwargs):

@@ -56,6 +56,13 @@ class Runs:
     manifold_names : tuple of str or None
         The manifold of each id (the dataset's ``manifolds``); None for recordings without
         labels.
+
+    Parameters
+    ----------
+    world, names, groups, ranges, scans, max_range, odometry, images, times
+        The attributes above, as ``from_sequences`` makes them.
+    poses, labels, manifold_names : optional
+        The attributes above; None without ground truth.
     """
 
     world: str
