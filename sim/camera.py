@@ -43,7 +43,7 @@ class CameraConfig:
     shadows: bool = False
 
     def __post_init__(self):
-        """Check the size and field of view; ``ValueError`` names the first out of range."""
+        """Check the size and field of view; ``ValueError`` names the first that is invalid."""
         for k in ("width", "height"):
             v = getattr(self, k)
             if int(v) != v or not (1 <= v <= MAX_SIZE):

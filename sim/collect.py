@@ -112,7 +112,7 @@ class CollectionSettings:
     teleop: TeleopConfig = field(default_factory=TeleopConfig)
 
     def __post_init__(self):
-        """Check the settings; ``ValueError`` names the first that is out of range."""
+        """Check the settings; ``ValueError`` names the first that is invalid."""
         object.__setattr__(self, "worlds", check_worlds(self.worlds))
         if int(self.frames) != self.frames or self.frames < 2:
             raise ValueError(f"frames must be an integer >= 2, got {self.frames}")

@@ -43,7 +43,7 @@ class LaserConfig:
     noise_std: float = 0.01
 
     def __post_init__(self):
-        """Check the settings; ``ValueError`` names the first out of range."""
+        """Check the settings; ``ValueError`` names the first that is invalid."""
         if not (0 < self.fov <= 2 * np.pi):
             raise ValueError(f"laser fov must be in (0, 2*pi] radians, got {self.fov}")
         if int(self.beams) != self.beams or not (1 <= self.beams <= MAX_BEAMS):

@@ -86,7 +86,7 @@ class ImportSettings:
     laser_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
-        """Check the settings; ``ValueError`` names the first that is out of range."""
+        """Check the settings; ``ValueError`` names the first that is invalid."""
         optional = {"image_topic": " (or None: no camera)", "scan_topic": " (or None: no laser)"}
         for name in ("scan_topic", "image_topic", "odom_topic", "world"):
             value = getattr(self, name)
