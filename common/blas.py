@@ -1,6 +1,7 @@
-"""The BLAS thread policy of the numeric code: small eigendecompositions and solves run with
-BLAS on one thread (`single_threaded_blas`), big products keep all threads unless the
-machine is busy (`busy`).
+"""The BLAS thread policy of the numeric code.
+
+Small eigendecompositions and solves run with BLAS on one thread (`single_threaded_blas`),
+big products keep all threads unless the machine is busy (`busy`).
 
 Shared by the estimators of ``mapping`` and the controllers and evaluation of ``servo``.
 """
@@ -42,7 +43,7 @@ class _OneBlasThread:
 
 
 def single_threaded_blas() -> _OneBlasThread:
-    """Context running BLAS on one thread.
+    """Return a context running BLAS on one thread.
 
     The manifold search does hundreds of eigendecompositions of matrices of a few hundred rows
     and ``predict`` hundreds of small solves; OpenBLAS gains little from threads at that size
@@ -53,6 +54,11 @@ def single_threaded_blas() -> _OneBlasThread:
     The libraries' own thread setters (threadpoolctl's controllers, found once), not
     ``ThreadpoolController.limit``: that one reads every library's full ``info`` on entry,
     ~0.1 ms, a sixth of ``predict`` for one view at d = 2000.
+
+    Returns
+    -------
+    context manager
+        Limits every BLAS library to one thread on entry and restores each count on exit.
     """
     global _BLAS
     if _BLAS is None:  # scanning the loaded libraries costs ~2 ms; do it once
@@ -61,19 +67,39 @@ def single_threaded_blas() -> _OneBlasThread:
 
 
 def on_one_blas_thread(fn, *args):
-    """``fn(*args)`` under `single_threaded_blas`: what a worker process of a parallel
-    fit runs, so that its result is the one the fit computes in the parent (which holds the
-    same context), to the bit.
+    """Call ``fn(*args)`` under `single_threaded_blas`.
+
+    This is what a worker process of a parallel fit runs, so that its result is the one the
+    fit computes in the parent (which holds the same context), to the bit.
+
+    Parameters
+    ----------
+    fn : callable
+        Function to call.
+    *args
+        Positional arguments passed to ``fn``.
+
+    Returns
+    -------
+    object
+        What ``fn`` returns.
     """
     with single_threaded_blas():
         return fn(*args)
 
 
 def busy() -> bool:
-    """Whether the machine has no core to spare: the 1-minute load average at least the cores
-    less half a core. A second OpenBLAS thread then spin-waits for a descheduled partner (a
+    """Check whether the machine has no core to spare.
+
+    It has none when the 1-minute load average is at least the cores less half a core. A
+    second OpenBLAS thread then spin-waits for a descheduled partner (a
     40 x 230400 float32 GEMV: ~1.7 ms on one thread, ~12 ms on two at load 4-5 on 2 cores);
     with a core free it halves a memory-bound product (52 against 26 GB/s here).
+
+    Returns
+    -------
+    bool
+        True when the machine is busy; False also where there is no load average.
     """
     try:
         return os.getloadavg()[0] >= available_cores() - 0.5

@@ -67,8 +67,21 @@ def _bounded(values, bound: float, what: str, unit: str) -> str | None:
 
 
 def pose_problem(poses, what: str = "pose") -> str | None:
-    """What is wrong with poses ``(..., 3)`` of ``(x, y, theta)``, or None: each must be
-    finite with ``|x|, |y| <= MAX_COORDINATE`` and ``|theta| <= MAX_HEADING``.
+    """Say what is wrong with poses ``(..., 3)`` of ``(x, y, theta)``, or None.
+
+    Each must be finite with ``|x|, |y| <= MAX_COORDINATE`` and ``|theta| <= MAX_HEADING``.
+
+    Parameters
+    ----------
+    poses : array-like of shape (..., 3)
+        ``(x, y, theta)`` poses.
+    what : str, default "pose"
+        What the poses are, for the message.
+
+    Returns
+    -------
+    str or None
+        The first problem found, or None.
     """
     poses = np.asarray(poses, dtype=float)
     return _bounded(poses[..., :2], MAX_COORDINATE, f"{what} position", "m") or _bounded(
@@ -77,8 +90,21 @@ def pose_problem(poses, what: str = "pose") -> str | None:
 
 
 def range_problem(ranges, what: str = "range") -> str | None:
-    """What is wrong with laser readings, or None: no NaN, none negative, finite ones at most
-    ``MAX_RANGE``; ``+inf`` (no return) is fine.
+    """Say what is wrong with laser readings, or None.
+
+    No NaN, none negative, finite ones at most ``MAX_RANGE``; ``+inf`` (no return) is fine.
+
+    Parameters
+    ----------
+    ranges : array-like
+        Readings in metres.
+    what : str, default "range"
+        What the readings are, for the message.
+
+    Returns
+    -------
+    str or None
+        The first problem found, or None.
     """
     ranges = np.asarray(ranges, dtype=float)
     if np.isnan(ranges).any():
@@ -95,20 +121,59 @@ def range_problem(ranges, what: str = "range") -> str | None:
 
 
 def angle_problem(angles, what: str = "beam angle") -> str | None:
-    """What is wrong with beam angles (radians), or None: finite, ``|angle| <= FULL_TURN``."""
+    """Say what is wrong with beam angles (radians), or None: finite, ``|angle| <= FULL_TURN``.
+
+    Parameters
+    ----------
+    angles : array-like
+        Beam angles in radians.
+    what : str, default "beam angle"
+        What the angles are, for the message.
+
+    Returns
+    -------
+    str or None
+        The first problem found, or None.
+    """
     return _bounded(angles, FULL_TURN, what, "rad (a full turn)")
 
 
 def command_problem(commands, what: str = "command") -> str | None:
-    """What is wrong with commands ``(..., 2)`` of ``(v, omega)``, or None: finite, each at
-    most ``MAX_SPEED`` in size.
+    """Say what is wrong with commands ``(..., 2)`` of ``(v, omega)``, or None.
+
+    Each must be finite and at most ``MAX_SPEED`` in size.
+
+    Parameters
+    ----------
+    commands : array-like of shape (..., 2)
+        ``(v, omega)`` commands in m/s and rad/s.
+    what : str, default "command"
+        What the commands are, for the message.
+
+    Returns
+    -------
+    str or None
+        The first problem found, or None.
     """
     return _bounded(commands, MAX_SPEED, what, "m/s or rad/s")
 
 
 def time_problem(times, what: str = "time") -> str | None:
-    """What is wrong with time stamps in recording order, or None: finite, ``|t| <=
-    MAX_TIME``, never going backwards (equal stamps are fine).
+    """Say what is wrong with time stamps in recording order, or None.
+
+    They must be finite, ``|t| <= MAX_TIME``, never going backwards (equal stamps are fine).
+
+    Parameters
+    ----------
+    times : array-like
+        Time stamps in seconds.
+    what : str, default "time"
+        What the stamps are, for the message.
+
+    Returns
+    -------
+    str or None
+        The first problem found, or None.
     """
     times = np.asarray(times, dtype=float)
     problem = _bounded(times, MAX_TIME, what, "s")

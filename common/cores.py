@@ -1,5 +1,6 @@
-"""How many cores this process may run on (its CPU affinity, not the machine's core count),
-and whether it can start worker processes at all.
+"""How many cores this process may run on, and whether it can start worker processes at all.
+
+The cores are the process's CPU affinity, not the machine's core count.
 """
 
 from __future__ import annotations
@@ -10,8 +11,14 @@ import sys
 
 
 def available_cores() -> int:
-    """Cores this process may run on: its affinity where the platform has one (Linux), else
-    ``os.cpu_count()``; at least 1.
+    """Return the number of cores this process may run on.
+
+    Its affinity where the platform has one (Linux), else ``os.cpu_count()``; at least 1.
+
+    Returns
+    -------
+    int
+        The number of usable cores, at least 1.
     """
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))
@@ -19,14 +26,20 @@ def available_cores() -> int:
 
 
 def spawn_problem() -> str | None:
-    """Why worker processes started by ``multiprocessing``'s ``"spawn"`` could not run here, or
-    None. A spawned worker imports the main module again, by its module name or by its file:
+    """Say why worker processes started by ``multiprocessing``'s ``"spawn"`` could not run here.
+
+    A spawned worker imports the main module again, by its module name or by its file:
     a main module read from standard input (``python - <<EOF``, a notebook's ``%%bash`` cell
     piping to Python) has the file ``"<stdin>"``, which no worker can import, and every worker
     dies at start (``BrokenProcessPool``). A daemonic process (a worker of Stable-Baselines3's
     ``SubprocVecEnv``, of Gymnasium's ``AsyncVectorEnv``, of a ``multiprocessing`` pool) may
     start no children at all (``AssertionError: daemonic processes are not allowed to have
     children``).
+
+    Returns
+    -------
+    str or None
+        The reason workers could not run, or None when they can.
     """
     if multiprocessing.current_process().daemon:
         return (

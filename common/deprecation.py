@@ -16,7 +16,7 @@ __all__ = ["moved_names"]
 
 
 def moved_names(old: str, new: dict[str, str], others=None):
-    """The ``(__getattr__, __dir__, __all__)`` of the module left at the old path ``old``.
+    """Build the ``(__getattr__, __dir__, __all__)`` of the module left at the old path ``old``.
 
     Parameters
     ----------

@@ -1,5 +1,6 @@
-"""Atomic file writes, JSON coercion, opening untrusted files and reading JSON that may be
-damaged: the one home for each.
+"""Atomic file writes, JSON coercion, opening untrusted files and reading damaged JSON.
+
+This module is the one home for each.
 
 A write goes to a temporary file in the same directory, then a rename, so a reader never sees
 half a file and a failed write leaves nothing behind. JSON goes through `jsonable` first,
@@ -40,8 +41,20 @@ MAX_JSON_BYTES = 64 << 20
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
-    """A temporary path beside ``path`` to write to; renamed onto ``path`` when the block ends
-    without error, removed when it raises (for writers that need a file name, e.g. a zip).
+    """Give a temporary path beside ``path`` to write to, renamed onto ``path`` at the end.
+
+    The temporary file is renamed onto ``path`` when the block ends without error and removed
+    when it raises (for writers that need a file name, e.g. a zip).
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write in the end.
+
+    Yields
+    ------
+    Path
+        The temporary path to write to, in ``path``'s folder.
     """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -55,7 +68,15 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically; nothing is left behind on failure."""
+    """Write ``data`` to ``path`` atomically; nothing is left behind on failure.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    data : bytes
+        Its new content.
+    """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
@@ -68,12 +89,24 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
 
 
 def jsonable(obj, finite: bool = False):
-    """``obj`` with what ``json`` cannot write converted, recursively.
+    """Convert, recursively, what ``json`` cannot write in ``obj``.
 
     numpy scalars become Python numbers, numpy arrays nested lists, tuples lists, paths POSIX
     strings; dict keys that are numpy scalars become Python scalars and other non-scalar keys
     their ``str``. With ``finite``, NaN and infinities become None (strict JSON's null).
     Anything else that JSON has no form for raises ``TypeError`` naming its type.
+
+    Parameters
+    ----------
+    obj : object
+        The value to convert.
+    finite : bool, default False
+        Turn NaN and infinities into None.
+
+    Returns
+    -------
+    object
+        A value of dicts, lists, strings, numbers, bools and None.
     """
     if isinstance(obj, dict):
         return {_key(k): jsonable(v, finite) for k, v in obj.items()}
@@ -101,8 +134,9 @@ def _key(key):
 
 
 class NotARegularFile(OSError):
-    """A path that is no regular file (a folder, a named pipe, a device, a socket, or a link
-    to one of these): reading it could block forever or never end.
+    """A path that is no regular file: reading it could block forever or never end.
+
+    It is a folder, a named pipe, a device, a socket, or a link to one of these.
     """
 
 
@@ -120,11 +154,21 @@ def _kind(mode: int) -> str:
 
 
 def open_regular(path: str | os.PathLike):
-    """``path`` opened for binary reading, once it is known to be a regular file.
+    """Open ``path`` for binary reading, once it is known to be a regular file.
 
     A link is followed to its target, which must be a regular file too. The kind of file is
     checked before it is opened, and again on the open descriptor (opened without blocking,
     so that a pipe put in its place in between cannot block either).
+
+    Parameters
+    ----------
+    path : path-like
+        The file to open.
+
+    Returns
+    -------
+    file object
+        The file, opened ``"rb"``.
 
     Raises
     ------
@@ -151,11 +195,25 @@ class UnreadableJSON(ValueError):
 
 
 def read_json(path: str | os.PathLike, max_bytes: int | None = None):
-    """The JSON value in the UTF-8 file ``path``; `UnreadableJSON` for a path that is
-    no regular file (`open_regular`), a file of more than ``max_bytes`` (default
-    `MAX_JSON_BYTES`), bad UTF-8, bad syntax, an integer of more digits than Python
-    converts, or nesting deeper than the parser's stack (100,000 ``[`` raise RecursionError,
-    which is no ValueError), so that each reader turns all into its own error.
+    """Read the JSON value in the UTF-8 file ``path``.
+
+    Raises `UnreadableJSON` for a path that is no regular file (`open_regular`), a file of
+    more than ``max_bytes`` (default `MAX_JSON_BYTES`), bad UTF-8, bad syntax, an integer of
+    more digits than Python converts, or nesting deeper than the parser's stack (100,000
+    ``[`` raise RecursionError, which is no ValueError), so that each reader turns all into
+    its own error.
+
+    Parameters
+    ----------
+    path : path-like
+        The JSON file.
+    max_bytes : int, optional
+        The most bytes read; `MAX_JSON_BYTES` when None.
+
+    Returns
+    -------
+    object
+        The parsed value.
     """
     limit = MAX_JSON_BYTES if max_bytes is None else max_bytes
     try:
@@ -172,13 +230,38 @@ def read_json(path: str | os.PathLike, max_bytes: int | None = None):
 
 
 def write_json(path: str | os.PathLike, obj, indent: int = 2, finite: bool = False) -> None:
-    """Write ``jsonable(obj, finite)`` as indented JSON with a final newline, atomically."""
+    """Write ``jsonable(obj, finite)`` as indented JSON with a final newline, atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    obj : object
+        The value to write.
+    indent : int, default 2
+        Spaces per indentation level.
+    finite : bool, default False
+        Write NaN and infinities as null.
+    """
     text = json.dumps(jsonable(obj, finite), indent=indent) + "\n"
     atomic_write_bytes(path, text.encode())
 
 
 def write_png(path: str | os.PathLike, rgb: np.ndarray) -> Path:
-    """Write an RGB ``(H, W, 3)`` uint8 image as a PNG atomically (its folder is created)."""
+    """Write an RGB ``(H, W, 3)`` uint8 image as a PNG atomically (its folder is created).
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.png`` to write.
+    rgb : ndarray of shape (H, W, 3), uint8
+        The image.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     import cv2  # only the writers of figures need OpenCV
 
     path = Path(path)

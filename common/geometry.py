@@ -1,5 +1,6 @@
-"""SE(2) pose algebra and laser-scan geometry, shared by the simulator, the mapping methods and
-the servo.
+"""SE(2) pose algebra and laser-scan geometry.
+
+Shared by the simulator, the mapping methods and the servo.
 
 Poses are ``(x, y, yaw)`` rows. ``se2_compose(a, b)`` is ``a ⊕ b`` (``b`` expressed in the frame
 of ``a``, mapped to the frame ``a`` lives in); ``se2_relative(a, b)`` is ``a ⊖ b``-style
@@ -25,12 +26,34 @@ __all__ = [
 
 
 def wrap_angle(theta: ArrayLike) -> np.ndarray:
-    """Wrap angles to ``[-pi, pi)``."""
+    """Wrap angles to ``[-pi, pi)``.
+
+    Parameters
+    ----------
+    theta : array-like
+        Angles in radians.
+
+    Returns
+    -------
+    ndarray
+        The angles wrapped, float, of the shape of ``theta``.
+    """
     return (np.asarray(theta, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def se2_compose(a: ArrayLike, b: ArrayLike) -> np.ndarray:
-    """Compose poses, ``a ⊕ b``: the pose ``b`` (given in the frame of ``a``) in ``a``'s parent."""
+    """Compose poses, ``a ⊕ b``: the pose ``b`` (given in the frame of ``a``) in ``a``'s parent.
+
+    Parameters
+    ----------
+    a, b : array-like of shape (..., 3)
+        ``(x, y, yaw)`` poses; broadcast over leading axes.
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+        The composed poses, yaw wrapped to ``[-pi, pi)``.
+    """
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
@@ -40,7 +63,18 @@ def se2_compose(a: ArrayLike, b: ArrayLike) -> np.ndarray:
 
 
 def se2_inverse(a: ArrayLike) -> np.ndarray:
-    """Inverse pose: ``se2_compose(a, se2_inverse(a))`` is the identity."""
+    """Invert poses: ``se2_compose(a, se2_inverse(a))`` is the identity.
+
+    Parameters
+    ----------
+    a : array-like of shape (..., 3)
+        ``(x, y, yaw)`` poses.
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+        The inverse poses.
+    """
     a = np.asarray(a, dtype=float)
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
     x = -c * a[..., 0] - s * a[..., 1]
@@ -49,12 +83,36 @@ def se2_inverse(a: ArrayLike) -> np.ndarray:
 
 
 def se2_relative(a: ArrayLike, b: ArrayLike) -> np.ndarray:
-    """Pose of ``b`` in the frame of ``a`` (the differential pose ``inverse(a) ⊕ b``)."""
+    """Return the pose of ``b`` in the frame of ``a`` (the differential pose ``inverse(a) ⊕ b``).
+
+    Parameters
+    ----------
+    a, b : array-like of shape (..., 3)
+        ``(x, y, yaw)`` poses; broadcast over leading axes.
+
+    Returns
+    -------
+    ndarray of shape (..., 3)
+        ``b`` seen from ``a``.
+    """
     return se2_compose(se2_inverse(a), b)
 
 
 def transform_points(pose: ArrayLike, points: ArrayLike) -> np.ndarray:
-    """Map ``(M, 2)`` points from the frame of ``pose`` to the frame ``pose`` lives in."""
+    """Map ``(M, 2)`` points from the frame of ``pose`` to the frame ``pose`` lives in.
+
+    Parameters
+    ----------
+    pose : array-like of shape (3,)
+        ``(x, y, yaw)`` of the points' frame.
+    points : array-like
+        Points, reshaped to ``(M, 2)``.
+
+    Returns
+    -------
+    ndarray of shape (M, 2)
+        The points in the parent frame.
+    """
     pose = np.asarray(pose, dtype=float)
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     c, s = np.cos(pose[2]), np.sin(pose[2])
@@ -62,21 +120,59 @@ def transform_points(pose: ArrayLike, points: ArrayLike) -> np.ndarray:
 
 
 def circular_mean(angles: ArrayLike, weights: ArrayLike | None = None) -> float:
-    """Mean direction of angles (radians): the angle of the (weighted) mean unit vector."""
+    """Return the mean direction of angles: the angle of the (weighted) mean unit vector.
+
+    Parameters
+    ----------
+    angles : array-like
+        Angles in radians.
+    weights : array-like, optional
+        Weight of each angle; equal weights when None.
+
+    Returns
+    -------
+    float
+        The mean direction in radians, in ``[-pi, pi]``.
+    """
     angles = np.asarray(angles, dtype=float)
     w = np.ones_like(angles) if weights is None else np.asarray(weights, dtype=float)
     return float(np.arctan2(np.sum(w * np.sin(angles)), np.sum(w * np.cos(angles))))
 
 
 def se2_mean(poses: ArrayLike) -> np.ndarray:
-    """Average of ``(K, 3)`` poses: arithmetic mean translation, circular mean heading."""
+    """Average ``(K, 3)`` poses: arithmetic mean translation, circular mean heading.
+
+    Parameters
+    ----------
+    poses : array-like
+        ``(x, y, yaw)`` poses, reshaped to ``(K, 3)``.
+
+    Returns
+    -------
+    ndarray of shape (3,)
+        The mean pose.
+    """
     poses = np.asarray(poses, dtype=float).reshape(-1, 3)
     return np.array([poses[:, 0].mean(), poses[:, 1].mean(), circular_mean(poses[:, 2])])
 
 
 def thin_to_grid(points: ArrayLike, spacing: float) -> np.ndarray:
-    """One point per occupied ``spacing`` cell (the cell's centre): a point cloud gathered from
-    overlapping scans, thinned so well-seen walls do not weigh more than others.
+    """Thin points to one per occupied ``spacing`` cell (the cell's centre).
+
+    A point cloud gathered from overlapping scans, thinned so well-seen walls do not weigh more
+    than others.
+
+    Parameters
+    ----------
+    points : array-like
+        Points, reshaped to ``(M, 2)``.
+    spacing : float
+        Side of the grid cells, in the points' units.
+
+    Returns
+    -------
+    ndarray of shape (K, 2)
+        The centres of the occupied cells.
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     cells = np.unique(np.floor(points / spacing).astype(np.int64), axis=0)
@@ -86,7 +182,7 @@ def thin_to_grid(points: ArrayLike, spacing: float) -> np.ndarray:
 def scan_to_points(
     ranges: ArrayLike, angles: ArrayLike, max_range: float | None = None
 ) -> np.ndarray:
-    """Returns of one scan as 2-D points in the sensor frame (x forward, y left).
+    """Convert the returns of one scan to 2-D points in the sensor frame (x forward, y left).
 
     Parameters
     ----------
@@ -101,6 +197,7 @@ def scan_to_points(
     Returns
     -------
     ndarray of shape (M, 2), float64, M <= n_beams
+        The kept returns as points.
     """
     r = np.asarray(ranges, dtype=np.float64)
     a = np.asarray(angles, dtype=np.float64)

@@ -15,7 +15,7 @@ __all__ = ["lazy_exports"]
 
 
 def lazy_exports(package: str, exports: dict[str, str], modules: dict[str, str] | None = None):
-    """The ``(__getattr__, __dir__, __all__)`` of the face of ``package``.
+    """Build the ``(__getattr__, __dir__, __all__)`` of the face of ``package``.
 
     Parameters
     ----------

@@ -83,7 +83,17 @@ def _check_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, size: int) -> int:
 
 
 def read_arrays(path: str | Path) -> dict[str, np.ndarray]:
-    """The arrays of the ``.npz`` at ``path`` by name (member name without ``.npy``).
+    """Read the arrays of the ``.npz`` at ``path`` by name (member name without ``.npy``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.npz`` file.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Each member's array under its name without ``.npy``.
 
     Raises
     ------

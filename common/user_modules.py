@@ -1,6 +1,8 @@
-"""A user's own module, named on a command line or in a spec (``package.module:name``),
-imported as ``python -m`` would: the current directory first on ``sys.path``, so a module
-beside the user's working directory is found. Importing it runs its code.
+"""A user's own module, imported as ``python -m`` would.
+
+The module is named on a command line or in a spec (``package.module:name``) and imported with
+the current directory first on ``sys.path``, so a module beside the user's working directory
+is found. Importing it runs its code.
 """
 
 from __future__ import annotations
@@ -22,10 +24,20 @@ class UserModuleError(ValueError):
 
 
 def import_user_module(name: str) -> ModuleType:
-    """The module ``name``, imported with the current directory first on ``sys.path``.
+    """Import the module ``name`` with the current directory first on ``sys.path``.
 
     Raises `UserModuleError` ("module 'name' does not import (Error: message)") when
     the import raises anything: whatever a user's module raises is theirs to see.
+
+    Parameters
+    ----------
+    name : str
+        Dotted module name.
+
+    Returns
+    -------
+    ModuleType
+        The imported module.
 
     Examples
     --------
@@ -45,11 +57,23 @@ def import_user_module(name: str) -> ModuleType:
 
 
 def source_digest(name: str) -> dict:
-    """The provenance of module ``name``, found as `import_user_module` would find it
-    (the current directory, then ``sys.path``) but without importing anything: ``{"module",
-    "files", "sha256"}``, the SHA-256 over the module's file and the other ``.py`` files of
-    its folder (its package's code), each by its name and bytes; ``sha256`` None when the
-    module is no source file there (a built-in or compiled module, or none).
+    """Return the provenance of module ``name`` without importing anything.
+
+    The module is found as `import_user_module` would find it (the current directory, then
+    ``sys.path``): ``{"module", "files", "sha256"}``, the SHA-256 over the module's file and
+    the other ``.py`` files of its folder (its package's code), each by its name and bytes;
+    ``sha256`` None when the module is no source file there (a built-in or compiled module, or
+    none).
+
+    Parameters
+    ----------
+    name : str
+        Dotted module name.
+
+    Returns
+    -------
+    dict
+        ``{"module": name, "files": int, "sha256": str or None}``.
 
     Examples
     --------

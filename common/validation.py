@@ -1,5 +1,6 @@
-"""Checks of scalar arguments shared across the layers, each raising an error that names the
-parameter and the expected form.
+"""Checks of scalar arguments shared across the layers.
+
+Each raises an error that names the parameter and the expected form.
 """
 
 from __future__ import annotations
@@ -24,8 +25,24 @@ __all__ = [
 
 
 def check_int(value, name: str, minimum: int = 1) -> int:
-    """``value`` as an ``int``: a whole number (``3``, ``np.int64(3)`` or ``3.0``) at least
-    ``minimum``; anything else raises ``ValueError`` naming ``name``.
+    """Check that ``value`` is a whole number at least ``minimum`` and return it as an ``int``.
+
+    A whole number is ``3``, ``np.int64(3)`` or ``3.0``; anything else raises ``ValueError``
+    naming ``name``.
+
+    Parameters
+    ----------
+    value : object
+        The value to check.
+    name : str
+        The parameter's name, for the error.
+    minimum : int, default 1
+        The least value allowed.
+
+    Returns
+    -------
+    int
+        ``value`` as an ``int``.
     """
     try:
         whole = int(value) == value
@@ -37,23 +54,62 @@ def check_int(value, name: str, minimum: int = 1) -> int:
 
 
 def is_real(value) -> bool:
-    """Whether ``value`` is a real number, numpy's included; not a bool (``np.bool_`` is no
-    ``Real`` either) and not a string of digits. The test every scalar check here starts with;
-    callers add their own range.
+    """Check whether ``value`` is a real number, numpy's included.
+
+    Not a bool (``np.bool_`` is no ``Real`` either) and not a string of digits. The test every
+    scalar check here starts with; callers add their own range.
+
+    Parameters
+    ----------
+    value : object
+        The value to test.
+
+    Returns
+    -------
+    bool
+        True for a real number that is not a bool.
     """
     return isinstance(value, Real) and not isinstance(value, bool)
 
 
 def check_finite(value, name: str) -> float:
-    """``value`` as a ``float``: a finite real number (not a bool); else ``ValueError``."""
+    """Check that ``value`` is a finite real number (not a bool) and return it as a ``float``.
+
+    Anything else raises ``ValueError`` naming ``name``.
+
+    Parameters
+    ----------
+    value : object
+        The value to check.
+    name : str
+        The parameter's name, for the error.
+
+    Returns
+    -------
+    float
+        ``value`` as a ``float``.
+    """
     if not is_real(value) or not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}")
     return float(value)
 
 
 def check_bool(value, name: str) -> bool:
-    """``value`` as a ``bool``: ``True`` or ``False`` (numpy's ``np.bool_`` too); anything else,
-    ``1`` and ``"yes"`` included, raises ``ValueError`` naming ``name``.
+    """Check that ``value`` is ``True`` or ``False`` (numpy's ``np.bool_`` too) and return it.
+
+    Anything else, ``1`` and ``"yes"`` included, raises ``ValueError`` naming ``name``.
+
+    Parameters
+    ----------
+    value : object
+        The value to check.
+    name : str
+        The parameter's name, for the error.
+
+    Returns
+    -------
+    bool
+        ``value`` as a ``bool``.
     """
     if not isinstance(value, bool | np.bool_):
         raise ValueError(f"{name} must be True or False, got {value!r}")
@@ -61,9 +117,25 @@ def check_bool(value, name: str) -> bool:
 
 
 def check_keys(value, allowed: Iterable[str], name: str) -> dict:
-    """``value`` as a dict whose keys are among ``allowed``: None gives ``{}``; a value that is
-    no mapping raises ``TypeError``, an unknown key ``ValueError``, each naming ``name``, the
-    allowed keys and, for a misspelt key, the closest one ("did you mean").
+    """Check that ``value`` is a mapping whose keys are among ``allowed`` and return it as a dict.
+
+    None gives ``{}``; a value that is no mapping raises ``TypeError``, an unknown key
+    ``ValueError``, each naming ``name``, the allowed keys and, for a misspelt key, the closest
+    one ("did you mean").
+
+    Parameters
+    ----------
+    value : Mapping or None
+        The value to check.
+    allowed : iterable of str
+        The keys allowed.
+    name : str
+        The parameter's name, for the error.
+
+    Returns
+    -------
+    dict
+        A copy of ``value``, or ``{}`` for None.
     """
     allowed = tuple(allowed)
     if value is None:
@@ -81,11 +153,24 @@ def check_keys(value, allowed: Iterable[str], name: str) -> dict:
 
 
 def check_keywords(func, args: tuple, kwargs: Mapping, name: str) -> None:
-    """Refuse a call of ``func`` (a function or an ``__init__``, ``self`` first) with more
-    positional arguments than it takes or a keyword it does not take, before it runs: a
-    ``TypeError`` naming ``name`` (what is being made), the unknown keyword, the closest known
-    one ("did you mean") and every keyword accepted. Python's own error names only the
-    keyword, which says nothing of what to write instead.
+    """Refuse a call of ``func`` with arguments it does not take, before it runs.
+
+    ``func`` is a function or an ``__init__``, ``self`` first. A call with more positional
+    arguments than it takes or a keyword it does not take raises a ``TypeError`` naming
+    ``name`` (what is being made), the unknown keyword, the closest known one ("did you mean")
+    and every keyword accepted. Python's own error names only the keyword, which says nothing
+    of what to write instead.
+
+    Parameters
+    ----------
+    func : callable
+        The function whose signature is checked; its first parameter is skipped.
+    args : tuple
+        The call's positional arguments, without ``self``.
+    kwargs : Mapping
+        The call's keyword arguments.
+    name : str
+        What is being made or called, for the error.
     """
     params = list(inspect.signature(func).parameters.values())[1:]  # without self
     if any(p.kind is p.VAR_KEYWORD for p in params):
@@ -107,12 +192,19 @@ def check_keywords(func, args: tuple, kwargs: Mapping, name: str) -> None:
 
 
 class CheckedKeywords:
-    """A mixin that checks the keywords of a construction against ``__init__``'s before
-    ``__init__`` runs ([`check_keywords`][common.validation.check_keywords]), so
-    ``gym.make(env_id, camra=...)`` and ``Env(camra=...)`` alike name what is accepted.
+    """A mixin that checks the keywords of a construction against ``__init__``'s.
+
+    The check runs before ``__init__`` does ([`check_keywords`][common.validation.check_keywords]),
+    so ``gym.make(env_id, camra=...)`` and ``Env(camra=...)`` alike name what is accepted.
     Put it first among the bases; it adds no state, and pickling is unchanged.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        The construction's arguments, checked against ``__init__``'s, then passed to it.
     """
 
     def __new__(cls, *args, **kwargs):
+        """Check the keywords against ``__init__``'s, then create the instance."""
         check_keywords(cls.__init__, args, kwargs, cls.__name__)
         return super().__new__(cls)

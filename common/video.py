@@ -1,5 +1,7 @@
-"""Videos a browser plays inline: RGB frames written as H.264 in MP4, atomically, and the codec
-of an MP4 read back from its sample entries.
+"""Videos a browser plays inline.
+
+RGB frames are written as H.264 in MP4, atomically, and the codec of an MP4 is read back from
+its sample entries.
 
 Browsers play H.264 (``avc1``) in MP4 but refuse MPEG-4 part 2 (``mp4v``, OpenCV's default
 MP4 codec): Chromium reports "no supported streams". The encoder is the ffmpeg binary that the
@@ -135,12 +137,22 @@ def _check_frame(frame, shape: tuple | None) -> np.ndarray:
 
 
 def mp4_codecs(path: str | os.PathLike) -> list[str]:
-    """The codec of each track of the MP4 ``path``: the four-character code of its first sample
-    entry (``avc1``: H.264; ``mp4v``: MPEG-4 part 2; ``vp09``: VP9; ...).
+    """Read the codec of each track of the MP4 ``path``.
 
-    Reads the box headers only (moov/trak/mdia/minf/stbl/stsd), so it costs a few small reads
-    whatever the file's size. Raises ``ValueError`` for a file that is not an MP4 with a
-    sample description.
+    Each is the four-character code of the track's first sample entry (``avc1``: H.264;
+    ``mp4v``: MPEG-4 part 2; ``vp09``: VP9; ...). Reads the box headers only
+    (moov/trak/mdia/minf/stbl/stsd), so it costs a few small reads whatever the file's size.
+    Raises ``ValueError`` for a file that is not an MP4 with a sample description.
+
+    Parameters
+    ----------
+    path : path-like
+        The MP4 file.
+
+    Returns
+    -------
+    list of str
+        One four-character code per track.
     """
     path = Path(path)
     with path.open("rb") as f:
@@ -151,7 +163,7 @@ def mp4_codecs(path: str | os.PathLike) -> list[str]:
 
 
 def _sample_entries(f, start: int, end: int) -> list[str]:
-    """The codecs of the sample descriptions inside the boxes from ``start`` to ``end``."""
+    """Read the codecs of the sample descriptions inside the boxes from ``start`` to ``end``."""
     out = []
     at = start
     while at + 8 <= end:

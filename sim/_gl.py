@@ -63,8 +63,10 @@ def note_context_created() -> None:
 
 
 def check_fork_safe() -> None:
-    """Raise at once where creating a GL context would hang: in a process forked after its
-    parent created one with llvmpipe's render threads on.
+    """Raise at once where creating a GL context would hang.
+
+    It would hang in a process forked after its parent created one with llvmpipe's render
+    threads on.
     """
     if _context_owner is None:
         return

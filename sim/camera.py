@@ -21,7 +21,19 @@ MAX_SIZE = 4096
 @dataclass(frozen=True)
 class CameraConfig:
     """Image size (pixels), vertical field of view (degrees), depth and shadow switches.
+
     320x240 is the paper's image size.
+
+    Parameters
+    ----------
+    width, height : int, default 320, 240
+        Image size, pixels, in ``[1, MAX_SIZE]``.
+    fovy : float, default 45.0
+        Vertical field of view, degrees, in (0, 180).
+    depth : bool, default False
+        Also record metric depth.
+    shadows : bool, default False
+        Render shadows.
     """
 
     width: int = 320
@@ -31,6 +43,7 @@ class CameraConfig:
     shadows: bool = False
 
     def __post_init__(self):
+        """Check the size and field of view; ``ValueError`` names the first that is invalid."""
         for k in ("width", "height"):
             v = getattr(self, k)
             if int(v) != v or not (1 <= v <= MAX_SIZE):
@@ -40,7 +53,17 @@ class CameraConfig:
 
 
 class Camera:
-    """Renders one named camera of a model."""
+    """Renders one named camera of a model.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The model.
+    config : CameraConfig
+        The camera's settings.
+    camera : str, default names.ROBOT_CAMERA
+        The camera's name in the model.
+    """
 
     def __init__(
         self, model: mujoco.MjModel, config: CameraConfig, camera: str = names.ROBOT_CAMERA
@@ -70,7 +93,18 @@ class Camera:
         return renderer
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
-        """RGB image ``(H, W, 3) uint8``; positions must be fresh (``mj_forward``)."""
+        """Render the RGB image; positions must be fresh (``mj_forward``).
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            The model's state.
+
+        Returns
+        -------
+        ndarray of shape (H, W, 3), uint8
+            The image.
+        """
         if self._renderer is None:
             self.model.cam_fovy[self.camera_id] = self.config.fovy
             self._renderer = self._make_renderer()
@@ -78,7 +112,18 @@ class Camera:
         return self._renderer.render()
 
     def render_depth(self, data: mujoco.MjData) -> np.ndarray:
-        """Metric depth along the camera axis ``(H, W) float32``."""
+        """Render the metric depth along the camera axis.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            The model's state.
+
+        Returns
+        -------
+        ndarray of shape (H, W), float32
+            Depth, m.
+        """
         if self._depth_renderer is None:
             self._depth_renderer = self._make_renderer()
             self._depth_renderer.enable_depth_rendering()
@@ -94,6 +139,7 @@ class Camera:
                 r.close()
 
     def __del__(self):
+        """Free the GL resources, ignoring errors."""
         try:
             self.close()
         except Exception:

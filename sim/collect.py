@@ -1,6 +1,7 @@
-"""Scripted-teleop data collection: the paper's 6 sequences (3 per world: main manifold, then
-left / straight / right), written as a resumable dataset (see `sim.dataset`); a generated
-world (``FAMILY:SEED``) records one sequence per route (`sim.collect_worlds`).
+"""Scripted-teleop data collection, written as a resumable dataset (see `sim.dataset`).
+
+The paper's 6 sequences (3 per world: main manifold, then left / straight / right); a
+generated world (``FAMILY:SEED``) records one sequence per route (`sim.collect_worlds`).
 
 Frames are taken at equal steps of progress along the route, so every sequence covers its
 whole route with the requested number of frames whatever the driver's speed jitter; the
@@ -111,6 +112,7 @@ class CollectionSettings:
     teleop: TeleopConfig = field(default_factory=TeleopConfig)
 
     def __post_init__(self):
+        """Check the settings; ``ValueError`` names the first that is invalid."""
         object.__setattr__(self, "worlds", check_worlds(self.worlds))
         if int(self.frames) != self.frames or self.frames < 2:
             raise ValueError(f"frames must be an integer >= 2, got {self.frames}")
@@ -120,9 +122,16 @@ class CollectionSettings:
         check_appearance_mode(self.appearance)
 
     def to_json(self) -> dict:
-        """The settings as ``meta.json`` stores them. ``appearance`` is written only when it is
-        not ``"default"``: datasets made before the option existed are default ones, and so
-        keep their bytes, stay resumable and compare equal (a missing key means default).
+        """Return the settings as ``meta.json`` stores them.
+
+        ``appearance`` is written only when it is not ``"default"``: datasets made before the
+        option existed are default ones, and so keep their bytes, stay resumable and compare
+        equal (a missing key means default).
+
+        Returns
+        -------
+        dict
+            The settings as JSON values.
         """
         d = asdict(self)
         d["worlds"] = list(self.worlds)
@@ -132,31 +141,67 @@ class CollectionSettings:
         return d
 
     def sequences(self) -> list[tuple[int, str, str]]:
-        """(stable index, world, route name); the index seeds the sequence, so collecting one
-        world gives the same sequences as collecting all (see
-        `sim.collect_worlds.world_sequences`).
+        """List the sequences to record as (stable index, world, route name).
+
+        The index seeds the sequence, so collecting one world gives the same sequences as
+        collecting all (see `sim.collect_worlds.world_sequences`).
+
+        Returns
+        -------
+        list of tuple of (int, str, str)
+            One entry per sequence, in the dataset's order.
         """
         return [s for w in self.worlds for s in world_sequences(w)]
 
     def manifolds(self) -> list[str]:
-        """The dataset's manifold names, which its labels index
-        (`sim.collect_worlds.label_space`).
+        """Return the dataset's manifold names, which its labels index.
+
+        See `sim.collect_worlds.label_space`.
+
+        Returns
+        -------
+        list of str
+            The names; label ``i`` is the ``i``-th.
         """
         return label_space(self.worlds)
 
 
 def frame_bytes(camera: CameraConfig, laser: LaserConfig) -> int:
-    """Bytes one frame adds to a sequence's arrays (see
-    [`collect_sequence`][sim.collect.collect_sequence]): the RGB image, the depth image when
+    """Count the bytes one frame adds to a sequence's arrays.
+
+    See [`collect_sequence`][sim.collect.collect_sequence]: the RGB image, the depth image when
     recorded, the scan, and pose, odometry, command, label, time.
+
+    Parameters
+    ----------
+    camera : CameraConfig
+        The camera (its size and whether it records depth).
+    laser : LaserConfig
+        The laser (its beam count).
+
+    Returns
+    -------
+    int
+        Bytes per frame.
     """
     pixels = camera.height * camera.width
     return pixels * 3 + pixels * 4 * bool(camera.depth) + laser.beams * 4 + 3 * 3 * 8 + 2 + 8
 
 
 def check_sequence_size(frames: int, camera: CameraConfig, laser: LaserConfig) -> None:
-    """Refuse ``frames`` per sequence above `MAX_FRAMES`, or whose arrays would take more
-    than `MAX_SEQUENCE_BYTES` of memory with these camera and laser settings.
+    """Refuse ``frames`` per sequence above `MAX_FRAMES`, or whose arrays are too big.
+
+    Too big: more than `MAX_SEQUENCE_BYTES` of memory with these camera and laser settings.
+    Either raises ``ValueError``.
+
+    Parameters
+    ----------
+    frames : int
+        Frames per sequence.
+    camera : CameraConfig
+        The camera.
+    laser : LaserConfig
+        The laser.
     """
     if frames > MAX_FRAMES:
         raise ValueError(f"frames must be an integer in [2, {MAX_FRAMES}], got {frames}")
@@ -173,9 +218,26 @@ def check_sequence_size(frames: int, camera: CameraConfig, laser: LaserConfig) -
 
 @lru_cache(maxsize=4)
 def collection_world(name: str, seed: int, randomize: bool, appearance: str = "default") -> World:
-    """The world a collection of ``seed`` drives in: canonical, or (``randomize``) the
-    randomised draw of that seed and world, in the ``appearance`` mode; built once per
-    process.
+    """Build the world a collection of ``seed`` drives in, once per process.
+
+    The world is canonical, or (``randomize``) the randomised draw of that seed and world, in
+    the ``appearance`` mode.
+
+    Parameters
+    ----------
+    name : str
+        The world's name.
+    seed : int
+        The collection's seed.
+    randomize : bool
+        Draw the lights and colours from the world's randomisation table.
+    appearance : str, default "default"
+        The appearance mode.
+
+    Returns
+    -------
+    scenes.World
+        The world.
     """
     rng = np.random.default_rng(randomisation_key(name, seed)) if randomize else None
     return build_world(name, rng, appearance)
@@ -184,9 +246,26 @@ def collection_world(name: str, seed: int, randomize: bool, appearance: str = "d
 def collect_sequence(
     settings: CollectionSettings, index, world_name: str, route_name: str, tick=None
 ) -> dict[str, np.ndarray]:
-    """Drive one route and record ``settings.frames`` frames; returns the sequence's arrays.
-    ``index`` is the sequence's seeding index
-    ([`CollectionSettings.sequences`][sim.collect.CollectionSettings.sequences]).
+    """Drive one route and record ``settings.frames`` frames; return the sequence's arrays.
+
+    Parameters
+    ----------
+    settings : CollectionSettings
+        The collection's settings.
+    index : int
+        The sequence's seeding index
+        ([`CollectionSettings.sequences`][sim.collect.CollectionSettings.sequences]).
+    world_name : str
+        The world to drive in.
+    route_name : str
+        The route of that world to drive.
+    tick : callable, optional
+        Called with 1 after each frame recorded (progress).
+
+    Returns
+    -------
+    dict of str to ndarray
+        The arrays of the dataset format (`sim.dataset`).
     """
     world = collection_world(world_name, settings.seed, settings.randomize, settings.appearance)
     entropy = sequence_entropy(settings.seed, index)
@@ -237,8 +316,9 @@ def collect_sequence(
 
 
 def _stall_message(route_name: str, teleop: ScriptedTeleop, steps: int, config) -> str:
-    """Why a sequence could not be collected: the driver stalled short of the route's end,
-    which its jitter makes likelier (``TeleopConfig.scaled``).
+    """Say why a sequence could not be collected: the driver stalled short of the route's end.
+
+    Its jitter makes that likelier (``TeleopConfig.scaled``).
     """
     return (
         f"teleop on {route_name} stalled at {teleop.progress:.1f} m of "
@@ -299,6 +379,24 @@ def collect_dataset(
 
     An existing dataset with the same settings is resumed (finished sequences are kept, as
     their bytes would be the same); one with other settings is refused unless ``overwrite``.
+
+    Parameters
+    ----------
+    directory : path-like
+        The dataset's folder; created if missing.
+    settings : CollectionSettings, optional
+        What to record; default ``CollectionSettings()``.
+    overwrite : bool, default False
+        Replace a dataset of other settings (or an unreadable one) there.
+    jobs : int, optional
+        Worker processes; default the machine's cores, at most one per sequence left.
+    progress : bool, default True
+        Show a progress bar.
+
+    Returns
+    -------
+    Path
+        ``directory``.
     """
     from tqdm.auto import tqdm
 
@@ -372,8 +470,10 @@ def collect_dataset(
 
 
 def _old_meta(directory: Path, overwrite: bool) -> dict | None:
-    """The dataset metadata already in ``directory``; None where it cannot be read and
-    ``overwrite`` replaces it, else FileExistsError saying why it cannot be read.
+    """Read the dataset metadata already in ``directory``.
+
+    None where it cannot be read and ``overwrite`` replaces it, else FileExistsError saying
+    why it cannot be read.
     """
     try:
         return ds.read_meta(directory)

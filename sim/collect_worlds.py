@@ -31,8 +31,22 @@ GENERATED_OFFSET = len(names.WORLDS)  # generated keys start past the canonical 
 
 
 def check_worlds(worlds, argument: str = "worlds") -> tuple[str, ...]:
-    """The normalised, distinct world names of ``worlds`` (a tuple or list of names); a
-    ValueError naming ``argument`` and the accepted forms otherwise.
+    """Check and normalise the distinct world names of ``worlds``.
+
+    Anything but a non-empty tuple or list of distinct world names raises a ValueError naming
+    ``argument`` and the accepted forms.
+
+    Parameters
+    ----------
+    worlds : tuple or list of str
+        World names: ``"hallway"``, ``"lawn"`` or ``FAMILY:SEED``.
+    argument : str, default "worlds"
+        The parameter's name, for the error.
+
+    Returns
+    -------
+    tuple of str
+        The normalised names.
     """
     if isinstance(worlds, str) or not isinstance(worlds, tuple | list) or not worlds:
         raise ValueError(
@@ -47,16 +61,39 @@ def check_worlds(worlds, argument: str = "worlds") -> tuple[str, ...]:
 
 @lru_cache(maxsize=64)
 def world_digest(name: str) -> str:
-    """The floor plan's SHA-256 of world ``name`` (`scenes.World.digest`), built once
-    per process; ValueError naming the accepted forms for a name that is no world.
+    """Return the floor plan's SHA-256 of world ``name`` (`scenes.World.digest`).
+
+    The world is built once per process; a name that is no world raises a ValueError naming
+    the accepted forms.
+
+    Parameters
+    ----------
+    name : str
+        The world's name.
+
+    Returns
+    -------
+    str
+        The digest, hex.
     """
     return build_world(check_world_name(name)).digest
 
 
 @lru_cache(maxsize=64)
 def world_manifold_names(name: str) -> tuple[str, ...]:
-    """The manifolds of world ``name`` in the order of its label ids (a generated world is
-    built once per process to read them).
+    """Return the manifolds of world ``name`` in the order of its label ids.
+
+    A generated world is built once per process to read them.
+
+    Parameters
+    ----------
+    name : str
+        The world's name.
+
+    Returns
+    -------
+    tuple of str
+        The manifold names.
     """
     world = parse_world_name(name)
     if world.canonical:
@@ -73,9 +110,21 @@ def _world_route_names(name: str) -> tuple[str, ...]:
 
 
 def world_sequences(name: str) -> list[tuple[int | tuple[int, ...], str, str]]:
-    """(seeding index, world, route name) of each route of world ``name``. A canonical world
-    keeps its index ``world * 3 + branch``; a generated one gets ``(2 + family, seed,
-    route position)``, whose length alone keeps it apart from the canonical ones.
+    """List (seeding index, world, route name) of each route of world ``name``.
+
+    A canonical world keeps its index ``world * 3 + branch``; a generated one gets
+    ``(2 + family, seed, route position)``, whose length alone keeps it apart from the
+    canonical ones.
+
+    Parameters
+    ----------
+    name : str
+        The world's name.
+
+    Returns
+    -------
+    list of tuple
+        One ``(index, world, route)`` per route.
     """
     world = parse_world_name(name)
     if world.canonical:
@@ -92,16 +141,43 @@ def world_sequences(name: str) -> list[tuple[int | tuple[int, ...], str, str]]:
 
 
 def sequence_entropy(seed: int, index) -> list[int]:
-    """The entropy of a sequence's generators: ``[seed, index]`` for a canonical index (as
-    before generated worlds existed), ``[seed, *index]`` for a generated one.
+    """Return the entropy of a sequence's generators.
+
+    ``[seed, index]`` for a canonical index (as before generated worlds existed),
+    ``[seed, *index]`` for a generated one.
+
+    Parameters
+    ----------
+    seed : int
+        The collection's seed.
+    index : int or tuple of int
+        The sequence's seeding index.
+
+    Returns
+    -------
+    list of int
+        The entropy for ``numpy.random.default_rng``.
     """
     return [int(seed), *(int(i) for i in np.atleast_1d(index))]
 
 
 def randomisation_key(name: str, seed: int) -> list[int]:
-    """The entropy of world ``name``'s randomised draw for collection seed ``seed``: the
-    canonical key ``[seed, 1000 + world index]``; ``[seed, 1000 + 2 + family, world seed]``
-    for a generated world.
+    """Return the entropy of world ``name``'s randomised draw for collection seed ``seed``.
+
+    The canonical key is ``[seed, 1000 + world index]``; ``[seed, 1000 + 2 + family, world
+    seed]`` for a generated world.
+
+    Parameters
+    ----------
+    name : str
+        The world's name.
+    seed : int
+        The collection's seed.
+
+    Returns
+    -------
+    list of int
+        The entropy for ``numpy.random.default_rng``.
     """
     world = parse_world_name(name)
     family = names.WORLDS.index(world.family)
@@ -111,13 +187,36 @@ def randomisation_key(name: str, seed: int) -> list[int]:
 
 
 def sequence_file(route: str) -> str:
-    """The file of a route's sequence: its name with ``:`` (not allowed there) as ``-``."""
+    """Name the file of a route's sequence: its name with ``:`` (not allowed there) as ``-``.
+
+    Parameters
+    ----------
+    route : str
+        The route's name.
+
+    Returns
+    -------
+    str
+        The ``.npz`` file name.
+    """
     return route.replace(":", "-") + ".npz"
 
 
 def label_space(worlds: tuple[str, ...]) -> list[str]:
-    """The dataset's manifold names: the paper's 8 when every world is canonical (labels keep
-    their ids); else each world's manifolds in turn, in the order of ``worlds``.
+    """Return the dataset's manifold names.
+
+    The paper's 8 when every world is canonical (labels keep their ids); else each world's
+    manifolds in turn, in the order of ``worlds``.
+
+    Parameters
+    ----------
+    worlds : tuple of str
+        The dataset's worlds.
+
+    Returns
+    -------
+    list of str
+        The names; label ``i`` is the ``i``-th.
     """
     if all(parse_world_name(w).canonical for w in worlds):
         return list(names.MANIFOLDS)
@@ -125,8 +224,23 @@ def label_space(worlds: tuple[str, ...]) -> list[str]:
 
 
 def label_lookup(worlds: tuple[str, ...], world_ids: dict[str, int], name: str) -> np.ndarray:
-    """A table from world ``name``'s label ids (given by ``world_ids``, name -> id) to the
-    dataset's: ``table[id]``; the last entry maps -1 (no manifold) to -1.
+    """Build a table from world ``name``'s label ids to the dataset's: ``table[id]``.
+
+    The last entry maps -1 (no manifold) to -1.
+
+    Parameters
+    ----------
+    worlds : tuple of str
+        The dataset's worlds.
+    world_ids : dict of str to int
+        The world's label ids, name -> id.
+    name : str
+        The world's name.
+
+    Returns
+    -------
+    ndarray of int16
+        The dataset's label of each of the world's ids.
     """
     space = label_space(worlds)
     table = np.full(max(world_ids.values()) + 2, names.NO_MANIFOLD, np.int16)

@@ -38,14 +38,31 @@ class DataHomeError(ValueError):
 
 
 def user_cache_dir() -> Path:
-    """``$XDG_CACHE_HOME/topomap``, else ``~/.cache/topomap`` (the XDG base-directory rule)."""
+    """Return ``$XDG_CACHE_HOME/topomap``, else ``~/.cache/topomap`` (the XDG rule).
+
+    Returns
+    -------
+    Path
+        The per-user cache directory; not created here.
+    """
     base = os.environ.get("XDG_CACHE_HOME") or ""
     root = Path(base) if Path(base).is_absolute() else Path.home() / ".cache"
     return root / "topomap"
 
 
 def data_home(home: str | os.PathLike | None = None) -> Path:
-    """The data home as an absolute path (see the module docstring for the order)."""
+    """Resolve the data home as an absolute path (see the module docstring for the order).
+
+    Parameters
+    ----------
+    home : path-like, optional
+        The data home; it must exist. None: ``TOPOMAP_HOME``, else the per-user cache.
+
+    Returns
+    -------
+    Path
+        The data home.
+    """
     if home is not None:
         path, source = Path(home).expanduser(), "home"
     elif os.environ.get(ENV_VAR):
@@ -72,11 +89,26 @@ def data_home(home: str | os.PathLike | None = None) -> Path:
 
 @contextlib.contextmanager
 def folder_lock(folder: Path, what: str = "the data home", lock_file: str | None = None):
-    """Hold an exclusive lock on ``folder`` while collecting or building into it, so that two
-    processes (two notebooks, the workers of a vector env starting together) never make the
-    same files at once: the first makes them, the others wait, then find them made. The lock
-    is on the folder itself (nothing is written), or on its file ``lock_file`` where given. A
-    process that has to wait says so on stderr, naming ``what``.
+    """Hold an exclusive lock on ``folder`` while collecting or building into it.
+
+    Two processes (two notebooks, the workers of a vector env starting together) thus never
+    make the same files at once: the first makes them, the others wait, then find them made.
+    The lock is on the folder itself (nothing is written), or on its file ``lock_file`` where
+    given. A process that has to wait says so on stderr, naming ``what``.
+
+    Parameters
+    ----------
+    folder : Path
+        The folder to lock.
+    what : str, default "the data home"
+        What is being made, for the waiting message.
+    lock_file : str, optional
+        A file in ``folder`` to lock instead of the folder (created if missing).
+
+    Yields
+    ------
+    None
+        While the lock is held.
     """
     try:
         import fcntl
@@ -107,15 +139,39 @@ def folder_lock(folder: Path, what: str = "the data home", lock_file: str | None
 
 
 def home_lock(home: Path):
-    """`folder_lock` of the data home ``home``, on its file ``.lock``."""
+    """Lock the data home ``home`` with `folder_lock`, on its file ``.lock``.
+
+    Parameters
+    ----------
+    home : Path
+        The data home.
+
+    Returns
+    -------
+    context manager
+        The lock.
+    """
     return folder_lock(home, "the default dataset", LOCK_FILE)
 
 
 def default_dataset(home: str | os.PathLike | None = None, progress: bool = True) -> Path:
-    """The default dataset in the data home, collected (with a progress bar) if it is missing.
+    """Return the default dataset in the data home, collected if it is missing.
 
-    An existing dataset there is never replaced: one collected with other settings, or a
-    damaged one, is reported by ``sim.collect`` / ``sim.dataset`` with what to do.
+    It is collected with a progress bar. An existing dataset there is never replaced: one
+    collected with other settings, or a damaged one, is reported by ``sim.collect`` /
+    ``sim.dataset`` with what to do.
+
+    Parameters
+    ----------
+    home : path-like, optional
+        The data home (see `data_home`).
+    progress : bool, default True
+        Show a progress bar while collecting.
+
+    Returns
+    -------
+    Path
+        The dataset's folder.
     """
     from common.cores import spawn_problem
     from sim.collect import CollectionSettings, collect_dataset
@@ -143,7 +199,18 @@ def default_dataset(home: str | os.PathLike | None = None, progress: bool = True
 
 
 def maps_dir(home: str | os.PathLike | None = None) -> Path:
-    """The servo-map cache of the data home (created on first use)."""
+    """Return the servo-map cache of the data home (created on first use).
+
+    Parameters
+    ----------
+    home : path-like, optional
+        The data home (see `data_home`).
+
+    Returns
+    -------
+    Path
+        The cache folder.
+    """
     directory = data_home(home) / MAPS_DIR
     if directory.exists() and not directory.is_dir():
         raise DataHomeError(f"{directory} should be the servo-map cache folder but is a file")
@@ -152,7 +219,7 @@ def maps_dir(home: str | os.PathLike | None = None) -> Path:
 
 
 def radish_log(name: str) -> Path:
-    """A Radish Carmen log in the folder the ``TOPOMAP_RADISH`` variable names.
+    """Find a Radish Carmen log in the folder the ``TOPOMAP_RADISH`` variable names.
 
     Parameters
     ----------

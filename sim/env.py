@@ -29,9 +29,25 @@ COLLISION_PENALTY = 1.0
 
 
 def sensor_config(value, cls, name: str):
-    """``value`` as an instance of the dataclass ``cls`` (``CameraConfig``, ``LaserConfig``,
-    ``OdometryConfig``): None gives the default, a dict its fields (a spec that stays JSON);
-    anything else, or an unknown field, an error naming ``name``.
+    """Turn ``value`` into an instance of the sensor dataclass ``cls``.
+
+    ``cls`` is ``CameraConfig``, ``LaserConfig`` or ``OdometryConfig``: None gives the
+    default, a dict its fields (a spec that stays JSON); anything else, or an unknown field,
+    an error naming ``name``.
+
+    Parameters
+    ----------
+    value : cls, dict or None
+        The configuration, a dict of its fields, or None.
+    cls : type
+        The dataclass.
+    name : str
+        The parameter's name, for the error.
+
+    Returns
+    -------
+    cls
+        The configuration.
     """
     if value is None:
         return cls()
@@ -46,10 +62,24 @@ def sensor_config(value, cls, name: str):
 
 
 def check_world(world, registered_world) -> str:
-    """The world to build, normalised: ``world``, else the one the env id names
-    (``registered_world``, passed by the registry), else "hallway". A generated world
-    (``FAMILY:SEED``) must be of the id's family; a ``world`` that contradicts the id is an
-    error rather than the other world under the id's name.
+    """Return the world to build, normalised.
+
+    It is ``world``, else the one the env id names (``registered_world``, passed by the
+    registry), else "hallway". A generated world (``FAMILY:SEED``) must be of the id's family;
+    a ``world`` that contradicts the id is an error rather than the other world under the id's
+    name.
+
+    Parameters
+    ----------
+    world : str or None
+        The world asked for.
+    registered_world : str or None
+        The world the env id names.
+
+    Returns
+    -------
+    str
+        The world's name.
     """
     world = None if world is None else check_world_name(world, "world")
     if registered_world is not None:
@@ -67,8 +97,19 @@ def check_world(world, registered_world) -> str:
 
 
 def check_sensors(sensors) -> tuple[str, ...]:
-    """``sensors`` as a tuple of distinct names from ``SENSORS``; a bare string (which would
-    split into letters) is refused, naming the tuple to write.
+    """Check that ``sensors`` holds distinct names from ``SENSORS`` and return them as a tuple.
+
+    A bare string (which would split into letters) is refused, naming the tuple to write.
+
+    Parameters
+    ----------
+    sensors : iterable of str
+        The sensors asked for.
+
+    Returns
+    -------
+    tuple of str
+        The sensors, in the order given.
     """
     if isinstance(sensors, str):
         raise ValueError(
@@ -89,10 +130,21 @@ def check_sensors(sensors) -> tuple[str, ...]:
 
 
 def check_pose_option(value) -> np.ndarray:
-    """``options['pose']`` of ``reset`` as a float64 (x, y, yaw): three finite real numbers;
-    anything else (None, a string, complex or ragged values) a ValueError naming it. Shared
-    with ``servo.task.env.ServoEnv``, which samples its task from the pose before this env sees
-    it.
+    """Check ``options['pose']`` of ``reset``: three finite real numbers (x, y, yaw).
+
+    Anything else (None, a string, complex or ragged values) raises a ValueError naming it.
+    Shared with ``servo.task.env.ServoEnv``, which samples its task from the pose before this
+    env sees it.
+
+    Parameters
+    ----------
+    value : object
+        The option's value.
+
+    Returns
+    -------
+    ndarray of shape (3,), float64
+        The pose.
     """
     try:
         pose = np.asarray(value)
@@ -274,8 +326,20 @@ class NavigationEnv(CheckedKeywords, gym.Env):
 
     # -- helpers ----------------------------------------------------------------------------
     def scan_spaces(self, key: str) -> dict[str, spaces.Space]:
-        """The observation's spaces of a scan under ``key``: ``no_return="max_range"`` gives
-        ``Box(0, max_range)`` and its mask ``{key}_valid``; ``"inf"`` ``Box(0, inf)`` alone.
+        """Build the observation's spaces of a scan under ``key``.
+
+        ``no_return="max_range"`` gives ``Box(0, max_range)`` and its mask ``{key}_valid``;
+        ``"inf"`` ``Box(0, inf)`` alone.
+
+        Parameters
+        ----------
+        key : str
+            The observation key of the scan.
+
+        Returns
+        -------
+        dict of str to gymnasium.spaces.Space
+            The scan's space and, with ``no_return="max_range"``, its mask's.
         """
         beams = self.laser_config.beams
         if self.no_return == "inf":
@@ -287,10 +351,24 @@ class NavigationEnv(CheckedKeywords, gym.Env):
         }
 
     def scan_observation(self, ranges: np.ndarray, key: str) -> dict[str, np.ndarray]:
-        """``ranges`` (+inf: no return) as the observation's entries of
-        [`scan_spaces`][sim.env.NavigationEnv.scan_spaces]: a copy, with no return (and a return
-        pushed past the maximum range by the range noise) at the maximum range and ``{key}_valid`` 1
-        where the beam returned.
+        """Turn ``ranges`` into the observation's entries of a scan.
+
+        The entries are those of [`scan_spaces`][sim.env.NavigationEnv.scan_spaces]: a copy,
+        with no return (and a return pushed past the maximum range by the range noise) at the
+        maximum range and ``{key}_valid`` 1 where the beam returned; with ``no_return="inf"``
+        the ranges alone.
+
+        Parameters
+        ----------
+        ranges : ndarray of shape (beams,)
+            The laser's ranges, m; +inf: no return.
+        key : str
+            The observation key of the scan.
+
+        Returns
+        -------
+        dict of str to ndarray
+            The scan (float32) and, with ``no_return="max_range"``, its mask (int8).
         """
         if self.no_return == "inf":
             return {key: np.array(ranges, np.float32)}
@@ -300,7 +378,20 @@ class NavigationEnv(CheckedKeywords, gym.Env):
         return {key: clipped, f"{key}_valid": valid.astype(np.int8)}
 
     def sample_pose(self, rng: np.random.Generator, manifold: str | None = None) -> np.ndarray:
-        """A random pose at least ``START_CLEARANCE`` from obstacles, on ``manifold`` if given."""
+        """Draw a random pose at least ``START_CLEARANCE`` from obstacles, on ``manifold`` if given.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            Draws the cell and the heading.
+        manifold : str, optional
+            A manifold of the world to start on.
+
+        Returns
+        -------
+        ndarray of shape (3,)
+            The pose ``(x, y, yaw)``.
+        """
         ok = self.occupancy.clearance >= START_CLEARANCE
         centers = self.occupancy.cell_centers()
         if manifold is not None:
@@ -343,10 +434,25 @@ class NavigationEnv(CheckedKeywords, gym.Env):
 
     # -- gymnasium API ----------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Place the robot at ``options["pose"]``, else at a free pose drawn from ``seed``
-        (on ``options["manifold"]`` when given); ``randomize`` draws the lights and colours anew.
-        ``options``: None or a dict with keys from ``RESET_OPTIONS`` (an unknown key is an
-        error naming the closest known one).
+        """Place the robot at ``options["pose"]``, else at a free pose drawn from ``seed``.
+
+        The drawn pose lies on ``options["manifold"]`` when given; ``randomize`` draws the
+        lights and colours anew.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Seeds the env's random generator.
+        options : dict, optional
+            None or a dict with keys from ``RESET_OPTIONS`` (an unknown key is an error naming
+            the closest known one).
+
+        Returns
+        -------
+        observation : dict of str to ndarray
+            The first observation.
+        info : dict
+            The true pose, odometry and manifold, as in a step's info.
         """
         super().reset(seed=seed)
         options = check_keys(options, RESET_OPTIONS, "options")
@@ -367,7 +473,24 @@ class NavigationEnv(CheckedKeywords, gym.Env):
         return self._observe(), self._info()
 
     def step(self, action):
-        """Hold ``action`` (v, omega) for one control step; the usual Gymnasium five-tuple."""
+        """Hold ``action`` (v, omega) for one control step; return the usual Gymnasium five-tuple.
+
+        Parameters
+        ----------
+        action : array-like of shape (2,)
+            ``(v, omega)``, finite; clipped to the action space.
+
+        Returns
+        -------
+        observation : dict of str to ndarray
+            The sensors' observation.
+        reward : float
+            ``-collision_penalty`` on contact, else 0.
+        terminated, truncated : bool
+            Always False.
+        info : dict
+            The true pose, odometry, manifold, collision, time and ``reward_collision``.
+        """
         a = np.asarray(action, dtype=np.float64)
         if a.shape != (2,):
             raise ValueError(f"action must have shape (2,) = (v, omega), got shape {a.shape}")
@@ -382,8 +505,20 @@ class NavigationEnv(CheckedKeywords, gym.Env):
         return self._observe(), reward, False, False, info
 
     def draw(self, target=None) -> np.ndarray:
-        """The top-down map: regions, the robot, its last scan, its trail since the reset and,
-        if given, a ``target`` pose (x, y, yaw) in outline. RGB uint8.
+        """Draw the top-down map.
+
+        It shows the regions, the robot, its last scan, its trail since the reset and, if
+        given, a ``target`` pose in outline.
+
+        Parameters
+        ----------
+        target : array-like of shape (3,), optional
+            A pose ``(x, y, yaw)`` to outline.
+
+        Returns
+        -------
+        ndarray of shape (H, W, 3), uint8
+            The RGB map.
         """
         if self._view is None:
             self._view = TopDownView(self.world)
@@ -396,7 +531,13 @@ class NavigationEnv(CheckedKeywords, gym.Env):
         )
 
     def render(self):
-        """The top-down map: robot, laser and trail (``"rgb_array"``), else None."""
+        """Render the top-down map: robot, laser and trail (``"rgb_array"``), else None.
+
+        Returns
+        -------
+        ndarray of shape (H, W, 3), uint8, or None
+            The map in ``"rgb_array"`` mode, else None.
+        """
         if self.render_mode != "rgb_array":
             return None
         return self.draw()

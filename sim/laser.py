@@ -21,8 +21,20 @@ MAX_BEAMS = 100_000
 
 @dataclass(frozen=True)
 class LaserConfig:
-    """Field of view (rad, centred on the robot's heading), beam count, max range (m) and
-    range noise standard deviation (m). Defaults: a SICK LMS-200-like 180 deg, 0.5 deg beams.
+    """Field of view, beam count, max range and range noise of the laser.
+
+    Defaults: a SICK LMS-200-like 180 deg, 0.5 deg beams.
+
+    Parameters
+    ----------
+    fov : float, default pi
+        Field of view, rad, centred on the robot's heading, in (0, 2 pi].
+    beams : int, default 361
+        Beam count, in ``[1, MAX_BEAMS]``.
+    max_range : float, default 20.0
+        Maximum range, m.
+    noise_std : float, default 0.01
+        Range noise standard deviation, m.
     """
 
     fov: float = np.pi
@@ -31,6 +43,7 @@ class LaserConfig:
     noise_std: float = 0.01
 
     def __post_init__(self):
+        """Check the settings; ``ValueError`` names the first that is invalid."""
         if not (0 < self.fov <= 2 * np.pi):
             raise ValueError(f"laser fov must be in (0, 2*pi] radians, got {self.fov}")
         if int(self.beams) != self.beams or not (1 <= self.beams <= MAX_BEAMS):
@@ -53,7 +66,15 @@ class LaserConfig:
 
 
 class Laser:
-    """Ray-caster bound to one model; excludes the robot's own geoms (group and body)."""
+    """Ray-caster bound to one model; excludes the robot's own geoms (group and body).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The model.
+    config : LaserConfig
+        The laser's settings.
+    """
 
     def __init__(self, model: mujoco.MjModel, config: LaserConfig):
         self.model = model
@@ -67,12 +88,40 @@ class Laser:
         self._vec = np.zeros(3 * config.beams, np.float64)
 
     def origin_and_heading(self, data: mujoco.MjData) -> tuple[np.ndarray, float]:
+        """Return the laser site's position and heading.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            The model's state.
+
+        Returns
+        -------
+        origin : ndarray of shape (3,)
+            The site's position in the world frame.
+        heading : float
+            Its yaw, rad.
+        """
         xmat = data.site_xmat[self.site_id].reshape(3, 3)
         return data.site_xpos[self.site_id].copy(), float(np.arctan2(xmat[1, 0], xmat[0, 0]))
 
     def scan(self, data: mujoco.MjData, rng: np.random.Generator | None = None) -> np.ndarray:
-        """Ranges (float32, ``beams``) from the current state; requires positions to be fresh
-        (``mj_forward`` or ``mj_kinematics`` after the last ``mj_step``).
+        """Cast the beams from the current state.
+
+        Requires positions to be fresh (``mj_forward`` or ``mj_kinematics`` after the last
+        ``mj_step``).
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            The model's state.
+        rng : numpy.random.Generator, optional
+            Draws the range noise; None: noise-free.
+
+        Returns
+        -------
+        ndarray of shape (beams,), float32
+            The ranges, m; +inf: no return within ``max_range``.
         """
         origin, heading = self.origin_and_heading(data)
         a = self._angles + heading

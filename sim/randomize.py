@@ -1,6 +1,7 @@
-"""Per-episode appearance randomisation on a compiled model: light colours and intensities
-(the scene's lights and the headlight) and material colours, drawn from
-[`scenes.RANDOMIZATION`][scenes.RANDOMIZATION], without recompiling the model.
+"""Per-episode appearance randomisation on a compiled model, without recompiling it.
+
+Light colours and intensities (the scene's lights and the headlight) and material colours are
+drawn from [`scenes.RANDOMIZATION`][scenes.RANDOMIZATION].
 
 (Textures and clutter placement are randomised when a world is *built*, with
 ``scenes.build_world(name, rng)``; changing them per episode would mean recompiling and a new
@@ -29,7 +30,13 @@ MAX_LIGHT = 2.0
 
 
 class AppearanceRandomizer:
-    """Remembers the model's base appearance and re-draws it on `apply`."""
+    """Remembers the model's base appearance and re-draws it on `apply`.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The compiled model, changed in place.
+    """
 
     def __init__(self, model: mujoco.MjModel):
         self.model = model
@@ -49,6 +56,16 @@ class AppearanceRandomizer:
         One intensity gain and one per-channel tint for every light (the headlight too), and
         per material a per-channel colour factor ``1 + U(colour_jitter)`` divided by its
         largest channel (a hue shift; see the module doc).
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator or None
+            Draws the appearance; None restores the base one.
+
+        Returns
+        -------
+        dict
+            ``{"light_intensity", "light_tint"}`` as drawn; ``{}`` for ``rng=None``.
         """
         self._restore()
         if rng is None:

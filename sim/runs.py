@@ -56,6 +56,13 @@ class Runs:
     manifold_names : tuple of str or None
         The manifold of each id (the dataset's ``manifolds``); None for recordings without
         labels.
+
+    Parameters
+    ----------
+    world, names, groups, ranges, scans, max_range, odometry, images, times
+        The attributes above, as ``from_sequences`` makes them.
+    poses, labels, manifold_names : optional
+        The attributes above; None without ground truth.
     """
 
     world: str
@@ -75,9 +82,21 @@ class Runs:
     def from_sequences(
         cls, sequences: SequenceOf[Sequence], max_range: float | None, manifold_names=None
     ) -> Runs:
-        """Concatenate ``sequences`` (all of one world, with the same beam count and image
-        size); ``max_range`` is the laser's (None: the longest return seen stands for it);
-        ``manifold_names`` names the label ids.
+        """Concatenate ``sequences`` (all of one world, with the same beam count and image size).
+
+        Parameters
+        ----------
+        sequences : sequence of Sequence
+            The drives, in order.
+        max_range : float or None
+            The laser's maximum range, m; None: the longest return seen stands for it.
+        manifold_names : sequence of str, optional
+            The names of the label ids.
+
+        Returns
+        -------
+        Runs
+            The drives concatenated.
         """
         if not sequences:
             raise ValueError("sequences is empty")
@@ -114,7 +133,9 @@ class Runs:
 
     @property
     def has_ground_truth(self) -> bool:
+        """Whether the drives have true poses and labels."""
         return self.labels is not None
 
     def __len__(self) -> int:
+        """Return the number of frames."""
         return len(self.groups)

@@ -22,7 +22,18 @@ OMEGA_LIMIT = 1.5  # rad/s
 
 
 def compile_world(world: World) -> mujoco.MjModel:
-    """The MuJoCo model of a world (textures come from ``world.assets``)."""
+    """Compile the MuJoCo model of a world (textures come from ``world.assets``).
+
+    Parameters
+    ----------
+    world : scenes.World
+        The world's MJCF and assets.
+
+    Returns
+    -------
+    mujoco.MjModel
+        The compiled model.
+    """
     return mujoco.MjModel.from_xml_string(world.xml, world.assets)
 
 
@@ -128,7 +139,15 @@ class Simulator:
         return float(self.data.time)
 
     def reset(self, pose, rng: np.random.Generator) -> None:
-        """Place the robot at rest at ``pose`` and restart odometry; ``rng`` drives the noise."""
+        """Place the robot at rest at ``pose`` and restart odometry; ``rng`` drives the noise.
+
+        Parameters
+        ----------
+        pose : array-like of shape (3,)
+            Finite ``(x, y, yaw)`` in the world frame.
+        rng : numpy.random.Generator
+            Drives the odometry's noise.
+        """
         pose = np.asarray(pose, np.float64)
         if pose.shape != (3,) or not np.all(np.isfinite(pose)):
             raise ValueError(f"pose must be a finite (x, y, yaw), got {pose!r}")
@@ -140,7 +159,13 @@ class Simulator:
         self.collisions = 0
 
     def in_contact(self) -> bool:
-        """Whether the chassis touches anything now."""
+        """Check whether the chassis touches anything now.
+
+        Returns
+        -------
+        bool
+            True while the chassis is in contact.
+        """
         n = self.data.ncon
         return bool(n and np.any(self.data.contact.geom[:n] == self.chassis))
 
@@ -150,6 +175,18 @@ class Simulator:
 
         The base is a unicycle: each substep turns ``(v, omega)`` into world-frame velocity
         targets using the heading at the middle of the substep.
+
+        Parameters
+        ----------
+        v : float
+            Forward speed, m/s, clipped to ``V_LIMITS``.
+        omega : float
+            Turn rate, rad/s, clipped to ``[-OMEGA_LIMIT, OMEGA_LIMIT]``.
+
+        Returns
+        -------
+        bool
+            Whether the chassis touched anything during the step.
         """
         v = float(np.clip(v, *V_LIMITS))
         omega = float(np.clip(omega, -OMEGA_LIMIT, OMEGA_LIMIT))
@@ -168,13 +205,32 @@ class Simulator:
 
     # -- sensing ----------------------------------------------------------------------------
     def render(self) -> np.ndarray:
-        """The camera image, (H, W, 3) uint8; ``RuntimeError`` without a camera."""
+        """Render the camera image; ``RuntimeError`` without a camera.
+
+        Returns
+        -------
+        ndarray of shape (H, W, 3), uint8
+            The RGB image.
+        """
         if self.camera is None:
             raise RuntimeError("this Simulator has no camera (camera=None)")
         return self.camera.render(self.data)
 
     def scan(self, rng: np.random.Generator | None = None) -> np.ndarray:
-        """The laser ranges, (beams,) float32 (+inf: no return), noisy when ``rng`` is given."""
+        """Cast the laser; the ranges are noisy when ``rng`` is given.
+
+        ``RuntimeError`` without a laser.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator, optional
+            Drives the range noise; None: noise-free ranges.
+
+        Returns
+        -------
+        ndarray of shape (beams,), float32
+            The ranges, m; +inf: no return.
+        """
         if self.laser is None:
             raise RuntimeError("this Simulator has no laser (laser=None)")
         return self.laser.scan(self.data, rng)

@@ -24,9 +24,24 @@ MAX_JITTER = 2.0
 
 @dataclass(frozen=True)
 class TeleopConfig:
-    """Driver settings: nominal speed (m/s), relative speed jitter, turn-rate jitter (rad/s),
-    lateral wander (m), its correlation length (m), pure-pursuit look-ahead (m), and the start
-    pose jitter (m, rad).
+    """Driver settings of the scripted teleoperator.
+
+    Parameters
+    ----------
+    speed : float, default 0.6
+        Nominal speed, m/s.
+    speed_jitter : float, default 0.12
+        Relative speed jitter.
+    turn_jitter : float, default 0.12
+        Turn-rate jitter, rad/s.
+    lateral_wander : float, default 0.25
+        Lateral wander, m.
+    wander_length : float, default 3.0
+        The wander's correlation length, m.
+    lookahead : float, default 1.2
+        Pure-pursuit look-ahead, m.
+    start_jitter : (float, float), default (0.15, 0.08)
+        The start pose's jitter (m, rad).
     """
 
     speed: float = 0.6
@@ -38,6 +53,7 @@ class TeleopConfig:
     start_jitter: tuple[float, float] = (0.15, 0.08)
 
     def __post_init__(self):
+        """Check the settings: all finite and >= 0; speed, lookahead, wander_length > 0."""
         for k, v in asdict(self).items():
             vals = np.ravel(v)
             if not np.all(np.isfinite(vals)) or np.any(vals < 0):
@@ -46,10 +62,22 @@ class TeleopConfig:
             raise ValueError("teleop speed, lookahead and wander_length must be > 0")
 
     def scaled(self, jitter: float) -> TeleopConfig:
-        """The same driver with every random term (speed and turn jitter, lateral wander,
-        start jitter) times ``jitter``: 0 drives the route's centre line at constant speed,
-        the same pass for every seed; 1 is this config; at most `MAX_JITTER`, beyond
-        which the driver can stall before the route's end.
+        """Return the same driver with every random term times ``jitter``.
+
+        The random terms are speed and turn jitter, lateral wander and start jitter: 0 drives
+        the route's centre line at constant speed, the same pass for every seed; 1 is this
+        config; at most `MAX_JITTER`, beyond which the driver can stall before the route's
+        end.
+
+        Parameters
+        ----------
+        jitter : float
+            The factor, in ``[0, MAX_JITTER]``.
+
+        Returns
+        -------
+        TeleopConfig
+            The scaled settings.
         """
         if not (np.isfinite(jitter) and jitter >= 0):
             raise ValueError(f"teleop jitter must be a finite number >= 0, got {jitter}")
@@ -68,7 +96,13 @@ class TeleopConfig:
 
 
 class Polyline:
-    """Arc-length parametrised route: ``point(s)``, ``tangent(s)``, ``project(xy)``."""
+    """Arc-length parametrised route: ``point(s)``, ``tangent(s)``, ``project(xy)``.
+
+    Parameters
+    ----------
+    waypoints : ndarray of shape (n, 2)
+        The route's points, in order.
+    """
 
     def __init__(self, waypoints: np.ndarray):
         self.p = np.asarray(waypoints, np.float64)
@@ -79,17 +113,56 @@ class Polyline:
         self.length = float(self.cum[-1])
 
     def point(self, s: float) -> np.ndarray:
+        """Return the route's point at arc length ``s`` (clipped to the route).
+
+        Parameters
+        ----------
+        s : float
+            Arc length, m.
+
+        Returns
+        -------
+        ndarray of shape (2,)
+            The point.
+        """
         s = float(np.clip(s, 0.0, self.length))
         i = min(int(np.searchsorted(self.cum, s, side="right")) - 1, len(self.seg_len) - 1)
         return self.p[i] + self.dirs[i] * (s - self.cum[i])
 
     def tangent(self, s: float) -> np.ndarray:
+        """Return the route's unit direction at arc length ``s`` (clipped to the route).
+
+        Parameters
+        ----------
+        s : float
+            Arc length, m.
+
+        Returns
+        -------
+        ndarray of shape (2,)
+            The unit direction of the segment there.
+        """
         s = float(np.clip(s, 0.0, self.length))
         i = min(int(np.searchsorted(self.cum, s, side="right")) - 1, len(self.seg_len) - 1)
         return self.dirs[i]
 
     def project(self, xy, lo: float = 0.0, hi: float | None = None) -> float:
-        """Arc length of the closest route point to ``xy`` among s in [lo, hi]."""
+        """Return the arc length of the closest route point to ``xy`` among s in [lo, hi].
+
+        Parameters
+        ----------
+        xy : array-like of shape (2,)
+            The point.
+        lo : float, default 0.0
+            The least arc length, m.
+        hi : float, optional
+            The greatest arc length, m; the route's length when None.
+
+        Returns
+        -------
+        float
+            The arc length, m.
+        """
         hi = self.length if hi is None else hi
         rel = np.asarray(xy, np.float64) - self.p[:-1]
         t = np.clip(np.einsum("ij,ij->i", rel, self.dirs), 0.0, self.seg_len)
@@ -99,7 +172,19 @@ class Polyline:
 
 
 class ScriptedTeleop:
-    """Drives one route. Call `start_pose` once, then `command` every step."""
+    """Drives one route. Call `start_pose` once, then `command` every step.
+
+    Parameters
+    ----------
+    world : scenes.World
+        The world, whose free space keeps the look-ahead point where the robot fits.
+    route : scenes.regions.Route
+        The route to drive.
+    config : TeleopConfig
+        The driver's settings.
+    rng : numpy.random.Generator
+        Draws the start jitter and the noises.
+    """
 
     def __init__(self, world: World, route: Route, config: TeleopConfig, rng: np.random.Generator):
         self.route = Polyline(route.waypoints)
@@ -113,6 +198,13 @@ class ScriptedTeleop:
         self._offset = 0.0
 
     def start_pose(self) -> np.ndarray:
+        """Draw the start pose: the route's start and heading, jittered.
+
+        Returns
+        -------
+        ndarray of shape (3,)
+            ``(x, y, yaw)``.
+        """
         c = self.config
         p = self.route.point(0.0) + self.rng.normal(0.0, c.start_jitter[0], 2)
         t = self.route.tangent(0.0)
@@ -121,10 +213,24 @@ class ScriptedTeleop:
 
     @property
     def done(self) -> bool:
+        """Whether the driver is within 5 cm of the route's end."""
         return self.progress >= self.route.length - 0.05
 
     def command(self, pose: np.ndarray, dt: float) -> tuple[float, float]:
-        """(v, omega) toward the wandering look-ahead point; advances `progress`."""
+        """Return (v, omega) toward the wandering look-ahead point; advance `progress`.
+
+        Parameters
+        ----------
+        pose : ndarray of shape (3,)
+            The robot's pose ``(x, y, yaw)``.
+        dt : float
+            The control step, s (for the noises).
+
+        Returns
+        -------
+        tuple of (float, float)
+            ``(v, omega)`` in m/s and rad/s.
+        """
         c = self.config
         self.progress = self.route.project(pose[:2], self.progress - 0.5, self.progress + 2.0)
         # Ornstein-Uhlenbeck noises (exact discretisation, unit-free correlation times).

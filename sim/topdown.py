@@ -1,5 +1,7 @@
-"""A top-down map a person wants to look at: manifold regions in colour, obstacles, the robot,
-its laser and its trail. Pure numpy/OpenCV drawing (no GL), so it is cheap and works anywhere.
+"""A top-down map a person wants to look at.
+
+Manifold regions in colour, obstacles, the robot, its laser and its trail. Pure numpy/OpenCV
+drawing (no GL), so it is cheap and works anywhere.
 """
 
 from __future__ import annotations
@@ -38,7 +40,18 @@ GENERATED_COLOURS = (
 
 
 def manifold_colours(world: World) -> dict[str, tuple[int, int, int]]:
-    """The colour of each of ``world``'s manifolds on a map (RGB)."""
+    """Return the colour of each of ``world``'s manifolds on a map (RGB).
+
+    Parameters
+    ----------
+    world : scenes.World
+        The world.
+
+    Returns
+    -------
+    dict of str to tuple of int
+        Manifold name -> RGB colour.
+    """
     return {
         name: MANIFOLD_COLOURS.get(name, GENERATED_COLOURS[i % len(GENERATED_COLOURS)])
         for name, i in world.manifold_ids.items()
@@ -46,7 +59,17 @@ def manifold_colours(world: World) -> dict[str, tuple[int, int, int]]:
 
 
 class TopDownView:
-    """Draws one world from above at ``pixels_per_metre``; ``draw(...)`` returns RGB uint8."""
+    """Draws one world from above; ``draw(...)`` returns RGB uint8.
+
+    Parameters
+    ----------
+    world : scenes.World
+        The world.
+    max_size : int, default 480
+        The map's longer side, pixels.
+    margin : float, default 1.0
+        Space around the world's bounds, m.
+    """
 
     def __init__(self, world: World, max_size: int = 480, margin: float = 1.0):
         self.world = world
@@ -60,6 +83,18 @@ class TopDownView:
         self._background = self._draw_background()
 
     def to_pixels(self, xy) -> np.ndarray:
+        """Map world points to pixel coordinates ``(u, v)`` of the map.
+
+        Parameters
+        ----------
+        xy : array-like of shape (..., 2)
+            Points in the world frame, m.
+
+        Returns
+        -------
+        ndarray of shape (..., 2)
+            Pixel coordinates (column, row), float.
+        """
         xy = np.asarray(xy, np.float64)
         u = (xy[..., 0] - self.origin[0]) * self.scale
         v = (self.origin[1] - xy[..., 1]) * self.scale
@@ -79,7 +114,26 @@ class TopDownView:
         return img
 
     def draw(self, pose=None, scan=None, angles=None, trail=None, target=None) -> np.ndarray:
-        """The map with, optionally, a trail (k, 2), a target pose, the robot and its scan."""
+        """Draw the map with, optionally, a trail, a target pose, the robot and its scan.
+
+        Parameters
+        ----------
+        pose : array-like of shape (3,), optional
+            The robot's pose ``(x, y, yaw)``.
+        scan : ndarray of shape (beams,), optional
+            Its ranges, m (non-finite ones are not drawn); drawn with ``angles`` and ``pose``.
+        angles : ndarray of shape (beams,), optional
+            The beams' angles in the sensor frame, rad.
+        trail : array-like of shape (k, 2) or (k, 3), optional
+            Past positions.
+        target : array-like of shape (3,), optional
+            A pose drawn in outline.
+
+        Returns
+        -------
+        ndarray of shape (H, W, 3), uint8
+            The RGB map.
+        """
         img = self._background.copy()
         s = self.scale
         if trail is not None and len(trail) > 1:
@@ -105,8 +159,21 @@ class TopDownView:
         return img
 
     def draw_robot(self, img, pose, colour, outline_only: bool = False) -> None:
-        """Draw the robot at ``pose`` (x, y, yaw) on ``img`` in place: a disc of its radius
-        (only the outline with ``outline_only``, as for a target) and a heading tick.
+        """Draw the robot at ``pose`` (x, y, yaw) on ``img`` in place.
+
+        A disc of its radius (only the outline with ``outline_only``, as for a target) and a
+        heading tick.
+
+        Parameters
+        ----------
+        img : ndarray of shape (H, W, 3), uint8
+            The map to draw on.
+        pose : array-like of shape (3,)
+            The pose ``(x, y, yaw)``.
+        colour : tuple of int
+            RGB colour.
+        outline_only : bool, default False
+            Draw only the disc's outline.
         """
         from scenes.robot import RADIUS
 

@@ -1,6 +1,7 @@
-"""The checks across a dataset's sequences, and between them and ``meta.json``'s settings:
-written once, applied by [`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] after each
-sequence passed its own.
+"""The checks across a dataset's sequences, and between them and ``meta.json``'s settings.
+
+Written once, applied by [`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] after
+each sequence passed its own.
 
 Every sequence of a dataset comes from one robot setup, so all keep the same laser (the same
 beam angles, hence the same beam count) and the same image size, and agree with what the
@@ -37,10 +38,11 @@ def _setting(meta: dict, sensor: str, key: str):
 
 
 def _fov(directory: Path, meta: dict) -> float | None:
-    """The size of ``meta["settings"]["laser"]["fov"]`` when it is a real number (refused
-    beyond a full turn), else None (not recorded). The ROS bag importer records the span of
-    the beam angles, last minus first: negative for a scan of decreasing angles, 0 for one
-    beam.
+    """Return the size of ``meta["settings"]["laser"]["fov"]`` when it is a real number.
+
+    It is refused beyond a full turn; None when not recorded. The ROS bag importer records
+    the span of the beam angles, last minus first: negative for a scan of decreasing angles, 0
+    for one beam.
     """
     value = ((meta.get("settings") or {}).get("laser") or {}).get("fov")
     if not is_real(value):
@@ -54,10 +56,11 @@ def _fov(directory: Path, meta: dict) -> float | None:
 
 
 def _span_problem(angles: np.ndarray, fov: float) -> str | None:
-    """Why beam ``angles`` cannot be those of a laser of field of view ``fov``, or None: the
-    angles span ``fov`` (the first beam at one edge, the last at the other, as a ROS scan's
-    angle_min and angle_max and a collection's laser have them), or ``fov (n - 1) / n`` for a
-    full turn (the last beam one step short of the first).
+    """Say why beam ``angles`` cannot be those of a laser of field of view ``fov``, or None.
+
+    They can when the angles span ``fov`` (the first beam at one edge, the last at the other,
+    as a ROS scan's angle_min and angle_max and a collection's laser have them), or
+    ``fov (n - 1) / n`` for a full turn (the last beam one step short of the first).
     """
     n = len(angles)
     if n < 2:
@@ -69,10 +72,20 @@ def _span_problem(angles: np.ndarray, fov: float) -> str | None:
 
 
 def check_consistency(directory: Path, meta: dict, sequences: dict) -> None:
-    """Raise [`DatasetError`][sim.dataset.schema.DatasetError] naming the dataset's folder, the
-    sequence and its file when a sequence's beams, angles, image size or world disagrees with the
-    first sequence's or with the settings of ``meta`` (``sequences``: loaded
-    [`Sequence`][sim.dataset.model.Sequence] by name).
+    """Raise an error when the sequences disagree with each other or with the settings.
+
+    A [`DatasetError`][sim.dataset.schema.DatasetError] names the dataset's folder, the
+    sequence and its file when a sequence's beams, angles, image size or world disagrees with
+    the first sequence's or with the settings of ``meta``.
+
+    Parameters
+    ----------
+    directory : Path
+        The dataset's folder.
+    meta : dict
+        The parsed ``meta.json``.
+    sequences : dict of str to Sequence
+        The loaded [`Sequence`][sim.dataset.model.Sequence] objects by name.
     """
     where = {
         name: f"{directory}: sequence {name!r} ({meta['sequences'][name]['file']})"

@@ -1,5 +1,7 @@
-"""Sequence files written and read: an ``.npz`` written atomically with its SHA-256, read
-without pickle, checked against its ``meta.json`` entry and `common.bounds`.
+"""Sequence files written and read.
+
+An ``.npz`` is written atomically with its SHA-256, read without pickle, and checked against
+its ``meta.json`` entry and `common.bounds`.
 """
 
 from __future__ import annotations
@@ -31,8 +33,23 @@ from sim.dataset.schema import (
 
 
 def write_sequence(path: Path, arrays: dict[str, np.ndarray], compresslevel: int = 1) -> str:
-    """Write arrays as an ``.npz`` (deflate level 1: most of the size win at a fraction of the
-    time), atomically; return its SHA-256.
+    """Write arrays as an ``.npz``, atomically; return its SHA-256.
+
+    Deflate level 1 (the default) gives most of the size win at a fraction of the time.
+
+    Parameters
+    ----------
+    path : Path
+        The ``.npz`` to write.
+    arrays : dict of str to ndarray
+        The arrays by name; each is stored as ``name.npy``, without pickle.
+    compresslevel : int, default 1
+        Deflate level.
+
+    Returns
+    -------
+    str
+        The file's SHA-256, hex.
     """
     with atomic_path(path) as tmp:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
@@ -48,7 +65,18 @@ def write_sequence(path: Path, arrays: dict[str, np.ndarray], compresslevel: int
 
 
 def file_sha256(path: Path) -> str:
-    """The SHA-256 of a file's bytes, hex (read in 4 MiB chunks)."""
+    """Compute the SHA-256 of a file's bytes, read in 4 MiB chunks.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    str
+        The digest, hex.
+    """
     h = hashlib.sha256()
     with open(path, "rb") as f:
         for chunk in iter(lambda: f.read(1 << 22), b""):
@@ -59,9 +87,26 @@ def file_sha256(path: Path) -> str:
 def read_npz(
     path: Path, sha256: str | None, context: str = "", error: type[Exception] = DatasetError
 ) -> dict[str, np.ndarray]:
-    """The arrays of an ``.npz`` (as [`write_sequence`][sim.dataset.loading.write_sequence] writes
-    them), read without pickle after checking its SHA-256 when ``sha256`` is given; a missing,
-    modified or unreadable file raises ``error`` starting with ``context``.
+    """Read the arrays of an ``.npz`` without pickle, checking its SHA-256 first when given.
+
+    The file is one as [`write_sequence`][sim.dataset.loading.write_sequence] writes it; a
+    missing, modified or unreadable file raises ``error`` starting with ``context``.
+
+    Parameters
+    ----------
+    path : Path
+        The ``.npz`` file.
+    sha256 : str or None
+        Its expected SHA-256, hex; None skips the check.
+    context : str, default ""
+        Start of the error message.
+    error : type of Exception, default DatasetError
+        The error raised.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The arrays by name.
     """
     if not path.is_file():  # a pipe or a device there would block or never end a read
         raise error(f"{context}{path} is {'missing' if not path.exists() else SPECIAL}")
@@ -74,7 +119,8 @@ def read_npz(
 
 
 def _value_problem(arrays: dict[str, np.ndarray], manifolds: int | None) -> str | None:
-    """What is wrong with the values of a sequence's arrays (`common.bounds`), or None;
+    """Say what is wrong with the values of a sequence's arrays (`common.bounds`), or None.
+
     ``manifolds``: how many there are (labels must lie in ``[-1, manifolds)``), None: any.
     """
     image_shape = arrays["images"].shape[1:] if "images" in arrays else (1, 1, 3)
@@ -115,10 +161,31 @@ def load_sequence(
     camera: bool = True,
     laser: bool = True,
 ) -> Sequence:
-    """One sequence's file, checked against its ``meta.json`` entry; ``ground_truth`` says
-    whether ``poses`` and ``labels`` must be there (True) or must not (False); ``manifolds``
-    how many manifolds its labels may name (None: not checked); ``camera`` whether ``images``
-    must be there (True) or must not (False), ``laser`` the same of ``scans`` and ``angles``.
+    """Load one sequence's file, checked against its ``meta.json`` entry.
+
+    Parameters
+    ----------
+    directory : Path
+        The dataset's folder.
+    name : str
+        The sequence's name.
+    entry : dict
+        Its ``meta.json`` entry (``file``, ``world``, ``frames``, ``sha256``).
+    verify : bool, default True
+        Check the file's SHA-256 against the entry.
+    ground_truth : bool, default True
+        Whether ``poses`` and ``labels`` must be there (True) or must not (False).
+    manifolds : int, optional
+        How many manifolds its labels may name; None: not checked.
+    camera : bool, default True
+        Whether ``images`` must be there (True) or must not (False).
+    laser : bool, default True
+        The same of ``scans`` and ``angles``.
+
+    Returns
+    -------
+    Sequence
+        The sequence's arrays.
     """
     path = Path(directory) / entry["file"]
     arrays = read_npz(path, entry["sha256"] if verify else None, f"sequence {name!r}: ")
@@ -185,8 +252,15 @@ def load_dataset(directory: str | os.PathLike, verify: bool = True) -> Dataset:
 
     Parameters
     ----------
-    verify : bool
+    directory : path-like
+        The dataset's folder.
+    verify : bool, default True
         Check each file's SHA-256 against ``meta.json`` (catches truncation; ~0.1 s per 100 MB).
+
+    Returns
+    -------
+    Dataset
+        The dataset's ``meta.json`` and sequences.
     """
     directory = Path(directory)
     meta = read_meta(directory)

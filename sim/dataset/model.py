@@ -1,6 +1,7 @@
-"""The loaded dataset: [`Sequence`][sim.dataset.model.Sequence] (one drive's arrays) and
-[`Dataset`][sim.dataset.model.Dataset] (its ``meta.json`` and sequences), as
-[`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] returns them.
+"""The loaded dataset, as [`sim.dataset.load_dataset`][sim.dataset.loading.load_dataset] returns it.
+
+[`Sequence`][sim.dataset.model.Sequence] holds one drive's arrays and
+[`Dataset`][sim.dataset.model.Dataset] the ``meta.json`` and the sequences.
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ class Sequence:
     depth: np.ndarray | None = None
 
     def __len__(self) -> int:
+        """Return the number of frames."""
         return len(self.times)
 
 
@@ -149,9 +151,17 @@ class Dataset:
         return bool(self.meta.get("laser", True))
 
     def require(self, sensor: str, needed_by: str) -> None:
-        """Raise [`MissingSensorError`][sim.dataset.schema.MissingSensorError] naming this dataset,
-        ``sensor`` (``"camera"`` or ``"laser"``) and ``needed_by`` (what needs it) unless the sensor
-        was recorded.
+        """Raise an error unless ``sensor`` was recorded.
+
+        The error is a [`MissingSensorError`][sim.dataset.schema.MissingSensorError] naming this
+        dataset, ``sensor`` and ``needed_by``.
+
+        Parameters
+        ----------
+        sensor : {"camera", "laser"}
+            The sensor needed.
+        needed_by : str
+            What needs it, for the message.
         """
         if sensor not in SENSORS:
             raise ValueError(f"sensor must be one of {list(SENSORS)}, got {sensor!r}")
@@ -160,8 +170,9 @@ class Dataset:
 
     @property
     def max_range(self) -> float | None:
-        """The laser's maximum range (m) from the settings; readings at or beyond it are no
-        return. None when the settings do not say (or there is no laser).
+        """The laser's maximum range (m) from the settings; readings at or beyond it are no return.
+
+        None when the settings do not say (or there is no laser).
         """
         value = (self.meta.get("settings", {}).get("laser") or {}).get("max_range")
         return None if value is None else float(value)
@@ -172,7 +183,20 @@ class Dataset:
         return list(dict.fromkeys(s.world for s in self.sequences.values()))
 
     def concat(self, field: str, names: list[str] | None = None) -> np.ndarray:
-        """One array of ``field`` over sequences (in ``meta`` order, or ``names``)."""
+        """Concatenate the array ``field`` over sequences (in ``meta`` order, or ``names``).
+
+        Parameters
+        ----------
+        field : str
+            An array of the dataset format (``"images"``, ``"scans"``, ``"poses"``, ...).
+        names : list of str, optional
+            The sequences, in order; all of them in ``meta`` order when None.
+
+        Returns
+        -------
+        ndarray
+            The sequences' arrays joined along the frame axis.
+        """
         names = list(self.sequences) if names is None else names
         if field in GROUND_TRUTH and not self.has_ground_truth:
             raise DatasetError(f"{self.path} has no ground truth: no {field!r} to concatenate")
@@ -182,11 +206,21 @@ class Dataset:
         return np.concatenate([getattr(self.sequences[n], field) for n in names])
 
     def runs(self, world: str) -> Runs:
-        """Every sequence (drive) of ``world`` together, in the form the mapping methods take.
+        """Gather every sequence (drive) of ``world``, in the form the mapping methods take.
 
         See `Runs`; no-return beams (``inf``, and readings at or beyond the dataset's
         [`max_range`][sim.dataset.model.Dataset.max_range]) are left out of the scan points. Needs
         the laser ([`MissingSensorError`][sim.dataset.schema.MissingSensorError] without one).
+
+        Parameters
+        ----------
+        world : str
+            The world whose sequences are taken.
+
+        Returns
+        -------
+        Runs
+            The drives of ``world``, with manifold names when there is ground truth.
         """
         self.require("laser", "the observation grouping (the drives' scans, Dataset.runs)")
         sequences = [s for s in self.sequences.values() if s.world == world]
@@ -198,9 +232,15 @@ class Dataset:
         return Runs.from_sequences(sequences, self.max_range, names)
 
     def paper_split(self) -> tuple[np.ndarray, np.ndarray]:
-        """Boolean masks (train, test) over [`concat`][sim.dataset.model.Dataset.concat] order:
-        every second frame of each sequence builds the map (frames 0, 2, 4, ...) and the others test
-        it, as in the paper.
+        """Split the frames into the paper's train and test halves.
+
+        Every second frame of each sequence builds the map (frames 0, 2, 4, ...) and the others
+        test it, as in the paper.
+
+        Returns
+        -------
+        train, test : ndarray of bool
+            Masks over [`concat`][sim.dataset.model.Dataset.concat] order.
         """
         train = np.concatenate([np.arange(len(s)) % 2 == 0 for s in self.sequences.values()])
         return train, ~train

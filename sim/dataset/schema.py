@@ -1,5 +1,7 @@
-"""The dataset's schema: the arrays of a sequence and their forms, ``meta.json`` and its
-checks, and the error every dataset reader raises (the format: `sim.dataset`).
+"""The dataset's schema.
+
+The arrays of a sequence and their forms, ``meta.json`` and its checks, and the error every
+dataset reader raises (the format: `sim.dataset`).
 """
 
 from __future__ import annotations
@@ -56,9 +58,25 @@ class DatasetError(ValueError):
 
 
 class MissingSensorError(DatasetError):
-    """A dataset recorded without the sensor a method needs: the grouping needs the laser's
-    scans, the methods on images the camera's. ``path`` is the dataset's folder and ``sensor``
-    ``"camera"`` or ``"laser"``.
+    """A dataset recorded without the sensor a method needs.
+
+    The grouping needs the laser's scans, the methods on images the camera's.
+
+    Parameters
+    ----------
+    path : path-like
+        The dataset's folder.
+    sensor : {"camera", "laser"}
+        The sensor missing.
+    needed_by : str
+        What needs the sensor, for the message.
+
+    Attributes
+    ----------
+    path : Path
+        The dataset's folder.
+    sensor : str
+        The sensor missing.
     """
 
     def __init__(self, path, sensor: str, needed_by: str):
@@ -73,7 +91,18 @@ class MissingSensorError(DatasetError):
 
 
 def read_meta(directory: str | os.PathLike) -> dict:
-    """The checked ``meta.json`` of the dataset in ``directory`` (complete or not)."""
+    """Read and check the ``meta.json`` of the dataset in ``directory`` (complete or not).
+
+    Parameters
+    ----------
+    directory : path-like
+        The dataset's folder.
+
+    Returns
+    -------
+    dict
+        The parsed ``meta.json``; a `DatasetError` says what is wrong with it.
+    """
     path = Path(directory) / META_FILE
     if Path(directory).is_file():
         raise DatasetError(f"{directory} is a file, not a dataset folder")
@@ -120,9 +149,11 @@ def read_meta(directory: str | os.PathLike) -> dict:
 
 
 def _check_optional_keys(path: Path, meta: dict) -> None:
-    """The other keys the code reads, where present: ``settings`` (its ``laser`` and that
-    one's ``max_range``, the laser's range, and its ``camera``), ``manifolds`` and
-    ``complete``. They may be absent (a dataset of schema version 1, a collection just started).
+    """Check the other keys the code reads, where present.
+
+    These are ``settings`` (its ``laser`` and that one's ``max_range``, the laser's range, and
+    its ``camera``), ``manifolds`` and ``complete``. They may be absent (a dataset of schema
+    version 1, a collection just started).
     """
     settings = meta.get("settings", {})
     if not isinstance(settings, dict):
@@ -159,8 +190,19 @@ def _check_optional_keys(path: Path, meta: dict) -> None:
 
 
 def check_entry(path: Path, name: str, entry) -> None:
-    """A sequence entry of ``meta.json``: a plain ``.npz`` file name inside the dataset folder
-    (never a path elsewhere), a world name, a frame count and a SHA-256.
+    """Check a sequence entry of ``meta.json``; raise `DatasetError` if it is malformed.
+
+    An entry holds a plain ``.npz`` file name inside the dataset folder (never a path
+    elsewhere), a world name, a frame count and a SHA-256.
+
+    Parameters
+    ----------
+    path : Path
+        The ``meta.json`` file, for the message.
+    name : str
+        The sequence's name.
+    entry : object
+        The entry to check.
     """
     fields = ("file", "world", "frames", "sha256")
     if not isinstance(entry, dict) or any(k not in entry for k in fields):

@@ -1,6 +1,7 @@
-"""Readers of a real robot's recordings: Carmen logs (``carmen``) and ROS 1 / ROS 2 bags
-imported as a dataset (``rosbag``, decoding messages with ``ros_messages`` and making frames of
-them by the rule of ``alignment``).
+"""Readers of a real robot's recordings.
+
+Carmen logs (``carmen``) and ROS 1 / ROS 2 bags imported as a dataset (``rosbag``, decoding
+messages with ``ros_messages`` and making frames of them by the rule of ``alignment``).
 """
 
 from common.lazy import lazy_exports

@@ -1,5 +1,6 @@
-"""The topics a ROS bag import reads and the alignment rule that makes frames of its messages
-(`sim.readers.rosbag` reads the bags; `sim.readers.ros_messages` decodes them).
+"""The topics a ROS bag import reads and the alignment rule that makes frames of its messages.
+
+`sim.readers.rosbag` reads the bags; `sim.readers.ros_messages` decodes them.
 
 The frame clock is the laser: a scan at stamp ``t`` becomes a frame when an image lies within
 ``image_tolerance`` of ``t`` (the nearest one is taken) and two consecutive odometry messages
@@ -24,8 +25,9 @@ from sim.readers.ros_messages import RosbagImportError, Stream
 
 @dataclass(frozen=True)
 class ImportSettings:
-    """The topics to read and the alignment rule (see the module docstring); stored in
-    ``meta.json``. Times in seconds, distances in metres, angles in radians.
+    """The topics to read and the alignment rule (see the module docstring).
+
+    Stored in ``meta.json``. Times in seconds, distances in metres, angles in radians.
 
     Parameters
     ----------
@@ -84,6 +86,7 @@ class ImportSettings:
     laser_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
+        """Check the settings; ``ValueError`` names the first that is invalid."""
         optional = {"image_topic": " (or None: no camera)", "scan_topic": " (or None: no laser)"}
         for name in ("scan_topic", "image_topic", "odom_topic", "world"):
             value = getattr(self, name)
@@ -119,9 +122,26 @@ class ImportSettings:
 
 
 def align(scans: Stream, images: Stream, odom: Stream, settings: ImportSettings):
-    """Which messages of the frame clock (the scans, or the images without a laser) become
-    frames (``frames["clock"]``), their image (index into the image topic), odometry and
-    velocity; and how many were dropped, by reason.
+    """Decide which messages of the frame clock become frames.
+
+    The clock is the scans, or the images without a laser.
+
+    Parameters
+    ----------
+    scans, images, odom : Stream
+        The streams read from the bag (``images`` is replaced by the clock with one sensor).
+    settings : ImportSettings
+        The alignment rule.
+
+    Returns
+    -------
+    frames : dict of str to ndarray
+        ``"clock"`` (indices of the clock's messages that become frames), ``"odometry"``
+        (the laser's interpolated pose, (n, 3)) and ``"commands"`` (velocity, (n, 2)).
+    image_index : ndarray of int
+        Each frame's image, an index into the image topic.
+    dropped : dict of str to int
+        How many messages were dropped, by reason.
     """
     clock = scans if settings.laser else images
     t = np.asarray(clock.stamps, dtype=np.int64)
@@ -172,8 +192,24 @@ def align(scans: Stream, images: Stream, odom: Stream, settings: ImportSettings)
 
 
 def spaced(pose: np.ndarray, min_travel: float, min_turn: float) -> np.ndarray:
-    """Indices of the frames kept: the first, then each that moved ``min_travel`` or turned
-    ``min_turn`` since the last kept one (either at 0 keeps every frame).
+    """Choose the frames kept: the first, then each that moved or turned far enough.
+
+    A frame is kept when it moved ``min_travel`` or turned ``min_turn`` since the last kept
+    one (either at 0 keeps every frame).
+
+    Parameters
+    ----------
+    pose : ndarray of shape (n, 3)
+        The frames' poses ``(x, y, yaw)``.
+    min_travel : float
+        Travel that keeps a frame, m.
+    min_turn : float
+        Turn that keeps a frame, rad.
+
+    Returns
+    -------
+    ndarray of int
+        Indices of the frames kept.
     """
     keep = [0] if len(pose) else []
     for i in range(1, len(pose)):

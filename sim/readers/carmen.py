@@ -1,4 +1,4 @@
-"""Read 2-D laser logs in the Carmen format (``FLASER`` and ``ROBOTLASER1`` lines).
+r"""Read 2-D laser logs in the Carmen format (``FLASER`` and ``ROBOTLASER1`` lines).
 
 Carmen logs are text, one message per line, optionally gzip-compressed; public laser datasets
 (e.g. Radish) come in it. Two messages carry a scan with its pose:
@@ -20,9 +20,9 @@ the whole read with a ``CarmenError`` naming the file and the line, so nothing i
 Values no robot records are refused with the bound they break (`common.bounds`: positions
 within 10^6 m, finite ranges within 10^4 m, beam geometry within a full turn); readings above the
 sensor's maximum range are kept as no-returns (Carmen logs e.g. 81.91 m for a beam without a
-return of a laser whose range is 50 m). Lines are the file's ``\\n``-separated lines, so the
+return of a laser whose range is 50 m). Lines are the file's ``\n``-separated lines, so the
 line numbers are those of ``sed -n`` and editors, whatever other control characters (a lone
-``\\r`` included) a line holds.
+``\r`` included) a line holds.
 
 The log must be a regular file (or a link to one): a named pipe, a device or a folder is refused
 before it is opened for reading, since reading it could block or never end. At most
@@ -72,7 +72,7 @@ class CarmenError(ValueError):
 
 @dataclass(frozen=True)
 class CarmenLog:
-    """The scans of a Carmen log with their poses.
+    r"""The scans of a Carmen log with their poses.
 
     Attributes
     ----------
@@ -108,8 +108,8 @@ class CarmenLog:
     >>> from pathlib import Path
     >>> from sim.readers import read_carmen
     >>> _ = Path("two-scans.log").write_text(
-    ...     "FLASER 3 1.0 2.0 80.0 0.0 0.0 0.0 0.0 0.0 0.0 1.0 host 1.0\\n"
-    ...     "FLASER 3 1.5 2.5 80.0 0.5 0.0 0.1 0.5 0.0 0.1 2.0 host 2.0\\n")
+    ...     "FLASER 3 1.0 2.0 80.0 0.0 0.0 0.0 0.0 0.0 0.0 1.0 host 1.0\n"
+    ...     "FLASER 3 1.5 2.5 80.0 0.5 0.0 0.1 0.5 0.0 0.1 2.0 host 2.0\n")
     >>> log = read_carmen("two-scans.log")
     >>> len(log), log.message, log.max_range, log.poses[1].tolist()
     (2, 'FLASER', 80.0, [0.5, 0.0, 0.1])
@@ -131,6 +131,7 @@ class CarmenLog:
     line_numbers: np.ndarray
 
     def __len__(self) -> int:
+        """Return the number of scans."""
         return int(self.ranges.shape[0])
 
 
@@ -196,7 +197,7 @@ def _count(path: Path, line_no: int, fields: list[str], at: int, what: str) -> i
 
 
 def _beam_count(path: Path, line_no: int, fields: list[str], at: int, message: str) -> int:
-    """The range count at ``fields[at]``, at least 1: a scan without beams is refused."""
+    """Read the range count at ``fields[at]``, at least 1: a scan without beams is refused."""
     n = _count(path, line_no, fields, at, "range")
     if n < 1:
         raise CarmenError(f"{path}, line {line_no}: {message} with {n} ranges; need at least 1")
@@ -232,9 +233,10 @@ def _checked(path: Path, line_no: int, scan: dict) -> dict:
 
 
 def _check_geometry(path: Path, line_no: int, n: int, head: np.ndarray) -> None:
-    """A ``ROBOTLASER1`` header: start angle within a full turn, angular resolution in (0,
-    2 pi] (0 allowed for one beam), field of view in (0, 2 pi] (0 allowed for one beam) and
-    maximum range in (0, MAX_RANGE].
+    """Check a ``ROBOTLASER1`` header's beam geometry and maximum range.
+
+    Start angle within a full turn, angular resolution in (0, 2 pi] (0 allowed for one beam),
+    field of view in (0, 2 pi] (0 allowed for one beam) and maximum range in (0, MAX_RANGE].
     """
     start, fov, resolution, max_range = (float(v) for v in head[1:5])
     if n > 1 and resolution == 0:

@@ -48,18 +48,52 @@ class RosbagImportError(ValueError):
 
 
 def stamp_ns(msg) -> int:
-    """The header stamp in nanoseconds."""
+    """Return a message's header stamp in nanoseconds.
+
+    Parameters
+    ----------
+    msg : object
+        A ROS message with a ``header``.
+
+    Returns
+    -------
+    int
+        The stamp, ns.
+    """
     return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
 
 
 def yaw_of(q) -> float:
-    """Rotation about z (rad) of a quaternion."""
+    """Return the rotation about z (rad) of a quaternion.
+
+    Parameters
+    ----------
+    q : object
+        A quaternion with ``x``, ``y``, ``z``, ``w``.
+
+    Returns
+    -------
+    float
+        The yaw, rad, in ``[-pi, pi]``.
+    """
     return float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
 
 
 def odometry_values(msg, where: str) -> tuple[float, float, float, float, float]:
-    """(x, y, yaw, v, omega) of an odometry message; ``where`` (bag, topic, message index)
-    names it in the error if a value, or the orientation quaternion, is not finite.
+    """Read (x, y, yaw, v, omega) of an odometry message, checked.
+
+    Parameters
+    ----------
+    msg : object
+        A ``nav_msgs/Odometry`` message.
+    where : str
+        The bag, topic and message index, naming the message in the error if a value, or the
+        orientation quaternion, is not finite or out of `common.bounds`.
+
+    Returns
+    -------
+    tuple of float
+        ``(x, y, yaw, v, omega)`` in m, rad, m/s and rad/s.
     """
     p, t = msg.pose.pose, msg.twist.twist
     q = p.orientation
@@ -84,7 +118,20 @@ def odometry_values(msg, where: str) -> tuple[float, float, float, float, float]
 
 
 def scan_geometry(msg, where: str) -> tuple[int, float, float, float, float]:
-    """(beams, angle_min, angle_increment, range_max, angle_max), checked."""
+    """Read the beam layout of a laser scan message, checked.
+
+    Parameters
+    ----------
+    msg : object
+        A ``sensor_msgs/LaserScan`` message.
+    where : str
+        The bag, topic and message index, for the error.
+
+    Returns
+    -------
+    tuple
+        ``(beams, angle_min, angle_increment, range_max, angle_max)``.
+    """
     n, inc = len(msg.ranges), float(msg.angle_increment)
     if n == 0 or not np.isfinite(inc) or inc == 0:
         raise RosbagImportError(f"{where}: {n} ranges with angle_increment {inc}")
@@ -113,7 +160,18 @@ def scan_geometry(msg, where: str) -> tuple[int, float, float, float, float]:
 
 
 def scan_ranges(msg) -> np.ndarray:
-    """Ranges (float32); not finite, below ``range_min`` or at or beyond ``range_max``: inf."""
+    """Return a scan's ranges; not finite, below ``range_min`` or at or beyond ``range_max``: inf.
+
+    Parameters
+    ----------
+    msg : object
+        A ``sensor_msgs/LaserScan`` message.
+
+    Returns
+    -------
+    ndarray of shape (beams,), float32
+        The ranges, m.
+    """
     r = np.asarray(msg.ranges, dtype=np.float32).copy()
     ok = np.isfinite(r) & (r >= msg.range_min) & (r < msg.range_max)
     r[~ok] = np.inf
@@ -121,7 +179,22 @@ def scan_ranges(msg) -> np.ndarray:
 
 
 def decode_image(msg, msgtype: str, where: str) -> np.ndarray:
-    """An ``Image`` or ``CompressedImage`` message as an RGB uint8 array (H, W, 3)."""
+    """Decode an ``Image`` or ``CompressedImage`` message as an RGB uint8 array (H, W, 3).
+
+    Parameters
+    ----------
+    msg : object
+        The message.
+    msgtype : str
+        Its type; one ending in ``CompressedImage`` is decoded by OpenCV.
+    where : str
+        The bag, topic and message index, for the error.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 3), uint8
+        The RGB image.
+    """
     import cv2
 
     data = np.asarray(msg.data, dtype=np.uint8)
@@ -166,8 +239,19 @@ _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0
 
 
 def compressed_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) that a PNG's IHDR or a JPEG's start-of-frame states, read from the
-    header without decoding; None for another format or a header too short to say.
+    """Read the (width, height) that a PNG's IHDR or a JPEG's start-of-frame states.
+
+    Read from the header without decoding.
+
+    Parameters
+    ----------
+    data : bytes
+        The compressed image.
+
+    Returns
+    -------
+    tuple of (int, int) or None
+        ``(width, height)``; None for another format or a header too short to say.
     """
     if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24 and data[12:16] == b"IHDR":
         return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
@@ -184,9 +268,22 @@ def compressed_size(data: bytes) -> tuple[int, int] | None:
 
 
 def nesting_problem(fielddefs: dict, msgtype: str) -> str | None:
-    """What is wrong with the definition of ``msgtype`` in a typestore's ``fielddefs``, or
-    None: a type that refers to itself, or types nested deeper than
-    `MAX_MESSAGE_NESTING`. Walked without recursion past the cap.
+    """Say what is wrong with the definition of ``msgtype`` in a typestore's ``fielddefs``.
+
+    A type that refers to itself, or types nested deeper than `MAX_MESSAGE_NESTING`. Walked
+    without recursion past the cap.
+
+    Parameters
+    ----------
+    fielddefs : dict
+        The typestore's definitions by type name.
+    msgtype : str
+        The message type to check.
+
+    Returns
+    -------
+    str or None
+        The problem, or None.
     """
     depth: dict[str, int] = {}
 
@@ -216,8 +313,9 @@ class _Nesting(Exception):
 
 
 def _named(definition) -> list[str]:
-    """The message types the fields of ``definition`` (``(constants, fields)``) name, inside
-    arrays and sequences too.
+    """List the message types the fields of ``definition`` (``(constants, fields)``) name.
+
+    Inside arrays and sequences too.
     """
     out = []
     for _, desc in definition[1] if definition else ():
@@ -229,12 +327,40 @@ def _named(definition) -> list[str]:
 
 
 class Stream:
-    """One topic's stamps (checked to increase) and per-message values."""
+    """One topic's stamps (checked to increase) and per-message values.
+
+    Parameters
+    ----------
+    bag : Path
+        The bag, for the errors.
+    topic : str
+        The topic, for the errors.
+
+    Attributes
+    ----------
+    where : str
+        The bag's name and the topic.
+    stamps : list of int
+        The messages' stamps, ns, increasing.
+    values : list
+        The messages' values.
+    """
 
     def __init__(self, bag: Path, topic: str):
         self.where, self.stamps, self.values = f"{bag.name}: {topic}", [], []
 
     def add(self, index: int, stamp: int, value) -> None:
+        """Append a message; a stamp not after the previous one raises `RosbagImportError`.
+
+        Parameters
+        ----------
+        index : int
+            The message's index in the topic, for the error.
+        stamp : int
+            Its stamp, ns.
+        value : object
+            Its value.
+        """
         if self.stamps and stamp == self.stamps[-1]:
             raise RosbagImportError(
                 f"{self.where} message {index}: the same stamp {stamp / 1e9:.9f} s as the "
@@ -253,9 +379,15 @@ class Stream:
 
 
 def damage_errors() -> tuple[type[BaseException], ...]:
-    """What rosbags and the libraries under it raise on a damaged bag: its readers' own
-    errors, SQLite's (ROS 2 ``.db3``), and the plain errors of a truncated record, a corrupt
-    index or a message definition whose type names are damaged.
+    """List what rosbags and the libraries under it raise on a damaged bag.
+
+    Its readers' own errors, SQLite's (ROS 2 ``.db3``), and the plain errors of a truncated
+    record, a corrupt index or a message definition whose type names are damaged.
+
+    Returns
+    -------
+    tuple of type
+        The exception classes.
     """
     import sqlite3
     import struct
@@ -278,9 +410,15 @@ def damage_errors() -> tuple[type[BaseException], ...]:
 
 
 def check_bag_path(bag: Path) -> None:
-    """Refuse a path that is no bag: missing, a named pipe or a device (or a directory
-    holding one), or a directory without a ROS 2 bag's ``metadata.yaml`` (an empty directory,
-    say).
+    """Refuse a path that is no bag with a `RosbagImportError`.
+
+    No bag: missing, a named pipe or a device (or a directory holding one), or a directory
+    without a ROS 2 bag's ``metadata.yaml`` (an empty directory, say).
+
+    Parameters
+    ----------
+    bag : Path
+        The ROS 1 ``.bag`` file or ROS 2 bag directory.
     """
     if not bag.exists():
         raise RosbagImportError(f"{bag}: no such bag (a ROS 1 .bag file or a ROS 2 bag directory)")
@@ -312,7 +450,26 @@ def check_bag_path(bag: Path) -> None:
 
 
 def read_images(reader, conns, image_index: np.ndarray, bag: Path, settings) -> np.ndarray:
-    """Decode the images the frames use (a second pass over the image topic only)."""
+    """Decode the images the frames use (a second pass over the image topic only).
+
+    Parameters
+    ----------
+    reader : rosbags.highlevel.AnyReader
+        The open bag.
+    conns : list
+        The image topic's connections.
+    image_index : ndarray of int
+        Each frame's image, an index into the image topic.
+    bag : Path
+        The bag, for the errors.
+    settings : ImportSettings
+        The import's settings (its ``image_topic``).
+
+    Returns
+    -------
+    ndarray of shape (n, H, W, 3), uint8
+        The frames' images.
+    """
     needed = set(image_index.tolist())
     decoded, shape = {}, None
     for i, (conn, _, raw) in enumerate(reader.messages(connections=conns)):

@@ -65,7 +65,7 @@ __all__ = ["ImportSettings", "import_rosbags", "read_bag"]
 
 
 def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
-    """The connection of each stream, checked for the expected message type."""
+    """Return the connections of each stream, checked for the expected message type."""
     topics = reader.topics
     out = {}
     for key, topic, types, flag in (
@@ -89,9 +89,23 @@ def _connections(reader, bag: Path, settings: ImportSettings) -> dict:
 
 
 def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = True) -> dict:
-    """One bag's aligned frames: the arrays of one dataset sequence (see the module
-    docstring), plus ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans, or images
-    without a laser, left out, by reason).
+    """Read one bag's aligned frames.
+
+    Parameters
+    ----------
+    bag : path-like
+        The ROS 1 ``.bag`` file or ROS 2 bag folder.
+    settings : ImportSettings
+        The topics and alignment.
+    progress : bool, default True
+        Show a progress bar.
+
+    Returns
+    -------
+    dict
+        The arrays of one dataset sequence (see the module docstring), plus
+        ``start_stamp_ns``, ``range_max`` and ``dropped`` (scans, or images without a laser,
+        left out, by reason).
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
@@ -179,7 +193,7 @@ def read_bag(bag: str | os.PathLike, settings: ImportSettings, progress: bool = 
 
 
 def _laser_arrays(scans: Stream, index: np.ndarray, geometry: tuple):
-    """The frames' ranges (float32), the beams' angles (float32) and the laser's range_max."""
+    """Return the frames' ranges (float32), the beams' angles (float32) and the range_max."""
     n_beams, angle_min, inc, range_max, angle_max = geometry
     if abs((angle_max - angle_min) / inc + 1 - n_beams) < 0.5:  # both ends: float32 inc drifts
         angles = np.linspace(angle_min, angle_max, n_beams)
@@ -203,10 +217,28 @@ def import_rosbags(
     overwrite: bool = False,
     progress: bool = True,
 ) -> Path:
-    """Import ``bags`` (drives through one place) as a dataset in ``out``; returns ``out``.
+    """Import ``bags`` (drives through one place) as a dataset in ``out``; return ``out``.
 
     ``out`` must not hold anything yet (an existing dataset is replaced with ``overwrite``).
     The dataset is written to a temporary directory beside it and renamed when complete.
+
+    Parameters
+    ----------
+    bags : sequence of path-like
+        The bags, one sequence each, all of one robot setup.
+    out : path-like
+        The dataset's folder.
+    settings : ImportSettings
+        The topics and alignment.
+    overwrite : bool, default False
+        Replace a dataset already in ``out``.
+    progress : bool, default True
+        Show a progress bar.
+
+    Returns
+    -------
+    Path
+        ``out``.
     """
     out = Path(out)
     if not bags:
@@ -264,7 +296,7 @@ def import_rosbags(
 
 
 def _setup(arrays: dict) -> tuple[str, tuple | None]:
-    """The laser's beams (in words) and the images' shape (None: no camera) of a bag."""
+    """Describe a bag's laser beams (in words) and its images' shape (None: no camera)."""
     beams = "no laser" if arrays["angles"] is None else f"{len(arrays['angles'])} beams"
     return beams, None if arrays["images"] is None else arrays["images"].shape[1:]
 

@@ -1,6 +1,7 @@
-"""Wrappers of the envs for reinforcement learning: observations as one ``Box``
-(``observations``): the camera image alone, resized and grayscale if asked; the laser scan
-alone; a small float32 vector of the scan and the odometry.
+"""Wrappers of the envs for reinforcement learning: observations as one ``Box``.
+
+The wrappers (``observations``) give the camera image alone, resized and grayscale if asked;
+the laser scan alone; a small float32 vector of the scan and the odometry.
 """
 
 from common.lazy import lazy_exports

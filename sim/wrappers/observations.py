@@ -31,7 +31,7 @@ IMAGE_KEYS = ("image", "target_image")
 
 
 def _dict_space(env: gym.Env, wrapper: str, keys: tuple[str, ...]) -> spaces.Dict:
-    """The env's ``Dict`` observation space, checked to hold ``keys``."""
+    """Return the env's ``Dict`` observation space, checked to hold ``keys``."""
     space = env.observation_space
     if not isinstance(space, spaces.Dict):
         raise TypeError(
@@ -57,8 +57,9 @@ def _max_range(space: spaces.Dict, key: str, wrapper: str) -> float:
 
 
 def _beam_groups(total: int, beams) -> np.ndarray | None:
-    """The first beam of each of ``beams`` contiguous groups of ``total`` beams; None keeps
-    every beam.
+    """Return the first beam of each of ``beams`` contiguous groups of ``total`` beams.
+
+    None keeps every beam.
     """
     if beams is None:
         return None
@@ -69,7 +70,7 @@ def _beam_groups(total: int, beams) -> np.ndarray | None:
 
 
 def _reduce(ranges: np.ndarray, starts: np.ndarray | None) -> np.ndarray:
-    """The nearest range of each group of beams (a wall seen by any beam of it stays seen)."""
+    """Return the nearest range of each group of beams (a wall seen by any beam stays seen)."""
     return ranges if starts is None else np.minimum.reduceat(ranges, starts)
 
 
@@ -142,7 +143,18 @@ class ImageObservation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
         return image
 
     def observation(self, observation: dict) -> np.ndarray:
-        """The images of ``keys``, each resized and converted, side by side."""
+        """Put the images of ``keys``, each resized and converted, side by side.
+
+        Parameters
+        ----------
+        observation : dict of str to ndarray
+            The env's observation.
+
+        Returns
+        -------
+        ndarray of shape (height, width * len(keys), channels), uint8
+            The images.
+        """
         images = [self._one(observation[k]) for k in self.keys]
         return np.ascontiguousarray(np.concatenate(images, axis=1), dtype=np.uint8)
 
@@ -196,7 +208,18 @@ class ScanObservation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
         self.observation_space = spaces.Box(0.0, high, (self.beams,), np.float32)
 
     def observation(self, observation: dict) -> np.ndarray:
-        """The (reduced) ranges."""
+        """Return the (reduced) ranges.
+
+        Parameters
+        ----------
+        observation : dict of str to ndarray
+            The env's observation.
+
+        Returns
+        -------
+        ndarray of shape (beams,), float32
+            The ranges, m.
+        """
         return _reduce(np.asarray(observation["scan"], np.float32), self._starts)
 
 
@@ -265,12 +288,44 @@ class ScanOdometryObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         return np.concatenate(parts).astype(np.float32)
 
     def reset(self, *, seed=None, options=None):
-        """The env's reset; the odometry counts from here."""
+        """Reset the env; the odometry counts from here.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Passed to the env's reset.
+        options : dict, optional
+            Passed to the env's reset.
+
+        Returns
+        -------
+        observation : ndarray, float32
+            The vector.
+        info : dict
+            The env's info.
+        """
         observation, info = self.env.reset(seed=seed, options=options)
         self._start = np.asarray(info["odometry"], np.float64).copy()
         return self._vector(observation, info), info
 
     def step(self, action):
-        """The env's step, its observation as the vector."""
+        """Step the env; return its five-tuple with the observation as the vector.
+
+        Parameters
+        ----------
+        action : array-like
+            Passed to the env's step.
+
+        Returns
+        -------
+        observation : ndarray, float32
+            The vector.
+        reward : float
+            The env's reward.
+        terminated, truncated : bool
+            The env's flags.
+        info : dict
+            The env's info.
+        """
         observation, reward, terminated, truncated, info = self.env.step(action)
         return self._vector(observation, info), reward, terminated, truncated, info
