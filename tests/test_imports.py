@@ -23,6 +23,9 @@ INSTALLED = LAYERS[:6]
 REACH_IN = ("tests", "experiments")
 CONTROLLERS = ("servo.laser_image", "servo.camera_only")
 MAX_MODULES = 15  # modules directly in one folder of the installed packages
+# lines of code and comments in one module of the installed packages; docstrings do not count,
+# so that numpydoc's Parameters and Returns sections never push code out of its module
+MAX_CODE_LINES = 400
 
 
 def _module_name(path: Path) -> str:
@@ -215,6 +218,32 @@ def test_no_folder_of_the_installed_packages_holds_too_many_modules():
         if (n := len(list(folder.glob("*.py")))) > MAX_MODULES
     }
     assert not crowded, f"more than {MAX_MODULES} modules in one folder: {crowded}"
+
+
+def code_lines(source: str) -> int:
+    """Count the lines of ``source`` outside its docstrings (module, class and function)."""
+    docstrings = set()
+    for node in ast.walk(ast.parse(source)):
+        kinds = (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)
+        if isinstance(node, kinds) and node.body and ast.get_docstring(node, clean=False):
+            first = node.body[0]
+            docstrings.update(range(first.lineno, first.end_lineno + 1))
+    return source.count("\n") - len(docstrings)
+
+
+def test_no_module_of_the_installed_packages_is_too_long(mods):
+    long = {
+        name: n
+        for name, path in mods.items()
+        if name.split(".")[0] in INSTALLED and (n := code_lines(path.read_text())) > MAX_CODE_LINES
+    }
+    assert not long, f"more than {MAX_CODE_LINES} lines of code in a module: {long}"
+
+
+def test_the_length_check_leaves_docstrings_out():
+    body = "    x = 1\n" * 3
+    source = f'"""Module."""\n\n\ndef f():\n    """Do.\n\n    More.\n    """\n{body}'
+    assert code_lines(source) == 2 + 1 + 3
 
 
 def test_no_face_exports_a_name_that_is_also_a_submodule(mods):
