@@ -3,7 +3,6 @@ returns in numpydoc sections, checked by numpydoc's own validator; the docstring
 ruff's D rules under the numpy convention (pyproject.toml), run by the test command."""
 
 import inspect
-from pathlib import Path
 
 import pytest
 from numpydoc.validate import validate
@@ -35,7 +34,10 @@ def members(path: str) -> list[str]:
             name
             for name, value in vars(obj).items()
             if not name.startswith("_")
-            and (inspect.isfunction(value) or isinstance(value, (property, classmethod, staticmethod)))
+            and (
+                inspect.isfunction(value)
+                or isinstance(value, (property, classmethod, staticmethod))
+            )
         ]
         return [path] + [f"{path}.{name}" for name in own]
     return [path]

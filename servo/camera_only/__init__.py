@@ -8,11 +8,9 @@ it uses:
 * ``view_pose`` -- the camera's metric pose against a stored view (keypoints at the view's
   depths, PnP); ``metric_pose_fixes`` -- such poses taken along the route;
 * ``turn_global_fix`` -- the global position fix of an observing turn, checked across the turn;
-* ``junction_pose`` -- the local position fix where a route turns at a junction;
 * ``rear_view_heading`` -- the heading fix from views behind a robot driving a route turned
   round;
-* ``peak_arrival`` and ``image_descent_arrival`` -- the arrival at the target view, at the peak
-  of F toward it or by descending the image distance to it.
+* ``peak_arrival`` -- the arrival at the target view, at the peak of F toward it.
 """
 
 from common.lazy import lazy_exports

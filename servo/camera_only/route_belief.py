@@ -142,17 +142,12 @@ class RouteBelief:
             raise ValueError(f"gain and parallax must be > 0, got {heading_gain}, {parallax}")
         return heading_gain, (heading_gain + 2.0 * np.sqrt(heading_gain * parallax)) / parallax
 
-    def bumped(self, direction: int, metres: float, parallax: float = 0.0) -> None:
+    def bumped(self, direction: int, metres: float) -> None:
         """A wall stopped the robot driving ``direction`` (+1 forward, -1 reversing): the
         robot is nearer that wall than believed. Where it was moving across the route (its
         direction of travel more than ~3 deg off the route's), the wall lies on that side,
         so the belief moves ``metres`` that way across the route; the pursuit then steers
         away from it. Head-on (along the route) nothing is learnt across.
-
-        With ``parallax`` c > 0 the heading turns by -c times the shift as well, so that
-        theta + c y, what the image's shift measures (`fix_reversing`), stays as it
-        was: the shift moves the belief along what the image cannot tell apart, and the
-        next image fixes do not undo it.
         """
         a = self.path.point(max(self.s - 0.25, 0.0))
         b = self.path.point(min(self.s + 0.25, self.path.length))
@@ -164,10 +159,7 @@ class RouteBelief:
         if abs(across) < 0.05:
             return
         left = left_of(route)
-        shift = float(np.sign(across)) * metres
-        self.pose[:2] += shift * left
-        if parallax:
-            self.pose[2] = wrap_angle(self.pose[2] - parallax * shift)
+        self.pose[:2] += float(np.sign(across)) * metres * left
         self.s = self.path.project(self.pose[:2], self.s, self.window)
 
     def shift_along(self, metres: float) -> None:
