@@ -45,8 +45,35 @@ REMOVED = (
 )
 
 
+class _RefusesRemoved:
+    """Refuse a setting in ``REMOVED`` by name before the dataclass's ``__init__`` runs (a base
+    class, so that the signature shown stays ``__init__``'s).
+    """
+
+    def __new__(cls, *args, **kwargs):
+        """Make the object, refusing a removed setting among ``kwargs``.
+
+        Parameters
+        ----------
+        *args, **kwargs
+            The arguments of the construction (checked here, used by ``__init__``).
+
+        Returns
+        -------
+        SignalServoConfig
+            The object, not yet initialised.
+        """
+        gone = [name for name in kwargs if name in REMOVED]
+        if gone:
+            raise TypeError(
+                f"{cls.__name__}: {gone[0]} was removed (an option, off by default, that lost "
+                "its comparison: docs/decisions/076-camera-only-switches-that-lost.md)"
+            )
+        return super().__new__(cls)
+
+
 @dataclass(frozen=True)
-class SignalServoConfig:
+class SignalServoConfig(_RefusesRemoved):
     """Every setting of [`SignalServo`][servo.camera_only.controller.SignalServo], checked when
     made.
 
@@ -264,15 +291,6 @@ class SignalServoConfig:
     fix_check: int = 8
     look_back: float = 10.0
     look_steps: int = 6
-
-    def __new__(cls, *args, **kwargs):
-        gone = [name for name in kwargs if name in REMOVED]
-        if gone:
-            raise TypeError(
-                f"SignalServoConfig: {gone[0]} was removed (an option, off by default, that lost "
-                "its comparison: docs/decisions/076-camera-only-switches-that-lost.md)"
-            )
-        return super().__new__(cls)
 
     def __post_init__(self):
         for f in fields(self):
