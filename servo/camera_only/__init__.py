@@ -1,6 +1,7 @@
-"""The camera-only controller, [`SignalServo`][servo.camera_only.controller.SignalServo], which
-servoes by maximising F^j(k) toward the target view (Grudic & Mulligan, Section II-G), and what only
-it uses:
+"""The camera-only controller and what only it uses.
+
+[`SignalServo`][servo.camera_only.controller.SignalServo] servoes by maximising F^j(k) toward
+the target view (Grudic & Mulligan, Section II-G). Its modules:
 
 * ``controller`` and ``config`` -- the controller and its settings;
 * ``route_belief`` -- the robot's pose on its route, from odometry and image fixes;

@@ -1,6 +1,7 @@
-"""``SignalServoConfig``: every setting of
-[`SignalServo`][servo.camera_only.controller.SignalServo], in one frozen dataclass validated on
-construction.
+"""``SignalServoConfig``: every setting of the camera-only controller.
+
+The settings of [`SignalServo`][servo.camera_only.controller.SignalServo], in one frozen
+dataclass validated on construction.
 """
 
 from __future__ import annotations
@@ -46,8 +47,9 @@ REMOVED = (
 
 
 class _RefusesRemoved:
-    """Refuse a setting in ``REMOVED`` by name before the dataclass's ``__init__`` runs (a base
-    class, so that the signature shown stays ``__init__``'s).
+    """Refuse a setting in ``REMOVED`` by name before the dataclass's ``__init__`` runs.
+
+    A base class, so that the signature shown stays ``__init__``'s.
     """
 
     def __new__(cls, *args, **kwargs):
@@ -74,15 +76,15 @@ class _RefusesRemoved:
 
 @dataclass(frozen=True)
 class SignalServoConfig(_RefusesRemoved):
-    """Every setting of [`SignalServo`][servo.camera_only.controller.SignalServo], checked when
-    made.
+    """Every setting of [`SignalServo`][servo.camera_only.controller.SignalServo].
 
-    A frozen dataclass: change a setting with `dataclasses.replace`. The defaults are the
-    settings the servo evaluation measures (chosen on the ``dev`` split of the benchmark protocol
-    only, so the ``test`` split stays unseen). Gains and shares lie in (0, 1]; a setting marked
-    "0: off" may be 0, every other number must be positive; a wrong value raises ``ValueError``
-    naming the field. A setting that was removed (``REMOVED``: options, off by default, that
-    lost their comparison; decision record 076) raises ``TypeError`` naming it.
+    A frozen dataclass, checked when made: change a setting with `dataclasses.replace`. The
+    defaults are the settings the servo evaluation measures (chosen on the ``dev`` split of the
+    benchmark protocol only, so the ``test`` split stays unseen). Gains and shares lie in (0,
+    1]; a setting marked "0: off" may be 0, every other number must be positive; a wrong value
+    raises ``ValueError`` naming the field. A setting that was removed (``REMOVED``: options,
+    off by default, that lost their comparison; decision record 076) raises ``TypeError`` naming
+    it.
 
     Parameters
     ----------
@@ -293,6 +295,7 @@ class SignalServoConfig(_RefusesRemoved):
     look_steps: int = 6
 
     def __post_init__(self):
+        """Check every setting (see the class doc); a wrong one raises ``ValueError``."""
         for f in fields(self):
             v = getattr(self, f.name)
             if f.type == "bool":

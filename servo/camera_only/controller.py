@@ -177,7 +177,15 @@ class SignalServo:
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
-        """Start an episode toward stored view ``target`` (``info`` is ignored)."""
+        """Start an episode toward stored view ``target``.
+
+        Parameters
+        ----------
+        target : int
+            The stored view to servo to; not a view of the map raises ``MapError``.
+        info : dict, optional
+            Ignored (the controller never reads the simulator's truth).
+        """
         self.target = self.map.check_view(target, "target")
         self.done_ = False
         self.route_: list[int] = []
@@ -208,7 +216,20 @@ class SignalServo:
         return self.localiser.features(observation["image"]), odo
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
-        """The command (v, omega) for this observation (``info`` is ignored)."""
+        """Return the command for this observation.
+
+        Parameters
+        ----------
+        observation : dict
+            The camera ``image`` (H, W, 3) and the ``odometry`` pose (x, y, yaw).
+        info : dict, optional
+            Ignored (the controller never reads the simulator's truth).
+
+        Returns
+        -------
+        numpy.ndarray
+            The command (v, omega), float32.
+        """
         # One BLAS thread: the products here are small (an image against a few views, one
         # projection per cluster) and on a busy machine spinning BLAS threads made a step
         # 15x slower (sq. distances to a cluster: 0.4 ms -> 16 ms).
@@ -294,8 +315,9 @@ class SignalServo:
         self.phase_ = "follow"
 
     def _image_fix(self, x: np.ndarray) -> None:
-        """Correct the belief by the image; count the steps no route view matched
-        (`fix`).
+        """Correct the belief by the image.
+
+        Also count the steps no route view matched (`fix`).
         """
         fixed = self.fixes.fix(
             self.belief_,
@@ -311,8 +333,10 @@ class SignalServo:
             self._lost = 0 if fixed else self._lost + 1
 
     def _advance(self, x: np.ndarray) -> None:
-        """Next waypoint when F toward it overtakes F toward the current one (then the robot
-        is past the current one), or when the belief has passed the current one.
+        """Move on to the next waypoint where the robot is past the current one.
+
+        That is when F toward the next overtakes F toward the current one, or when the belief
+        has passed the current one.
         """
         t, b = self.tracker, self.belief_
         arc = b.path.arc[self._wp_index]
@@ -372,10 +396,11 @@ class SignalServo:
         return self._arrive(x)
 
     def _drive(self, goal: np.ndarray) -> np.ndarray:
-        """Pure pursuit toward ``goal`` (robot frame): forward, or in reverse where the route
-        drives its recording backwards (``WaypointTracker.directions`` < 0) on a map that
-        reverses, so the camera keeps facing the way the stored views look and image fixes
-        stay available (`pursue_route`).
+        """Pursue ``goal`` (robot frame), forward or in reverse.
+
+        In reverse where the route drives its recording backwards
+        (``WaypointTracker.directions`` < 0) on a map that reverses, so the camera keeps facing
+        the way the stored views look and image fixes stay available (`pursue_route`).
         """
         c, t = self.config, self.tracker
         reverse = self.reverses and not t.directions[t.index] > 0

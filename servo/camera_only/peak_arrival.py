@@ -1,5 +1,7 @@
-"""Arrive at a stored view at the peak of F^j(k) toward it (Section II-G: F toward a view is
-largest at the view), for [`SignalServo`][servo.camera_only.controller.SignalServo].
+"""Arrive at a stored view at the peak of F^j(k) toward it.
+
+Section II-G: F toward a view is largest at the view. The arrival of
+[`SignalServo`][servo.camera_only.controller.SignalServo].
 
 `PeakArrival` works on the robot's belief in the route frame
 (`RouteBelief`) and corrects it by where F peaks:
@@ -28,9 +30,10 @@ from servo.steering import Arrival
 
 
 def line_drive(goal: np.ndarray) -> np.ndarray:
-    """(v, omega) toward ``goal`` (x, y, yaw in the robot frame) forward or backward along
-    the robot's heading, never turning away from the goal's heading (the camera keeps
-    facing the way the target view looks).
+    """Return (v, omega) toward ``goal`` along the robot's heading.
+
+    ``goal`` is (x, y, yaw) in the robot frame; the robot drives forward or backward and never
+    turns away from the goal's heading (the camera keeps facing the way the target view looks).
     """
     v = float(np.clip(1.2 * goal[0], -0.45, 0.6))
     v = float(np.sign(goal[0])) * max(abs(v), 0.2)
@@ -60,6 +63,7 @@ class PeakArrival:
 
     @property
     def done(self) -> bool:
+        """Whether the robot has arrived (``stage`` "done")."""
         return self.stage == "done"
 
     def step(
@@ -68,7 +72,22 @@ class PeakArrival:
         target: np.ndarray,
         signal: Callable[[], float],
     ) -> np.ndarray:
-        """The command for this step."""
+        """Return the command for this step.
+
+        Parameters
+        ----------
+        belief : RouteBelief
+            The robot's pose on the route; moved where F's peak places the view.
+        target : numpy.ndarray
+            The target view's pose (x, y, yaw) in the route frame.
+        signal : callable
+            Returns F toward the target for the current image; called only when needed.
+
+        Returns
+        -------
+        numpy.ndarray
+            The command (v, omega).
+        """
         c, b = self.config, belief
         u = np.array([np.cos(target[2]), np.sin(target[2])])
         left = np.array([-u[1], u[0]])
@@ -109,8 +128,10 @@ class PeakArrival:
         return line_drive(se2_relative(b.pose, goal))
 
     def _leg_end(self, along: float) -> tuple[float, bool]:
-        """Where the sweep's current leg ends (m along the view's sight; each leg longer than
-        the last) and whether the robot, ``along`` m past the view, has reached it.
+        """Find where the sweep's current leg ends and whether the robot has reached it.
+
+        The end is in m along the view's sight (each leg longer than the last); the robot is
+        ``along`` m past the view.
         """
         end = self._leg * self.config.overshoot * (1.0 + 0.5 * self._legs)
         return end, (along - end) * self._leg > -0.1

@@ -1,5 +1,7 @@
-"""The global fix of [`SignalServo`][servo.camera_only.controller.SignalServo]'s observing turn,
-checked for consistency across the turn (against a wrong or loose fix).
+"""The global fix of the camera-only controller's observing turn.
+
+The turn is [`SignalServo`][servo.camera_only.controller.SignalServo]'s; its fix is checked
+across the turn (against a wrong or loose fix).
 
 Every few degrees of the turn the image is localised on its own (the best-aligned view of the
 clusters eq. 13 ranks first, `localise`), which gives a
@@ -27,8 +29,10 @@ from servo.localise import ImageLocaliser
 def contrast_fix(
     distances, yaws, headings, *, far: float = 0.6, verify=None, candidates: int = 0
 ) -> tuple[int, float]:
-    """The global fix from the whole observing turn: the stored view whose best match over
-    the turn stands out most against its matches from headings ``far`` rad or more away.
+    """Fix the robot's place from the whole observing turn.
+
+    The fix is the stored view whose best match over the turn stands out most against its
+    matches from headings ``far`` rad or more away.
 
     ``distances`` / ``yaws`` (S, N): every sample's aligned distance to every stored view and
     the heading error of the best shift (`align`);
@@ -56,9 +60,10 @@ def contrast_fix(
 def contrast_scores(
     distances, yaws, headings, *, far: float = 0.6
 ) -> tuple[np.ndarray, np.ndarray]:
-    """`contrast_fix`'s score of every stored view (smaller: its best match over the
-    turn stands out more) and the odometry heading that faces the way each looks; arguments
-    as there. Returns two (N,) arrays.
+    """Score every stored view as `contrast_fix` does.
+
+    Returns two (N,) arrays: each view's score (smaller: its best match over the turn stands
+    out more) and the odometry heading that faces the way each looks; arguments as there.
     """
     d = np.asarray(distances, np.float64)
     y = np.asarray(yaws, np.float64)
@@ -122,8 +127,9 @@ class TurnSamples:
             self.samples.append((d, view, float(odometry[2] + yaw)))
 
     def fix(self) -> tuple[int, float]:
-        """The global fix (view, odometry heading facing it): `contrast_fix`, or the best
-        match.
+        """Return the global fix: `contrast_fix`, or the best match.
+
+        The fix is a view and the odometry heading facing it.
         """
         c = self.config
         if c.contrast_fix:
