@@ -104,20 +104,15 @@ class ImageLocaliser:
         The map whose stored views are compared with.
     max_shift : int, default MAX_SHIFT
         Horizontal shifts tried, in feature-image pixels either way.
-    refine_shift : bool, default False
-        `align` places the best shift between the tried ones by a parabola through the
-        distances at it and its two neighbours (`refined_shift`); False: the best tried
-        shift (a step of 2 pixels is 0.025 rad).
     """
 
-    def __init__(self, servo_map: ServoMap, max_shift: int = MAX_SHIFT, refine_shift: bool = False):
+    def __init__(self, servo_map: ServoMap, max_shift: int = MAX_SHIFT):
         if not isinstance(servo_map, ServoMap):
             raise TypeError(f"servo_map must be a ServoMap, got {type(servo_map).__name__}")
         w, h = servo_map.settings.image_size
         if not 0 < int(max_shift) < w // 2:
             raise ValueError(f"max_shift must be in (0, {w // 2}) pixels, got {max_shift}")
         self.map, self.max_shift, self._wh = servo_map, int(max_shift), (w, h)
-        self.refine_shift = bool(refine_shift)
         self.radians_per_pixel = HFOV / w
         images = self._images(servo_map.features)
         self._views = self._crops(images, 0)
@@ -272,7 +267,7 @@ class ImageLocaliser:
         k = np.argmin(d, axis=1)  # the first of equal minima, as a running strict minimum
         best = d[np.arange(len(ref)), k]
         contrast = best / np.maximum(np.median(d, axis=1), 1e-12)
-        shift = shifts[k] + step * refined_shift(d, k) if self.refine_shift else shifts[k]
+        shift = shifts[k]
         # The scene of a view to the robot's left appears shifted left in the image (smaller
         # column), so the crop that matches starts left of centre: s < 0 means turn left.
         return best, -shift * self.radians_per_pixel, contrast
@@ -482,34 +477,3 @@ class ImageLocaliser:
             return 0.0
         y = np.asarray(ys)
         return float(max(y @ np.asarray(zs) / (y @ y), 0.0))
-
-
-def refined_shift(d: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """Return where between the tried shifts each row of ``d`` has its minimum.
-
-    The place is given in steps from the best tried one ``k``: the vertex of the parabola
-    through the distances at k - 1, k and k + 1, within half a step (0 at either end of the
-    search, or where the three do not bend upward). Sub-step shifts matter where a heading and
-    an offset are told apart by how the shift drifts as the robot moves (the reversing fix:
-    0.025 rad, one step, is 0.16 m across in the hallway).
-
-    Parameters
-    ----------
-    d : ndarray of shape (rows, shifts)
-        Distances at the tried shifts.
-    k : ndarray of int, shape (rows,)
-        Each row's best tried shift (column).
-
-    Returns
-    -------
-    ndarray of shape (rows,)
-        Offsets from ``k`` in steps, in [-0.5, 0.5].
-    """
-    rows = np.arange(len(d))
-    inner = (k > 0) & (k < d.shape[1] - 1)
-    lo, hi = np.clip(k - 1, 0, d.shape[1] - 1), np.clip(k + 1, 0, d.shape[1] - 1)
-    left, mid, right = d[rows, lo], d[rows, k], d[rows, hi]
-    bend = left - 2.0 * mid + right
-    ok = inner & (bend > 1e-12)
-    vertex = np.where(ok, 0.5 * (left - right) / np.where(ok, bend, 1.0), 0.0)
-    return np.clip(vertex, -0.5, 0.5)

@@ -1,5 +1,6 @@
-"""Dev measurement behind ``SignalServoConfig.arrive_descent``: how the
-image's distance to a stored view, and F^j(k) toward it, vary around the view.
+"""Dev measurement behind the image-distance arrival (``arrive_descent``, measured in decision
+record 059 and removed, 076): how the image's distance to a stored view, and F^j(k) toward
+it, vary around the view.
 
 For each view the world is rendered on a square grid of points about the view's true pose
 (``--radius`` m either way along and across its sight, ``--step`` m apart) facing the view's

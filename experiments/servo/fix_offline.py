@@ -5,6 +5,10 @@ true start to the fix view's true position. Truth is used here for scoring only.
 
     python -m experiments.servo.fix_offline record --world lawn --episodes 24 --data D --maps M
     --out F.npz python -m experiments.servo.fix_offline score F.npz [F2.npz ...] --data D --maps M
+
+The ``consistent`` method (`consistent_fix`: the turn's best match checked against the turn's
+other images) lost to the contrast fix here and closed loop (docs/decisions/055 and 076);
+it lives here only.
 """
 
 from __future__ import annotations
@@ -12,8 +16,10 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from scipy.sparse.csgraph import dijkstra
 
 from common.fileio import atomic_path
+from common.geometry import se2_compose, wrap_angle
 
 _KEYS = ("world", "features", "odometry", "truth", "start", "target")
 
@@ -103,6 +109,82 @@ def load_recording(path) -> dict:
     return rec
 
 
+def neighbourhood(routes, view: int, radius: float) -> dict[int, np.ndarray]:
+    """The views within ``radius`` m of route-graph distance of ``view``, each with its pose
+    in ``view``'s frame (the graph's sensed transforms chained along shortest paths).
+    """
+    dist, pred = dijkstra(
+        routes.graph, indices=int(view), limit=float(radius), return_predecessors=True
+    )
+    poses = {int(view): np.zeros(3)}
+    for v in np.argsort(dist):  # parents before children: nearer first
+        v = int(v)
+        if not np.isfinite(dist[v]) or v in poses:
+            continue
+        p = int(pred[v])
+        poses[v] = se2_compose(poses[p], routes.transform[(p, v)])
+    return poses
+
+
+def consistent_fix(
+    samples,
+    routes,
+    *,
+    candidates: int = 6,
+    radius: float = 4.0,
+    tolerance: float = 0.35,
+    trust: float = 0.9,
+    share: float = 0.5,
+) -> tuple[int, float]:
+    """The fix (view, odometry heading facing the way it looks) from the turn's ``samples``
+    (aligned distance, view, odometry heading), each the best match of one image.
+
+    Each of the ``candidates`` best samples (distance <= ``trust``) is supported by every
+    trusted sample of *another* view within ``radius`` m of the candidate's in the graph whose
+    heading, relative to the candidate's, agrees within ``tolerance`` rad with that view's
+    heading in the candidate's frame; each supporting view counts once, 1 - d / trust at its
+    best match. Views matched over a wide range of headings (`_generic`) neither
+    stand nor support. The best trusted match stands unless its support is below ``share``
+    of the best-supported candidate's, which then wins; with none trusted, the best match.
+    """
+    samples = sorted((float(d), int(v), float(h)) for d, v, h in samples)
+    if not samples:
+        raise ValueError("the turn gave no localisation")
+    trusted = [s for s in samples if s[0] <= trust and not _generic(samples, s[1], tolerance)]
+    scores = []
+    for _, view, heading in trusted[:candidates]:
+        poses = neighbourhood(routes, view, radius)
+        support: dict[int, float] = {}  # each other view once, at its best match
+        for dj, vj, hj in trusted:
+            if (
+                vj != view
+                and vj in poses
+                and abs(wrap_angle(hj - heading - poses[vj][2])) < tolerance
+            ):
+                support[vj] = max(support.get(vj, 0.0), 1.0 - dj / trust)
+        scores.append(sum(support.values()))
+    if not scores:
+        return samples[0][1], samples[0][2]
+    # the best match stands unless another candidate is much better supported: where the
+    # best match is right (the hallway) a better-supported neighbour is often a metre off
+    k = int(np.argmax(scores))
+    if scores[0] >= share * scores[k]:
+        k = 0
+    return trusted[k][1], trusted[k][2]
+
+
+def _generic(samples, view: int, tolerance: float) -> bool:
+    """Whether ``view`` is the best match of images more than 2 ``tolerance`` apart in
+    heading: a view that matches whichever way the camera looks (open grass, sky) says
+    nothing about the place, and its matches would support each other.
+    """
+    h = np.array([s[2] for s in samples if s[1] == view])
+    if len(h) < 2:
+        return False
+    spread = np.abs(wrap_angle(h[:, None] - h[None, :])).max()
+    return bool(spread > 2.0 * tolerance)
+
+
 # -- methods: each takes (localiser, routes, features (T, d), odometry (T, 3)) -> view -------
 def _samples(loc, feats, odo, every=2, top=2):
     out = []
@@ -118,8 +200,6 @@ def m_single(loc, routes, feats, odo):
 
 
 def m_consistent(loc, routes, feats, odo):
-    from servo.camera_only.turn_global_fix import consistent_fix
-
     return consistent_fix(_samples(loc, feats, odo), routes)[0]
 
 

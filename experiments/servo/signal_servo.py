@@ -74,16 +74,14 @@ class _OracleFix:
 
     def fix(self, *args, **kwargs) -> tuple[int, float]:
         if self.mode == "top5":
-            return self._best_of(*args, far=kwargs["far"], exclude=kwargs["exclude"])
+            return self._best_of(*args, far=kwargs["far"])
         v = int(np.argmin(_view_distances(self.m, self.truth)))
         return v, float(self.m.true_poses[v, 2] - self.truth[2] + self.odo[2])
 
-    def _best_of(self, d, yaw, h, *, far, exclude, places=5, apart=4.0):
+    def _best_of(self, d, yaw, h, *, far, places=5, apart=4.0):
         from servo.camera_only.turn_global_fix import contrast_scores
 
         score, facing = contrast_scores(d, yaw, h, far=far)
-        if len(exclude) < len(score):
-            score[list(exclude)] = np.inf
         chosen = []
         for v in np.argsort(score, kind="stable"):
             far_from = _view_distances(self.m, self.m.true_poses[v])[chosen]

@@ -1,6 +1,7 @@
-"""The camera-only controller, [`SignalServo`][servo.camera_only.controller.SignalServo], which
-servoes by maximising F^j(k) toward the target view (Grudic & Mulligan, Section II-G), and what only
-it uses:
+"""The camera-only controller and what only it uses.
+
+[`SignalServo`][servo.camera_only.controller.SignalServo] servoes by maximising F^j(k) toward
+the target view (Grudic & Mulligan, Section II-G). Its modules:
 
 * ``controller`` and ``config`` -- the controller and its settings;
 * ``route_belief`` -- the robot's pose on its route, from odometry and image fixes;
@@ -8,11 +9,9 @@ it uses:
 * ``view_pose`` -- the camera's metric pose against a stored view (keypoints at the view's
   depths, PnP); ``metric_pose_fixes`` -- such poses taken along the route;
 * ``turn_global_fix`` -- the global position fix of an observing turn, checked across the turn;
-* ``junction_pose`` -- the local position fix where a route turns at a junction;
 * ``rear_view_heading`` -- the heading fix from views behind a robot driving a route turned
   round;
-* ``peak_arrival`` and ``image_descent_arrival`` -- the arrival at the target view, at the peak
-  of F toward it or by descending the image distance to it.
+* ``peak_arrival`` -- the arrival at the target view, at the peak of F toward it.
 """
 
 from common.lazy import lazy_exports

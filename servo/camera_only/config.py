@@ -1,6 +1,7 @@
-"""``SignalServoConfig``: every setting of
-[`SignalServo`][servo.camera_only.controller.SignalServo], in one frozen dataclass validated on
-construction.
+"""``SignalServoConfig``: every setting of the camera-only controller.
+
+The settings of [`SignalServo`][servo.camera_only.controller.SignalServo], in one frozen
+dataclass validated on construction.
 """
 
 from __future__ import annotations
@@ -26,17 +27,64 @@ _MAY_BE_ZERO = (
     "unpeaked",
 )
 
+# settings that were off by default and lost their comparison; naming one is refused
+REMOVED = (
+    "arrive_lanes",
+    "consistent_fix",
+    "exclude_fix",
+    "junction_fix",
+    "junction_position",
+    "junction_radius",
+    "junction_parallax",
+    "bumps_arriving",
+    "refine_shift",
+    "bump_turn",
+    "arrive_descent",
+    "descent_step",
+    "descent_rounds",
+    "descent_rise",
+)
+
+
+class _RefusesRemoved:
+    """Refuse a setting in ``REMOVED`` by name before the dataclass's ``__init__`` runs.
+
+    A base class, so that the signature shown stays ``__init__``'s.
+    """
+
+    def __new__(cls, *args, **kwargs):
+        """Make the object, refusing a removed setting among ``kwargs``.
+
+        Parameters
+        ----------
+        *args, **kwargs
+            The arguments of the construction (checked here, used by ``__init__``).
+
+        Returns
+        -------
+        SignalServoConfig
+            The object, not yet initialised.
+        """
+        gone = [name for name in kwargs if name in REMOVED]
+        if gone:
+            raise TypeError(
+                f"{cls.__name__}: {gone[0]} was removed (an option, off by default, that lost "
+                "its comparison: docs/decisions/076-camera-only-switches-that-lost.md)"
+            )
+        return super().__new__(cls)
+
 
 @dataclass(frozen=True)
-class SignalServoConfig:
-    """Every setting of [`SignalServo`][servo.camera_only.controller.SignalServo], checked when
-    made.
+class SignalServoConfig(_RefusesRemoved):
+    """Every setting of [`SignalServo`][servo.camera_only.controller.SignalServo].
 
-    A frozen dataclass: change a setting with `dataclasses.replace`. The defaults are the
-    settings the servo evaluation measures (chosen on the ``dev`` split of the benchmark protocol
-    only, so the ``test`` split stays unseen). Gains and shares lie in (0, 1]; a setting marked
-    "0: off" may be 0, every other number must be positive; a wrong value raises ``ValueError``
-    naming the field.
+    A frozen dataclass, checked when made: change a setting with `dataclasses.replace`. The
+    defaults are the settings the servo evaluation measures (chosen on the ``dev`` split of the
+    benchmark protocol only, so the ``test`` split stays unseen). Gains and shares lie in (0,
+    1]; a setting marked "0: off" may be 0, every other number must be positive; a wrong value
+    raises ``ValueError`` naming the field. A setting that was removed (``REMOVED``: options,
+    off by default, that lost their comparison; decision record 076) raises ``TypeError`` naming
+    it.
 
     Parameters
     ----------
@@ -85,28 +133,18 @@ class SignalServoConfig:
     lateral_rounds : int, default 2
         Times a better side moves the sweep there (0: off;
         `PeakArrival`).
-    arrive_lanes : bool, default False
-        Search the F peak on the view's line of sight and on lines ``lateral`` to either side,
-        then check F where the peak was, instead of probing points to the sides.
     relocalise_after : int, default 40
         Steps facing route views without an image fix after which the robot observes and
         localises again.
     max_relocalise : int, default 2
         Most relocalisations in an episode (0: never).
-    consistent_fix : bool, default False
-        Take the observing turn's fix best supported by the turn's other images
-        (`consistent_fix`) rather than its best single
-        match.
     contrast_fix : bool, default True
         Take the view whose best match over the turn stands out most against its matches from
         headings ``fix_far`` or more away
-        (`contrast_fix`); overrides ``consistent_fix``.
+        (`contrast_fix`); off, the best single match over the turn.
         On by default: look-alike places match one heading well, a true fix one heading only.
     fix_far : float, default 0.6
         Heading difference from which ``contrast_fix`` counts a match as another heading's, rad.
-    exclude_fix : bool, default False
-        A relocalisation by ``contrast_fix`` skips the views within 3 m of the last fix's once
-        the robot has driven more than 3 m from where it fixed.
     unpeaked : float, default 0.0
         Observe and localise again when a whole sweep of the target's line of sight ended with F
         below ``arrive_min`` all along and below this (0: off, sweeping on).
@@ -127,23 +165,10 @@ class SignalServoConfig:
     relocalise_arrive : bool, default True
         Also observe and localise again when lost in the arrival phase, since a wrong global fix
         often shows only there.
-    junction_fix : bool, default False
-        Where the route turns from reversing to driving forward, turn on the spot to the forward
-        heading before driving on (`JunctionTurn`).
-    junction_position : bool, default False
-        At such a junction, also fix the position by the image shifts against the stored views
-        within ``junction_radius``. Off: the parallax near a junction is 2-4 times the map's,
-        and the fix moves the belief the wrong way as often as the right.
-    junction_radius : float, default 3.5
-        Radius of the views a junction fix compares, m.
-    junction_parallax : float, default 1.0
-        Parallax a junction fix assumes, as a multiple of the map's.
     relocalise_bumps : int, default 3
         Bumps since the last fix after which the robot observes and localises again (counts
         toward ``max_relocalise``; 0: never): pushing a wall again and again at one place means
-        the belief is off across the route.
-    bumps_arriving : bool, default False
-        Count bumps toward ``relocalise_bumps`` in the arrival phase too. Off: the arrival's
+        the belief is off across the route. Only bumps while following count: the arrival's
         back-and-forth by the target looks like a wall to the stuck detector.
     stuck_steps : int, default 10
         Steps of commanded motion that odometry does not see that mean a wall.
@@ -168,12 +193,6 @@ class SignalServoConfig:
         it one pixel is more than 0.2 m and the fit on the map's few side-by-side views is weak.
     backup_steps : int, default 8
         Steps driven the other way after a wall is detected.
-    refine_shift : bool, default False
-        Place an image alignment's best shift between the tried ones (2 pixels, 0.025 rad
-        apart) by a parabola (`refined_shift`).
-    bump_turn : bool, default False
-        Where the robot reverses, a bump's shift across also turns the believed heading by
-        -parallax times the shift, so that the reversing fix keeps the image's shift.
     pose_every : int, default 3
         Steps between metric pose fixes against the best-matching route view
         (`pose`: keypoints at the view's map-time
@@ -200,16 +219,6 @@ class SignalServoConfig:
         `LookBack`).
     look_steps : int, default 6
         Steps of fixes taken while looking back.
-    arrive_descent : bool, default False
-        Where a sweep of the target's line of sight sees no F, search across by the image's
-        shift-minimised distance to the view instead
-        (`DescentArrival`).
-    descent_step : float, default 1.0
-        The first step of that search across the line, m.
-    descent_rounds : int, default 4
-        Most searches across of the descent.
-    descent_rise : float, default 0.3
-        A search leg ends once the image distance has risen by this share of the line's least.
 
     Attributes
     ----------
@@ -258,25 +267,17 @@ class SignalServoConfig:
     sweeps: int = 3
     lateral: float = 0.6
     lateral_rounds: int = 2
-    arrive_lanes: bool = False
     relocalise_after: int = 40
     max_relocalise: int = 2
-    consistent_fix: bool = False
     contrast_fix: bool = True
     fix_far: float = 0.6
-    exclude_fix: bool = False
     unpeaked: float = 0.0
     reverse: bool = True
     reverse_parallax: float = 0.1
     reverse_speed: float = 0.5
     reverse_heading_gain: float = 1.0
     relocalise_arrive: bool = True
-    junction_fix: bool = False
-    junction_position: bool = False
-    junction_radius: float = 3.5
-    junction_parallax: float = 1.0
     relocalise_bumps: int = 3
-    bumps_arriving: bool = False
     stuck_steps: int = 10
     bump_shift: float = 0.5
     cross_gain: float = 0.1
@@ -284,8 +285,6 @@ class SignalServoConfig:
     cross_gate: float = 1.0
     cross_min_parallax: float = 5.0
     backup_steps: int = 8
-    refine_shift: bool = False
-    bump_turn: bool = False
     pose_every: int = 3
     pose_gain: float = 0.5
     pose_gate: float = 6.0
@@ -294,12 +293,9 @@ class SignalServoConfig:
     fix_check: int = 8
     look_back: float = 10.0
     look_steps: int = 6
-    arrive_descent: bool = False
-    descent_step: float = 1.0
-    descent_rounds: int = 4
-    descent_rise: float = 0.3
 
     def __post_init__(self):
+        """Check every setting (see the class doc); a wrong one raises ``ValueError``."""
         for f in fields(self):
             v = getattr(self, f.name)
             if f.type == "bool":

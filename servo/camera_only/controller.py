@@ -7,9 +7,7 @@
    whose best match over the turn stands out most against the turn's other headings
    (`contrast_fix`; every sample is aligned with all views;
    one the turn's images cannot pose the robot against gives way to the next candidate they can,
-   ``fix_check``), else the best match over the turn (or, with ``consistent_fix``, the
-   match best supported by the turn's other images,
-   `consistent_fix`).
+   ``fix_check``), else the best match over the turn.
 2. *Route.* The shortest path over the view graph (`RouteGraph`) from that
    view to the target, in the fix view's frame (the graph's sensed transforms chained), cut
    into waypoint views about ``spacing`` apart.
@@ -44,14 +42,12 @@ import numpy as np
 from common.blas import single_threaded_blas
 from common.geometry import se2_relative, wrap_angle
 from servo.camera_only.config import SignalServoConfig
-from servo.camera_only.image_descent_arrival import DescentArrival
-from servo.camera_only.junction_pose import JunctionTurn
 from servo.camera_only.metric_pose_fixes import PoseFixes
 from servo.camera_only.peak_arrival import PeakArrival
 from servo.camera_only.rear_view_heading import LookBack
 from servo.camera_only.route_belief import RouteBelief
 from servo.camera_only.route_image_fix import RouteImageFix
-from servo.camera_only.turn_global_fix import TurnSamples, exclude_near
+from servo.camera_only.turn_global_fix import TurnSamples
 from servo.camera_only.view_pose import ViewPose
 from servo.localise import ImageLocaliser, check_observation, check_odometry
 from servo.maps import ServoMap
@@ -153,7 +149,7 @@ class SignalServo:
         self.config = SignalServoConfig() if config is None else config
         if not isinstance(self.config, SignalServoConfig):
             raise TypeError(f"config must be a SignalServoConfig, got {type(config).__name__}")
-        self.localiser = ImageLocaliser(servo_map, refine_shift=self.config.refine_shift)
+        self.localiser = ImageLocaliser(servo_map)
         self.routes = RouteGraph(servo_map)
         # the image shift per m across a view's sight, from the map's linked views: the
         # reversing fix's model (hallway ~0.15, lawn ~0.05: the scene's depth differs)
@@ -181,7 +177,15 @@ class SignalServo:
         self.target = None
 
     def reset(self, target: int, info: dict | None = None) -> None:
-        """Start an episode toward stored view ``target`` (``info`` is ignored)."""
+        """Start an episode toward stored view ``target``.
+
+        Parameters
+        ----------
+        target : int
+            The stored view to servo to; not a view of the map raises ``MapError``.
+        info : dict, optional
+            Ignored (the controller never reads the simulator's truth).
+        """
         self.target = self.map.check_view(target, "target")
         self.done_ = False
         self.route_: list[int] = []
@@ -195,10 +199,6 @@ class SignalServo:
         self._reversing = False
         self._careful = 0  # steps left of turning on the spot before driving (after a bump)
         self._last_direction = 1
-        self._exclude: list[int] = []  # views a relocalisation may not fix on
-        self._fix_view, self._fix_odo = -1, np.zeros(3)
-        self.junction_shifts_: list[float | None] = []  # m each junction fix moved the belief
-        self.junction_last_: JunctionTurn | None = None
         self._observe_start()
 
     def _observe_start(self) -> None:
@@ -216,7 +216,20 @@ class SignalServo:
         return self.localiser.features(observation["image"]), odo
 
     def act(self, observation, info: dict | None = None) -> np.ndarray:
-        """The command (v, omega) for this observation (``info`` is ignored)."""
+        """Return the command for this observation.
+
+        Parameters
+        ----------
+        observation : dict
+            The camera ``image`` (H, W, 3) and the ``odometry`` pose (x, y, yaw).
+        info : dict, optional
+            Ignored (the controller never reads the simulator's truth).
+
+        Returns
+        -------
+        numpy.ndarray
+            The command (v, omega), float32.
+        """
         # One BLAS thread: the products here are small (an image against a few views, one
         # projection per cluster) and on a busy machine spinning BLAS threads made a step
         # 15x slower (sq. distances to a cluster: 0.4 ms -> 16 ms).
@@ -262,11 +275,8 @@ class SignalServo:
         self._backup = self.config.backup_steps
         self._careful = 3 * self.config.backup_steps
         self.bumps_ += 1
-        if self.phase_ == "arrive":
-            self._arrival.blocked()
         if direction < 0 and self.config.bump_shift > 0 and self.belief_ is not None:
-            turn = self.parallax if self.config.bump_turn and self.reverses else 0.0
-            self.belief_.bumped(direction, self.config.bump_shift, turn)
+            self.belief_.bumped(direction, self.config.bump_shift)
 
     # -- phases -----------------------------------------------------------------------------
     def _observe(self, x: np.ndarray, odo: np.ndarray) -> np.ndarray:
@@ -281,8 +291,7 @@ class SignalServo:
     def _plan(self, odo: np.ndarray) -> None:
         """Route from the global fix's view to the target and start following it."""
         c = self.config
-        view, heading = self._turn.fix(self.routes, self._exclude)
-        self._fix_view, self._fix_odo = view, odo.copy()
+        view, heading = self._turn.fix()
         self.manifold_ = int(self.map.clusters[view])
         self.route_ = self.routes.route(view, self.target)
         path = RoutePath(self.routes.frames(self.route_))
@@ -299,16 +308,16 @@ class SignalServo:
         if start is None:
             start = [0.0, 0.0, wrap_angle(odo[2] - heading)]
         self.belief_ = RouteBelief(path, start, c.window)
-        self._arrival = DescentArrival(c) if c.arrive_descent else PeakArrival(c)
+        self._arrival = PeakArrival(c)
         self._lost = 0
-        self._junction: JunctionTurn | None = None
         self._plan_bumps = self.bumps_
         self.waypoint_ = waypoints[0]
         self.phase_ = "follow"
 
     def _image_fix(self, x: np.ndarray) -> None:
-        """Correct the belief by the image; count the steps no route view matched
-        (`fix`).
+        """Correct the belief by the image.
+
+        Also count the steps no route view matched (`fix`).
         """
         fixed = self.fixes.fix(
             self.belief_,
@@ -324,24 +333,15 @@ class SignalServo:
             self._lost = 0 if fixed else self._lost + 1
 
     def _advance(self, x: np.ndarray) -> None:
-        """Next waypoint when F toward it overtakes F toward the current one (then the robot
-        is past the current one), or when the belief has passed the current one.
+        """Move on to the next waypoint where the robot is past the current one.
+
+        That is when F toward the next overtakes F toward the current one, or when the belief
+        has passed the current one.
         """
         t, b = self.tracker, self.belief_
         arc = b.path.arc[self._wp_index]
-        before = t.directions[t.index]
         while not t.last and b.s >= arc[t.index] - 0.05:
             t.advance()
-        if self.config.junction_fix and before < 0 < t.directions[t.index]:
-            # reversing gave way to driving forward (a junction): turn on the spot there
-            self._junction = JunctionTurn.on_route(
-                self.routes,
-                b,
-                self.route_,
-                int(self._wp_index[t.index]),
-                self.config,
-                self.parallax,
-            )
         if not t.last and t.directions[t.index] > 0:
             f_cur, f_next = self.localiser.signals(x, [t.current, t.next])
             if f_cur > self.config.arrive_min and t.update(f_cur, f_next, 1.0, 1.0, 0.0):
@@ -350,13 +350,6 @@ class SignalServo:
 
     def _follow(self, x: np.ndarray, step: np.ndarray) -> np.ndarray:
         c, b = self.config, self.belief_
-        if self._junction is not None:
-            action = self._junction.step(b, x, self.localiser, CONTROL_DT)
-            if action is not None:
-                return action
-            self.junction_shifts_.append(self._junction.shift_)
-            self.junction_last_ = self._junction
-            self._junction = None
         if self._look is not None:
             action = self._look.step(b, CONTROL_DT)
             if self._look.fixing:
@@ -365,11 +358,12 @@ class SignalServo:
                 return action
             self._look, self._travel = None, 0.0
         self._image_fix(x)
-        # pushing a wall again and again at one place: the belief is off across the route
+        # pushing a wall again and again at one place while following: the belief is off
+        # across the route (the arrival's back-and-forth by the target looks like a wall)
         walled = (
             c.relocalise_bumps > 0
             and self.bumps_ - self._plan_bumps >= c.relocalise_bumps
-            and (self.phase_ == "follow" or c.bumps_arriving)
+            and self.phase_ == "follow"
         )
         unpeaked = (
             self.phase_ == "arrive"
@@ -382,9 +376,6 @@ class SignalServo:
             and self.relocalised_ < c.max_relocalise
         ):
             self.relocalised_ += 1
-            if c.exclude_fix:  # a fix found wrong (`turn_global_fix.exclude_near`)
-                moved = float(np.hypot(*(self._odo[:2] - self._fix_odo[:2])))
-                self._exclude = exclude_near(self.routes, self._exclude, self._fix_view, moved)
             self._observe_start()
             return np.zeros(2)
         self._advance(x)
@@ -405,10 +396,11 @@ class SignalServo:
         return self._arrive(x)
 
     def _drive(self, goal: np.ndarray) -> np.ndarray:
-        """Pure pursuit toward ``goal`` (robot frame): forward, or in reverse where the route
-        drives its recording backwards (``WaypointTracker.directions`` < 0) on a map that
-        reverses, so the camera keeps facing the way the stored views look and image fixes
-        stay available (`pursue_route`).
+        """Pursue ``goal`` (robot frame), forward or in reverse.
+
+        In reverse where the route drives its recording backwards
+        (``WaypointTracker.directions`` < 0) on a map that reverses, so the camera keeps facing
+        the way the stored views look and image fixes stay available (`pursue_route`).
         """
         c, t = self.config, self.tracker
         reverse = self.reverses and not t.directions[t.index] > 0
@@ -418,16 +410,10 @@ class SignalServo:
         return pursue_route(goal, reverse, speed, careful, c.turn_rate)
 
     def _arrive(self, x: np.ndarray) -> np.ndarray:
-        """At the target: the F peak (`PeakArrival`); with
-        ``arrive_descent``, also the image distance
-        (`servo.camera_only.image_descent_arrival`).
-        """
+        """At the target: the F peak (`PeakArrival`)."""
         b = self.belief_
         action = self._arrival.step(
-            b,
-            b.path.frames[-1],
-            lambda: self.localiser.signal(x, self.target),
-            lambda: float(self.localiser.align(x, [self.target])[0][0]),
+            b, b.path.frames[-1], lambda: self.localiser.signal(x, self.target)
         )
         self.done_ = self._arrival.done
         self.phase_ = "done" if self.done_ else "arrive"

@@ -44,9 +44,11 @@ class PoseFixes:
             self.turn_images.append((np.array(image), np.array(odometry, np.float64)))
 
     def _two_poses(self, view: int, distances: np.ndarray):
-        """The metric poses in ``view``'s frame, with their odometry, of the two turn images
-        that matched ``view`` best (``distances``: each kept image's aligned distance to it),
-        in the order taken; None where either gives none. Computed once per turn, view and
+        """Pose the two turn images that matched ``view`` best against it.
+
+        Returns their metric poses in ``view``'s frame, each with its odometry, in the order
+        taken (``distances``: each kept image's aligned distance to ``view``); None where
+        either gives none. Computed once per turn, view and
         pair of images (`supports` checks the fix's view, then `start` poses
         against it), each image's keypoints detected once (the check poses them against
         several views).
@@ -63,7 +65,7 @@ class PoseFixes:
         return [(pose, images[i][1]) for pose, i in zip(poses, pair, strict=True)]
 
     def _posed_pair(self, view: int, pair: tuple[int, int]) -> list | None:
-        """The metric poses of turn images ``pair`` against ``view`` (None: either gives none)."""
+        """Pose turn images ``pair`` against ``view`` (None: either gives none)."""
         poses = []
         for i in pair:
             image = self.turn_images[i][0]
@@ -76,9 +78,10 @@ class PoseFixes:
         return poses
 
     def supports(self, view: int, distances: np.ndarray) -> bool:
-        """Whether the two turn images that matched ``view`` best both pose against it and
-        agree (``pose_agree``, carried by odometry from one to the other): the observing
-        turn's metric support for a global fix on ``view``.
+        """Tell whether the observing turn supports a global fix on ``view`` metrically.
+
+        It does where the two turn images that matched ``view`` best both pose against it and
+        agree (``pose_agree``, carried by odometry from one to the other).
         """
         poses = self._two_poses(view, distances)
         if poses is None:
@@ -91,10 +94,12 @@ class PoseFixes:
     def start(
         self, view: int, distances: np.ndarray, path: RoutePath, odometry: np.ndarray
     ) -> np.ndarray | None:
-        """The robot's pose in the route frame of ``path`` (which starts at the global fix's
-        ``view``) from the metric poses of the two turn images that matched ``view`` best
-        (``distances``: each kept image's aligned distance to it), each carried by odometry
-        to now, where they agree; else None. Starts a new route's agreement.
+        """Place the robot in the route frame of ``path`` from the observing turn's poses.
+
+        The route starts at the global fix's ``view``; the pose comes from the metric poses of
+        the two turn images that matched ``view`` best (``distances``: each kept image's aligned
+        distance to it), each carried by odometry to now, where they agree; else None. Starts a
+        new route's agreement.
         """
         self._agreement = PoseAgreement(self.config.pose_agree) if self.config.pose_agree else None
         poses = self._two_poses(view, distances)
@@ -116,9 +121,10 @@ class PoseFixes:
         image: np.ndarray,
         odometry: np.ndarray,
     ) -> bool:
-        """The metric pose of ``image`` against stored view ``route_view`` (route index
-        ``index``) moves ``belief`` (`fix_pose`),
-        where the pose before it agrees (``pose_agree``). Whether it did.
+        """Move ``belief`` toward the metric pose of ``image`` against a route view.
+
+        The pose against stored view ``route_view`` (route index ``index``) moves the belief
+        (`fix_pose`) where the pose before it agrees (``pose_agree``). Returns whether it did.
         """
         rel = self.view_pose.pose(image, route_view)
         if rel is None:

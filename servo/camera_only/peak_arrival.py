@@ -1,5 +1,7 @@
-"""Arrive at a stored view at the peak of F^j(k) toward it (Section II-G: F toward a view is
-largest at the view), for [`SignalServo`][servo.camera_only.controller.SignalServo].
+"""Arrive at a stored view at the peak of F^j(k) toward it.
+
+Section II-G: F toward a view is largest at the view. The arrival of
+[`SignalServo`][servo.camera_only.controller.SignalServo].
 
 `PeakArrival` works on the robot's belief in the route frame
 (`RouteBelief`) and corrects it by where F peaks:
@@ -13,16 +15,6 @@ largest at the view), for [`SignalServo`][servo.camera_only.controller.SignalSer
 3. *Probe across.* Settled, F is read there and ``lateral`` m to either side (the arrival law
    to each); where a side gives more F, the view lies that way: the belief is moved across and
    the sweep starts again (at most ``lateral_rounds`` times). Otherwise the robot is done.
-
-With ``arrive_lanes`` steps 2 and 3 search lanes instead: F toward a view is sharp
-(measured by rendering along stored views' sight in the hallway: 1 at the view, 0.6-0.9 at
-0.2 m, ~0 at 0.4 m, with secondary peaks near 1 m where the corridor repeats), so F read at
-a point 0.6 m to the side says nothing, and a sweep on a line 0.6 m beside the view never
-sees its peak. The sweep runs on the view's line of sight and then on lines ``lateral`` m to
-either side, keeping the best F and where (along and across) it was; once a peak is
-confirmed, or all lanes are swept, the belief is moved to put the view at the best F and the
-robot drives there. Settled, F is read again: at least ``arrive_drop`` of the peak means it
-is there (done); less, and the lanes are searched again (at most ``lateral_rounds`` times).
 """
 
 from __future__ import annotations
@@ -38,9 +30,10 @@ from servo.steering import Arrival
 
 
 def line_drive(goal: np.ndarray) -> np.ndarray:
-    """(v, omega) toward ``goal`` (x, y, yaw in the robot frame) forward or backward along
-    the robot's heading, never turning away from the goal's heading (the camera keeps
-    facing the way the target view looks).
+    """Return (v, omega) toward ``goal`` along the robot's heading.
+
+    ``goal`` is (x, y, yaw) in the robot frame; the robot drives forward or backward and never
+    turns away from the goal's heading (the camera keeps facing the way the target view looks).
     """
     v = float(np.clip(1.2 * goal[0], -0.45, 0.6))
     v = float(np.sign(goal[0])) * max(abs(v), 0.2)
@@ -54,7 +47,7 @@ class PeakArrival:
     ``step(belief, target, signal)``: ``target`` is the view's pose in the route frame and
     ``signal()`` returns F toward it for the current image (called only when it is needed).
     ``stage``: "face", "sweep", "settle", "probe" or "done". ``swept_peak``: None, or the
-    largest F of the last whole sweep (every leg and lane) that never reached ``arrive_min``.
+    largest F of the last whole sweep (every leg) that never reached ``arrive_min``.
     """
 
     def __init__(self, config: SignalServoConfig):
@@ -62,9 +55,7 @@ class PeakArrival:
         self.stage = "face"
         self._arrival = Arrival()
         self._leg, self._legs = 1, 0  # sweep direction along the view's sight, legs done
-        self._peak, self._peak_along, self._peak_across = 0.0, 0.0, 0.0
-        self._lane = 0  # with ``arrive_lanes``: index into ``lanes``
-        self.lanes = (0.0, config.lateral, -config.lateral) if config.arrive_lanes else (0.0,)
+        self._peak, self._peak_along = 0.0, 0.0
         self._probe: list[float] = []  # F at the centre, then at each side probed
         self._rounds = 0
         # F's peak over the last whole sweep that ended without one (below ``arrive_min``)
@@ -72,22 +63,30 @@ class PeakArrival:
 
     @property
     def done(self) -> bool:
+        """Whether the robot has arrived (``stage`` "done")."""
         return self.stage == "done"
-
-    def blocked(self) -> None:
-        """The robot bumped (`DescentArrival` turns
-        its search across; here the sweep goes on).
-        """
 
     def step(
         self,
         belief: RouteBelief,
         target: np.ndarray,
         signal: Callable[[], float],
-        distance: Callable[[], float] | None = None,
     ) -> np.ndarray:
-        """The command for this step; ``distance`` (the image's distance to the view) is
-        `DescentArrival`'s.
+        """Return the command for this step.
+
+        Parameters
+        ----------
+        belief : RouteBelief
+            The robot's pose on the route; moved where F's peak places the view.
+        target : numpy.ndarray
+            The target view's pose (x, y, yaw) in the route frame.
+        signal : callable
+            Returns F toward the target for the current image; called only when needed.
+
+        Returns
+        -------
+        numpy.ndarray
+            The command (v, omega).
         """
         c, b = self.config, belief
         u = np.array([np.cos(target[2]), np.sin(target[2])])
@@ -98,68 +97,44 @@ class PeakArrival:
             if not facing:
                 return self._arrival(se2_relative(b.pose, target))
         if self.stage == "sweep":
-            return self._sweep(b, target, u, left, signal())
-        if self.stage == "settle" and self.config.arrive_lanes:
-            return self._settle_lanes(b, target, signal)
+            return self._sweep(b, target, u, signal())
         if self.stage in ("settle", "probe"):
             return self._settle(b, target, left, signal)
         return self._arrival(se2_relative(b.pose, target))  # done: hold (or correct) the pose
 
-    def _sweep(
-        self, b: RouteBelief, target: np.ndarray, u: np.ndarray, left: np.ndarray, f: float
-    ) -> np.ndarray:
+    def _sweep(self, b: RouteBelief, target: np.ndarray, u: np.ndarray, f: float) -> np.ndarray:
         c = self.config
         along = float(u @ (b.pose[:2] - target[:2]))  # m past the view, by the belief
         if f > self._peak:
-            across = float(left @ (b.pose[:2] - target[:2]))
-            self._peak, self._peak_along, self._peak_across = f, along, across
+            self._peak, self._peak_along = f, along
         end, at_end = self._leg_end(along)
         # F toward a view is not monotonic along its sight (a door or a tree can give a
         # secondary peak a metre out): a peak counts once F has fallen well below it and
         # the robot has gone on a good way past it
         beyond = (along - self._peak_along) * self._leg > c.arrive_past
         peaked = self._peak >= c.arrive_confirm and f < c.arrive_drop * self._peak and beyond
-        swept = at_end and self._legs >= c.sweeps - 1  # this lane's last leg is done
-        if swept and self._lane + 1 < len(self.lanes) and not peaked:
-            self._lane += 1  # the next lane beside the view's sight (``arrive_lanes``)
-            swept = False
+        swept = at_end and self._legs >= c.sweeps - 1  # the sweep's last leg is done
         if peaked or (swept and self._peak >= c.arrive_min):
-            # the peak was at the view (across only where lanes were searched)
-            b.pose[:2] -= u * self._peak_along + (left * self._peak_across if c.arrive_lanes else 0)
+            # the peak was at the view
+            b.pose[:2] -= u * self._peak_along
             self.stage, self._arrival, self._probe = "settle", Arrival(), []
             return self._arrival(se2_relative(b.pose, target))
         if swept:
-            self._lane = 0
             self.swept_peak = self._peak
         if at_end:
             self._leg, self._legs = -self._leg, (self._legs + 1) % c.sweeps
         goal = target.copy()
-        goal[:2] += u * end + left * self.lanes[self._lane]
+        goal[:2] += u * end
         return line_drive(se2_relative(b.pose, goal))
 
     def _leg_end(self, along: float) -> tuple[float, bool]:
-        """Where the sweep's current leg ends (m along the view's sight; each leg longer than
-        the last) and whether the robot, ``along`` m past the view, has reached it.
+        """Find where the sweep's current leg ends and whether the robot has reached it.
+
+        The end is in m along the view's sight (each leg longer than the last); the robot is
+        ``along`` m past the view.
         """
         end = self._leg * self.config.overshoot * (1.0 + 0.5 * self._legs)
         return end, (along - end) * self._leg > -0.1
-
-    def _settle_lanes(
-        self, b: RouteBelief, target: np.ndarray, signal: Callable[[], float]
-    ) -> np.ndarray:
-        """``arrive_lanes``: drive to where the view is now believed to be; there F must be
-        back near its peak, or the lanes are searched again.
-        """
-        c = self.config
-        action = self._arrival(se2_relative(b.pose, target))
-        if not self._arrival.done:
-            return action
-        if signal() >= c.arrive_drop * self._peak or self._rounds >= c.lateral_rounds:
-            self.stage = "done"
-            return action
-        self._rounds += 1
-        self._restart()
-        return action
 
     def _settle(
         self, b: RouteBelief, target: np.ndarray, left: np.ndarray, signal: Callable[[], float]
@@ -191,7 +166,7 @@ class PeakArrival:
         return action
 
     def _restart(self) -> None:
-        """Sweep the view's line of sight again (a new round), from the first lane."""
-        self.stage, self._arrival, self._lane = "sweep", Arrival(), 0
+        """Sweep the view's line of sight again (a new round)."""
+        self.stage, self._arrival = "sweep", Arrival()
         self._leg, self._legs, self._peak = 1, 0, 0.0
-        self._peak_along = self._peak_across = 0.0
+        self._peak_along = 0.0

@@ -1,13 +1,13 @@
-"""Looking back on a route driven turned round, for
-[`SignalServo`][servo.camera_only.controller.SignalServo].
+"""Looking back on a route driven turned round.
 
-Where a route runs a recording backwards and the map's parallax is too small for the
-reverse-stable fix (the lawn: ``reverse_parallax``), the robot turns round and drives forward,
-its camera facing away from the way the stored views look: no image fix is possible, and
-odometry alone carries the belief for up to 20 m. A heading error of 0.1-0.2 rad there puts
-the robot 2-4 m beside the target view when the arrival begins, where the sweep along the
-view's sight never meets F's peak (dev: 5 of the lawn's 17 `view` failures on episodes 0-79
-arrived facing back along a recording, 2.2-4.8 m from the target view).
+For [`SignalServo`][servo.camera_only.controller.SignalServo]. Where a route runs a recording
+backwards and the map's parallax is too small for the reverse-stable fix (the lawn:
+``reverse_parallax``), the robot turns round and drives forward, its camera facing away from the
+way the stored views look: no image fix is possible, and odometry alone carries the belief for
+up to 20 m. A heading error of 0.1-0.2 rad there puts the robot 2-4 m beside the target view
+when the arrival begins, where the sweep along the view's sight never meets F's peak (dev: 5 of
+the lawn's 17 `view` failures on episodes 0-79 arrived facing back along a recording, 2.2-4.8 m
+from the target view).
 
 `LookBack` stops every ``look_back`` m of such driving, turns on the spot to face the
 way the views look, stands for ``look_steps`` steps while the controller takes its ordinary
@@ -42,6 +42,20 @@ class LookBack:
         self._stood = 0
 
     def step(self, belief, dt: float) -> np.ndarray | None:
+        """Return the command for this step, or None once facing ``heading`` again.
+
+        Parameters
+        ----------
+        belief : RouteBelief
+            The robot's pose on the route; its heading steers the turns.
+        dt : float
+            The control step, s.
+
+        Returns
+        -------
+        numpy.ndarray or None
+            The command (v, omega); None when the look is over.
+        """
         h = float(belief.pose[2])
         self.fixing = False
         if self.stage == "turn":

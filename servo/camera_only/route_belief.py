@@ -46,18 +46,22 @@ class RouteBelief:
         self.s = self.path.project(self.pose[:2], self.s, self.window)
 
     def facing(self, views: np.ndarray, tolerance: float) -> np.ndarray:
-        """Those of the route views ``views`` (indices into the route) that look within
-        ``tolerance`` rad of the robot's heading: only their images can match the camera's.
+        """Keep the route views that look the way the robot faces.
+
+        Returns those of ``views`` (indices into the route) that look within ``tolerance`` rad
+        of the robot's heading: only their images can match the camera's.
         """
         views = np.asarray(views, np.intp)
         off = wrap_angle(self.path.frames[views, 2] - self.pose[2])
         return views[np.abs(off) < tolerance]
 
     def fix(self, view: int, yaw: float, heading_gain: float, along_gain: float) -> float:
-        """Correct the pose by an image fix against route view ``view`` (index into the
-        route) whose best shift says turning ``yaw`` rad lines the image up with it: the
-        heading toward ``frame yaw - yaw``, the position along the view's line of sight
-        toward the view. Returns the along-sight offset (m) the fix found before correcting.
+        """Correct the pose by an image fix against route view ``view``.
+
+        ``view`` indexes the route; its best shift says turning ``yaw`` rad lines the image up
+        with it. The heading is corrected toward ``frame yaw - yaw``, the position along the
+        view's line of sight toward the view. Returns the along-sight offset (m) the fix found
+        before correcting.
         """
         frame = self.path.frames[int(view)]
         err = wrap_angle(frame[2] - yaw - self.pose[2])
@@ -71,8 +75,9 @@ class RouteBelief:
     def fix_reversing(
         self, view: int, yaw: float, parallax: float, heading_gain: float, cross_gain: float
     ) -> float:
-        """The image fix of a robot *reversing* along the route while facing the way route
-        view ``view`` looks; returns the innovation (rad).
+        """Fix the belief of a robot *reversing* along the route by an image.
+
+        The robot faces the way route view ``view`` looks; returns the innovation (rad).
 
         The best shift measures the heading error plus ``parallax`` times the offset across
         the view's line of sight (left positive): z = theta + c y. Driving backwards,
@@ -96,10 +101,12 @@ class RouteBelief:
         return float(r)
 
     def fix_across(self, view: int, offset: float, gain: float, gate: float) -> float:
-        """Correct the offset across route view ``view``'s line of sight toward ``offset``
-        (m, left positive: `servo.localise.ImageLocaliser.cross_offset`) by the share
-        ``gain``; a measurement more than ``gate`` m from the belief is taken for a mismatch
-        and ignored. Returns the innovation (m; NaN if ignored).
+        """Correct the offset across route view ``view``'s line of sight toward ``offset``.
+
+        ``offset`` is in m, left positive (`servo.localise.ImageLocaliser.cross_offset`); the
+        correction is the share ``gain`` of the difference; a measurement more than ``gate`` m
+        from the belief is taken for a mismatch and ignored. Returns the innovation (m; NaN if
+        ignored).
         """
         frame = self.path.frames[int(view)]
         innovation = float(offset) - float(se2_relative(frame, self.pose)[1])
@@ -110,16 +117,19 @@ class RouteBelief:
         return innovation
 
     def measured(self, view: int, pose) -> np.ndarray:
-        """A pose measured in route view ``view``'s frame (x ahead along its sight, y left,
-        yaw: `servo.camera_only.view_pose.ViewPose.pose`) in the route frame.
+        """Express a pose measured in route view ``view``'s frame in the route frame.
+
+        The measured pose is x ahead along the view's sight, y left, yaw
+        (`servo.camera_only.view_pose.ViewPose.pose`).
         """
         return se2_compose(self.path.frames[int(view)], np.asarray(pose, np.float64))
 
     def fix_pose(self, measured, gain: float, gate: float) -> float:
-        """Correct the pose toward a ``measured`` pose in the route frame (`measured`)
-        by the share ``gain``, position and heading alike; a measurement more than ``gate`` m
-        from the belief is taken for a mismatch and ignored. Returns the innovation's length
-        (m; NaN if ignored).
+        """Correct the pose toward a ``measured`` pose in the route frame.
+
+        The pose (`measured`) is taken by the share ``gain``, position and heading alike; a
+        measurement more than ``gate`` m from the belief is taken for a mismatch and ignored.
+        Returns the innovation's length (m; NaN if ignored).
         """
         measured = np.asarray(measured, np.float64)
         innovation = measured[:2] - self.pose[:2]
@@ -133,26 +143,25 @@ class RouteBelief:
 
     @staticmethod
     def reverse_gains(heading_gain: float, parallax: float) -> tuple[float, float]:
-        """The reversing fix's gains per metre: |g1| = ``heading_gain`` and the cross gain g2
-        that puts both error modes of `fix_reversing` at one rate (critical damping:
-        trace^2 = 4 det, g2 c - |g1| = 2 sqrt(|g1| c)); the modes then decay as
-        exp(-sqrt(|g1| c) s) over s metres reversed (~2.5 m in the hallway at |g1| = 1).
+        """Return the reversing fix's gains per metre.
+
+        They are |g1| = ``heading_gain`` and the cross gain g2 that puts both error modes of
+        `fix_reversing` at one rate (critical damping: trace^2 = 4 det, g2 c - |g1| =
+        2 sqrt(|g1| c)); the modes then decay as exp(-sqrt(|g1| c) s) over s metres reversed
+        (~2.5 m in the hallway at |g1| = 1).
         """
         if not (heading_gain > 0 and parallax > 0):
             raise ValueError(f"gain and parallax must be > 0, got {heading_gain}, {parallax}")
         return heading_gain, (heading_gain + 2.0 * np.sqrt(heading_gain * parallax)) / parallax
 
-    def bumped(self, direction: int, metres: float, parallax: float = 0.0) -> None:
-        """A wall stopped the robot driving ``direction`` (+1 forward, -1 reversing): the
-        robot is nearer that wall than believed. Where it was moving across the route (its
-        direction of travel more than ~3 deg off the route's), the wall lies on that side,
-        so the belief moves ``metres`` that way across the route; the pursuit then steers
-        away from it. Head-on (along the route) nothing is learnt across.
+    def bumped(self, direction: int, metres: float) -> None:
+        """Move the belief away from a wall that stopped the robot.
 
-        With ``parallax`` c > 0 the heading turns by -c times the shift as well, so that
-        theta + c y, what the image's shift measures (`fix_reversing`), stays as it
-        was: the shift moves the belief along what the image cannot tell apart, and the
-        next image fixes do not undo it.
+        The robot was driving ``direction`` (+1 forward, -1 reversing) and is nearer that wall
+        than believed. Where it was moving across the route (its direction of travel more than
+        ~3 deg off the route's), the wall lies on that side, so the belief moves ``metres``
+        that way across the route; the pursuit then steers away from it. Head-on (along the
+        route) nothing is learnt across.
         """
         a = self.path.point(max(self.s - 0.25, 0.0))
         b = self.path.point(min(self.s + 0.25, self.path.length))
@@ -164,15 +173,13 @@ class RouteBelief:
         if abs(across) < 0.05:
             return
         left = left_of(route)
-        shift = float(np.sign(across)) * metres
-        self.pose[:2] += shift * left
-        if parallax:
-            self.pose[2] = wrap_angle(self.pose[2] - parallax * shift)
+        self.pose[:2] += float(np.sign(across)) * metres * left
         self.s = self.path.project(self.pose[:2], self.s, self.window)
 
     def shift_along(self, metres: float) -> None:
-        """Move the belief ``metres`` along the route's direction at the current progress
-        (an F peak passed says how far past a view the robot is).
+        """Move the belief ``metres`` along the route's direction at the current progress.
+
+        An F peak passed says how far past a view the robot is.
         """
         a = self.path.point(self.s)
         b = self.path.point(self.s + 0.5)
@@ -183,10 +190,10 @@ class RouteBelief:
         self.s = self.path.project(self.pose[:2], self.s, self.window)
 
     def goal(self, s: float) -> np.ndarray:
-        """The route's point at arc ``s`` in the robot frame (x ahead, y left)."""
+        """Return the route's point at arc ``s`` in the robot frame (x ahead, y left)."""
         return se2_relative(self.pose, np.r_[self.path.point(s), 0.0])[:2]
 
 
 def left_of(heading: float) -> np.ndarray:
-    """The unit vector 90 deg to the left of ``heading`` (rad): positive offsets across."""
+    """Return the unit vector 90 deg to the left of ``heading`` (rad): offsets across."""
     return np.array([-np.sin(heading), np.cos(heading)])

@@ -1,14 +1,13 @@
-"""The image fixes of [`SignalServo`][servo.camera_only.controller.SignalServo]'s belief on its
-route.
+"""The image fixes of the camera-only controller's belief on its route.
 
-Each step the image is aligned with the route views about the belief's progress that look the
-way the robot faces, and the best of them corrects the belief
-(`RouteBelief`): every ``pose_every`` steps by the metric
-pose against it (`PoseFixes`), else by its
-horizontal shift (the heading, eq. 13's best-aligned view), its place on the route (the
-position along it) and, where the map resolves it, the near ground's extra shift (the offset
-across it). `RouteImageFix` holds what the fixes need of the controller and says whether
-the image matched, so the controller can count the steps it has been lost.
+The belief is [`SignalServo`][servo.camera_only.controller.SignalServo]'s. Each step the image
+is aligned with the route views about the belief's progress that look the way the robot faces,
+and the best of them corrects the belief (`RouteBelief`): every ``pose_every`` steps by the
+metric pose against it (`PoseFixes`), else by its horizontal shift (the heading, eq. 13's
+best-aligned view), its place on the route (the position along it) and, where the map resolves
+it, the near ground's extra shift (the offset across it). `RouteImageFix` holds what the fixes
+need of the controller and says whether the image matched, so the controller can count the steps
+it has been lost.
 """
 
 from __future__ import annotations
@@ -71,8 +70,10 @@ class RouteImageFix:
         reversing: bool,
         following: bool,
     ) -> bool | None:
-        """Correct ``belief`` by the route view the image matches best among those about the
-        current progress that look the way the robot faces (none: odometry alone).
+        """Correct ``belief`` by the route view the image matches best.
+
+        The views compared are those about the current progress that look the way the robot
+        faces (none: odometry alone).
 
         The image's shift mixes the heading with the offset across the route (a robot right
         of a view must turn left to line up with it). Driving forward, correcting the heading
@@ -160,9 +161,10 @@ class RouteImageFix:
         odometry: np.ndarray,
         steps: int,
     ) -> bool:
-        """Every ``pose_every`` steps, the metric pose against the best-aligned of the route
-        views ``near`` (indices into ``route``;
-        `PoseFixes`). Whether it moved ``belief``.
+        """Fix ``belief`` by a metric pose every ``pose_every`` steps.
+
+        The pose is against the best-aligned of the route views ``near`` (indices into
+        ``route``; `PoseFixes`). Returns whether it moved ``belief``.
         """
         if self.poses is None or steps % self.config.pose_every or len(near) == 0:
             return False

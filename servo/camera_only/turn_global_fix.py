@@ -1,119 +1,38 @@
-"""The global fix of [`SignalServo`][servo.camera_only.controller.SignalServo]'s observing turn,
-checked for consistency across the turn (against a wrong or loose fix).
+"""The global fix of the camera-only controller's observing turn.
+
+The turn is [`SignalServo`][servo.camera_only.controller.SignalServo]'s; its fix is checked
+across the turn (against a wrong or loose fix).
 
 Every few degrees of the turn the image is localised on its own (the best-aligned view of the
 clusters eq. 13 ranks first, `localise`), which gives a
 view and the odometry heading that faces the way it looks. The single best match can be a
-look-alike far away (the lawn's mirrored arms, a view 12-46 m off on dev starts). The right
-place explains the *other* images of the turn too: their matched views lie near it, and the
-headings at which they matched differ by what odometry turned between them, as the map's
-relative headings of those views say. `consistent_fix` scores each of the best few
-candidates by that support and keeps the best supported (ties: the best match).
+look-alike far away (the lawn's mirrored arms, a view 12-46 m off on dev starts).
 
-`contrast_fix` (the default) uses the whole turn differently: every
+`contrast_fix` (the default) uses the whole turn: every
 sample is aligned with every stored view, and a view counts by how sharply its distance
 profile over the turn dips (a real place is seen only facing one way; a look-alike that
 matches at every heading is not).
 
-`TurnSamples` collects a turn's localisations and gives its fix;
-`exclude_near` keeps a relocalisation off the views about a fix found wrong.
+`TurnSamples` collects a turn's localisations and gives its fix.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse.csgraph import dijkstra
 
-from common.geometry import se2_compose, wrap_angle
+from common.geometry import wrap_angle
 from servo.camera_only.config import SignalServoConfig
 from servo.camera_only.metric_pose_fixes import PoseFixes
 from servo.localise import ImageLocaliser
-from servo.route import RouteGraph
-
-EXCLUDE_RADIUS = 3.0  # m of view graph about a fix found wrong that a relocalisation skips
-
-
-def neighbourhood(routes: RouteGraph, view: int, radius: float) -> dict[int, np.ndarray]:
-    """The views within ``radius`` m of route-graph distance of ``view``, each with its pose
-    in ``view``'s frame (the graph's sensed transforms chained along shortest paths).
-    """
-    dist, pred = dijkstra(
-        routes.graph, indices=int(view), limit=float(radius), return_predecessors=True
-    )
-    poses = {int(view): np.zeros(3)}
-    for v in np.argsort(dist):  # parents before children: nearer first
-        v = int(v)
-        if not np.isfinite(dist[v]) or v in poses:
-            continue
-        p = int(pred[v])
-        poses[v] = se2_compose(poses[p], routes.transform[(p, v)])
-    return poses
-
-
-def consistent_fix(
-    samples,
-    routes: RouteGraph,
-    *,
-    candidates: int = 6,
-    radius: float = 4.0,
-    tolerance: float = 0.35,
-    trust: float = 0.9,
-    share: float = 0.5,
-) -> tuple[int, float]:
-    """The fix (view, odometry heading facing the way it looks) from the turn's ``samples``
-    (aligned distance, view, odometry heading), each the best match of one image.
-
-    Each of the ``candidates`` best samples (distance <= ``trust``) is supported by every
-    trusted sample of *another* view within ``radius`` m of the candidate's in the graph whose
-    heading, relative to the candidate's, agrees within ``tolerance`` rad with that view's
-    heading in the candidate's frame; each supporting view counts once, 1 - d / trust at its
-    best match. Views matched over a wide range of headings (`_generic`) neither
-    stand nor support. The best trusted match stands unless its support is below ``share``
-    of the best-supported candidate's, which then wins; with none trusted, the best match.
-    """
-    samples = sorted((float(d), int(v), float(h)) for d, v, h in samples)
-    if not samples:
-        raise ValueError("the turn gave no localisation")
-    trusted = [s for s in samples if s[0] <= trust and not _generic(samples, s[1], tolerance)]
-    scores = []
-    for _, view, heading in trusted[:candidates]:
-        poses = neighbourhood(routes, view, radius)
-        support: dict[int, float] = {}  # each other view once, at its best match
-        for dj, vj, hj in trusted:
-            if (
-                vj != view
-                and vj in poses
-                and abs(wrap_angle(hj - heading - poses[vj][2])) < tolerance
-            ):
-                support[vj] = max(support.get(vj, 0.0), 1.0 - dj / trust)
-        scores.append(sum(support.values()))
-    if not scores:
-        return samples[0][1], samples[0][2]
-    # the best match stands unless another candidate is much better supported: where the
-    # best match is right (the hallway) a better-supported neighbour is often a metre off
-    k = int(np.argmax(scores))
-    if scores[0] >= share * scores[k]:
-        k = 0
-    return trusted[k][1], trusted[k][2]
-
-
-def _generic(samples, view: int, tolerance: float) -> bool:
-    """Whether ``view`` is the best match of images more than 2 ``tolerance`` apart in
-    heading: a view that matches whichever way the camera looks (open grass, sky) says
-    nothing about the place, and its matches would support each other.
-    """
-    h = np.array([s[2] for s in samples if s[1] == view])
-    if len(h) < 2:
-        return False
-    spread = np.abs(wrap_angle(h[:, None] - h[None, :])).max()
-    return bool(spread > 2.0 * tolerance)
 
 
 def contrast_fix(
-    distances, yaws, headings, *, far: float = 0.6, exclude=(), verify=None, candidates: int = 0
+    distances, yaws, headings, *, far: float = 0.6, verify=None, candidates: int = 0
 ) -> tuple[int, float]:
-    """The global fix from the whole observing turn: the stored view whose best match over
-    the turn stands out most against its matches from headings ``far`` rad or more away.
+    """Fix the robot's place from the whole observing turn.
+
+    The fix is the stored view whose best match over the turn stands out most against its
+    matches from headings ``far`` rad or more away.
 
     ``distances`` / ``yaws`` (S, N): every sample's aligned distance to every stored view and
     the heading error of the best shift (`align`);
@@ -123,19 +42,14 @@ def contrast_fix(
     that matches whichever way the camera looks (a close-up of a fence or a wall, open grass
     and sky: the lawn's look-alikes 12-46 m off) has a flat profile. The score is the best
     distance divided by the best from the far headings (smaller: sharper); the fix is the
-    view with the smallest, and the odometry heading that faces the way it looks; views in
-    ``exclude`` (a fix found wrong) only if every view is excluded. With ``verify`` (view ->
-    bool: the turn's metric support for a fix there,
+    view with the smallest, and the odometry heading that faces the way it looks. With
+    ``verify`` (view -> bool: the turn's metric support for a fix there,
     `supports`) a fix it does not support gives
     way to the first of the next ``candidates`` views by score that it supports (a look-alike down a
     symmetric corridor matches as well as the place, but keypoints at known depths pose the robot
     only against the place). Returns (view, heading).
     """
     score, facing = contrast_scores(distances, yaws, headings, far=far)
-    out = np.zeros(len(score), bool)
-    out[np.asarray(list(exclude), int)] = True
-    if not out.all():
-        score[out] = np.inf
     k = int(np.argmin(score))
     if verify is not None and candidates > 0 and not verify(k):
         order = np.argsort(score, kind="stable")[1 : candidates + 1]
@@ -146,9 +60,10 @@ def contrast_fix(
 def contrast_scores(
     distances, yaws, headings, *, far: float = 0.6
 ) -> tuple[np.ndarray, np.ndarray]:
-    """`contrast_fix`'s score of every stored view (smaller: its best match over the
-    turn stands out more) and the odometry heading that faces the way each looks; arguments
-    as there. Returns two (N,) arrays.
+    """Score every stored view as `contrast_fix` does.
+
+    Returns two (N,) arrays: each view's score (smaller: its best match over the turn stands
+    out more) and the odometry heading that faces the way each looks; arguments as there.
     """
     d = np.asarray(distances, np.float64)
     y = np.asarray(yaws, np.float64)
@@ -176,8 +91,8 @@ class TurnSamples:
     localiser : ImageLocaliser
         Aligns the turn's images with the map's stored views.
     config : SignalServoConfig
-        The controller's settings (``contrast_fix``, ``consistent_fix``, ``fix_clusters``,
-        ``fix_far``, ``fix_check``).
+        The controller's settings (``contrast_fix``, ``fix_clusters``, ``fix_far``,
+        ``fix_check``).
     poses : PoseFixes or None
         The metric pose fixes, which keep the turn's images to check a fix (None: no check).
 
@@ -211,35 +126,19 @@ class TurnSamples:
             view, yaw, d = self.localiser.localise(x, top=c.fix_clusters)
             self.samples.append((d, view, float(odometry[2] + yaw)))
 
-    def fix(self, routes: RouteGraph, exclude=()) -> tuple[int, float]:
-        """The global fix (view, odometry heading facing it): `contrast_fix` (views in
-        ``exclude`` only if every view is), `consistent_fix`, or the best match.
+    def fix(self) -> tuple[int, float]:
+        """Return the global fix: `contrast_fix`, or the best match.
+
+        The fix is a view and the odometry heading facing it.
         """
         c = self.config
         if c.contrast_fix:
             d, yaw, h = (np.array(a) for a in zip(*self.rows, strict=True))
             verify = None if self.poses is None else (lambda v: self.poses.supports(v, d[:, v]))
-            return contrast_fix(
-                d, yaw, h, far=c.fix_far, exclude=exclude, verify=verify, candidates=c.fix_check
-            )
-        if c.consistent_fix:
-            return consistent_fix(self.samples, routes)
+            return contrast_fix(d, yaw, h, far=c.fix_far, verify=verify, candidates=c.fix_check)
         _, view, heading = min(self.samples)
         return view, heading
 
     def distances(self, view: int) -> np.ndarray:
         """Each ``contrast_fix`` sample's aligned distance to ``view``."""
         return np.array([r[0][view] for r in self.rows])
-
-
-def exclude_near(routes: RouteGraph, exclude: list[int], view: int, moved: float) -> list[int]:
-    """Lost on the route: the relocalisation may not fix on the views near the last fix's
-    ``view`` (a look-alike that won once wins again from nearby), added to ``exclude``. Only
-    once the robot has driven farther (``moved`` m) from where it fixed than that
-    neighbourhood's radius: then the robot is not there even if the fix was right. A
-    ``view`` below 0 (no fix yet) excludes nothing more.
-    """
-    if view >= 0 and moved > EXCLUDE_RADIUS:
-        near = neighbourhood(routes, view, EXCLUDE_RADIUS)
-        return sorted(set(exclude) | set(near))
-    return exclude

@@ -1,5 +1,7 @@
-"""Where the camera is relative to a stored view, in metres: keypoints of the view with depth,
-matched in the current image, and the camera pose that projects them there (PnP).
+"""Where the camera is relative to a stored view, in metres.
+
+Keypoints of the view with depth, matched in the current image, and the camera pose that
+projects them there (PnP).
 
 The whole image's best shift against a view (`servo.localise`) measures the heading plus
 the parallax times the offset across the view's sight, z = theta + c y, and cannot tell the two
@@ -43,9 +45,10 @@ SCAN_GAP = 0.05
 
 @dataclass(frozen=True)
 class RelativePose:
-    """The robot (its axle, as the map's poses) in a stored view's frame: ``along`` m ahead of
-    the view along its sight, ``left`` m to its left, ``yaw`` rad turned left from it;
-    ``inliers`` of ``matches`` keypoint matches agreed with it.
+    """The robot (its axle, as the map's poses) in a stored view's frame.
+
+    ``along`` m ahead of the view along its sight, ``left`` m to its left, ``yaw`` rad turned
+    left from it; ``inliers`` of ``matches`` keypoint matches agreed with it.
     """
 
     along: float
@@ -56,6 +59,7 @@ class RelativePose:
 
     @property
     def pose(self) -> np.ndarray:
+        """The pose as an array (``along``, ``left``, ``yaw``)."""
         return np.array([self.along, self.left, self.yaw])
 
 
@@ -102,8 +106,9 @@ class ViewPose:
         self._models: dict[int, str | None] = {}
 
     def keypoints(self, image: np.ndarray):
-        """The ORB keypoints and descriptors of a camera image (H, W, 3) uint8: pass them to
-        `pose` to pose one image against several views with one detection.
+        """Detect the ORB keypoints and descriptors of a camera image (H, W, 3) uint8.
+
+        Pass them to `pose` to pose one image against several views with one detection.
         """
         image = np.asarray(image)
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
@@ -111,8 +116,9 @@ class ViewPose:
         return self._orb.detectAndCompute(cv2.cvtColor(image, cv2.COLOR_RGB2GRAY), None)
 
     def _stored_keypoints(self, view: int):
-        """ORB keypoints of stored view ``view``'s image, computed once: both depth models
-        of the view and the map check of its linked views use them.
+        """Return the ORB keypoints of stored view ``view``'s image, computed once.
+
+        Both depth models of the view and the map check of its linked views use them.
         """
         if view not in self._stored:
             self._stored[view] = self.keypoints(self.map.images[view])
@@ -127,10 +133,11 @@ class ViewPose:
         return self._views[view, upper]
 
     def depth_points(self, view: int, uv: np.ndarray, upper: bool = True) -> np.ndarray:
-        """The 3-D points (camera frame: x right, y down, z ahead) seen at pixels ``uv`` of
-        stored view ``view``: along each pixel's ray, the nearer of the vertical surface the
-        view's scan hit at that bearing (`FAR_DEPTH` where it hit nothing) and the floor
-        (below the horizon, the camera `CAMERA_HEIGHT` above it).
+        """Return the 3-D points seen at pixels ``uv`` of stored view ``view``.
+
+        Camera frame: x right, y down, z ahead. Along each pixel's ray, the nearer of the
+        vertical surface the view's scan hit at that bearing (`FAR_DEPTH` where it hit nothing)
+        and the floor (below the horizon, the camera `CAMERA_HEIGHT` above it).
         ``upper=False``: NaN above the horizon, where the scan's plane says nothing of what
         the camera sees over it (the lawn's trees and houses over its fences and hedges).
         """
@@ -161,10 +168,11 @@ class ViewPose:
         return np.stack([(uv[:, 0] - cx) / f * z, below / f * z, z], axis=1)
 
     def pose(self, image: np.ndarray, view: int, keypoints=None) -> RelativePose | None:
-        """The robot's pose in stored view ``view``'s frame from the camera ``image`` with the
-        view's verified depth model (`depth_model`); None where the view has none or
-        too few keypoints match or agree. ``keypoints``: the image's `keypoints`, if
-        already detected.
+        """Pose the robot in stored view ``view``'s frame from the camera ``image``.
+
+        With the view's verified depth model (`depth_model`); None where the view has none or
+        too few keypoints match or agree. ``keypoints``: the image's `keypoints`, if already
+        detected.
         """
         model = self.depth_model(view)
         return None if model is None else self.relative(image, view, model == "full", keypoints)
@@ -172,9 +180,10 @@ class ViewPose:
     def relative(
         self, image: np.ndarray, view: int, upper: bool = True, keypoints=None
     ) -> RelativePose | None:
-        """The robot's pose in stored view ``view``'s frame from the camera ``image`` (the
-        view's keypoints above the horizon used only with ``upper``), or None where too few
-        keypoints match or agree (fewer than ``min_inliers``).
+        """Pose the robot in stored view ``view``'s frame from the camera ``image``.
+
+        The view's keypoints above the horizon are used only with ``upper``; None where too
+        few keypoints match or agree (fewer than ``min_inliers``).
         """
         view = self.map.check_view(view, "view")
         keypoints = self.keypoints(image) if keypoints is None else keypoints
@@ -226,8 +235,10 @@ class ViewPose:
         return RelativePose(float(along), float(left), yaw, int(idx.size), len(good))
 
     def depth_model(self, view: int, tolerance: float = 0.25) -> str | None:
-        """Which depth model poses against ``view`` can be trusted with: "ground" (only the
-        keypoints below the horizon), else "full" (every keypoint), else None.
+        """Return the depth model poses against ``view`` can be trusted with.
+
+        "ground" (only the keypoints below the horizon), else "full" (every keypoint), else
+        None.
 
         A model is trusted where each stored view linked to ``view`` in the map's view graph,
         posed against it, comes within ``tolerance`` m (and ``tolerance`` / 5 rad) of the
@@ -262,8 +273,9 @@ class ViewPose:
 
 
 class PoseAgreement:
-    """Takes a measured pose only when the one before it, carried by odometry to now, agrees:
-    a pose from keypoints that matched a repeated texture (a brick wall, a row of doors) is
+    """Take a measured pose only when the one before it, carried by odometry to now, agrees.
+
+    A pose from keypoints that matched a repeated texture (a brick wall, a row of doors) is
     far off but rare, and two of them seldom agree.
 
     Parameters
@@ -283,8 +295,10 @@ class PoseAgreement:
         self._last: tuple[np.ndarray, np.ndarray] | None = None
 
     def agrees(self, measured, odometry) -> bool:
-        """Whether ``measured`` (x, y, yaw in the route frame) agrees with the last
-        measurement moved by the odometry (x, y, yaw) since; it becomes the last.
+        """Tell whether ``measured`` agrees with the last measurement carried by odometry.
+
+        ``measured`` is (x, y, yaw) in the route frame, the last measurement is moved by the
+        odometry (x, y, yaw) since; ``measured`` becomes the last.
         """
         measured, odometry = np.asarray(measured, np.float64), np.asarray(odometry, np.float64)
         last, self._last = self._last, (measured.copy(), odometry.copy())

@@ -9,7 +9,7 @@ from common.geometry import se2_compose
 from servo.camera_only.controller import SignalServo, SignalServoConfig
 from servo.camera_only.peak_arrival import PeakArrival, line_drive
 from servo.camera_only.route_belief import RouteBelief
-from servo.localise import ImageLocaliser, refined_shift
+from servo.localise import ImageLocaliser
 from servo.maps.types import MapError
 from servo.route import RoutePath
 from sim.simulator import CONTROL_DT
@@ -70,20 +70,6 @@ def test_a_bump_moves_the_belief_toward_the_side_it_was_driving_to():
     np.testing.assert_allclose(b.pose, [2.0, 0.1, 0.0])
 
 
-def test_a_bump_with_parallax_keeps_what_the_image_measures():
-    """Reversing with heading 0.3 the robot backs to the right: shifted 0.5 m right, the
-    heading turns by +c 0.5, so theta + c y (the image's shift) is unchanged and the
-    reversing fix's innovation with it."""
-    c = 0.15
-    b = RouteBelief(RoutePath(L_FRAMES), [2.0, 0.0, 0.3], window=2.0)
-    before = b.pose[2] + c * b.pose[1]
-    r0 = RouteBelief(RoutePath(L_FRAMES), b.pose.copy(), 2.0).fix_reversing(2, -0.2, c, 0, 0)
-    b.bumped(-1, 0.5, c)
-    np.testing.assert_allclose(b.pose, [2.0, -0.5, 0.3 + c * 0.5], atol=1e-12)
-    assert b.pose[2] + c * b.pose[1] == pytest.approx(before)
-    assert b.fix_reversing(2, -0.2, c, 0.0, 0.0) == pytest.approx(r0)
-
-
 def test_fix_across_moves_the_belief_across_the_view_and_ignores_outliers():
     b = RouteBelief(RoutePath(L_FRAMES), [2.3, 0.4, 0.1], window=2.0)
     # route view 2 sits at (2, 0) looking along +x: left of its sight is +y
@@ -134,34 +120,6 @@ def test_align_contrast_tells_a_sharp_match_from_a_flat_one(servo_maps):
     assert d[0] == best[0] and y[0] == yaw[0]
     flat = np.tile(image.mean(axis=1, keepdims=True), (1, w, 1))  # no structure across
     assert loc.align_contrast(flat.ravel(), [view])[2][0] > 0.9
-
-
-def test_refined_shift_finds_the_vertex_between_the_tried_shifts():
-    steps = np.arange(-3.0, 4.0)
-    d = np.stack([(steps - 0.3) ** 2 + 1.0, np.abs(steps + 0.2), (steps - 3.0) ** 2, 0 * steps])
-    k = np.argmin(d, axis=1)
-    got = refined_shift(d, k)
-    assert got[0] == pytest.approx(0.3)  # a parabola: its vertex exactly
-    assert -0.5 < got[1] < 0 and got[1] == pytest.approx(-0.5 * (1.2 - 0.8) / (1.2 - 0.4 + 0.8))
-    assert got[2] == 0.0 and got[3] == 0.0  # the end of the search; no bend
-
-
-def test_refine_shift_resolves_an_odd_pixel_roll(servo_maps):
-    m = servo_maps["hallway"]
-    view = 30
-    w, h = m.settings.image_size
-    image = m.features[view].reshape(h, w, -1)
-    coarse, fine = ImageLocaliser(m), ImageLocaliser(m, refine_shift=True)
-    for roll in (3, -5, 4):
-        x = np.roll(image, roll, axis=1).ravel()
-        d0, yaw0, _ = coarse.align_contrast(x, [view])
-        d1, yaw1, _ = fine.align_contrast(x, [view])
-        assert d1[0] == d0[0]  # the distance (the trust tests) is the best tried shift's
-        assert abs(yaw0[0] + roll * fine.radians_per_pixel) <= fine.radians_per_pixel + 1e-9
-        # within a third of a pixel of the roll (coarse: a whole pixel off for odd rolls)
-        assert abs(yaw1[0] + roll * fine.radians_per_pixel) < fine.radians_per_pixel / 3
-    assert SignalServo(m, config=SignalServoConfig(refine_shift=True)).localiser.refine_shift
-    assert not SignalServo(m).localiser.refine_shift
 
 
 def _reverse_along(fix, steps=400, c=0.17):
@@ -310,12 +268,38 @@ def test_config_validation():
         ({"reverse_heading_gain": 0.0}, "reverse_heading_gain"),
         ({"relocalise_bumps": -1}, "relocalise_bumps"),
         ({"relocalise_arrive": 1}, "relocalise_arrive"),
-        ({"junction_radius": 0.0}, "junction_radius"),
         ({"look_back": -1.0}, "look_back must be a finite number >= 0"),
         ({"look_steps": 0}, "look_steps"),
     ]:
         with pytest.raises(ValueError, match=match):
             SignalServoConfig(**bad)
+
+
+@pytest.mark.parametrize("name", ["arrive_descent", "junction_fix", "refine_shift", "bump_turn"])
+def test_config_refuses_a_removed_setting_by_name(name):
+    """Options that lost their comparison were removed; naming one says so (not Python's
+    bare "unexpected keyword"), in the constructor and in ``dataclasses.replace``."""
+    from dataclasses import replace
+
+    from servo.camera_only.config import REMOVED
+
+    assert name in REMOVED
+    with pytest.raises(TypeError, match=f"{name} was removed.*076"):
+        SignalServoConfig(**{name: True})
+    with pytest.raises(TypeError, match=f"{name} was removed"):
+        replace(SignalServoConfig(), **{name: True})
+
+
+def test_every_removed_setting_is_refused_and_gone():
+    from dataclasses import fields
+
+    from servo.camera_only.config import REMOVED
+
+    names = {f.name for f in fields(SignalServoConfig)}
+    for name in REMOVED:
+        assert name not in names
+        with pytest.raises(TypeError, match=name):
+            SignalServoConfig(**{name: 1})
 
 
 def test_line_drive_keeps_facing_the_goal_heading():
@@ -382,29 +366,25 @@ def test_fix_route_and_bump(servo_maps):
     assert ctl.phase_ == "observe" and ctl.relocalised_ == 1
 
 
-def test_bumps_by_the_target_do_not_relocalise_unless_asked(servo_maps):
+def test_bumps_by_the_target_do_not_relocalise(servo_maps):
     """The arrival's back-and-forth by the target looks like a wall to the stuck detector;
-    by default those bumps do not start a relocalisation (``bumps_arriving``)."""
+    those bumps do not start a relocalisation (only bumps while following count)."""
     m = servo_maps["hallway"]
     start = 30
     near = (m.sequence == m.sequence[start]) & (m.frame > m.frame[start])
     target = int(np.flatnonzero(near)[0])  # the next view: the route is all arrival
-    phases = {}
-    for arriving in (False, True):
-        config = SignalServoConfig(relocalise_bumps=1, bumps_arriving=arriving)
-        ctl = SignalServo(m, config=config, world="hallway")
-        ctl.reset(target)
-        yaw = _observe(ctl, m.images[start], 200)
-        odo = np.array([0.0, 0.0, yaw])  # odometry never moves: every command is a bump
-        seen = set()
-        for _ in range(120):
-            ctl.act({"image": m.images[start], "odometry": odo})
-            seen.add(ctl.phase_)
-            if ctl.phase_ == "observe":
-                break
-        assert ctl.bumps_ >= 1 and "arrive" in seen, (arriving, ctl.bumps_, seen)
-        phases[arriving] = ctl.phase_
-    assert phases[False] != "observe" and phases[True] == "observe"
+    ctl = SignalServo(m, config=SignalServoConfig(relocalise_bumps=1), world="hallway")
+    ctl.reset(target)
+    yaw = _observe(ctl, m.images[start], 200)
+    odo = np.array([0.0, 0.0, yaw])  # odometry never moves: every command is a bump
+    seen = set()
+    for _ in range(120):
+        ctl.act({"image": m.images[start], "odometry": odo})
+        seen.add(ctl.phase_)
+        if ctl.phase_ == "observe":
+            break
+    assert ctl.bumps_ >= 1 and "arrive" in seen, (ctl.bumps_, seen)
+    assert ctl.phase_ != "observe"
 
 
 def test_signal_servo_refuses_bad_input(servo_maps):
@@ -432,36 +412,6 @@ def test_signal_servo_refuses_bad_input(servo_maps):
         ctl.act({**obs, "odometry": np.zeros(2)})
 
 
-def test_consistent_fix_prefers_the_supported_place(servo_maps):
-    """A lone best match is overruled by a place that the turn's other images confirm (their
-    views near it, matched at the headings the map puts them at); a view matched whichever
-    way the camera looks neither stands nor supports; agreement keeps the best match."""
-    from servo.camera_only.turn_global_fix import consistent_fix, neighbourhood
-    from servo.route import RouteGraph
-
-    m = servo_maps["hallway"]
-    routes = RouteGraph(m)
-    place = 40
-    near = neighbourhood(routes, place, 4.0)
-    assert near[place].tolist() == [0.0, 0.0, 0.0] and len(near) > 3
-    far = int(np.flatnonzero(m.sequence != m.sequence[place])[-1])
-    assert far not in near
-    others = [v for v in near if v != place][:3]
-    # robot heading 1.0 faces the way `place` looks; its neighbours at their map headings
-    support = [(0.3, v, 1.0 + float(near[v][2])) for v in others]
-    samples = [(0.1, far, 2.5), (0.25, place, 1.0), *support]
-    view, heading = consistent_fix(samples, routes)  # the place or a supporting neighbour
-    assert view in near and heading == pytest.approx(1.0 + near[view][2])
-    # the far view matched over a wide range of headings is generic: ignored
-    generic = [(0.1, far, 2.5), (0.12, far, 0.5), (0.3, place, 1.0)]
-    assert consistent_fix(generic, routes) == (place, 1.0)
-    # with support for the best match as well, it stands
-    both = [(0.1, place, 1.0), (0.2, far, 2.5), *support]
-    assert consistent_fix(both, routes) == (place, 1.0)
-    with pytest.raises(ValueError, match="no localisation"):
-        consistent_fix([], routes)
-
-
 def _arrive(config, true_view_xy, steps=900):
     """``PeakArrival`` on the simulated unicycle (`drive_arrival`). Returns the closest
     approach to the true view, the final distance to it and whether the arrival is done
@@ -471,20 +421,16 @@ def _arrive(config, true_view_xy, steps=900):
     return closest, final, arrival.done, arrival
 
 
-def test_arrival_lanes_find_a_view_beside_the_line_of_sight():
+def test_the_arrival_settles_at_a_view_on_its_line_of_sight_only():
     """The view 0.6 m beside where the belief puts it: a sweep on the believed line of sight
-    never sees F's peak (and sweeps on), points probed to the side read ~0; the lane search
-    finds it and settles there."""
+    never sees F's peak (and sweeps on); on the line of sight, before or past the believed
+    place, the arrival settles at the view."""
     for beside in ([4.4, 0.6], [4.0, -0.6]):
         closest, _, done, _ = _arrive(SignalServoConfig(), np.array(beside))
         assert closest > 0.4 and not done
-        closest, final, done, _ = _arrive(SignalServoConfig(arrive_lanes=True), np.array(beside))
-        assert closest < 0.15 and final < 0.3 and done
-    # on the line of sight, before or past the believed place, both settle at the view
-    for lanes in (False, True):
-        for along in (3.6, 4.5):
-            _, final, done, _ = _arrive(SignalServoConfig(arrive_lanes=lanes), np.array([along, 0]))
-            assert final < 0.3 and done
+    for along in (3.6, 4.5):
+        _, final, done, _ = _arrive(SignalServoConfig(), np.array([along, 0]))
+        assert final < 0.3 and done
 
 
 def test_a_sweep_without_f_is_reported_and_relocalises_when_asked(servo_maps):

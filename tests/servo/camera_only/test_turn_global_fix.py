@@ -51,15 +51,6 @@ def test_refuses_mismatched_shapes():
         contrast_fix(np.ones((3, 2)), np.ones((3, 2)), np.zeros(2))
 
 
-def test_excluded_views_are_skipped_unless_all_are():
-    h = _turn()
-    d = np.full((len(h), 2), 1.0)
-    d[5, 0], d[9, 1] = 0.05, 0.1
-    y = np.zeros_like(d)
-    assert contrast_fix(d, y, h, exclude=[0])[0] == 1
-    assert contrast_fix(d, y, h, exclude=[0, 1])[0] == 0
-
-
 def test_a_fix_without_metric_support_gives_way_to_the_next_supported_view():
     """``verify`` (the turn's poses against a view, ``PoseFixes.supports``): the best-scored
     view stands where it is supported or no other of the ``candidates`` next views is; else
@@ -85,23 +76,3 @@ def test_a_fix_without_metric_support_gives_way_to_the_next_supported_view():
     assert contrast_fix(d, y, h, verify=verify(set()), candidates=3)[0] == 0
     asked.clear()
     assert contrast_fix(d, y, h, verify=verify({3}), candidates=0)[0] == 0 and asked == []
-    # an excluded view is never a candidate
-    assert contrast_fix(d, y, h, exclude=[1], verify=verify({1, 3}), candidates=3)[0] == 3
-
-
-def test_exclude_near_skips_the_views_about_a_fix_only_once_the_robot_left_them(servo_maps):
-    """A relocalisation keeps off the views within ``EXCLUDE_RADIUS`` of the last fix, added to
-    those already excluded, but only once the robot drove farther than that radius from where
-    it fixed (nearer, it may still be there) and only after a fix."""
-    from servo.camera_only.turn_global_fix import EXCLUDE_RADIUS, exclude_near, neighbourhood
-    from servo.route import RouteGraph
-
-    m = servo_maps["hallway"]
-    routes = RouteGraph(m)
-    fix = 40
-    earlier = [int(np.flatnonzero(m.sequence != m.sequence[fix])[-1])]  # another drive's
-    near = set(neighbourhood(routes, fix, EXCLUDE_RADIUS))
-    assert 1 < len(near) and not near & set(earlier)
-    assert exclude_near(routes, earlier, fix, EXCLUDE_RADIUS) == earlier  # not yet left
-    assert exclude_near(routes, earlier, -1, 10.0) == earlier  # no fix yet
-    assert exclude_near(routes, earlier, fix, EXCLUDE_RADIUS + 0.1) == sorted(near | set(earlier))
