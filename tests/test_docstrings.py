@@ -1,6 +1,7 @@
-"""Every object the API reference renders (docs/api/) documents its parameters and what it
-returns in numpydoc sections, checked by numpydoc's own validator; the docstrings' layout is
-ruff's D rules under the numpy convention (pyproject.toml), run by the test command."""
+"""Every object the API reference renders (docs/api/), and every public function, class and
+method of the installed packages, documents its parameters and what it returns in numpydoc
+sections, checked by numpydoc's own validator; the docstrings' layout is ruff's D rules under
+the numpy convention (pyproject.toml), run by the test command."""
 
 import inspect
 
@@ -8,6 +9,7 @@ import pytest
 from numpydoc.validate import validate
 
 from tests.test_api_reference import API, directives, resolve
+from tests.test_imports import INSTALLED, ROOT
 
 # numpydoc's codes this test holds every rendered object to: a docstring at all, every
 # parameter documented and none that does not exist, a Returns section where the code returns
@@ -55,6 +57,30 @@ def rendered_paths() -> list[str]:
 def test_rendered_object_documents_its_parameters_and_returns(path):
     problems = [f"{code}: {message}" for code, message in validate(path)["errors"] if code in CODES]
     assert not problems, f"{path}:\n" + "\n".join(problems)
+
+
+def public_modules() -> list[str]:
+    """List the modules of the installed packages whose dotted path has no private part."""
+    names = []
+    for package in INSTALLED:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            parts = list(path.relative_to(ROOT).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts.pop()
+            if not any(part.startswith("_") for part in parts):
+                names.append(".".join(parts))
+    return names
+
+
+@pytest.mark.parametrize("module", public_modules())
+def test_public_objects_document_their_parameters_and_returns(module):
+    problems = [
+        f"{path}: {code}: {message}"
+        for path in members(module)
+        for code, message in validate(path)["errors"]
+        if code in CODES
+    ]
+    assert not problems, "\n".join(problems)
 
 
 def test_the_check_sees_an_undocumented_parameter():
