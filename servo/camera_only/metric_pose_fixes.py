@@ -28,7 +28,10 @@ class PoseFixes:
     Parameters
     ----------
     view_pose : ViewPose
+        Poses images against stored views.
     config : SignalServoConfig
+        The controller's settings (``pose_start``, ``pose_agree``, ``pose_gain``,
+        ``pose_gate``).
     """
 
     def __init__(self, view_pose: ViewPose, config: SignalServoConfig):
@@ -39,7 +42,15 @@ class PoseFixes:
         self._agreement: PoseAgreement | None = None
 
     def observe(self, image: np.ndarray, odometry: np.ndarray) -> None:
-        """Keep an image of the observing turn (with ``pose_start``) and its odometry."""
+        """Keep an image of the observing turn (with ``pose_start``) and its odometry.
+
+        Parameters
+        ----------
+        image : numpy.ndarray
+            The camera image (H, W, 3) uint8.
+        odometry : numpy.ndarray
+            The odometry pose (x, y, theta) it was taken at.
+        """
         if self.config.pose_start:
             self.turn_images.append((np.array(image), np.array(odometry, np.float64)))
 
@@ -82,6 +93,18 @@ class PoseFixes:
 
         It does where the two turn images that matched ``view`` best both pose against it and
         agree (``pose_agree``, carried by odometry from one to the other).
+
+        Parameters
+        ----------
+        view : int
+            The stored view of the fix.
+        distances : numpy.ndarray
+            Each kept turn image's aligned distance to ``view``, shape (S,).
+
+        Returns
+        -------
+        bool
+            Whether both images pose against ``view`` and their poses agree.
         """
         poses = self._two_poses(view, distances)
         if poses is None:
@@ -100,6 +123,23 @@ class PoseFixes:
         the two turn images that matched ``view`` best (``distances``: each kept image's aligned
         distance to it), each carried by odometry to now, where they agree; else None. Starts a
         new route's agreement.
+
+        Parameters
+        ----------
+        view : int
+            The global fix's stored view, where the route starts.
+        distances : numpy.ndarray
+            Each kept turn image's aligned distance to ``view``, shape (S,).
+        path : RoutePath
+            The route from ``view``; its first frame places the poses in the route frame.
+        odometry : numpy.ndarray
+            The odometry pose (x, y, theta) now.
+
+        Returns
+        -------
+        numpy.ndarray or None
+            The robot's pose (x, y, yaw) in the route frame (m, m, rad); None where the two
+            images give no poses or their poses do not agree.
         """
         self._agreement = PoseAgreement(self.config.pose_agree) if self.config.pose_agree else None
         poses = self._two_poses(view, distances)
@@ -125,6 +165,24 @@ class PoseFixes:
 
         The pose against stored view ``route_view`` (route index ``index``) moves the belief
         (`fix_pose`) where the pose before it agrees (``pose_agree``). Returns whether it did.
+
+        Parameters
+        ----------
+        belief : RouteBelief
+            The pose on the route, moved in place.
+        route_view : int
+            The stored view posed against.
+        index : int
+            Its index on the route (into ``belief``'s path).
+        image : numpy.ndarray
+            The camera image (H, W, 3) uint8.
+        odometry : numpy.ndarray
+            The odometry pose (x, y, theta) now.
+
+        Returns
+        -------
+        bool
+            Whether the pose moved ``belief``.
         """
         rel = self.view_pose.pose(image, route_view)
         if rel is None:

@@ -34,6 +34,16 @@ def line_drive(goal: np.ndarray) -> np.ndarray:
 
     ``goal`` is (x, y, yaw) in the robot frame; the robot drives forward or backward and never
     turns away from the goal's heading (the camera keeps facing the way the target view looks).
+
+    Parameters
+    ----------
+    goal : numpy.ndarray
+        The goal (x, y, yaw) in the robot frame (m, m, rad).
+
+    Returns
+    -------
+    numpy.ndarray
+        The command (v, omega), m/s and rad/s.
     """
     v = float(np.clip(1.2 * goal[0], -0.45, 0.6))
     v = float(np.sign(goal[0])) * max(abs(v), 0.2)
@@ -48,6 +58,12 @@ class PeakArrival:
     ``signal()`` returns F toward it for the current image (called only when it is needed).
     ``stage``: "face", "sweep", "settle", "probe" or "done". ``swept_peak``: None, or the
     largest F of the last whole sweep (every leg) that never reached ``arrive_min``.
+
+    Parameters
+    ----------
+    config : SignalServoConfig
+        The controller's settings (``overshoot``, ``sweeps``, ``arrive_confirm``,
+        ``arrive_drop``, ``lateral``, ``lateral_rounds`` and the like).
     """
 
     def __init__(self, config: SignalServoConfig):

@@ -33,6 +33,15 @@ class LookBack:
     ``fixing`` says whether this step is one of the standing steps (the caller's image fixes
     run then). The belief's heading follows odometry through the turns and the fixes correct
     it, so the turn back aims at the route's way as the fixes now see it.
+
+    Parameters
+    ----------
+    heading : float
+        The route's way in the route frame, rad: the robot faces it again after the look.
+    steps : int
+        The steps to stand facing ``heading`` + pi.
+    turn_rate : float
+        The turn rate, rad/s.
     """
 
     def __init__(self, heading: float, steps: int, turn_rate: float):

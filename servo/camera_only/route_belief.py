@@ -23,9 +23,12 @@ class RouteBelief:
     Parameters
     ----------
     path : RoutePath
-    pose : (x, y, yaw) in the route frame at the start.
-    window : m of arc either side of the current progress within which progress may move
-        at one step (where the route passes a place twice it stays on the right pass).
+        The route, in its frame.
+    pose : array_like of shape (3,)
+        The pose (x, y, yaw) in the route frame at the start (m, m, rad).
+    window : float, default 2.0
+        The arc (m) either side of the current progress within which progress may move at one
+        step (where the route passes a place twice it stays on the right pass).
     """
 
     def __init__(self, path: RoutePath, pose, window: float = 2.0):
@@ -41,7 +44,13 @@ class RouteBelief:
         self.s = path.project(pose[:2], 0.0, np.inf)
 
     def predict(self, odometry_step) -> None:
-        """Carry the pose by an odometry increment (x, y, yaw in the robot frame)."""
+        """Carry the pose by an odometry increment (x, y, yaw in the robot frame).
+
+        Parameters
+        ----------
+        odometry_step : array_like of shape (3,)
+            The increment (x, y, yaw) in the robot frame (m, m, rad).
+        """
         self.pose = se2_compose(self.pose, np.asarray(odometry_step, np.float64))
         self.s = self.path.project(self.pose[:2], self.s, self.window)
 
@@ -50,6 +59,18 @@ class RouteBelief:
 
         Returns those of ``views`` (indices into the route) that look within ``tolerance`` rad
         of the robot's heading: only their images can match the camera's.
+
+        Parameters
+        ----------
+        views : numpy.ndarray
+            Route view indices.
+        tolerance : float
+            The largest difference from the robot's heading, rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            Those of ``views`` that look the robot's way, in their order.
         """
         views = np.asarray(views, np.intp)
         off = wrap_angle(self.path.frames[views, 2] - self.pose[2])
@@ -62,6 +83,22 @@ class RouteBelief:
         with it. The heading is corrected toward ``frame yaw - yaw``, the position along the
         view's line of sight toward the view. Returns the along-sight offset (m) the fix found
         before correcting.
+
+        Parameters
+        ----------
+        view : int
+            The route view's index.
+        yaw : float
+            The turn (rad) that lines the image up with the view (its best shift).
+        heading_gain : float
+            The share of the heading error corrected.
+        along_gain : float
+            The share of the along-sight offset corrected.
+
+        Returns
+        -------
+        float
+            The belief's offset ahead of the view along its sight before the fix, m.
         """
         frame = self.path.frames[int(view)]
         err = wrap_angle(frame[2] - yaw - self.pose[2])
@@ -90,6 +127,24 @@ class RouteBelief:
         ``heading_gain`` is |g1| and ``cross_gain`` g2 per step (per metre times the step's
         length). Nothing is fixed along the route: reversing, the robot moves away from the
         views it sees, and at a junction the nearest of them stays behind it.
+
+        Parameters
+        ----------
+        view : int
+            The route view's index.
+        yaw : float
+            The turn (rad) that lines the image up with the view (its best shift).
+        parallax : float
+            The image shift per metre across the view's sight, c (rad/m).
+        heading_gain : float
+            |g1| for this step.
+        cross_gain : float
+            g2 for this step (m per rad of innovation).
+
+        Returns
+        -------
+        float
+            The innovation r, rad.
         """
         frame = self.path.frames[int(view)]
         rel = se2_relative(frame, self.pose)  # belief in the view's frame
@@ -107,6 +162,22 @@ class RouteBelief:
         correction is the share ``gain`` of the difference; a measurement more than ``gate`` m
         from the belief is taken for a mismatch and ignored. Returns the innovation (m; NaN if
         ignored).
+
+        Parameters
+        ----------
+        view : int
+            The route view's index.
+        offset : float
+            The measured offset across the view's sight, m, left positive.
+        gain : float
+            The share of the innovation corrected.
+        gate : float
+            The largest innovation taken, m.
+
+        Returns
+        -------
+        float
+            The innovation, m; NaN where ignored.
         """
         frame = self.path.frames[int(view)]
         innovation = float(offset) - float(se2_relative(frame, self.pose)[1])
@@ -121,6 +192,18 @@ class RouteBelief:
 
         The measured pose is x ahead along the view's sight, y left, yaw
         (`servo.camera_only.view_pose.ViewPose.pose`).
+
+        Parameters
+        ----------
+        view : int
+            The route view's index.
+        pose : array_like of shape (3,)
+            The pose (x ahead, y left, yaw) in the view's frame (m, m, rad).
+
+        Returns
+        -------
+        numpy.ndarray
+            The pose (x, y, yaw) in the route frame.
         """
         return se2_compose(self.path.frames[int(view)], np.asarray(pose, np.float64))
 
@@ -130,6 +213,20 @@ class RouteBelief:
         The pose (`measured`) is taken by the share ``gain``, position and heading alike; a
         measurement more than ``gate`` m from the belief is taken for a mismatch and ignored.
         Returns the innovation's length (m; NaN if ignored).
+
+        Parameters
+        ----------
+        measured : array_like of shape (3,)
+            The measured pose (x, y, yaw) in the route frame (m, m, rad).
+        gain : float
+            The share of the innovation taken.
+        gate : float
+            The largest distance from the belief taken, m.
+
+        Returns
+        -------
+        float
+            The distance from the belief to ``measured``, m; NaN where ignored.
         """
         measured = np.asarray(measured, np.float64)
         innovation = measured[:2] - self.pose[:2]
@@ -149,6 +246,20 @@ class RouteBelief:
         `fix_reversing` at one rate (critical damping: trace^2 = 4 det, g2 c - |g1| =
         2 sqrt(|g1| c)); the modes then decay as exp(-sqrt(|g1| c) s) over s metres reversed
         (~2.5 m in the hallway at |g1| = 1).
+
+        Parameters
+        ----------
+        heading_gain : float
+            |g1| per metre reversed, > 0.
+        parallax : float
+            The image shift per metre across a view's sight, c (rad/m), > 0.
+
+        Returns
+        -------
+        heading_gain : float
+            |g1|, per metre reversed.
+        cross_gain : float
+            g2, per metre reversed.
         """
         if not (heading_gain > 0 and parallax > 0):
             raise ValueError(f"gain and parallax must be > 0, got {heading_gain}, {parallax}")
@@ -162,6 +273,13 @@ class RouteBelief:
         ~3 deg off the route's), the wall lies on that side, so the belief moves ``metres``
         that way across the route; the pursuit then steers away from it. Head-on (along the
         route) nothing is learnt across.
+
+        Parameters
+        ----------
+        direction : int
+            The direction the robot was driving: +1 forward, -1 reversing.
+        metres : float
+            How far the belief moves across the route, m.
         """
         a = self.path.point(max(self.s - 0.25, 0.0))
         b = self.path.point(min(self.s + 0.25, self.path.length))
@@ -180,6 +298,11 @@ class RouteBelief:
         """Move the belief ``metres`` along the route's direction at the current progress.
 
         An F peak passed says how far past a view the robot is.
+
+        Parameters
+        ----------
+        metres : float
+            The distance moved, m; negative moves it back.
         """
         a = self.path.point(self.s)
         b = self.path.point(self.s + 0.5)
@@ -190,10 +313,32 @@ class RouteBelief:
         self.s = self.path.project(self.pose[:2], self.s, self.window)
 
     def goal(self, s: float) -> np.ndarray:
-        """Return the route's point at arc ``s`` in the robot frame (x ahead, y left)."""
+        """Return the route's point at arc ``s`` in the robot frame (x ahead, y left).
+
+        Parameters
+        ----------
+        s : float
+            The arc length along the route, m.
+
+        Returns
+        -------
+        numpy.ndarray
+            The point (x, y) in the robot frame, m.
+        """
         return se2_relative(self.pose, np.r_[self.path.point(s), 0.0])[:2]
 
 
 def left_of(heading: float) -> np.ndarray:
-    """Return the unit vector 90 deg to the left of ``heading`` (rad): offsets across."""
+    """Return the unit vector 90 deg to the left of ``heading`` (rad): offsets across.
+
+    Parameters
+    ----------
+    heading : float
+        The heading, rad.
+
+    Returns
+    -------
+    numpy.ndarray
+        The unit vector (x, y).
+    """
     return np.array([-np.sin(heading), np.cos(heading)])

@@ -165,6 +165,28 @@ class RouteImageFix:
 
         The pose is against the best-aligned of the route views ``near`` (indices into
         ``route``; `PoseFixes`). Returns whether it moved ``belief``.
+
+        Parameters
+        ----------
+        belief : RouteBelief
+            The pose on the route, corrected in place.
+        route : list of int
+            The route's stored views.
+        x : numpy.ndarray
+            The image's features.
+        near : numpy.ndarray
+            The route views compared (indices into ``route``).
+        image : numpy.ndarray
+            The image itself (the pose fix detects keypoints in it).
+        odometry : numpy.ndarray
+            The odometry pose (x, y, theta) now.
+        steps : int
+            The controller's steps so far (a pose fix every ``pose_every``).
+
+        Returns
+        -------
+        bool
+            Whether a metric pose moved ``belief``.
         """
         if self.poses is None or steps % self.config.pose_every or len(near) == 0:
             return False

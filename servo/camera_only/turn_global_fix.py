@@ -48,6 +48,28 @@ def contrast_fix(
     way to the first of the next ``candidates`` views by score that it supports (a look-alike down a
     symmetric corridor matches as well as the place, but keypoints at known depths pose the robot
     only against the place). Returns (view, heading).
+
+    Parameters
+    ----------
+    distances : array_like of shape (S, N)
+        Every sample's aligned (squared) distance to every stored view.
+    yaws : array_like of shape (S, N)
+        The heading error of each best shift, rad.
+    headings : array_like of shape (S,)
+        Each sample's odometry heading, rad.
+    far : float, default 0.6
+        The least heading difference (rad) from a view's best sample that counts as far.
+    verify : callable, optional
+        View -> bool: whether the turn supports a fix on that view metrically.
+    candidates : int, default 0
+        How many views after the best by score ``verify`` may try.
+
+    Returns
+    -------
+    view : int
+        The stored view of the fix.
+    heading : float
+        The odometry heading that faces the way it looks, rad.
     """
     score, facing = contrast_scores(distances, yaws, headings, far=far)
     k = int(np.argmin(score))
@@ -64,6 +86,24 @@ def contrast_scores(
 
     Returns two (N,) arrays: each view's score (smaller: its best match over the turn stands
     out more) and the odometry heading that faces the way each looks; arguments as there.
+
+    Parameters
+    ----------
+    distances : array_like of shape (S, N)
+        Every sample's aligned (squared) distance to every stored view.
+    yaws : array_like of shape (S, N)
+        The heading error of each best shift, rad.
+    headings : array_like of shape (S,)
+        Each sample's odometry heading, rad.
+    far : float, default 0.6
+        The least heading difference (rad) from a view's best sample that counts as far.
+
+    Returns
+    -------
+    score : numpy.ndarray of shape (N,)
+        Each view's score (its best distance over its best from far headings).
+    heading : numpy.ndarray of shape (N,)
+        The odometry heading that faces the way each view looks, rad.
     """
     d = np.asarray(distances, np.float64)
     y = np.asarray(yaws, np.float64)
@@ -113,7 +153,17 @@ class TurnSamples:
         self.rows: list[tuple[np.ndarray, np.ndarray, float]] = []
 
     def observe(self, x: np.ndarray, image: np.ndarray, odometry: np.ndarray) -> None:
-        """Localise the image (features ``x``) taken at odometry pose ``odometry``."""
+        """Localise the image (features ``x``) taken at odometry pose ``odometry``.
+
+        Parameters
+        ----------
+        x : numpy.ndarray
+            The image's features.
+        image : numpy.ndarray
+            The image itself (H, W, 3) uint8, kept for the metric check.
+        odometry : numpy.ndarray
+            The odometry pose (x, y, theta) it was taken at.
+        """
         c = self.config
         if c.contrast_fix:
             d_all, yaw_all = self.localiser.align(x)
@@ -130,6 +180,13 @@ class TurnSamples:
         """Return the global fix: `contrast_fix`, or the best match.
 
         The fix is a view and the odometry heading facing it.
+
+        Returns
+        -------
+        view : int
+            The stored view of the fix.
+        heading : float
+            The odometry heading that faces the way it looks, rad.
         """
         c = self.config
         if c.contrast_fix:
@@ -140,5 +197,16 @@ class TurnSamples:
         return view, heading
 
     def distances(self, view: int) -> np.ndarray:
-        """Each ``contrast_fix`` sample's aligned distance to ``view``."""
+        """Each ``contrast_fix`` sample's aligned distance to ``view``.
+
+        Parameters
+        ----------
+        view : int
+            The stored view.
+
+        Returns
+        -------
+        numpy.ndarray of shape (S,)
+            Each sample's aligned distance to ``view``, in the turn's order.
+        """
         return np.array([r[0][view] for r in self.rows])

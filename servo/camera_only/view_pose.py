@@ -49,6 +49,19 @@ class RelativePose:
 
     ``along`` m ahead of the view along its sight, ``left`` m to its left, ``yaw`` rad turned
     left from it; ``inliers`` of ``matches`` keypoint matches agreed with it.
+
+    Parameters
+    ----------
+    along : float
+        The distance ahead of the view along its sight, m.
+    left : float
+        The distance to the view's left, m.
+    yaw : float
+        The turn left from the view's heading, rad.
+    inliers : int
+        The keypoint matches that agreed with the pose (PnP inliers).
+    matches : int
+        The keypoint matches that passed the ratio test.
     """
 
     along: float
@@ -75,9 +88,13 @@ class ViewPose:
     Parameters
     ----------
     servo_map : ServoMap
-    n_features : int   ORB keypoints per image.
-    min_inliers : int  fewer PnP inliers than this: no pose.
-    reprojection : float  RANSAC's inlier threshold (pixels).
+        The map: its stored views' images, scans and view graph.
+    n_features : int, default 500
+        ORB keypoints per image.
+    min_inliers : int, default 15
+        The fewest PnP inliers that give a pose.
+    reprojection : float, default 2.0
+        RANSAC's inlier threshold, pixels.
     """
 
     def __init__(
@@ -109,6 +126,17 @@ class ViewPose:
         """Detect the ORB keypoints and descriptors of a camera image (H, W, 3) uint8.
 
         Pass them to `pose` to pose one image against several views with one detection.
+
+        Parameters
+        ----------
+        image : numpy.ndarray
+            The RGB image (H, W, 3) uint8.
+
+        Returns
+        -------
+        tuple
+            OpenCV's (keypoints, descriptors): the ``cv2.KeyPoint`` objects and their (K, 32)
+            uint8 descriptors (None where none were found).
         """
         image = np.asarray(image)
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
@@ -140,6 +168,20 @@ class ViewPose:
         and the floor (below the horizon, the camera `CAMERA_HEIGHT` above it).
         ``upper=False``: NaN above the horizon, where the scan's plane says nothing of what
         the camera sees over it (the lawn's trees and houses over its fences and hedges).
+
+        Parameters
+        ----------
+        view : int
+            The stored view.
+        uv : numpy.ndarray of shape (M, 2)
+            Pixel coordinates (u right, v down) in the view's image.
+        upper : bool, default True
+            Whether to give points above the horizon (else NaN there).
+
+        Returns
+        -------
+        numpy.ndarray of shape (M, 3)
+            The points (x, y, z) in the view camera's frame, m.
         """
         f, cx, cy = self.K[0, 0], self.K[0, 2], self.K[1, 2]
         r = np.asarray(self.map.scans[view], np.float64)
@@ -173,6 +215,20 @@ class ViewPose:
         With the view's verified depth model (`depth_model`); None where the view has none or
         too few keypoints match or agree. ``keypoints``: the image's `keypoints`, if already
         detected.
+
+        Parameters
+        ----------
+        image : numpy.ndarray
+            The camera image (H, W, 3) uint8.
+        view : int
+            The stored view.
+        keypoints : tuple, optional
+            The image's (keypoints, descriptors) from `keypoints`; detected here if None.
+
+        Returns
+        -------
+        RelativePose or None
+            The robot's pose in the view's frame; None where there is none.
         """
         model = self.depth_model(view)
         return None if model is None else self.relative(image, view, model == "full", keypoints)
@@ -184,6 +240,22 @@ class ViewPose:
 
         The view's keypoints above the horizon are used only with ``upper``; None where too
         few keypoints match or agree (fewer than ``min_inliers``).
+
+        Parameters
+        ----------
+        image : numpy.ndarray
+            The camera image (H, W, 3) uint8.
+        view : int
+            The stored view.
+        upper : bool, default True
+            Whether the view's keypoints above the horizon are used.
+        keypoints : tuple, optional
+            The image's (keypoints, descriptors) from `keypoints`; detected here if None.
+
+        Returns
+        -------
+        RelativePose or None
+            The robot's pose in the view's frame; None where there is none.
         """
         view = self.map.check_view(view, "view")
         keypoints = self.keypoints(image) if keypoints is None else keypoints
@@ -243,6 +315,19 @@ class ViewPose:
         A model is trusted where each stored view linked to ``view`` in the map's view graph,
         posed against it, comes within ``tolerance`` m (and ``tolerance`` / 5 rad) of the
         link's scan-matched relative pose, and at least one is posed. Computed once per view.
+
+        Parameters
+        ----------
+        view : int
+            The stored view.
+        tolerance : float, default 0.25
+            The largest position error of a linked view's pose, m (heading: ``tolerance`` / 5
+            rad).
+
+        Returns
+        -------
+        str or None
+            "ground", "full", or None where neither model agrees with the view graph.
         """
         view = self.map.check_view(view, "view")
         if view not in self._models:
@@ -280,8 +365,9 @@ class PoseAgreement:
 
     Parameters
     ----------
-    distance : m within which the two positions must agree; the headings must agree within
-        ``distance`` / 3 rad.
+    distance : float, default 0.3
+        The distance (m) within which the two positions must agree; the headings must agree
+        within ``distance`` / 3 rad.
     """
 
     def __init__(self, distance: float = 0.3):
@@ -299,6 +385,18 @@ class PoseAgreement:
 
         ``measured`` is (x, y, yaw) in the route frame, the last measurement is moved by the
         odometry (x, y, yaw) since; ``measured`` becomes the last.
+
+        Parameters
+        ----------
+        measured : array_like of shape (3,)
+            The measured pose (x, y, yaw) in the route frame (m, m, rad).
+        odometry : array_like of shape (3,)
+            The odometry pose (x, y, yaw) at the measurement.
+
+        Returns
+        -------
+        bool
+            Whether the two agree; False for the first measurement.
         """
         measured, odometry = np.asarray(measured, np.float64), np.asarray(odometry, np.float64)
         last, self._last = self._last, (measured.copy(), odometry.copy())
