@@ -11,7 +11,8 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
 SpectralClustering as a ratio, with both clustering errors; ``--n-jobs J``
 adds the graph fits with ``ManifoldClustering(n_jobs=J)``.
 
-``--memory N [N ...]`` prints the peak of numpy's allocations during one such fit.
+``--memory N [N ...]`` prints the peak of numpy's allocations during one such fit, ours and
+scikit-learn's; with ``--scale`` in the same call, after the timings.
 
 The studies that compare the dense and graph kernels' accuracy and the readings of the paper's
 ambiguous steps are ``python -m experiments.manifold.dense_vs_graph``.
@@ -142,7 +143,10 @@ def scaling(sizes: list[int], dense_up_to: int, n_jobs: int = 0) -> None:
             delayed(importlib.import_module)("mapping.manifold") for _ in range(n_jobs)
         )
 
-    print(f"os.cpu_count() = {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
+    print(
+        f"os.cpu_count() = {os.cpu_count()}, usable {len(os.sched_getaffinity(0))}, "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
     # CPU seconds (all threads of the process) beside the wall time: on a shared machine the
     # wall time is mostly waiting; the CPU time bounds what the fit needs of the cores.
     print(
@@ -179,19 +183,35 @@ def wall_and_cpu(fn) -> tuple[float, float]:
 
 
 def peak_memory(sizes: list[int]) -> None:
-    """Peak of numpy's allocations during one fit (``tracemalloc``, which numpy reports to),
-    beside the data itself, for the ``--scale`` data (the graph path's target: O(n k + n m),
-    not O(n^2))."""
+    """Peak of numpy's allocations during one fit (``tracemalloc``, which numpy reports to;
+    LAPACK's and ARPACK's own work arrays are not seen), beside the data itself, for the
+    ``--scale`` data (the graph path's target: O(n k + n m), not O(n^2)), ours and
+    scikit-learn's SpectralClustering on the 10-NN graph."""
     import tracemalloc
 
-    print("\n| n | data X | fit peak (beyond X) |\n|---|---|---|")
+    from sklearn.cluster import SpectralClustering
+
+    def peak(fit) -> float:
+        tracemalloc.start()
+        fit()
+        top = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        return top / 2**20
+
+    print(
+        "\n| n | data X | ours fit peak (beyond X) | sklearn fit peak | ratio |"
+        "\n|---|---|---|---|---|"
+    )
     for n in sizes:
         X, _ = branching_sequences(n // 8, 2000, np.random.default_rng(1))
-        tracemalloc.start()
-        ManifoldClustering(8, min(35, n // 16)).fit(X)
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-        print(f"| {n} | {X.nbytes / 2**20:.0f} MiB | {peak / 2**20:.0f} MiB |", flush=True)
+        ours = peak(lambda X=X, n=n: ManifoldClustering(8, min(35, n // 16)).fit(X))
+        sk = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
+        theirs = peak(lambda X=X, sk=sk: sk.fit(X))
+        print(
+            f"| {n} | {X.nbytes / 2**20:.0f} MiB | {ours:.0f} MiB | {theirs:.0f} MiB | "
+            f"{ours / theirs:.1f} |",
+            flush=True,
+        )
 
 
 def main() -> None:
@@ -217,11 +237,11 @@ def main() -> None:
         "--n-jobs", type=int, default=0, help="with --scale: also the graph fits with n_jobs"
     )
     args = parser.parse_args()
+    if args.scale is not None:
+        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to, args.n_jobs)
     if args.memory:
         peak_memory(args.memory)
-    elif args.scale is not None:
-        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to, args.n_jobs)
-    else:
+    if args.scale is None and not args.memory:
         timings(args.quick, args.one_view)
 
 
