@@ -11,8 +11,9 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
 SpectralClustering as a ratio, with both clustering errors; ``--n-jobs J``
 adds the graph fits with ``ManifoldClustering(n_jobs=J)``.
 
-``--memory N [N ...]`` prints the peak of numpy's allocations during one such fit, ours and
-scikit-learn's; with ``--scale`` in the same call, after the timings.
+``--memory N [N ...]`` prints the peak memory of one such fit, ours and scikit-learn's, each
+in a fresh process (numpy's allocations and the resident high-water mark); with ``--scale``
+in the same call, after the timings.
 
 The studies that compare the dense and graph kernels' accuracy and the readings of the paper's
 ambiguous steps are ``python -m experiments.manifold.dense_vs_graph``.
@@ -182,34 +183,59 @@ def wall_and_cpu(fn) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def peak_memory(sizes: list[int]) -> None:
-    """Peak of numpy's allocations during one fit (``tracemalloc``, which numpy reports to;
-    LAPACK's and ARPACK's own work arrays are not seen), beside the data itself, for the
-    ``--scale`` data (the graph path's target: O(n k + n m), not O(n^2)), ours and
-    scikit-learn's SpectralClustering on the 10-NN graph."""
+def _peak_child(method: str, n: int) -> tuple[float, float | None]:
+    """One fit in a fresh process: numpy's peak (MiB, ``tracemalloc``, which numpy reports
+    to) and, where Linux lets the high-water mark be reset, the peak resident memory above the
+    start (every allocation: BLAS, LAPACK and scikit-learn's C buffers included)."""
     import tracemalloc
 
     from sklearn.cluster import SpectralClustering
 
-    def peak(fit) -> float:
-        tracemalloc.start()
-        fit()
-        top = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-        return top / 2**20
+    def status(key: str) -> float:
+        with open("/proc/self/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith(key)) / 2**10
+
+    X, _ = branching_sequences(n // 8, 2000, np.random.default_rng(1))
+    if method == "ours":
+        model = ManifoldClustering(8, min(35, n // 16))
+    else:
+        model = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")  # resets VmHWM to the current resident size
+        start = status("VmRSS")
+    except OSError:
+        start = None
+    tracemalloc.start()
+    model.fit(X)
+    top = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return top / 2**20, None if start is None else status("VmHWM") - start
+
+
+def peak_memory(sizes: list[int]) -> None:
+    """Peak memory of one fit beyond the data X (the graph path's target: O(n k + n m), not
+    O(n^2)), ours and scikit-learn's SpectralClustering on the 10-NN graph, each fit in a
+    fresh process (memory freed earlier in a process would hide a later fit's peak)."""
+    import multiprocessing
+
+    def mib(value) -> str:
+        return "n/a" if value is None else f"{value:.0f} MiB"
 
     print(
-        "\n| n | data X | ours fit peak (beyond X) | sklearn fit peak | ratio |"
-        "\n|---|---|---|---|---|"
+        "\n| n | data X | ours fit peak: numpy (resident) | sklearn fit peak: numpy (resident) |"
+        "\n|---|---|---|---|"
     )
+    context = multiprocessing.get_context("spawn")
     for n in sizes:
-        X, _ = branching_sequences(n // 8, 2000, np.random.default_rng(1))
-        ours = peak(lambda X=X, n=n: ManifoldClustering(8, min(35, n // 16)).fit(X))
-        sk = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
-        theirs = peak(lambda X=X, sk=sk: sk.fit(X))
+        row = {}
+        for method in ("ours", "sklearn"):
+            with context.Pool(1) as pool:
+                row[method] = pool.apply(_peak_child, (method, n))
+        size = 8 * n * 2000 / 2**20
         print(
-            f"| {n} | {X.nbytes / 2**20:.0f} MiB | {ours:.0f} MiB | {theirs:.0f} MiB | "
-            f"{ours / theirs:.1f} |",
+            f"| {n} | {size:.0f} MiB | {mib(row['ours'][0])} ({mib(row['ours'][1])}) | "
+            f"{mib(row['sklearn'][0])} ({mib(row['sklearn'][1])}) |",
             flush=True,
         )
 
