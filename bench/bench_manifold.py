@@ -11,7 +11,9 @@ Run ``.venv/bin/python bench/bench_manifold.py`` for the timing table:
 SpectralClustering as a ratio, with both clustering errors; ``--n-jobs J``
 adds the graph fits with ``ManifoldClustering(n_jobs=J)``.
 
-``--memory N [N ...]`` prints the peak of numpy's allocations during one such fit.
+``--memory N [N ...]`` prints the peak memory of one such fit, ours and scikit-learn's, each
+in a fresh process (numpy's allocations and the resident high-water mark); with ``--scale``
+in the same call, after the timings.
 
 The studies that compare the dense and graph kernels' accuracy and the readings of the paper's
 ambiguous steps are ``python -m experiments.manifold.dense_vs_graph``.
@@ -142,7 +144,10 @@ def scaling(sizes: list[int], dense_up_to: int, n_jobs: int = 0) -> None:
             delayed(importlib.import_module)("mapping.manifold") for _ in range(n_jobs)
         )
 
-    print(f"os.cpu_count() = {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
+    print(
+        f"os.cpu_count() = {os.cpu_count()}, usable {len(os.sched_getaffinity(0))}, "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
     # CPU seconds (all threads of the process) beside the wall time: on a shared machine the
     # wall time is mostly waiting; the CPU time bounds what the fit needs of the cores.
     print(
@@ -178,20 +183,61 @@ def wall_and_cpu(fn) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def peak_memory(sizes: list[int]) -> None:
-    """Peak of numpy's allocations during one fit (``tracemalloc``, which numpy reports to),
-    beside the data itself, for the ``--scale`` data (the graph path's target: O(n k + n m),
-    not O(n^2))."""
+def _peak_child(method: str, n: int) -> tuple[float, float | None]:
+    """One fit in a fresh process: numpy's peak (MiB, ``tracemalloc``, which numpy reports
+    to) and, where Linux lets the high-water mark be reset, the peak resident memory above the
+    start (every allocation: BLAS, LAPACK and scikit-learn's C buffers included)."""
     import tracemalloc
 
-    print("\n| n | data X | fit peak (beyond X) |\n|---|---|---|")
+    from sklearn.cluster import SpectralClustering
+
+    def status(key: str) -> float:
+        with open("/proc/self/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith(key)) / 2**10
+
+    X, _ = branching_sequences(n // 8, 2000, np.random.default_rng(1))
+    if method == "ours":
+        model = ManifoldClustering(8, min(35, n // 16))
+    else:
+        model = SpectralClustering(8, affinity="nearest_neighbors", n_neighbors=10, random_state=0)
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")  # resets VmHWM to the current resident size
+        start = status("VmRSS")
+    except OSError:
+        start = None
+    tracemalloc.start()
+    model.fit(X)
+    top = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return top / 2**20, None if start is None else status("VmHWM") - start
+
+
+def peak_memory(sizes: list[int]) -> None:
+    """Peak memory of one fit beyond the data X (the graph path's target: O(n k + n m), not
+    O(n^2)), ours and scikit-learn's SpectralClustering on the 10-NN graph, each fit in a
+    fresh process (memory freed earlier in a process would hide a later fit's peak)."""
+    import multiprocessing
+
+    def mib(value) -> str:
+        return "n/a" if value is None else f"{value:.0f} MiB"
+
+    print(
+        "\n| n | data X | ours fit peak: numpy (resident) | sklearn fit peak: numpy (resident) |"
+        "\n|---|---|---|---|"
+    )
+    context = multiprocessing.get_context("spawn")
     for n in sizes:
-        X, _ = branching_sequences(n // 8, 2000, np.random.default_rng(1))
-        tracemalloc.start()
-        ManifoldClustering(8, min(35, n // 16)).fit(X)
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-        print(f"| {n} | {X.nbytes / 2**20:.0f} MiB | {peak / 2**20:.0f} MiB |", flush=True)
+        row = {}
+        for method in ("ours", "sklearn"):
+            with context.Pool(1) as pool:
+                row[method] = pool.apply(_peak_child, (method, n))
+        size = 8 * n * 2000 / 2**20
+        print(
+            f"| {n} | {size:.0f} MiB | {mib(row['ours'][0])} ({mib(row['ours'][1])}) | "
+            f"{mib(row['sklearn'][0])} ({mib(row['sklearn'][1])}) |",
+            flush=True,
+        )
 
 
 def main() -> None:
@@ -217,11 +263,11 @@ def main() -> None:
         "--n-jobs", type=int, default=0, help="with --scale: also the graph fits with n_jobs"
     )
     args = parser.parse_args()
+    if args.scale is not None:
+        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to, args.n_jobs)
     if args.memory:
         peak_memory(args.memory)
-    elif args.scale is not None:
-        scaling(args.scale or [300, 600, 1200, 2400, 5000, 10000], args.dense_up_to, args.n_jobs)
-    else:
+    if args.scale is None and not args.memory:
         timings(args.quick, args.one_view)
 
 

@@ -82,7 +82,7 @@ def features(root: Path, condition: str, seed: int):
     return X_train, train_data.concat("labels")[train], X_test, test_data.concat("labels")[test]
 
 
-def score_cell(data, rules: list[str]) -> dict:
+def score_cell(data, rules: list[str], min_cluster_size: int = Q) -> dict:
     """method -> {train_error, test_error, seconds} for scikit-learn and each rule."""
     X_train, y_train, X_test, y_test = data
     rows = {}
@@ -98,12 +98,12 @@ def score_cell(data, rules: list[str]) -> dict:
     }
     for rule in rules:
         if rule == ORACLE:
-            leaves = ManifoldClustering(K, Q).fit(X_train).leaf_labels_
+            leaves = ManifoldClustering(K, min_cluster_size).fit(X_train).leaf_labels_
             bound = majority_merge_error(y_train, leaves)
             rows[ORACLE] = {"train_error": bound, "test_error": None, "seconds": 0.0}
             continue
         start = time.perf_counter()
-        model = ManifoldClustering(K, Q, combine=rule).fit(X_train)
+        model = ManifoldClustering(K, min_cluster_size, combine=rule).fit(X_train)
         pred = model.predict(X_test)
         rows[rule] = {
             "train_error": clustering_error(y_train, model.labels_),
@@ -114,8 +114,11 @@ def score_cell(data, rules: list[str]) -> dict:
     return rows
 
 
-def cell(root: Path, cache: Path, condition: str, seed: int, rules: list[str]) -> dict:
-    """The cached (condition, seed) cell, with the missing rules computed and stored."""
+def cell(
+    root: Path, cache: Path, condition: str, seed: int, rules: list[str], min_cluster_size: int = Q
+) -> dict:
+    """The cached (condition, seed) cell, with the missing rules computed and stored (one
+    cache folder per ``min_cluster_size``)."""
     path = cache / f"{condition}-{seed}.json"
     rows = {}
     if path.exists():
@@ -125,7 +128,7 @@ def cell(root: Path, cache: Path, condition: str, seed: int, rules: list[str]) -
             rows = {}
     missing = [r for r in rules if r not in rows]
     if missing or SKLEARN_DEFAULT not in rows:
-        fresh = score_cell(features(root, condition, seed), missing)
+        fresh = score_cell(features(root, condition, seed), missing, min_cluster_size)
         rows = {**fresh, **rows} if SKLEARN_DEFAULT in rows else {**rows, **fresh}
         atomic_write_bytes(path, json.dumps(rows, indent=1).encode())
     return rows

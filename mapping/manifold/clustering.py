@@ -81,9 +81,13 @@ class ManifoldClustering(ManifoldQueries, ClusterMixin, BaseEstimator):
         along the one manifold.
     min_cluster_size : int, default 10
         Q, the minimum number of points of a leaf of the bisection (>= 1);
-        ``n_clusters * min_cluster_size`` must not exceed the number of samples.
+        ``n_clusters * min_cluster_size`` must not exceed the number of samples. If the tree
+        ends with fewer than K leaves (n close to K Q), the largest are split again, down to
+        half their size, so a leaf may then hold fewer than Q points; a split that must move
+        points to keep Q on each side may put copies of one sample in different leaves.
     n_sigmas : int, default 16
-        Grid points of the sigma search per split (log-spaced over the node's distances).
+        Grid points of the sigma search per split (>= 2, log-spaced over the node's
+        distances; one value would be no search).
     n_alphas : int, default 12
         Grid points of the alpha search per split.
     alpha_range : tuple of float, default (0.5, 0.9999)
