@@ -53,9 +53,24 @@ def rendered_paths() -> list[str]:
     return paths
 
 
+def problems_of(path: str) -> list[str]:
+    """Return numpydoc's errors of ``CODES`` for the object at ``path``.
+
+    A ``typing.Protocol`` is an interface that is never instantiated: the ``*args, **kwargs``
+    numpydoc reads on its generated constructor are not parameters to document (the API pages'
+    renderer, griffe, refuses them as not in the signature).
+    """
+    interface = inspect.isclass(obj := resolve(path)) and getattr(obj, "_is_protocol", False)
+    return [
+        f"{code}: {message}"
+        for code, message in validate(path)["errors"]
+        if code in CODES and not (interface and code == "PR01")
+    ]
+
+
 @pytest.mark.parametrize("path", rendered_paths())
 def test_rendered_object_documents_its_parameters_and_returns(path):
-    problems = [f"{code}: {message}" for code, message in validate(path)["errors"] if code in CODES]
+    problems = problems_of(path)
     assert not problems, f"{path}:\n" + "\n".join(problems)
 
 
@@ -74,12 +89,7 @@ def public_modules() -> list[str]:
 
 @pytest.mark.parametrize("module", public_modules())
 def test_public_objects_document_their_parameters_and_returns(module):
-    problems = [
-        f"{path}: {code}: {message}"
-        for path in members(module)
-        for code, message in validate(path)["errors"]
-        if code in CODES
-    ]
+    problems = [f"{path}: {problem}" for path in members(module) for problem in problems_of(path)]
     assert not problems, "\n".join(problems)
 
 

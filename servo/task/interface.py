@@ -94,11 +94,6 @@ class Policy(Protocol):
 
     An interface: a policy's own constructor (called by its factory) takes what it needs.
 
-    Parameters
-    ----------
-    *args, **kwargs
-        None taken: an interface (a ``typing.Protocol``) is not instantiated.
-
     Attributes
     ----------
     waypoint_ : int, optional
@@ -158,11 +153,6 @@ class PolicyFactory(Protocol):
     params (Python does for named keyword arguments).
 
     A callable; a module-level function is the usual form.
-
-    Parameters
-    ----------
-    *args, **kwargs
-        None taken: an interface (a ``typing.Protocol``) is not instantiated.
 
     Examples
     --------
