@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import write_json
 from experiments.manifold.combination_acceptance import CONDITIONS, MAX_ERROR, cell, verdict
 from scripts.manifold.methods import SKLEARN_DEFAULT
 
@@ -70,9 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         result["conditions"][condition] = compare(cells, args.combine)
         print(condition, json.dumps(result["conditions"][condition]), flush=True)
     if args.out:
-        tmp = args.out.with_suffix(".tmp")
-        tmp.write_text(json.dumps(result, indent=1) + "\n")
-        tmp.replace(args.out)
+        write_json(args.out, result, indent=1)
     return 0
 
 

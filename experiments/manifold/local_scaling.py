@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 from scipy.linalg import eigh
 
+from common.fileio import write_json
 from experiments.manifold.combination_acceptance import features
 from experiments.manifold.ensemble_combination import error, fitted
 from mapping import ManifoldClustering, clustering_error
@@ -147,9 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     result = {"Q": args.Q, "k": NEIGHBOUR, "summary": summary(rows, names), "rows": rows}
     print(json.dumps(result["summary"], indent=1))
     if args.out:
-        tmp = args.out.with_suffix(".tmp")
-        tmp.write_text(json.dumps(result, indent=1) + "\n")
-        tmp.replace(args.out)
+        write_json(args.out, result, indent=1)
     return 0
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.fileio import write_json
 from experiments.manifold.ensemble_combination import cuts, error, fitted, omega_total
 from scripts.manifold.protocol import K
 
@@ -117,9 +118,7 @@ def main(argv: list[str] | None = None) -> int:
             for name in SERIES
         },
     }
-    tmp = args.out.with_suffix(".tmp")
-    tmp.write_text(json.dumps(numbers, indent=1) + "\n")
-    tmp.replace(args.out.with_suffix(".json"))
+    write_json(args.out.with_suffix(".json"), numbers, indent=1)
     return 0
 
 
